@@ -1,0 +1,6 @@
+#!/usr/bin/env bash
+# Installs the dependencies, builds, and runs the whole test suite (what CI runs).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+ctest --test-dir build --output-on-failure -j "$(nproc)"

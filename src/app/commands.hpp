@@ -1,0 +1,11 @@
+// Subcommands of the cdshear executable; each registers itself on the CLI11 app.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace cdshear {
+
+/// `cdshear scene FILE.toml [--set key=value ...] -o DIR`
+void register_scene_command(CLI::App& app);
+
+}  // namespace cdshear

@@ -1,0 +1,28 @@
+// cdshear: Contact Dynamics for dense 2D granular shear flow. Command-line entry point.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include "commands.hpp"
+#include "config_error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"cdshear " CDSHEAR_VERSION
+               ": Contact Dynamics simulation of dense granular flow sheared between walls"};
+  app.set_version_flag("--version", CDSHEAR_VERSION);
+  app.require_subcommand(1);
+  cdshear::register_scene_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const cdshear::ConfigError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,142 @@
+#include "run_loop.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+
+namespace cdshear {
+
+std::atomic<bool> g_stop_requested{false};
+
+namespace {
+extern "C" void on_stop_signal(int) { g_stop_requested.store(true); }
+
+std::string format_duration(double s) {
+  if (s < 60) return fmt::format("{:.0f}s", s);
+  if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
+  return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
+}
+}  // namespace
+
+void install_stop_handlers() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
+
+RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
+                     const RunLoopSettings& settings, std::span<const ScheduledObserver> observers) {
+  using Clock = std::chrono::steady_clock;
+  RunSummary summary;
+  const auto start = Clock::now();
+  auto interval_start = start, last_bar = start;
+  std::uint64_t interval_steps = 0;
+  const std::uint64_t first_step = world.step;
+  const std::uint64_t total = settings.end_step > first_step ? settings.end_step - first_step : 0;
+  double sum_sweeps = 0.0, sum_contacts = 0.0;
+
+  while (world.step < settings.end_step) {
+    if (g_stop_requested.load()) {
+      summary.outcome = RunOutcome::kInterrupted;
+      break;
+    }
+    const StepReport r = dynamics.step(world, options);
+    summary.last = r;
+    ++summary.steps;
+    ++interval_steps;
+    sum_sweeps += r.solver.sweeps;
+    sum_contacts += static_cast<double>(r.contacts);
+    summary.largest_sweeps = std::max(summary.largest_sweeps, r.solver.sweeps);
+    summary.largest_overlap = std::max(summary.largest_overlap, r.max_overlap);
+    summary.seconds.detect += r.seconds.detect;
+    summary.seconds.prepare += r.seconds.prepare;
+    summary.seconds.solve += r.seconds.solve;
+    summary.seconds.integrate += r.seconds.integrate;
+    summary.seconds.measure += r.seconds.measure;
+    if (r.solver.hit_cap) {
+      if (summary.capped_step_list.size() < 10000) summary.capped_step_list.push_back(r.step);
+      if (summary.capped_steps < 5)
+        std::fprintf(stderr, "warning: step %llu hit the sweep cap (%d sweeps, residual %.3g)\n",
+                     static_cast<unsigned long long>(r.step), r.solver.sweeps, r.solver.residual);
+      ++summary.capped_steps;
+    }
+    if (r.displacement_exceeded) {
+      if (summary.displacement_warnings == 0)
+        std::fprintf(stderr,
+                     "warning: step %llu moved a disk by %.3g > displacement_bound %.3g; "
+                     "reduce step.dt\n",
+                     static_cast<unsigned long long>(r.step), r.max_displacement,
+                     options.displacement_bound);
+      ++summary.displacement_warnings;
+    }
+    for (const ScheduledObserver& o : observers)
+      if (world.step % o.every == 0) o.observer->observe(world, dynamics, r);
+    if (r.blown_up) {
+      summary.outcome = RunOutcome::kBlownUp;
+      break;
+    }
+
+    const auto now = Clock::now();
+    if (settings.status_every > 0 && world.step % settings.status_every == 0) {
+      const double secs = std::chrono::duration<double>(now - interval_start).count();
+      if (settings.progress_bar) std::fputs("\r\033[K", stderr);
+      std::printf(
+          "step %10llu  t %10.4f  contacts %6zu  sweeps %4d  residual %9.3g  overlap %9.3g  "
+          "Ek %11.5g  %8.1f steps/s\n",
+          static_cast<unsigned long long>(world.step), world.time, r.contacts, r.solver.sweeps,
+          r.solver.residual, r.max_overlap, kinetic_energy(world),
+          secs > 0 ? static_cast<double>(interval_steps) / secs : 0.0);
+      std::fflush(stdout);
+      interval_start = now;
+      interval_steps = 0;
+    }
+    if (settings.progress_bar && total > 0 &&
+        std::chrono::duration<double>(now - last_bar).count() > 0.25) {
+      last_bar = now;
+      const double done = static_cast<double>(world.step - first_step) / static_cast<double>(total);
+      const double elapsed = std::chrono::duration<double>(now - start).count();
+      const int width = 30, filled = static_cast<int>(done * width);
+      std::fprintf(stderr, "\r[%s%s] %5.1f%%  t %.2f  left %s ", std::string(filled, '#').c_str(),
+                   std::string(width - filled, '.').c_str(), 100.0 * done, world.time,
+                   format_duration(done > 0 ? elapsed * (1 - done) / done : 0.0).c_str());
+      std::fflush(stderr);
+    }
+  }
+  if (settings.progress_bar) std::fputs("\r\033[K", stderr);
+  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (summary.steps > 0) {
+    summary.mean_sweeps = sum_sweeps / static_cast<double>(summary.steps);
+    summary.mean_contacts = sum_contacts / static_cast<double>(summary.steps);
+  }
+  return summary;
+}
+
+}  // namespace cdshear
+
+namespace cdshear {
+nlohmann::json summary_to_json(const RunSummary& s) {
+  const char* outcome = s.outcome == RunOutcome::kFinished      ? "finished"
+                        : s.outcome == RunOutcome::kInterrupted ? "interrupted"
+                                                                : "blown_up";
+  return {{"outcome", outcome},
+          {"steps", s.steps},
+          {"wall_seconds", s.wall_seconds},
+          {"steps_per_second", s.wall_seconds > 0 ? static_cast<double>(s.steps) / s.wall_seconds : 0.0},
+          {"mean_sweeps", s.mean_sweeps},
+          {"largest_sweeps", s.largest_sweeps},
+          {"mean_contacts", s.mean_contacts},
+          {"capped_steps", s.capped_steps},
+          {"capped_step_list", s.capped_step_list},
+          {"displacement_warnings", s.displacement_warnings},
+          {"largest_overlap", s.largest_overlap},
+          {"stage_seconds",
+           {{"detect", s.seconds.detect},
+            {"prepare", s.seconds.prepare},
+            {"solve", s.seconds.solve},
+            {"integrate", s.seconds.integrate},
+            {"measure", s.seconds.measure}}},
+          {"problem", s.last.problem}};
+}
+}  // namespace cdshear

@@ -1,0 +1,69 @@
+// The run loop: steps the world until a target step, calling observers on their schedules
+// ("every N steps", counted from step 0 so that a resumed run samples at the same steps), and
+// printing a status line and a progress bar. Stops early, cleanly, on SIGINT/SIGTERM or on a
+// blown-up step; the caller decides what to write then.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "contact_dynamics.hpp"
+#include "world.hpp"
+
+namespace cdshear {
+
+/// A measurement or writer called after a step; it reads the state and never changes it.
+class Observer {
+ public:
+  virtual ~Observer() = default;
+  virtual void observe(const World& world, const ContactDynamics& dynamics,
+                       const StepReport& report) = 0;
+};
+
+struct ScheduledObserver {
+  std::uint64_t every = 1;  ///< called when world.step % every == 0
+  Observer* observer = nullptr;
+};
+
+struct RunLoopSettings {
+  std::uint64_t end_step = 0;      ///< run until world.step reaches this
+  std::uint64_t status_every = 0;  ///< steps between status lines; 0: none
+  bool progress_bar = false;       ///< redraw a bar with time left on stderr
+};
+
+enum class RunOutcome { kFinished, kInterrupted, kBlownUp };
+
+/// What the loop saw, for the run summary.
+struct RunSummary {
+  RunOutcome outcome = RunOutcome::kFinished;
+  StepReport last;
+  std::uint64_t steps = 0;              ///< steps done by this call
+  double wall_seconds = 0.0;
+  std::uint64_t capped_steps = 0;       ///< steps whose solver hit the sweep cap
+  std::vector<std::uint64_t> capped_step_list;  ///< their numbers (first 10000)
+  std::uint64_t displacement_warnings = 0;      ///< steps above displacement_bound
+  double largest_overlap = 0.0;
+  double mean_sweeps = 0.0;
+  int largest_sweeps = 0;
+  double mean_contacts = 0.0;
+  StageSeconds seconds;                 ///< summed over the steps
+};
+
+/// Set by the SIGINT/SIGTERM handler; the loop stops after the current step.
+extern std::atomic<bool> g_stop_requested;
+void install_stop_handlers();
+
+RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
+                     const RunLoopSettings& settings, std::span<const ScheduledObserver> observers);
+
+}  // namespace cdshear
+
+#include <nlohmann/json.hpp>
+
+namespace cdshear {
+/// The summary as JSON (for run_info.json).
+nlohmann::json summary_to_json(const RunSummary& s);
+}  // namespace cdshear

@@ -1,0 +1,135 @@
+#include "contact_dynamics.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace cdshear {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point& t0) {
+  const auto t1 = Clock::now();
+  const double s = std::chrono::duration<double>(t1 - t0).count();
+  t0 = t1;
+  return s;
+}
+
+double axis_free_velocity(AxisMode mode, double v, double force, double mass, double dt) {
+  switch (mode) {
+    case AxisMode::kFixed: return 0.0;
+    case AxisMode::kImposed: return v;
+    case AxisMode::kFree: return v + dt * force / mass;
+  }
+  return 0.0;
+}
+
+double axis_inv_mass(AxisMode mode, double mass) {
+  return mode == AxisMode::kFree ? 1.0 / mass : 0.0;
+}
+
+}  // namespace
+
+double current_overlap(const World& world, const Contact& c) {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const std::size_t a = static_cast<std::size_t>(c.key.body_a);
+  const std::size_t b = static_cast<std::size_t>(c.key.body_b);
+  if (b >= n) return -wall_gap(world, a, world.walls[b - n]);
+  Vec2 delta = d.position[b] - d.position[a];
+  if (world.domain.periodic_x) {
+    // Minimum image: the periodic image of b may have changed when either disk was wrapped.
+    delta.x -= world.domain.length_x * std::nearbyint(delta.x / world.domain.length_x);
+  }
+  return d.radius[a] + d.radius[b] - length(delta);
+}
+
+StepReport ContactDynamics::step(World& world, const StepOptions& options) {
+  StepReport report;
+  auto t0 = Clock::now();
+  const double dt = options.dt;
+  Disks& d = world.disks;
+  const std::size_t n = d.size();
+
+  // 1. detect
+  detector_.detect(world, options.contact_margin, contacts_);
+  report.contacts = contacts_.size();
+  report.seconds.detect = seconds_since(t0);
+
+  // 2. prepare free velocities
+  bodies_.resize(n + world.walls.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    SolverBody& b = bodies_[i];
+    b.velocity = d.velocity[i] + dt * world.body_force;
+    b.omega = d.omega[i];
+    const double im = 1.0 / d.mass[i];
+    b.inv_mass = {im, im};
+    b.inv_inertia = 1.0 / d.inertia[i];
+  }
+  for (std::size_t w = 0; w < world.walls.size(); ++w) {
+    const Wall& wall = world.walls[w];
+    SolverBody& b = bodies_[n + w];
+    b.velocity = {axis_free_velocity(wall.mode_x, wall.velocity.x, wall.applied_force.x,
+                                     wall.mass, dt),
+                  axis_free_velocity(wall.mode_y, wall.velocity.y, wall.applied_force.y,
+                                     wall.mass, dt)};
+    b.omega = 0.0;
+    b.inv_mass = {axis_inv_mass(wall.mode_x, wall.mass), axis_inv_mass(wall.mode_y, wall.mass)};
+    b.inv_inertia = 0.0;
+  }
+  report.seconds.prepare = seconds_since(t0);
+
+  // 3. solve
+  report.solver = solve_contacts(contacts_, bodies_, dt, options.solver, world.step, workspace_);
+  report.seconds.solve = seconds_since(t0);
+
+  // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities)
+  double max_disp2 = 0.0;
+  bool finite = true;
+  for (std::size_t i = 0; i < n; ++i) {
+    const SolverBody& b = bodies_[i];
+    d.velocity[i] = b.velocity;
+    d.omega[i] = b.omega;
+    const Vec2 step = dt * b.velocity;
+    d.position[i] += step;
+    d.angle[i] += dt * b.omega;
+    max_disp2 = std::max(max_disp2, length_squared(step));
+    finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
+  }
+  for (std::size_t w = 0; w < world.walls.size(); ++w) {
+    Wall& wall = world.walls[w];
+    wall.velocity = bodies_[n + w].velocity;
+    wall.point += dt * wall.velocity;
+    wall.contact_force = {};
+  }
+  if (finite) wrap_positions(world);
+  world.time += dt;
+  ++world.step;
+  report.seconds.integrate = seconds_since(t0);
+
+  // 5. measure
+  for (const Contact& c : contacts_) {
+    const std::size_t b = static_cast<std::size_t>(c.key.body_b);
+    if (b >= n) {  // force on the wall is minus the impulse on the disk, per unit time
+      world.walls[b - n].contact_force -= (1.0 / dt) * (c.impulse_n * c.normal +
+                                                        c.impulse_t * c.tangent);
+    }
+    if (finite) report.max_overlap = std::max(report.max_overlap, current_overlap(world, c));
+  }
+  report.max_displacement = std::sqrt(max_disp2);
+  report.displacement_exceeded = report.max_displacement > options.displacement_bound;
+  report.step = world.step;
+  report.time = world.time;
+  if (!finite) {
+    report.blown_up = true;
+    report.problem = "a disk velocity became NaN or infinite";
+  } else if (report.max_overlap > options.abort_overlap) {
+    report.blown_up = true;
+    report.problem = "overlap " + std::to_string(report.max_overlap) + " exceeds abort_overlap " +
+                     std::to_string(options.abort_overlap);
+  }
+  report.seconds.measure = seconds_since(t0);
+  return report;
+}
+
+}  // namespace cdshear

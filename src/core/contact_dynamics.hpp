@@ -1,0 +1,67 @@
+// One Contact Dynamics time step, as a named sequence of stages (SPEC 3):
+//   1. detect   candidate contacts (cell list, gap < margin), warm-started from the last step;
+//   2. prepare  free velocities: v + dt * (external force / mass) for disks and free wall axes,
+//               imposed values on driven axes, 0 on fixed ones;
+//   3. solve    the contact impulses by nonlinear Gauss-Seidel (nlgs_solver.hpp);
+//   4. integrate positions with the new velocities (semi-implicit Euler), wrap x;
+//   5. measure  wall forces, largest overlap, largest displacement; check for blow-up.
+// Each stage is timed into the report. The step never does I/O.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "contact.hpp"
+#include "contact_detection.hpp"
+#include "nlgs_solver.hpp"
+#include "world.hpp"
+
+namespace cdshear {
+
+struct StepOptions {
+  double dt = 1e-3;                  ///< time step [time]
+  double contact_margin = 0.05;      ///< candidate contacts: gap below this [length]
+  double displacement_bound = 0.01;  ///< warn when a disk moves more than this in a step [length]
+  double abort_overlap = 0.1;        ///< an overlap above this is a blow-up [length]
+  SolverOptions solver;
+};
+
+struct StageSeconds {
+  double detect = 0.0, prepare = 0.0, solve = 0.0, integrate = 0.0, measure = 0.0;
+  double total() const { return detect + prepare + solve + integrate + measure; }
+};
+
+struct StepReport {
+  std::uint64_t step = 0;          ///< index of the step just done (world.step after it)
+  double time = 0.0;               ///< simulated time after the step
+  std::size_t contacts = 0;        ///< candidate contacts
+  SolverReport solver;
+  double max_overlap = 0.0;        ///< largest overlap after the step (>= 0) [length]
+  double max_displacement = 0.0;   ///< largest disk displacement during the step [length]
+  bool displacement_exceeded = false;
+  bool blown_up = false;           ///< NaN or overlap above abort_overlap: stop the run
+  std::string problem;             ///< what blew up, when blown_up
+  StageSeconds seconds;
+};
+
+/// Holds what persists between steps (contacts for warm starts, scratch memory).
+class ContactDynamics {
+ public:
+  StepReport step(World& world, const StepOptions& options);
+
+  const std::vector<Contact>& contacts() const { return contacts_; }
+  /// Replaces the contact memory (used when resuming from a checkpoint).
+  void set_contacts(std::vector<Contact> contacts) { contacts_ = std::move(contacts); }
+
+ private:
+  std::vector<Contact> contacts_;
+  std::vector<SolverBody> bodies_;
+  ContactDetector detector_;
+  SolverWorkspace workspace_;
+};
+
+/// Overlap (positive) of contact c in the current positions of `world`; <= 0 when apart.
+double current_overlap(const World& world, const Contact& c);
+
+}  // namespace cdshear

@@ -1,0 +1,196 @@
+#include "scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "cell_list.hpp"
+#include "random.hpp"
+
+namespace cdshear {
+namespace {
+
+std::string indexed(const std::string& base, std::size_t i, const std::string& field) {
+  return base + "[" + std::to_string(i) + "]." + field;
+}
+
+/// Grid of already placed disks for random sequential addition (x columns wrap when periodic).
+class PlacementGrid {
+ public:
+  PlacementGrid(const World& world, double cell) : world_(world) {
+    periodic_ = world.domain.periodic_x;
+    lx_ = world.domain.length_x;
+    columns_ = periodic_ ? std::max(1, static_cast<int>(std::floor(lx_ / cell))) : 0;
+    cell_w_ = periodic_ ? lx_ / columns_ : cell;
+    cell_h_ = cell;
+    for (std::size_t i = 0; i < world.disks.size(); ++i) insert(i);
+  }
+  void insert(std::size_t i) {
+    const auto [x, y] = coords(world_.disks.position[i]);
+    cells_[pack(x, y)].push_back(i);
+  }
+  bool fits(Vec2 p, double r) const {
+    const auto [cx, cy] = coords(p);
+    int seen[3];
+    int n_seen = 0;
+    for (int dx = -1; dx <= 1; ++dx) {
+      int x = cx + dx;
+      if (periodic_) {
+        x = (x + columns_) % columns_;
+        if (std::find(seen, seen + n_seen, x) != seen + n_seen) continue;
+        seen[n_seen++] = x;
+      }
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = cells_.find(pack(x, cy + dy));
+        if (it == cells_.end()) continue;
+        for (const std::size_t j : it->second) {
+          Vec2 delta = world_.disks.position[j] - p;
+          if (periodic_) delta.x -= lx_ * std::nearbyint(delta.x / lx_);
+          const double rr = r + world_.disks.radius[j];
+          if (length_squared(delta) < rr * rr) return false;
+        }
+      }
+    }
+    return true;
+  }
+
+ private:
+  std::pair<int, int> coords(Vec2 p) const {
+    int x = static_cast<int>(std::floor(p.x / cell_w_));
+    if (periodic_) x = ((x % columns_) + columns_) % columns_;
+    return {x, static_cast<int>(std::floor(p.y / cell_h_))};
+  }
+  static std::int64_t pack(int x, int y) {
+    return (static_cast<std::int64_t>(x) << 32) ^ static_cast<std::uint32_t>(y);
+  }
+  const World& world_;
+  bool periodic_ = false;
+  double lx_ = 0.0, cell_w_ = 1.0, cell_h_ = 1.0;
+  int columns_ = 0;
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> cells_;
+};
+
+void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, double density) {
+  const std::string base = "random_disks";
+  const double cell = std::max(spec.diameter_max, 2.0 * max_radius(world));
+  const bool periodic = world.domain.periodic_x;
+  const double lx = world.domain.length_x;
+  PlacementGrid grid(world, cell);
+  for (std::size_t k = 0; k < spec.count; ++k) {
+    CounterRandom size_rng(spec.seed, RandomStream::kDiameters, k);
+    const double r = 0.5 * size_rng.uniform(spec.diameter_min, spec.diameter_max);
+    CounterRandom rng(spec.seed, RandomStream::kPlacement, k);
+    // In a periodic domain a region spanning the whole period may be used edge to edge.
+    const bool full_period = periodic && spec.region_max.x - spec.region_min.x >= lx;
+    const double x_lo = full_period ? 0.0 : spec.region_min.x + r;
+    const double x_hi = full_period ? lx : spec.region_max.x - r;
+    const double y_lo = spec.region_min.y + r, y_hi = spec.region_max.y - r;
+    if (x_hi <= x_lo || y_hi <= y_lo)
+      throw SceneError(indexed(base, group, "region"),
+                       "region is smaller than a disk of diameter " + std::to_string(2 * r));
+    bool placed = false;
+    for (int attempt = 0; attempt < spec.max_attempts_per_disk && !placed; ++attempt) {
+      Vec2 p{rng.uniform(x_lo, x_hi), rng.uniform(y_lo, y_hi)};
+      if (periodic) p.x -= lx * std::floor(p.x / lx);
+      if (!grid.fits(p, r)) continue;
+      bool clear_of_walls = true;
+      for (const Wall& w : world.walls) clear_of_walls &= dot(p - w.point, w.normal) >= r;
+      if (!clear_of_walls) continue;
+      grid.insert(world.disks.add(p, r, density));
+      placed = true;
+    }
+    if (!placed)
+      throw SceneError(indexed(base, group, "count"),
+                       "could place only " + std::to_string(k) + " of " +
+                           std::to_string(spec.count) +
+                           " disks without overlap; enlarge the region or lower the count");
+  }
+}
+
+}  // namespace
+
+void validate_scene(const SceneDefinition& s) {
+  if (s.domain.periodic_x && !(s.domain.length_x > 0.0))
+    throw SceneError("domain.length_x", "must be > 0 when domain.periodic_x is true");
+  if (!(s.density > 0.0)) throw SceneError("material.density", "must be > 0");
+  if (!(s.friction_disk_disk >= 0.0))
+    throw SceneError("material.friction_disk_disk", "must be >= 0");
+  for (std::size_t i = 0; i < s.walls.size(); ++i) {
+    const Wall& w = s.walls[i];
+    if (!(length(w.normal) > 0.0)) throw SceneError(indexed("walls", i, "normal"), "is zero");
+    if (!(w.friction >= 0.0)) throw SceneError(indexed("walls", i, "friction"), "must be >= 0");
+    const bool free = w.mode_x == AxisMode::kFree || w.mode_y == AxisMode::kFree;
+    if (free && !(w.mass > 0.0))
+      throw SceneError(indexed("walls", i, "mass"), "must be > 0 for a wall free along an axis");
+  }
+  for (std::size_t i = 0; i < s.disks.size(); ++i)
+    if (!(s.disks[i].radius > 0.0))
+      throw SceneError(indexed("disks", i, "radius"), "must be > 0");
+  double largest_diameter = 0.0;
+  for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2 * d.radius);
+  for (std::size_t i = 0; i < s.random_disks.size(); ++i) {
+    const RandomDisksSpec& r = s.random_disks[i];
+    if (!(r.diameter_min > 0.0))
+      throw SceneError(indexed("random_disks", i, "diameter_min"), "must be > 0");
+    if (!(r.diameter_max >= r.diameter_min))
+      throw SceneError(indexed("random_disks", i, "diameter_max"), "must be >= diameter_min");
+    if (!(r.region_max.x > r.region_min.x) || !(r.region_max.y > r.region_min.y))
+      throw SceneError(indexed("random_disks", i, "region"), "max must exceed min on both axes");
+    largest_diameter = std::max(largest_diameter, r.diameter_max);
+  }
+  if (s.domain.periodic_x && s.domain.length_x < 3.0 * largest_diameter)
+    throw SceneError("domain.length_x",
+                     "period " + std::to_string(s.domain.length_x) +
+                         " is shorter than 3 largest diameters; contacts would be ambiguous");
+}
+
+World build_world(const SceneDefinition& s) {
+  validate_scene(s);
+  World world;
+  world.domain = s.domain;
+  world.body_force = s.gravity;
+  world.friction_disk_disk = s.friction_disk_disk;
+  world.walls = s.walls;
+  for (Wall& w : world.walls) {
+    w.normal = (1.0 / length(w.normal)) * w.normal;
+    if (w.mode_x == AxisMode::kFixed) w.velocity.x = 0.0;
+    if (w.mode_y == AxisMode::kFixed) w.velocity.y = 0.0;
+  }
+  for (const DiskSpec& d : s.disks) {
+    const std::size_t i = world.disks.add(d.position, d.radius, s.density);
+    world.disks.velocity[i] = d.velocity;
+    world.disks.omega[i] = d.omega;
+  }
+  wrap_positions(world);
+  const OverlapReport given = largest_overlap(world);
+  if (given.overlap > s.overlap_tolerance) {
+    const std::size_t n = world.disks.size();
+    auto name = [&](std::size_t b) {
+      return b < n ? "disk " + std::to_string(b) : "wall '" + world.walls[b - n].name + "'";
+    };
+    throw SceneError("disks", name(given.body_a) + " and " + name(given.body_b) +
+                                       " overlap by " + std::to_string(given.overlap) +
+                                       " (tolerance " + std::to_string(s.overlap_tolerance) + ")");
+  }
+  for (std::size_t g = 0; g < s.random_disks.size(); ++g)
+    place_random(world, s.random_disks[g], g, s.density);
+  return world;
+}
+
+OverlapReport largest_overlap(const World& world) {
+  OverlapReport worst;
+  const std::size_t n = world.disks.size();
+  if (n == 0) return worst;
+  ContactDetector detector;
+  std::vector<Contact> candidates;
+  detector.detect(world, 0.0, candidates);
+  for (const Contact& c : candidates) {
+    const double overlap = current_overlap(world, c);
+    if (overlap > worst.overlap)
+      worst = {overlap, static_cast<std::size_t>(c.key.body_a),
+               static_cast<std::size_t>(c.key.body_b)};
+  }
+  return worst;
+}
+
+}  // namespace cdshear

@@ -1,0 +1,23 @@
+// The error every configuration problem becomes: it names the file, the key and the problem.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace cdshear {
+
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(const std::string& file, const std::string& key, const std::string& problem)
+      : std::runtime_error(file + (key.empty() ? "" : ": key '" + key + "'") + ": " + problem),
+        file_(file),
+        key_(key) {}
+  const std::string& file() const { return file_; }
+  const std::string& key() const { return key_; }
+
+ private:
+  std::string file_;
+  std::string key_;
+};
+
+}  // namespace cdshear

@@ -1,0 +1,109 @@
+#include "outputs.hpp"
+
+#include <fmt/format.h>
+#include <fmt/os.h>
+
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace cdshear {
+
+void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(tmp.string() + ": cannot open for writing");
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error(tmp.string() + ": write failed (disk full?)");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+namespace {
+const char* mode_name(AxisMode m) {
+  return m == AxisMode::kFree ? "free" : m == AxisMode::kImposed ? "imposed" : "fixed";
+}
+}  // namespace
+
+nlohmann::json state_to_json(const World& world) {
+  using nlohmann::json;
+  json disks = json::array();
+  const Disks& d = world.disks;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const Vec2 u = world.unwrapped_position(i);
+    disks.push_back({{"x", d.position[i].x},
+                     {"y", d.position[i].y},
+                     {"x_unwrapped", u.x},
+                     {"radius", d.radius[i]},
+                     {"vx", d.velocity[i].x},
+                     {"vy", d.velocity[i].y},
+                     {"omega", d.omega[i]},
+                     {"angle", d.angle[i]}});
+  }
+  json walls = json::array();
+  for (const Wall& w : world.walls) {
+    walls.push_back({{"name", w.name},
+                     {"point", {w.point.x, w.point.y}},
+                     {"normal", {w.normal.x, w.normal.y}},
+                     {"velocity", {w.velocity.x, w.velocity.y}},
+                     {"mode_x", mode_name(w.mode_x)},
+                     {"mode_y", mode_name(w.mode_y)},
+                     {"contact_force", {w.contact_force.x, w.contact_force.y}}});
+  }
+  return {{"time", world.time},
+          {"step", world.step},
+          {"periodic_x", world.domain.periodic_x},
+          {"length_x", world.domain.length_x},
+          {"disks", disks},
+          {"walls", walls}};
+}
+
+TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const World& world,
+                                   bool append)
+    : out_(path, append ? std::ios::app : std::ios::trunc) {
+  if (!out_) throw std::runtime_error(path.string() + ": cannot open for writing");
+  if (append) return;
+  out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,sweeps,"
+          "residual,converged_fraction,hit_cap,max_overlap";
+  for (const Wall& w : world.walls)
+    out_ << fmt::format(",{0}_x,{0}_y,{0}_vx,{0}_vy,{0}_fx,{0}_fy", w.name);
+  out_ << '\n';
+  out_.flush();
+}
+
+void TimeSeriesWriter::write(const World& world, const StepReport& r) {
+  const Vec2 p = linear_momentum(world);
+  std::string row = fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time,
+                                kinetic_energy(world), p.x, p.y, r.contacts,
+                                r.solver.active_contacts, r.solver.sweeps, r.solver.residual,
+                                r.solver.converged_fraction, r.solver.hit_cap ? 1 : 0,
+                                r.max_overlap);
+  for (const Wall& w : world.walls)
+    row += fmt::format(",{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,
+                       w.contact_force.x, w.contact_force.y);
+  row += '\n';
+  out_ << row;
+  out_.flush();
+}
+
+void TimeSeriesWriter::truncate_after(const std::filesystem::path& path, std::uint64_t step) {
+  std::ifstream in(path);
+  if (!in) return;
+  std::ostringstream kept;
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (!header) {
+      const std::uint64_t row_step = std::stoull(line.substr(0, line.find(',')));
+      if (row_step > step) break;
+    }
+    kept << line << '\n';
+    header = false;
+  }
+  in.close();
+  write_file_atomic(path, kept.str());
+}
+
+}  // namespace cdshear

@@ -1,0 +1,40 @@
+// Output files written during and after a run: the global time series (CSV) and full states
+// (JSON). Every file is written to a temporary name and renamed, so a reader never sees half a
+// file.
+#pragma once
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "contact_dynamics.hpp"
+#include "world.hpp"
+
+namespace cdshear {
+
+/// Writes `text` to `path` atomically (temporary file in the same folder, then rename).
+void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+
+/// Every disk's position (wrapped and unwrapped), velocity, angular velocity, radius; every
+/// wall's state and last contact force; time and step.
+nlohmann::json state_to_json(const World& world);
+
+/// One CSV row per sample: step, time, kinetic energy, momentum, contacts, solver figures,
+/// largest overlap, then position, velocity and contact force of each wall (columns named after
+/// the walls). Rows are flushed at every sample so an interrupted run keeps what it measured.
+class TimeSeriesWriter {
+ public:
+  /// Opens `path`; with `append`, keeps existing rows (resumed runs) and writes no header.
+  TimeSeriesWriter(const std::filesystem::path& path, const World& world, bool append = false);
+  void write(const World& world, const StepReport& report);
+  /// Drops rows past `step` (used when resuming from a checkpoint older than the file's end).
+  static void truncate_after(const std::filesystem::path& path, std::uint64_t step);
+
+ private:
+  std::ofstream out_;
+};
+
+}  // namespace cdshear

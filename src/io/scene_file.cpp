@@ -1,0 +1,113 @@
+#include "scene_file.hpp"
+
+namespace cdshear {
+
+AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
+  const std::string m = t.choice(key, {"fixed", "imposed", "free"}, "fixed");
+  return m == "free" ? AxisMode::kFree : m == "imposed" ? AxisMode::kImposed : AxisMode::kFixed;
+}
+
+StepOptions read_step_options(TomlReader& step, TomlReader& solver) {
+  StepOptions o;
+  o.dt = step.positive("dt", o.dt);
+  o.contact_margin = step.non_negative("contact_margin", o.contact_margin);
+  o.displacement_bound = step.positive("displacement_bound", o.displacement_bound);
+  o.abort_overlap = step.positive("abort_overlap", o.abort_overlap);
+  step.finish();
+
+  SolverOptions& s = o.solver;
+  s.alpha = solver.positive("alpha", s.alpha);
+  s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
+  if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
+  const std::int64_t cap = solver.integer("max_sweeps", s.max_sweeps);
+  if (cap < 1) solver.fail("max_sweeps", "must be >= 1");
+  s.max_sweeps = static_cast<int>(cap);
+  s.order = solver.choice("order", {"random", "sequential"}, "random") == "random"
+                ? ContactOrder::kRandom
+                : ContactOrder::kSequential;
+  const std::int64_t seed = solver.integer("seed", 1);
+  if (seed < 0) solver.fail("seed", "must be >= 0");
+  s.seed = static_cast<std::uint64_t>(seed);
+  solver.finish();
+  return o;
+}
+
+SceneFile load_scene_file(const std::string& path, const std::vector<std::string>& overrides) {
+  SceneFile out;
+  out.resolved = parse_toml_file(path);
+  apply_overrides(out.resolved, overrides);
+  TomlReader root(out.resolved, path);
+  SceneDefinition& s = out.scene;
+
+  TomlReader domain = root.table("domain");
+  s.domain.periodic_x = domain.boolean("periodic_x", false);
+  if (s.domain.periodic_x) s.domain.length_x = domain.positive("length_x");
+  domain.finish();
+
+  TomlReader material = root.table("material");
+  s.density = material.positive("density", 1.0);
+  s.friction_disk_disk = material.non_negative("friction_disk_disk", 0.5);
+  material.finish();
+
+  s.gravity = root.vec2("gravity", Vec2{});
+
+  TomlReader step = root.table("step");
+  TomlReader solver = root.table("solver");
+  out.step = read_step_options(step, solver);
+
+  TomlReader run = root.table("run");
+  out.run.duration = run.positive("duration");
+  const std::int64_t status = run.integer("status_every", 0);
+  if (status < 0) run.fail("status_every", "must be >= 0");
+  out.run.status_every = static_cast<std::uint64_t>(status);
+  const std::int64_t sample = run.integer("sample_every", 1);
+  if (sample < 1) run.fail("sample_every", "must be >= 1");
+  out.run.sample_every = static_cast<std::uint64_t>(sample);
+  run.finish();
+
+  for (TomlReader& w : root.tables("walls")) {
+    Wall wall;
+    wall.name = w.string("name", "wall" + std::to_string(s.walls.size()));
+    wall.point = w.vec2("point");
+    wall.normal = w.vec2("normal");
+    if (!(length(wall.normal) > 0.0)) w.fail("normal", "must not be zero");
+    wall.friction = w.non_negative("friction", 0.5);
+    wall.mode_x = parse_axis_mode(w, "mode_x");
+    wall.mode_y = parse_axis_mode(w, "mode_y");
+    wall.velocity = w.vec2("velocity", Vec2{});
+    const bool free = wall.mode_x == AxisMode::kFree || wall.mode_y == AxisMode::kFree;
+    wall.mass = free ? w.positive("mass") : w.non_negative("mass", 0.0);
+    wall.applied_force = w.vec2("force", Vec2{});
+    w.finish();
+    s.walls.push_back(wall);
+  }
+  for (TomlReader& d : root.tables("disks")) {
+    DiskSpec disk;
+    disk.position = d.vec2("position");
+    disk.radius = d.positive("radius");
+    disk.velocity = d.vec2("velocity", Vec2{});
+    disk.omega = d.number("omega", 0.0);
+    d.finish();
+    s.disks.push_back(disk);
+  }
+  for (TomlReader& r : root.tables("random_disks")) {
+    RandomDisksSpec spec;
+    const std::int64_t count = r.integer("count");
+    if (count < 0) r.fail("count", "must be >= 0");
+    spec.count = static_cast<std::size_t>(count);
+    spec.region_min = r.vec2("region_min");
+    spec.region_max = r.vec2("region_max");
+    spec.diameter_min = r.positive("diameter_min", 0.8);
+    spec.diameter_max = r.positive("diameter_max", 1.0);
+    const std::int64_t seed = r.integer("seed", 1);
+    if (seed < 0) r.fail("seed", "must be >= 0");
+    spec.seed = static_cast<std::uint64_t>(seed);
+    r.finish();
+    s.random_disks.push_back(spec);
+  }
+  s.overlap_tolerance = root.non_negative("overlap_tolerance", 1e-9);
+  root.finish();
+  return out;
+}
+
+}  // namespace cdshear

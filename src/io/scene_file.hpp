@@ -1,0 +1,38 @@
+// Scene files (TOML) -> SceneDefinition + step and run settings. Schema: docs/scene-files.md.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+#include "contact_dynamics.hpp"
+#include "scene.hpp"
+#include "toml_reader.hpp"
+
+namespace cdshear {
+
+/// How long to run and how often to report and sample.
+struct RunSettings {
+  double duration = 1.0;           ///< simulated time to run [time]
+  std::uint64_t status_every = 0;  ///< steps between status lines (0: about 20 per run)
+  std::uint64_t sample_every = 1;  ///< steps between time-series rows
+};
+
+struct SceneFile {
+  SceneDefinition scene;
+  StepOptions step;
+  RunSettings run;
+  toml::table resolved;  ///< the table after overrides, written beside the results
+};
+
+/// Reads `path`, applies `overrides` ("key=value"), validates. Throws ConfigError naming the
+/// file and key of the first problem (unknown key, wrong type, bad value, overlapping disks).
+SceneFile load_scene_file(const std::string& path, const std::vector<std::string>& overrides);
+
+/// The [step] and [solver] tables, shared by scene and shear-case files.
+StepOptions read_step_options(TomlReader& step, TomlReader& solver);
+
+AxisMode parse_axis_mode(TomlReader& t, const std::string& key);
+
+}  // namespace cdshear

@@ -1,0 +1,183 @@
+#include "toml_reader.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+namespace cdshear {
+
+toml::table parse_toml_file(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw ConfigError(path, "", "file not found");
+  try {
+    return toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream where;
+    where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
+    throw ConfigError(path, "", "TOML syntax error at " + where.str() + ": " +
+                                    std::string(e.description()));
+  }
+}
+
+void apply_overrides(toml::table& root, const std::vector<std::string>& overrides) {
+  for (const std::string& item : overrides) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError("--set " + item, "", "expected key=value");
+    const std::string key = item.substr(0, eq);
+    std::string value = item.substr(eq + 1);
+    toml::table parsed;
+    try {
+      parsed = toml::parse("v = " + value);
+    } catch (const toml::parse_error&) {
+      // Bare words are strings: --set solver.order=random
+      try {
+        parsed = toml::parse("v = \"" + value + "\"");
+      } catch (const toml::parse_error& e) {
+        throw ConfigError("--set " + item, key, "cannot parse value: " + std::string(e.description()));
+      }
+    }
+    toml::table* at = &root;
+    std::string rest = key;
+    for (auto dot = rest.find('.'); dot != std::string::npos; dot = rest.find('.')) {
+      const std::string part = rest.substr(0, dot);
+      rest = rest.substr(dot + 1);
+      toml::node* next = at->get(part);
+      if (next == nullptr) {
+        at->insert(part, toml::table{});
+        next = at->get(part);
+      }
+      if (!next->is_table())
+        throw ConfigError("--set " + item, key, "'" + part + "' is not a table");
+      at = next->as_table();
+    }
+    at->insert_or_assign(rest, *parsed.get("v"));
+  }
+}
+
+TomlReader::TomlReader(const toml::table& table, std::string file, std::string prefix)
+    : table_(&table), file_(std::move(file)), prefix_(std::move(prefix)) {}
+
+std::string TomlReader::full_key(const std::string& key) const {
+  return prefix_.empty() ? key : prefix_ + "." + key;
+}
+
+void TomlReader::fail(const std::string& key, const std::string& problem) const {
+  throw ConfigError(file_, full_key(key), problem);
+}
+
+bool TomlReader::has(const std::string& key) const { return table_->contains(key); }
+
+const toml::node* TomlReader::lookup(const std::string& key) {
+  used_.insert(key);
+  return table_->get(key);
+}
+
+double TomlReader::number(const std::string& key, std::optional<double> fallback) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) {
+    if (!fallback) fail(key, "is required");
+    return *fallback;
+  }
+  if (auto v = n->value<double>(); v && (n->is_floating_point() || n->is_integer())) {
+    if (!std::isfinite(*v)) fail(key, "must be a finite number");
+    return *v;
+  }
+  fail(key, "must be a number");
+}
+
+std::int64_t TomlReader::integer(const std::string& key, std::optional<std::int64_t> fallback) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) {
+    if (!fallback) fail(key, "is required");
+    return *fallback;
+  }
+  if (!n->is_integer()) fail(key, "must be an integer");
+  return *n->value<std::int64_t>();
+}
+
+bool TomlReader::boolean(const std::string& key, std::optional<bool> fallback) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) {
+    if (!fallback) fail(key, "is required");
+    return *fallback;
+  }
+  if (!n->is_boolean()) fail(key, "must be true or false");
+  return *n->value<bool>();
+}
+
+std::string TomlReader::string(const std::string& key, std::optional<std::string> fallback) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) {
+    if (!fallback) fail(key, "is required");
+    return *fallback;
+  }
+  if (!n->is_string()) fail(key, "must be a string");
+  return *n->value<std::string>();
+}
+
+Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) {
+    if (!fallback) fail(key, "is required");
+    return *fallback;
+  }
+  const toml::array* a = n->as_array();
+  if (a == nullptr || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
+    fail(key, "must be an array of two numbers, like [0.0, 1.0]");
+  const Vec2 v{*(*a)[0].value<double>(), *(*a)[1].value<double>()};
+  if (!std::isfinite(v.x) || !std::isfinite(v.y)) fail(key, "must be finite");
+  return v;
+}
+
+double TomlReader::positive(const std::string& key, std::optional<double> fallback) {
+  const double v = number(key, fallback);
+  if (!(v > 0.0)) fail(key, "must be > 0, got " + std::to_string(v));
+  return v;
+}
+
+double TomlReader::non_negative(const std::string& key, std::optional<double> fallback) {
+  const double v = number(key, fallback);
+  if (!(v >= 0.0)) fail(key, "must be >= 0, got " + std::to_string(v));
+  return v;
+}
+
+std::string TomlReader::choice(const std::string& key, const std::vector<std::string>& choices,
+                               std::optional<std::string> fallback) {
+  const std::string v = string(key, std::move(fallback));
+  for (const auto& c : choices)
+    if (c == v) return v;
+  std::string list;
+  for (const auto& c : choices) list += (list.empty() ? "" : ", ") + ("'" + c + "'");
+  fail(key, "must be one of " + list + ", got '" + v + "'");
+}
+
+TomlReader TomlReader::table(const std::string& key) {
+  static const toml::table empty;
+  const toml::node* n = lookup(key);
+  if (n == nullptr) return TomlReader(empty, file_, full_key(key));
+  if (!n->is_table()) fail(key, "must be a table");
+  return TomlReader(*n->as_table(), file_, full_key(key));
+}
+
+std::vector<TomlReader> TomlReader::tables(const std::string& key) {
+  std::vector<TomlReader> out;
+  const toml::node* n = lookup(key);
+  if (n == nullptr) return out;
+  const toml::array* a = n->as_array();
+  if (a == nullptr) fail(key, "must be an array of tables ([[" + full_key(key) + "]])");
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const toml::table* t = (*a)[i].as_table();
+    if (t == nullptr) fail(key, "entry " + std::to_string(i) + " must be a table");
+    out.emplace_back(*t, file_, full_key(key) + "[" + std::to_string(i) + "]");
+  }
+  return out;
+}
+
+void TomlReader::finish() const {
+  for (const auto& [k, v] : *table_) {
+    const std::string name(k.str());
+    if (!used_.contains(name)) fail(name, "unknown key");
+  }
+}
+
+}  // namespace cdshear

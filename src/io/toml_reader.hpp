@@ -1,0 +1,63 @@
+// Strict reading of a TOML table: every key read is typed and checked, and finish() rejects
+// keys that were never read (typos), naming the file and the full dotted key.
+#pragma once
+
+#include <toml++/toml.h>
+
+#include <cstdint>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "config_error.hpp"
+#include "vec2.hpp"
+
+namespace cdshear {
+
+/// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error).
+toml::table parse_toml_file(const std::string& path);
+
+/// Applies `--set` overrides "a.b.c=value" (value in TOML syntax; bare words are strings) to
+/// `root`, creating intermediate tables. Throws ConfigError naming the override.
+void apply_overrides(toml::table& root, const std::vector<std::string>& overrides);
+
+class TomlReader {
+ public:
+  TomlReader(const toml::table& table, std::string file, std::string prefix = "");
+
+  bool has(const std::string& key) const;
+  double number(const std::string& key, std::optional<double> fallback = std::nullopt);
+  std::int64_t integer(const std::string& key, std::optional<std::int64_t> fallback = std::nullopt);
+  bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt);
+  std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt);
+  Vec2 vec2(const std::string& key, std::optional<Vec2> fallback = std::nullopt);
+  /// Numbers with a lower bound (strict or not), for sizes and times.
+  double positive(const std::string& key, std::optional<double> fallback = std::nullopt);
+  double non_negative(const std::string& key, std::optional<double> fallback = std::nullopt);
+  /// One of `choices`.
+  std::string choice(const std::string& key, const std::vector<std::string>& choices,
+                     std::optional<std::string> fallback = std::nullopt);
+
+  /// Sub-table (empty reader if absent and optional).
+  TomlReader table(const std::string& key);
+  /// Array of tables ([[key]]); empty if absent.
+  std::vector<TomlReader> tables(const std::string& key);
+
+  /// Throws ConfigError for the first key of this table that was never read.
+  void finish() const;
+
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+  std::string full_key(const std::string& key) const;
+  const std::string& file() const { return file_; }
+
+ private:
+  const toml::node* lookup(const std::string& key);
+
+  const toml::table* table_;
+  std::string file_;
+  std::string prefix_;
+  std::set<std::string> used_;
+};
+
+}  // namespace cdshear
