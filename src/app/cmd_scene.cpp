@@ -9,24 +9,13 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "observers.hpp"
 #include "outputs.hpp"
 #include "run_loop.hpp"
 #include "scene_file.hpp"
 
 namespace cdshear {
 namespace {
-
-class TimeSeriesObserver : public Observer {
- public:
-  TimeSeriesObserver(const std::filesystem::path& path, const World& world)
-      : writer_(path, world) {}
-  void observe(const World& world, const ContactDynamics&, const StepReport& r) override {
-    writer_.write(world, r);
-  }
-
- private:
-  TimeSeriesWriter writer_;
-};
 
 struct SceneArgs {
   std::string file;

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", CDSHEAR_VERSION);
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
+  cdshear::register_shear_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,273 @@
+// `cdshear prepare` and `cdshear run`: the shear cell of the reference study (SPEC 4-6).
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include "case_file.hpp"
+#include "commands.hpp"
+#include "config_error.hpp"
+#include "observers.hpp"
+#include "outputs.hpp"
+#include "packing_file.hpp"
+#include "run_loop.hpp"
+
+namespace cdshear {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CaseArgs {
+  std::string file;
+  int system = 0;  // 0: none
+  double velocity = 0.0;
+  bool has_velocity = false;
+  std::vector<std::string> overrides;
+  bool quiet = false;
+};
+
+CaseSource to_source(const CaseArgs& a) {
+  CaseSource s;
+  s.file = a.file;
+  if (a.system != 0) s.system = a.system;
+  if (a.has_velocity) s.velocity = a.velocity;
+  s.overrides = a.overrides;
+  return s;
+}
+
+void add_case_options(CLI::App* cmd, CaseArgs& a) {
+  cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)");
+  cmd->add_option("--system", a.system, "preset of SPEC 6, 1..7 (n, L_y, sigma_yy, duration)");
+  cmd->add_option_function<double>(
+      "-V,--velocity",
+      [&a](double v) {
+        a.velocity = v;
+        a.has_velocity = true;
+      },
+      "wall velocity V (bottom -V, top +V)");
+  cmd->add_option("--set", a.overrides, "override a case key: --set shear.duration=50 (repeatable)");
+  cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
+}
+
+Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
+  std::printf("preparing a packing: n %zu, L_y %g, diameters [%g, %g], seed %llu\n", o.n,
+              o.height, o.diameter_min, o.diameter_max, static_cast<unsigned long long>(o.seed));
+  std::fflush(stdout);
+  Packing p = prepare_packing(
+      o,
+      [quiet](const PreparationProgress& pr) {
+        if (quiet) return;
+        std::printf("  phase %d (%s)  t %9.2f  Ek/disk %10.3g  piston x %8.4f  v %10.3g  "
+                    "sweeps %3d\n",
+                    pr.phase, pr.phase == 1 ? "settling" : "piston", pr.time,
+                    pr.kinetic_energy_per_disk, pr.piston_x, pr.piston_speed,
+                    pr.report.solver.sweeps);
+        std::fflush(stdout);
+      },
+      5.0);
+  std::printf("prepared: L_x %.6f, solid fraction %.5f, after %.1f time units\n", p.length_x,
+              p.solid_fraction, p.preparation_time);
+  return p;
+}
+
+/// The packing of a case: its packing file, or the cache entry (prepared if absent).
+std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
+  const double tolerance = c.step.abort_overlap * 0.1;
+  if (!c.packing_file.empty()) return {read_packing(c.packing_file, tolerance), c.packing_file};
+  const fs::path cached = fs::path("packings") / packing_cache_name(c.preparation);
+  if (fs::exists(cached)) {
+    std::printf("reusing packing %s\n", cached.c_str());
+    return {read_packing(cached, tolerance), cached};
+  }
+  Packing p = prepare_with_progress(c.preparation, quiet);
+  write_packing(cached, p);
+  std::printf("packing written to %s\n", cached.c_str());
+  return {p, cached};
+}
+
+std::uint64_t steps_of(double interval, double dt) {
+  return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
+}
+
+struct RunArgs {
+  CaseArgs c;
+  std::string out_dir;
+  std::string resume_dir;
+  std::string packing;
+  double stop_at = -1.0;
+};
+
+int run_shear(const RunArgs& args) {
+  const bool resuming = !args.resume_dir.empty();
+  ShearCase c;
+  fs::path dir;
+  if (resuming) {
+    dir = args.resume_dir;
+    const fs::path case_path = dir / "case.toml";
+    CaseSource src;
+    src.file = case_path.string();
+    src.overrides = args.c.overrides;
+    c = load_case(src);
+  } else {
+    c = load_case(to_source(args.c));
+    if (!args.packing.empty()) c.packing_file = args.packing;
+  }
+  const std::string dt_warning = resolve_time_step(c);
+  if (!dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", dt_warning.c_str());
+  const double dt = c.step.dt;
+
+  World world;
+  ContactDynamics dynamics;
+  std::string packing_used;
+  if (resuming) {
+    Checkpoint cp = read_checkpoint(dir / "checkpoint.cbor");
+    world = std::move(cp.world);
+    dynamics.set_contacts(std::move(cp.contacts));
+    TimeSeriesWriter::truncate_after(dir / "timeseries.csv", world.step);
+    std::printf("resuming %s at step %llu, t %.4f\n", dir.c_str(),
+                static_cast<unsigned long long>(world.step), world.time);
+  } else {
+    auto [packing, path] = obtain_packing(c, args.c.quiet);
+    packing_used = path.string();
+    if (packing.n() != c.n)
+      throw ConfigError(path.string(), "n",
+                        fmt::format("packing has {} disks, the case asks for {}", packing.n(), c.n));
+    world = build_shear_world(c, packing);
+    dir = args.out_dir.empty()
+              ? fs::path("runs") / fmt::format("n{}_h{}_V{}_seed{}", c.n, c.height, c.velocity,
+                                               c.seed)
+              : fs::path(args.out_dir);
+    fs::create_directories(dir);
+    toml::table resolved = case_to_toml(c);
+    resolved["preparation"].as_table()->insert_or_assign("packing", packing_used);
+    std::ostringstream text;
+    text << "# Resolved case written by cdshear " CDSHEAR_VERSION "; `cdshear run --resume "
+         << dir.string() << "` continues it.\n"
+         << resolved << '\n';
+    write_file_atomic(dir / "case.toml", text.str());
+  }
+
+  const std::uint64_t end_step = static_cast<std::uint64_t>(std::llround(c.duration / dt));
+  RunLoopSettings loop;
+  loop.end_step = end_step;
+  if (args.stop_at >= 0) loop.end_step = std::min(end_step, steps_of(args.stop_at, dt));
+  const std::uint64_t status = steps_of(c.status_interval, dt);
+  loop.status_every = args.c.quiet ? 0 : status > 0 ? status : std::max<std::uint64_t>(1, end_step / 20);
+  loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
+
+  TimeSeriesObserver series(dir / "timeseries.csv", world, resuming);
+  CheckpointObserver checkpoint(dir / "checkpoint.cbor");
+  std::unique_ptr<SnapshotObserver> snapshots;
+  std::vector<ScheduledObserver> observers = {{steps_of(c.sample_interval, dt), &series}};
+  if (observers[0].every == 0) observers.clear();
+  if (const std::uint64_t every = steps_of(c.snapshot_interval, dt); every > 0) {
+    snapshots = std::make_unique<SnapshotObserver>(dir / "snapshots", dt, every,
+                                                   resuming ? world.step : 0);
+    observers.push_back({every, snapshots.get()});
+  }
+  if (const std::uint64_t every = steps_of(c.checkpoint_interval, dt); every > 0)
+    observers.push_back({every, &checkpoint});
+
+  std::printf("cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
+              "-> %s\n",
+              world.disks.size(), world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
+              static_cast<unsigned long long>(world.step),
+              static_cast<unsigned long long>(loop.end_step), dir.c_str());
+  std::fflush(stdout);
+  install_stop_handlers();
+  const RunSummary summary = run_until(world, dynamics, c.step, loop, observers);
+
+  // Whatever happened, the state reached is kept: checkpoint (unless blown up: the last good
+  // checkpoint stays), state file, run info.
+  const bool finished = summary.outcome == RunOutcome::kFinished && world.step >= end_step;
+  if (summary.outcome != RunOutcome::kBlownUp) checkpoint.observe(world, dynamics, summary.last);
+  const char* state_name = summary.outcome == RunOutcome::kBlownUp ? "blowup_state.json"
+                           : finished                              ? "final_state.json"
+                                                                   : "interrupted_state.json";
+  write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
+  nlohmann::json info = {{"program", "cdshear"},
+                         {"version", CDSHEAR_VERSION},
+                         {"resumed", resuming},
+                         {"packing", packing_used},
+                         {"dt", dt},
+                         {"seed", c.seed},
+                         {"solver_seed", c.step.solver.seed},
+                         {"step", world.step},
+                         {"time", world.time},
+                         {"state_hash", fmt::format("{:016x}", state_hash(world))},
+                         {"summary", summary_to_json(summary)}};
+  write_file_atomic(dir / (resuming ? fmt::format("run_info_resume_{}.json", world.step)
+                                    : std::string("run_info.json")),
+                    info.dump(2) + "\n");
+  std::printf("%llu steps in %.1f s (%.0f steps/s, %.3g s per time unit), sweeps mean %.1f "
+              "largest %d, capped %llu, largest overlap %.3g\n",
+              static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
+              summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0,
+              summary.steps > 0 ? summary.wall_seconds / (summary.steps * dt) : 0.0,
+              summary.mean_sweeps, summary.largest_sweeps,
+              static_cast<unsigned long long>(summary.capped_steps), summary.largest_overlap);
+  if (summary.outcome == RunOutcome::kBlownUp) {
+    std::fprintf(stderr,
+                 "error: step %llu blew up: %s; state written to %s, last good checkpoint kept\n",
+                 static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
+                 (dir / state_name).c_str());
+    return 3;
+  }
+  if (!finished) {
+    std::printf("stopped at step %llu (t %.4f); continue with: cdshear run --resume %s\n",
+                static_cast<unsigned long long>(world.step), world.time, dir.c_str());
+    return summary.outcome == RunOutcome::kInterrupted ? 130 : 0;
+  }
+  std::printf("done: output in %s (timeseries.csv, final_state.json, case.toml, run_info.json%s)\n",
+              dir.c_str(), snapshots ? ", snapshots/*.pvd" : "");
+  return 0;
+}
+
+struct PrepareArgs {
+  CaseArgs c;
+  std::string output;
+};
+
+int run_prepare(const PrepareArgs& args) {
+  const ShearCase c = load_case(to_source(args.c));
+  const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
+  const fs::path out = args.output.empty() ? fs::path("packings") / packing_cache_name(c.preparation)
+                                           : fs::path(args.output);
+  write_packing(out, p);
+  std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
+              p.solid_fraction);
+  return 0;
+}
+
+}  // namespace
+
+void register_shear_commands(CLI::App& app) {
+  auto prep = std::make_shared<PrepareArgs>();
+  CLI::App* p = app.add_subcommand(
+      "prepare", "Prepare a packing (SPEC 5): settle, then compress with a piston to equilibrium");
+  add_case_options(p, prep->c);
+  p->add_option("-o,--output", prep->output,
+                "packing file; default packings/<parameters>.json (the cache `run` uses)");
+  p->callback([prep]() {
+    if (const int rc = run_prepare(*prep); rc != 0) throw CLI::RuntimeError(rc);
+  });
+
+  auto run = std::make_shared<RunArgs>();
+  CLI::App* r = app.add_subcommand(
+      "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
+  add_case_options(r, run->c);
+  r->add_option("-o,--output", run->out_dir, "output folder; default runs/n<n>_h<L_y>_V<V>_seed<seed>");
+  r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
+  r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
+  r->add_option("--stop-at", run->stop_at,
+                "stop (with a checkpoint) once simulated time reaches this; resume later");
+  r->callback([run]() {
+    if (const int rc = run_shear(*run); rc != 0) throw CLI::RuntimeError(rc);
+  });
+}
+
+}  // namespace cdshear

@@ -1,0 +1,185 @@
+#include "case_file.hpp"
+
+#include <sstream>
+
+#include "config_error.hpp"
+#include "scene_file.hpp"
+#include "toml_reader.hpp"
+
+namespace cdshear {
+namespace {
+
+std::uint64_t read_seed(TomlReader& t, const std::string& key, std::uint64_t fallback) {
+  const std::int64_t v = t.integer(key, static_cast<std::int64_t>(fallback));
+  if (v < 0) t.fail(key, "must be >= 0");
+  return static_cast<std::uint64_t>(v);
+}
+
+}  // namespace
+
+ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase c) {
+  TomlReader root(table, file);
+
+  TomlReader sys = root.table("system");
+  const std::int64_t n = sys.integer("n", static_cast<std::int64_t>(c.n));
+  if (n < 1) sys.fail("n", "must be >= 1, got " + std::to_string(n));
+  c.n = static_cast<std::size_t>(n);
+  c.height = sys.positive("height", c.height);
+  c.diameter_min = sys.positive("diameter_min", c.diameter_min);
+  c.diameter_max = sys.positive("diameter_max", c.diameter_max);
+  if (c.diameter_max < c.diameter_min) sys.fail("diameter_max", "must be >= diameter_min");
+  if (c.height <= c.diameter_max)
+    sys.fail("height", "L_y = " + std::to_string(c.height) +
+                           " must exceed the largest grain diameter " +
+                           std::to_string(c.diameter_max));
+  c.seed = read_seed(sys, "seed", c.seed);
+  sys.finish();
+
+  TomlReader sh = root.table("shear");
+  c.velocity = sh.positive("velocity", c.velocity);
+  c.normal_stress = sh.positive("normal_stress", c.normal_stress);
+  c.friction_grain = sh.non_negative("friction_grain", c.friction_grain);
+  c.friction_wall = sh.non_negative("friction_wall", c.friction_wall);
+  c.wall_mass = sh.positive("wall_mass", c.wall_mass);
+  c.duration = sh.positive("duration", c.duration);
+  sh.finish();
+
+  TomlReader step = root.table("step");
+  if (step.has("dt")) {
+    const toml::node* dt = table.at_path("step.dt").node();
+    if (dt->is_string()) {
+      if (step.string("dt") != "auto") step.fail("dt", "must be a number or \"auto\"");
+      c.dt.reset();
+    } else {
+      c.dt = step.positive("dt");
+    }
+  }
+  c.dt_max = step.positive("dt_max", c.dt_max);
+  c.displacement_per_step = step.positive("displacement_per_step", c.displacement_per_step);
+  c.step.contact_margin = step.non_negative("contact_margin", c.step.contact_margin);
+  c.step.displacement_bound = step.positive("displacement_bound", c.step.displacement_bound);
+  c.step.abort_overlap = step.positive("abort_overlap", c.step.abort_overlap);
+  step.finish();
+
+  TomlReader solver = root.table("solver");
+  {
+    // Reuse the scene-file reader for [solver]; [step] keys were read above.
+    static const toml::table empty;
+    TomlReader empty_step(empty, file, "step");
+    const StepOptions parsed = read_step_options(empty_step, solver);
+    c.step.solver = parsed.solver;
+  }
+
+  TomlReader prep = root.table("preparation");
+  PreparationOptions& p = c.preparation;
+  p.initial_solid_fraction = prep.positive("initial_solid_fraction", p.initial_solid_fraction);
+  if (p.initial_solid_fraction >= 0.55)
+    prep.fail("initial_solid_fraction", "random placement cannot exceed about 0.55");
+  p.gravity = prep.positive("gravity", p.gravity);
+  p.piston_stress = prep.positive("piston_stress", p.piston_stress);
+  p.piston_mass = prep.positive("piston_mass", p.piston_mass);
+  p.settle_kinetic_energy_per_disk =
+      prep.positive("settle_kinetic_energy_per_disk", p.settle_kinetic_energy_per_disk);
+  p.kinetic_energy_per_disk = prep.positive("kinetic_energy_per_disk", p.kinetic_energy_per_disk);
+  p.piston_speed = prep.positive("piston_speed", p.piston_speed);
+  p.force_balance = prep.positive("force_balance", p.force_balance);
+  p.window_time = prep.positive("window_time", p.window_time);
+  p.max_time_per_phase = prep.positive("max_time_per_phase", p.max_time_per_phase);
+  p.step.dt = prep.positive("dt", p.step.dt);
+  p.compression_dt = prep.positive("compression_dt", p.compression_dt);
+  c.packing_file = prep.string("packing", c.packing_file);
+  prep.finish();
+
+  TomlReader out = root.table("output");
+  c.sample_interval = out.non_negative("sample_interval", c.sample_interval);
+  c.status_interval = out.non_negative("status_interval", c.status_interval);
+  c.checkpoint_interval = out.non_negative("checkpoint_interval", c.checkpoint_interval);
+  c.snapshot_interval = out.non_negative("snapshot_interval", c.snapshot_interval);
+  out.finish();
+
+  root.finish();
+  sync_preparation(c);
+  return c;
+}
+
+ShearCase load_case(const CaseSource& src) {
+  ShearCase c;
+  sync_preparation(c);
+  if (src.system) {
+    try {
+      apply_system_preset(c, *src.system);
+    } catch (const std::invalid_argument& e) {
+      throw ConfigError("--system", "", e.what());
+    }
+  }
+  toml::table table;
+  std::string name = "built-in default case";
+  if (!src.file.empty()) {
+    table = parse_toml_file(src.file);
+    name = src.file;
+  }
+  if (src.velocity) {
+    if (!table.contains("shear")) table.insert("shear", toml::table{});
+    table["shear"].as_table()->insert_or_assign("velocity", *src.velocity);
+  }
+  if (!src.overrides.empty()) {
+    apply_overrides(table, src.overrides);
+    name += " (with --set overrides)";
+  }
+  if (src.velocity && *src.velocity <= 0.0)
+    throw ConfigError("--velocity", "shear.velocity", "must be > 0");
+  return case_from_toml(table, name, c);
+}
+
+toml::table case_to_toml(const ShearCase& c) {
+  const PreparationOptions& p = c.preparation;
+  const SolverOptions& s = c.step.solver;
+  toml::table step{{"dt_max", c.dt_max},
+                   {"displacement_per_step", c.displacement_per_step},
+                   {"contact_margin", c.step.contact_margin},
+                   {"displacement_bound", c.step.displacement_bound},
+                   {"abort_overlap", c.step.abort_overlap}};
+  if (c.dt)
+    step.insert("dt", *c.dt);
+  else
+    step.insert("dt", "auto");
+  return toml::table{
+      {"system",
+       toml::table{{"n", static_cast<std::int64_t>(c.n)},
+                   {"height", c.height},
+                   {"diameter_min", c.diameter_min},
+                   {"diameter_max", c.diameter_max},
+                   {"seed", static_cast<std::int64_t>(c.seed)}}},
+      {"shear", toml::table{{"velocity", c.velocity},
+                            {"normal_stress", c.normal_stress},
+                            {"friction_grain", c.friction_grain},
+                            {"friction_wall", c.friction_wall},
+                            {"wall_mass", c.wall_mass},
+                            {"duration", c.duration}}},
+      {"step", step},
+      {"solver", toml::table{{"alpha", s.alpha},
+                             {"converged_fraction", s.converged_fraction},
+                             {"max_sweeps", s.max_sweeps},
+                             {"order", s.order == ContactOrder::kRandom ? "random" : "sequential"},
+                             {"seed", static_cast<std::int64_t>(s.seed)}}},
+      {"preparation", toml::table{{"initial_solid_fraction", p.initial_solid_fraction},
+                                  {"gravity", p.gravity},
+                                  {"piston_stress", p.piston_stress},
+                                  {"piston_mass", p.piston_mass},
+                                  {"settle_kinetic_energy_per_disk",
+                                   p.settle_kinetic_energy_per_disk},
+                                  {"kinetic_energy_per_disk", p.kinetic_energy_per_disk},
+                                  {"piston_speed", p.piston_speed},
+                                  {"force_balance", p.force_balance},
+                                  {"window_time", p.window_time},
+                                  {"max_time_per_phase", p.max_time_per_phase},
+                                  {"dt", p.step.dt},
+                                  {"compression_dt", p.compression_dt},
+                                  {"packing", c.packing_file}}},
+      {"output", toml::table{{"sample_interval", c.sample_interval},
+                             {"status_interval", c.status_interval},
+                             {"checkpoint_interval", c.checkpoint_interval},
+                             {"snapshot_interval", c.snapshot_interval}}}};
+}
+
+}  // namespace cdshear

@@ -1,0 +1,33 @@
+// Shear-case files (TOML) -> ShearCase, with presets and --set overrides. Schema:
+// docs/case-files.md. The resolved case is written back as TOML beside the results.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+#include "shear_case.hpp"
+
+namespace cdshear {
+
+struct CaseSource {
+  std::string file;                     ///< case file; empty: built-in default
+  std::optional<int> system;            ///< --system K preset, applied before the file
+  std::optional<double> velocity;       ///< --velocity V, applied after the file
+  std::vector<std::string> overrides;   ///< --set key=value, applied last
+};
+
+/// Builds the case: defaults (system 1), then the preset, then the file, then --velocity, then
+/// the overrides. Throws ConfigError naming the file (or "--set ...") and the key.
+ShearCase load_case(const CaseSource& source);
+
+/// Reads a complete case from a TOML table (as written by case_to_toml); `file` names it in
+/// errors.
+ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base);
+
+/// Every parameter of the case, as TOML (the resolved case).
+toml::table case_to_toml(const ShearCase& c);
+
+}  // namespace cdshear

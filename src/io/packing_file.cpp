@@ -1,0 +1,82 @@
+#include "packing_file.hpp"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "config_error.hpp"
+#include "outputs.hpp"
+
+namespace cdshear {
+
+void write_packing(const std::filesystem::path& path, const Packing& p) {
+  nlohmann::json disks = nlohmann::json::array();
+  for (const PackingDisk& d : p.disks) disks.push_back({d.position.x, d.position.y, d.radius});
+  const nlohmann::json j = {{"format", "cdshear-packing"},
+                            {"version", 1},
+                            {"program_version", CDSHEAR_VERSION},
+                            {"n", p.n()},
+                            {"height", p.height},
+                            {"length_x", p.length_x},
+                            {"diameter_min", p.diameter_min},
+                            {"diameter_max", p.diameter_max},
+                            {"seed", p.seed},
+                            {"solid_fraction", p.solid_fraction},
+                            {"piston_stress", p.piston_stress},
+                            {"preparation_time", p.preparation_time},
+                            {"disks_xyr", disks}};
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  write_file_atomic(path, j.dump(1) + "\n");
+}
+
+Packing read_packing(const std::filesystem::path& path, double overlap_tolerance) {
+  const std::string file = path.string();
+  std::ifstream in(path);
+  if (!in) throw ConfigError(file, "", "packing file not found (run `cdshear prepare` first)");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw ConfigError(file, "", std::string("not valid JSON: ") + e.what());
+  }
+  auto need = [&](const char* key) -> const nlohmann::json& {
+    if (!j.contains(key)) throw ConfigError(file, key, "is missing");
+    return j.at(key);
+  };
+  if (need("format") != "cdshear-packing") throw ConfigError(file, "format", "not a packing file");
+  Packing p;
+  try {
+    p.height = need("height").get<double>();
+    p.length_x = need("length_x").get<double>();
+    p.diameter_min = need("diameter_min").get<double>();
+    p.diameter_max = need("diameter_max").get<double>();
+    p.seed = need("seed").get<std::uint64_t>();
+    p.piston_stress = need("piston_stress").get<double>();
+    p.preparation_time = j.value("preparation_time", 0.0);
+    for (const auto& d : need("disks_xyr"))
+      p.disks.push_back({{d.at(0).get<double>(), d.at(1).get<double>()}, d.at(2).get<double>()});
+  } catch (const nlohmann::json::exception& e) {
+    throw ConfigError(file, "", std::string("malformed packing: ") + e.what());
+  }
+  if (!(p.height > 0) || !(p.length_x > 0))
+    throw ConfigError(file, "length_x", "cell sizes must be > 0");
+  for (std::size_t i = 0; i < p.disks.size(); ++i) {
+    const PackingDisk& d = p.disks[i];
+    const std::string key = fmt::format("disks_xyr[{}]", i);
+    if (!(d.radius > 0)) throw ConfigError(file, key, "radius must be > 0");
+    if (d.position.y - d.radius < -overlap_tolerance ||
+        d.position.y + d.radius > p.height + overlap_tolerance)
+      throw ConfigError(file, key, fmt::format("disk crosses a wall (y = {}, r = {}, L_y = {})",
+                                               d.position.y, d.radius, p.height));
+  }
+  p.solid_fraction = solid_fraction(p.disks, p.length_x, p.height);
+  return p;
+}
+
+std::string packing_cache_name(const PreparationOptions& o) {
+  return fmt::format("n{}_h{}_d{}-{}_seed{}_s{}.json", o.n, o.height, o.diameter_min,
+                     o.diameter_max, o.seed, o.piston_stress);
+}
+
+}  // namespace cdshear

@@ -1,0 +1,58 @@
+// The preparation protocol of SPEC 5 (steps 1 and 2):
+//   1. settling: horizontal walls fixed at y = 0 and y = L_y, a vertical wall at x = 0, every
+//      contact frictionless; n disks placed at random without overlap in a loose box to the right
+//      of the wall, settling against it under a body force g along -x;
+//   2. compression: body force off; a piston (vertical wall, normal -x) placed on the free surface,
+//      free in x with mass M_p under the force sigma_xx L_y, pushes until equilibrium.
+// Equilibrium: over a window of `window_time`, the kinetic energy per disk stays below
+// `settle_kinetic_energy_per_disk` (phase 1: the pile has settled; it need not be perfectly at
+// rest, phase 2 finishes the job) or `kinetic_energy_per_disk` (phase 2), the piston speed stays
+// below `piston_speed`, and the mean force the disks exert on the piston matches the applied
+// force within `force_balance` (relative). L_x is then the distance from the vertical wall to the
+// piston. The floor of the kinetic energy is set by the solver tolerance: an unconverged step
+// leaves overlaps of order 1e-6 d which the next step removes at speed overlap / dt.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "contact_dynamics.hpp"
+#include "packing.hpp"
+
+namespace cdshear {
+
+struct PreparationOptions {
+  std::size_t n = 511;
+  double height = 20.0;             ///< L_y [d]
+  double diameter_min = 0.8, diameter_max = 1.0;
+  std::uint64_t seed = 1;           ///< placement seed
+  double initial_solid_fraction = 0.35;  ///< of the loose random placement
+  double gravity = 1.0;             ///< settling body force per unit mass along -x [d/t^2]
+  double piston_stress = 0.25;      ///< sigma_xx [force/length]
+  double piston_mass = 50.0;        ///< [mass]
+  double settle_kinetic_energy_per_disk = 1e-4;  ///< phase 1 threshold [mass d^2/t^2]
+  double kinetic_energy_per_disk = 1e-6;  ///< phase 2 threshold [mass d^2/t^2]
+  double piston_speed = 1e-4;       ///< phase 2 threshold [d/t]
+  double force_balance = 0.01;      ///< |<F_contact> - F_applied| / F_applied at equilibrium
+  double window_time = 5.0;         ///< the criteria must hold over this long [t]
+  double max_time_per_phase = 2000; ///< give up (error) after this long [t]
+  StepOptions step;                 ///< dt (phase 1), margin, solver options for the protocol
+  double compression_dt = 5e-3;     ///< phase 2 time step: speeds are small there [t]
+};
+
+struct PreparationProgress {
+  int phase = 1;                    ///< 1 settling, 2 compression
+  double time = 0.0;
+  double kinetic_energy_per_disk = 0.0;
+  double piston_x = 0.0, piston_speed = 0.0;
+  StepReport report;
+};
+
+/// Runs the protocol; `progress` (optional) is called every `progress_interval` of simulated
+/// time. Throws
+/// std::runtime_error if a phase does not reach equilibrium within max_time_per_phase.
+Packing prepare_packing(const PreparationOptions& options,
+                        const std::function<void(const PreparationProgress&)>& progress = {},
+                        double progress_interval = 5.0);
+
+}  // namespace cdshear

@@ -1,0 +1,86 @@
+#include "shear_case.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "scene.hpp"
+
+namespace cdshear {
+
+double default_time_step(const ShearCase& c) {
+  return std::min(c.dt_max, c.displacement_per_step / c.velocity);
+}
+
+std::string resolve_time_step(ShearCase& c) {
+  c.step.dt = c.dt ? *c.dt : default_time_step(c);
+  const double per_step = c.velocity * c.step.dt;
+  if (per_step > c.step.displacement_bound)
+    return "step.dt = " + std::to_string(c.step.dt) + " moves the walls by V dt = " +
+           std::to_string(per_step) + " per step, above step.displacement_bound = " +
+           std::to_string(c.step.displacement_bound) + "; the default rule would give dt = " +
+           std::to_string(default_time_step(c));
+  return {};
+}
+
+void apply_system_preset(ShearCase& c, int system) {
+  struct Row {
+    std::size_t n;
+    double height, stress, duration;
+  };
+  // SPEC 6. Durations: the reference simulated time (system 5: the upper value).
+  static constexpr Row rows[] = {{511, 20, 0.25, 20000},   {1023, 40, 0.25, 10000},
+                                 {1023, 40, 0.0625, 10000}, {3199, 50, 0.25, 8000},
+                                 {2047, 80, 0.25, 12000},  {3071, 120, 0.25, 6000},
+                                 {5119, 200, 0.25, 13000}};
+  if (system < 1 || system > 7)
+    throw std::invalid_argument("system must be 1..7, got " + std::to_string(system));
+  const Row& r = rows[system - 1];
+  c.n = r.n;
+  c.height = r.height;
+  c.normal_stress = r.stress;
+  c.duration = r.duration;
+  // System 4 is 50 wide: its packing is prepared to that width by the same protocol.
+  sync_preparation(c);
+}
+
+void sync_preparation(ShearCase& c) {
+  c.preparation.n = c.n;
+  c.preparation.height = c.height;
+  c.preparation.diameter_min = c.diameter_min;
+  c.preparation.diameter_max = c.diameter_max;
+  c.preparation.seed = c.seed;
+}
+
+World build_shear_world(const ShearCase& c, const Packing& p) {
+  SceneDefinition scene;
+  scene.domain.periodic_x = true;
+  scene.domain.length_x = p.length_x;
+  scene.friction_disk_disk = c.friction_grain;
+  const double force_y = c.normal_stress * p.length_x;
+  for (const bool top : {false, true}) {
+    Wall w;
+    w.name = top ? "top" : "bottom";
+    w.point = {0.0, top ? p.height : 0.0};
+    w.normal = {0.0, top ? -1.0 : 1.0};
+    w.mode_x = AxisMode::kImposed;
+    w.mode_y = AxisMode::kFree;
+    w.velocity = {top ? c.velocity : -c.velocity, 0.0};
+    w.mass = c.wall_mass;
+    w.applied_force = {0.0, top ? -force_y : force_y};
+    w.friction = c.friction_wall;
+    scene.walls.push_back(w);
+  }
+  for (const PackingDisk& d : p.disks) {
+    DiskSpec s;
+    s.position = d.position;
+    s.radius = d.radius;
+    s.velocity = {-c.velocity + 2.0 * c.velocity * d.position.y / p.height, 0.0};
+    scene.disks.push_back(s);
+  }
+  // The packing was in equilibrium with overlaps at the solver's tolerance; accept those.
+  scene.overlap_tolerance = std::max(1e-9, c.step.abort_overlap * 0.1);
+  return build_world(scene);
+}
+
+}  // namespace cdshear

@@ -1,0 +1,71 @@
+// The plane shear cell of SPEC 4 and 6: every parameter of one shear run, the seven systems of
+// the reference study as presets, the default time-step rule, and the world built from a
+// prepared packing (SPEC 5 step 3).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "contact_dynamics.hpp"
+#include "packing.hpp"
+#include "preparation.hpp"
+#include "world.hpp"
+
+namespace cdshear {
+
+struct ShearCase {
+  // System (what the packing is made of).
+  std::size_t n = 511;
+  double height = 20.0;  ///< nominal L_y [d]
+  double diameter_min = 0.8, diameter_max = 1.0;
+  std::uint64_t seed = 1;  ///< placement seed of the packing (the contact order has its own)
+
+  // Shear.
+  double velocity = 0.5;         ///< V: bottom wall at -V, top wall at +V along x [d/t]
+  double normal_stress = 0.25;   ///< sigma_yy: walls pushed inwards by F_y = sigma_yy L_x
+  double friction_grain = 0.5;   ///< mu_p
+  double friction_wall = 0.5;    ///< mu_w
+  double wall_mass = 50.0;       ///< M_w of each wall along y
+  double duration = 100.0;       ///< simulated shear time [t]
+
+  // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
+  std::optional<double> dt;           ///< explicit dt [t]
+  double dt_max = 5e-3;               ///< [t]
+  double displacement_per_step = 2e-3;  ///< target wall displacement per step [d]
+  StepOptions step;                   ///< margin, bounds, solver; step.dt set by resolve_dt
+
+  PreparationOptions preparation;     ///< n, height, diameters, seed copied from above
+  std::string packing_file;           ///< packing to reuse; empty: cached by parameters
+
+  // Outputs, as intervals of simulated time (converted to whole steps) [t]; 0 disables.
+  double sample_interval = 0.1;       ///< global time series
+  double status_interval = 0.0;       ///< status line; 0: about 20 per run
+  double checkpoint_interval = 50.0;
+  double snapshot_interval = 0.0;     ///< VTK snapshots
+};
+
+/// The default time-step rule: dt = min(dt_max, displacement_per_step / V), so that the walls
+/// (and the fastest grains, which move at about V) move at most displacement_per_step per step.
+double default_time_step(const ShearCase& c);
+
+/// Sets c.step.dt from c.dt or the default rule; returns a warning (empty if none) when the
+/// resulting wall displacement per step V dt exceeds c.step.displacement_bound.
+std::string resolve_time_step(ShearCase& c);
+
+/// Applies the row of SPEC 6 for system 1..7 (n, L_y, sigma_yy, duration); V is left as is.
+/// Throws std::invalid_argument for another number.
+void apply_system_preset(ShearCase& c, int system);
+
+/// Copies the system parameters into c.preparation (n, height, diameters, seed).
+void sync_preparation(ShearCase& c);
+
+/// The shear world of SPEC 4 from a packing: x periodic with period L_x, walls at y = 0 and
+/// y = L_y moving at -V and +V along x and free along y (mass M_w, force F_y inwards), friction
+/// mu_p and mu_w, disks given the linear velocity profile from -V (bottom) to +V (top).
+World build_shear_world(const ShearCase& c, const Packing& packing);
+
+/// Indices of the bottom and top walls in the shear world.
+inline constexpr std::size_t kBottomWall = 0, kTopWall = 1;
+
+}  // namespace cdshear
