@@ -1,1 +1,405 @@
-int main(){}
+// cdshear_bench: the cost of the Contact Dynamics step on dense packings (docs/benchmarks.md).
+//
+// For each size (about 500 and 5000 disks, periodic in x) a dense packing is prepared with the
+// compressed-box preset (untimed), then stepped
+//   - "static": at rest under the top-wall pressure, StepOptions defaults (dt = 1e-3);
+//   - "shear":  bottom and top walls driven at -V and +V along x, both free in y under the
+//               pressure (SPEC 4), dt from the shear default rule min(5e-3, 2e-3 / V);
+// and the figures below are written as one CSV line per case to stdout:
+//   ns_per_update   solve seconds / sum over steps of (sweeps x contacts): one contact solved once
+//                   in one sweep (the solve stage includes the Delassus fill, the warm start and
+//                   the shuffle of the contact order, spread over the updates);
+//   steps_per_s     steps / wall-clock seconds of the measured loop;
+//   share_*         share of the summed stage timings (StepReport::seconds) per stage;
+//   mean_sweeps, mean_contacts, capped_share (steps that hit the sweep cap) and more.
+// Progress goes to stderr. --save appends the lines to bench/results/<hostname>.csv.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "contact_dynamics.hpp"
+#include "scene_presets.hpp"
+#include "world.hpp"
+
+#ifndef CDSHEAR_SOURCE_DIR
+#define CDSHEAR_SOURCE_DIR "."
+#endif
+#ifndef CDSHEAR_BUILD_TYPE
+#define CDSHEAR_BUILD_TYPE "unknown"
+#endif
+
+namespace {
+
+using cdshear::AxisMode;
+using cdshear::ContactDynamics;
+using cdshear::StepOptions;
+using cdshear::StepReport;
+using cdshear::World;
+using Clock = std::chrono::steady_clock;
+
+struct Settings {
+  std::vector<std::size_t> sizes{500, 5000};
+  bool run_static = true;
+  bool run_shear = true;
+  double seconds = 12.0;         // measured wall time per case (at least)
+  std::uint64_t min_steps = 20;  // measured steps per case (at least)
+  std::uint64_t warmup_steps = 100;
+  double velocity = 0.5;  // shear wall speed V
+  cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
+  bool save = false;
+  std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
+};
+
+struct System {
+  std::size_t disks;
+  double width;
+};
+
+System system_for(std::size_t disks) {
+  // Widths of the reference study's cells: 20 for the small ones, 50 for system 4.
+  return {disks, disks >= 2000 ? 50.0 : 20.0};
+}
+
+void usage() {
+  std::cerr <<
+      R"(usage: cdshear_bench [options]
+  --quick             shorter run: 4 s per case, 30 warm-up steps (about 1 minute in all)
+  --sizes N[,N...]    disk counts (default 500,5000); width 20 below 2000 disks, 50 above
+  --seconds S         measured wall time per case, at least (default 12)
+  --warmup N          untimed steps before each measurement (default 100)
+  --velocity V        shear wall speed (default 0.5)
+  --order O           NLGS contact order: random (default) or sequential
+  --no-static         skip the static cases
+  --no-shear          skip the shear cases
+  --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
+  --help              this text
+CSV lines go to stdout, progress to stderr. See docs/benchmarks.md.
+)";
+}
+
+Settings parse(int argc, char** argv) {
+  Settings s;
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    auto value = [&]() -> std::string {
+      if (k + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++k];
+    };
+    if (a == "--quick") {
+      s.seconds = 4.0;
+      s.warmup_steps = 30;
+      s.min_steps = 10;
+    } else if (a == "--sizes") {
+      s.sizes.clear();
+      std::stringstream list(value());
+      for (std::string item; std::getline(list, item, ',');) s.sizes.push_back(std::stoul(item));
+    } else if (a == "--seconds") {
+      s.seconds = std::stod(value());
+    } else if (a == "--warmup") {
+      s.warmup_steps = std::stoull(value());
+    } else if (a == "--velocity") {
+      s.velocity = std::stod(value());
+    } else if (a == "--order") {
+      const std::string o = value();
+      if (o == "random")
+        s.order = cdshear::ContactOrder::kRandom;
+      else if (o == "sequential")
+        s.order = cdshear::ContactOrder::kSequential;
+      else
+        throw std::invalid_argument("--order must be random or sequential");
+    } else if (a == "--no-static") {
+      s.run_static = false;
+    } else if (a == "--no-shear") {
+      s.run_shear = false;
+    } else if (a == "--save") {
+      s.save = true;
+    } else if (a.rfind("--save=", 0) == 0) {
+      s.save = true;
+      s.save_path = a.substr(7);
+    } else if (a == "--help" || a == "-h") {
+      usage();
+      std::exit(0);
+    } else {
+      throw std::invalid_argument("unknown option " + a);
+    }
+  }
+  if (!(s.velocity > 0.0)) throw std::invalid_argument("--velocity must be > 0");
+  return s;
+}
+
+std::string hostname() {
+  char buf[256] = {};
+  if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
+  return buf;
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+double load_average() {
+  double load[1] = {0.0};
+  return getloadavg(load, 1) == 1 ? load[0] : -1.0;
+}
+
+std::string compiler() {
+#if defined(__clang__)
+  return std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "unknown";
+#endif
+}
+
+double seconds_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
+
+/// Turns the dense box into the shear cell of SPEC 4: walls at -V and +V along x, both free in y
+/// (mass of the top wall, force pressure * width inwards), disks given the linear profile.
+void start_shear(World& world, double v) {
+  cdshear::Wall& bottom = world.walls[cdshear::kBoxBottomWall];
+  cdshear::Wall& top = world.walls[cdshear::kBoxTopWall];
+  bottom.mode_x = AxisMode::kImposed;
+  bottom.velocity.x = -v;
+  top.mode_x = AxisMode::kImposed;
+  top.velocity.x = v;
+  bottom.mode_y = AxisMode::kFree;
+  bottom.mass = top.mass;
+  bottom.applied_force = {0.0, -top.applied_force.y};
+  const double y0 = bottom.point.y, h = top.point.y - bottom.point.y;
+  for (std::size_t i = 0; i < world.disks.size(); ++i)
+    world.disks.velocity[i].x = -v + 2.0 * v * (world.disks.position[i].y - y0) / h;
+}
+
+struct Measurement {
+  std::uint64_t steps = 0;
+  double wall_s = 0.0, cpu_s = 0.0;
+  cdshear::StageSeconds stages;
+  double updates = 0.0;  // sum of sweeps x contacts
+  double sum_sweeps = 0.0, sum_contacts = 0.0, sum_active = 0.0;
+  std::uint64_t capped = 0, displacement_warnings = 0;
+  double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
+  double largest_overlap = 0.0;
+};
+
+/// Steps `world` untimed for `warmup` steps, then timed until both `seconds` and `min_steps`
+/// are reached.
+Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& options,
+                    const Settings& s) {
+  for (std::uint64_t k = 0; k < s.warmup_steps; ++k) {
+    const StepReport r = dynamics.step(world, options);
+    if (r.blown_up) throw std::runtime_error("warm-up blew up: " + r.problem);
+  }
+  Measurement m;
+  const double block_seconds = s.seconds / 6.0;
+  double block_solve = 0.0, block_updates = 0.0;
+  auto block_start = Clock::now();
+  m.best_block_ns = INFINITY;
+  const std::clock_t cpu0 = std::clock();
+  const auto t0 = Clock::now();
+  while (true) {
+    const StepReport r = dynamics.step(world, options);
+    if (r.blown_up) throw std::runtime_error("step blew up: " + r.problem);
+    ++m.steps;
+    const double updates = static_cast<double>(r.solver.sweeps) * static_cast<double>(r.contacts);
+    m.updates += updates;
+    m.stages.detect += r.seconds.detect;
+    m.stages.prepare += r.seconds.prepare;
+    m.stages.solve += r.seconds.solve;
+    m.stages.integrate += r.seconds.integrate;
+    m.stages.measure += r.seconds.measure;
+    m.sum_sweeps += r.solver.sweeps;
+    m.sum_contacts += static_cast<double>(r.contacts);
+    m.sum_active += r.solver.active_contacts;
+    m.capped += r.solver.hit_cap;
+    m.displacement_warnings += r.displacement_exceeded;
+    m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
+    block_solve += r.seconds.solve;
+    block_updates += updates;
+    const auto now = Clock::now();
+    if (seconds_between(block_start, now) >= block_seconds && block_updates > 0.0) {
+      m.best_block_ns = std::min(m.best_block_ns, 1e9 * block_solve / block_updates);
+      block_solve = block_updates = 0.0;
+      block_start = now;
+    }
+    if (m.steps >= s.min_steps && seconds_between(t0, now) >= s.seconds) break;
+  }
+  m.wall_s = seconds_between(t0, Clock::now());
+  m.cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  if (block_updates > 0.0 && !std::isfinite(m.best_block_ns))
+    m.best_block_ns = 1e9 * block_solve / block_updates;
+  return m;
+}
+
+const char* kHeader =
+    "date,host,case,disks,width,periodic,velocity,dt,order,steps,wall_s,steps_per_s,"
+    "steps_per_cpu_s,ns_per_update,ns_per_update_best,ns_per_update_cpu,mean_sweeps,"
+    "mean_contacts,mean_active,capped_share,share_detect,share_prepare,share_solve,"
+    "share_integrate,share_measure,detect_ns_per_disk,solid_fraction,cpu_share,load_avg,compiler,"
+    "build";
+
+/// A number with `decimals` digits after the point.
+std::string num(double x, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, x);
+  return buf;
+}
+
+std::string csv_line(const std::string& date, const std::string& host, const std::string& name,
+                     const System& sys, double velocity, const StepOptions& options,
+                     const Measurement& m, double solid_fraction, double load) {
+  const double steps = static_cast<double>(m.steps);
+  const double total = m.stages.total();
+  auto share = [&](double x) { return num(total > 0.0 ? x / total : 0.0, 4); };
+  const double ns_per_update = m.updates > 0.0 ? 1e9 * m.stages.solve / m.updates : 0.0;
+  const double cpu_share = m.cpu_s / m.wall_s;
+  const std::vector<std::string> fields = {
+      date,
+      host,
+      name,
+      std::to_string(sys.disks),
+      num(sys.width, 1),
+      "1",
+      num(velocity, 3),
+      num(options.dt, 4),
+      options.solver.order == cdshear::ContactOrder::kRandom ? "random" : "sequential",
+      std::to_string(m.steps),
+      num(m.wall_s, 3),
+      num(steps / m.wall_s, 2),
+      num(steps / m.cpu_s, 2),
+      num(ns_per_update, 2),
+      num(m.best_block_ns, 2),
+      num(ns_per_update * cpu_share, 2),
+      num(m.sum_sweeps / steps, 2),
+      num(m.sum_contacts / steps, 1),
+      num(m.sum_active / steps, 1),
+      num(static_cast<double>(m.capped) / steps, 3),
+      share(m.stages.detect),
+      share(m.stages.prepare),
+      share(m.stages.solve),
+      share(m.stages.integrate),
+      share(m.stages.measure),
+      num(1e9 * m.stages.detect / (steps * static_cast<double>(sys.disks)), 1),
+      num(solid_fraction, 4),
+      num(cpu_share, 3),
+      num(load, 2),
+      "\"" + compiler() + "\"",
+      CDSHEAR_BUILD_TYPE,
+  };
+  std::string line;
+  for (const std::string& f : fields) line += (line.empty() ? "" : ",") + f;
+  return line;
+}
+
+double solid_fraction(const World& world) {
+  double area = 0.0;
+  for (const double r : world.disks.radius) area += std::numbers::pi * r * r;
+  const double h =
+      world.walls[cdshear::kBoxTopWall].point.y - world.walls[cdshear::kBoxBottomWall].point.y;
+  return area / (world.domain.length_x * h);
+}
+
+int run(const Settings& s) {
+  const std::string host = hostname(), date = utc_now();
+  std::vector<std::string> lines;
+  std::cout << kHeader << '\n' << std::flush;
+#ifndef NDEBUG
+  std::cerr << "warning: assertions are on (not a Release build); figures are not representative\n";
+#endif
+  for (const std::size_t n : s.sizes) {
+    const System sys = system_for(n);
+    cdshear::CompressedBoxParams p;
+    p.count = n;
+    p.width = sys.width;
+    p.periodic_x = true;
+    p.initial_solid_fraction = 0.47;
+    std::cerr << "preparing " << n << " disks, width " << sys.width << ", periodic x ... "
+              << std::flush;
+    const auto t0 = Clock::now();
+    cdshear::DenseBox box = cdshear::make_dense_box(p);
+    const cdshear::DensifyReport& d = box.report;
+    std::fprintf(stderr,
+                 "%.1f s: %s after %llu steps, solid fraction %.3f, height %.2f, %zu contacts, "
+                 "KE/disk %.2g, top wall |v_y| %.2g\n",
+                 seconds_between(t0, Clock::now()), d.dense ? "dense" : "NOT dense (max_steps)",
+                 static_cast<unsigned long long>(d.steps), d.solid_fraction, d.height, d.contacts,
+                 d.kinetic_energy_per_disk, d.top_wall_speed);
+
+    auto report = [&](const std::string& name, double velocity, const StepOptions& options) {
+      std::fprintf(stderr, "  %s: %llu warm-up steps, then >= %.0f s ... ", name.c_str(),
+                   static_cast<unsigned long long>(s.warmup_steps), s.seconds);
+      std::fflush(stderr);
+      const double load = load_average();
+      const Measurement m = measure(box.world, box.dynamics, options, s);
+      const std::string line =
+          csv_line(date, host, name, sys, velocity, options, m, solid_fraction(box.world), load);
+      std::fprintf(
+          stderr, "%llu steps, %.1f steps/s, %.2f ns/update, %.1f sweeps, %.0f contacts%s\n",
+          static_cast<unsigned long long>(m.steps), m.steps / m.wall_s,
+          1e9 * m.stages.solve / m.updates, m.sum_sweeps / m.steps, m.sum_contacts / m.steps,
+          m.displacement_warnings ? " (displacement bound exceeded)" : "");
+      if (m.cpu_s < 0.9 * m.wall_s)
+        std::fprintf(stderr,
+                     "  warning: the process ran only %.0f%% of the wall time (load average "
+                     "%.1f): wall-clock figures are inflated, see the *_cpu columns\n",
+                     100.0 * m.cpu_s / m.wall_s, load);
+      std::cout << line << '\n' << std::flush;
+      lines.push_back(line);
+    };
+
+    StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
+    options.solver.order = s.order;
+    if (s.run_static) report("static", 0.0, options);
+    if (s.run_shear) {
+      start_shear(box.world, s.velocity);
+      options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
+      report("shear", s.velocity, options);
+    }
+  }
+
+  if (s.save) {
+    namespace fs = std::filesystem;
+    const fs::path path = s.save_path.empty()
+                              ? fs::path(CDSHEAR_SOURCE_DIR) / "bench" / "results" / (host + ".csv")
+                              : fs::path(s.save_path);
+    if (path.has_parent_path()) fs::create_directories(path.parent_path());
+    const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
+    std::ofstream out(path, std::ios::app);
+    if (!out) throw std::runtime_error("cannot append to " + path.string());
+    if (fresh) out << kHeader << '\n';
+    for (const std::string& l : lines) out << l << '\n';
+    std::cerr << "appended " << lines.size() << " lines to " << path.string() << '\n';
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::cerr << "cdshear_bench: " << e.what() << '\n';
+    return 1;
+  }
+}

@@ -44,8 +44,8 @@ int run_scene(const SceneArgs& args) {
       static_cast<std::uint64_t>(std::llround(sf.run.duration / sf.step.dt));
   RunLoopSettings loop;
   loop.end_step = end_step;
-  loop.status_every = sf.run.status_every > 0 ? sf.run.status_every
-                                              : std::max<std::uint64_t>(1, end_step / 20);
+  loop.status_every =
+      sf.run.status_every > 0 ? sf.run.status_every : std::max<std::uint64_t>(1, end_step / 20);
   if (args.quiet) loop.status_every = 0;
   loop.progress_bar = !args.quiet && isatty(STDERR_FILENO);
 
@@ -54,7 +54,6 @@ int run_scene(const SceneArgs& args) {
   std::printf("cdshear scene %s: %zu disks, %zu walls, dt %g, %llu steps -> %s\n",
               args.file.c_str(), world.disks.size(), world.walls.size(), sf.step.dt,
               static_cast<unsigned long long>(end_step), dir.c_str());
-  install_stop_handlers();
   ContactDynamics dynamics;
   const RunSummary summary = run_until(world, dynamics, sf.step, loop, observers);
 
@@ -70,12 +69,13 @@ int run_scene(const SceneArgs& args) {
                            : summary.outcome == RunOutcome::kInterrupted ? "interrupted_state.json"
                                                                          : "blowup_state.json";
   write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
-  std::printf("%llu steps in %.2f s (%.0f steps/s), mean sweeps %.1f, largest %d, capped %llu, "
-              "largest overlap %.3g\n",
-              static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
-              summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0,
-              summary.mean_sweeps, summary.largest_sweeps,
-              static_cast<unsigned long long>(summary.capped_steps), summary.largest_overlap);
+  std::printf(
+      "%llu steps in %.2f s (%.0f steps/s), mean sweeps %.1f, largest %d, capped %llu, "
+      "largest overlap %.3g\n",
+      static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
+      summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
+      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
+      summary.largest_overlap);
   if (summary.outcome == RunOutcome::kBlownUp) {
     std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s\n",
                  static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),

@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "run_loop.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"cdshear " CDSHEAR_VERSION
@@ -14,6 +15,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);
+  // From the start, so that a signal during set-up still ends in a clean stop with a checkpoint.
+  cdshear::install_stop_handlers();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

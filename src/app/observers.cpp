@@ -20,7 +20,8 @@ void SnapshotObserver::add(std::uint64_t step, double time) {
 
 void SnapshotObserver::observe(const World& world, const ContactDynamics& dynamics,
                                const StepReport&) {
-  add(world.step, world.time);
+  // Time as step * dt (not the accumulated world.time) so that a resumed run lists the same.
+  add(world.step, static_cast<double>(world.step) * dt_);
   write_particles_vtp(dir_ / particles_.back().file, world, dynamics.contacts());
   write_contacts_vtp(dir_ / contacts_.back().file, world, dynamics.contacts(), dt_);
   write_pvd(dir_ / "particles.pvd", particles_);

@@ -12,7 +12,9 @@ namespace cdshear {
 std::atomic<bool> g_stop_requested{false};
 
 namespace {
-extern "C" void on_stop_signal(int) { g_stop_requested.store(true); }
+extern "C" void on_stop_signal(int) {
+  g_stop_requested.store(true);
+}
 
 std::string format_duration(double s) {
   if (s < 60) return fmt::format("{:.0f}s", s);
@@ -27,7 +29,8 @@ void install_stop_handlers() {
 }
 
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
-                     const RunLoopSettings& settings, std::span<const ScheduledObserver> observers) {
+                     const RunLoopSettings& settings,
+                     std::span<const ScheduledObserver> observers) {
   using Clock = std::chrono::steady_clock;
   RunSummary summary;
   const auto start = Clock::now();
@@ -123,7 +126,8 @@ nlohmann::json summary_to_json(const RunSummary& s) {
   return {{"outcome", outcome},
           {"steps", s.steps},
           {"wall_seconds", s.wall_seconds},
-          {"steps_per_second", s.wall_seconds > 0 ? static_cast<double>(s.steps) / s.wall_seconds : 0.0},
+          {"steps_per_second",
+           s.wall_seconds > 0 ? static_cast<double>(s.steps) / s.wall_seconds : 0.0},
           {"mean_sweeps", s.mean_sweeps},
           {"largest_sweeps", s.largest_sweeps},
           {"mean_contacts", s.mean_contacts},

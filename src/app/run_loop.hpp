@@ -40,16 +40,16 @@ enum class RunOutcome { kFinished, kInterrupted, kBlownUp };
 struct RunSummary {
   RunOutcome outcome = RunOutcome::kFinished;
   StepReport last;
-  std::uint64_t steps = 0;              ///< steps done by this call
+  std::uint64_t steps = 0;  ///< steps done by this call
   double wall_seconds = 0.0;
-  std::uint64_t capped_steps = 0;       ///< steps whose solver hit the sweep cap
+  std::uint64_t capped_steps = 0;               ///< steps whose solver hit the sweep cap
   std::vector<std::uint64_t> capped_step_list;  ///< their numbers (first 10000)
   std::uint64_t displacement_warnings = 0;      ///< steps above displacement_bound
   double largest_overlap = 0.0;
   double mean_sweeps = 0.0;
   int largest_sweeps = 0;
   double mean_contacts = 0.0;
-  StageSeconds seconds;                 ///< summed over the steps
+  StageSeconds seconds;  ///< summed over the steps
 };
 
 /// Set by the SIGINT/SIGTERM handler; the loop stops after the current step.

@@ -49,26 +49,27 @@ void add_case_options(CLI::App* cmd, CaseArgs& a) {
         a.has_velocity = true;
       },
       "wall velocity V (bottom -V, top +V)");
-  cmd->add_option("--set", a.overrides, "override a case key: --set shear.duration=50 (repeatable)");
+  cmd->add_option("--set", a.overrides,
+                  "override a case key: --set shear.duration=50 (repeatable)");
   cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
 }
 
 Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
-  std::printf("preparing a packing: n %zu, L_y %g, diameters [%g, %g], seed %llu\n", o.n,
-              o.height, o.diameter_min, o.diameter_max, static_cast<unsigned long long>(o.seed));
+  std::printf("preparing a packing: n %zu, L_y %g, diameters [%g, %g], seed %llu\n", o.n, o.height,
+              o.diameter_min, o.diameter_max, static_cast<unsigned long long>(o.seed));
   std::fflush(stdout);
   Packing p = prepare_packing(
       o,
       [quiet](const PreparationProgress& pr) {
         if (quiet) return;
-        std::printf("  phase %d (%s)  t %9.2f  Ek/disk %10.3g  piston x %8.4f  v %10.3g  "
-                    "sweeps %3d\n",
-                    pr.phase, pr.phase == 1 ? "settling" : "piston", pr.time,
-                    pr.kinetic_energy_per_disk, pr.piston_x, pr.piston_speed,
-                    pr.report.solver.sweeps);
+        std::printf(
+            "  phase %d (%s)  t %9.2f  Ek/disk %10.3g  piston x %8.4f  v %10.3g  "
+            "sweeps %3d\n",
+            pr.phase, pr.phase == 1 ? "settling" : "piston", pr.time, pr.kinetic_energy_per_disk,
+            pr.piston_x, pr.piston_speed, pr.report.solver.sweeps);
         std::fflush(stdout);
       },
-      5.0);
+      5.0, &g_stop_requested);
   std::printf("prepared: L_x %.6f, solid fraction %.5f, after %.1f time units\n", p.length_x,
               p.solid_fraction, p.preparation_time);
   return p;
@@ -134,13 +135,13 @@ int run_shear(const RunArgs& args) {
     auto [packing, path] = obtain_packing(c, args.c.quiet);
     packing_used = path.string();
     if (packing.n() != c.n)
-      throw ConfigError(path.string(), "n",
-                        fmt::format("packing has {} disks, the case asks for {}", packing.n(), c.n));
+      throw ConfigError(
+          path.string(), "n",
+          fmt::format("packing has {} disks, the case asks for {}", packing.n(), c.n));
     world = build_shear_world(c, packing);
-    dir = args.out_dir.empty()
-              ? fs::path("runs") / fmt::format("n{}_h{}_V{}_seed{}", c.n, c.height, c.velocity,
-                                               c.seed)
-              : fs::path(args.out_dir);
+    dir = args.out_dir.empty() ? fs::path("runs") / fmt::format("n{}_h{}_V{}_seed{}", c.n, c.height,
+                                                                c.velocity, c.seed)
+                               : fs::path(args.out_dir);
     fs::create_directories(dir);
     toml::table resolved = case_to_toml(c);
     resolved["preparation"].as_table()->insert_or_assign("packing", packing_used);
@@ -156,7 +157,9 @@ int run_shear(const RunArgs& args) {
   loop.end_step = end_step;
   if (args.stop_at >= 0) loop.end_step = std::min(end_step, steps_of(args.stop_at, dt));
   const std::uint64_t status = steps_of(c.status_interval, dt);
-  loop.status_every = args.c.quiet ? 0 : status > 0 ? status : std::max<std::uint64_t>(1, end_step / 20);
+  loop.status_every = args.c.quiet ? 0
+                      : status > 0 ? status
+                                   : std::max<std::uint64_t>(1, end_step / 20);
   loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
 
   TimeSeriesObserver series(dir / "timeseries.csv", world, resuming);
@@ -165,20 +168,20 @@ int run_shear(const RunArgs& args) {
   std::vector<ScheduledObserver> observers = {{steps_of(c.sample_interval, dt), &series}};
   if (observers[0].every == 0) observers.clear();
   if (const std::uint64_t every = steps_of(c.snapshot_interval, dt); every > 0) {
-    snapshots = std::make_unique<SnapshotObserver>(dir / "snapshots", dt, every,
-                                                   resuming ? world.step : 0);
+    snapshots =
+        std::make_unique<SnapshotObserver>(dir / "snapshots", dt, every, resuming ? world.step : 0);
     observers.push_back({every, snapshots.get()});
   }
   if (const std::uint64_t every = steps_of(c.checkpoint_interval, dt); every > 0)
     observers.push_back({every, &checkpoint});
 
-  std::printf("cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
-              "-> %s\n",
-              world.disks.size(), world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
-              static_cast<unsigned long long>(world.step),
-              static_cast<unsigned long long>(loop.end_step), dir.c_str());
+  std::printf(
+      "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
+      "-> %s\n",
+      world.disks.size(), world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
+      static_cast<unsigned long long>(world.step), static_cast<unsigned long long>(loop.end_step),
+      dir.c_str());
   std::fflush(stdout);
-  install_stop_handlers();
   const RunSummary summary = run_until(world, dynamics, c.step, loop, observers);
 
   // Whatever happened, the state reached is kept: checkpoint (unless blown up: the last good
@@ -189,6 +192,7 @@ int run_shear(const RunArgs& args) {
                            : finished                              ? "final_state.json"
                                                                    : "interrupted_state.json";
   write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
+  if (finished) fs::remove(dir / "interrupted_state.json");  // stale once the run is complete
   nlohmann::json info = {{"program", "cdshear"},
                          {"version", CDSHEAR_VERSION},
                          {"resumed", resuming},
@@ -203,13 +207,14 @@ int run_shear(const RunArgs& args) {
   write_file_atomic(dir / (resuming ? fmt::format("run_info_resume_{}.json", world.step)
                                     : std::string("run_info.json")),
                     info.dump(2) + "\n");
-  std::printf("%llu steps in %.1f s (%.0f steps/s, %.3g s per time unit), sweeps mean %.1f "
-              "largest %d, capped %llu, largest overlap %.3g\n",
-              static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
-              summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0,
-              summary.steps > 0 ? summary.wall_seconds / (summary.steps * dt) : 0.0,
-              summary.mean_sweeps, summary.largest_sweeps,
-              static_cast<unsigned long long>(summary.capped_steps), summary.largest_overlap);
+  std::printf(
+      "%llu steps in %.1f s (%.0f steps/s, %.3g s per time unit), sweeps mean %.1f "
+      "largest %d, capped %llu, largest overlap %.3g\n",
+      static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
+      summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0,
+      summary.steps > 0 ? summary.wall_seconds / (summary.steps * dt) : 0.0, summary.mean_sweeps,
+      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
+      summary.largest_overlap);
   if (summary.outcome == RunOutcome::kBlownUp) {
     std::fprintf(stderr,
                  "error: step %llu blew up: %s; state written to %s, last good checkpoint kept\n",
@@ -235,8 +240,9 @@ struct PrepareArgs {
 int run_prepare(const PrepareArgs& args) {
   const ShearCase c = load_case(to_source(args.c));
   const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
-  const fs::path out = args.output.empty() ? fs::path("packings") / packing_cache_name(c.preparation)
-                                           : fs::path(args.output);
+  const fs::path out = args.output.empty()
+                           ? fs::path("packings") / packing_cache_name(c.preparation)
+                           : fs::path(args.output);
   write_packing(out, p);
   std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
               p.solid_fraction);
@@ -260,7 +266,8 @@ void register_shear_commands(CLI::App& app) {
   CLI::App* r = app.add_subcommand(
       "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
   add_case_options(r, run->c);
-  r->add_option("-o,--output", run->out_dir, "output folder; default runs/n<n>_h<L_y>_V<V>_seed<seed>");
+  r->add_option("-o,--output", run->out_dir,
+                "output folder; default runs/n<n>_h<L_y>_V<V>_seed<seed>");
   r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
   r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
   r->add_option("--stop-at", run->stop_at,

@@ -27,7 +27,7 @@ class CellList {
  private:
   int cell_of(Vec2 p, int* cx, int* cy) const;
 
-  double x0_ = 0.0, y0_ = 0.0;   // grid origin
+  double x0_ = 0.0, y0_ = 0.0;  // grid origin
   double cell_w_ = 1.0, cell_h_ = 1.0;
   int nx_ = 1, ny_ = 1;
   bool periodic_ = false;

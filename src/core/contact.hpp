@@ -6,9 +6,12 @@
 //   - impulse R = R_n n + R_t t acts on a, -R on b, over the whole step [force x time].
 //   - relative velocity at the contact point: u = v_a(c) - v_b(c), with
 //       u_n = (v_a - v_b).n,
-//       u_t = (v_a - v_b).t + lever_a w_a + lever_b w_b,   lever = -radius (0 for a wall),
-//     because the contact point sits at -r_a n from a's centre and +r_b n from b's, and in 2D
-//     w x (-r n) = -r w t, w x (r n) = r w t. The torque of R on either disk is lever * R_t.
+//       u_t = (v_a - v_b).t + lever_a w_a + lever_b w_b,
+//     because the contact point sits at -|lever_a| n from a's centre and +|lever_b| n from b's,
+//     and in 2D w x (-r n) = -r w t, w x (r n) = r w t. The torque of R on either disk is
+//     lever * R_t. Between two disks the contact point is the middle of the gap g (or overlap),
+//     common to both so that angular momentum is conserved: lever = -(radius + g/2). Against a
+//     wall, lever_a = -r_a and lever_b = 0 (walls do not rotate).
 #pragma once
 
 #include <cstdint>
@@ -29,15 +32,15 @@ struct ContactKey {
 
 struct Contact {
   ContactKey key;
-  Vec2 normal;            ///< unit, from b to a
-  Vec2 tangent;           ///< perp(normal)
-  Vec2 arm_a;             ///< contact point minus centre of a [length]
-  double lever_a = 0.0;   ///< -r_a
-  double lever_b = 0.0;   ///< -r_b for a disk, 0 for a wall
-  double gap = 0.0;       ///< signed distance at the start of the step (< 0: overlap) [length]
-  double friction = 0.0;  ///< Coulomb coefficient of this pair
-  double impulse_n = 0.0; ///< R_n over the step [force time]
-  double impulse_t = 0.0; ///< R_t over the step [force time]
+  Vec2 normal;             ///< unit, from b to a
+  Vec2 tangent;            ///< perp(normal)
+  Vec2 arm_a;              ///< contact point minus centre of a [length]
+  double lever_a = 0.0;    ///< -(r_a + gap/2) against a disk, -r_a against a wall
+  double lever_b = 0.0;    ///< -(r_b + gap/2) for a disk, 0 for a wall
+  double gap = 0.0;        ///< signed distance at the start of the step (< 0: overlap) [length]
+  double friction = 0.0;   ///< Coulomb coefficient of this pair
+  double impulse_n = 0.0;  ///< R_n over the step [force time]
+  double impulse_t = 0.0;  ///< R_t over the step [force time]
   // Local Delassus matrix W = H M^-1 H^T (symmetric, 2x2), filled by the solver.
   double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
 };

@@ -33,10 +33,15 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
       // Normal from b (= j) to a (= i): -delta / |delta|.
       k.normal = dist > 0.0 ? (-1.0 / dist) * c.delta : Vec2{0.0, 1.0};
       k.tangent = perp(k.normal);
-      k.arm_a = -d.radius[i] * k.normal;
-      k.lever_a = -d.radius[i];
-      k.lever_b = -d.radius[c.j];
       k.gap = dist - d.radius[i] - d.radius[c.j];
+      // One contact point for both disks, in the middle of the gap (or overlap): then R on a and
+      // -R on b act at the same point and conserve angular momentum. Taking each disk's own
+      // surface point (-r_a n and +r_b n, which are `gap` apart) would add a spurious couple
+      // gap * R_t whenever a contact carries friction before it has closed.
+      const double half_gap = 0.5 * k.gap;
+      k.arm_a = -(d.radius[i] + half_gap) * k.normal;
+      k.lever_a = -(d.radius[i] + half_gap);
+      k.lever_b = -(d.radius[c.j] + half_gap);
       k.friction = world.friction_disk_disk;
       fresh_.push_back(k);
     }

@@ -17,9 +17,12 @@ double seconds_since(Clock::time_point& t0) {
 
 double axis_free_velocity(AxisMode mode, double v, double force, double mass, double dt) {
   switch (mode) {
-    case AxisMode::kFixed: return 0.0;
-    case AxisMode::kImposed: return v;
-    case AxisMode::kFree: return v + dt * force / mass;
+    case AxisMode::kFixed:
+      return 0.0;
+    case AxisMode::kImposed:
+      return v;
+    case AxisMode::kFree:
+      return v + dt * force / mass;
   }
   return 0.0;
 }
@@ -69,10 +72,9 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   for (std::size_t w = 0; w < world.walls.size(); ++w) {
     const Wall& wall = world.walls[w];
     SolverBody& b = bodies_[n + w];
-    b.velocity = {axis_free_velocity(wall.mode_x, wall.velocity.x, wall.applied_force.x,
-                                     wall.mass, dt),
-                  axis_free_velocity(wall.mode_y, wall.velocity.y, wall.applied_force.y,
-                                     wall.mass, dt)};
+    b.velocity = {
+        axis_free_velocity(wall.mode_x, wall.velocity.x, wall.applied_force.x, wall.mass, dt),
+        axis_free_velocity(wall.mode_y, wall.velocity.y, wall.applied_force.y, wall.mass, dt)};
     b.omega = 0.0;
     b.inv_mass = {axis_inv_mass(wall.mode_x, wall.mass), axis_inv_mass(wall.mode_y, wall.mass)};
     b.inv_inertia = 0.0;
@@ -96,11 +98,13 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     max_disp2 = std::max(max_disp2, length_squared(step));
     finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
   }
+  double max_wall_disp = 0.0;
   for (std::size_t w = 0; w < world.walls.size(); ++w) {
     Wall& wall = world.walls[w];
     wall.velocity = bodies_[n + w].velocity;
     wall.point += dt * wall.velocity;
     wall.contact_force = {};
+    max_wall_disp = std::max(max_wall_disp, dt * length(wall.velocity));
   }
   if (finite) wrap_positions(world);
   world.time += dt;
@@ -111,12 +115,22 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   for (const Contact& c : contacts_) {
     const std::size_t b = static_cast<std::size_t>(c.key.body_b);
     if (b >= n) {  // force on the wall is minus the impulse on the disk, per unit time
-      world.walls[b - n].contact_force -= (1.0 / dt) * (c.impulse_n * c.normal +
-                                                        c.impulse_t * c.tangent);
+      world.walls[b - n].contact_force -=
+          (1.0 / dt) * (c.impulse_n * c.normal + c.impulse_t * c.tangent);
     }
     if (finite) report.max_overlap = std::max(report.max_overlap, current_overlap(world, c));
   }
   report.max_displacement = std::sqrt(max_disp2);
+  // The candidates had gap < margin at the start of the step. Another pair can overlap now only
+  // if its two bodies closed in by more than the margin during the step: then look at every pair
+  // again (cell list, margin 0), or an overlap from a too-fast approach would go unreported.
+  const double closing =
+      std::max(2.0 * report.max_displacement, report.max_displacement + max_wall_disp);
+  if (finite && closing > options.contact_margin) {
+    detector_.detect(world, 0.0, overlap_scratch_);
+    for (const Contact& c : overlap_scratch_)
+      report.max_overlap = std::max(report.max_overlap, current_overlap(world, c));
+  }
   report.displacement_exceeded = report.max_displacement > options.displacement_bound;
   report.step = world.step;
   report.time = world.time;

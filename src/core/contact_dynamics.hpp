@@ -4,7 +4,8 @@
 //               imposed values on driven axes, 0 on fixed ones;
 //   3. solve    the contact impulses by nonlinear Gauss-Seidel (nlgs_solver.hpp);
 //   4. integrate positions with the new velocities (semi-implicit Euler), wrap x;
-//   5. measure  wall forces, largest overlap, largest displacement; check for blow-up.
+//   5. measure  wall forces, largest overlap (over every pair when bodies moved more than the
+//               contact margin allows for), largest displacement; check for blow-up.
 // Each stage is timed into the report. The step never does I/O.
 #pragma once
 
@@ -33,15 +34,15 @@ struct StageSeconds {
 };
 
 struct StepReport {
-  std::uint64_t step = 0;          ///< index of the step just done (world.step after it)
-  double time = 0.0;               ///< simulated time after the step
-  std::size_t contacts = 0;        ///< candidate contacts
+  std::uint64_t step = 0;    ///< index of the step just done (world.step after it)
+  double time = 0.0;         ///< simulated time after the step
+  std::size_t contacts = 0;  ///< candidate contacts
   SolverReport solver;
-  double max_overlap = 0.0;        ///< largest overlap after the step (>= 0) [length]
-  double max_displacement = 0.0;   ///< largest disk displacement during the step [length]
+  double max_overlap = 0.0;       ///< largest overlap after the step (>= 0) [length]
+  double max_displacement = 0.0;  ///< largest disk displacement during the step [length]
   bool displacement_exceeded = false;
-  bool blown_up = false;           ///< NaN or overlap above abort_overlap: stop the run
-  std::string problem;             ///< what blew up, when blown_up
+  bool blown_up = false;  ///< NaN or overlap above abort_overlap: stop the run
+  std::string problem;    ///< what blew up, when blown_up
   StageSeconds seconds;
 };
 
@@ -59,6 +60,7 @@ class ContactDynamics {
   std::vector<SolverBody> bodies_;
   ContactDetector detector_;
   SolverWorkspace workspace_;
+  std::vector<Contact> overlap_scratch_;  ///< every touching pair, when candidates may miss some
 };
 
 /// Overlap (positive) of contact c in the current positions of `world`; <= 0 when apart.

@@ -15,8 +15,10 @@
 //   3. sliding in direction s = sign(u_t) in {+1, -1}: R_t = -s mu R_n and u_n = 0 give
 //      R_n = -b_n / (w_nn - s mu w_nt); accepted if R_n >= 0 and s u_t >= 0.
 // With w_nt = 0 (any two disks, or a wall whose inverse mass is isotropic or axis-aligned with
-// the contact) exactly one case holds. If none does (possible only with w_nt != 0 and large
-// mu), the sticking solution is projected onto the cone.
+// the contact) exactly one case holds. With w_nn > mu |w_nt| at least one case holds in exact
+// arithmetic; if rounding rejects all of them (solution on the stick/slide boundary), the sliding
+// candidate closest to its sliding condition is returned. If none holds because mu |w_nt| >= w_nn
+// (w_nt != 0 and large mu), the sticking solution is projected onto the cone.
 #pragma once
 
 namespace cdshear {

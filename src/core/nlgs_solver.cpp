@@ -18,8 +18,8 @@ void fill_delassus(Contact& c, const SolverBody& a, const SolverBody& b) {
   const Vec2 mt = hadamard(a.inv_mass, t) + hadamard(b.inv_mass, t);
   c.w_nn = dot(n, mn);
   c.w_nt = dot(n, mt);
-  c.w_tt = dot(t, mt) + c.lever_a * c.lever_a * a.inv_inertia +
-           c.lever_b * c.lever_b * b.inv_inertia;
+  c.w_tt =
+      dot(t, mt) + c.lever_a * c.lever_a * a.inv_inertia + c.lever_b * c.lever_b * b.inv_inertia;
 }
 
 /// Applies impulse (dn, dt) of contact c: +P on a, -P on b, torques lever * dt on both.
@@ -92,8 +92,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       report.residual = (sum_change / sum_force) * (sum_change / sum_force);
     else
       report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-    if (report.converged_fraction >= options.converged_fraction &&
-        report.residual <= options.alpha)
+    if (report.converged_fraction >= options.converged_fraction && report.residual <= options.alpha)
       break;
     if (sweep == options.max_sweeps) report.hit_cap = true;
   }

@@ -42,7 +42,7 @@ struct SolverOptions {
   double converged_fraction = 0.9;  ///< share of contacts that must meet the tolerance
   int max_sweeps = 200;             ///< cap on sweeps per step
   ContactOrder order = ContactOrder::kRandom;
-  std::uint64_t seed = 1;           ///< keys the random contact order
+  std::uint64_t seed = 1;  ///< keys the random contact order
 };
 
 struct SolverReport {

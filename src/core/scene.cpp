@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <unordered_map>
 
 #include "cell_list.hpp"
@@ -9,6 +10,13 @@
 
 namespace cdshear {
 namespace {
+
+/// %g formatting (std::to_string prints 1e-9 as 0.000000).
+std::string short_number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
 
 std::string indexed(const std::string& base, std::size_t i, const std::string& field) {
   return base + "[" + std::to_string(i) + "]." + field;
@@ -124,8 +132,7 @@ void validate_scene(const SceneDefinition& s) {
       throw SceneError(indexed("walls", i, "mass"), "must be > 0 for a wall free along an axis");
   }
   for (std::size_t i = 0; i < s.disks.size(); ++i)
-    if (!(s.disks[i].radius > 0.0))
-      throw SceneError(indexed("disks", i, "radius"), "must be > 0");
+    if (!(s.disks[i].radius > 0.0)) throw SceneError(indexed("disks", i, "radius"), "must be > 0");
   double largest_diameter = 0.0;
   for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2 * d.radius);
   for (std::size_t i = 0; i < s.random_disks.size(); ++i) {
@@ -168,9 +175,9 @@ World build_world(const SceneDefinition& s) {
     auto name = [&](std::size_t b) {
       return b < n ? "disk " + std::to_string(b) : "wall '" + world.walls[b - n].name + "'";
     };
-    throw SceneError("disks", name(given.body_a) + " and " + name(given.body_b) +
-                                       " overlap by " + std::to_string(given.overlap) +
-                                       " (tolerance " + std::to_string(s.overlap_tolerance) + ")");
+    throw SceneError("disks", name(given.body_a) + " and " + name(given.body_b) + " overlap by " +
+                                  short_number(given.overlap) + " (tolerance " +
+                                  short_number(s.overlap_tolerance) + ")");
   }
   for (std::size_t g = 0; g < s.random_disks.size(); ++g)
     place_random(world, s.random_disks[g], g, s.density);

@@ -45,9 +45,9 @@ struct RandomDisksSpec {
 
 struct SceneDefinition {
   Domain domain;
-  Vec2 gravity;                     ///< body force per unit mass on every disk
+  Vec2 gravity;  ///< body force per unit mass on every disk
   double friction_disk_disk = 0.5;
-  double density = 1.0;             ///< 2D mass density of the disks
+  double density = 1.0;  ///< 2D mass density of the disks
   std::vector<Wall> walls;
   std::vector<DiskSpec> disks;
   std::vector<RandomDisksSpec> random_disks;

@@ -27,19 +27,41 @@ struct Vec2 {
   friend constexpr bool operator==(Vec2, Vec2) = default;
 };
 
-constexpr Vec2 operator+(Vec2 a, Vec2 b) { return {a.x + b.x, a.y + b.y}; }
-constexpr Vec2 operator-(Vec2 a, Vec2 b) { return {a.x - b.x, a.y - b.y}; }
-constexpr Vec2 operator-(Vec2 a) { return {-a.x, -a.y}; }
-constexpr Vec2 operator*(double s, Vec2 a) { return {s * a.x, s * a.y}; }
-constexpr Vec2 operator*(Vec2 a, double s) { return {s * a.x, s * a.y}; }
-constexpr double dot(Vec2 a, Vec2 b) { return a.x * b.x + a.y * b.y; }
+constexpr Vec2 operator+(Vec2 a, Vec2 b) {
+  return {a.x + b.x, a.y + b.y};
+}
+constexpr Vec2 operator-(Vec2 a, Vec2 b) {
+  return {a.x - b.x, a.y - b.y};
+}
+constexpr Vec2 operator-(Vec2 a) {
+  return {-a.x, -a.y};
+}
+constexpr Vec2 operator*(double s, Vec2 a) {
+  return {s * a.x, s * a.y};
+}
+constexpr Vec2 operator*(Vec2 a, double s) {
+  return {s * a.x, s * a.y};
+}
+constexpr double dot(Vec2 a, Vec2 b) {
+  return a.x * b.x + a.y * b.y;
+}
 /// z-component of the 3D cross product a x b.
-constexpr double cross(Vec2 a, Vec2 b) { return a.x * b.y - a.y * b.x; }
+constexpr double cross(Vec2 a, Vec2 b) {
+  return a.x * b.y - a.y * b.x;
+}
 /// a rotated by +90 degrees (counter-clockwise).
-constexpr Vec2 perp(Vec2 a) { return {-a.y, a.x}; }
+constexpr Vec2 perp(Vec2 a) {
+  return {-a.y, a.x};
+}
 /// Component-wise product (used for per-axis inverse masses of walls).
-constexpr Vec2 hadamard(Vec2 a, Vec2 b) { return {a.x * b.x, a.y * b.y}; }
-inline double length(Vec2 a) { return std::hypot(a.x, a.y); }
-constexpr double length_squared(Vec2 a) { return dot(a, a); }
+constexpr Vec2 hadamard(Vec2 a, Vec2 b) {
+  return {a.x * b.x, a.y * b.y};
+}
+inline double length(Vec2 a) {
+  return std::hypot(a.x, a.y);
+}
+constexpr double length_squared(Vec2 a) {
+  return dot(a, a);
+}
 
 }  // namespace cdshear

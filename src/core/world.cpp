@@ -20,7 +20,9 @@ std::size_t Disks::add(Vec2 centre, double radius_value, double density) {
   return position.size() - 1;
 }
 
-void Disks::clear() { *this = Disks{}; }
+void Disks::clear() {
+  *this = Disks{};
+}
 
 double kinetic_energy(const World& world) {
   const Disks& d = world.disks;

@@ -13,14 +13,14 @@ namespace cdshear {
 /// Disks stored as parallel arrays (structure of arrays): the solver touches only velocities
 /// and inverse masses every sweep, positions once per step.
 struct Disks {
-  std::vector<Vec2> position;        ///< centre [length]; x wrapped into [0, L_x) if periodic
-  std::vector<std::int64_t> image;   ///< periodic image counter: unwrapped x = x + image * L_x
-  std::vector<double> angle;         ///< rotation, counter-clockwise [rad]
-  std::vector<Vec2> velocity;        ///< centre velocity [length/time]
-  std::vector<double> omega;         ///< angular velocity, counter-clockwise [rad/time]
-  std::vector<double> radius;        ///< [length]
-  std::vector<double> mass;          ///< [mass]
-  std::vector<double> inertia;       ///< moment of inertia about the centre [mass length^2]
+  std::vector<Vec2> position;       ///< centre [length]; x wrapped into [0, L_x) if periodic
+  std::vector<std::int64_t> image;  ///< periodic image counter: unwrapped x = x + image * L_x
+  std::vector<double> angle;        ///< rotation, counter-clockwise [rad]
+  std::vector<Vec2> velocity;       ///< centre velocity [length/time]
+  std::vector<double> omega;        ///< angular velocity, counter-clockwise [rad/time]
+  std::vector<double> radius;       ///< [length]
+  std::vector<double> mass;         ///< [mass]
+  std::vector<double> inertia;      ///< moment of inertia about the centre [mass length^2]
 
   std::size_t size() const { return position.size(); }
   /// Adds a uniform disk of 2D density `density`: m = density pi r^2, J = m r^2 / 2.
@@ -39,15 +39,15 @@ enum class AxisMode {
 /// domain (towards the disks it touches). Walls translate but never rotate.
 struct Wall {
   std::string name;
-  Vec2 point;                        ///< a point of the line [length]
-  Vec2 normal{0.0, 1.0};             ///< unit normal, into the domain
+  Vec2 point;             ///< a point of the line [length]
+  Vec2 normal{0.0, 1.0};  ///< unit normal, into the domain
   AxisMode mode_x = AxisMode::kFixed;
   AxisMode mode_y = AxisMode::kFixed;
-  Vec2 velocity;                     ///< current velocity; the imposed value on kImposed axes
-  double mass = 0.0;                 ///< used on kFree axes [mass]
-  Vec2 applied_force;                ///< external force on kFree axes [force]
-  double friction = 0.5;             ///< Coulomb coefficient against disks
-  Vec2 contact_force;                ///< output: mean force the disks exerted on it last step
+  Vec2 velocity;          ///< current velocity; the imposed value on kImposed axes
+  double mass = 0.0;      ///< used on kFree axes [mass]
+  Vec2 applied_force;     ///< external force on kFree axes [force]
+  double friction = 0.5;  ///< Coulomb coefficient against disks
+  Vec2 contact_force;     ///< output: mean force the disks exerted on it last step
 };
 
 /// The periodic boundary along x (y is never periodic).
@@ -60,10 +60,10 @@ struct World {
   Domain domain;
   Disks disks;
   std::vector<Wall> walls;
-  Vec2 body_force;                 ///< acceleration applied to every disk (gravity) [length/time^2]
-  double friction_disk_disk = 0.5; ///< Coulomb coefficient between disks
-  double time = 0.0;               ///< simulated time
-  std::uint64_t step = 0;          ///< steps done
+  Vec2 body_force;  ///< acceleration applied to every disk (gravity) [length/time^2]
+  double friction_disk_disk = 0.5;  ///< Coulomb coefficient between disks
+  double time = 0.0;                ///< simulated time
+  std::uint64_t step = 0;           ///< steps done
 
   /// Unwrapped centre of disk i (periodic image added back).
   Vec2 unwrapped_position(std::size_t i) const {

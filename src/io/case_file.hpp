@@ -13,10 +13,10 @@
 namespace cdshear {
 
 struct CaseSource {
-  std::string file;                     ///< case file; empty: built-in default
-  std::optional<int> system;            ///< --system K preset, applied before the file
-  std::optional<double> velocity;       ///< --velocity V, applied after the file
-  std::vector<std::string> overrides;   ///< --set key=value, applied last
+  std::string file;                    ///< case file; empty: built-in default
+  std::optional<int> system;           ///< --system K preset, applied before the file
+  std::optional<double> velocity;      ///< --velocity V, applied after the file
+  std::vector<std::string> overrides;  ///< --set key=value, applied last
 };
 
 /// Builds the case: defaults (system 1), then the preset, then the file, then --velocity, then

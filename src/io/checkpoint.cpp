@@ -23,8 +23,12 @@ std::vector<Vec2> vec2s(const json& x, const json& y) {
   for (std::size_t i = 0; i < xs.size(); ++i) out[i] = {xs[i], ys.at(i)};
   return out;
 }
-json to_json(Vec2 v) { return json::array({v.x, v.y}); }
-Vec2 to_vec2(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
+json to_json(Vec2 v) {
+  return json::array({v.x, v.y});
+}
+Vec2 to_vec2(const json& j) {
+  return {j.at(0).get<double>(), j.at(1).get<double>()};
+}
 
 }  // namespace
 
@@ -52,29 +56,28 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
     rn.push_back(c.impulse_n);
     rt.push_back(c.impulse_t);
   }
-  const json j = {
-      {"format", "cdshear-checkpoint"},
-      {"version", 1},
-      {"program_version", CDSHEAR_VERSION},
-      {"time", w.time},
-      {"step", w.step},
-      {"periodic_x", w.domain.periodic_x},
-      {"length_x", w.domain.length_x},
-      {"body_force", to_json(w.body_force)},
-      {"friction_disk_disk", w.friction_disk_disk},
-      {"disks",
-       {{"x", xy(d.position, false)},
-        {"y", xy(d.position, true)},
-        {"image", d.image},
-        {"angle", d.angle},
-        {"vx", xy(d.velocity, false)},
-        {"vy", xy(d.velocity, true)},
-        {"omega", d.omega},
-        {"radius", d.radius},
-        {"mass", d.mass},
-        {"inertia", d.inertia}}},
-      {"walls", walls},
-      {"contacts", {{"a", a}, {"b", b}, {"image", image}, {"rn", rn}, {"rt", rt}}}};
+  const json j = {{"format", "cdshear-checkpoint"},
+                  {"version", 1},
+                  {"program_version", CDSHEAR_VERSION},
+                  {"time", w.time},
+                  {"step", w.step},
+                  {"periodic_x", w.domain.periodic_x},
+                  {"length_x", w.domain.length_x},
+                  {"body_force", to_json(w.body_force)},
+                  {"friction_disk_disk", w.friction_disk_disk},
+                  {"disks",
+                   {{"x", xy(d.position, false)},
+                    {"y", xy(d.position, true)},
+                    {"image", d.image},
+                    {"angle", d.angle},
+                    {"vx", xy(d.velocity, false)},
+                    {"vy", xy(d.velocity, true)},
+                    {"omega", d.omega},
+                    {"radius", d.radius},
+                    {"mass", d.mass},
+                    {"inertia", d.inertia}}},
+                  {"walls", walls},
+                  {"contacts", {{"a", a}, {"b", b}, {"image", image}, {"rn", rn}, {"rt", rt}}}};
   const std::vector<std::uint8_t> bytes = json::to_cbor(j);
   write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
 }

@@ -75,11 +75,10 @@ TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const Worl
 
 void TimeSeriesWriter::write(const World& world, const StepReport& r) {
   const Vec2 p = linear_momentum(world);
-  std::string row = fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time,
-                                kinetic_energy(world), p.x, p.y, r.contacts,
-                                r.solver.active_contacts, r.solver.sweeps, r.solver.residual,
-                                r.solver.converged_fraction, r.solver.hit_cap ? 1 : 0,
-                                r.max_overlap);
+  std::string row = fmt::format(
+      "{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time, kinetic_energy(world), p.x,
+      p.y, r.contacts, r.solver.active_contacts, r.solver.sweeps, r.solver.residual,
+      r.solver.converged_fraction, r.solver.hit_cap ? 1 : 0, r.max_overlap);
   for (const Wall& w : world.walls)
     row += fmt::format(",{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,
                        w.contact_force.x, w.contact_force.y);

@@ -67,8 +67,9 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     if (!(d.radius > 0)) throw ConfigError(file, key, "radius must be > 0");
     if (d.position.y - d.radius < -overlap_tolerance ||
         d.position.y + d.radius > p.height + overlap_tolerance)
-      throw ConfigError(file, key, fmt::format("disk crosses a wall (y = {}, r = {}, L_y = {})",
-                                               d.position.y, d.radius, p.height));
+      throw ConfigError(file, key,
+                        fmt::format("disk crosses a wall (y = {}, r = {}, L_y = {})", d.position.y,
+                                    d.radius, p.height));
   }
   p.solid_fraction = solid_fraction(p.disks, p.length_x, p.height);
   return p;

@@ -13,8 +13,8 @@ toml::table parse_toml_file(const std::string& path) {
   } catch (const toml::parse_error& e) {
     std::ostringstream where;
     where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
-    throw ConfigError(path, "", "TOML syntax error at " + where.str() + ": " +
-                                    std::string(e.description()));
+    throw ConfigError(path, "",
+                      "TOML syntax error at " + where.str() + ": " + std::string(e.description()));
   }
 }
 
@@ -33,7 +33,8 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
       try {
         parsed = toml::parse("v = \"" + value + "\"");
       } catch (const toml::parse_error& e) {
-        throw ConfigError("--set " + item, key, "cannot parse value: " + std::string(e.description()));
+        throw ConfigError("--set " + item, key,
+                          "cannot parse value: " + std::string(e.description()));
       }
     }
     toml::table* at = &root;
@@ -65,7 +66,9 @@ void TomlReader::fail(const std::string& key, const std::string& problem) const 
   throw ConfigError(file_, full_key(key), problem);
 }
 
-bool TomlReader::has(const std::string& key) const { return table_->contains(key); }
+bool TomlReader::has(const std::string& key) const {
+  return table_->contains(key);
+}
 
 const toml::node* TomlReader::lookup(const std::string& key) {
   used_.insert(key);

@@ -30,8 +30,8 @@ std::string cells(const char* tag, std::size_t count, std::size_t points_per_cel
 template <class F>
 std::string array(const char* name, int components, std::size_t count, F value) {
   std::string s = fmt::format(
-      "<DataArray type=\"Float64\" Name=\"{}\" NumberOfComponents=\"{}\" format=\"ascii\">\n",
-      name, components);
+      "<DataArray type=\"Float64\" Name=\"{}\" NumberOfComponents=\"{}\" format=\"ascii\">\n", name,
+      components);
   for (std::size_t k = 0; k < count; ++k) s += value(k) + ' ';
   return s + "\n</DataArray>\n";
 }
@@ -51,9 +51,12 @@ void write_particles_vtp(const std::filesystem::path& path, const World& world,
     if (static_cast<std::size_t>(c.key.body_b) < n) ++count[c.key.body_b];
   }
   std::string s = header(n, "Verts", n);
-  s += "<Points>\n" + array("Points", 3, n, [&](std::size_t i) {
-         return fmt::format("{} {} 0", d.position[i].x, d.position[i].y);
-       }) + "</Points>\n";
+  s += "<Points>\n" +
+       array("Points", 3, n,
+             [&](std::size_t i) {
+               return fmt::format("{} {} 0", d.position[i].x, d.position[i].y);
+             }) +
+       "</Points>\n";
   s += cells("Verts", n, 1);
   s += "<PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
   s += array("radius", 1, n, [&](std::size_t i) { return fmt::format("{}", d.radius[i]); });
@@ -75,20 +78,24 @@ void write_contacts_vtp(const std::filesystem::path& path, const World& world,
     if (c.impulse_n > 0.0) active.push_back(&c);
   const std::size_t m = active.size();
   std::string s = header(2 * m, "Lines", m);
-  s += "<Points>\n" + array("Points", 3, m, [&](std::size_t k) {
-         const Contact& c = *active[k];
-         const Vec2 a = d.position[c.key.body_a];
-         const std::size_t b = static_cast<std::size_t>(c.key.body_b);
-         // b's centre in a's frame (nearest periodic image), or the contact point on a wall.
-         Vec2 end = a - d.radius[c.key.body_a] * c.normal;
-         if (b < n) {
-           Vec2 delta = d.position[b] - a;
-           if (world.domain.periodic_x)
-             delta.x -= world.domain.length_x * std::nearbyint(delta.x / world.domain.length_x);
-           end = a + delta;
-         }
-         return fmt::format("{} {} 0 {} {} 0", a.x, a.y, end.x, end.y);
-       }) + "</Points>\n";
+  s += "<Points>\n" +
+       array("Points", 3, m,
+             [&](std::size_t k) {
+               const Contact& c = *active[k];
+               const Vec2 a = d.position[c.key.body_a];
+               const std::size_t b = static_cast<std::size_t>(c.key.body_b);
+               // b's centre in a's frame (nearest periodic image), or the contact point on a wall.
+               Vec2 end = a - d.radius[c.key.body_a] * c.normal;
+               if (b < n) {
+                 Vec2 delta = d.position[b] - a;
+                 if (world.domain.periodic_x)
+                   delta.x -=
+                       world.domain.length_x * std::nearbyint(delta.x / world.domain.length_x);
+                 end = a + delta;
+               }
+               return fmt::format("{} {} 0 {} {} 0", a.x, a.y, end.x, end.y);
+             }) +
+       "</Points>\n";
   s += cells("Lines", m, 2);
   s += "<CellData Scalars=\"normal_force\">\n";
   s += array("normal_force", 1, m,

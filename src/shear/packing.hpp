@@ -16,12 +16,12 @@ struct PackingDisk {
 
 struct Packing {
   std::size_t n() const { return disks.size(); }
-  double height = 0.0;          ///< L_y: distance between the horizontal walls [d]
-  double length_x = 0.0;        ///< L_x: vertical wall (x = 0) to piston, at equilibrium [d]
+  double height = 0.0;    ///< L_y: distance between the horizontal walls [d]
+  double length_x = 0.0;  ///< L_x: vertical wall (x = 0) to piston, at equilibrium [d]
   double diameter_min = 0.8, diameter_max = 1.0;
-  std::uint64_t seed = 1;       ///< placement seed
-  double solid_fraction = 0.0;  ///< sum of disk areas / (L_x L_y)
-  double piston_stress = 0.25;  ///< sigma_xx it was compressed with [force/length]
+  std::uint64_t seed = 1;         ///< placement seed
+  double solid_fraction = 0.0;    ///< sum of disk areas / (L_x L_y)
+  double piston_stress = 0.25;    ///< sigma_xx it was compressed with [force/length]
   double preparation_time = 0.0;  ///< simulated time the protocol took
   std::vector<PackingDisk> disks;
 };

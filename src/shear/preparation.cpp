@@ -30,7 +30,7 @@ Wall fixed_wall(const std::string& name, Vec2 point, Vec2 normal) {
 double run_phase(int phase, World& world, ContactDynamics& dynamics, const PreparationOptions& o,
                  const StepOptions& step,
                  const std::function<void(const PreparationProgress&)>& progress,
-                 double progress_interval) {
+                 double progress_interval, const std::atomic<bool>* cancel) {
   const double dt = step.dt;
   const auto progress_every =
       std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(progress_interval / dt)));
@@ -42,6 +42,8 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
   double force_sum = 0.0;
   const double n = static_cast<double>(std::max<std::size_t>(1, world.disks.size()));
   for (std::uint64_t s = 1; s <= max_steps; ++s) {
+    if (cancel != nullptr && cancel->load())
+      throw std::runtime_error("preparation interrupted in phase " + std::to_string(phase));
     const StepReport r = dynamics.step(world, step);
     if (r.blown_up)
       throw std::runtime_error("preparation phase " + std::to_string(phase) + " blew up at step " +
@@ -49,7 +51,8 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
     const double ek = kinetic_energy(world) / n;
     const Wall* piston = has_piston ? &world.walls.back() : nullptr;
     const double speed = piston ? std::abs(piston->velocity.x) : 0.0;
-    const double ek_limit = has_piston ? o.kinetic_energy_per_disk : o.settle_kinetic_energy_per_disk;
+    const double ek_limit =
+        has_piston ? o.kinetic_energy_per_disk : o.settle_kinetic_energy_per_disk;
     const bool quiet = ek < ek_limit && speed < o.piston_speed;
     if (quiet) {
       ++quiet_steps;
@@ -85,7 +88,7 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
 
 Packing prepare_packing(const PreparationOptions& o,
                         const std::function<void(const PreparationProgress&)>& progress,
-                        double progress_interval) {
+                        double progress_interval, const std::atomic<bool>* cancel) {
   // Mean disk area for diameters uniform in [a, b]: (pi/4) E[d^2] = (pi/4)(b^3-a^3)/(3(b-a)).
   const double a = o.diameter_min, b = o.diameter_max;
   const double mean_d2 = b > a ? (b * b * b - a * a * a) / (3.0 * (b - a)) : a * a;
@@ -109,7 +112,7 @@ Packing prepare_packing(const PreparationOptions& o,
   World world = build_world(scene);
   ContactDynamics dynamics;
 
-  double elapsed = run_phase(1, world, dynamics, o, o.step, progress, progress_interval);
+  double elapsed = run_phase(1, world, dynamics, o, o.step, progress, progress_interval, cancel);
 
   // Phase 2: gravity off, piston on the free surface.
   world.body_force = {};
@@ -123,7 +126,7 @@ Packing prepare_packing(const PreparationOptions& o,
   world.walls.push_back(piston);
   StepOptions compression = o.step;
   compression.dt = o.compression_dt;
-  elapsed += run_phase(2, world, dynamics, o, compression, progress, progress_interval);
+  elapsed += run_phase(2, world, dynamics, o, compression, progress, progress_interval, cancel);
 
   Packing packing;
   packing.height = o.height;

@@ -13,6 +13,7 @@
 // leaves overlaps of order 1e-6 d which the next step removes at speed overlap / dt.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <string>
 
@@ -23,25 +24,25 @@ namespace cdshear {
 
 struct PreparationOptions {
   std::size_t n = 511;
-  double height = 20.0;             ///< L_y [d]
+  double height = 20.0;  ///< L_y [d]
   double diameter_min = 0.8, diameter_max = 1.0;
-  std::uint64_t seed = 1;           ///< placement seed
+  std::uint64_t seed = 1;                ///< placement seed
   double initial_solid_fraction = 0.35;  ///< of the loose random placement
-  double gravity = 1.0;             ///< settling body force per unit mass along -x [d/t^2]
-  double piston_stress = 0.25;      ///< sigma_xx [force/length]
-  double piston_mass = 50.0;        ///< [mass]
+  double gravity = 1.0;                  ///< settling body force per unit mass along -x [d/t^2]
+  double piston_stress = 0.25;           ///< sigma_xx [force/length]
+  double piston_mass = 50.0;             ///< [mass]
   double settle_kinetic_energy_per_disk = 1e-4;  ///< phase 1 threshold [mass d^2/t^2]
-  double kinetic_energy_per_disk = 1e-6;  ///< phase 2 threshold [mass d^2/t^2]
-  double piston_speed = 1e-4;       ///< phase 2 threshold [d/t]
-  double force_balance = 0.01;      ///< |<F_contact> - F_applied| / F_applied at equilibrium
-  double window_time = 5.0;         ///< the criteria must hold over this long [t]
-  double max_time_per_phase = 2000; ///< give up (error) after this long [t]
-  StepOptions step;                 ///< dt (phase 1), margin, solver options for the protocol
-  double compression_dt = 5e-3;     ///< phase 2 time step: speeds are small there [t]
+  double kinetic_energy_per_disk = 1e-6;         ///< phase 2 threshold [mass d^2/t^2]
+  double piston_speed = 1e-4;                    ///< phase 2 threshold [d/t]
+  double force_balance = 0.01;       ///< |<F_contact> - F_applied| / F_applied at equilibrium
+  double window_time = 5.0;          ///< the criteria must hold over this long [t]
+  double max_time_per_phase = 2000;  ///< give up (error) after this long [t]
+  StepOptions step;                  ///< dt (phase 1), margin, solver options for the protocol
+  double compression_dt = 1e-3;      ///< phase 2 time step [t]
 };
 
 struct PreparationProgress {
-  int phase = 1;                    ///< 1 settling, 2 compression
+  int phase = 1;  ///< 1 settling, 2 compression
   double time = 0.0;
   double kinetic_energy_per_disk = 0.0;
   double piston_x = 0.0, piston_speed = 0.0;
@@ -49,10 +50,10 @@ struct PreparationProgress {
 };
 
 /// Runs the protocol; `progress` (optional) is called every `progress_interval` of simulated
-/// time. Throws
-/// std::runtime_error if a phase does not reach equilibrium within max_time_per_phase.
+/// time. Throws std::runtime_error if a phase does not reach equilibrium within
+/// max_time_per_phase, or when `cancel` (optional) becomes true.
 Packing prepare_packing(const PreparationOptions& options,
                         const std::function<void(const PreparationProgress&)>& progress = {},
-                        double progress_interval = 5.0);
+                        double progress_interval = 5.0, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace cdshear

@@ -16,10 +16,11 @@ std::string resolve_time_step(ShearCase& c) {
   c.step.dt = c.dt ? *c.dt : default_time_step(c);
   const double per_step = c.velocity * c.step.dt;
   if (per_step > c.step.displacement_bound)
-    return "step.dt = " + std::to_string(c.step.dt) + " moves the walls by V dt = " +
-           std::to_string(per_step) + " per step, above step.displacement_bound = " +
-           std::to_string(c.step.displacement_bound) + "; the default rule would give dt = " +
-           std::to_string(default_time_step(c));
+    return "step.dt = " + std::to_string(c.step.dt) +
+           " moves the walls by V dt = " + std::to_string(per_step) +
+           " per step, above step.displacement_bound = " +
+           std::to_string(c.step.displacement_bound) +
+           "; the default rule would give dt = " + std::to_string(default_time_step(c));
   return {};
 }
 
@@ -29,9 +30,9 @@ void apply_system_preset(ShearCase& c, int system) {
     double height, stress, duration;
   };
   // SPEC 6. Durations: the reference simulated time (system 5: the upper value).
-  static constexpr Row rows[] = {{511, 20, 0.25, 20000},   {1023, 40, 0.25, 10000},
+  static constexpr Row rows[] = {{511, 20, 0.25, 20000},    {1023, 40, 0.25, 10000},
                                  {1023, 40, 0.0625, 10000}, {3199, 50, 0.25, 8000},
-                                 {2047, 80, 0.25, 12000},  {3071, 120, 0.25, 6000},
+                                 {2047, 80, 0.25, 12000},   {3071, 120, 0.25, 6000},
                                  {5119, 200, 0.25, 13000}};
   if (system < 1 || system > 7)
     throw std::invalid_argument("system must be 1..7, got " + std::to_string(system));

@@ -22,27 +22,27 @@ struct ShearCase {
   std::uint64_t seed = 1;  ///< placement seed of the packing (the contact order has its own)
 
   // Shear.
-  double velocity = 0.5;         ///< V: bottom wall at -V, top wall at +V along x [d/t]
-  double normal_stress = 0.25;   ///< sigma_yy: walls pushed inwards by F_y = sigma_yy L_x
-  double friction_grain = 0.5;   ///< mu_p
-  double friction_wall = 0.5;    ///< mu_w
-  double wall_mass = 50.0;       ///< M_w of each wall along y
-  double duration = 100.0;       ///< simulated shear time [t]
+  double velocity = 0.5;        ///< V: bottom wall at -V, top wall at +V along x [d/t]
+  double normal_stress = 0.25;  ///< sigma_yy: walls pushed inwards by F_y = sigma_yy L_x
+  double friction_grain = 0.5;  ///< mu_p
+  double friction_wall = 0.5;   ///< mu_w
+  double wall_mass = 50.0;      ///< M_w of each wall along y
+  double duration = 100.0;      ///< simulated shear time [t]
 
   // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
-  std::optional<double> dt;           ///< explicit dt [t]
-  double dt_max = 5e-3;               ///< [t]
+  std::optional<double> dt;             ///< explicit dt [t]
+  double dt_max = 5e-3;                 ///< [t]
   double displacement_per_step = 2e-3;  ///< target wall displacement per step [d]
-  StepOptions step;                   ///< margin, bounds, solver; step.dt set by resolve_dt
+  StepOptions step;                     ///< margin, bounds, solver; step.dt set by resolve_dt
 
-  PreparationOptions preparation;     ///< n, height, diameters, seed copied from above
-  std::string packing_file;           ///< packing to reuse; empty: cached by parameters
+  PreparationOptions preparation;  ///< n, height, diameters, seed copied from above
+  std::string packing_file;        ///< packing to reuse; empty: cached by parameters
 
   // Outputs, as intervals of simulated time (converted to whole steps) [t]; 0 disables.
-  double sample_interval = 0.1;       ///< global time series
-  double status_interval = 0.0;       ///< status line; 0: about 20 per run
+  double sample_interval = 0.1;  ///< global time series
+  double status_interval = 0.0;  ///< status line; 0: about 20 per run
   double checkpoint_interval = 50.0;
-  double snapshot_interval = 0.0;     ///< VTK snapshots
+  double snapshot_interval = 0.0;  ///< VTK snapshots
 };
 
 /// The default time-step rule: dt = min(dt_max, displacement_per_step / V), so that the walls

@@ -1,0 +1,295 @@
+// Bad input is refused with a message that names the file and the key; a step that blows up says
+// so; the executable turns both into a non-zero exit status and a message on stderr.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "config_error.hpp"
+#include "scene_file.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+using testing::disk;
+using testing::TempDir;
+
+/// A valid scene: two disks on a floor. Each test breaks one thing.
+std::string scene_text(const std::string& step_table = "dt = 1e-3\n",
+                       const std::string& disks =
+                           "[[disks]]\nposition = [1.0, 0.5]\nradius = 0.5\n"
+                           "[[disks]]\nposition = [2.5, 0.5]\n"
+                           "radius = 0.5\n",
+                       const std::string& extra = "") {
+  return "gravity = [0.0, -1.0]\n" + extra +
+         "[material]\nfriction_disk_disk = 0.5\n"
+         "[step]\n" +
+         step_table +
+         "[solver]\nseed = 3\n"
+         "[run]\nduration = 0.01\nsample_every = 5\n"
+         "[[walls]]\nname = \"floor\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n" +
+         disks;
+}
+
+/// Loads `text` from a temporary file and returns the ConfigError it must raise.
+ConfigError load_error(const std::string& text) {
+  TempDir dir("bad_input");
+  const std::string path = dir.write("scene.toml", text);
+  try {
+    load_scene_file(path, {});
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    return e;
+  }
+  ADD_FAILURE() << "no ConfigError for:\n" << text;
+  return ConfigError("", "", "");
+}
+
+void expect_names(const ConfigError& e, const std::string& key, const std::string& problem) {
+  EXPECT_EQ(e.key(), key) << e.what();
+  const std::string what = e.what();
+  EXPECT_NE(what.find("'" + key + "'"), std::string::npos) << what;
+  EXPECT_NE(what.find(problem), std::string::npos) << what;
+}
+
+TEST(BadInput, ValidSceneLoads) {
+  // The base scene is valid, so every failure below comes from the one thing each test breaks.
+  TempDir dir("good_input");
+  const SceneFile sf = load_scene_file(dir.write("scene.toml", scene_text()), {});
+  EXPECT_EQ(sf.scene.disks.size(), 2u);
+  EXPECT_EQ(sf.step.dt, 1e-3);
+  EXPECT_EQ(sf.step.solver.seed, 3u);
+  EXPECT_NO_THROW(build_world(sf.scene));
+}
+
+TEST(BadInput, UnknownKey) {
+  expect_names(load_error(scene_text("dt = 1e-3\ndtt = 2e-3\n")), "step.dtt", "unknown key");
+  expect_names(load_error(scene_text("dt = 1e-3\n", "", "gravty = [0.0, 1.0]\n")), "gravty",
+               "unknown key");
+  expect_names(load_error(scene_text("dt = 1e-3\n",
+                                     "[[disks]]\nposition = [1.0, 0.5]\n"
+                                     "radius = 0.5\nmass = 2.0\n")),
+               "disks[0].mass", "unknown key");
+}
+
+TEST(BadInput, WrongType) {
+  expect_names(load_error(scene_text("dt = \"fast\"\n")), "step.dt", "must be a number");
+  expect_names(load_error(scene_text("dt = 1e-3\n", "",
+                                     "[domain]\n"
+                                     "periodic_x = \"yes\"\n")),
+               "domain.periodic_x", "must be true or false");
+  expect_names(load_error(scene_text("dt = 1e-3\n", "[[disks]]\nposition = 1.0\nradius = 0.5\n")),
+               "disks[0].position", "array of two numbers");
+}
+
+TEST(BadInput, NegativeRadius) {
+  expect_names(
+      load_error(scene_text("dt = 1e-3\n", "[[disks]]\nposition = [1.0, 0.5]\nradius = -0.5\n")),
+      "disks[0].radius", "must be > 0");
+}
+
+TEST(BadInput, NegativeTimeStep) {
+  expect_names(load_error(scene_text("dt = -1e-3\n")), "step.dt", "must be > 0");
+  expect_names(load_error(scene_text("dt = 0.0\n")), "step.dt", "must be > 0");
+}
+
+TEST(BadInput, MissingFile) {
+  const std::string path = "/nonexistent/cdshear/no_such_scene.toml";
+  try {
+    load_scene_file(path, {});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos);
+  }
+}
+
+TEST(BadInput, SyntaxErrorNamesTheLine) {
+  const ConfigError e = load_error(scene_text() + "[run\n");
+  EXPECT_NE(std::string(e.what()).find("line"), std::string::npos) << e.what();
+}
+
+TEST(BadInput, OverlappingDisksAreRefusedByTheSceneBuilder) {
+  // The file is well formed; the scene builder refuses it, naming the entry and both disks.
+  TempDir dir("overlap");
+  const std::string path =
+      dir.write("scene.toml", scene_text("dt = 1e-3\n",
+                                         "[[disks]]\nposition = [1.0, 0.5]\nradius = 0.5\n"
+                                         "[[disks]]\nposition = [1.9, 0.5]\nradius = 0.5\n"));
+  const SceneFile sf = load_scene_file(path, {});
+  try {
+    build_world(sf.scene);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "disks");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("disk 0 and disk 1 overlap by 0.1"), std::string::npos) << what;
+  }
+}
+
+TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
+  // The same checks apply to scenes built in code (tests, benchmarks, shear preparation).
+  auto key_of = [](const SceneDefinition& s) -> std::string {
+    try {
+      build_world(s);
+    } catch (const SceneError& e) {
+      return e.key();
+    }
+    return "(no error)";
+  };
+  SceneDefinition s;
+  s.disks = {disk({0.0, 0.0}, -0.5)};
+  EXPECT_EQ(key_of(s), "disks[0].radius");
+  s = {};
+  s.walls = {testing::free_y_wall("top", {0.0, 5.0}, {0.0, -1.0}, 0.0, {0.0, -1.0})};
+  EXPECT_EQ(key_of(s), "walls[0].mass");
+  s = {};
+  s.domain = {true, 2.0};  // shorter than 3 diameters
+  s.disks = {disk({0.5, 0.5}, 0.5)};
+  EXPECT_EQ(key_of(s), "domain.length_x");
+  s = {};
+  s.walls = {testing::fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0})};
+  s.disks = {disk({0.0, 0.3}, 0.5)};  // crosses the floor
+  EXPECT_EQ(key_of(s), "disks");
+  s = {};
+  RandomDisksSpec r;
+  r.count = 100;
+  r.region_max = {3.0, 3.0};  // cannot hold 100 disks
+  s.random_disks = {r};
+  EXPECT_EQ(key_of(s), "random_disks[0].count");
+}
+
+TEST(BadInput, OverrideWithUnknownKeyIsRefused) {
+  TempDir dir("override");
+  const std::string path = dir.write("scene.toml", scene_text());
+  try {
+    load_scene_file(path, {"solver.sede=4"});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "solver.sede");
+  }
+  // A valid override is applied.
+  EXPECT_EQ(load_scene_file(path, {"solver.seed=4"}).step.solver.seed, 4u);
+}
+
+TEST(BlowUp, TooFastApproachWithZeroMarginIsReported) {
+  // Two disks 0.001 apart closing at 800 per time unit with contact_margin 0: they are no
+  // candidate contact at the start of the step, and after it they overlap by 0.799. The step
+  // must report it (not silently push them apart at the next step).
+  SceneDefinition s;
+  s.disks = {disk({0.0, 0.0}, 0.5, {400.0, 0.0}), disk({1.001, 0.0}, 0.5, {-400.0, 0.0})};
+  StepOptions o;
+  o.contact_margin = 0.0;
+  testing::Simulation sim(s, o);
+  sim.run(1);
+  const StepReport& r = sim.last();
+  EXPECT_EQ(r.contacts, 0u);
+  EXPECT_TRUE(r.displacement_exceeded);
+  EXPECT_NEAR(r.max_overlap, 1.0 - (1.001 - 0.8), 1e-12);
+  ASSERT_TRUE(r.blown_up);
+  EXPECT_NE(r.problem.find("overlap 0.799"), std::string::npos) << r.problem;
+  EXPECT_NE(r.problem.find("abort_overlap"), std::string::npos) << r.problem;
+}
+
+TEST(BlowUp, SameApproachWithinTheMarginIsHandled) {
+  // Control: with a margin covering the approach the contact is a candidate, the solver stops
+  // the disks (perfectly inelastic) and nothing blows up.
+  SceneDefinition s;
+  s.disks = {disk({0.0, 0.0}, 0.5, {400.0, 0.0}), disk({1.001, 0.0}, 0.5, {-400.0, 0.0})};
+  StepOptions o;
+  o.contact_margin = 1.0;
+  o.displacement_bound = 1.0;
+  testing::Simulation sim(s, o);
+  sim.run(3);
+  EXPECT_FALSE(sim.last().blown_up) << sim.last().problem;
+  EXPECT_LT(sim.largest_overlap(), 1e-12);
+  EXPECT_NEAR(sim.world.disks.velocity[0].x, 0.0, 1e-9);
+}
+
+TEST(BlowUp, NonFiniteVelocityIsReported) {
+  SceneDefinition s;
+  s.gravity = {std::numeric_limits<double>::quiet_NaN(), -1.0};
+  s.disks = {disk({0.0, 0.0}, 0.5)};
+  testing::Simulation sim(s, StepOptions{});
+  sim.run(1);
+  ASSERT_TRUE(sim.last().blown_up);
+  EXPECT_NE(sim.last().problem.find("NaN"), std::string::npos) << sim.last().problem;
+}
+
+// ---- The executable -------------------------------------------------------------------------
+
+struct ProcessResult {
+  int status = -1;
+  std::string out, err;
+};
+
+/// Runs the cdshear executable with `args` (shell-quoted by the caller), capturing its output.
+ProcessResult run_cdshear(const TempDir& dir, const std::string& args) {
+  const auto out = dir.path() / "stdout.txt", err = dir.path() / "stderr.txt";
+  const std::string cmd = std::string("'") + CDSHEAR_EXECUTABLE + "' " + args + " > '" +
+                          out.string() + "' 2> '" + err.string() + "'";
+  const int raw = std::system(cmd.c_str());
+  ProcessResult r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = testing::read_text(out);
+  r.err = testing::read_text(err);
+  return r;
+}
+
+TEST(Executable, UnknownKeyGivesNonZeroExitAndMessage) {
+  TempDir dir("exe_unknown");
+  const std::string path = dir.write("bad.toml", scene_text("dt = 1e-3\ndtt = 2e-3\n"));
+  const ProcessResult r =
+      run_cdshear(dir, "scene -q '" + path + "' -o '" + (dir.path() / "out").string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("error"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("step.dtt"), std::string::npos) << r.err;
+}
+
+TEST(Executable, OverlappingDisksGiveNonZeroExitNamingFileAndKey) {
+  TempDir dir("exe_overlap");
+  const std::string path =
+      dir.write("overlap.toml", scene_text("dt = 1e-3\n",
+                                           "[[disks]]\nposition = [1.0, 0.5]\nradius = 0.5\n"
+                                           "[[disks]]\nposition = [1.9, 0.5]\nradius = 0.5\n"));
+  const ProcessResult r =
+      run_cdshear(dir, "scene -q '" + path + "' -o '" + (dir.path() / "out").string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'disks'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("overlap"), std::string::npos) << r.err;
+}
+
+TEST(Executable, BlownUpRunGivesNonZeroExit) {
+  TempDir dir("exe_blowup");
+  const std::string path =
+      dir.write("fast.toml", scene_text("dt = 1e-3\ncontact_margin = 0.0\n",
+                                        "[[disks]]\nposition = [1.0, 2.0]\nradius = 0.5\n"
+                                        "velocity = [400.0, 0.0]\n"
+                                        "[[disks]]\nposition = [2.001, 2.0]\nradius = 0.5\n"
+                                        "velocity = [-400.0, 0.0]\n"));
+  const ProcessResult r =
+      run_cdshear(dir, "scene -q '" + path + "' -o '" + (dir.path() / "out").string() + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("abort_overlap"), std::string::npos) << r.err;
+}
+
+TEST(Executable, ValidSceneRuns) {
+  // Control for the tests above: the same base scene runs to the end with status 0.
+  TempDir dir("exe_good");
+  const std::string path = dir.write("good.toml", scene_text());
+  const ProcessResult r =
+      run_cdshear(dir, "scene -q '" + path + "' -o '" + (dir.path() / "out").string() + "'");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "out" / "timeseries.csv"));
+}
+
+}  // namespace
+}  // namespace cdshear

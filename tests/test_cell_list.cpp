@@ -1,0 +1,153 @@
+// The cell-list contact detector (ContactDetector) against a brute-force all-pairs search over
+// random configurations, periodic and not, for several margins.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "contact_detection.hpp"
+#include "scene.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+using testing::disk;
+using testing::fixed_wall;
+
+struct Expected {
+  ContactKey key;
+  double gap;
+};
+
+/// Every disk pair (over the periodic images -1, 0, +1 of b) and disk-wall pair with gap below
+/// the margin, in key order: the definition of the candidate set, without any cleverness.
+std::vector<Expected> brute_force(const World& w, double margin) {
+  std::vector<Expected> out;
+  const std::size_t n = w.disks.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      for (int image = -1; image <= 1; ++image) {
+        if (!w.domain.periodic_x && image != 0) continue;
+        const Vec2 pj = w.disks.position[j] + Vec2{image * w.domain.length_x, 0.0};
+        const double gap = length(pj - w.disks.position[i]) - w.disks.radius[i] - w.disks.radius[j];
+        if (gap < margin)
+          out.push_back({{static_cast<std::int32_t>(i), static_cast<std::int32_t>(j), image}, gap});
+      }
+    }
+    for (std::size_t k = 0; k < w.walls.size(); ++k) {
+      const double gap = wall_gap(w, i, w.walls[k]);
+      if (gap < margin)
+        out.push_back({{static_cast<std::int32_t>(i), static_cast<std::int32_t>(n + k), 0}, gap});
+    }
+  }
+  std::sort(out.begin(), out.end(),
+            [](const Expected& a, const Expected& b) { return a.key < b.key; });
+  return out;
+}
+
+/// Random disks, overlaps allowed (detection must not care), radii in [0.35, 0.5].
+SceneDefinition random_scene(std::mt19937_64& rng, bool periodic, double lx, double ly, int n) {
+  std::uniform_real_distribution<double> ux(0.0, lx), uy(0.0, ly), ur(0.35, 0.5);
+  SceneDefinition s;
+  s.domain.periodic_x = periodic;
+  s.domain.length_x = periodic ? lx : 0.0;
+  s.overlap_tolerance = 1e9;  // a detection test: overlapping placements are fine
+  for (int k = 0; k < n; ++k) {
+    // Some disks exactly on or near the period edges, where images matter.
+    double x = ux(rng);
+    if (k % 17 == 0) x = 0.0;
+    if (k % 19 == 0) x = std::nextafter(lx, 0.0);
+    s.disks.push_back(disk({x, uy(rng)}, ur(rng)));
+  }
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.3}, {0.0, 1.0}));
+  s.walls.push_back(fixed_wall("tilted", {0.0, ly}, {0.3, -1.0}));
+  return s;
+}
+
+void compare_with_brute_force(const World& world, double margin, const std::string& what) {
+  ContactDetector detector;
+  std::vector<Contact> found;
+  detector.detect(world, margin, found);
+  const std::vector<Expected> expected = brute_force(world, margin);
+  ASSERT_EQ(found.size(), expected.size()) << what;
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    ASSERT_EQ(found[k].key, expected[k].key) << what << " entry " << k;
+    // Same geometry computed two ways (minimum image vs explicit image shift): a few ulps of
+    // lengths of order 10 -> 1e-12 is ample and still far below any real gap difference.
+    ASSERT_NEAR(found[k].gap, expected[k].gap, 1e-12) << what << " entry " << k;
+  }
+}
+
+TEST(ContactDetection, MatchesBruteForceOnRandomConfigurations) {
+  std::mt19937_64 rng(5);
+  int total_pairs = 0, across_boundary = 0;
+  // Periods from the smallest allowed (3 diameters: 1 or 2 cell columns, where neighbour columns
+  // repeat) to many columns; margins from 0 to a third of a diameter.
+  for (const bool periodic : {false, true}) {
+    for (const double lx : {3.0, 4.1, 7.3, 15.0}) {
+      for (const double margin : {0.0, 0.05, 0.3}) {
+        for (int rep = 0; rep < 3; ++rep) {
+          const int n = static_cast<int>(lx * 8.0 * 0.9);
+          const World world = build_world(random_scene(rng, periodic, lx, 8.0, n));
+          compare_with_brute_force(world, margin,
+                                   "periodic " + std::to_string(periodic) + " lx " +
+                                       std::to_string(lx) + " margin " + std::to_string(margin));
+          for (const Expected& e : brute_force(world, margin)) {
+            ++total_pairs;
+            across_boundary += e.key.image_b != 0;
+          }
+        }
+      }
+    }
+  }
+  // The configurations must be dense enough to test something, including contacts across x = 0.
+  EXPECT_GT(total_pairs, 5000);
+  EXPECT_GT(across_boundary, 100);
+}
+
+TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
+  // Disks that moved across the periodic boundary (positions wrapped by the step) keep being
+  // found through the right image.
+  SceneDefinition s;
+  s.domain = {true, 6.0};
+  s.gravity = {1.0, -0.2};  // drift along +x so disks cross x = L_x, settle on the floor
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  RandomDisksSpec r;
+  r.count = 25;
+  r.region_min = {0.0, 0.0};
+  r.region_max = {6.0, 6.0};
+  r.seed = 4;
+  s.random_disks.push_back(r);
+  testing::Simulation sim(s, StepOptions{});
+  sim.options.dt = 0.005;
+  std::int64_t crossings = 0;
+  for (int k = 0; k < 20; ++k) {
+    sim.run(5);
+    compare_with_brute_force(sim.world, 0.05, "after step " + std::to_string(sim.world.step));
+  }
+  for (std::int64_t im : sim.world.disks.image) crossings += std::abs(im);
+  EXPECT_GT(crossings, 0);
+}
+
+TEST(ContactDetection, WarmStartKeepsImpulsesOfPersistingContacts) {
+  SceneDefinition s;
+  s.disks = {disk({1.0, 1.0}, 0.5), disk({2.0, 1.0}, 0.5), disk({5.0, 1.0}, 0.5)};
+  const World world = build_world(s);
+  std::vector<Contact> contacts(2);
+  contacts[0].key = {0, 1, 0};  // persists
+  contacts[0].impulse_n = 0.25;
+  contacts[0].impulse_t = -0.125;
+  contacts[1].key = {1, 2, 0};  // no longer a candidate
+  contacts[1].impulse_n = 1.0;
+  ContactDetector detector;
+  detector.detect(world, 0.05, contacts);
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].key, (ContactKey{0, 1, 0}));
+  EXPECT_EQ(contacts[0].impulse_n, 0.25);
+  EXPECT_EQ(contacts[0].impulse_t, -0.125);
+}
+
+}  // namespace
+}  // namespace cdshear

@@ -1,0 +1,219 @@
+// The shear cell (SPEC 4-6): the prepared packing of system 1, momentum balance of a short shear
+// run, and bad case values. The packing comes from the ctest fixture `system1_packing`
+// (`cdshear prepare`), whose path is CDSHEAR_SYSTEM1_PACKING.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+
+#include "case_file.hpp"
+#include "config_error.hpp"
+#include "contact_dynamics.hpp"
+#include "packing_file.hpp"
+#include "scene.hpp"
+#include "shear_case.hpp"
+
+namespace cdshear {
+namespace {
+
+const Packing& system1_packing() {
+  static const Packing p = read_packing(CDSHEAR_SYSTEM1_PACKING);
+  return p;
+}
+
+TEST(Preparation, System1HasNominalSizeAndDenseRandomSolidFraction) {
+  const Packing& p = system1_packing();
+  ASSERT_EQ(p.n(), 511u);
+  EXPECT_DOUBLE_EQ(p.height, 20.0);
+  // Nominal L_x = 20 (SPEC 6) corresponds to a solid fraction of 0.816 for these 511 disks.
+  // Frictionless polydisperse disks jam between about 0.80 and 0.85 depending on protocol
+  // (random close packing of bidisperse/polydisperse disks: 0.82-0.84), i.e. L_x within 4% of
+  // 20: [19.2, 20.4] covers that range with margin and would catch a loose or crystallised
+  // packing, or a piston that never reached the surface.
+  EXPECT_NEAR(p.length_x, 20.0, 0.04 * 20.0);
+  EXPECT_GT(p.solid_fraction, 0.80);
+  EXPECT_LT(p.solid_fraction, 0.86);
+  // The solid fraction is consistent with the disks actually stored.
+  double area = 0.0;
+  for (const PackingDisk& d : p.disks) area += std::numbers::pi * d.radius * d.radius;
+  EXPECT_NEAR(p.solid_fraction, area / (p.length_x * p.height), 1e-12);
+  // Diameters in [0.8, 1.0] and every disk inside the cell.
+  for (const PackingDisk& d : p.disks) {
+    EXPECT_GE(2 * d.radius, 0.8);
+    EXPECT_LE(2 * d.radius, 1.0);
+    EXPECT_GE(d.position.x, d.radius - 1e-3);
+    EXPECT_LE(d.position.x, p.length_x - d.radius + 1e-3);
+  }
+}
+
+TEST(Preparation, System1HasNoOverlapAboveTolerance) {
+  // In the periodic shear cell built from the packing (which also checks pairs across x = 0),
+  // the largest overlap is that of a converged rigid packing: the solver removes overlaps each
+  // step (gap + dt u_n = 0), leaving only what unconverged steps (alpha = 1e-6) let through.
+  // 1e-4 d is 100 times above what we measured (~1e-6 d) and 1000 times below a visible overlap.
+  ShearCase c;
+  const World world = build_shear_world(c, system1_packing());
+  const OverlapReport o = largest_overlap(world);
+  EXPECT_LT(o.overlap, 1e-4) << "bodies " << o.body_a << " and " << o.body_b;
+}
+
+struct ShearWindow {
+  double time = 0.0;
+  Vec2 impulse_bottom, impulse_top;  // integral of the contact force on each wall
+  double min_height = 1e9, max_height = 0.0;
+  bool walls_exact = true;
+};
+
+TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
+  ShearCase c;
+  c.velocity = 0.5;
+  resolve_time_step(c);
+  World world = build_shear_world(c, system1_packing());
+  ContactDynamics dynamics;
+  const double dt = c.step.dt;
+  const double force_y = c.normal_stress * world.domain.length_x;
+
+  // Transient: 5 time units; then measure over 15.
+  const auto transient = static_cast<int>(std::lround(5.0 / dt));
+  const auto window = static_cast<int>(std::lround(15.0 / dt));
+  for (int s = 0; s < transient; ++s) ASSERT_FALSE(dynamics.step(world, c.step).blown_up);
+
+  const Vec2 p0 = linear_momentum(world);
+  const Vec2 v_bottom0 = world.walls[kBottomWall].velocity, v_top0 = world.walls[kTopWall].velocity;
+  const double x_bottom0 = world.walls[kBottomWall].point.x, x_top0 = world.walls[kTopWall].point.x;
+  ShearWindow w;
+  for (int s = 0; s < window; ++s) {
+    const StepReport r = dynamics.step(world, c.step);
+    ASSERT_FALSE(r.blown_up) << r.problem;
+    const Wall& b = world.walls[kBottomWall];
+    const Wall& t = world.walls[kTopWall];
+    w.walls_exact = w.walls_exact && b.velocity.x == -c.velocity && t.velocity.x == c.velocity;
+    w.impulse_bottom += dt * b.contact_force;
+    w.impulse_top += dt * t.contact_force;
+    const double h = t.point.y - b.point.y;
+    w.min_height = std::min(w.min_height, h);
+    w.max_height = std::max(w.max_height, h);
+  }
+  const double T = window * dt;
+  const Wall& b = world.walls[kBottomWall];
+  const Wall& t = world.walls[kTopWall];
+
+  // Walls move at exactly -V and +V along x.
+  EXPECT_TRUE(w.walls_exact);
+  EXPECT_NEAR(b.point.x - x_bottom0, -c.velocity * T, 1e-9 * c.velocity * T);
+  EXPECT_NEAR(t.point.x - x_top0, c.velocity * T, 1e-9 * c.velocity * T);
+
+  // Newton's law of each free wall along y, exactly (bookkeeping of the contact forces):
+  // M (v_end - v_start) = (F_applied + <F_contact>) T.
+  EXPECT_NEAR(c.wall_mass * (b.velocity.y - v_bottom0.y), force_y * T + w.impulse_bottom.y,
+              1e-8 * force_y * T);
+  EXPECT_NEAR(c.wall_mass * (t.velocity.y - v_top0.y), -force_y * T + w.impulse_top.y,
+              1e-8 * force_y * T);
+  // Physically: averaged over time the grains push each wall with F_y. The residual is
+  // M dv_y / T, bounded by the wall's velocity fluctuations (|v_y| < ~0.05 here) over 15 time
+  // units: 50 * 0.1 / 15 = 0.33 at most, against F_y ~ 5: 10% covers it.
+  EXPECT_NEAR(-w.impulse_bottom.y / T, force_y, 0.10 * force_y);
+  EXPECT_NEAR(w.impulse_top.y / T, force_y, 0.10 * force_y);
+
+  // Momentum balance along x: only the walls act on the grains along x, so the tangential
+  // forces on the two walls are opposite up to the change of the grains' momentum, exactly...
+  const Vec2 p1 = linear_momentum(world);
+  EXPECT_NEAR(-(w.impulse_bottom.x + w.impulse_top.x), p1.x - p0.x,
+              1e-8 * std::abs(w.impulse_top.x));
+  // ...and opposite on average. At V = 0.5 (regime A) the centre of mass stays near rest, so the
+  // grains' momentum change over the window is a small fraction of the traction impulse
+  // (mu_eff F_y T ~ 15-35): we require the net impulse below half the shear impulse, and the
+  // signs of the tractions.
+  EXPECT_LT(w.impulse_top.x, 0.0);     // grains resist the top wall moving to +x
+  EXPECT_GT(w.impulse_bottom.x, 0.0);  // and the bottom wall moving to -x
+  EXPECT_LT(std::abs(w.impulse_bottom.x + w.impulse_top.x),
+            0.5 * std::abs(w.impulse_top.x - w.impulse_bottom.x));
+
+  // L_y stays bounded: within 10% of its initial 20 (dilatancy in shear is a few percent).
+  EXPECT_GT(w.min_height, 0.9 * c.height);
+  EXPECT_LT(w.max_height, 1.1 * c.height);
+}
+
+CaseSource with(std::vector<std::string> overrides) {
+  CaseSource s;
+  s.overrides = std::move(overrides);
+  return s;
+}
+
+void expect_case_error(const CaseSource& src, const std::string& key, const std::string& words) {
+  try {
+    load_case(src);
+    FAIL() << "no error for " << key;
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), key) << e.what();
+    EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+  }
+}
+
+TEST(ShearCaseErrors, BadValuesNameTheKey) {
+  expect_case_error(with({"shear.velocity=-1"}), "shear.velocity", "must be > 0");
+  expect_case_error(with({"system.n=0"}), "system.n", "must be >= 1");
+  expect_case_error(with({"system.height=0.5"}), "system.height", "largest grain diameter");
+  expect_case_error(with({"shear.velocty=1"}), "shear.velocty", "unknown key");
+  expect_case_error(with({"step.dt=fast"}), "step.dt", "\"auto\"");
+  CaseSource v;
+  v.velocity = -2.0;
+  expect_case_error(v, "shear.velocity", "must be > 0");
+}
+
+TEST(ShearCaseErrors, CaseFileErrorsNameTheFile) {
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "cdshear_bad_case.toml";
+  std::ofstream(file) << "[system]\nn = 511\nheight = -20.0\n";
+  CaseSource s;
+  s.file = file.string();
+  try {
+    load_case(s);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), file.string());
+    EXPECT_EQ(e.key(), "system.height");
+  }
+  s.file = "/nonexistent/case.toml";
+  EXPECT_THROW(load_case(s), ConfigError);
+}
+
+TEST(ShearCaseErrors, MissingPackingFile) {
+  try {
+    read_packing("/nonexistent/packing.json");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "/nonexistent/packing.json");
+    EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos);
+  }
+}
+
+TEST(ShearCase, DefaultTimeStepBoundsTheWallDisplacement) {
+  for (const double v : {0.005, 0.05, 0.5, 5.0, 35.0}) {
+    ShearCase c;
+    c.velocity = v;
+    EXPECT_TRUE(resolve_time_step(c).empty()) << "V = " << v;
+    EXPECT_LE(v * c.step.dt, c.displacement_per_step * (1 + 1e-12));
+    EXPECT_LE(c.step.dt, c.dt_max);
+  }
+  ShearCase fast;
+  fast.velocity = 30.0;
+  fast.dt = 1e-3;  // moves the walls by 0.03 per step
+  EXPECT_FALSE(resolve_time_step(fast).empty());
+}
+
+TEST(ShearCase, PresetsFollowTheReferenceTable) {
+  ShearCase c;
+  apply_system_preset(c, 7);
+  EXPECT_EQ(c.n, 5119u);
+  EXPECT_EQ(c.height, 200.0);
+  EXPECT_EQ(c.preparation.n, 5119u);
+  apply_system_preset(c, 3);
+  EXPECT_EQ(c.normal_stress, 0.0625);
+  EXPECT_THROW(apply_system_preset(c, 8), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cdshear

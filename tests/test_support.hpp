@@ -1,0 +1,128 @@
+// Shared helpers of the test suite: scene pieces, a world + stepper bundle, temporary files.
+// Every world in the tests is built by the project's one scene builder (build_world).
+#pragma once
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <numbers>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "contact_dynamics.hpp"
+#include "scene.hpp"
+#include "world.hpp"
+
+namespace cdshear::testing {
+
+/// Mass of a uniform disk of radius r and 2D density rho (SPEC 1).
+inline double disk_mass(double r, double rho = 1.0) {
+  return rho * std::numbers::pi * r * r;
+}
+
+/// A fixed wall through `point` with inward unit `normal`.
+inline Wall fixed_wall(std::string name, Vec2 point, Vec2 normal, double friction = 0.5) {
+  Wall w;
+  w.name = std::move(name);
+  w.point = point;
+  w.normal = normal;
+  w.friction = friction;
+  return w;
+}
+
+/// A wall free along y (Newton's law with mass and applied force), fixed along x.
+inline Wall free_y_wall(std::string name, Vec2 point, Vec2 normal, double mass, Vec2 force,
+                        double friction = 0.5) {
+  Wall w = fixed_wall(std::move(name), point, normal, friction);
+  w.mode_y = AxisMode::kFree;
+  w.mass = mass;
+  w.applied_force = force;
+  return w;
+}
+
+inline DiskSpec disk(Vec2 position, double radius, Vec2 velocity = {}, double omega = 0.0) {
+  DiskSpec d;
+  d.position = position;
+  d.radius = radius;
+  d.velocity = velocity;
+  d.omega = omega;
+  return d;
+}
+
+/// A world built from a scene definition, with its stepper and the reports of its steps.
+struct Simulation {
+  World world;
+  ContactDynamics dynamics;
+  StepOptions options;
+  std::vector<StepReport> reports;
+
+  Simulation(const SceneDefinition& scene, const StepOptions& step_options)
+      : world(build_world(scene)), options(step_options) {}
+
+  /// Steps n times, calling `after` (if given) after each step. Stops at a blown-up step.
+  void run(int n, const std::function<void(const Simulation&, const StepReport&)>& after = {}) {
+    for (int k = 0; k < n; ++k) {
+      reports.push_back(dynamics.step(world, options));
+      if (after) after(*this, reports.back());
+      if (reports.back().blown_up) return;
+    }
+  }
+
+  const StepReport& last() const { return reports.back(); }
+
+  /// The contact with this key in the solver's list, if any.
+  std::optional<Contact> contact(int a, int b, int image = 0) const {
+    for (const Contact& c : dynamics.contacts())
+      if (c.key.body_a == a && c.key.body_b == b && c.key.image_b == image) return c;
+    return std::nullopt;
+  }
+
+  int hit_cap_steps() const {
+    return static_cast<int>(std::count_if(reports.begin(), reports.end(),
+                                          [](const StepReport& r) { return r.solver.hit_cap; }));
+  }
+  double largest_overlap() const {
+    double m = 0.0;
+    for (const StepReport& r : reports) m = std::max(m, r.max_overlap);
+    return m;
+  }
+};
+
+/// A fresh folder under the system temporary directory, removed with the object.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& tag) {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("cdshear_test_" + tag + "_" + std::to_string(rd()) + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  /// Writes `text` into `name` inside the folder and returns its full path.
+  std::string write(const std::string& name, const std::string& text) const {
+    const std::filesystem::path p = path_ / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+}  // namespace cdshear::testing
