@@ -58,6 +58,7 @@ struct Settings {
   std::uint64_t min_steps = 20;  // measured steps per case (at least)
   std::uint64_t warmup_steps = 100;
   double velocity = 0.5;  // shear wall speed V
+  double width = 0.0;     // cell width; 0: 20 below 2000 disks, 50 above
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -68,8 +69,9 @@ struct System {
   double width;
 };
 
-System system_for(std::size_t disks) {
+System system_for(std::size_t disks, double width) {
   // Widths of the reference study's cells: 20 for the small ones, 50 for system 4.
+  if (width > 0.0) return {disks, width};
   return {disks, disks >= 2000 ? 50.0 : 20.0};
 }
 
@@ -78,6 +80,7 @@ void usage() {
       R"(usage: cdshear_bench [options]
   --quick             shorter run: 4 s per case, 30 warm-up steps (about 1 minute in all)
   --sizes N[,N...]    disk counts (default 500,5000); width 20 below 2000 disks, 50 above
+  --width W           cell width for every size (system 7 of SPEC 6: --sizes 5119 --width 20)
   --seconds S         measured wall time per case, at least (default 12)
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
@@ -106,6 +109,8 @@ Settings parse(int argc, char** argv) {
       s.sizes.clear();
       std::stringstream list(value());
       for (std::string item; std::getline(list, item, ',');) s.sizes.push_back(std::stoul(item));
+    } else if (a == "--width") {
+      s.width = std::stod(value());
     } else if (a == "--seconds") {
       s.seconds = std::stod(value());
     } else if (a == "--warmup") {
@@ -327,7 +332,7 @@ int run(const Settings& s) {
   std::cerr << "warning: assertions are on (not a Release build); figures are not representative\n";
 #endif
   for (const std::size_t n : s.sizes) {
-    const System sys = system_for(n);
+    const System sys = system_for(n, s.width);
     cdshear::CompressedBoxParams p;
     p.count = n;
     p.width = sys.width;

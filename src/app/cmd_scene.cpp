@@ -20,7 +20,7 @@ namespace {
 struct SceneArgs {
   std::string file;
   std::vector<std::string> overrides;
-  std::string out_dir = "out";
+  std::string out_dir;
   bool quiet = false;
 };
 
@@ -99,7 +99,7 @@ void register_scene_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("scene", "Run a system described by a scene file (TOML)");
   cmd->add_option("file", args->file, "scene file")->required();
   cmd->add_option("--set", args->overrides, "override a key: --set step.dt=1e-4 (repeatable)");
-  cmd->add_option("-o,--output", args->out_dir, "output folder")->capture_default_str();
+  cmd->add_option("-o,--output", args->out_dir, "output folder")->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no status lines or progress bar");
   cmd->callback([args]() {
     const int rc = run_scene(*args);

@@ -27,7 +27,8 @@ class TimeSeriesObserver : public Observer {
 class CheckpointObserver : public Observer {
  public:
   explicit CheckpointObserver(std::filesystem::path path) : path_(std::move(path)) {}
-  void observe(const World& world, const ContactDynamics& dynamics, const StepReport&) override {
+  void observe(const World& world, const ContactDynamics& dynamics, const StepReport& r) override {
+    if (r.blown_up) return;  // never replace the last good checkpoint with a broken state
     write_checkpoint(path_, world, dynamics.contacts());
   }
   const std::filesystem::path& path() const { return path_; }

@@ -15,6 +15,7 @@
 #include "outputs.hpp"
 #include "packing_file.hpp"
 #include "run_loop.hpp"
+#include "scene.hpp"
 
 namespace cdshear {
 namespace {
@@ -58,20 +59,32 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
   std::printf("preparing a packing: n %zu, L_y %g, diameters [%g, %g], seed %llu\n", o.n, o.height,
               o.diameter_min, o.diameter_max, static_cast<unsigned long long>(o.seed));
   std::fflush(stdout);
-  Packing p = prepare_packing(
-      o,
-      [quiet](const PreparationProgress& pr) {
-        if (quiet) return;
-        std::printf(
-            "  phase %d (%s)  t %9.2f  Ek/disk %10.3g  piston x %8.4f  v %10.3g  "
-            "sweeps %3d\n",
-            pr.phase, pr.phase == 1 ? "settling" : "piston", pr.time, pr.kinetic_energy_per_disk,
-            pr.piston_x, pr.piston_speed, pr.report.solver.sweeps);
-        std::fflush(stdout);
-      },
-      5.0, &g_stop_requested);
-  std::printf("prepared: L_x %.6f, solid fraction %.5f, after %.1f time units\n", p.length_x,
-              p.solid_fraction, p.preparation_time);
+  Packing p;
+  try {
+    p = prepare_packing(
+        o,
+        [quiet](const PreparationProgress& pr) {
+          if (quiet) return;
+          std::printf(
+              "  phase %d (%s)  t %9.2f  Ek/disk %10.3g  piston x %8.4f  v %10.3g  "
+              "sweeps %3d\n",
+              pr.phase, pr.phase == 1 ? "settling" : "piston", pr.time, pr.kinetic_energy_per_disk,
+              pr.piston_x, pr.piston_speed, pr.report.solver.sweeps);
+          std::fflush(stdout);
+        },
+        5.0, &g_stop_requested);
+  } catch (const SceneError& e) {
+    // Only the loose random placement can fail this way.
+    throw ConfigError("preparation", "preparation.initial_solid_fraction",
+                      std::string(e.what()) + " (lower the initial solid fraction)");
+  }
+  std::printf(
+      "prepared: L_x %.6f, solid fraction %.5f, after %.1f time units (%llu steps, %llu "
+      "hit the sweep cap, %llu above the displacement bound, largest overlap %.3g)\n",
+      p.length_x, p.solid_fraction, p.preparation_time,
+      static_cast<unsigned long long>(p.preparation_steps),
+      static_cast<unsigned long long>(p.capped_steps),
+      static_cast<unsigned long long>(p.displacement_warnings), p.largest_overlap);
   return p;
 }
 
@@ -90,6 +103,28 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
   return {p, cached};
 }
 
+/// A packing made for another system would silently give another experiment.
+void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path& path) {
+  const std::string file = path.string();
+  if (p.n() != c.n)
+    throw ConfigError(
+        file, "n",
+        fmt::format("packing has {} disks, the case asks for {} (system.n)", p.n(), c.n));
+  if (std::abs(p.height - c.height) > 1e-9 * c.height)
+    throw ConfigError(file, "height",
+                      fmt::format("packing has L_y = {}, the case asks for {} (system.height)",
+                                  p.height, c.height));
+  if (std::abs(p.diameter_min - c.diameter_min) > 1e-12 ||
+      std::abs(p.diameter_max - c.diameter_max) > 1e-12)
+    throw ConfigError(file, "diameter_min",
+                      fmt::format("packing diameters [{}, {}] differ from the case's [{}, {}]",
+                                  p.diameter_min, p.diameter_max, c.diameter_min, c.diameter_max));
+  if (p.seed != c.seed)
+    std::fprintf(stderr, "warning: packing %s was placed with seed %llu, the case says %llu\n",
+                 file.c_str(), static_cast<unsigned long long>(p.seed),
+                 static_cast<unsigned long long>(c.seed));
+}
+
 std::uint64_t steps_of(double interval, double dt) {
   return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
 }
@@ -100,7 +135,31 @@ struct RunArgs {
   std::string resume_dir;
   std::string packing;
   double stop_at = -1.0;
+  bool force = false;
 };
+
+/// On resume only these may change: how long, what is written, and numerics of later steps.
+/// Physics (system, shear, preparation) comes from the checkpoint and cannot.
+void check_resume_override(const std::string& item) {
+  const std::string key = item.substr(0, item.find('='));
+  for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
+    if (key.rfind(allowed, 0) == 0) return;
+  throw ConfigError("--set " + item, key,
+                    "cannot be changed on --resume (the physics comes from the checkpoint); only "
+                    "shear.duration, output.*, step.* and solver.* can");
+}
+
+/// The resolved case as TOML text, with the packing actually used.
+std::string resolved_case_text(const ShearCase& c, const std::string& packing,
+                               const fs::path& dir) {
+  toml::table resolved = case_to_toml(c);
+  resolved["preparation"].as_table()->insert_or_assign("packing", packing);
+  std::ostringstream text;
+  text << "# Resolved case written by cdshear " CDSHEAR_VERSION "; `cdshear run --resume "
+       << dir.string() << "` continues it.\n"
+       << resolved << '\n';
+  return text.str();
+}
 
 int run_shear(const RunArgs& args) {
   const bool resuming = !args.resume_dir.empty();
@@ -108,9 +167,16 @@ int run_shear(const RunArgs& args) {
   fs::path dir;
   if (resuming) {
     dir = args.resume_dir;
-    const fs::path case_path = dir / "case.toml";
+    if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity ||
+        !args.packing.empty() || !args.out_dir.empty() || args.force)
+      throw ConfigError("--resume " + dir.string(), "",
+                        "a case file, --system, --velocity, --packing, -o and --force cannot be "
+                        "combined with --resume: the run continues with its own case.toml");
+    if (!fs::exists(dir / "checkpoint.cbor"))
+      throw ConfigError(dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
+    for (const std::string& item : args.c.overrides) check_resume_override(item);
     CaseSource src;
-    src.file = case_path.string();
+    src.file = (dir / "case.toml").string();
     src.overrides = args.c.overrides;
     c = load_case(src);
   } else {
@@ -129,27 +195,34 @@ int run_shear(const RunArgs& args) {
     world = std::move(cp.world);
     dynamics.set_contacts(std::move(cp.contacts));
     TimeSeriesWriter::truncate_after(dir / "timeseries.csv", world.step);
+    packing_used = c.packing_file;
+    // Overrides given now hold for later resumes too.
+    if (!args.c.overrides.empty())
+      write_file_atomic(dir / "case.toml", resolved_case_text(c, c.packing_file, dir));
     std::printf("resuming %s at step %llu, t %.4f\n", dir.c_str(),
                 static_cast<unsigned long long>(world.step), world.time);
   } else {
     auto [packing, path] = obtain_packing(c, args.c.quiet);
     packing_used = path.string();
-    if (packing.n() != c.n)
-      throw ConfigError(
-          path.string(), "n",
-          fmt::format("packing has {} disks, the case asks for {}", packing.n(), c.n));
-    world = build_shear_world(c, packing);
-    dir = args.out_dir.empty() ? fs::path("runs") / fmt::format("n{}_h{}_V{}_seed{}", c.n, c.height,
-                                                                c.velocity, c.seed)
-                               : fs::path(args.out_dir);
+    check_packing_matches(c, packing, path);
+    try {
+      world = build_shear_world(c, packing);
+    } catch (const SceneError& e) {
+      throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
+    }
+    dir = args.out_dir.empty()
+              ? fs::path("runs") / fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity,
+                                               c.normal_stress, c.seed)
+              : fs::path(args.out_dir);
+    if (fs::exists(dir / "case.toml") && !args.force)
+      throw ConfigError(dir.string(), "",
+                        "already holds a run (case.toml); continue it with --resume " +
+                            dir.string() + ", choose another -o, or pass --force to overwrite");
     fs::create_directories(dir);
-    toml::table resolved = case_to_toml(c);
-    resolved["preparation"].as_table()->insert_or_assign("packing", packing_used);
-    std::ostringstream text;
-    text << "# Resolved case written by cdshear " CDSHEAR_VERSION "; `cdshear run --resume "
-         << dir.string() << "` continues it.\n"
-         << resolved << '\n';
-    write_file_atomic(dir / "case.toml", text.str());
+    for (const char* stale :
+         {"final_state.json", "interrupted_state.json", "blowup_state.json", "checkpoint.cbor"})
+      fs::remove(dir / stale);
+    write_file_atomic(dir / "case.toml", resolved_case_text(c, packing_used, dir));
   }
 
   const std::uint64_t end_step = static_cast<std::uint64_t>(std::llround(c.duration / dt));
@@ -216,10 +289,10 @@ int run_shear(const RunArgs& args) {
       summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
       summary.largest_overlap);
   if (summary.outcome == RunOutcome::kBlownUp) {
-    std::fprintf(stderr,
-                 "error: step %llu blew up: %s; state written to %s, last good checkpoint kept\n",
+    std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
                  static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
-                 (dir / state_name).c_str());
+                 (dir / state_name).c_str(),
+                 fs::exists(dir / "checkpoint.cbor") ? ", last good checkpoint kept" : "");
     return 3;
   }
   if (!finished) {
@@ -270,6 +343,7 @@ void register_shear_commands(CLI::App& app) {
                 "output folder; default runs/n<n>_h<L_y>_V<V>_seed<seed>");
   r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
   r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
+  r->add_flag("--force", run->force, "overwrite an existing run folder");
   r->add_option("--stop-at", run->stop_at,
                 "stop (with a checkpoint) once simulated time reaches this; resume later");
   r->callback([run]() {

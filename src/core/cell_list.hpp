@@ -63,13 +63,9 @@ void CellList::for_each_neighbour_above(const World& world, std::size_t i, Visit
         const std::int32_t j = items_[k];
         if (static_cast<std::size_t>(j) <= i) continue;
         Vec2 delta = world.disks.position[j] - pi;
-        std::int32_t image = 0;
-        if (periodic_) {
-          const double shift = std::nearbyint(delta.x / lx_);
-          image = -static_cast<std::int32_t>(shift);
-          delta.x -= shift * lx_;
-        }
-        visit(j, image, delta);
+        const double shift = world.domain.periods_in(delta.x);
+        delta.x -= shift * lx_;
+        visit(j, -static_cast<std::int32_t>(shift), delta);
       }
     }
   }

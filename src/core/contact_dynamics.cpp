@@ -39,11 +39,8 @@ double current_overlap(const World& world, const Contact& c) {
   const std::size_t a = static_cast<std::size_t>(c.key.body_a);
   const std::size_t b = static_cast<std::size_t>(c.key.body_b);
   if (b >= n) return -wall_gap(world, a, world.walls[b - n]);
-  Vec2 delta = d.position[b] - d.position[a];
-  if (world.domain.periodic_x) {
-    // Minimum image: the periodic image of b may have changed when either disk was wrapped.
-    delta.x -= world.domain.length_x * std::nearbyint(delta.x / world.domain.length_x);
-  }
+  // Minimum image: the periodic image of b may have changed when either disk was wrapped.
+  const Vec2 delta = world.domain.minimum_image(d.position[b] - d.position[a]);
   return d.radius[a] + d.radius[b] - length(delta);
 }
 

@@ -58,7 +58,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 
   const double inv_dt = 1.0 / dt;
   for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
-    std::size_t converged = 0;
+    std::size_t converged = 0, carrying = 0;
     double sum_change = 0.0, sum_force = 0.0;
     for (const std::uint32_t k : order) {
       Contact& c = contacts[k];
@@ -80,14 +80,20 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       c.impulse_n = s.r_n;
       c.impulse_t = s.r_t;
 
+      // Only contacts that carry force (before or after this update) take part in the count:
+      // idle candidates (R = 0 staying 0) would otherwise pass for free, and the criterion would
+      // depend on the contact margin.
       const double change2 = dn * dn + dtt * dtt;
       const double force2 = s.r_n * s.r_n + s.r_t * s.r_t;
-      converged += change2 <= options.alpha * force2;
+      const bool carries = s.r_n > 0.0 || dn != 0.0;
+      carrying += carries;
+      converged += carries && change2 <= options.alpha * force2;
       sum_change += std::sqrt(change2);
       sum_force += std::sqrt(force2);
     }
     report.sweeps = sweep;
-    report.converged_fraction = static_cast<double>(converged) / static_cast<double>(nc);
+    report.converged_fraction =
+        carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
     if (sum_force > 0.0)
       report.residual = (sum_change / sum_force) * (sum_change / sum_force);
     else

@@ -12,8 +12,8 @@
 //
 // Convergence (SPEC 3.5): after each sweep, with dR_k the change of contact k's impulse during
 // that sweep, stop when both
-//   - |dR_k|^2 <= alpha |R_k|^2 for at least `converged_fraction` of the contacts (a contact
-//     whose impulse is and stays zero counts as converged), and
+//   - |dR_k|^2 <= alpha |R_k|^2 for at least `converged_fraction` of the force-carrying contacts
+//     (R_k != 0 before or after the sweep; idle candidates are not counted), and
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
 // or when `max_sweeps` is reached (reported as hit_cap).
 #pragma once
@@ -49,7 +49,7 @@ struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
   double residual = 0.0;            ///< (sum |dR| / sum |R|)^2 of the last sweep
-  double converged_fraction = 1.0;  ///< share of contacts meeting the tolerance, last sweep
+  double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
   int active_contacts = 0;          ///< contacts with R_n > 0 at the end
 };
 

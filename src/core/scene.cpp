@@ -52,8 +52,7 @@ class PlacementGrid {
         const auto it = cells_.find(pack(x, cy + dy));
         if (it == cells_.end()) continue;
         for (const std::size_t j : it->second) {
-          Vec2 delta = world_.disks.position[j] - p;
-          if (periodic_) delta.x -= lx_ * std::nearbyint(delta.x / lx_);
+          const Vec2 delta = world_.domain.minimum_image(world_.disks.position[j] - p);
           const double rr = r + world_.disks.radius[j];
           if (length_squared(delta) < rr * rr) return false;
         }

@@ -61,8 +61,11 @@ void wrap_positions(World& world) {
     const double shift = std::floor(d.position[i].x / lx);
     if (shift != 0.0) {
       d.position[i].x -= shift * lx;
-      if (d.position[i].x >= lx) d.position[i].x -= lx;  // rounding guard
       d.image[i] += static_cast<std::int64_t>(shift);
+      if (d.position[i].x >= lx) {  // rounding: a tiny negative x + L_x can round to L_x
+        d.position[i].x -= lx;
+        ++d.image[i];
+      }
     }
   }
 }

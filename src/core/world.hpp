@@ -2,6 +2,7 @@
 // Units are those of SPEC section 1 (length: largest grain diameter; mass: 2D density 1).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -54,6 +55,15 @@ struct Wall {
 struct Domain {
   bool periodic_x = false;
   double length_x = 0.0;  ///< period L_x [length], used when periodic_x
+
+  /// Number of periods to subtract from a separation dx to get its nearest image (0 if not
+  /// periodic).
+  double periods_in(double dx) const { return periodic_x ? std::nearbyint(dx / length_x) : 0.0; }
+  /// The nearest periodic image of a separation vector.
+  Vec2 minimum_image(Vec2 delta) const {
+    delta.x -= length_x * periods_in(delta.x);
+    return delta;
+  }
 };
 
 struct World {

@@ -93,6 +93,9 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     const json j = json::from_cbor(bytes);
     if (j.at("format") != "cdshear-checkpoint")
       throw ConfigError(file, "format", "not a cdshear checkpoint");
+    if (j.at("version") != 1)
+      throw ConfigError(file, "version",
+                        "unsupported checkpoint version " + j.at("version").dump());
     World& w = cp.world;
     w.time = j.at("time").get<double>();
     w.step = j.at("step").get<std::uint64_t>();
@@ -136,7 +139,17 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
       con.impulse_t = rt.at(k);
       cp.contacts.push_back(con);
     }
-  } catch (const json::exception& e) {
+    const std::size_t n = w.disks.position.size();
+    for (const std::size_t size :
+         {w.disks.image.size(), w.disks.angle.size(), w.disks.velocity.size(), w.disks.omega.size(),
+          w.disks.radius.size(), w.disks.mass.size(), w.disks.inertia.size()})
+      if (size != n) throw ConfigError(file, "disks", "arrays of different lengths");
+    for (const Contact& con : cp.contacts)
+      if (con.key.body_a < 0 || static_cast<std::size_t>(con.key.body_b) >= n + w.walls.size())
+        throw ConfigError(file, "contacts", "body index out of range");
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::exception& e) {
     throw ConfigError(file, "", std::string("corrupt checkpoint: ") + e.what());
   }
   return cp;

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/os.h>
 
+#include <unistd.h>
+
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -10,7 +12,8 @@
 namespace cdshear {
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
+  // Unique per process: two runs sharing a folder or a packing cache never share a temporary.
+  const std::filesystem::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error(tmp.string() + ": cannot open for writing");
@@ -95,7 +98,12 @@ void TimeSeriesWriter::truncate_after(const std::filesystem::path& path, std::ui
   bool header = true;
   while (std::getline(in, line)) {
     if (!header) {
-      const std::uint64_t row_step = std::stoull(line.substr(0, line.find(',')));
+      std::uint64_t row_step = 0;
+      try {
+        row_step = std::stoull(line.substr(0, line.find(',')));
+      } catch (const std::exception&) {
+        break;  // a row cut short by the kill: drop it and what follows
+      }
       if (row_step > step) break;
     }
     kept << line << '\n';

@@ -25,6 +25,10 @@ void write_packing(const std::filesystem::path& path, const Packing& p) {
                             {"solid_fraction", p.solid_fraction},
                             {"piston_stress", p.piston_stress},
                             {"preparation_time", p.preparation_time},
+                            {"preparation_steps", p.preparation_steps},
+                            {"capped_steps", p.capped_steps},
+                            {"displacement_warnings", p.displacement_warnings},
+                            {"largest_overlap", p.largest_overlap},
                             {"disks_xyr", disks}};
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
   write_file_atomic(path, j.dump(1) + "\n");
@@ -76,8 +80,20 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
 }
 
 std::string packing_cache_name(const PreparationOptions& o) {
-  return fmt::format("n{}_h{}_d{}-{}_seed{}_s{}.json", o.n, o.height, o.diameter_min,
-                     o.diameter_max, o.seed, o.piston_stress);
+  // Every option of the protocol enters the name through a hash, so that changing any of them
+  // (gravity, thresholds, time steps, solver) never silently reuses an old packing.
+  const SolverOptions& s = o.step.solver;
+  const std::string all =
+      fmt::format("{} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}", o.n,
+                  o.height, o.diameter_min, o.diameter_max, o.seed, o.initial_solid_fraction,
+                  o.gravity, o.piston_stress, o.piston_mass, o.settle_kinetic_energy_per_disk,
+                  o.kinetic_energy_per_disk, o.piston_speed, o.force_balance, o.window_time,
+                  o.max_time_per_phase, o.step.dt, o.compression_dt, o.step.contact_margin,
+                  o.step.abort_overlap, s.alpha, s.converged_fraction, s.max_sweeps, s.seed);
+  std::uint32_t h = 2166136261u;  // FNV-1a
+  for (const unsigned char ch : all) h = (h ^ ch) * 16777619u;
+  return fmt::format("n{}_h{}_d{}-{}_seed{}_s{}_{:08x}.json", o.n, o.height, o.diameter_min,
+                     o.diameter_max, o.seed, o.piston_stress, h);
 }
 
 }  // namespace cdshear

@@ -11,11 +11,13 @@ namespace cdshear {
 
 void write_packing(const std::filesystem::path& path, const Packing& packing);
 /// Throws ConfigError naming the file and the key for a missing file, a wrong format, or
-/// inconsistent content (disk outside the cell, overlap above `overlap_tolerance`).
+/// inconsistent content (non-positive sizes or radii, a disk crossing a horizontal wall by more
+/// than `overlap_tolerance`). Overlaps between disks are checked when the shear world is built.
 Packing read_packing(const std::filesystem::path& path, double overlap_tolerance = 1e-3);
 
 /// Cache name of a packing prepared with these options, for example
-/// "n511_h20_d0.8-1_seed1_s0.25.json": one packing serves every V of a system.
+/// "n511_h20_d0.8-1_seed1_s0.25_1a2b3c4d.json" (the last part hashes every option of the
+/// protocol): one packing serves every V of a system.
 std::string packing_cache_name(const PreparationOptions& o);
 
 }  // namespace cdshear

@@ -86,13 +86,7 @@ void write_contacts_vtp(const std::filesystem::path& path, const World& world,
                const std::size_t b = static_cast<std::size_t>(c.key.body_b);
                // b's centre in a's frame (nearest periodic image), or the contact point on a wall.
                Vec2 end = a - d.radius[c.key.body_a] * c.normal;
-               if (b < n) {
-                 Vec2 delta = d.position[b] - a;
-                 if (world.domain.periodic_x)
-                   delta.x -=
-                       world.domain.length_x * std::nearbyint(delta.x / world.domain.length_x);
-                 end = a + delta;
-               }
+               if (b < n) end = a + world.domain.minimum_image(d.position[b] - a);
                return fmt::format("{} {} 0 {} {} 0", a.x, a.y, end.x, end.y);
              }) +
        "</Points>\n";

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "scene.hpp"
+#include "scene_presets.hpp"
 
 namespace cdshear {
 
@@ -30,7 +31,7 @@ Wall fixed_wall(const std::string& name, Vec2 point, Vec2 normal) {
 double run_phase(int phase, World& world, ContactDynamics& dynamics, const PreparationOptions& o,
                  const StepOptions& step,
                  const std::function<void(const PreparationProgress&)>& progress,
-                 double progress_interval, const std::atomic<bool>* cancel) {
+                 double progress_interval, const std::atomic<bool>* cancel, Packing& stats) {
   const double dt = step.dt;
   const auto progress_every =
       std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(progress_interval / dt)));
@@ -45,6 +46,10 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
     if (cancel != nullptr && cancel->load())
       throw std::runtime_error("preparation interrupted in phase " + std::to_string(phase));
     const StepReport r = dynamics.step(world, step);
+    ++stats.preparation_steps;
+    stats.capped_steps += r.solver.hit_cap;
+    stats.displacement_warnings += r.displacement_exceeded;
+    stats.largest_overlap = std::max(stats.largest_overlap, r.max_overlap);
     if (r.blown_up)
       throw std::runtime_error("preparation phase " + std::to_string(phase) + " blew up at step " +
                                std::to_string(r.step) + ": " + r.problem);
@@ -89,10 +94,8 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
 Packing prepare_packing(const PreparationOptions& o,
                         const std::function<void(const PreparationProgress&)>& progress,
                         double progress_interval, const std::atomic<bool>* cancel) {
-  // Mean disk area for diameters uniform in [a, b]: (pi/4) E[d^2] = (pi/4)(b^3-a^3)/(3(b-a)).
   const double a = o.diameter_min, b = o.diameter_max;
-  const double mean_d2 = b > a ? (b * b * b - a * a * a) / (3.0 * (b - a)) : a * a;
-  const double total_area = static_cast<double>(o.n) * std::numbers::pi / 4.0 * mean_d2;
+  const double total_area = expected_disk_area(o.n, a, b);
   const double loose_length = total_area / (o.initial_solid_fraction * o.height);
 
   SceneDefinition scene;
@@ -111,8 +114,10 @@ Packing prepare_packing(const PreparationOptions& o,
   scene.random_disks.push_back(loose);
   World world = build_world(scene);
   ContactDynamics dynamics;
+  Packing packing;
 
-  double elapsed = run_phase(1, world, dynamics, o, o.step, progress, progress_interval, cancel);
+  double elapsed =
+      run_phase(1, world, dynamics, o, o.step, progress, progress_interval, cancel, packing);
 
   // Phase 2: gravity off, piston on the free surface.
   world.body_force = {};
@@ -126,9 +131,9 @@ Packing prepare_packing(const PreparationOptions& o,
   world.walls.push_back(piston);
   StepOptions compression = o.step;
   compression.dt = o.compression_dt;
-  elapsed += run_phase(2, world, dynamics, o, compression, progress, progress_interval, cancel);
+  elapsed +=
+      run_phase(2, world, dynamics, o, compression, progress, progress_interval, cancel, packing);
 
-  Packing packing;
   packing.height = o.height;
   packing.length_x = world.walls.back().point.x;
   packing.diameter_min = a;

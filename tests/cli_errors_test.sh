@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# `cdshear run` and `cdshear prepare` reject bad input with a message naming the file or option,
+# the key and the problem, and a non-zero exit status, before simulating anything.
+# Usage: cli_errors_test.sh CDSHEAR PACKING WORKDIR
+set -uo pipefail
+exe=$1; packing=$2; work=$3
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fails=0; checks=0
+expect_error() {  # expect_error "words in the message" command...
+  local words=$1; shift
+  checks=$((checks + 1))
+  if "$@" > out.txt 2> err.txt; then
+    echo "FAIL: succeeded: $*"; fails=$((fails + 1)); return
+  fi
+  if ! grep -qF -- "$words" err.txt; then
+    echo "FAIL: '$words' not in the error of: $*"; cat err.txt; fails=$((fails + 1))
+  fi
+}
+expect_error "key 'shear.velocity': must be > 0" "$exe" run -q -V -1 --packing "$packing"
+expect_error "key 'system.n': must be >= 1" "$exe" run -q --set system.n=0
+expect_error "key 'system.height'" "$exe" run -q --set system.height=0.5
+expect_error "/nonexistent/p.json: packing file not found" "$exe" run -q --packing /nonexistent/p.json
+expect_error "key 'n': packing has 511 disks" "$exe" run -q --set system.n=100 --packing "$packing"
+expect_error "key 'shear.duraton': unknown key" "$exe" run -q --set shear.duraton=5
+expect_error "missing.toml: file not found" "$exe" run -q missing.toml
+expect_error "--system: system must be 1..7" "$exe" run -q --system 9
+expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
+
+# A finished run folder is not overwritten, and --resume accepts only numerics/output changes.
+"$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done > /dev/null
+expect_error "already holds a run" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
+expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
+expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
+"$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done --force > /dev/null ||
+  { echo "FAIL: --force did not overwrite"; fails=$((fails + 1)); }
+checks=$((checks + 1))
+
+echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
+[ $fails -eq 0 ]
