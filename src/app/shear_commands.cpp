@@ -210,14 +210,21 @@ int run_shear(const RunArgs& args) {
     } catch (const SceneError& e) {
       throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
     }
-    dir = args.out_dir.empty()
-              ? fs::path("runs") / fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity,
-                                               c.normal_stress, c.seed)
-              : fs::path(args.out_dir);
-    if (fs::exists(dir / "case.toml") && !args.force)
-      throw ConfigError(dir.string(), "",
-                        "already holds a run (case.toml); continue it with --resume " +
-                            dir.string() + ", choose another -o, or pass --force to overwrite");
+    if (args.out_dir.empty()) {
+      // Default folder: named after the case; a new run never overwrites an earlier one but
+      // takes the next free suffix (_2, _3, ...).
+      const std::string base =
+          fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity, c.normal_stress, c.seed);
+      dir = fs::path("runs") / base;
+      for (int k = 2; fs::exists(dir / "case.toml") && !args.force; ++k)
+        dir = fs::path("runs") / fmt::format("{}_{}", base, k);
+    } else {
+      dir = args.out_dir;
+      if (fs::exists(dir / "case.toml") && !args.force)
+        throw ConfigError(dir.string(), "",
+                          "already holds a run (case.toml); continue it with --resume " +
+                              dir.string() + ", choose another -o, or pass --force to overwrite");
+    }
     fs::create_directories(dir);
     for (const char* stale :
          {"final_state.json", "interrupted_state.json", "blowup_state.json", "checkpoint.cbor"})

@@ -62,13 +62,7 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   step.finish();
 
   TomlReader solver = root.table("solver");
-  {
-    // Reuse the scene-file reader for [solver]; [step] keys were read above.
-    static const toml::table empty;
-    TomlReader empty_step(empty, file, "step");
-    const StepOptions parsed = read_step_options(empty_step, solver);
-    c.step.solver = parsed.solver;
-  }
+  c.step.solver = read_solver_options(solver, c.step.solver);
 
   TomlReader prep = root.table("preparation");
   PreparationOptions& p = c.preparation;

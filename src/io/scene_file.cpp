@@ -7,6 +7,24 @@ AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
   return m == "free" ? AxisMode::kFree : m == "imposed" ? AxisMode::kImposed : AxisMode::kFixed;
 }
 
+SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
+  s.alpha = solver.positive("alpha", s.alpha);
+  s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
+  if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
+  const std::int64_t cap = solver.integer("max_sweeps", s.max_sweeps);
+  if (cap < 1) solver.fail("max_sweeps", "must be >= 1");
+  s.max_sweeps = static_cast<int>(cap);
+  const char* order = s.order == ContactOrder::kRandom ? "random" : "sequential";
+  s.order = solver.choice("order", {"random", "sequential"}, order) == "random"
+                ? ContactOrder::kRandom
+                : ContactOrder::kSequential;
+  const std::int64_t seed = solver.integer("seed", static_cast<std::int64_t>(s.seed));
+  if (seed < 0) solver.fail("seed", "must be >= 0");
+  s.seed = static_cast<std::uint64_t>(seed);
+  solver.finish();
+  return s;
+}
+
 StepOptions read_step_options(TomlReader& step, TomlReader& solver) {
   StepOptions o;
   o.dt = step.positive("dt", o.dt);
@@ -15,20 +33,7 @@ StepOptions read_step_options(TomlReader& step, TomlReader& solver) {
   o.abort_overlap = step.positive("abort_overlap", o.abort_overlap);
   step.finish();
 
-  SolverOptions& s = o.solver;
-  s.alpha = solver.positive("alpha", s.alpha);
-  s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
-  if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
-  const std::int64_t cap = solver.integer("max_sweeps", s.max_sweeps);
-  if (cap < 1) solver.fail("max_sweeps", "must be >= 1");
-  s.max_sweeps = static_cast<int>(cap);
-  s.order = solver.choice("order", {"random", "sequential"}, "random") == "random"
-                ? ContactOrder::kRandom
-                : ContactOrder::kSequential;
-  const std::int64_t seed = solver.integer("seed", 1);
-  if (seed < 0) solver.fail("seed", "must be >= 0");
-  s.seed = static_cast<std::uint64_t>(seed);
-  solver.finish();
+  o.solver = read_solver_options(solver, o.solver);
   return o;
 }
 

@@ -30,7 +30,9 @@ struct SceneFile {
 /// file and key of the first problem (unknown key, wrong type, bad value, overlapping disks).
 SceneFile load_scene_file(const std::string& path, const std::vector<std::string>& overrides);
 
-/// The [step] and [solver] tables, shared by scene and shear-case files.
+/// The [solver] table, shared by scene and shear-case files; absent keys keep `base`'s values.
+SolverOptions read_solver_options(TomlReader& solver, SolverOptions base);
+/// The [step] and [solver] tables of a scene file.
 StepOptions read_step_options(TomlReader& step, TomlReader& solver);
 
 AxisMode parse_axis_mode(TomlReader& t, const std::string& key);
