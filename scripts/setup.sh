@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
-          libfmt-dev librandom123-dev libgtest-dev libbenchmark-dev
+          libfmt-dev librandom123-dev libgtest-dev
           python3-numpy python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do

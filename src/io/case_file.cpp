@@ -81,6 +81,10 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   p.max_time_per_phase = prep.positive("max_time_per_phase", p.max_time_per_phase);
   p.step.dt = prep.positive("dt", p.step.dt);
   p.compression_dt = prep.positive("compression_dt", p.compression_dt);
+  p.step.solver.alpha = prep.positive("alpha", p.step.solver.alpha);
+  const std::int64_t prep_sweeps = prep.integer("max_sweeps", p.step.solver.max_sweeps);
+  if (prep_sweeps < 1) prep.fail("max_sweeps", "must be >= 1");
+  p.step.solver.max_sweeps = static_cast<int>(prep_sweeps);
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
 
@@ -168,6 +172,8 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"max_time_per_phase", p.max_time_per_phase},
                    {"dt", p.step.dt},
                    {"compression_dt", p.compression_dt},
+                   {"alpha", p.step.solver.alpha},
+                   {"max_sweeps", p.step.solver.max_sweeps},
                    {"packing", c.packing_file}}},
       {"output", toml::table{{"sample_interval", c.sample_interval},
                              {"status_interval", c.status_interval},

@@ -39,9 +39,12 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
   const auto max_steps = static_cast<std::uint64_t>(std::ceil(o.max_time_per_phase / dt));
   const bool has_piston = phase == 2;
   const double applied = o.piston_stress * o.height;
-  std::uint64_t quiet_steps = 0;
-  double force_sum = 0.0;
+  const double ek_limit = has_piston ? o.kinetic_energy_per_disk : o.settle_kinetic_energy_per_disk;
   const double n = static_cast<double>(std::max<std::size_t>(1, world.disks.size()));
+  // Block averages over consecutive windows: robust to the isolated spikes of a rigid packing.
+  std::uint64_t block_steps = 0;
+  double ek_sum = 0.0, force_sum = 0.0;
+  double block_start_x = has_piston ? world.walls.back().point.x : 0.0;
   for (std::uint64_t s = 1; s <= max_steps; ++s) {
     if (cancel != nullptr && cancel->load())
       throw std::runtime_error("preparation interrupted in phase " + std::to_string(phase));
@@ -56,15 +59,21 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
     const double ek = kinetic_energy(world) / n;
     const Wall* piston = has_piston ? &world.walls.back() : nullptr;
     const double speed = piston ? std::abs(piston->velocity.x) : 0.0;
-    const double ek_limit =
-        has_piston ? o.kinetic_energy_per_disk : o.settle_kinetic_energy_per_disk;
-    const bool quiet = ek < ek_limit && speed < o.piston_speed;
-    if (quiet) {
-      ++quiet_steps;
-      force_sum += piston ? piston->contact_force.x : 0.0;
-    } else {
-      quiet_steps = 0;
-      force_sum = 0.0;
+    ++block_steps;
+    ek_sum += ek;
+    force_sum += piston ? piston->contact_force.x : 0.0;
+    if (block_steps == window_steps) {
+      const double span = static_cast<double>(block_steps) * dt;
+      const double mean_ek = ek_sum / static_cast<double>(block_steps);
+      const double drift = piston ? std::abs(piston->point.x - block_start_x) / span : 0.0;
+      const double mean_force = force_sum / static_cast<double>(block_steps);
+      const bool balanced =
+          !has_piston || std::abs(mean_force - applied) <= o.force_balance * applied;
+      if (mean_ek < ek_limit && drift < o.piston_speed && balanced)
+        return static_cast<double>(s) * dt;
+      block_steps = 0;
+      ek_sum = force_sum = 0.0;
+      block_start_x = piston ? piston->point.x : 0.0;
     }
     if (progress && s % progress_every == 0) {
       PreparationProgress p;
@@ -75,13 +84,6 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
       p.piston_speed = speed;
       p.report = r;
       progress(p);
-    }
-    if (quiet_steps >= window_steps) {
-      const double mean_force = force_sum / static_cast<double>(quiet_steps);
-      if (!has_piston || std::abs(mean_force - applied) <= o.force_balance * applied)
-        return static_cast<double>(s) * dt;
-      quiet_steps = 0;
-      force_sum = 0.0;
     }
   }
   throw std::runtime_error("preparation phase " + std::to_string(phase) +

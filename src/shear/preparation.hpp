@@ -4,13 +4,16 @@
 //      of the wall, settling against it under a body force g along -x;
 //   2. compression: body force off; a piston (vertical wall, normal -x) placed on the free surface,
 //      free in x with mass M_p under the force sigma_xx L_y, pushes until equilibrium.
-// Equilibrium: over a window of `window_time`, the kinetic energy per disk stays below
-// `settle_kinetic_energy_per_disk` (phase 1: the pile has settled; it need not be perfectly at
-// rest, phase 2 finishes the job) or `kinetic_energy_per_disk` (phase 2), the piston speed stays
-// below `piston_speed`, and the mean force the disks exert on the piston matches the applied
-// force within `force_balance` (relative). L_x is then the distance from the vertical wall to the
-// piston. The floor of the kinetic energy is set by the solver tolerance: an unconverged step
-// leaves overlaps of order 1e-6 d which the next step removes at speed overlap / dt.
+// Equilibrium is judged on consecutive blocks of `window_time`: a phase ends at the end of the
+// first block whose mean kinetic energy per disk is below `settle_kinetic_energy_per_disk`
+// (phase 1: the pile has settled; phase 2 finishes the job) or `kinetic_energy_per_disk`
+// (phase 2), whose net piston drift |x_end - x_start| / window_time is below `piston_speed`, and
+// whose mean force of the disks on the piston matches the applied force within `force_balance`
+// (relative). Block means, not every step, because a rigid packing has isolated spikes that
+// would reset a step-by-step test for a long time. L_x is then the distance from the vertical
+// wall to the piston. The floor of the kinetic energy is set by the solver tolerance: an
+// unconverged step leaves overlaps of order 1e-6 d which the next step removes at speed overlap /
+// dt.
 #pragma once
 
 #include <atomic>
@@ -37,8 +40,16 @@ struct PreparationOptions {
   double force_balance = 0.01;       ///< |<F_contact> - F_applied| / F_applied at equilibrium
   double window_time = 5.0;          ///< the criteria must hold over this long [t]
   double max_time_per_phase = 2000;  ///< give up (error) after this long [t]
-  StepOptions step;                  ///< dt (phase 1), margin, solver options for the protocol
-  double compression_dt = 1e-3;      ///< phase 2 time step [t]
+  /// dt (phase 1), margin, solver options of the protocol. The solver tolerance is alpha = 1e-4
+  /// here, not the 1e-6 of shear runs: preparation needs an equilibrium packing, not accurate
+  /// force histories, and is then about 3 times faster (measured: 91 s against more than 4 min for
+  /// system 1; L_x 19.56 against 19.67, solid fraction 0.829 against 0.824).
+  StepOptions step = [] {
+    StepOptions s;
+    s.solver.alpha = 1e-4;
+    return s;
+  }();
+  double compression_dt = 1e-3;  ///< phase 2 time step [t]
 };
 
 struct PreparationProgress {
