@@ -82,6 +82,7 @@ TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
   for (int s = 0; s < transient; ++s) ASSERT_FALSE(dynamics.step(world, c.step).blown_up);
 
   const Vec2 p0 = linear_momentum(world);
+  const Vec2 j_bottom0 = world.walls[kBottomWall].contact_impulse;
   const Vec2 v_bottom0 = world.walls[kBottomWall].velocity, v_top0 = world.walls[kTopWall].velocity;
   const double x_bottom0 = world.walls[kBottomWall].point.x, x_top0 = world.walls[kTopWall].point.x;
   ShearWindow w;
@@ -100,6 +101,11 @@ TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
   const double T = window * dt;
   const Wall& b = world.walls[kBottomWall];
   const Wall& t = world.walls[kTopWall];
+
+  // The running contact impulse of a wall (written to the time series) is the time integral of
+  // its per-step contact force.
+  EXPECT_NEAR(b.contact_impulse.y - j_bottom0.y, w.impulse_bottom.y,
+              1e-9 * std::abs(w.impulse_bottom.y));
 
   // Walls move at exactly -V and +V along x.
   EXPECT_TRUE(w.walls_exact);

@@ -117,6 +117,7 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     }
     if (finite) report.max_overlap = std::max(report.max_overlap, current_overlap(world, c));
   }
+  for (Wall& wall : world.walls) wall.contact_impulse += dt * wall.contact_force;
   report.max_displacement = std::sqrt(max_disp2);
   // The candidates had gap < margin at the start of the step. Another pair can overlap now only
   // if its two bodies closed in by more than the margin during the step: then look at every pair

@@ -49,6 +49,10 @@ struct Wall {
   Vec2 applied_force;     ///< external force on kFree axes [force]
   double friction = 0.5;  ///< Coulomb coefficient against disks
   Vec2 contact_force;     ///< output: mean force the disks exerted on it last step
+  /// Output: integral of contact_force over time since the start of the run [force time]. Exact
+  /// time averages between any two samples: (J(t2) - J(t1)) / (t2 - t1), whereas rigid contact
+  /// forces sampled at single steps are spiky.
+  Vec2 contact_impulse;
 };
 
 /// The periodic boundary along x (y is never periodic).

@@ -46,7 +46,8 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
                      {"mass", wall.mass},
                      {"applied_force", to_json(wall.applied_force)},
                      {"friction", wall.friction},
-                     {"contact_force", to_json(wall.contact_force)}});
+                     {"contact_force", to_json(wall.contact_force)},
+                     {"contact_impulse", to_json(wall.contact_impulse)}});
   std::vector<std::int32_t> a, b, image;
   std::vector<double> rn, rt;
   for (const Contact& c : contacts) {
@@ -124,6 +125,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
       wall.applied_force = to_vec2(wj.at("applied_force"));
       wall.friction = wj.at("friction").get<double>();
       wall.contact_force = to_vec2(wj.at("contact_force"));
+      wall.contact_impulse = to_vec2(wj.at("contact_impulse"));
       w.walls.push_back(wall);
     }
     const json& c = j.at("contacts");

@@ -53,7 +53,8 @@ nlohmann::json state_to_json(const World& world) {
                      {"velocity", {w.velocity.x, w.velocity.y}},
                      {"mode_x", mode_name(w.mode_x)},
                      {"mode_y", mode_name(w.mode_y)},
-                     {"contact_force", {w.contact_force.x, w.contact_force.y}}});
+                     {"contact_force", {w.contact_force.x, w.contact_force.y}},
+                     {"contact_impulse", {w.contact_impulse.x, w.contact_impulse.y}}});
   }
   return {{"time", world.time},
           {"step", world.step},
@@ -71,7 +72,7 @@ TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const Worl
   out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,sweeps,"
           "residual,converged_fraction,hit_cap,max_overlap";
   for (const Wall& w : world.walls)
-    out_ << fmt::format(",{0}_x,{0}_y,{0}_vx,{0}_vy,{0}_fx,{0}_fy", w.name);
+    out_ << fmt::format(",{0}_x,{0}_y,{0}_vx,{0}_vy,{0}_fx,{0}_fy,{0}_jx,{0}_jy", w.name);
   out_ << '\n';
   out_.flush();
 }
@@ -83,8 +84,9 @@ void TimeSeriesWriter::write(const World& world, const StepReport& r) {
       p.y, r.contacts, r.solver.active_contacts, r.solver.sweeps, r.solver.residual,
       r.solver.converged_fraction, r.solver.hit_cap ? 1 : 0, r.max_overlap);
   for (const Wall& w : world.walls)
-    row += fmt::format(",{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,
-                       w.contact_force.x, w.contact_force.y);
+    row +=
+        fmt::format(",{},{},{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,
+                    w.contact_force.x, w.contact_force.y, w.contact_impulse.x, w.contact_impulse.y);
   row += '\n';
   out_ << row;
   out_.flush();

@@ -23,8 +23,9 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& tex
 nlohmann::json state_to_json(const World& world);
 
 /// One CSV row per sample: step, time, kinetic energy, momentum, contacts, solver figures,
-/// largest overlap, then position, velocity and contact force of each wall (columns named after
-/// the walls). Rows are flushed at every sample so an interrupted run keeps what it measured.
+/// largest overlap, then position, velocity, contact force of the last step and contact impulse
+/// since the start (its time integral) of each wall (columns named after the walls). Rows are
+/// flushed at every sample so an interrupted run keeps what it measured.
 class TimeSeriesWriter {
  public:
   /// Opens `path`; with `append`, keeps existing rows (resumed runs) and writes no header.
