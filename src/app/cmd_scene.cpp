@@ -65,9 +65,7 @@ int run_scene(const SceneArgs& args) {
                          {"state_hash", fmt::format("{:016x}", state_hash(world))},
                          {"summary", summary_to_json(summary)}};
   write_file_atomic(dir / "run_info.json", info.dump(2) + "\n");
-  const char* state_name = summary.outcome == RunOutcome::kFinished      ? "final_state.json"
-                           : summary.outcome == RunOutcome::kInterrupted ? "interrupted_state.json"
-                                                                         : "blowup_state.json";
+  const char* state_name = state_file_name(summary.outcome, true);
   write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
   std::printf(
       "%llu steps in %.2f s (%.0f steps/s), mean sweeps %.1f, largest %d, capped %llu, "

@@ -116,9 +116,12 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   return summary;
 }
 
-}  // namespace cdshear
+const char* state_file_name(RunOutcome outcome, bool reached_end) {
+  if (outcome == RunOutcome::kBlownUp) return "blowup_state.json";
+  return reached_end && outcome == RunOutcome::kFinished ? "final_state.json"
+                                                         : "interrupted_state.json";
+}
 
-namespace cdshear {
 nlohmann::json summary_to_json(const RunSummary& s) {
   const char* outcome = s.outcome == RunOutcome::kFinished      ? "finished"
                         : s.outcome == RunOutcome::kInterrupted ? "interrupted"

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "contact_dynamics.hpp"
 #include "world.hpp"
 
@@ -59,11 +61,11 @@ void install_stop_handlers();
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
                      const RunLoopSettings& settings, std::span<const ScheduledObserver> observers);
 
-}  // namespace cdshear
-
-#include <nlohmann/json.hpp>
-
-namespace cdshear {
 /// The summary as JSON (for run_info.json).
 nlohmann::json summary_to_json(const RunSummary& s);
+
+/// Name of the state file a run leaves: blowup_state.json after a blow-up, final_state.json when
+/// it reached its end, interrupted_state.json otherwise (signal, --stop-at).
+const char* state_file_name(RunOutcome outcome, bool reached_end);
+
 }  // namespace cdshear

@@ -268,9 +268,7 @@ int run_shear(const RunArgs& args) {
   // checkpoint stays), state file, run info.
   const bool finished = summary.outcome == RunOutcome::kFinished && world.step >= end_step;
   if (summary.outcome != RunOutcome::kBlownUp) checkpoint.observe(world, dynamics, summary.last);
-  const char* state_name = summary.outcome == RunOutcome::kBlownUp ? "blowup_state.json"
-                           : finished                              ? "final_state.json"
-                                                                   : "interrupted_state.json";
+  const char* state_name = state_file_name(summary.outcome, finished);
   write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
   if (finished) fs::remove(dir / "interrupted_state.json");  // stale once the run is complete
   nlohmann::json info = {{"program", "cdshear"},
@@ -347,7 +345,7 @@ void register_shear_commands(CLI::App& app) {
       "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
   add_case_options(r, run->c);
   r->add_option("-o,--output", run->out_dir,
-                "output folder; default runs/n<n>_h<L_y>_V<V>_seed<seed>");
+                "output folder; default runs/n<n>_h<L_y>_V<V>_s<sigma_yy>_seed<seed>[_2, _3...]");
   r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
   r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
   r->add_flag("--force", run->force, "overwrite an existing run folder");
