@@ -12,6 +12,7 @@
 #include "observers.hpp"
 #include "outputs.hpp"
 #include "run_loop.hpp"
+#include "run_session.hpp"
 #include "scene_file.hpp"
 
 namespace cdshear {
@@ -49,45 +50,23 @@ int run_scene(const SceneArgs& args) {
   if (args.quiet) loop.status_every = 0;
   loop.progress_bar = !args.quiet && isatty(STDERR_FILENO);
 
-  TimeSeriesObserver series(dir / "timeseries.csv", world);
-  const ScheduledObserver observers[] = {{sf.run.sample_every, &series}};
+  TimeSeriesObserver series(dir / "timeseries.csv", world, sf.run.sample_every);
+  const ScheduledObserver observers[] = {{1, &series}};
   std::printf("cdshear scene %s: %zu disks, %zu walls, dt %g, %llu steps -> %s\n",
               args.file.c_str(), world.disks.size(), world.walls.size(), sf.step.dt,
               static_cast<unsigned long long>(end_step), dir.c_str());
   ContactDynamics dynamics;
   const RunSummary summary = run_until(world, dynamics, sf.step, loop, observers);
 
-  nlohmann::json info = {{"program", "cdshear"},
-                         {"version", CDSHEAR_VERSION},
-                         {"scene", args.file},
-                         {"overrides", args.overrides},
-                         {"seed", sf.step.solver.seed},
-                         {"state_hash", fmt::format("{:016x}", state_hash(world))},
-                         {"summary", summary_to_json(summary)}};
-  write_file_atomic(dir / "run_info.json", info.dump(2) + "\n");
-  const char* state_name = state_file_name(summary.outcome, true);
-  write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
-  std::printf(
-      "%llu steps in %.2f s (%.0f steps/s), mean sweeps %.1f, largest %d, capped %llu, "
-      "largest overlap %.3g\n",
-      static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
-      summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
-      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
-      summary.largest_overlap);
-  if (summary.outcome == RunOutcome::kBlownUp) {
-    std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s\n",
-                 static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
-                 (dir / state_name).c_str());
-    return 3;
-  }
-  if (summary.outcome == RunOutcome::kInterrupted) {
-    std::fprintf(stderr, "interrupted at step %llu; state written to %s\n",
-                 static_cast<unsigned long long>(world.step), (dir / state_name).c_str());
-    return 130;
-  }
-  std::printf("output in %s (timeseries.csv, final_state.json, run_info.json, scene.toml)\n",
-              dir.c_str());
-  return 0;
+  RunEnd end;
+  end.dir = dir;
+  end.reached_end = world.step >= end_step;
+  end.info = {{"scene", args.file}, {"overrides", args.overrides}, {"seed", sf.step.solver.seed}};
+  const int status = finish_run(end, world, summary);
+  if (status == 0)
+    std::printf("output in %s (timeseries.csv, final_state.json, run_info.json, scene.toml)\n",
+                dir.c_str());
+  return status;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "analysis_command.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "run_loop.hpp"
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);
+  cdshear::register_analysis_commands(app);
   // From the start, so that a signal during set-up still ends in a clean stop with a checkpoint.
   cdshear::install_stop_handlers();
   try {

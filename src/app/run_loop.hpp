@@ -44,8 +44,8 @@ struct RunSummary {
   StepReport last;
   std::uint64_t steps = 0;  ///< steps done by this call
   double wall_seconds = 0.0;
-  std::uint64_t capped_steps = 0;               ///< steps whose solver hit the sweep cap
-  std::vector<std::uint64_t> capped_step_list;  ///< their numbers (first 10000)
+  std::uint64_t capped_steps = 0;  ///< steps whose solver hit the sweep cap (per interval: the
+                                   ///< time series and the status lines)
   std::uint64_t displacement_warnings = 0;      ///< steps above displacement_bound
   double largest_overlap = 0.0;
   double mean_sweeps = 0.0;

@@ -6,15 +6,20 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 
+#include "analysis_command.hpp"
 #include "case_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "observers.hpp"
 #include "outputs.hpp"
+#include "measurement_state.hpp"
 #include "packing_file.hpp"
+#include "run_data_file.hpp"
 #include "run_loop.hpp"
+#include "run_session.hpp"
 #include "scene.hpp"
 
 namespace cdshear {
@@ -125,10 +130,6 @@ void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path&
                  static_cast<unsigned long long>(c.seed));
 }
 
-std::uint64_t steps_of(double interval, double dt) {
-  return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
-}
-
 struct RunArgs {
   CaseArgs c;
   std::string out_dir;
@@ -136,17 +137,18 @@ struct RunArgs {
   std::string packing;
   double stop_at = -1.0;
   bool force = false;
+  bool no_analyze = false;
 };
 
 /// On resume only these may change: how long, what is written, and numerics of later steps.
-/// Physics (system, shear, preparation) comes from the checkpoint and cannot.
+/// Physics (system, shear, preparation) and the measurement's layout come from the checkpoint.
 void check_resume_override(const std::string& item) {
   const std::string key = item.substr(0, item.find('='));
   for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
     if (key.rfind(allowed, 0) == 0) return;
   throw ConfigError("--set " + item, key,
-                    "cannot be changed on --resume (the physics comes from the checkpoint); only "
-                    "shear.duration, output.*, step.* and solver.* can");
+                    "cannot be changed on --resume (the physics and the measurement windows come "
+                    "from the checkpoint); only shear.duration, output.*, step.* and solver.* can");
 }
 
 /// The resolved case as TOML text, with the packing actually used.
@@ -161,76 +163,137 @@ std::string resolved_case_text(const ShearCase& c, const std::string& packing,
   return text.str();
 }
 
-int run_shear(const RunArgs& args) {
-  const bool resuming = !args.resume_dir.empty();
+/// A shear run ready to step: its case, folder, world and contact memory, and for a resumed run
+/// the observers' state stored in the checkpoint.
+struct ShearSession {
   ShearCase c;
   fs::path dir;
-  if (resuming) {
-    dir = args.resume_dir;
-    if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity ||
-        !args.packing.empty() || !args.out_dir.empty() || args.force)
-      throw ConfigError("--resume " + dir.string(), "",
-                        "a case file, --system, --velocity, --packing, -o and --force cannot be "
-                        "combined with --resume: the run continues with its own case.toml");
-    if (!fs::exists(dir / "checkpoint.cbor"))
-      throw ConfigError(dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
-    for (const std::string& item : args.c.overrides) check_resume_override(item);
-    CaseSource src;
-    src.file = (dir / "case.toml").string();
-    src.overrides = args.c.overrides;
-    c = load_case(src);
-  } else {
-    c = load_case(to_source(args.c));
-    if (!args.packing.empty()) c.packing_file = args.packing;
-  }
-  const std::string dt_warning = resolve_time_step(c);
-  if (!dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", dt_warning.c_str());
-  const double dt = c.step.dt;
-
   World world;
   ContactDynamics dynamics;
   std::string packing_used;
-  if (resuming) {
-    Checkpoint cp = read_checkpoint(dir / "checkpoint.cbor");
-    world = std::move(cp.world);
-    dynamics.set_contacts(std::move(cp.contacts));
-    TimeSeriesWriter::truncate_after(dir / "timeseries.csv", world.step);
-    packing_used = c.packing_file;
-    // Overrides given now hold for later resumes too.
-    if (!args.c.overrides.empty())
-      write_file_atomic(dir / "case.toml", resolved_case_text(c, c.packing_file, dir));
-    std::printf("resuming %s at step %llu, t %.4f\n", dir.c_str(),
-                static_cast<unsigned long long>(world.step), world.time);
-  } else {
-    auto [packing, path] = obtain_packing(c, args.c.quiet);
-    packing_used = path.string();
-    check_packing_matches(c, packing, path);
-    try {
-      world = build_shear_world(c, packing);
-    } catch (const SceneError& e) {
-      throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
-    }
-    if (args.out_dir.empty()) {
-      // Default folder: named after the case; a new run never overwrites an earlier one but
-      // takes the next free suffix (_2, _3, ...).
-      const std::string base =
-          fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity, c.normal_stress, c.seed);
-      dir = fs::path("runs") / base;
-      for (int k = 2; fs::exists(dir / "case.toml") && !args.force; ++k)
-        dir = fs::path("runs") / fmt::format("{}_{}", base, k);
-    } else {
-      dir = args.out_dir;
-      if (fs::exists(dir / "case.toml") && !args.force)
-        throw ConfigError(dir.string(), "",
-                          "already holds a run (case.toml); continue it with --resume " +
-                              dir.string() + ", choose another -o, or pass --force to overwrite");
-    }
-    fs::create_directories(dir);
-    for (const char* stale :
-         {"final_state.json", "interrupted_state.json", "blowup_state.json", "checkpoint.cbor"})
-      fs::remove(dir / stale);
-    write_file_atomic(dir / "case.toml", resolved_case_text(c, packing_used, dir));
+  bool resuming = false;
+  nlohmann::json observer_state;
+};
+
+void open_resumed(const RunArgs& args, ShearSession& s) {
+  s.resuming = true;
+  s.dir = args.resume_dir;
+  if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity ||
+      !args.packing.empty() || !args.out_dir.empty() || args.force)
+    throw ConfigError("--resume " + s.dir.string(), "",
+                      "a case file, --system, --velocity, --packing, -o and --force cannot be "
+                      "combined with --resume: the run continues with its own case.toml");
+  if (!fs::exists(s.dir / "checkpoint.cbor"))
+    throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
+  for (const std::string& item : args.c.overrides) check_resume_override(item);
+  CaseSource src;
+  src.file = (s.dir / "case.toml").string();
+  src.overrides = args.c.overrides;
+  s.c = load_case(src);
+  Checkpoint cp = read_checkpoint(s.dir / "checkpoint.cbor");
+  s.world = std::move(cp.world);
+  s.dynamics.set_contacts(std::move(cp.contacts));
+  s.observer_state = std::move(cp.observers);
+  s.packing_used = s.c.packing_file;
+  // Overrides given now hold for later resumes too.
+  if (!args.c.overrides.empty())
+    write_file_atomic(s.dir / "case.toml", resolved_case_text(s.c, s.c.packing_file, s.dir));
+  std::printf("resuming %s at step %llu, t %.4f\n", s.dir.c_str(),
+              static_cast<unsigned long long>(s.world.step), s.world.time);
+}
+
+void open_new(const RunArgs& args, ShearSession& s) {
+  ShearCase& c = s.c;
+  c = load_case(to_source(args.c));
+  if (!args.packing.empty()) c.packing_file = args.packing;
+  auto [packing, path] = obtain_packing(c, args.c.quiet);
+  s.packing_used = path.string();
+  check_packing_matches(c, packing, path);
+  try {
+    s.world = build_shear_world(c, packing);
+  } catch (const SceneError& e) {
+    throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
   }
+  if (args.out_dir.empty()) {
+    // Default folder: named after the case; a new run never overwrites an earlier one but
+    // takes the next free suffix (_2, _3, ...).
+    const std::string base =
+        fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity, c.normal_stress, c.seed);
+    s.dir = fs::path("runs") / base;
+    for (int k = 2; fs::exists(s.dir / "case.toml") && !args.force; ++k)
+      s.dir = fs::path("runs") / fmt::format("{}_{}", base, k);
+  } else {
+    s.dir = args.out_dir;
+    if (fs::exists(s.dir / "case.toml") && !args.force)
+      throw ConfigError(s.dir.string(), "",
+                        "already holds a run (case.toml); continue it with --resume " +
+                            s.dir.string() + ", choose another -o, or pass --force to overwrite");
+  }
+  fs::create_directories(s.dir);
+  for (const char* stale : {"final_state.json", "interrupted_state.json", "blowup_state.json",
+                            "checkpoint.cbor", "run.h5", "summary.json"})
+    fs::remove(s.dir / stale);
+  write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
+}
+
+/// The measurement layer of a session, restored from the checkpoint and run.h5 when resuming.
+std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
+  if (!s.c.measure.enabled) return nullptr;
+  const MeasureContext context{s.c.step.dt, s.c.velocity, s.c.normal_stress, s.c.height};
+  auto m = std::make_unique<ShearMeasurement>(s.c.measure, context, s.world);
+  if (!s.resuming) return m;
+  const std::string checkpoint = (s.dir / "checkpoint.cbor").string();
+  if (!s.observer_state.contains("measurement"))
+    throw ConfigError(checkpoint, "observers.measurement",
+                      "the checkpoint holds no measurement state");
+  MeasurementState state;
+  try {
+    state = measurement_state_from_json(s.observer_state.at("measurement"));
+  } catch (const std::exception& e) {
+    throw ConfigError(checkpoint, "observers.measurement", e.what());
+  }
+  if (state.grain_moment.size() != s.world.disks.size() ||
+      state.window.area.size() != m->stripes())
+    throw ConfigError(checkpoint, "observers.measurement",
+                      "does not match the run's disks or stripes");
+  // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
+  RunData data = read_run_data(s.dir / "run.h5");
+  std::erase_if(data.series, [&](const SeriesRow& r) { return r.step > s.world.step; });
+  std::erase_if(data.windows, [&](const WindowProfile& w) {
+    return std::llround(w.t_end / s.c.step.dt) > static_cast<long long>(s.world.step);
+  });
+  m->restore(std::move(state), std::move(data.series), std::move(data.windows));
+  return m;
+}
+
+RunMetadata run_metadata(const ShearSession& s, bool finished) {
+  RunMetadata meta;
+  meta.case_toml = resolved_case_text(s.c, s.packing_used, s.dir);
+  meta.n = s.world.disks.size();
+  meta.length_x = s.world.domain.length_x;
+  meta.height = s.c.height;
+  meta.velocity = s.c.velocity;
+  meta.normal_stress = s.c.normal_stress;
+  meta.dt = s.c.step.dt;
+  meta.seed = s.c.seed;
+  meta.solver_seed = s.c.step.solver.seed;
+  meta.duration = s.c.duration;
+  meta.time = s.world.time;
+  meta.step = s.world.step;
+  meta.finished = finished;
+  return meta;
+}
+
+int run_shear(const RunArgs& args) {
+  ShearSession s;
+  if (args.resume_dir.empty())
+    open_new(args, s);
+  else
+    open_resumed(args, s);
+  const std::string dt_warning = resolve_time_step(s.c);
+  if (!dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", dt_warning.c_str());
+  const ShearCase& c = s.c;
+  const double dt = c.step.dt;
 
   const std::uint64_t end_step = static_cast<std::uint64_t>(std::llround(c.duration / dt));
   RunLoopSettings loop;
@@ -242,14 +305,28 @@ int run_shear(const RunArgs& args) {
                                    : std::max<std::uint64_t>(1, end_step / 20);
   loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
 
-  TimeSeriesObserver series(dir / "timeseries.csv", world, resuming);
-  CheckpointObserver checkpoint(dir / "checkpoint.cbor");
+  // Observers: measurement (every step), snapshots, then the checkpoint, which writes run.h5
+  // first and stores the measurement's running state.
+  const std::unique_ptr<ShearMeasurement> measurement = open_measurement(s);
+  bool finished = false;
+  CheckpointObserver::Hooks hooks;
+  if (measurement) {
+    hooks.before = [&](const World& world, const ContactDynamics& dynamics) {
+      write_run_data(s.dir / "run.h5", run_metadata(s, finished), *measurement, world,
+                     dynamics.contacts());
+    };
+    hooks.observer_state = [&] {
+      return nlohmann::json{{"measurement", measurement_state_to_json(measurement->state())}};
+    };
+  }
+  CheckpointObserver checkpoint(s.dir / "checkpoint.cbor", hooks);
+  std::vector<ScheduledObserver> observers;
+  std::optional<MeasurementObserver> measuring;
+  if (measurement) observers.push_back({1, &measuring.emplace(*measurement)});
   std::unique_ptr<SnapshotObserver> snapshots;
-  std::vector<ScheduledObserver> observers = {{steps_of(c.sample_interval, dt), &series}};
-  if (observers[0].every == 0) observers.clear();
   if (const std::uint64_t every = steps_of(c.snapshot_interval, dt); every > 0) {
-    snapshots =
-        std::make_unique<SnapshotObserver>(dir / "snapshots", dt, every, resuming ? world.step : 0);
+    snapshots = std::make_unique<SnapshotObserver>(s.dir / "snapshots", dt, every,
+                                                   s.resuming ? s.world.step : 0);
     observers.push_back({every, snapshots.get()});
   }
   if (const std::uint64_t every = steps_of(c.checkpoint_interval, dt); every > 0)
@@ -258,56 +335,36 @@ int run_shear(const RunArgs& args) {
   std::printf(
       "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
       "-> %s\n",
-      world.disks.size(), world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
-      static_cast<unsigned long long>(world.step), static_cast<unsigned long long>(loop.end_step),
-      dir.c_str());
+      s.world.disks.size(), s.world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
+      static_cast<unsigned long long>(s.world.step),
+      static_cast<unsigned long long>(loop.end_step), s.dir.c_str());
   std::fflush(stdout);
-  const RunSummary summary = run_until(world, dynamics, c.step, loop, observers);
+  const RunSummary summary = run_until(s.world, s.dynamics, c.step, loop, observers);
 
-  // Whatever happened, the state reached is kept: checkpoint (unless blown up: the last good
-  // checkpoint stays), state file, run info.
-  const bool finished = summary.outcome == RunOutcome::kFinished && world.step >= end_step;
-  if (summary.outcome != RunOutcome::kBlownUp) checkpoint.observe(world, dynamics, summary.last);
-  const char* state_name = state_file_name(summary.outcome, finished);
-  write_file_atomic(dir / state_name, state_to_json(world).dump(1) + "\n");
-  if (finished) fs::remove(dir / "interrupted_state.json");  // stale once the run is complete
-  nlohmann::json info = {{"program", "cdshear"},
-                         {"version", CDSHEAR_VERSION},
-                         {"resumed", resuming},
-                         {"packing", packing_used},
-                         {"dt", dt},
-                         {"seed", c.seed},
-                         {"solver_seed", c.step.solver.seed},
-                         {"step", world.step},
-                         {"time", world.time},
-                         {"state_hash", fmt::format("{:016x}", state_hash(world))},
-                         {"summary", summary_to_json(summary)}};
-  write_file_atomic(dir / (resuming ? fmt::format("run_info_resume_{}.json", world.step)
-                                    : std::string("run_info.json")),
-                    info.dump(2) + "\n");
-  std::printf(
-      "%llu steps in %.1f s (%.0f steps/s, %.3g s per time unit), sweeps mean %.1f "
-      "largest %d, capped %llu, largest overlap %.3g\n",
-      static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
-      summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0,
-      summary.steps > 0 ? summary.wall_seconds / (summary.steps * dt) : 0.0, summary.mean_sweeps,
-      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
-      summary.largest_overlap);
-  if (summary.outcome == RunOutcome::kBlownUp) {
-    std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
-                 static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
-                 (dir / state_name).c_str(),
-                 fs::exists(dir / "checkpoint.cbor") ? ", last good checkpoint kept" : "");
-    return 3;
-  }
-  if (!finished) {
-    std::printf("stopped at step %llu (t %.4f); continue with: cdshear run --resume %s\n",
-                static_cast<unsigned long long>(world.step), world.time, dir.c_str());
-    return summary.outcome == RunOutcome::kInterrupted ? 130 : 0;
-  }
-  std::printf("done: output in %s (timeseries.csv, final_state.json, case.toml, run_info.json%s)\n",
-              dir.c_str(), snapshots ? ", snapshots/*.pvd" : "");
-  return 0;
+  // Whatever happened, what was measured and the state reached are kept: run.h5 and the
+  // checkpoint (after a blow-up only run.h5: the last good checkpoint stays).
+  finished = summary.outcome == RunOutcome::kFinished && s.world.step >= end_step;
+  if (summary.outcome != RunOutcome::kBlownUp)
+    checkpoint.observe(s.world, s.dynamics, summary.last);
+  else if (hooks.before)
+    hooks.before(s.world, s.dynamics);
+  RunEnd end;
+  end.dir = s.dir;
+  end.reached_end = s.world.step >= end_step;
+  end.info_name = s.resuming ? fmt::format("run_info_resume_{}.json", s.world.step)
+                             : std::string("run_info.json");
+  end.info = {{"resumed", s.resuming},      {"packing", s.packing_used},
+              {"dt", dt},                   {"seed", c.seed},
+              {"solver_seed", c.step.solver.seed}};
+  end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
+  const int status_code = finish_run(end, s.world, summary);
+  if (status_code != 0 || !finished) return status_code;
+  std::printf("done: output in %s (run.h5, case.toml, final_state.json, run_info.json%s)\n",
+              s.dir.c_str(), snapshots ? ", snapshots/*.pvd" : "");
+  if (!measurement || args.no_analyze) return 0;
+  std::fflush(stdout);
+  if (const int rc = run_analysis("analyze", s.dir, {}); rc != 0) return rc;
+  return run_analysis("plot", s.dir, {});
 }
 
 struct PrepareArgs {
@@ -349,6 +406,8 @@ void register_shear_commands(CLI::App& app) {
   r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
   r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
   r->add_flag("--force", run->force, "overwrite an existing run folder");
+  r->add_flag("--no-analyze", run->no_analyze,
+              "do not run `cdshear analyze` and `cdshear plot` at the end");
   r->add_option("--stop-at", run->stop_at,
                 "stop (with a checkpoint) once simulated time reaches this; resume later");
   r->callback([run]() {

@@ -1,5 +1,6 @@
 #include "case_file.hpp"
 
+#include <cmath>
 #include <sstream>
 
 #include "config_error.hpp"
@@ -89,13 +90,36 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   prep.finish();
 
   TomlReader out = root.table("output");
-  c.sample_interval = out.non_negative("sample_interval", c.sample_interval);
+  if (out.has("sample_interval"))
+    out.fail("sample_interval",
+             "moved to measure.sample_interval (the series of a shear run are in run.h5)");
   c.status_interval = out.non_negative("status_interval", c.status_interval);
   c.checkpoint_interval = out.non_negative("checkpoint_interval", c.checkpoint_interval);
   c.snapshot_interval = out.non_negative("snapshot_interval", c.snapshot_interval);
   out.finish();
 
+  TomlReader m = root.table("measure");
+  MeasureOptions& mo = c.measure;
+  mo.enabled = m.boolean("enabled", mo.enabled);
+  mo.sample_interval = m.positive("sample_interval", mo.sample_interval);
+  mo.window = m.positive("window", mo.window);
+  mo.stripe_thickness = m.positive("stripe_thickness", mo.stripe_thickness);
+  mo.force_threshold = m.non_negative("force_threshold", mo.force_threshold);
+  if (m.has("boundary_thickness")) {
+    mo.boundary_thickness = m.number_array("boundary_thickness");
+    if (mo.boundary_thickness.empty()) m.fail("boundary_thickness", "must list at least one h");
+    for (const double h : mo.boundary_thickness)
+      if (!(h > 0.0) || !std::isfinite(h))
+        m.fail("boundary_thickness", "every h must be a positive number, got " + std::to_string(h));
+  }
+  if (mo.window < mo.sample_interval)
+    m.fail("window", "must be at least measure.sample_interval (" +
+                         std::to_string(mo.sample_interval) + ")");
+  m.finish();
+
   root.finish();
+  if (c.measure.boundary_thickness.empty())
+    c.measure.boundary_thickness = default_boundary_thickness(c.height);
   sync_preparation(c);
   return c;
 }
@@ -137,6 +161,8 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"contact_margin", c.step.contact_margin},
                    {"displacement_bound", c.step.displacement_bound},
                    {"abort_overlap", c.step.abort_overlap}};
+  toml::array boundary;
+  for (const double h : c.measure.boundary_thickness) boundary.push_back(h);
   if (c.dt)
     step.insert("dt", *c.dt);
   else
@@ -175,10 +201,15 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"alpha", p.step.solver.alpha},
                    {"max_sweeps", p.step.solver.max_sweeps},
                    {"packing", c.packing_file}}},
-      {"output", toml::table{{"sample_interval", c.sample_interval},
-                             {"status_interval", c.status_interval},
+      {"output", toml::table{{"status_interval", c.status_interval},
                              {"checkpoint_interval", c.checkpoint_interval},
-                             {"snapshot_interval", c.snapshot_interval}}}};
+                             {"snapshot_interval", c.snapshot_interval}}},
+      {"measure", toml::table{{"enabled", c.measure.enabled},
+                              {"sample_interval", c.measure.sample_interval},
+                              {"window", c.measure.window},
+                              {"stripe_thickness", c.measure.stripe_thickness},
+                              {"boundary_thickness", boundary},
+                              {"force_threshold", c.measure.force_threshold}}}};
 }
 
 }  // namespace cdshear

@@ -33,7 +33,7 @@ Vec2 to_vec2(const json& j) {
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const World& w,
-                      const std::vector<Contact>& contacts) {
+                      const std::vector<Contact>& contacts, const json& observers) {
   const Disks& d = w.disks;
   json walls = json::array();
   for (const Wall& wall : w.walls)
@@ -57,7 +57,7 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
     rn.push_back(c.impulse_n);
     rt.push_back(c.impulse_t);
   }
-  const json j = {{"format", "cdshear-checkpoint"},
+  json j = {{"format", "cdshear-checkpoint"},
                   {"version", 1},
                   {"program_version", CDSHEAR_VERSION},
                   {"time", w.time},
@@ -79,6 +79,7 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
                     {"inertia", d.inertia}}},
                   {"walls", walls},
                   {"contacts", {{"a", a}, {"b", b}, {"image", image}, {"rn", rn}, {"rt", rt}}}};
+  if (!observers.is_null()) j["observers"] = observers;
   const std::vector<std::uint8_t> bytes = json::to_cbor(j);
   write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
 }
@@ -128,6 +129,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
       wall.contact_impulse = to_vec2(wj.at("contact_impulse"));
       w.walls.push_back(wall);
     }
+    if (j.contains("observers")) cp.observers = j.at("observers");
     const json& c = j.at("contacts");
     const auto a = c.at("a").get<std::vector<std::int32_t>>();
     const auto b = c.at("b").get<std::vector<std::int32_t>>();

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "contact.hpp"
 #include "world.hpp"
 
@@ -14,10 +16,12 @@ namespace cdshear {
 struct Checkpoint {
   World world;
   std::vector<Contact> contacts;  ///< keys and impulses (the rest is recomputed at detection)
+  nlohmann::json observers;       ///< observers' running state (null when none was stored)
 };
 
 void write_checkpoint(const std::filesystem::path& path, const World& world,
-                      const std::vector<Contact>& contacts);
+                      const std::vector<Contact>& contacts,
+                      const nlohmann::json& observers = nullptr);
 /// Throws ConfigError naming the file when it is missing or not a cdshear checkpoint.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 

@@ -64,25 +64,23 @@ nlohmann::json state_to_json(const World& world) {
           {"walls", walls}};
 }
 
-TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const World& world,
-                                   bool append)
-    : out_(path, append ? std::ios::app : std::ios::trunc) {
+TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const World& world)
+    : out_(path, std::ios::trunc) {
   if (!out_) throw std::runtime_error(path.string() + ": cannot open for writing");
-  if (append) return;
-  out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,sweeps,"
-          "residual,converged_fraction,hit_cap,max_overlap";
+  out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,"
+          "capped_steps,sweeps_mean,sweeps_max,residual_max,max_overlap";
   for (const Wall& w : world.walls)
     out_ << fmt::format(",{0}_x,{0}_y,{0}_vx,{0}_vy,{0}_fx,{0}_fy,{0}_jx,{0}_jy", w.name);
   out_ << '\n';
   out_.flush();
 }
 
-void TimeSeriesWriter::write(const World& world, const StepReport& r) {
+void TimeSeriesWriter::write(const World& world, const StepReport& r, const IntervalStats& s) {
   const Vec2 p = linear_momentum(world);
-  std::string row = fmt::format(
-      "{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time, kinetic_energy(world), p.x,
-      p.y, r.contacts, r.solver.active_contacts, r.solver.sweeps, r.solver.residual,
-      r.solver.converged_fraction, r.solver.hit_cap ? 1 : 0, r.max_overlap);
+  std::string row = fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time,
+                                kinetic_energy(world), p.x, p.y, r.contacts,
+                                r.solver.active_contacts, s.capped_steps, s.sweeps_mean(),
+                                s.sweeps_max, s.residual_max, s.overlap_max);
   for (const Wall& w : world.walls)
     row +=
         fmt::format(",{},{},{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,
@@ -90,29 +88,7 @@ void TimeSeriesWriter::write(const World& world, const StepReport& r) {
   row += '\n';
   out_ << row;
   out_.flush();
-}
-
-void TimeSeriesWriter::truncate_after(const std::filesystem::path& path, std::uint64_t step) {
-  std::ifstream in(path);
-  if (!in) return;
-  std::ostringstream kept;
-  std::string line;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (!header) {
-      std::uint64_t row_step = 0;
-      try {
-        row_step = std::stoull(line.substr(0, line.find(',')));
-      } catch (const std::exception&) {
-        break;  // a row cut short by the kill: drop it and what follows
-      }
-      if (row_step > step) break;
-    }
-    kept << line << '\n';
-    header = false;
-  }
-  in.close();
-  write_file_atomic(path, kept.str());
+  if (!out_) throw std::runtime_error("time series: write failed (disk full?)");
 }
 
 }  // namespace cdshear

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "contact_dynamics.hpp"
+#include "interval_stats.hpp"
 #include "world.hpp"
 
 namespace cdshear {
@@ -22,17 +23,15 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& tex
 /// wall's state and last contact force; time and step.
 nlohmann::json state_to_json(const World& world);
 
-/// One CSV row per sample: step, time, kinetic energy, momentum, contacts, solver figures,
-/// largest overlap, then position, velocity, contact force of the last step and contact impulse
+/// One CSV row per sample: step, time, kinetic energy, momentum, contacts, active contacts, the
+/// solver figures of the interval since the previous row (steps that hit the cap, mean and
+/// largest sweeps, largest residual, largest overlap), then position, velocity, contact force of the last step and contact impulse
 /// since the start (its time integral) of each wall (columns named after the walls). Rows are
 /// flushed at every sample so an interrupted run keeps what it measured.
 class TimeSeriesWriter {
  public:
-  /// Opens `path`; with `append`, keeps existing rows (resumed runs) and writes no header.
-  TimeSeriesWriter(const std::filesystem::path& path, const World& world, bool append = false);
-  void write(const World& world, const StepReport& report);
-  /// Drops rows past `step` (used when resuming from a checkpoint older than the file's end).
-  static void truncate_after(const std::filesystem::path& path, std::uint64_t step);
+  TimeSeriesWriter(const std::filesystem::path& path, const World& world);
+  void write(const World& world, const StepReport& report, const IntervalStats& interval);
 
  private:
   std::ofstream out_;

@@ -132,6 +132,19 @@ Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
   return v;
 }
 
+std::vector<double> TomlReader::number_array(const std::string& key) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) fail(key, "is required");
+  const toml::array* a = n->as_array();
+  if (a == nullptr) fail(key, "must be an array of numbers, like [5.0, 10.0]");
+  std::vector<double> out;
+  for (const toml::node& item : *a) {
+    if (!item.is_number()) fail(key, "must be an array of numbers, like [5.0, 10.0]");
+    out.push_back(*item.value<double>());
+  }
+  return out;
+}
+
 double TomlReader::positive(const std::string& key, std::optional<double> fallback) {
   const double v = number(key, fallback);
   if (!(v > 0.0)) fail(key, "must be > 0, got " + std::to_string(v));

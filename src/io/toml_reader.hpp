@@ -35,6 +35,8 @@ class TomlReader {
   /// Numbers with a lower bound (strict or not), for sizes and times.
   double positive(const std::string& key, std::optional<double> fallback = std::nullopt);
   double non_negative(const std::string& key, std::optional<double> fallback = std::nullopt);
+  /// An array of numbers (integers accepted).
+  std::vector<double> number_array(const std::string& key);
   /// One of `choices`.
   std::string choice(const std::string& key, const std::vector<std::string>& choices,
                      std::optional<std::string> fallback = std::nullopt);

@@ -24,6 +24,10 @@ std::string resolve_time_step(ShearCase& c) {
   return {};
 }
 
+std::vector<double> default_boundary_thickness(double height) {
+  return {height >= 40.0 ? 10.0 : height / 4.0};
+}
+
 void apply_system_preset(ShearCase& c, int system) {
   struct Row {
     std::size_t n;

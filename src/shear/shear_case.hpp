@@ -10,6 +10,7 @@
 #include "contact_dynamics.hpp"
 #include "packing.hpp"
 #include "preparation.hpp"
+#include "shear_measurement.hpp"
 #include "world.hpp"
 
 namespace cdshear {
@@ -39,11 +40,17 @@ struct ShearCase {
   std::string packing_file;        ///< packing to reuse; empty: cached by parameters
 
   // Outputs, as intervals of simulated time (converted to whole steps) [t]; 0 disables.
-  double sample_interval = 0.1;  ///< global time series
   double status_interval = 0.0;  ///< status line; 0: about 20 per run
   double checkpoint_interval = 50.0;
   double snapshot_interval = 0.0;  ///< VTK snapshots
+
+  /// SPEC 7 measurements ([measure]); boundary_thickness empty: default_boundary_thickness().
+  MeasureOptions measure{.boundary_thickness = {}};
 };
+
+/// The boundary thicknesses h measured when the case names none: [10] (SPEC 7), or [L_y / 4] for
+/// cells thinner than 40 d so that a bulk remains (system 1: h = 5).
+std::vector<double> default_boundary_thickness(double height);
 
 /// The default time-step rule: dt = min(dt_max, displacement_per_step / V), so that the walls
 /// (and the fastest grains, which move at about V) move at most displacement_per_step per step.

@@ -1,0 +1,46 @@
+"""Command line: `python3 -m cdshear_analysis analyze RUN_DIR [--quiet]` writes
+RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
+(default RUN_DIR/figures). Bad input: `error: <file>: <problem>` on stderr, exit status 2."""
+import argparse
+import os
+import sys
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="cdshear_analysis", description=__doc__.split("\n")[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    p_analyze = commands.add_parser("analyze", help="write RUN_DIR/summary.json, print a report")
+    p_analyze.add_argument("run_dir")
+    p_analyze.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p_plot = commands.add_parser("plot", help="write PNG figures")
+    p_plot.add_argument("run_dir")
+    p_plot.add_argument("-o", "--out-dir", help="output folder (default RUN_DIR/figures)")
+    args = parser.parse_args(argv)
+
+    from .rundata import RunDataError, load_run
+    from .summary import analyze, format_report, write_summary
+    try:
+        run = load_run(args.run_dir)
+        summary = analyze(run)
+        if args.command == "analyze":
+            try:
+                path = write_summary(summary, args.run_dir)
+            except OSError as e:
+                print(f"error: {os.path.join(args.run_dir, 'summary.json')}: cannot write: "
+                      f"{e.strerror or e}", file=sys.stderr)
+                return 1
+            if not args.quiet:
+                print(format_report(summary, path))
+        else:
+            from .plots import plot_run
+            out_dir = args.out_dir or os.path.join(args.run_dir, "figures")
+            for name in plot_run(run, summary, out_dir):
+                print(name)
+    except RunDataError as e:
+        print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

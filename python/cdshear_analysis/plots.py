@@ -1,0 +1,199 @@
+"""Figures of one run (SPEC 9), PNG via matplotlib's Agg backend.
+
+snapshot.png              disks (coloured by v_x / V) and force chains (width ~ normal force)
+velocity_profiles.png     v_x / V against y for several windows, coloured by strain
+com_velocity.png          com_vx / V against strain, with its histogram (averaged part)
+height_solid_fraction.png L_y and global solid fraction against strain, transient end marked
+steady_profiles.png       mu_eff, nu, I, Z profiles averaged over the steady windows
+Strain is 2 V t / L_y with the nominal L_y; lengths in d (largest diameter).
+"""
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
+
+from .rundata import RunDataError  # noqa: E402
+
+DPI = 120
+MAX_PROFILES = 10          # velocity profiles drawn at most
+FORCE_LINE_WIDTH = 3.0     # points, for the largest normal force
+
+
+def _title(run, summary, what):
+    a = run["attrs"]
+    head = f"n = {a['n']}, V = {a['velocity']:g}, $\\sigma_{{yy}}$ = {a['normal_stress']:g}: {what}"
+    if not summary["steady"]:
+        head += "\nNOT STEADY: last half of the run shown as averaged"
+    return head
+
+
+def _mark_transient(ax, summary):
+    g = summary["transient_end_strain"]
+    if summary["steady"] and np.isfinite(g):
+        ax.axvline(g, color="crimson", ls="--", lw=1, label=f"transient end (strain {g:.3g})")
+    else:
+        ax.axvline(summary["averaging_start_strain"], color="grey", ls=":", lw=1,
+                   label="averaged from (not steady)")
+
+
+def snapshot(run, summary):
+    snap = run["snapshot"]
+    if snap is None or "x" not in snap:
+        raise RunDataError(run["path"], "missing group /snapshot (needed for snapshot.png)")
+    lx = float(snap.get("length_x", run["attrs"]["length_x"]))
+    height = float(snap.get("height", run["attrs"]["height"]))
+    V = float(run["attrs"]["velocity"])
+    scale = min(8.0 / lx, 14.0 / (height + 2))
+    fig, ax = plt.subplots(figsize=(lx * scale + 2.0, (height + 2) * scale + 1.0))
+    x, y, r = (np.asarray(snap[k], dtype=float) for k in ("x", "y", "radius"))
+    force = np.asarray(snap.get("contact_normal_force", []), dtype=float)
+    segments = np.stack([np.column_stack([snap["contact_ax"], snap["contact_ay"]]),
+                         np.column_stack([snap["contact_bx"], snap["contact_by"]])], axis=1) \
+        if len(force) else np.zeros((0, 2, 2))
+    widths = FORCE_LINE_WIDTH * force / force.max() if len(force) and force.max() > 0 else 1.0
+    for shift in (-lx, 0.0, lx):   # periodic images, clipped by the axes
+        disks = EllipseCollection(2 * r, 2 * r, 0, units="xy", offsets=np.column_stack([x + shift, y]),
+                                  offset_transform=ax.transData, cmap="coolwarm",
+                                  edgecolors="0.4", linewidths=0.3, alpha=0.6)
+        disks.set_array(np.asarray(snap["vx"], dtype=float) / V)
+        disks.set_clim(-1, 1)
+        ax.add_collection(disks)
+        ax.add_collection(LineCollection(segments + [shift, 0], linewidths=widths, colors="k"))
+    for wall_y in (0.0, height):
+        ax.axhline(wall_y, color="0.2", lw=3)
+    fig.colorbar(disks, ax=ax, label="$v_x / V$", shrink=0.8)
+    ax.set(xlim=(0, lx), ylim=(-1, height + 1), aspect="equal", xlabel="x / d", ylabel="y / d")
+    ax.set_title(_title(run, summary, f"t = {float(snap.get('time', np.nan)):g}, "
+                 f"{len(force)} force-carrying contacts"), fontsize=9)
+    return fig
+
+
+def velocity_profiles(run, summary):
+    w, a = run["windows"], run["attrs"]
+    V, strain = float(a["velocity"]), 2 * float(a["velocity"]) / float(a["height"])
+    n_windows = len(w["t_start"])
+    picks = np.unique(np.linspace(0, n_windows - 1, min(MAX_PROFILES, n_windows)).round().astype(int))
+    norm = plt.Normalize(0, max(w["t_end"][-1] * strain, 1e-12))
+    cmap = plt.get_cmap("viridis")
+    fig, ax = plt.subplots(figsize=(6, 5))
+    for k in picks:
+        ok = np.isfinite(w["vx"][k])
+        ax.plot(w["vx"][k][ok] / V, w["y"][ok], color=cmap(norm(w["t_end"][k] * strain)), lw=1.2)
+    prof = summary["profiles"]
+    ok = np.isfinite(prof["vx"]["mean"])
+    ax.errorbar(prof["vx"]["mean"][ok] / V, prof["y"][ok], xerr=np.nan_to_num(prof["vx"]["err"][ok]) / V,
+                color="k", lw=2, elinewidth=0.8, capsize=2,
+                label="steady mean" if summary["steady"] else "mean, last half")
+    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax,
+                 label="strain $2Vt/L_y$ at the window end")
+    ax.axvline(-1, color="0.6", lw=0.8)
+    ax.axvline(1, color="0.6", lw=0.8)
+    ax.set(xlabel="$v_x / V$", ylabel="y / d", xlim=(-1.2, 1.2))
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(_title(run, summary, f"{len(picks)} of {n_windows} window profiles"), fontsize=9)
+    return fig
+
+
+def com_velocity(run, summary):
+    s, a = run["series"], run["attrs"]
+    V, strain = float(a["velocity"]), 2 * float(a["velocity"]) / float(a["height"])
+    fig, (ax, side) = plt.subplots(1, 2, figsize=(9, 4), sharey=True,
+                                   gridspec_kw=dict(width_ratios=[4, 1], wspace=0.05))
+    ax.plot(np.asarray(s["time"]) * strain, np.asarray(s["com_vx"]) / V, lw=0.5, color="tab:blue")
+    for level in (-0.5, 0.5):
+        ax.axhline(level, color="0.5", ls=":", lw=0.8)
+    _mark_transient(ax, summary)
+    ax.set(xlabel="strain $2Vt/L_y$", ylabel="$v_{x,\\mathrm{com}} / V$", ylim=(-1.25, 1.25))
+    ax.legend(loc="lower right", fontsize=8)
+    hist = summary["com_vx"]["histogram"]
+    edges, counts = np.asarray(hist["edges"]) / V, np.asarray(hist["counts"], dtype=float)
+    side.barh(0.5 * (edges[1:] + edges[:-1]), counts / max(counts.sum(), 1), height=np.diff(edges),
+              color="tab:blue", alpha=0.7)
+    side.set(xlabel="fraction")
+    fig.suptitle(_title(run, summary, f"regime {summary['regime']} "
+                 f"(confidence {summary['regime_confidence']:.2f}), "
+                 f"{len(summary['switches'])} band switches"), fontsize=9)
+    return fig
+
+
+def height_solid_fraction(run, summary):
+    s, a = run["series"], run["attrs"]
+    strain = 2 * float(a["velocity"]) / float(a["height"])
+    g = np.asarray(s["time"]) * strain
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    for ax, key, label in ((axes[0], "height", "$L_y$ / d"), (axes[1], "solid_fraction", "solid fraction")):
+        ax.plot(g, s[key], lw=0.5, color="tab:green")
+        mean = summary[key]["mean"]
+        if mean is not None and np.isfinite(mean):
+            ax.axhline(mean, color="k", lw=0.8, label=f"mean {mean:.4g}")
+        _mark_transient(ax, summary)
+        ax.set_ylabel(label)
+        ax.legend(loc="best", fontsize=8)
+    axes[1].set_xlabel("strain $2Vt/L_y$")
+    axes[0].set_title(_title(run, summary, "height and global solid fraction"), fontsize=9)
+    return fig
+
+
+def steady_profiles(run, summary):
+    prof, y = summary["profiles"], summary["profiles"]["y"]
+    height = summary["height"]["mean"]
+    fig, axes = plt.subplots(2, 2, figsize=(8, 7), sharey=True)
+    panels = (("mu_eff", "$\\mu_\\mathrm{eff}$"), ("solid_fraction", "solid fraction $\\nu$"),
+              ("inertial_number", "inertial number $I$"), ("coordination", "coordination $Z$"))
+    for ax, (key, label) in zip(axes.flat, panels):
+        ok = np.isfinite(prof[key]["mean"]) & (y < height)
+        ax.errorbar(prof[key]["mean"][ok], y[ok], xerr=np.nan_to_num(prof[key]["err"][ok]),
+                    fmt="o-", ms=3, lw=1, capsize=2)
+        for i, region in enumerate(run["regions"].values()):
+            h = region["h"]
+            if h < height:
+                style = dict(color=f"C{i + 1}", ls="--", lw=0.8)
+                ax.axhline(h, label=f"h = {h:g}", **style)
+                ax.axhline(height - h, **style)
+        ax.set_xlabel(label)
+    mu_wall = summary["mu_eff_wall"]["mean"]
+    if mu_wall is not None and np.isfinite(mu_wall):
+        axes[0, 0].axvline(mu_wall, color="k", lw=0.8, ls=":", label="walls")
+    axes[0, 0].legend(fontsize=8)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("y / d")
+    idx, w = summary["steady_window_indices"], run["windows"]
+    what = (f"profiles over {len(idx)} window(s), t = {w['t_start'][idx[0]]:.4g} "
+            f"to {w['t_end'][idx[-1]]:.4g}")
+    fig.suptitle(_title(run, summary, what), fontsize=9)
+    return fig
+
+
+FIGURES = {"snapshot.png": snapshot, "velocity_profiles.png": velocity_profiles,
+           "com_velocity.png": com_velocity, "height_solid_fraction.png": height_solid_fraction,
+           "steady_profiles.png": steady_profiles}
+
+
+def plot_run(run, summary, out_dir):
+    """Write every figure into out_dir; returns the paths written."""
+    summary = _arrays(summary)
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as e:
+        raise RunDataError(out_dir, f"cannot create the figure folder: {e.strerror or e}")
+    written = []
+    for name, make in FIGURES.items():
+        path = os.path.join(out_dir, name)
+        fig = make(run, summary)
+        fig.savefig(path, dpi=DPI, bbox_inches="tight")
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def _arrays(summary):
+    """Profiles as float arrays (NaN for missing) whatever the summary came from."""
+    prof = {"y": np.asarray(summary["profiles"]["y"], dtype=float)}
+    for k, v in summary["profiles"].items():
+        if k != "y":
+            prof[k] = {e: np.asarray(v[e], dtype=float) for e in ("mean", "err")}
+    return dict(summary, profiles=prof)

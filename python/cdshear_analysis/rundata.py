@@ -1,0 +1,133 @@
+"""Reading a run folder: `load_run(RUN_DIR)` mirrors RUN_DIR/run.h5 (docs/run-data.md).
+
+The result is a plain dict:
+    run["run_dir"], run["path"]          the folder and its run.h5
+    run["attrs"]                         root attributes (str, int, float, numpy arrays)
+    run["case"]                          the resolved case, parsed from attrs["case_toml"]
+                                         (or case.toml in the folder), {} if neither parses
+    run["series"][name]                  /series datasets, length N
+    run["windows"][name]                 /windows datasets, first axis W (y has length S)
+    run["regions"]["h10"][name]          /windows/regions/h10 datasets, plus ["h"] (float),
+                                         ordered by increasing h
+    run["snapshot"][name]                /snapshot datasets and attributes, None if absent
+Every problem with the folder or file raises RunDataError(path, problem).
+"""
+import os
+import tomllib
+
+import h5py
+import numpy as np
+
+RUN_FILE = "run.h5"
+REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "window", "time")
+REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
+                   "bottom_fx", "bottom_fy", "top_fx", "top_fy")
+REQUIRED_WINDOWS = ("y", "t_start", "t_end", "height", "com_vx", "solid_fraction", "vx",
+                    "stress", "mu_eff", "coordination", "shear_rate", "inertial_number",
+                    "slip_bottom", "slip_top")
+
+
+class RunDataError(Exception):
+    """A run folder or run.h5 that cannot be analysed: `path` names the file, `problem` says why."""
+
+    def __init__(self, path, problem):
+        super().__init__(f"{path}: {problem}")
+        self.path, self.problem = str(path), problem
+
+
+def _plain(value):
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray) and value.dtype.kind in "SO":
+        return [_plain(v) for v in value.tolist()]
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _datasets(f, name, required, path):
+    if name not in f or not isinstance(f[name], h5py.Group):
+        raise RunDataError(path, f"missing group /{name}")
+    group = f[name]
+    data = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
+    missing = [f"/{name}/{k}" for k in required if k not in data]
+    if missing:
+        raise RunDataError(path, "missing dataset" + ("s " if len(missing) > 1 else " ")
+                           + ", ".join(missing))
+    return data
+
+
+def _check_lengths(data, keys, length, what, path):
+    for k in keys:
+        if k in data and np.shape(data[k])[:1] != (length,):
+            raise RunDataError(path, f"{what}/{k} has shape {np.shape(data[k])}, "
+                                     f"expected first dimension {length}")
+
+
+def _read(f, run_dir, path):
+    attrs = {k: _plain(v) for k, v in f.attrs.items()}
+    missing = [k for k in REQUIRED_ATTRS if k not in attrs]
+    if missing:
+        raise RunDataError(path, "missing root attribute(s) " + ", ".join(missing))
+    series = _datasets(f, "series", REQUIRED_SERIES, path)
+    _check_lengths(series, series, len(series["time"]), "/series", path)
+    windows = _datasets(f, "windows", REQUIRED_WINDOWS, path)
+    n_windows = len(windows["t_start"])
+    _check_lengths(windows, [k for k in windows if k != "y"], n_windows, "/windows", path)
+    n_stripes = len(windows["y"])
+    for k in ("solid_fraction", "vx", "stress", "mu_eff", "coordination"):
+        if windows[k].shape[1:2] != (n_stripes,):
+            raise RunDataError(path, f"/windows/{k} has shape {windows[k].shape}, "
+                                     f"expected ({n_windows}, {n_stripes}, ...)")
+    regions = {}
+    if "regions" in f["windows"]:
+        for label, group in f["windows/regions"].items():
+            data = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
+            _check_lengths(data, data, n_windows, f"/windows/regions/{label}", path)
+            try:
+                data["h"] = float(group.attrs.get("h", label.lstrip("h")))
+            except ValueError:
+                raise RunDataError(path, f"/windows/regions/{label}: no attribute h")
+            regions[label] = data
+    regions = dict(sorted(regions.items(), key=lambda item: item[1]["h"]))
+    snapshot = None
+    if "snapshot" in f:
+        snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
+        snapshot.update({k: _plain(v) for k, v in f["snapshot"].attrs.items()})
+    case = {}
+    for text in (attrs.get("case_toml"), _read_text(os.path.join(run_dir, "case.toml"))):
+        try:
+            case = tomllib.loads(text) if isinstance(text, str) else {}
+        except tomllib.TOMLDecodeError:
+            case = {}
+        if case:
+            break
+    return dict(run_dir=run_dir, path=path, attrs=attrs, case=case, series=series,
+                windows=windows, regions=regions, snapshot=snapshot)
+
+
+def _read_text(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.read()
+    except OSError:
+        return None
+
+
+def load_run(run_dir):
+    """Read RUN_DIR/run.h5 into a dict of numpy arrays and metadata (see the module doc)."""
+    run_dir = os.fspath(run_dir)
+    if not os.path.isdir(run_dir):
+        raise RunDataError(run_dir, "no such folder" if not os.path.exists(run_dir)
+                           else "not a folder (expected a run folder holding run.h5)")
+    path = os.path.join(run_dir, RUN_FILE)
+    if not os.path.isfile(path):
+        raise RunDataError(run_dir, f"not a run folder (no {RUN_FILE})")
+    if os.path.getsize(path) == 0:
+        raise RunDataError(path, "empty file")
+    try:
+        with h5py.File(path, "r") as f:
+            return _read(f, run_dir, path)
+    except RunDataError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as e:
+        detail = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise RunDataError(path, f"not a readable HDF5 run file (truncated or corrupt?): {detail}")

@@ -1,0 +1,79 @@
+"""Error bars for correlated data: block averaging and means over windows.
+
+Uncertainty everywhere is the standard error of the mean.
+
+- `block_average(x)`: Flyvbjerg & Petersen (J. Chem. Phys. 91, 461, 1989) blocking of a
+  time series sampled at equal intervals. Level k averages pairs of level k-1, so blocks hold
+  B = 2^k samples; the naive standard error sqrt(var_k / (n_k - 1)) grows with k and reaches a
+  plateau once blocks are longer than the correlation time. The plateau level is the first k
+  with B^3 > 2 N (err_k / err_0)^4 (Lee, Kent, Needs, Rios, Phys. Rev. B 84, 245117, 2011,
+  the rule of pyblock). If no level with at least `BLOCKING_MIN_BLOCKS` blocks meets it, the
+  largest error over those levels is taken and `converged` is False.
+- `window_mean(values)`: mean over averaging windows (axis 0) and standard error
+  std(ddof=1) / sqrt(n) over the finite entries; NaN error with fewer than 2.
+"""
+import warnings
+
+import numpy as np
+
+BLOCKING_MIN_BLOCKS = 8  # fewest blocks whose error estimate is trusted
+
+
+def block_average(x):
+    """Mean, standard error, std and statistical inefficiency of a correlated series.
+
+    Returns a dict: mean, err, std, n (finite samples), n_independent = (std / err)^2,
+    block_size (samples per block at the chosen level), converged (plateau found).
+    Non-finite samples are dropped.
+    """
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    n = len(x)
+    out = dict(mean=float(x.mean()) if n else np.nan, err=np.nan, std=np.nan, n=n,
+               n_independent=np.nan, block_size=1, converged=False)
+    if n < 2:
+        return out
+    out["std"] = float(x.std(ddof=1))
+    errors, sizes, y = [], [], x
+    while len(y) >= BLOCKING_MIN_BLOCKS:
+        errors.append(np.sqrt(y.var() / (len(y) - 1)))
+        sizes.append(n // len(y))
+        m = len(y) // 2 * 2
+        y = 0.5 * (y[0:m:2] + y[1:m:2])
+    if not errors:  # too short to block: naive error
+        errors, sizes = [np.sqrt(x.var() / (n - 1))], [1]
+    errors = np.array(errors)
+    level = None
+    if errors[0] > 0:
+        for k, (b, e) in enumerate(zip(sizes, errors)):
+            if float(b) ** 3 > 2.0 * n * (e / errors[0]) ** 4:
+                level = k
+                break
+    out["converged"] = level is not None
+    if level is None:
+        level = int(np.argmax(errors))
+    out["err"] = float(errors[level])
+    out["block_size"] = int(sizes[level])
+    if out["err"] > 0:
+        out["n_independent"] = float((out["std"] / out["err"]) ** 2)
+    return out
+
+
+def window_mean(values):
+    """Mean and standard error over axis 0 (windows), ignoring NaN. Returns (mean, err) arrays
+    (or floats for 1D input); err is NaN where fewer than 2 finite windows."""
+    v = np.asarray(values, dtype=float)
+    count = np.sum(np.isfinite(v), axis=0)
+    with warnings.catch_warnings(), np.errstate(invalid="ignore", divide="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        mean = np.nanmean(v, axis=0) if v.shape[0] else np.full(v.shape[1:], np.nan)
+        std = np.nanstd(v, axis=0, ddof=1) if v.shape[0] > 1 else np.full(v.shape[1:], np.nan)
+        err = np.where(count >= 2, std / np.sqrt(np.maximum(count, 1)), np.nan)
+    if np.ndim(mean) == 0:
+        return float(mean), float(err)
+    return mean, err
+
+
+def mean_err(mean, err):
+    """The {"mean": x, "err": e} pair used throughout summary.json."""
+    return {"mean": mean, "err": err}

@@ -1,0 +1,133 @@
+"""Where the transient ends: MSER truncation of several signals, and the steady-state verdict.
+
+MSER, the marginal standard error rule (White, Simulation 69, 323, 1997), applied to batch
+means z_1..z_k of a signal: truncate the first d batches where d minimises
+    MSER(d) = sum_{i>d} (z_i - mean_{i>d} z)^2 / (k - d)^2,
+the squared standard error of the remaining mean, d searched over 0..floor(k/2) (beyond half
+MSER is unreliable). A series is cut into batches of b samples, b = the statistical
+inefficiency N err^2 / std^2 (about twice the correlation time, in samples) of its second half,
+from block averaging, and at least MSER_MIN_BATCH; a per-window signal uses the windows as
+batches.
+
+Signals (see summary.py): the wall friction mu_wall = (|bottom_fx|+|top_fx|)/(|bottom_fy|+|top_fy|)
+and the height L_y from /series, and, with >= MSER_MIN_WINDOWS windows, the bulk mu_eff and
+bulk solid fraction of each window. The transient ends at the latest truncation time. The run
+is steady unless
+  - a signal with >= MSER_MIN_BATCHES batches has its MSER minimum at the search limit (half
+    of the data): the transient may last longer than half the run;
+  - fewer than STEADY_MIN_WINDOWS complete windows start after the transient;
+  - a series holds fewer than STEADY_MIN_INDEPENDENT independent samples (std/err)^2 after it;
+  - a series still drifts after it: the means of the two halves of what remains differ by more
+    than STEADY_MAX_DRIFT combined standard errors, 2 err with err the block-averaging error of
+    the whole remaining mean (MSER misses slow drifts).
+When not steady, averages are taken over the last half of the run (flagged): series samples
+at t >= t_end / 2, windows starting there (or the last window if none does).
+"""
+import numpy as np
+
+from .statistics import block_average
+
+MSER_MIN_BATCH = 5            # samples per batch at least (MSER-5)
+MSER_MAX_TRUNCATION = 0.5     # MSER searches truncations up to this fraction of the batches
+MSER_MIN_BATCHES = 20         # fewest batches for the "minimum at the search limit" verdict
+MSER_MIN_WINDOWS = 10         # per-window signals take part only with this many windows
+STEADY_MIN_WINDOWS = 2        # complete windows needed after the transient
+STEADY_MIN_INDEPENDENT = 20   # independent samples needed after the transient, per series
+STEADY_MAX_DRIFT = 5.0        # largest difference of the two halves' means, in standard errors
+
+
+def mser_truncation(z):
+    """(d, at_limit): d in 0..floor(k/2) minimising MSER over z[d:]; at_limit when the minimum
+    sits on the search limit with at least MSER_MIN_BATCHES batches (still drifting)."""
+    z = np.asarray(z, dtype=float)
+    k = len(z)
+    limit = int(k * MSER_MAX_TRUNCATION)
+    if limit < 1:
+        return 0, False
+    tail_sum = np.cumsum(z[::-1])[::-1][: limit + 1]
+    tail_sq = np.cumsum((z * z)[::-1])[::-1][: limit + 1]
+    m = k - np.arange(limit + 1, dtype=float)          # entries left after truncating d
+    mser = np.maximum(tail_sq - tail_sum ** 2 / m, 0.0) / m ** 2
+    d = int(np.argmin(mser))
+    return d, d == limit and k >= MSER_MIN_BATCHES
+
+
+def series_truncation(time, x):
+    """MSER on batch means of a sampled series: (truncation time, at_limit)."""
+    ok = np.isfinite(x)
+    time, x = np.asarray(time)[ok], np.asarray(x, dtype=float)[ok]
+    if len(x) == 0:
+        return np.nan, False
+    tail = block_average(x[len(x) // 2:])
+    inefficiency = (tail["n"] / tail["n_independent"]) if tail["n_independent"] > 0 else 1.0
+    b = max(MSER_MIN_BATCH, int(np.ceil(inefficiency)))
+    k = len(x) // b
+    d, at_limit = mser_truncation(x[: k * b].reshape(k, b).mean(axis=1))
+    return float(time[d * b]), at_limit
+
+
+def detect_steady_state(time, series, window_start, window_signals):
+    """Steady-state verdict for one run.
+
+    time: series sample times; series: {name: samples}; window_start: window start times;
+    window_signals: {name: one value per window}. Returns a dict with steady (bool), reason,
+    transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
+    truncation_times {name: t}, independent_samples {name: n} and drift_sigmas {name: z}.
+    """
+    time = np.asarray(time, dtype=float)
+    window_start = np.asarray(window_start, dtype=float)
+    t_end = float(time[-1])
+    truncation, problems = {}, []
+    for name, x in series.items():
+        truncation[name], at_limit = series_truncation(time, x)
+        if at_limit:
+            problems.append(f"{name} still drifting (MSER truncation at t = "
+                            f"{truncation[name]:.4g}, the limit of its search: half the data)")
+    if len(window_start) >= MSER_MIN_WINDOWS:
+        for name, x in window_signals.items():
+            x = np.asarray(x, dtype=float)
+            ok = np.flatnonzero(np.isfinite(x))
+            if len(ok) < MSER_MIN_WINDOWS:
+                continue
+            d, at_limit = mser_truncation(x[ok])
+            truncation[name] = float(window_start[ok[d]])
+            if at_limit:
+                problems.append(f"{name} still drifting (MSER truncation at window {ok[d]} of "
+                                f"{len(window_start)}, the limit of its search)")
+    cuts = [t for t in truncation.values() if np.isfinite(t)]
+    transient_end = max(cuts) if cuts else np.nan
+    steady_windows = np.flatnonzero(window_start >= transient_end - 1e-9)
+    after = time >= (transient_end if np.isfinite(transient_end) else 0.5 * t_end)
+    independent, drift = {}, {}
+    for name, x in series.items():
+        x = np.asarray(x, dtype=float)[after]
+        whole = block_average(x)
+        independent[name] = whole["n_independent"]
+        half = len(x) // 2     # each half's mean has an error of about sqrt(2) * whole error
+        drift[name] = abs(np.mean(x[:half]) - np.mean(x[half:])) / (2 * whole["err"])
+    if not problems:
+        if len(steady_windows) < STEADY_MIN_WINDOWS:
+            problems.append(f"only {len(steady_windows)} complete window(s) after the transient "
+                            f"(t = {transient_end:.4g}), need {STEADY_MIN_WINDOWS}")
+        for name, n_ind in independent.items():
+            if not n_ind >= STEADY_MIN_INDEPENDENT:
+                problems.append(f"only {n_ind:.3g} independent samples of {name} after the "
+                                f"transient, need {STEADY_MIN_INDEPENDENT}")
+        for name, z in drift.items():
+            if z > STEADY_MAX_DRIFT:
+                problems.append(f"{name} still drifting (the two halves after t = "
+                                f"{transient_end:.4g} differ by {z:.2g} standard errors)")
+    steady = not problems
+    if steady:
+        start, windows = transient_end, steady_windows
+    else:
+        start = 0.5 * t_end
+        windows = np.flatnonzero(window_start >= start - 1e-9)
+        if len(windows) == 0 and len(window_start):
+            windows = np.array([len(window_start) - 1])
+    reason = ("transient over at t = %.4g; %d steady windows" % (transient_end, len(windows))
+              if steady else "; ".join(problems))
+    return dict(steady=steady, reason=reason, transient_end_time=transient_end,
+                averaging_start_time=float(start), windows=windows,
+                truncation_times=truncation, independent_samples=independent,
+                drift_sigmas=drift)

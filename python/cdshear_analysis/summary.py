@@ -1,0 +1,230 @@
+"""`analyze(run)`: steady state, averages with errors, regime, switches -> the summary dict
+written as RUN_DIR/summary.json (keys documented in docs/analysis.md), and the printed report.
+
+Averages: series (wall friction, height, solid fraction, com_vx) by block averaging over the
+samples at t >= averaging_start_time; window quantities (profiles, regions, slip, bulk) as
+mean and standard error over the averaged windows (t_start >= averaging_start_time).
+"""
+import json
+import math
+import os
+import tempfile
+
+import numpy as np
+
+from . import regime as rg
+from .profiles import QUANTITIES, region_quantities
+from .rundata import RunDataError
+from .statistics import block_average, mean_err, window_mean
+from .steady_state import detect_steady_state
+
+SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 1
+BULK_MIN_STRIPES = 3   # the classifier's bulk: smallest h leaving this many stripes
+PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination", "inertial_number",
+                  "shear_rate")
+STRESS_COMPONENTS = {"stress_xx": (0, 0), "stress_xy": (0, 1), "stress_yy": (1, 1)}
+
+
+def wall_friction_series(series):
+    """mu_wall = (|bottom_fx| + |top_fx|) / (|bottom_fy| + |top_fy|) per sample (NaN if 0/0)."""
+    num = np.abs(series["bottom_fx"]) + np.abs(series["top_fx"])
+    den = np.abs(series["bottom_fy"]) + np.abs(series["top_fy"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, np.nan)
+
+
+def choose_bulk_range(run):
+    """(h, lo, hi): the smallest h of the file whose bulk h < y < H - h holds BULK_MIN_STRIPES
+    stripes (H the mean window height), else h = None and the central half H/4 < y < 3H/4.
+    lo and hi are per window."""
+    y, height = run["windows"]["y"], np.asarray(run["windows"]["height"], dtype=float)
+    mean_height = np.nanmean(height)
+    for region in run["regions"].values():
+        h = region["h"]
+        if np.sum((y > h) & (y < mean_height - h)) >= BULK_MIN_STRIPES:
+            return h, np.full_like(height, h), height - h
+    return None, 0.25 * height, 0.75 * height
+
+
+def analyze(run):
+    """The summary dict of a loaded run (see docs/analysis.md for every key)."""
+    a, s, w = run["attrs"], run["series"], run["windows"]
+    V, H0, sigma = float(a["velocity"]), float(a["height"]), float(a["normal_stress"])
+    mass = float(a.get("inertial_mass", np.pi / 4))
+    time = np.asarray(s["time"], dtype=float)
+    if len(time) == 0:
+        raise RunDataError(run["path"], "no samples in /series yet")
+    if len(w["t_start"]) == 0:
+        raise RunDataError(run["path"], f"no complete averaging window yet (data up to t = "
+                                        f"{time[-1]:.4g}, window = {a['window']:.4g})")
+    strain = 2 * V / H0
+    mu_wall, com = wall_friction_series(s), np.asarray(s["com_vx"], dtype=float)
+    bulk_h, lo, hi = choose_bulk_range(run)
+    bulk_w = region_quantities(w, lo, hi, sigma, mass)
+    st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"]}, w["t_start"],
+                             {"bulk_mu_eff": bulk_w["mu_eff"],
+                              "bulk_solid_fraction": bulk_w["solid_fraction"]})
+    sel, after = st["windows"], time >= st["averaging_start_time"]
+
+    def series_avg(x):
+        b = block_average(np.asarray(x, dtype=float)[after])
+        return mean_err(b["mean"], b["err"])
+
+    def win(x):
+        return mean_err(*window_mean(np.asarray(x, dtype=float)[sel]))
+
+    # regime
+    t_start, t_end = w["t_start"][sel], w["t_end"][sel]
+    window_r = bulk_w["shear_rate"][sel] * w["height"][sel] / (2 * V)
+    r = float(np.nanmean(window_r)) if np.isfinite(window_r).any() else np.nan
+    f = rg.com_fraction(com[after], V)
+    window_f = [rg.com_fraction(com[(time >= t0) & (time < t1)], V)
+                for t0, t1 in zip(t_start, t_end)]
+    regime, confidence, criteria = rg.classify_run(r, f, window_r, window_f)
+    criteria.update(bulk_h=bulk_h, bulk_y_range=[float(np.mean(lo[sel])), float(np.mean(hi[sel]))])
+    visits_both = rg.visits_both_walls(com, V)
+    switches = rg.band_switches(time, com, V) if regime == "C" or visits_both else []
+    edges, counts = rg.com_histogram(com[after], V)
+    com_block = block_average(com[after])
+
+    def slip(side):
+        v, n = np.asarray(w[f"slip_{side}"], float)[sel], w.get(f"slip_{side}_count")
+        n = np.ones_like(v) if n is None else np.asarray(n, float)[sel]
+        ok = np.isfinite(v) & (n > 0)
+        mean = float(np.sum(v[ok] * n[ok]) / np.sum(n[ok])) if ok.any() else np.nan
+        return mean_err(mean, window_mean(v)[1])
+
+    regions = {}
+    for label, reg in run["regions"].items():
+        regions[label] = {"h": reg["h"]}
+        for part in ("bulk", "bottom", "top"):
+            regions[label][part] = {k[len(part) + 1:]: win(v) for k, v in reg.items()
+                                    if k.startswith(part + "_")}
+    profiles = {"y": np.asarray(w["y"], dtype=float)}
+    for field in PROFILE_FIELDS:
+        profiles[field] = win(w[field])
+    for name, (i, j) in STRESS_COMPONENTS.items():
+        profiles[name] = win(w["stress"][..., i, j])
+    durations = [sw["duration"] for sw in switches]
+    get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
+    return {
+        "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION, "run_dir": run["run_dir"],
+        "case": dict(n=a["n"], velocity=V, normal_stress=sigma, length_x=a["length_x"],
+                     height=H0, duration=a.get("duration"), time=a["time"],
+                     finished=bool(a.get("finished", 0)), window=a["window"],
+                     sample_interval=a.get("sample_interval"),
+                     boundary_thickness=a.get("boundary_thickness")),
+        "steady": st["steady"], "steady_reason": st["reason"],
+        "transient_end_time": st["transient_end_time"],
+        "transient_end_strain": st["transient_end_time"] * strain,
+        "averaging_start_time": st["averaging_start_time"],
+        "averaging_start_strain": st["averaging_start_time"] * strain,
+        "truncation_times": st["truncation_times"],
+        "independent_samples": st["independent_samples"],
+        "drift_sigmas": st["drift_sigmas"],
+        "steady_windows": len(sel),
+        "steady_window_indices": sel,
+        "window_errors": (f"standard error over {len(sel)} windows" if len(sel) > 1 else
+                          "single window: no error estimate for window quantities (null)"),
+        "regime": regime, "regime_confidence": confidence, "regime_criteria": criteria,
+        "mu_eff_wall": series_avg(mu_wall),
+        "height": series_avg(s["height"]),
+        "solid_fraction": series_avg(s["solid_fraction"]),
+        "com_vx": dict(mean=com_block["mean"], err=com_block["err"], std=com_block["std"],
+                       histogram=dict(edges=edges, counts=counts),
+                       bimodality_coefficient=rg.bimodality_coefficient(com[after]),
+                       visits_both_walls=visits_both),
+        "bulk": dict(h=bulk_h, y_range=criteria["bulk_y_range"],
+                     **{q: win(bulk_w[q]) for q in QUANTITIES}),
+        "slip": {"bottom": slip("bottom"), "top": slip("top")},
+        "regions": regions,
+        "profiles": profiles,
+        "switches": switches,
+        "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
+        if durations else mean_err(np.nan, np.nan),
+        "solver": dict(capped_steps=int(np.nansum(s.get("capped_steps", [0]))),
+                       max_sweeps=get("sweeps_max", np.nanmax),
+                       mean_sweeps=get("sweeps_mean", np.nanmean),
+                       max_residual=get("residual_max", np.nanmax),
+                       max_overlap=get("overlap_max", np.nanmax)),
+    }
+
+
+def jsonable(obj):
+    """numpy -> plain Python, NaN/inf -> None, recursively."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [jsonable(v) for v in (obj.tolist() if isinstance(obj, np.ndarray) else obj)]
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
+def write_summary(summary, run_dir):
+    """Write RUN_DIR/summary.json atomically (temporary file + rename); returns its path."""
+    path = os.path.join(run_dir, "summary.json")
+    fd, tmp = tempfile.mkstemp(prefix=".summary.", suffix=".tmp", dir=run_dir)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(jsonable(summary), f, indent=1, allow_nan=False)
+            f.write("\n")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def pm(pair):
+    """'mean ± err', err to 2 significant digits and the mean to the same decimal."""
+    m, e = pair["mean"], pair["err"]
+    if m is None or not np.isfinite(m):
+        return "n/a"
+    if e is None or not np.isfinite(e) or e <= 0:
+        return f"{m:.4g} ± ? (no error estimate)"
+    decimals = max(0, 1 - math.floor(math.log10(e)))
+    return f"{m:.{decimals}f} ± {e:.{decimals}f}"
+
+
+def format_report(summary, summary_path):
+    """The few lines printed at the end of `analyze`."""
+    c, crit, b = summary["case"], summary["regime_criteria"], summary["bulk"]
+    state = "finished" if c["finished"] else "NOT finished (interrupted or still running)"
+    lines = [f"run {summary['run_dir']}: n = {c['n']}, V = {c['velocity']:g}, "
+             f"sigma_yy = {c['normal_stress']:g}; t = {c['time']:g} of {c['duration']:g}, {state}"]
+    if summary["steady"]:
+        lines.append(f"steady state from strain {summary['transient_end_strain']:.3g} "
+                     f"(t = {summary['transient_end_time']:.4g}); {summary['steady_windows']} "
+                     f"windows averaged")
+    else:
+        lines.append(f"not steady: {summary['steady_reason']}")
+        idx = summary["steady_window_indices"]
+        lines.append(f"  values below are only indicative: series over the last half (t >= "
+                     f"{summary['averaging_start_time']:.4g}), windows {idx[0]}-{idx[-1]}")
+    lines.append(f"regime {summary['regime']} (confidence {summary['regime_confidence']:.2f}): "
+                 f"bulk shear rate / (2V/L_y) = {crit['shear_rate_ratio']:.3g}, "
+                 f"|com_vx| > V/2 in {crit['com_fraction']:.0%} of samples, "
+                 f"{len(summary['switches'])} band switch(es)")
+    where = f"h = {b['h']:g}" if b["h"] is not None else "central half"
+    lo, hi = b["y_range"]
+    lines += [f"bulk ({where}, {lo:.3g} < y < {hi:.3g}):",
+              f"  I_bulk        = {pm(b['inertial_number'])}",
+              f"  mu_eff bulk   = {pm(b['mu_eff'])}",
+              f"  mu_eff walls  = {pm(summary['mu_eff_wall'])}",
+              f"  nu bulk       = {pm(b['solid_fraction'])}",
+              f"  Z bulk        = {pm(b['coordination'])}",
+              f"  slip velocity   bottom {pm(summary['slip']['bottom'])}, "
+              f"top {pm(summary['slip']['top'])}"]
+    if summary["solver"]["capped_steps"]:
+        lines.append(f"warning: {summary['solver']['capped_steps']} steps hit the sweep cap")
+    lines.append(f"summary: {summary_path}")
+    return "\n".join(lines)

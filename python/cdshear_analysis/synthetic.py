@@ -1,0 +1,187 @@
+"""Synthetic run folders (run.h5 + case.toml) following docs/run-data.md, for tests and demos.
+
+Kinds:
+  "A"          linear velocity profile with 10% slip at each wall, com_vx AR(1) noise about 0;
+  "B"          shear in two boundary bands of thickness 3, still bulk, com_vx noise about 0;
+  "C"          one band; the bulk moves with one wall: com_vx at +V or -V, switching at
+               `switch_times` (each switch a linear ramp over `switch_duration`);
+  "noise"      no structure: white-noise profiles and com_vx (std 0.4 V);
+  "transient"  regime A whose wall friction and height relax as exp(-t / transient_tau)
+               (mu from 0.55 to 0.30, L_y from 19 to 20).
+Steady values: mu_wall = 0.30, L_y = 20 (nominal), bulk solid fraction 0.80, Z = 3.
+"""
+import os
+
+import h5py
+import numpy as np
+from scipy.signal import lfilter
+
+from .profiles import regions_for_h
+
+MU, NU, Z, BAND = 0.30, 0.80, 3.0, 3.0
+
+
+def ar1(n, phi, std, rng):
+    """Stationary AR(1) noise x_t = phi x_{t-1} + e_t with standard deviation `std`."""
+    e = rng.normal(0.0, std * np.sqrt(1 - phi * phi), n)
+    if n:
+        e[0] = rng.normal(0.0, std)
+    return lfilter([1.0], [1.0, -phi], e)
+
+
+def _profile(kind, y, height, velocity, com, rng):
+    """v_x(y) of one window for a given mean centre-of-mass velocity."""
+    V = velocity
+    band_bottom = np.clip(1 - y / BAND, 0, 1)        # 1 at the bottom wall, 0 beyond the band
+    band_top = np.clip(1 - (height - y) / BAND, 0, 1)
+    if kind in ("A", "transient"):
+        v = -0.9 * V + 1.8 * V * y / height + com
+    elif kind == "B":
+        v = com + (-V - com) * band_bottom + (V - com) * band_top
+    elif kind == "C":
+        p = np.clip((com / V + 1) / 2, 0, 1)         # fraction of time with the bulk at +V
+        plus = V - 2 * V * band_bottom
+        minus = -V + 2 * V * band_top
+        v = p * plus + (1 - p) * minus
+    else:
+        return rng.normal(0, 0.5 * V, len(y))
+    return v + rng.normal(0, 0.01 * V, len(y))
+
+
+def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_reached=None,
+                        sample_interval=0.5, window=80.0, n=511, height=20.0, length_x=20.0,
+                        normal_stress=0.25, boundary_thickness=(5.0, 10.0), switch_times=None,
+                        switch_duration=20.0, transient_tau=100.0, seed=1):
+    """Write RUN_DIR/run.h5 and RUN_DIR/case.toml; returns the run.h5 path.
+
+    time_reached < duration makes an interrupted run (attribute finished = 0)."""
+    rng = np.random.default_rng(seed)
+    os.makedirs(run_dir, exist_ok=True)
+    V, sigma, dt, dy, m = velocity, normal_stress, 0.002, 1.0, np.pi / 4
+    t_reached = duration if time_reached is None else time_reached
+    n_samples = int(round(t_reached / sample_interval))
+    t = sample_interval * np.arange(1, n_samples + 1)
+    relax = np.exp(-t / transient_tau) if kind == "transient" else np.zeros_like(t)
+    mu = MU + 0.25 * relax + ar1(n_samples, 0.9, 0.02, rng)
+    height_t = height - 1.0 * relax + ar1(n_samples, 0.95, 0.05, rng)
+    if kind == "C":
+        switches = (np.asarray(switch_times, dtype=float) if switch_times is not None
+                    else np.arange(1, 4) * duration / 4)
+        state = np.ones_like(t)                       # +1 then alternating at each switch
+        for k, ts in enumerate(switches):
+            old = (-1.0) ** k
+            ramp = np.clip((t - ts) / switch_duration, 0, 1)
+            state = np.where(t >= ts, old * (1 - 2 * ramp), state)
+        com = V * state + ar1(n_samples, 0.8, 0.05 * V, rng)
+    elif kind == "noise":
+        com = rng.normal(0, 0.4 * V, n_samples)
+    else:
+        com = ar1(n_samples, 0.95, (0.2 if kind == "B" else 0.05) * V, rng)
+    fy = sigma * length_x * (1 + ar1(n_samples, 0.5, 0.02, rng))
+    mean_area = np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
+    series = dict(
+        step=np.round(t / dt).astype(np.int64), time=t, com_vx=com, height=height_t,
+        solid_fraction=n * mean_area / (length_x * height_t),
+        kinetic_energy=0.5 * n * 0.6 * (0.1 * V) ** 2 * (1 + 0.1 * rng.random(n_samples)),
+        contacts=rng.integers(900, 1100, n_samples), force_carrying=rng.integers(500, 700, n_samples),
+        bottom_fx=mu * fy, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu, top_mu=mu,
+        sweeps_mean=40 + 5 * rng.random(n_samples), sweeps_max=rng.integers(60, 201, n_samples),
+        capped_steps=(rng.random(n_samples) < 0.001).astype(np.int64),
+        residual_max=1e-6 * rng.random(n_samples), overlap_max=1e-3 * rng.random(n_samples))
+
+    n_windows = int(t_reached // window)
+    n_stripes = int(np.ceil(1.25 * height / dy))
+    y = (np.arange(n_stripes) + 0.5) * dy
+    W = dict(y=y, t_start=window * np.arange(n_windows), t_end=window * np.arange(1, n_windows + 1))
+    inside = [(t > t0) & (t <= t0 + window) for t0 in W["t_start"]]
+    W["samples"] = np.array([s.sum() for s in inside], dtype=np.int64)
+    W["height"] = np.array([height_t[s].mean() for s in inside])
+    W["com_vx"] = np.array([com[s].mean() for s in inside])
+    shape = (n_windows, n_stripes)
+    nu, vx, mu_prof, coord = np.zeros(shape), np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
+    stress = np.full(shape + (2, 2), np.nan)
+    for w, s in enumerate(inside):
+        H = W["height"][w]
+        ok = y < H
+        yo = y[ok]
+        nu[w, ok] = NU - 0.1 * (np.exp(-yo / 1.5) + np.exp(-(H - yo) / 1.5)) + rng.normal(0, 0.005, ok.sum())
+        vx[w, ok] = _profile(kind, yo, H, V, W["com_vx"][w], rng)
+        mu_prof[w, ok] = mu[s].mean() + rng.normal(0, 0.01, ok.sum())
+        coord[w, ok] = Z + rng.normal(0, 0.05, ok.sum())
+        stress[w, ok] = [[sigma, 0.0], [0.0, sigma]]
+        stress[w, ok, 0, 1] = stress[w, ok, 1, 0] = -mu_prof[w, ok] * sigma
+    shear_rate = np.full(shape, np.nan)
+    for w in range(n_windows):
+        ok = np.isfinite(vx[w])
+        if ok.sum() >= 2:
+            shear_rate[w, ok] = np.gradient(vx[w, ok], y[ok])
+    kinetic = np.where(np.isfinite(stress), 0.0, np.nan)
+    kinetic[..., 0, 0] = kinetic[..., 1, 1] = np.where(nu > 0, 0.01 * sigma * nu, np.nan)
+    W.update(solid_fraction=nu, vx=vx, stress=stress, contact_stress=stress - kinetic,
+             kinetic_stress=kinetic, mu_eff=mu_prof, coordination=coord, shear_rate=shear_rate,
+             inertial_number=np.abs(shear_rate) * np.sqrt(m / sigma))
+    for wall, sign in (("bottom", -1), ("top", 1)):
+        fx, fyw = series[f"{wall}_fx"], series[f"{wall}_fy"]
+        W[f"{wall}_force"] = np.array([[fx[s].mean(), fyw[s].mean()] for s in inside]).reshape(-1, 2)
+        W[f"slip_{wall}"] = 0.05 * V + rng.normal(0, 0.005 * V, n_windows)
+        W[f"slip_{wall}_count"] = rng.integers(400, 600, n_windows)
+    W["wall_mu"] = np.array([mu[s].mean() for s in inside])
+
+    attrs = dict(format="cdshear-run", format_version=1, program_version="synthetic", n=n,
+                 length_x=length_x, height=height, velocity=V, normal_stress=sigma, dt=dt,
+                 seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
+                 window=window, stripe_thickness=dy,
+                 boundary_thickness=np.asarray(boundary_thickness, dtype=float),
+                 force_threshold=1.0, inertial_mass=m, time=float(t[-1]) if n_samples else 0.0,
+                 step=int(series["step"][-1]) if n_samples else 0,
+                 finished=int(t_reached >= duration))
+    attrs["case_toml"] = (
+        f"# synthetic case ({kind})\n[system]\nn = {n}\nheight = {height!r}\nseed = {seed}\n"
+        f"[shear]\nvelocity = {V!r}\nnormal_stress = {sigma!r}\nduration = {duration!r}\n"
+        f"[measure]\nsample_interval = {sample_interval!r}\nwindow = {window!r}\n"
+        f"stripe_thickness = {dy!r}\nboundary_thickness = {list(map(float, boundary_thickness))}\n")
+    path = os.path.join(run_dir, "run.h5")
+    with h5py.File(path + ".tmp", "w") as f:
+        f.attrs.update(attrs)
+        for k, v in series.items():
+            f.create_dataset(f"series/{k}", data=v)
+        for k, v in W.items():
+            f.create_dataset(f"windows/{k}", data=v)
+        for h in boundary_thickness:
+            g = f.create_group(f"windows/regions/h{h:g}")
+            g.attrs["h"] = float(h)
+            for k, v in regions_for_h(W, h, V, sigma, m).items():
+                g.create_dataset(k, data=v)
+        _write_snapshot(f.create_group("snapshot"), n, length_x, height, t_reached, rng)
+    os.replace(path + ".tmp", path)
+    with open(os.path.join(run_dir, "case.toml"), "w") as f:
+        f.write(attrs["case_toml"])
+    return path
+
+
+def _write_snapshot(g, n, length_x, height, time, rng):
+    """Disks on a jittered grid, contacts between near neighbours and with the walls."""
+    cols = int(np.ceil(np.sqrt(n * length_x / height)))
+    rows = int(np.ceil(n / cols))
+    i = np.arange(n)
+    x = (i % cols + 0.5 + 0.1 * rng.standard_normal(n)) * length_x / cols % length_x
+    y = np.clip((i // cols + 0.5) * height / rows + 0.05 * rng.standard_normal(n), 0.5, height - 0.5)
+    r = rng.uniform(0.4, 0.5, n)
+    dx = x[:, None] - x[None, :]
+    dx -= length_x * np.round(dx / length_x)               # nearest periodic image
+    gap = np.hypot(dx, y[:, None] - y[None, :]) - r[:, None] - r[None, :]
+    a, b = np.nonzero(np.triu(gap < 0.15, 1))
+    bx, by = x[a] - dx[a, b], y[b]
+    bottom, top = np.flatnonzero(y - r < 0.1), np.flatnonzero(y + r > height - 0.1)
+    ca = np.concatenate([a, bottom, top])
+    cb = np.concatenate([b, np.full(len(bottom), n), np.full(len(top), n + 1)])
+    cbx = np.concatenate([bx, x[bottom], x[top]])
+    cby = np.concatenate([by, np.zeros(len(bottom)), np.full(len(top), height)])
+    data = dict(time=float(time), x=x, y=y, radius=r, vx=rng.normal(0, 0.1, n),
+                vy=rng.normal(0, 0.1, n), omega=rng.normal(0, 0.1, n),
+                contact_a=ca.astype(np.int64), contact_b=cb.astype(np.int64),
+                contact_ax=x[ca], contact_ay=y[ca], contact_bx=cbx, contact_by=cby,
+                contact_normal_force=rng.exponential(1.0, len(ca)))
+    for k, v in data.items():
+        g.create_dataset(k, data=v)
+    g.attrs.update(length_x=length_x, height=height)

@@ -1,0 +1,91 @@
+"""Block averaging and steady-state detection on synthetic series."""
+import unittest
+
+import numpy as np
+
+from cdshear_analysis.statistics import block_average, window_mean
+from cdshear_analysis.steady_state import detect_steady_state, mser_truncation
+from cdshear_analysis.synthetic import ar1
+
+
+def ar1_standard_error(n, phi, std):
+    """Exact standard error of the mean of n stationary AR(1) samples."""
+    s = (1 + phi) / (1 - phi) - 2 * phi * (1 - phi ** n) / (n * (1 - phi) ** 2)
+    return std * np.sqrt(s / n)
+
+
+class BlockAveraging(unittest.TestCase):
+    def test_ar1_error_matches_known_standard_error(self):
+        for seed, phi in ((1, 0.9), (2, 0.95), (3, 0.5), (4, 0.0)):
+            x = 3.0 + ar1(2 ** 15, phi, 2.0, np.random.default_rng(seed))
+            b = block_average(x)
+            expected = ar1_standard_error(len(x), phi, 2.0)
+            self.assertTrue(b["converged"], (phi, b))
+            self.assertLess(abs(b["err"] / expected - 1), 0.3, (phi, b["err"], expected))
+            self.assertLess(abs(b["n_independent"] / (2.0 / expected) ** 2 - 1), 0.6)
+
+    def test_short_and_nan_input(self):
+        self.assertTrue(np.isnan(block_average([])["mean"]))
+        self.assertTrue(np.isnan(block_average([1.0])["err"]))
+        b = block_average([1.0, np.nan, 3.0])
+        self.assertEqual((b["mean"], b["n"]), (2.0, 2))
+
+    def test_window_mean(self):
+        mean, err = window_mean([[1.0, np.nan], [3.0, np.nan], [5.0, 2.0]])
+        np.testing.assert_allclose(mean, [3.0, 2.0])
+        self.assertAlmostEqual(err[0], 2.0 / np.sqrt(3))
+        self.assertTrue(np.isnan(err[1]))
+
+
+def relaxing(t, tau, amplitude, noise, rng):
+    return 1.0 + amplitude * np.exp(-t / tau) + ar1(len(t), 0.9, noise, rng)
+
+
+class SteadyState(unittest.TestCase):
+    window = 80.0
+
+    def detect(self, t, series, window_signals=None):
+        starts = np.arange(0.0, t[-1] - self.window + 1e-9, self.window)
+        return detect_steady_state(t, series, starts, window_signals or {})
+
+    def test_mser_finds_a_step(self):
+        z = np.r_[np.full(30, 5.0), np.zeros(170)] + np.random.default_rng(0).normal(0, 0.1, 200)
+        self.assertEqual(mser_truncation(z), (30, False))
+        self.assertEqual(mser_truncation(np.linspace(1, 0, 200)), (100, True))   # still drifting
+
+    def test_transient_end_found(self):
+        t = 0.5 * np.arange(1, 6001)
+        for seed in range(3):
+            rng = np.random.default_rng(seed)
+            st = self.detect(t, {"mu": relaxing(t, 100.0, 0.25, 0.02, rng),
+                                 "height": relaxing(t, 100.0, 1.0, 0.05, rng)})
+            self.assertTrue(st["steady"], st["reason"])
+            self.assertGreater(st["transient_end_time"], 150.0)
+            self.assertLess(st["transient_end_time"], 700.0)
+            self.assertTrue(all(self.window * k >= st["transient_end_time"] for k in st["windows"]))
+
+    def test_stationary_noise_is_steady_from_the_start(self):
+        t = 0.5 * np.arange(1, 6001)
+        rng = np.random.default_rng(5)
+        st = self.detect(t, {"mu": rng.normal(0.3, 0.02, len(t)), "h": ar1(len(t), 0.9, 0.1, rng)},
+                         {"bulk": rng.normal(0.3, 0.01, 37)})
+        self.assertTrue(st["steady"], st["reason"])
+        self.assertLess(st["transient_end_time"], 0.2 * t[-1])
+
+    def test_still_drifting_is_not_steady(self):
+        t = 0.5 * np.arange(1, 2001)
+        st = self.detect(t, {"mu": relaxing(t, 1000.0, 0.25, 0.02, np.random.default_rng(1))})
+        self.assertFalse(st["steady"])
+        self.assertIn("still drifting", st["reason"])
+        self.assertGreaterEqual(st["averaging_start_time"], 0.5 * t[-1] - 1e-9)
+
+    def test_too_short_is_not_steady(self):
+        t = 0.5 * np.arange(1, 241)          # 120 time units: one window
+        st = self.detect(t, {"mu": np.random.default_rng(2).normal(0.3, 0.02, len(t))})
+        self.assertFalse(st["steady"])
+        self.assertIn("window", st["reason"])
+        self.assertEqual(list(st["windows"]), [0])
+
+
+if __name__ == "__main__":
+    unittest.main()

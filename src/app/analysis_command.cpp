@@ -1,0 +1,82 @@
+#include "analysis_command.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+namespace cdshear {
+
+int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
+                 const std::vector<std::string>& extra) {
+  // The interpreter with Debian's numpy/scipy/matplotlib/h5py; CDSHEAR_PYTHON overrides it.
+  const char* env_python = std::getenv("CDSHEAR_PYTHON");
+  const std::string python = env_python != nullptr ? env_python : "/usr/bin/python3";
+  if (access(python.c_str(), X_OK) != 0) {
+    std::fprintf(stderr,
+                 "error: %s: not found; `cdshear %s` needs Python 3 with numpy, scipy, "
+                 "matplotlib and h5py (scripts/setup.sh installs them)\n",
+                 python.c_str(), verb.c_str());
+    return 1;
+  }
+  std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, run_dir.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    std::perror("error: fork");
+    return 1;
+  }
+  if (pid == 0) {
+    const char* old_path = std::getenv("PYTHONPATH");
+    std::string path = CDSHEAR_PYTHON_DIR;
+    if (old_path != nullptr && *old_path != '\0') path += std::string(":") + old_path;
+    setenv("PYTHONPATH", path.c_str(), 1);
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(python.c_str(), argv.data());
+    std::perror(("error: cannot start " + python).c_str());
+    _exit(127);
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+void register_analysis_commands(CLI::App& app) {
+  struct Args {
+    std::string dir, out;
+    bool quiet = false;
+  };
+  auto analyze = std::make_shared<Args>();
+  CLI::App* a = app.add_subcommand(
+      "analyze",
+      "Steady state, averages with uncertainties, flow regime, band switches of a run -> "
+      "summary.json");
+  a->add_option("run_dir", analyze->dir, "run folder (holding run.h5)")->required();
+  a->add_flag("-q,--quiet", analyze->quiet, "write summary.json without printing the report");
+  a->callback([analyze]() {
+    const int rc = run_analysis("analyze", analyze->dir,
+                                analyze->quiet ? std::vector<std::string>{"--quiet"}
+                                               : std::vector<std::string>{});
+    if (rc != 0) throw CLI::RuntimeError(rc);
+  });
+  auto plot = std::make_shared<Args>();
+  CLI::App* p = app.add_subcommand("plot", "PNG figures of a run (default: RUN_DIR/figures/)");
+  p->add_option("run_dir", plot->dir, "run folder (holding run.h5)")->required();
+  p->add_option("-o,--output", plot->out, "folder for the figures");
+  p->callback([plot]() {
+    std::vector<std::string> extra;
+    if (!plot->out.empty()) extra = {"-o", plot->out};
+    const int rc = run_analysis("plot", plot->dir, extra);
+    if (rc != 0) throw CLI::RuntimeError(rc);
+  });
+}
+
+}  // namespace cdshear

@@ -1,0 +1,20 @@
+// `cdshear analyze RUN_DIR` and `cdshear plot RUN_DIR`: the per-run analysis and figures live in
+// the Python package python/cdshear_analysis (numpy, scipy, matplotlib, h5py from Debian); these
+// commands run it with /usr/bin/python3 so that `cdshear` stays the one entry point.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace cdshear {
+
+/// Runs `python3 -m cdshear_analysis <verb> <run_dir> <extra...>`; returns its exit status.
+int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
+                 const std::vector<std::string>& extra);
+
+void register_analysis_commands(CLI::App& app);
+
+}  // namespace cdshear

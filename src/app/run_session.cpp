@@ -1,0 +1,53 @@
+#include "run_session.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "outputs.hpp"
+
+namespace cdshear {
+
+std::uint64_t steps_of(double interval, double dt) {
+  return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
+}
+
+int finish_run(const RunEnd& end, const World& world, const RunSummary& summary) {
+  namespace fs = std::filesystem;
+  const char* state_name = state_file_name(summary.outcome, end.reached_end);
+  write_file_atomic(end.dir / state_name, state_to_json(world).dump(1) + "\n");
+  if (end.reached_end && summary.outcome == RunOutcome::kFinished)
+    fs::remove(end.dir / "interrupted_state.json");  // stale once the run is complete
+  nlohmann::json info = end.info;
+  info["program"] = "cdshear";
+  info["version"] = CDSHEAR_VERSION;
+  info["step"] = world.step;
+  info["time"] = world.time;
+  info["state_hash"] = fmt::format("{:016x}", state_hash(world));
+  info["summary"] = summary_to_json(summary);
+  write_file_atomic(end.dir / end.info_name, info.dump(2) + "\n");
+  std::printf(
+      "%llu steps in %.1f s (%.0f steps/s), sweeps mean %.1f largest %d, capped %llu, largest "
+      "overlap %.3g\n",
+      static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
+      summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
+      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
+      summary.largest_overlap);
+  if (summary.outcome == RunOutcome::kBlownUp) {
+    std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
+                 static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
+                 (end.dir / state_name).c_str(),
+                 fs::exists(end.dir / "checkpoint.cbor") ? ", last good checkpoint kept" : "");
+    return 3;
+  }
+  if (!end.reached_end || summary.outcome == RunOutcome::kInterrupted) {
+    std::printf("stopped at step %llu (t %.4f); state in %s%s\n",
+                static_cast<unsigned long long>(world.step), world.time,
+                (end.dir / state_name).c_str(), end.resume_hint.c_str());
+    return summary.outcome == RunOutcome::kInterrupted ? 130 : 0;
+  }
+  return 0;
+}
+
+}  // namespace cdshear

@@ -1,0 +1,29 @@
+#include "measurement_state.hpp"
+
+namespace cdshear {
+
+using nlohmann::json;
+
+void to_json(json& j, const Vec2& v) { j = json::array({v.x, v.y}); }
+void from_json(const json& j, Vec2& v) { v = {j.at(0).get<double>(), j.at(1).get<double>()}; }
+void to_json(json& j, const Tensor2& t) { j = json::array({t.xx, t.xy, t.yx, t.yy}); }
+void from_json(const json& j, Tensor2& t) {
+  t = {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>(),
+       j.at(3).get<double>()};
+}
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(IntervalStats, steps, capped_steps, sweeps_sum, sweeps_max,
+                                   residual_max, overlap_max)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(WindowSums, samples, step_start, bottom_impulse_start,
+                                   top_impulse_start, height_sum, com_vx_sum, slip_bottom_sum,
+                                   slip_top_sum, slip_bottom_count, slip_top_count, area,
+                                   velocity_area, mass, mass_vx, mass_vy, mass_vxx, mass_vxy,
+                                   mass_vyy, coordination_area, stress_xx, stress_xy, stress_yx,
+                                   stress_yy)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeasurementState, window, grain_moment, interval,
+                                   last_sample_step, last_sample_time, bottom_impulse_last,
+                                   top_impulse_last)
+
+json measurement_state_to_json(const MeasurementState& state) { return state; }
+MeasurementState measurement_state_from_json(const json& j) { return j.get<MeasurementState>(); }
+
+}  // namespace cdshear

@@ -1,0 +1,16 @@
+// The measurement layer's running state (open window, per-grain contact moments, interval
+// statistics) as JSON, stored in the checkpoint (CBOR keeps doubles bit-exact) so that a resumed
+// run measures exactly as the uninterrupted one.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "shear_measurement.hpp"
+
+namespace cdshear {
+
+nlohmann::json measurement_state_to_json(const MeasurementState& state);
+/// Throws std::exception (caught by the checkpoint reader) on a malformed object.
+MeasurementState measurement_state_from_json(const nlohmann::json& j);
+
+}  // namespace cdshear

@@ -1,0 +1,515 @@
+// HDF5 through its C API with a small RAII handle; the C++ bindings add little for a file of
+// plain 1-4D arrays. Columns are described once (name + accessor) and serve writing and reading.
+#include "run_data_file.hpp"
+
+#include <hdf5.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numbers>
+
+#include "config_error.hpp"
+
+namespace cdshear {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Owns an HDF5 identifier and closes it with the matching function.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  operator hid_t() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+/// Every HDF5 failure turns into a ConfigError naming the file and the object.
+struct H5Context {
+  std::string file;
+  [[noreturn]] void fail(const std::string& object, const std::string& problem) const {
+    throw ConfigError(file, object, problem);
+  }
+  void check(herr_t status, const std::string& object, const char* what) const {
+    if (status < 0) fail(object, what);
+  }
+};
+
+// --- writing ---------------------------------------------------------------------------------
+
+void write_array(const H5Context& ctx, hid_t group, const std::string& name, hid_t mem_type,
+                 const void* data, const std::vector<hsize_t>& dims) {
+  Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+  Handle set(H5Dcreate2(group, name.c_str(), mem_type == H5T_NATIVE_DOUBLE ? H5T_IEEE_F64LE
+                                                                            : H5T_STD_I64LE,
+                        space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+             H5Dclose);
+  if (!set.valid()) ctx.fail(name, "cannot create dataset");
+  bool empty = false;
+  for (hsize_t d : dims) empty = empty || d == 0;
+  if (!empty) ctx.check(H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), name,
+                        "cannot write dataset");
+}
+void write_doubles(const H5Context& ctx, hid_t group, const std::string& name,
+                   const std::vector<double>& v, std::vector<hsize_t> dims = {}) {
+  if (dims.empty()) dims = {v.size()};
+  write_array(ctx, group, name, H5T_NATIVE_DOUBLE, v.data(), dims);
+}
+void write_integers(const H5Context& ctx, hid_t group, const std::string& name,
+                    const std::vector<std::int64_t>& v) {
+  write_array(ctx, group, name, H5T_NATIVE_INT64, v.data(), {v.size()});
+}
+
+void attr_double(const H5Context& ctx, hid_t obj, const char* name,
+                 const std::vector<double>& v) {
+  const hsize_t dim = v.size();
+  Handle space(v.size() == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &dim, nullptr),
+               H5Sclose);
+  Handle a(H5Acreate2(obj, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  ctx.check(H5Awrite(a, H5T_NATIVE_DOUBLE, v.data()), name, "cannot write attribute");
+}
+void attr_double(const H5Context& ctx, hid_t obj, const char* name, double v) {
+  attr_double(ctx, obj, name, std::vector<double>{v});
+}
+void attr_int(const H5Context& ctx, hid_t obj, const char* name, std::int64_t v) {
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  ctx.check(H5Awrite(a, H5T_NATIVE_INT64, &v), name, "cannot write attribute");
+}
+void attr_string(const H5Context& ctx, hid_t obj, const char* name, const std::string& v) {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type, std::max<std::size_t>(1, v.size()));
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  const std::string padded = v.empty() ? std::string(1, '\0') : v;
+  ctx.check(H5Awrite(a, type, padded.data()), name, "cannot write attribute");
+}
+
+// --- reading ---------------------------------------------------------------------------------
+
+std::vector<hsize_t> dataset_dims(const H5Context& ctx, hid_t set, const std::string& name) {
+  Handle space(H5Dget_space(set), H5Sclose);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank < 0) ctx.fail(name, "unreadable dataset");
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+  return dims;
+}
+
+template <typename T>
+std::vector<T> read_array(const H5Context& ctx, hid_t group, const std::string& name,
+                          hid_t mem_type, std::size_t expected = std::size_t(-1)) {
+  if (H5Lexists(group, name.c_str(), H5P_DEFAULT) <= 0) ctx.fail(name, "dataset missing");
+  Handle set(H5Dopen2(group, name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!set.valid()) ctx.fail(name, "cannot open dataset");
+  std::size_t count = 1;
+  for (hsize_t d : dataset_dims(ctx, set, name)) count *= d;
+  if (expected != std::size_t(-1) && count != expected)
+    ctx.fail(name, "has " + std::to_string(count) + " values, expected " +
+                       std::to_string(expected));
+  std::vector<T> v(count);
+  if (count > 0)
+    ctx.check(H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), name,
+              "cannot read dataset (truncated file?)");
+  return v;
+}
+std::vector<double> read_doubles(const H5Context& ctx, hid_t group, const std::string& name,
+                                 std::size_t expected = std::size_t(-1)) {
+  return read_array<double>(ctx, group, name, H5T_NATIVE_DOUBLE, expected);
+}
+
+std::vector<double> read_attr_doubles(const H5Context& ctx, hid_t obj, const char* name) {
+  if (H5Aexists(obj, name) <= 0) ctx.fail(name, "attribute missing");
+  Handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  Handle space(H5Aget_space(a), H5Sclose);
+  const hssize_t count = H5Sget_simple_extent_npoints(space);
+  std::vector<double> v(static_cast<std::size_t>(std::max<hssize_t>(0, count)));
+  ctx.check(H5Aread(a, H5T_NATIVE_DOUBLE, v.data()), name, "cannot read attribute");
+  return v;
+}
+double read_attr_double(const H5Context& ctx, hid_t obj, const char* name) {
+  const std::vector<double> v = read_attr_doubles(ctx, obj, name);
+  if (v.size() != 1) ctx.fail(name, "expected one number");
+  return v[0];
+}
+std::string read_attr_string(const H5Context& ctx, hid_t obj, const char* name) {
+  if (H5Aexists(obj, name) <= 0) ctx.fail(name, "attribute missing");
+  Handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(a), H5Tclose);
+  if (H5Tget_class(type) != H5T_STRING || H5Tis_variable_str(type) > 0)
+    ctx.fail(name, "not a fixed-length string");
+  std::string s(H5Tget_size(type), '\0');
+  ctx.check(H5Aread(a, type, s.data()), name, "cannot read attribute");
+  if (const auto end = s.find('\0'); end != std::string::npos) s.resize(end);
+  return s;
+}
+
+// --- the columns of the file -----------------------------------------------------------------
+
+struct SeriesColumn {
+  const char* name;
+  bool integer;
+  std::function<double(const SeriesRow&)> get;
+  std::function<void(SeriesRow&, double)> set;
+};
+
+const std::vector<SeriesColumn>& series_columns() {
+  static const std::vector<SeriesColumn> columns = {
+      {"step", true, [](const SeriesRow& r) { return static_cast<double>(r.step); },
+       [](SeriesRow& r, double v) { r.step = static_cast<std::uint64_t>(v); }},
+      {"time", false, [](const SeriesRow& r) { return r.time; },
+       [](SeriesRow& r, double v) { r.time = v; }},
+      {"com_vx", false, [](const SeriesRow& r) { return r.com_vx; },
+       [](SeriesRow& r, double v) { r.com_vx = v; }},
+      {"height", false, [](const SeriesRow& r) { return r.height; },
+       [](SeriesRow& r, double v) { r.height = v; }},
+      {"solid_fraction", false, [](const SeriesRow& r) { return r.solid_fraction; },
+       [](SeriesRow& r, double v) { r.solid_fraction = v; }},
+      {"kinetic_energy", false, [](const SeriesRow& r) { return r.kinetic_energy; },
+       [](SeriesRow& r, double v) { r.kinetic_energy = v; }},
+      {"contacts", true, [](const SeriesRow& r) { return static_cast<double>(r.contacts); },
+       [](SeriesRow& r, double v) { r.contacts = static_cast<std::uint64_t>(v); }},
+      {"force_carrying", true,
+       [](const SeriesRow& r) { return static_cast<double>(r.force_carrying); },
+       [](SeriesRow& r, double v) { r.force_carrying = static_cast<std::uint64_t>(v); }},
+      {"bottom_fx", false, [](const SeriesRow& r) { return r.bottom_force.x; },
+       [](SeriesRow& r, double v) { r.bottom_force.x = v; }},
+      {"bottom_fy", false, [](const SeriesRow& r) { return r.bottom_force.y; },
+       [](SeriesRow& r, double v) { r.bottom_force.y = v; }},
+      {"top_fx", false, [](const SeriesRow& r) { return r.top_force.x; },
+       [](SeriesRow& r, double v) { r.top_force.x = v; }},
+      {"top_fy", false, [](const SeriesRow& r) { return r.top_force.y; },
+       [](SeriesRow& r, double v) { r.top_force.y = v; }},
+      {"bottom_mu", false, [](const SeriesRow& r) { return r.bottom_mu; },
+       [](SeriesRow& r, double v) { r.bottom_mu = v; }},
+      {"top_mu", false, [](const SeriesRow& r) { return r.top_mu; },
+       [](SeriesRow& r, double v) { r.top_mu = v; }},
+      // Read back as one step with that many sweeps, which writes the same mean again.
+      {"sweeps_mean", false, [](const SeriesRow& r) { return r.solver.sweeps_mean(); },
+       [](SeriesRow& r, double v) {
+         r.solver.steps = 1;
+         r.solver.sweeps_sum = v;
+       }},
+      {"sweeps_max", true, [](const SeriesRow& r) { return double(r.solver.sweeps_max); },
+       [](SeriesRow& r, double v) { r.solver.sweeps_max = static_cast<int>(v); }},
+      {"capped_steps", true, [](const SeriesRow& r) { return double(r.solver.capped_steps); },
+       [](SeriesRow& r, double v) { r.solver.capped_steps = static_cast<std::uint64_t>(v); }},
+      {"residual_max", false, [](const SeriesRow& r) { return r.solver.residual_max; },
+       [](SeriesRow& r, double v) { r.solver.residual_max = v; }},
+      {"overlap_max", false, [](const SeriesRow& r) { return r.solver.overlap_max; },
+       [](SeriesRow& r, double v) { r.solver.overlap_max = v; }},
+  };
+  return columns;
+}
+
+using WindowScalar = std::pair<const char*, double WindowProfile::*>;
+const WindowScalar kWindowScalars[] = {{"t_start", &WindowProfile::t_start},
+                                       {"t_end", &WindowProfile::t_end},
+                                       {"height", &WindowProfile::height},
+                                       {"com_vx", &WindowProfile::com_vx},
+                                       {"wall_mu", &WindowProfile::wall_mu},
+                                       {"slip_bottom", &WindowProfile::slip_bottom},
+                                       {"slip_top", &WindowProfile::slip_top}};
+using WindowCount = std::pair<const char*, std::uint64_t WindowProfile::*>;
+const WindowCount kWindowCounts[] = {{"samples", &WindowProfile::samples},
+                                     {"slip_bottom_count", &WindowProfile::slip_bottom_count},
+                                     {"slip_top_count", &WindowProfile::slip_top_count}};
+using WindowForce = std::pair<const char*, Vec2 WindowProfile::*>;
+const WindowForce kWindowForces[] = {{"bottom_force", &WindowProfile::bottom_force},
+                                     {"top_force", &WindowProfile::top_force}};
+using WindowProfileField = std::pair<const char*, std::vector<double> WindowProfile::*>;
+const WindowProfileField kWindowProfiles[] = {
+    {"solid_fraction", &WindowProfile::solid_fraction},
+    {"vx", &WindowProfile::vx},
+    {"mu_eff", &WindowProfile::mu_eff},
+    {"coordination", &WindowProfile::coordination},
+    {"shear_rate", &WindowProfile::shear_rate},
+    {"inertial_number", &WindowProfile::inertial_number}};
+using WindowTensor = std::pair<const char*, std::vector<Tensor2> WindowProfile::*>;
+const WindowTensor kWindowTensors[] = {{"contact_stress", &WindowProfile::contact_stress},
+                                       {"kinetic_stress", &WindowProfile::kinetic_stress},
+                                       {"stress", &WindowProfile::stress}};
+using RegionField = std::pair<const char*, double RegionValues::*>;
+const RegionField kRegionFields[] = {
+    {"bulk_mu_eff", &RegionValues::bulk_mu_eff},
+    {"bulk_solid_fraction", &RegionValues::bulk_solid_fraction},
+    {"bulk_coordination", &RegionValues::bulk_coordination},
+    {"bulk_shear_rate", &RegionValues::bulk_shear_rate},
+    {"bulk_inertial_number", &RegionValues::bulk_inertial_number},
+    {"bottom_mu_eff", &RegionValues::bottom_mu_eff},
+    {"bottom_solid_fraction", &RegionValues::bottom_solid_fraction},
+    {"bottom_coordination", &RegionValues::bottom_coordination},
+    {"bottom_velocity_jump", &RegionValues::bottom_velocity_jump},
+    {"bottom_inertial_number", &RegionValues::bottom_inertial_number},
+    {"top_mu_eff", &RegionValues::top_mu_eff},
+    {"top_solid_fraction", &RegionValues::top_solid_fraction},
+    {"top_coordination", &RegionValues::top_coordination},
+    {"top_velocity_jump", &RegionValues::top_velocity_jump},
+    {"top_inertial_number", &RegionValues::top_inertial_number}};
+
+/// Group name of a boundary thickness: h10, h5, h7.5 (shortest exact decimal).
+std::string region_group_name(double h) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "h%.15g", h);
+  return buffer;
+}
+
+Handle create_group(const H5Context& ctx, hid_t parent, const std::string& name) {
+  const hid_t id = H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (id < 0) ctx.fail(name, "cannot create group");
+  return Handle(id, H5Gclose);
+}
+Handle open_group(const H5Context& ctx, hid_t parent, const std::string& name) {
+  if (H5Lexists(parent, name.c_str(), H5P_DEFAULT) <= 0) ctx.fail(name, "group missing");
+  const hid_t id = H5Gopen2(parent, name.c_str(), H5P_DEFAULT);
+  if (id < 0) ctx.fail(name, "cannot open group");
+  return Handle(id, H5Gclose);
+}
+
+void write_snapshot(const H5Context& ctx, hid_t file, const World& world,
+                    const std::vector<Contact>& contacts, double dt, double relative_threshold) {
+  Handle g = create_group(ctx, file, "snapshot");
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const double bottom = world.walls[0].point.y;
+  std::vector<double> x(n), y(n), vx(n), vy(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = d.position[i].x;
+    y[i] = d.position[i].y - bottom;
+    vx[i] = d.velocity[i].x;
+    vy[i] = d.velocity[i].y;
+  }
+  write_doubles(ctx, g, "x", x);
+  write_doubles(ctx, g, "y", y);
+  write_doubles(ctx, g, "radius", d.radius);
+  write_doubles(ctx, g, "vx", vx);
+  write_doubles(ctx, g, "vy", vy);
+  write_doubles(ctx, g, "omega", d.omega);
+  const double threshold = force_carrying_threshold(contacts, relative_threshold);
+  std::vector<std::int64_t> a_index, b_index;
+  std::vector<double> ax, ay, bx, by, force;
+  for (const Contact& c : contacts) {
+    if (!(c.impulse_n > threshold)) continue;
+    const auto a = static_cast<std::size_t>(c.key.body_a);
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    const Vec2 pa{d.position[a].x, d.position[a].y - bottom};
+    // The partner as seen from a: b's nearest periodic image, or the contact point on a wall.
+    const Vec2 pb = b < n ? pa + world.domain.minimum_image(d.position[b] - d.position[a])
+                          : pa + c.lever_a * c.normal;
+    a_index.push_back(static_cast<std::int64_t>(a));
+    b_index.push_back(static_cast<std::int64_t>(b));
+    ax.push_back(pa.x);
+    ay.push_back(pa.y);
+    bx.push_back(pb.x);
+    by.push_back(pb.y);
+    force.push_back(c.impulse_n / dt);
+  }
+  write_integers(ctx, g, "contact_a", a_index);
+  write_integers(ctx, g, "contact_b", b_index);
+  write_doubles(ctx, g, "contact_ax", ax);
+  write_doubles(ctx, g, "contact_ay", ay);
+  write_doubles(ctx, g, "contact_bx", bx);
+  write_doubles(ctx, g, "contact_by", by);
+  write_doubles(ctx, g, "contact_normal_force", force);
+  attr_double(ctx, g, "time", world.time);
+  attr_double(ctx, g, "length_x", world.domain.length_x);
+  attr_double(ctx, g, "height", world.walls[1].point.y - bottom);
+}
+
+}  // namespace
+
+void write_run_data(const fs::path& path, const RunMetadata& meta,
+                    const ShearMeasurement& m, const World& world,
+                    const std::vector<Contact>& contacts) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported as ConfigError
+  const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
+  const H5Context ctx{tmp.string()};
+  {
+    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    if (!file.valid()) ctx.fail("", "cannot create the file");
+    const MeasureOptions& o = m.options();
+    attr_string(ctx, file, "format", "cdshear-run");
+    attr_int(ctx, file, "format_version", 1);
+    attr_string(ctx, file, "program_version", CDSHEAR_VERSION);
+    attr_string(ctx, file, "case_toml", meta.case_toml);
+    attr_int(ctx, file, "n", static_cast<std::int64_t>(meta.n));
+    attr_double(ctx, file, "length_x", meta.length_x);
+    attr_double(ctx, file, "height", meta.height);
+    attr_double(ctx, file, "velocity", meta.velocity);
+    attr_double(ctx, file, "normal_stress", meta.normal_stress);
+    attr_double(ctx, file, "dt", meta.dt);
+    attr_int(ctx, file, "seed", static_cast<std::int64_t>(meta.seed));
+    attr_int(ctx, file, "solver_seed", static_cast<std::int64_t>(meta.solver_seed));
+    attr_double(ctx, file, "duration", meta.duration);
+    attr_double(ctx, file, "sample_interval", o.sample_interval);
+    attr_double(ctx, file, "window", o.window);
+    attr_double(ctx, file, "stripe_thickness", o.stripe_thickness);
+    attr_double(ctx, file, "boundary_thickness", o.boundary_thickness);
+    attr_double(ctx, file, "force_threshold", o.force_threshold);
+    attr_double(ctx, file, "inertial_mass", kInertialMass);
+    attr_double(ctx, file, "time", meta.time);
+    attr_int(ctx, file, "step", static_cast<std::int64_t>(meta.step));
+    attr_int(ctx, file, "finished", meta.finished ? 1 : 0);
+
+    {
+      Handle g = create_group(ctx, file, "series");
+      const std::vector<SeriesRow>& rows = m.series();
+      for (const SeriesColumn& col : series_columns()) {
+        if (col.integer) {
+          std::vector<std::int64_t> v;
+          for (const SeriesRow& r : rows) v.push_back(static_cast<std::int64_t>(col.get(r)));
+          write_integers(ctx, g, col.name, v);
+        } else {
+          std::vector<double> v;
+          for (const SeriesRow& r : rows) v.push_back(col.get(r));
+          write_doubles(ctx, g, col.name, v);
+        }
+      }
+    }
+
+    Handle g = create_group(ctx, file, "windows");
+    const std::vector<WindowProfile>& ws = m.windows();
+    const hsize_t w_count = ws.size(), s_count = m.stripes();
+    write_doubles(ctx, g, "y", m.stripe_centres());
+    for (const auto& [name, field] : kWindowScalars) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws) v.push_back(w.*field);
+      write_doubles(ctx, g, name, v);
+    }
+    for (const auto& [name, field] : kWindowCounts) {
+      std::vector<std::int64_t> v;
+      for (const WindowProfile& w : ws) v.push_back(static_cast<std::int64_t>(w.*field));
+      write_integers(ctx, g, name, v);
+    }
+    for (const auto& [name, field] : kWindowForces) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws) v.insert(v.end(), {(w.*field).x, (w.*field).y});
+      write_doubles(ctx, g, name, v, {w_count, 2});
+    }
+    for (const auto& [name, field] : kWindowProfiles) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws) v.insert(v.end(), (w.*field).begin(), (w.*field).end());
+      write_doubles(ctx, g, name, v, {w_count, s_count});
+    }
+    for (const auto& [name, field] : kWindowTensors) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws)
+        for (const Tensor2& t : w.*field) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
+      write_doubles(ctx, g, name, v, {w_count, s_count, 2, 2});
+    }
+    Handle regions = create_group(ctx, g, "regions");
+    for (std::size_t k = 0; k < o.boundary_thickness.size(); ++k) {
+      const std::string group_name = region_group_name(o.boundary_thickness[k]);
+      Handle r = create_group(ctx, regions, group_name);
+      attr_double(ctx, r, "h", o.boundary_thickness[k]);
+      for (const auto& [name, field] : kRegionFields) {
+        std::vector<double> v;
+        for (const WindowProfile& w : ws) v.push_back(w.regions.at(k).*field);
+        write_doubles(ctx, r, name, v);
+      }
+    }
+    write_snapshot(ctx, file, world, contacts, meta.dt, o.force_threshold);
+    if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) ctx.fail("", "cannot flush (disk full?)");
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw ConfigError(path.string(), "", "cannot rename the new data file: " + ec.message());
+}
+
+RunData read_run_data(const fs::path& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const H5Context ctx{path.string()};
+  if (!fs::is_regular_file(path)) ctx.fail("", "no such file (not a cdshear run folder?)");
+  if (H5Fis_hdf5(path.c_str()) <= 0) ctx.fail("", "not an HDF5 file (empty or truncated?)");
+  Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.valid()) ctx.fail("", "cannot open as HDF5 (truncated?)");
+  if (read_attr_string(ctx, file, "format") != "cdshear-run")
+    ctx.fail("format", "not a cdshear run data file");
+  RunData data;
+  RunMetadata& meta = data.meta;
+  meta.case_toml = read_attr_string(ctx, file, "case_toml");
+  meta.n = static_cast<std::size_t>(read_attr_double(ctx, file, "n"));
+  meta.length_x = read_attr_double(ctx, file, "length_x");
+  meta.height = read_attr_double(ctx, file, "height");
+  meta.velocity = read_attr_double(ctx, file, "velocity");
+  meta.normal_stress = read_attr_double(ctx, file, "normal_stress");
+  meta.dt = read_attr_double(ctx, file, "dt");
+  meta.seed = static_cast<std::uint64_t>(read_attr_double(ctx, file, "seed"));
+  meta.solver_seed = static_cast<std::uint64_t>(read_attr_double(ctx, file, "solver_seed"));
+  meta.duration = read_attr_double(ctx, file, "duration");
+  meta.time = read_attr_double(ctx, file, "time");
+  meta.step = static_cast<std::uint64_t>(read_attr_double(ctx, file, "step"));
+  meta.finished = read_attr_double(ctx, file, "finished") != 0.0;
+  MeasureOptions& o = data.options;
+  o.sample_interval = read_attr_double(ctx, file, "sample_interval");
+  o.window = read_attr_double(ctx, file, "window");
+  o.stripe_thickness = read_attr_double(ctx, file, "stripe_thickness");
+  o.boundary_thickness = read_attr_doubles(ctx, file, "boundary_thickness");
+  o.force_threshold = read_attr_double(ctx, file, "force_threshold");
+
+  {
+    Handle g = open_group(ctx, file, "series");
+    const std::size_t rows = read_doubles(ctx, g, "time").size();
+    data.series.resize(rows);
+    for (const SeriesColumn& col : series_columns()) {
+      const std::vector<double> v = read_doubles(ctx, g, col.name, rows);
+      for (std::size_t r = 0; r < rows; ++r) col.set(data.series[r], v[r]);
+    }
+  }
+  Handle g = open_group(ctx, file, "windows");
+  data.stripe_centres = read_doubles(ctx, g, "y");
+  const std::size_t w_count = read_doubles(ctx, g, "t_start").size();
+  const std::size_t s_count = data.stripe_centres.size();
+  data.windows.resize(w_count);
+  for (const auto& [name, field] : kWindowScalars) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = v[w];
+  }
+  for (const auto& [name, field] : kWindowCounts) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      data.windows[w].*field = static_cast<std::uint64_t>(v[w]);
+  }
+  for (const auto& [name, field] : kWindowForces) {
+    const std::vector<double> v = read_doubles(ctx, g, name, 2 * w_count);
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = {v[2 * w], v[2 * w + 1]};
+  }
+  for (const auto& [name, field] : kWindowProfiles) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count * s_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      (data.windows[w].*field).assign(v.begin() + w * s_count, v.begin() + (w + 1) * s_count);
+  }
+  for (const auto& [name, field] : kWindowTensors) {
+    const std::vector<double> v = read_doubles(ctx, g, name, 4 * w_count * s_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      for (std::size_t s = 0; s < s_count; ++s) {
+        const double* t = &v[4 * (w * s_count + s)];
+        (data.windows[w].*field).push_back({t[0], t[1], t[2], t[3]});
+      }
+  }
+  Handle regions = open_group(ctx, g, "regions");
+  for (const double h : o.boundary_thickness) {
+    Handle r = open_group(ctx, regions, region_group_name(h));
+    std::vector<RegionValues> values(w_count);
+    for (RegionValues& v : values) v.h = h;
+    for (const auto& [name, field] : kRegionFields) {
+      const std::vector<double> v = read_doubles(ctx, r, name, w_count);
+      for (std::size_t w = 0; w < w_count; ++w) values[w].*field = v[w];
+    }
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].regions.push_back(values[w]);
+  }
+  return data;
+}
+
+}  // namespace cdshear

@@ -1,0 +1,337 @@
+#include "shear_measurement.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "stripe_geometry.hpp"
+
+namespace cdshear {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr std::size_t kBottom = 0, kTop = 1;
+
+std::uint64_t steps_in(double interval, double dt) {
+  return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(interval / dt)));
+}
+
+double friction_ratio(Vec2 f) {
+  return f.y != 0.0 ? std::abs(f.x) / std::abs(f.y) : kNaN;
+}
+
+Vec2 mean_force(Vec2 impulse_end, Vec2 impulse_start, double seconds) {
+  return seconds > 0 ? (1.0 / seconds) * (impulse_end - impulse_start) : Vec2{};
+}
+
+/// Linear interpolation of a profile at height y (NaN outside or on empty stripes).
+double interpolate(const std::vector<double>& centres, const std::vector<double>& v, double y) {
+  for (std::size_t k = 0; k + 1 < centres.size(); ++k)
+    if (y >= centres[k] && y <= centres[k + 1]) {
+      const double s = (y - centres[k]) / (centres[k + 1] - centres[k]);
+      return (1.0 - s) * v[k] + s * v[k + 1];
+    }
+  return kNaN;
+}
+
+}  // namespace
+
+double force_carrying_threshold(const std::vector<Contact>& contacts, double relative) {
+  double sum = 0.0;
+  std::size_t count = 0;
+  for (const Contact& c : contacts)
+    if (c.impulse_n > 0.0) {
+      sum += c.impulse_n;
+      ++count;
+    }
+  // With no force at all nothing carries: the threshold is then +inf.
+  return count > 0 ? relative * sum / static_cast<double>(count)
+                   : std::numeric_limits<double>::infinity();
+}
+
+ShearMeasurement::ShearMeasurement(MeasureOptions options, MeasureContext context,
+                                   const World& world)
+    : options_(std::move(options)), context_(context), length_x_(world.domain.length_x) {
+  sample_every_ = steps_in(options_.sample_interval, context_.dt);
+  samples_per_window_ = std::max<std::uint64_t>(
+      1, static_cast<std::uint64_t>(std::llround(
+             options_.window / (static_cast<double>(sample_every_) * context_.dt))));
+  const double dy = options_.stripe_thickness;
+  const auto stripes = static_cast<std::size_t>(std::ceil(1.25 * context_.nominal_height / dy));
+  for (std::size_t k = 0; k < stripes; ++k)
+    stripe_centres_.push_back((static_cast<double>(k) + 0.5) * dy);
+  state_.grain_moment.assign(world.disks.size(), Tensor2{});
+  state_.last_sample_step = world.step;
+  state_.last_sample_time = world.time;
+  state_.bottom_impulse_last = world.walls[kBottom].contact_impulse;
+  state_.top_impulse_last = world.walls[kTop].contact_impulse;
+  reset_window(world);
+}
+
+void ShearMeasurement::restore(MeasurementState state, std::vector<SeriesRow> series,
+                               std::vector<WindowProfile> windows) {
+  state_ = std::move(state);
+  series_ = std::move(series);
+  windows_ = std::move(windows);
+}
+
+void ShearMeasurement::reset_window(const World& world) {
+  WindowSums& w = state_.window;
+  const std::size_t s = stripe_centres_.size();
+  w = WindowSums{};
+  w.step_start = world.step;
+  w.bottom_impulse_start = world.walls[kBottom].contact_impulse;
+  w.top_impulse_start = world.walls[kTop].contact_impulse;
+  for (std::vector<double>* v :
+       {&w.area, &w.velocity_area, &w.mass, &w.mass_vx, &w.mass_vy, &w.mass_vxx, &w.mass_vxy,
+        &w.mass_vyy, &w.coordination_area, &w.stress_xx, &w.stress_xy, &w.stress_yx,
+        &w.stress_yy})
+    v->assign(s, 0.0);
+}
+
+void ShearMeasurement::after_step(const World& world, const std::vector<Contact>& contacts,
+                                  const StepReport& report) {
+  state_.interval.add(report);
+  add_contact_moments(world.disks.size(), contacts);
+  if (world.step % sample_every_ == 0) sample(world, contacts);
+}
+
+void ShearMeasurement::add_contact_moments(std::size_t n, const std::vector<Contact>& contacts) {
+  for (const Contact& c : contacts) {
+    if (c.impulse_n == 0.0 && c.impulse_t == 0.0) continue;
+    // Impulse R on a, -R on b; a's arm is lever_a n, b's is -lever_b n (contact.hpp), so both
+    // moments are R (x) (lever n).
+    const Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent;
+    const auto add = [&r, &c](Tensor2& m, double lever) {
+      const Vec2 arm = lever * c.normal;
+      m.xx += r.x * arm.x;
+      m.xy += r.x * arm.y;
+      m.yx += r.y * arm.x;
+      m.yy += r.y * arm.y;
+    };
+    add(state_.grain_moment[static_cast<std::size_t>(c.key.body_a)], c.lever_a);
+    if (static_cast<std::size_t>(c.key.body_b) < n)
+      add(state_.grain_moment[static_cast<std::size_t>(c.key.body_b)], c.lever_b);
+  }
+}
+
+void ShearMeasurement::sample(const World& world, const std::vector<Contact>& contacts) {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const double bottom_y = world.walls[kBottom].point.y;
+  const double height = world.walls[kTop].point.y - bottom_y;
+
+  // Force-carrying contacts per grain, and which grains touch a wall.
+  const double threshold = force_carrying_threshold(contacts, options_.force_threshold);
+  carrying_count_.assign(n, 0);
+  touches_.assign(n, 0);
+  std::uint64_t carrying = 0;
+  for (const Contact& c : contacts) {
+    if (!(c.impulse_n > threshold)) continue;
+    ++carrying;
+    const auto a = static_cast<std::size_t>(c.key.body_a);
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    ++carrying_count_[a];
+    if (b < n)
+      ++carrying_count_[b];
+    else
+      touches_[a] |= static_cast<signed char>(b - n == kBottom ? 1 : 2);
+  }
+
+  // Global series row.
+  SeriesRow row;
+  row.step = world.step;
+  row.time = world.time;
+  double mass = 0.0, momentum_x = 0.0, area = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    mass += d.mass[i];
+    momentum_x += d.mass[i] * d.velocity[i].x;
+    area += std::numbers::pi * d.radius[i] * d.radius[i];
+  }
+  row.com_vx = mass > 0 ? momentum_x / mass : 0.0;
+  row.height = height;
+  row.solid_fraction = area / (length_x_ * height);
+  row.kinetic_energy = kinetic_energy(world);
+  row.contacts = contacts.size();
+  row.force_carrying = carrying;
+  const double interval_time = world.time - state_.last_sample_time;
+  row.bottom_force = mean_force(world.walls[kBottom].contact_impulse, state_.bottom_impulse_last,
+                                interval_time);
+  row.top_force =
+      mean_force(world.walls[kTop].contact_impulse, state_.top_impulse_last, interval_time);
+  row.bottom_mu = friction_ratio(row.bottom_force);
+  row.top_mu = friction_ratio(row.top_force);
+  row.solver = state_.interval;
+  series_.push_back(row);
+  state_.interval = IntervalStats{};
+  state_.last_sample_step = world.step;
+  state_.last_sample_time = world.time;
+  state_.bottom_impulse_last = world.walls[kBottom].contact_impulse;
+  state_.top_impulse_last = world.walls[kTop].contact_impulse;
+
+  // Each grain's share of each stripe.
+  WindowSums& w = state_.window;
+  const double dy = options_.stripe_thickness;
+  const auto stripes = static_cast<std::ptrdiff_t>(stripe_centres_.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    const double yc = d.position[i].y - bottom_y, r = d.radius[i];
+    const double grain_area = std::numbers::pi * r * r, density = d.mass[i] / grain_area;
+    const Vec2 v = d.velocity[i];
+    const double w_i = d.omega[i];
+    const Tensor2 m = state_.grain_moment[i];
+    const auto k0 = std::max<std::ptrdiff_t>(0, static_cast<std::ptrdiff_t>(std::floor((yc - r) / dy)));
+    const auto k1 =
+        std::min<std::ptrdiff_t>(stripes - 1, static_cast<std::ptrdiff_t>(std::floor((yc + r) / dy)));
+    for (std::ptrdiff_t k = k0; k <= k1; ++k) {
+      const auto s = static_cast<std::size_t>(k);
+      const StripePart part =
+          disk_in_stripe(yc, r, static_cast<double>(k) * dy, static_cast<double>(k + 1) * dy);
+      if (part.area <= 0.0) continue;
+      const double ms = density * part.area, share = part.area / grain_area;
+      w.area[s] += part.area;
+      w.velocity_area[s] += v.x * part.area - w_i * part.first_moment;
+      w.mass[s] += ms;
+      w.mass_vx[s] += ms * v.x;
+      w.mass_vy[s] += ms * v.y;
+      w.mass_vxx[s] += ms * v.x * v.x;
+      w.mass_vxy[s] += ms * v.x * v.y;
+      w.mass_vyy[s] += ms * v.y * v.y;
+      w.coordination_area[s] += part.area * carrying_count_[i];
+      w.stress_xx[s] -= share * m.xx;
+      w.stress_xy[s] -= share * m.xy;
+      w.stress_yx[s] -= share * m.yx;
+      w.stress_yy[s] -= share * m.yy;
+    }
+    state_.grain_moment[i] = Tensor2{};
+    // Slip (SPEC 7): grain surface velocity at the contact point minus the wall's velocity.
+    if (touches_[i] & 1) {
+      w.slip_bottom_sum += v.x + w_i * r - world.walls[kBottom].velocity.x;
+      ++w.slip_bottom_count;
+    }
+    if (touches_[i] & 2) {
+      w.slip_top_sum += world.walls[kTop].velocity.x - (v.x - w_i * r);
+      ++w.slip_top_count;
+    }
+  }
+  w.height_sum += height;
+  w.com_vx_sum += row.com_vx;
+  ++w.samples;
+  if (w.samples == samples_per_window_) {
+    close_window(world);
+    reset_window(world);
+  }
+}
+
+void ShearMeasurement::close_window(const World& world) {
+  const WindowSums& w = state_.window;
+  const std::size_t s_count = stripe_centres_.size();
+  const double dy = options_.stripe_thickness, dt = context_.dt;
+  const double samples = static_cast<double>(w.samples);
+  const double seconds = static_cast<double>(world.step - w.step_start) * dt;
+  const double cell = length_x_ * dy;  // stripe area [length^2]
+  WindowProfile p;
+  p.t_start = static_cast<double>(w.step_start) * dt;
+  p.t_end = static_cast<double>(world.step) * dt;
+  p.samples = w.samples;
+  p.height = w.height_sum / samples;
+  p.com_vx = w.com_vx_sum / samples;
+  p.solid_fraction.resize(s_count);
+  p.vx.assign(s_count, kNaN);
+  p.mu_eff.assign(s_count, kNaN);
+  p.coordination.assign(s_count, kNaN);
+  p.shear_rate.assign(s_count, kNaN);
+  p.inertial_number.assign(s_count, kNaN);
+  p.contact_stress.resize(s_count);
+  p.kinetic_stress.resize(s_count);
+  p.stress.resize(s_count);
+  for (std::size_t k = 0; k < s_count; ++k) {
+    p.solid_fraction[k] = w.area[k] / (cell * samples);
+    if (w.area[k] <= 0.0) {
+      p.contact_stress[k] = p.kinetic_stress[k] = p.stress[k] = {kNaN, kNaN, kNaN, kNaN};
+      continue;
+    }
+    p.vx[k] = w.velocity_area[k] / w.area[k];
+    p.coordination[k] = w.coordination_area[k] / w.area[k];
+    const Tensor2 c{w.stress_xx[k] / (cell * seconds), w.stress_xy[k] / (cell * seconds),
+                    w.stress_yx[k] / (cell * seconds), w.stress_yy[k] / (cell * seconds)};
+    const double mx = w.mass_vx[k], my = w.mass_vy[k], m = w.mass[k];
+    const double kxy = (w.mass_vxy[k] - mx * my / m) / (cell * samples);
+    const Tensor2 kin{(w.mass_vxx[k] - mx * mx / m) / (cell * samples), kxy, kxy,
+                      (w.mass_vyy[k] - my * my / m) / (cell * samples)};
+    p.contact_stress[k] = c;
+    p.kinetic_stress[k] = kin;
+    p.stress[k] = {c.xx + kin.xx, c.xy + kin.xy, c.yx + kin.yx, c.yy + kin.yy};
+    if (p.stress[k].yy > 0) p.mu_eff[k] = std::abs(p.stress[k].xy) / p.stress[k].yy;
+  }
+  const double inertial_scale = std::sqrt(kInertialMass / context_.normal_stress);
+  for (std::size_t k = 0; k < s_count; ++k) {
+    const std::size_t lo = k > 0 && !std::isnan(p.vx[k - 1]) ? k - 1 : k;
+    const std::size_t hi = k + 1 < s_count && !std::isnan(p.vx[k + 1]) ? k + 1 : k;
+    if (hi == lo || std::isnan(p.vx[k])) continue;
+    p.shear_rate[k] = (p.vx[hi] - p.vx[lo]) / (stripe_centres_[hi] - stripe_centres_[lo]);
+    p.inertial_number[k] = std::abs(p.shear_rate[k]) * inertial_scale;
+  }
+  p.bottom_force =
+      mean_force(world.walls[kBottom].contact_impulse, w.bottom_impulse_start, seconds);
+  p.top_force = mean_force(world.walls[kTop].contact_impulse, w.top_impulse_start, seconds);
+  p.wall_mu = 0.5 * (friction_ratio(p.bottom_force) + friction_ratio(p.top_force));
+  p.slip_bottom_count = w.slip_bottom_count;
+  p.slip_top_count = w.slip_top_count;
+  p.slip_bottom = w.slip_bottom_count > 0 ? w.slip_bottom_sum / w.slip_bottom_count : kNaN;
+  p.slip_top = w.slip_top_count > 0 ? w.slip_top_sum / w.slip_top_count : kNaN;
+  for (double h : options_.boundary_thickness)
+    p.regions.push_back(
+        region_values(p, stripe_centres_, h, context_.velocity, context_.normal_stress));
+  windows_.push_back(std::move(p));
+}
+
+RegionValues region_values(const WindowProfile& w, const std::vector<double>& centres, double h,
+                           double velocity, double normal_stress) {
+  RegionValues out{};
+  out.h = h;
+  const double H = w.height;
+  const double scale = std::sqrt(kInertialMass / normal_stress);
+  // Sums over the stripes of one region; stripes whose centre lies outside the cell are ignored.
+  struct Sums {
+    double sxy = 0, syy = 0, nu = 0, nu_z = 0, count = 0;
+    double sy = 0, sv = 0, syy2 = 0, syv = 0;  // least squares of vx against y
+  } bulk, bottom, top;
+  for (std::size_t k = 0; k < centres.size(); ++k) {
+    const double y = centres[k];
+    if (y >= H || std::isnan(w.vx[k])) continue;
+    Sums& s = y < h ? bottom : y > H - h ? top : bulk;
+    s.sxy += w.stress[k].xy;
+    s.syy += w.stress[k].yy;
+    s.nu += w.solid_fraction[k];
+    s.nu_z += w.solid_fraction[k] * w.coordination[k];
+    s.count += 1;
+    s.sy += y;
+    s.sv += w.vx[k];
+    s.syy2 += y * y;
+    s.syv += y * w.vx[k];
+  }
+  const auto mu = [](const Sums& s) { return s.count > 0 ? std::abs(s.sxy) / s.syy : kNaN; };
+  const auto nu = [](const Sums& s) { return s.count > 0 ? s.nu / s.count : kNaN; };
+  const auto z = [](const Sums& s) { return s.nu > 0 ? s.nu_z / s.nu : kNaN; };
+  out.bulk_mu_eff = mu(bulk);
+  out.bulk_solid_fraction = nu(bulk);
+  out.bulk_coordination = z(bulk);
+  const double det = bulk.count * bulk.syy2 - bulk.sy * bulk.sy;
+  out.bulk_shear_rate =
+      bulk.count >= 2 && det > 0 ? (bulk.count * bulk.syv - bulk.sy * bulk.sv) / det : kNaN;
+  out.bulk_inertial_number = std::abs(out.bulk_shear_rate) * scale;
+  out.bottom_mu_eff = mu(bottom);
+  out.bottom_solid_fraction = nu(bottom);
+  out.bottom_coordination = z(bottom);
+  out.bottom_velocity_jump = interpolate(centres, w.vx, h) + velocity;
+  out.bottom_inertial_number = scale * out.bottom_velocity_jump / h;
+  out.top_mu_eff = mu(top);
+  out.top_solid_fraction = nu(top);
+  out.top_coordination = z(top);
+  out.top_velocity_jump = velocity - interpolate(centres, w.vx, H - h);
+  out.top_inertial_number = scale * out.top_velocity_jump / h;
+  return out;
+}
+
+}  // namespace cdshear

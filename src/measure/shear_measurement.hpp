@@ -1,0 +1,175 @@
+// The measurements of SPEC 7 on the shear cell, as one observer-side object that reads the state
+// after every step and never changes it (no I/O here; src/io/run_data_file writes what it holds).
+//
+// Every step: the solver statistics of the sampling interval, and each grain's contact moment
+//   M_i = sum over its contacts j of R_ij (x) r_ij   [force time length]
+// (R_ij the impulse of the step on i, r_ij from i's centre to the contact point), from the stored
+// contact geometry of the step (normal, levers: start of step), so that the contact stress is
+// a time average over every step, not a sample of single spiky steps.
+// Every `sample_every` steps (a sample): one row of the global series, and each grain's share of
+// every stripe (exact circular-segment area S_ik and first moment, stripe_geometry.hpp) added to
+// the running window: area, velocity including rotation, mass-weighted velocity moments (for the
+// kinetic stress), coordination, and the grain's contact moment accumulated since the previous
+// sample, spread with weights S_ik / A_i. Stripes start at the bottom wall's current height.
+// Every `samples_per_window` samples the window closes into a WindowProfile (every window kept):
+//   solid fraction   nu_k = sum S_ik / (L_x dy N)                           (N samples)
+//   velocity         v_k  = sum (v_ix S_ik - w_i M1_ik) / sum S_ik          (M1: first moment)
+//   contact stress   s_k  = sum_i (S_ik / A_i) (-M_i) / (L_x dy T)          (T window time)
+//   kinetic stress   k_k  = (sum m_ik v v - (sum m_ik v)(sum m_ik v) / sum m_ik) / (L_x dy N),
+//                    m_ik = rho_i S_ik: rho nu <dv (x) dv> about the window's stripe mean
+//   mu_eff = |s_xy| / s_yy of contact + kinetic; Z_k = sum S_ik z_i / sum S_ik;
+//   shear rate by central differences; I = |gamma_dot| sqrt(m / sigma_yy), m = pi/4.
+// Compression is positive: -M_i is positive in compression. Force-carrying contacts (for Z and for
+// the grains counted in the slip velocity) have R_n > force_threshold times the mean R_n of the
+// contacts with R_n > 0 at the sample step.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "contact.hpp"
+#include "contact_dynamics.hpp"
+#include "interval_stats.hpp"
+#include "world.hpp"
+
+namespace cdshear {
+
+struct MeasureOptions {
+  bool enabled = true;
+  double sample_interval = 0.1;  ///< time between samples (series and profiles) [t]
+  double window = 80.0;          ///< averaging window [t]
+  double stripe_thickness = 1.0;  ///< dy [d]
+  std::vector<double> boundary_thickness{10.0};  ///< the h of the boundary layers [d]
+  double force_threshold = 0.01;  ///< force-carrying: R_n > this * mean R_n (of R_n > 0)
+};
+
+/// What the measurement needs to know beyond the state.
+struct MeasureContext {
+  double dt = 0.0;              ///< time step [t]
+  double velocity = 0.0;        ///< V of the walls [d/t]
+  double normal_stress = 0.25;  ///< imposed sigma_yy [force/length]
+  double nominal_height = 20.0;  ///< nominal L_y, sets the number of stripes [d]
+};
+
+/// m = pi/4: the mass of a disk of diameter 1 in I = gamma_dot sqrt(m / sigma_yy) (SPEC 7).
+inline constexpr double kInertialMass = 0.78539816339744830962;
+
+struct Tensor2 {
+  double xx = 0.0, xy = 0.0, yx = 0.0, yy = 0.0;  ///< [a][b]: xy is row x, column y
+};
+
+/// One row of the global time series; "interval" fields cover the steps since the previous row.
+struct SeriesRow {
+  std::uint64_t step = 0;
+  double time = 0.0;
+  double com_vx = 0.0;          ///< centre-of-mass x-velocity of the grains
+  double height = 0.0;          ///< L_y = y_top - y_bottom
+  double solid_fraction = 0.0;  ///< disk area / (L_x L_y)
+  double kinetic_energy = 0.0;
+  std::uint64_t contacts = 0, force_carrying = 0;
+  Vec2 bottom_force, top_force;  ///< interval mean force of the grains on each wall (impulses)
+  double bottom_mu = 0.0, top_mu = 0.0;  ///< interval |f_x| / |f_y|
+  IntervalStats solver;
+};
+
+/// Bulk and boundary-layer quantities of one window for one boundary thickness h (NaN: empty).
+struct RegionValues {
+  double h = 0.0;
+  double bulk_mu_eff, bulk_solid_fraction, bulk_coordination, bulk_shear_rate,
+      bulk_inertial_number;
+  double bottom_mu_eff, bottom_solid_fraction, bottom_coordination, bottom_velocity_jump,
+      bottom_inertial_number;
+  double top_mu_eff, top_solid_fraction, top_coordination, top_velocity_jump,
+      top_inertial_number;
+};
+
+/// One completed averaging window. Profiles have one entry per stripe (NaN where empty).
+struct WindowProfile {
+  double t_start = 0.0, t_end = 0.0;
+  std::uint64_t samples = 0;
+  double height = 0.0, com_vx = 0.0;  ///< window means
+  std::vector<double> solid_fraction, vx, mu_eff, coordination, shear_rate, inertial_number;
+  std::vector<Tensor2> contact_stress, kinetic_stress, stress;
+  Vec2 bottom_force, top_force;  ///< exact window means from the walls' impulses
+  double wall_mu = 0.0;          ///< mean of |f_x| / |f_y| of the two walls
+  double slip_bottom = 0.0, slip_top = 0.0;
+  std::uint64_t slip_bottom_count = 0, slip_top_count = 0;
+  std::vector<RegionValues> regions;  ///< one per boundary thickness
+};
+
+/// Running sums of the open window: with the per-grain moments and the interval statistics, all
+/// that a checkpoint must carry for a resumed run to measure bit-identically.
+struct WindowSums {
+  std::uint64_t samples = 0;
+  std::uint64_t step_start = 0;
+  Vec2 bottom_impulse_start, top_impulse_start;  ///< walls' contact impulses at the start
+  double height_sum = 0.0, com_vx_sum = 0.0;
+  double slip_bottom_sum = 0.0, slip_top_sum = 0.0;
+  std::uint64_t slip_bottom_count = 0, slip_top_count = 0;
+  // Per stripe:
+  std::vector<double> area;             ///< sum S_ik
+  std::vector<double> velocity_area;    ///< sum (v_ix S_ik - w_i M1_ik)
+  std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
+  std::vector<double> coordination_area;  ///< sum S_ik z_i
+  std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
+};
+
+struct MeasurementState {
+  WindowSums window;
+  std::vector<Tensor2> grain_moment;  ///< M_i since the last sample [force time length]
+  IntervalStats interval;
+  std::uint64_t last_sample_step = 0;
+  double last_sample_time = 0.0;
+  Vec2 bottom_impulse_last, top_impulse_last;  ///< walls' contact impulses at the last sample
+};
+
+/// The measurements of one shear run. Walls: bottom index 0, top index 1 (shear_case.hpp).
+class ShearMeasurement {
+ public:
+  ShearMeasurement(MeasureOptions options, MeasureContext context, const World& world);
+
+  /// Call after every step with the contacts of that step.
+  void after_step(const World& world, const std::vector<Contact>& contacts,
+                  const StepReport& report);
+
+  const MeasureOptions& options() const { return options_; }
+  const MeasureContext& context() const { return context_; }
+  std::uint64_t sample_every() const { return sample_every_; }
+  std::uint64_t samples_per_window() const { return samples_per_window_; }
+  std::size_t stripes() const { return stripe_centres_.size(); }
+  const std::vector<double>& stripe_centres() const { return stripe_centres_; }
+  const std::vector<SeriesRow>& series() const { return series_; }
+  const std::vector<WindowProfile>& windows() const { return windows_; }
+  const MeasurementState& state() const { return state_; }
+
+  /// Resume: the open window and moments from a checkpoint, completed rows and windows from the
+  /// run's data file (cut at the checkpoint's step).
+  void restore(MeasurementState state, std::vector<SeriesRow> series,
+               std::vector<WindowProfile> windows);
+
+ private:
+  void add_contact_moments(std::size_t n, const std::vector<Contact>& contacts);
+  void sample(const World& world, const std::vector<Contact>& contacts);
+  void close_window(const World& world);
+  void reset_window(const World& world);
+
+  MeasureOptions options_;
+  MeasureContext context_;
+  double length_x_ = 0.0;
+  std::uint64_t sample_every_ = 1, samples_per_window_ = 1;
+  std::vector<double> stripe_centres_;
+  MeasurementState state_;
+  std::vector<SeriesRow> series_;
+  std::vector<WindowProfile> windows_;
+  std::vector<int> carrying_count_;  ///< scratch: force-carrying contacts per grain
+  std::vector<signed char> touches_;  ///< scratch: bit 1 bottom wall, bit 2 top wall
+};
+
+/// Force threshold of a contact list: force_threshold times the mean R_n of contacts with R_n > 0.
+double force_carrying_threshold(const std::vector<Contact>& contacts, double relative);
+
+/// Bulk and boundary quantities of a window for one h (exposed for tests).
+RegionValues region_values(const WindowProfile& w, const std::vector<double>& stripe_centres,
+                           double h, double velocity, double normal_stress);
+
+}  // namespace cdshear

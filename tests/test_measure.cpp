@@ -1,0 +1,336 @@
+// The measurement layer (src/measure) against exact answers: circular-segment geometry against
+// numerical integration; velocity profiles of rigid motions; stresses of a single loaded grain;
+// the bulk and boundary reduction on a profile built by hand; run.h5 written and read back.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <random>
+
+#include "config_error.hpp"
+#include "run_data_file.hpp"
+#include "shear_measurement.hpp"
+#include "stripe_geometry.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+/// Area and first moment of the disk between y0 and y1 by the midpoint rule on `slices` slices.
+StripePart integrate_numerically(double yc, double r, double y0, double y1, int slices) {
+  StripePart p;
+  const double lo = std::max(y0, yc - r), hi = std::min(y1, yc + r);
+  if (hi <= lo) return p;
+  const double h = (hi - lo) / slices;
+  for (int k = 0; k < slices; ++k) {
+    const double y = lo + (k + 0.5) * h, dy = y - yc;
+    const double chord = 2.0 * std::sqrt(std::max(0.0, r * r - dy * dy));
+    p.area += chord * h;
+    p.first_moment += dy * chord * h;
+  }
+  return p;
+}
+
+TEST(StripeGeometry, AreasSumToTheDiskAndMomentsMatchIntegration) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> height(0.0, 10.0), radius(0.05, 3.0);
+  for (const double dy : {0.3, 1.0, 2.5})
+    for (int trial = 0; trial < 200; ++trial) {
+      const double r = radius(rng);
+      // Every fourth disk touches a stripe edge exactly (bottom or top).
+      double yc = height(rng);
+      if (trial % 4 == 1) yc = std::floor(yc / dy) * dy + r;
+      if (trial % 4 == 2) yc = std::ceil(yc / dy) * dy - r;
+      double total_area = 0.0, total_moment = 0.0;
+      for (int k = static_cast<int>(std::floor((yc - r) / dy)) - 1;
+           k <= static_cast<int>(std::floor((yc + r) / dy)) + 1; ++k) {
+        const StripePart exact = disk_in_stripe(yc, r, k * dy, (k + 1) * dy);
+        const StripePart numeric = integrate_numerically(yc, r, k * dy, (k + 1) * dy, 20000);
+        EXPECT_NEAR(exact.area, numeric.area, 1e-5 * r * r) << "r " << r << " k " << k;
+        EXPECT_NEAR(exact.first_moment, numeric.first_moment, 1e-5 * r * r * r);
+        EXPECT_GE(exact.area, 0.0);
+        total_area += exact.area;
+        total_moment += exact.first_moment;
+      }
+      EXPECT_NEAR(total_area, kPi * r * r, 1e-12 * r * r);
+      EXPECT_NEAR(total_moment, 0.0, 1e-12 * r * r * r);  // about the centre
+    }
+}
+
+TEST(StripeGeometry, DiskInsideOneStripeIsWholeAndOutsideIsEmpty) {
+  const StripePart inside = disk_in_stripe(1.5, 0.3, 1.0, 2.0);
+  EXPECT_DOUBLE_EQ(inside.area, kPi * 0.09);
+  EXPECT_NEAR(inside.first_moment, 0.0, 1e-15);
+  const StripePart outside = disk_in_stripe(5.0, 0.3, 1.0, 2.0);
+  EXPECT_EQ(outside.area, 0.0);
+  // Upper half: area pi r^2 / 2, moment (2/3) r^3.
+  const StripePart half = disk_in_stripe(1.0, 0.5, 1.0, 3.0);
+  EXPECT_NEAR(half.area, kPi * 0.125, 1e-15);
+  EXPECT_NEAR(half.first_moment, 2.0 / 3.0 * 0.125, 1e-15);
+}
+
+/// A shear-cell-like world without dynamics: walls at y = 0 and y = height, disks on a
+/// triangular lattice; the measurement layer only reads it.
+World lattice_world(double length_x, double height, double radius) {
+  World w;
+  w.domain.periodic_x = true;
+  w.domain.length_x = length_x;
+  for (int k = 0; k < 2; ++k) {
+    Wall wall;
+    wall.point = {0.0, k == 0 ? 0.0 : height};
+    wall.normal = {0.0, k == 0 ? 1.0 : -1.0};
+    w.walls.push_back(wall);
+  }
+  const double spacing = 2.0 * radius, row = spacing * std::sqrt(3.0) / 2.0;
+  for (int j = 0; radius + j * row < height - radius; ++j)
+    for (double x = (j % 2) * radius; x < length_x - 1e-9; x += spacing)
+      w.disks.add({x, radius + j * row}, radius);
+  return w;
+}
+
+/// Feeds `samples` samples of a frozen world (no contacts) into a measurement.
+void feed(ShearMeasurement& m, World& w, std::uint64_t steps) {
+  const std::vector<Contact> none;
+  for (std::uint64_t s = 0; s < steps; ++s) {
+    ++w.step;
+    w.time = static_cast<double>(w.step) * m.context().dt;
+    m.after_step(w, none, StepReport{});
+  }
+}
+
+MeasureOptions quick_options() {
+  MeasureOptions o;
+  o.sample_interval = 0.1;
+  o.window = 1.0;
+  o.boundary_thickness = {2.0, 3.0};
+  return o;
+}
+
+TEST(Profiles, RigidTranslationGivesExactlyItsVelocityAndTheLatticeSolidFraction) {
+  World w = lattice_world(10.0, 8.0, 0.5);
+  for (std::size_t i = 0; i < w.disks.size(); ++i) w.disks.velocity[i] = {0.37, -0.1};
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
+  feed(m, w, 100);
+  ASSERT_EQ(m.windows().size(), 1u);
+  const WindowProfile& p = m.windows()[0];
+  double area = 0.0;
+  for (std::size_t k = 0; k < m.stripes(); ++k) {
+    area += p.solid_fraction[k] * 10.0 * 1.0;
+    if (p.solid_fraction[k] == 0.0) continue;
+    EXPECT_NEAR(p.vx[k], 0.37, 1e-14);
+    EXPECT_NEAR(p.shear_rate[k], 0.0, 1e-12);
+    // No fluctuations about the mean: no kinetic stress; no contacts: no contact stress.
+    EXPECT_NEAR(p.kinetic_stress[k].xx, 0.0, 1e-14);
+    EXPECT_NEAR(p.kinetic_stress[k].yy, 0.0, 1e-14);
+    EXPECT_EQ(p.contact_stress[k].yy, 0.0);
+  }
+  EXPECT_NEAR(area, static_cast<double>(w.disks.size()) * kPi * 0.25, 1e-9);
+}
+
+TEST(Profiles, RigidRotationGivesTheExactAreaWeightedVelocity) {
+  // Rotation at rate Omega about (xc, yc): v_i = Omega x (r_i - c), w_i = Omega, so every
+  // material point moves along x at -Omega (y - yc); a stripe's velocity is -Omega (ybar - yc),
+  // ybar the centroid height of the material in it, computed here by brute-force integration.
+  World w = lattice_world(12.0, 9.0, 0.45);
+  const double omega = 0.3, xc = 6.0, yc = 4.0;
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    const Vec2 p = w.disks.position[i];
+    w.disks.velocity[i] = {-omega * (p.y - yc), omega * (p.x - xc)};
+    w.disks.omega[i] = omega;
+  }
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 9.0}, w);
+  feed(m, w, 100);
+  const WindowProfile& p = m.windows().at(0);
+  for (std::size_t k = 0; k < m.stripes(); ++k) {
+    double area = 0.0, moment = 0.0;
+    for (std::size_t i = 0; i < w.disks.size(); ++i) {
+      const StripePart part = integrate_numerically(w.disks.position[i].y, w.disks.radius[i],
+                                                    double(k), double(k + 1), 4000);
+      area += part.area;
+      moment += part.area * w.disks.position[i].y + part.first_moment;
+    }
+    if (area == 0.0) continue;
+    EXPECT_NEAR(p.vx[k], -omega * (moment / area - yc), 1e-6) << "stripe " << k;
+  }
+}
+
+TEST(Profiles, ImposedLinearFieldGivesBackShearRateAndInertialNumber) {
+  // v_x = gamma (y - H/2) at every material point: centre velocity gamma (y_i - H/2) and
+  // counter-clockwise rotation -gamma (the point at y moves at v_ix - w (y - y_i)). The disks
+  // (free to overlap: the measurement does not care) are spread uniformly so that the material
+  // of each stripe is centred on it, unlike a lattice's layers.
+  World w = lattice_world(12.0, 10.0, 0.5);
+  w.disks.clear();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> ux(0.0, 12.0), uy(0.3, 9.7);
+  for (int i = 0; i < 20000; ++i) w.disks.add({ux(rng), uy(rng)}, 0.3);
+  const double gamma = 0.08, sigma = 0.25;
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    w.disks.velocity[i] = {gamma * (w.disks.position[i].y - 5.0), 0.0};
+    w.disks.omega[i] = -gamma;
+  }
+  ShearMeasurement m(quick_options(), {0.01, 0.4, sigma, 10.0}, w);
+  feed(m, w, 100);
+  const WindowProfile& p = m.windows().at(0);
+  // Interior stripes: next to the walls the material of a stripe is not centred on it (as with
+  // wall layering in a real packing) and the finite difference is biased.
+  for (std::size_t k = 2; k <= 7; ++k) {
+    EXPECT_NEAR(p.shear_rate[k], gamma, 0.02 * gamma) << "stripe " << k;
+    EXPECT_NEAR(p.inertial_number[k], gamma * std::sqrt(kInertialMass / sigma),
+                0.02 * gamma);
+  }
+  const RegionValues& r = p.regions.at(0);  // h = 2
+  EXPECT_NEAR(r.bulk_shear_rate, gamma, 0.01 * gamma);
+  EXPECT_NEAR(r.bulk_inertial_number, gamma * std::sqrt(kInertialMass / sigma), 0.01 * gamma);
+}
+
+TEST(Stress, OneGrainSqueezedBetweenTheWallsCarriesThePressure) {
+  // One disk of radius 0.5 at y = 0.5 between two walls 1 apart, pushed by R_n on each side:
+  // sigma_yy = R_n r * 2 / (A dt) spread over its area; the stripe [0,1) holds it all, so the
+  // stripe stress is 2 R_n r / (dt L_x dy) and sigma_xx = 0.
+  World w;
+  w.domain = {true, 4.0};
+  for (int k = 0; k < 2; ++k) {
+    Wall wall;
+    wall.point = {0.0, double(k)};
+    wall.normal = {0.0, k == 0 ? 1.0 : -1.0};
+    w.walls.push_back(wall);
+  }
+  w.disks.add({1.0, 0.5}, 0.5);
+  const double dt = 0.01, rn = 0.003, rt = 0.001;
+  std::vector<Contact> contacts(2);
+  for (int k = 0; k < 2; ++k) {
+    Contact& c = contacts[static_cast<std::size_t>(k)];
+    c.key = {0, 1 + k, 0};
+    c.normal = w.walls[static_cast<std::size_t>(k)].normal;
+    c.tangent = perp(c.normal);
+    c.lever_a = -0.5;
+    c.impulse_n = rn;
+    c.impulse_t = rt;  // opposite tangential forces from the two walls (tangents opposite)
+  }
+  MeasureOptions o = quick_options();
+  o.boundary_thickness = {0.25};
+  ShearMeasurement m(o, {dt, 0.5, 0.25, 1.0}, w);
+  for (int s = 0; s < 100; ++s) {
+    ++w.step;
+    m.after_step(w, contacts, StepReport{});
+  }
+  const Tensor2 st = m.windows().at(0).contact_stress.at(0);
+  const double scale = 1.0 / (dt * 4.0 * 1.0);  // per time, per stripe area
+  EXPECT_NEAR(st.yy, 2.0 * rn * 0.5 * scale, 1e-12);
+  EXPECT_NEAR(st.xx, 0.0, 1e-15);
+  // Tangential impulse rt along t = perp(n): on the bottom t = (-1, 0) at arm (0, -r), on the
+  // top t = (1, 0) at arm (0, r): sigma_xy = -(1/A) sum F_x r_y = -2 rt r ... / (dt L_x dy).
+  EXPECT_NEAR(st.xy, -2.0 * rt * 0.5 * scale, 1e-12);
+  EXPECT_NEAR(m.windows()[0].mu_eff[0], rt / rn, 1e-12);
+  // Both contacts carry force: Z = 2 for the only grain.
+  EXPECT_DOUBLE_EQ(m.windows()[0].coordination[0], 2.0);
+}
+
+TEST(Regions, BulkAndBoundaryFromAProfileBuiltByHand) {
+  // A profile with still bulk and two sheared layers of h = 3 in a cell 12 high: regime B.
+  WindowProfile w;
+  w.height = 12.0;
+  std::vector<double> centres;
+  const double V = 1.0;
+  for (int k = 0; k < 15; ++k) {
+    const double y = k + 0.5;
+    centres.push_back(y);
+    const double vx = y < 3 ? -V + (V - 0.1) * y / 3 : y > 9 ? 0.1 + (V - 0.1) * (y - 9) / 3 : 0.1;
+    w.vx.push_back(y < 12 ? vx : NAN);
+    w.solid_fraction.push_back(y < 12 ? 0.8 : 0.0);
+    w.coordination.push_back(y < 3 ? 3.0 : 4.0);
+    w.stress.push_back({0.0, -0.05, -0.05, 0.25});
+  }
+  const RegionValues r = region_values(w, centres, 3.0, V, 0.25);
+  EXPECT_NEAR(r.bulk_shear_rate, 0.0, 1e-12);
+  EXPECT_NEAR(r.bulk_mu_eff, 0.2, 1e-12);
+  EXPECT_NEAR(r.bulk_solid_fraction, 0.8, 1e-12);
+  EXPECT_NEAR(r.bottom_coordination, 3.0, 1e-12);
+  EXPECT_NEAR(r.bulk_coordination, 4.0, 1e-12);
+  // vx(3) interpolated between 2.5 and 3.5: the bottom jump is V + 0.1 ... by the profile.
+  EXPECT_NEAR(r.bottom_velocity_jump, 0.5 * ((-V + 0.9 * 2.5 / 3) + 0.1) + V, 1e-12);
+  EXPECT_NEAR(r.top_velocity_jump, V - 0.5 * (0.1 + (0.1 + 0.9 * 0.5 / 3)), 1e-12);
+  EXPECT_NEAR(r.bottom_inertial_number,
+              r.bottom_velocity_jump / 3.0 * std::sqrt(kInertialMass / 0.25), 1e-12);
+}
+
+TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
+  World w = lattice_world(10.0, 8.0, 0.5);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
+  for (int s = 0; s < 250; ++s) {
+    for (std::size_t i = 0; i < w.disks.size(); ++i) {
+      w.disks.velocity[i] = {noise(rng), noise(rng)};
+      w.disks.omega[i] = noise(rng);
+    }
+    feed(m, w, 1);
+  }
+  ASSERT_EQ(m.windows().size(), 2u);
+  const testing::TempDir tmp("run_data_roundtrip");
+  const auto path = tmp.path() / "run.h5";
+  RunMetadata meta;
+  meta.case_toml = "[shear]\nvelocity = 0.5\n";
+  meta.n = w.disks.size();
+  meta.velocity = 0.5;
+  meta.dt = 0.01;
+  meta.step = w.step;
+  write_run_data(path, meta, m, w, {});
+  const RunData back = read_run_data(path);
+  EXPECT_EQ(back.meta.case_toml, meta.case_toml);
+  EXPECT_EQ(back.meta.step, w.step);
+  ASSERT_EQ(back.series.size(), m.series().size());
+  for (std::size_t r = 0; r < back.series.size(); ++r) {
+    EXPECT_EQ(back.series[r].step, m.series()[r].step);
+    EXPECT_EQ(back.series[r].com_vx, m.series()[r].com_vx);
+    EXPECT_EQ(back.series[r].kinetic_energy, m.series()[r].kinetic_energy);
+  }
+  ASSERT_EQ(back.windows.size(), 2u);
+  for (std::size_t k = 0; k < m.stripes(); ++k) {
+    const WindowProfile &a = m.windows()[1], &b = back.windows[1];
+    EXPECT_TRUE(a.vx[k] == b.vx[k] || (std::isnan(a.vx[k]) && std::isnan(b.vx[k])));
+    EXPECT_EQ(a.solid_fraction[k], b.solid_fraction[k]);
+    EXPECT_TRUE(a.kinetic_stress[k].xy == b.kinetic_stress[k].xy ||
+                std::isnan(a.kinetic_stress[k].xy));
+  }
+  EXPECT_EQ(back.windows[1].regions.at(1).h, 3.0);
+  EXPECT_EQ(back.windows[0].regions.at(0).bulk_solid_fraction,
+            m.windows()[0].regions.at(0).bulk_solid_fraction);
+}
+
+TEST(RunDataFile, MissingEmptyAndTruncatedFilesAreClearErrors) {
+  const testing::TempDir tmp("run_data_bad");
+  const auto& dir = tmp.path();
+  const auto expect_error = [](const std::filesystem::path& p, const std::string& words) {
+    try {
+      read_run_data(p);
+      ADD_FAILURE() << "no error for " << p;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expect_error(dir / "absent.h5", "no such file");
+  { std::ofstream(dir / "empty.h5"); }
+  expect_error(dir / "empty.h5", "not an HDF5 file");
+  // A real file cut in half.
+  World w = lattice_world(10.0, 8.0, 0.5);
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
+  feed(m, w, 200);
+  write_run_data(dir / "whole.h5", RunMetadata{}, m, w, {});
+  const std::string bytes = testing::read_text(dir / "whole.h5");
+  { std::ofstream(dir / "cut.h5", std::ios::binary) << bytes.substr(0, bytes.size() / 2); }
+  try {
+    read_run_data(dir / "cut.h5");
+    ADD_FAILURE() << "a truncated file was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.h5"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cdshear
