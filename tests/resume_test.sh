@@ -1,36 +1,48 @@
 #!/usr/bin/env bash
 # A shear run stopped (at a chosen time, and by SIGTERM at an arbitrary moment) and resumed ends
-# in exactly the same state as the same run done in one go.
+# in exactly the same state, with the same run.h5 (series, windows, snapshot), as the same run
+# done in one go; and a run without the measurement observers ends in the same state.
 # Usage: resume_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
+python_dir="$(cd "$(dirname "$0")/../python" && pwd)"
 rm -rf "$work"; mkdir -p "$work"
-common=(-q --packing "$packing" --set shear.duration=6 --set output.checkpoint_interval=0.5
-        --set output.snapshot_interval=1)
+# Short measurement windows so that windows close before and after each interruption.
+common=(-q --no-analyze --packing "$packing" --set shear.duration=6
+        --set output.checkpoint_interval=0.5 --set output.snapshot_interval=1
+        --set measure.window=0.8 --set measure.sample_interval=0.1)
 
 "$exe" run "${common[@]}" -o "$work/straight" > /dev/null
 
 # Stopped at t = 1.2 (between checkpoints: the stop itself writes one), then resumed.
 "$exe" run "${common[@]}" --stop-at 1.2 -o "$work/stopped" > /dev/null
 test -f "$work/stopped/interrupted_state.json"
-"$exe" run -q --resume "$work/stopped" > /dev/null
+"$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
 
 # Killed with SIGTERM at whatever step it has reached after 2 s, then resumed.
 "$exe" run "${common[@]}" -o "$work/killed" > /dev/null & pid=$!
 sleep 2; kill -TERM $pid 2>/dev/null || true
 wait $pid || true
-"$exe" run -q --resume "$work/killed" > /dev/null
+"$exe" run -q --no-analyze --resume "$work/killed" > /dev/null
+
+# The observers only read the state: without them the run ends in the same state.
+"$exe" run "${common[@]}" --set measure.enabled=false -o "$work/unobserved" > /dev/null
 
 status=0
 for run in stopped killed; do
-  for f in final_state.json timeseries.csv; do
-    if ! cmp -s "$work/straight/$f" "$work/$run/$f"; then
-      echo "FAIL: $run/$f differs from the uninterrupted run"; status=1
-    fi
-  done
+  if ! cmp -s "$work/straight/final_state.json" "$work/$run/final_state.json"; then
+    echo "FAIL: $run/final_state.json differs from the uninterrupted run"; status=1
+  fi
+  if ! PYTHONPATH="$python_dir" /usr/bin/python3 -m cdshear_analysis.compare \
+       "$work/straight/run.h5" "$work/$run/run.h5"; then
+    echo "FAIL: $run/run.h5 differs from the uninterrupted run"; status=1
+  fi
   if ! diff -r -q "$work/straight/snapshots" "$work/$run/snapshots"; then
     echo "FAIL: $run/snapshots differ from the uninterrupted run"; status=1
   fi
 done
+if ! cmp -s "$work/straight/final_state.json" "$work/unobserved/final_state.json"; then
+  echo "FAIL: the run without measurement observers ends in another state"; status=1
+fi
 [ $status -eq 0 ] && echo "resume_test: stopped and killed runs resumed bit-identically"
 exit $status

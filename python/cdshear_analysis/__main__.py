@@ -4,6 +4,7 @@ RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes
 import argparse
 import os
 import sys
+import warnings
 
 
 def main(argv=None):
@@ -16,6 +17,7 @@ def main(argv=None):
     p_plot.add_argument("run_dir")
     p_plot.add_argument("-o", "--out-dir", help="output folder (default RUN_DIR/figures)")
     args = parser.parse_args(argv)
+    warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
     from .rundata import RunDataError, load_run
     from .summary import analyze, format_report, write_summary

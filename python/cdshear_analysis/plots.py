@@ -20,7 +20,9 @@ from .rundata import RunDataError  # noqa: E402
 
 DPI = 120
 MAX_PROFILES = 10          # velocity profiles drawn at most
-FORCE_LINE_WIDTH = 3.0     # points, for the largest normal force
+FORCE_LINE_WIDTH = 2.5     # points, for the FORCE_PERCENTILE-th percentile of the normal forces
+FORCE_PERCENTILE = 95      # (widths proportional to the force ...
+FORCE_LINE_WIDTH_MAX = 6.0  # ... capped here: rigid contacts have rare huge instantaneous forces)
 
 
 def _title(run, summary, what):
@@ -32,12 +34,16 @@ def _title(run, summary, what):
 
 
 def _mark_transient(ax, summary):
+    """Vertical line at the transient end (or where the averaging starts when not steady)."""
     g = summary["transient_end_strain"]
     if summary["steady"] and np.isfinite(g):
-        ax.axvline(g, color="crimson", ls="--", lw=1, label=f"transient end (strain {g:.3g})")
+        x, text, style = g, f" transient end (strain {g:.3g})", dict(color="crimson", ls="--")
     else:
-        ax.axvline(summary["averaging_start_strain"], color="grey", ls=":", lw=1,
-                   label="averaged from (not steady)")
+        x, text, style = summary["averaging_start_strain"], " averaged from (not steady)", \
+            dict(color="0.4", ls=":")
+    ax.axvline(x, lw=1, **style)
+    ax.text(x, 0.98, text, transform=ax.get_xaxis_transform(), va="top", fontsize=8,
+            color=style["color"])
 
 
 def snapshot(run, summary):
@@ -50,13 +56,18 @@ def snapshot(run, summary):
     scale = min(8.0 / lx, 14.0 / (height + 2))
     fig, ax = plt.subplots(figsize=(lx * scale + 2.0, (height + 2) * scale + 1.0))
     x, y, r = (np.asarray(snap[k], dtype=float) for k in ("x", "y", "radius"))
+    x = np.mod(x, lx)
     force = np.asarray(snap.get("contact_normal_force", []), dtype=float)
     segments = np.stack([np.column_stack([snap["contact_ax"], snap["contact_ay"]]),
                          np.column_stack([snap["contact_bx"], snap["contact_by"]])], axis=1) \
         if len(force) else np.zeros((0, 2, 2))
-    widths = FORCE_LINE_WIDTH * force / force.max() if len(force) and force.max() > 0 else 1.0
+    segments[:, :, 0] -= lx * np.floor(segments[:, :1, 0] / lx)   # a's centre into [0, L_x)
+    scale = np.percentile(force, FORCE_PERCENTILE) if len(force) else 0.0
+    widths = (np.minimum(FORCE_LINE_WIDTH * force / scale, FORCE_LINE_WIDTH_MAX)
+              if scale > 0 else 1.0)
     for shift in (-lx, 0.0, lx):   # periodic images, clipped by the axes
-        disks = EllipseCollection(2 * r, 2 * r, 0, units="xy", offsets=np.column_stack([x + shift, y]),
+        disks = EllipseCollection(2 * r, 2 * r, 0, units="xy",
+                                  offsets=np.column_stack([x + shift, y]),
                                   offset_transform=ax.transData, cmap="coolwarm",
                                   edgecolors="0.4", linewidths=0.3, alpha=0.6)
         disks.set_array(np.asarray(snap["vx"], dtype=float) / V)
@@ -76,17 +87,19 @@ def velocity_profiles(run, summary):
     w, a = run["windows"], run["attrs"]
     V, strain = float(a["velocity"]), 2 * float(a["velocity"]) / float(a["height"])
     n_windows = len(w["t_start"])
-    picks = np.unique(np.linspace(0, n_windows - 1, min(MAX_PROFILES, n_windows)).round().astype(int))
+    picks = np.unique(np.linspace(0, n_windows - 1, min(MAX_PROFILES, n_windows)).round()
+                      .astype(int))
     norm = plt.Normalize(0, max(w["t_end"][-1] * strain, 1e-12))
     cmap = plt.get_cmap("viridis")
     fig, ax = plt.subplots(figsize=(6, 5))
     for k in picks:
         ok = np.isfinite(w["vx"][k])
-        ax.plot(w["vx"][k][ok] / V, w["y"][ok], color=cmap(norm(w["t_end"][k] * strain)), lw=1.2)
+        ax.plot(w["vx"][k][ok] / V, w["y"][ok], color=cmap(norm(w["t_end"][k] * strain)), lw=1.5)
     prof = summary["profiles"]
     ok = np.isfinite(prof["vx"]["mean"])
-    ax.errorbar(prof["vx"]["mean"][ok] / V, prof["y"][ok], xerr=np.nan_to_num(prof["vx"]["err"][ok]) / V,
-                color="k", lw=2, elinewidth=0.8, capsize=2,
+    ax.errorbar(prof["vx"]["mean"][ok] / V, prof["y"][ok],
+                xerr=np.nan_to_num(prof["vx"]["err"][ok]) / V,
+                color="k", ls="--", lw=1.5, elinewidth=0.8, capsize=2,
                 label="steady mean" if summary["steady"] else "mean, last half")
     fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax,
                  label="strain $2Vt/L_y$ at the window end")
@@ -107,8 +120,7 @@ def com_velocity(run, summary):
     for level in (-0.5, 0.5):
         ax.axhline(level, color="0.5", ls=":", lw=0.8)
     _mark_transient(ax, summary)
-    ax.set(xlabel="strain $2Vt/L_y$", ylabel="$v_{x,\\mathrm{com}} / V$", ylim=(-1.25, 1.25))
-    ax.legend(loc="lower right", fontsize=8)
+    ax.set(xlabel="strain $2Vt/L_y$", ylabel="$v_{x,\\mathrm{com}} / V$", ylim=(-1.25, 1.35))
     hist = summary["com_vx"]["histogram"]
     edges, counts = np.asarray(hist["edges"]) / V, np.asarray(hist["counts"], dtype=float)
     side.barh(0.5 * (edges[1:] + edges[:-1]), counts / max(counts.sum(), 1), height=np.diff(edges),
@@ -125,14 +137,15 @@ def height_solid_fraction(run, summary):
     strain = 2 * float(a["velocity"]) / float(a["height"])
     g = np.asarray(s["time"]) * strain
     fig, axes = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    for ax, key, label in ((axes[0], "height", "$L_y$ / d"), (axes[1], "solid_fraction", "solid fraction")):
+    for ax, key, label in ((axes[0], "height", "$L_y$ / d"),
+                           (axes[1], "solid_fraction", "solid fraction")):
         ax.plot(g, s[key], lw=0.5, color="tab:green")
         mean = summary[key]["mean"]
         if mean is not None and np.isfinite(mean):
             ax.axhline(mean, color="k", lw=0.8, label=f"mean {mean:.4g}")
         _mark_transient(ax, summary)
         ax.set_ylabel(label)
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc="lower right", fontsize=8)
     axes[1].set_xlabel("strain $2Vt/L_y$")
     axes[0].set_title(_title(run, summary, "height and global solid fraction"), fontsize=9)
     return fig

@@ -91,7 +91,8 @@ def bimodality_coefficient(x):
 def visits_both_walls(com_vx, velocity):
     """True if com_vx goes above VISIT_LEVEL V and below -VISIT_LEVEL V."""
     com = np.asarray(com_vx, dtype=float)
-    return bool(np.nanmax(com) > VISIT_LEVEL * velocity and np.nanmin(com) < -VISIT_LEVEL * velocity)
+    level = VISIT_LEVEL * velocity
+    return bool(np.nanmax(com) > level and np.nanmin(com) < -level)
 
 
 def band_states(com_vx, velocity):

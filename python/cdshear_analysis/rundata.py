@@ -19,7 +19,8 @@ import h5py
 import numpy as np
 
 RUN_FILE = "run.h5"
-REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "window", "time")
+REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
+                  "time")
 REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
                    "bottom_fx", "bottom_fy", "top_fx", "top_fy")
 REQUIRED_WINDOWS = ("y", "t_start", "t_end", "height", "com_vx", "solid_fraction", "vx",
@@ -64,6 +65,8 @@ def _check_lengths(data, keys, length, what, path):
 
 def _read(f, run_dir, path):
     attrs = {k: _plain(v) for k, v in f.attrs.items()}
+    if "boundary_thickness" in attrs:    # one h may be stored as a scalar
+        attrs["boundary_thickness"] = np.atleast_1d(attrs["boundary_thickness"]).astype(float)
     missing = [k for k in REQUIRED_ATTRS if k not in attrs]
     if missing:
         raise RunDataError(path, "missing root attribute(s) " + ", ".join(missing))

@@ -83,7 +83,8 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         step=np.round(t / dt).astype(np.int64), time=t, com_vx=com, height=height_t,
         solid_fraction=n * mean_area / (length_x * height_t),
         kinetic_energy=0.5 * n * 0.6 * (0.1 * V) ** 2 * (1 + 0.1 * rng.random(n_samples)),
-        contacts=rng.integers(900, 1100, n_samples), force_carrying=rng.integers(500, 700, n_samples),
+        contacts=rng.integers(900, 1100, n_samples),
+        force_carrying=rng.integers(500, 700, n_samples),
         bottom_fx=mu * fy, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu, top_mu=mu,
         sweeps_mean=40 + 5 * rng.random(n_samples), sweeps_max=rng.integers(60, 201, n_samples),
         capped_steps=(rng.random(n_samples) < 0.001).astype(np.int64),
@@ -98,13 +99,15 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     W["height"] = np.array([height_t[s].mean() for s in inside])
     W["com_vx"] = np.array([com[s].mean() for s in inside])
     shape = (n_windows, n_stripes)
-    nu, vx, mu_prof, coord = np.zeros(shape), np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
+    nu = np.zeros(shape)
+    vx, mu_prof, coord = (np.full(shape, np.nan) for _ in range(3))
     stress = np.full(shape + (2, 2), np.nan)
     for w, s in enumerate(inside):
         H = W["height"][w]
         ok = y < H
         yo = y[ok]
-        nu[w, ok] = NU - 0.1 * (np.exp(-yo / 1.5) + np.exp(-(H - yo) / 1.5)) + rng.normal(0, 0.005, ok.sum())
+        nu[w, ok] = (NU - 0.1 * (np.exp(-yo / 1.5) + np.exp(-(H - yo) / 1.5))
+                     + rng.normal(0, 0.005, ok.sum()))
         vx[w, ok] = _profile(kind, yo, H, V, W["com_vx"][w], rng)
         mu_prof[w, ok] = mu[s].mean() + rng.normal(0, 0.01, ok.sum())
         coord[w, ok] = Z + rng.normal(0, 0.05, ok.sum())
@@ -120,9 +123,10 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     W.update(solid_fraction=nu, vx=vx, stress=stress, contact_stress=stress - kinetic,
              kinetic_stress=kinetic, mu_eff=mu_prof, coordination=coord, shear_rate=shear_rate,
              inertial_number=np.abs(shear_rate) * np.sqrt(m / sigma))
-    for wall, sign in (("bottom", -1), ("top", 1)):
+    for wall in ("bottom", "top"):
         fx, fyw = series[f"{wall}_fx"], series[f"{wall}_fy"]
-        W[f"{wall}_force"] = np.array([[fx[s].mean(), fyw[s].mean()] for s in inside]).reshape(-1, 2)
+        W[f"{wall}_force"] = np.array([[fx[s].mean(), fyw[s].mean()]
+                                       for s in inside]).reshape(-1, 2)
         W[f"slip_{wall}"] = 0.05 * V + rng.normal(0, 0.005 * V, n_windows)
         W[f"slip_{wall}_count"] = rng.integers(400, 600, n_windows)
     W["wall_mu"] = np.array([mu[s].mean() for s in inside])
@@ -165,7 +169,8 @@ def _write_snapshot(g, n, length_x, height, time, rng):
     rows = int(np.ceil(n / cols))
     i = np.arange(n)
     x = (i % cols + 0.5 + 0.1 * rng.standard_normal(n)) * length_x / cols % length_x
-    y = np.clip((i // cols + 0.5) * height / rows + 0.05 * rng.standard_normal(n), 0.5, height - 0.5)
+    y = np.clip((i // cols + 0.5) * height / rows + 0.05 * rng.standard_normal(n),
+                0.5, height - 0.5)
     r = rng.uniform(0.4, 0.5, n)
     dx = x[:, None] - x[None, :]
     dx -= length_x * np.round(dx / length_x)               # nearest periodic image
@@ -177,11 +182,11 @@ def _write_snapshot(g, n, length_x, height, time, rng):
     cb = np.concatenate([b, np.full(len(bottom), n), np.full(len(top), n + 1)])
     cbx = np.concatenate([bx, x[bottom], x[top]])
     cby = np.concatenate([by, np.zeros(len(bottom)), np.full(len(top), height)])
-    data = dict(time=float(time), x=x, y=y, radius=r, vx=rng.normal(0, 0.1, n),
+    data = dict(x=x, y=y, radius=r, vx=rng.normal(0, 0.1, n),
                 vy=rng.normal(0, 0.1, n), omega=rng.normal(0, 0.1, n),
                 contact_a=ca.astype(np.int64), contact_b=cb.astype(np.int64),
                 contact_ax=x[ca], contact_ay=y[ca], contact_bx=cbx, contact_by=cby,
                 contact_normal_force=rng.exponential(1.0, len(ca)))
     for k, v in data.items():
         g.create_dataset(k, data=v)
-    g.attrs.update(length_x=length_x, height=height)
+    g.attrs.update(time=float(time), length_x=length_x, height=height)

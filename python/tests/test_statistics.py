@@ -3,6 +3,7 @@ import unittest
 
 import numpy as np
 
+from cdshear_analysis.profiles import regions_for_h
 from cdshear_analysis.statistics import block_average, window_mean
 from cdshear_analysis.steady_state import detect_steady_state, mser_truncation
 from cdshear_analysis.synthetic import ar1
@@ -85,6 +86,27 @@ class SteadyState(unittest.TestCase):
         self.assertFalse(st["steady"])
         self.assertIn("window", st["reason"])
         self.assertEqual(list(st["windows"]), [0])
+
+
+class Regions(unittest.TestCase):
+    def test_linear_profile(self):
+        V, H, h = 0.5, 20.0, 5.0
+        y = np.arange(25) + 0.5
+        inside = y < H
+        vx = np.where(inside, -V + 2 * V * y / H, np.nan)[None]
+        stress = np.zeros((1, 25, 2, 2))
+        stress[..., 0, 1], stress[..., 1, 1] = -0.1, 0.25
+        windows = dict(y=y, height=np.array([H]), vx=vx, stress=stress,
+                       solid_fraction=np.where(inside, 0.8, 0.0)[None],
+                       coordination=np.where(inside, 3.0, np.nan)[None])
+        r = regions_for_h(windows, h, V, 0.25)
+        self.assertAlmostEqual(r["bulk_shear_rate"][0], 2 * V / H)
+        self.assertAlmostEqual(r["bulk_inertial_number"][0], 2 * V / H * np.sqrt(np.pi))
+        self.assertAlmostEqual(r["bulk_mu_eff"][0], 0.4)
+        self.assertAlmostEqual(r["top_coordination"][0], 3.0)
+        self.assertAlmostEqual(r["bottom_velocity_jump"][0], 2 * V * h / H)
+        self.assertAlmostEqual(r["top_velocity_jump"][0], 2 * V * h / H)
+        self.assertAlmostEqual(r["top_inertial_number"][0], np.sqrt(np.pi) * 2 * V / H)
 
 
 if __name__ == "__main__":
