@@ -32,6 +32,7 @@
 
 #include "contact_dynamics.hpp"
 #include "scene_presets.hpp"
+#include "shear_measurement.hpp"
 #include "world.hpp"
 
 #ifndef CDSHEAR_SOURCE_DIR
@@ -205,12 +206,13 @@ struct Measurement {
   std::uint64_t capped = 0, displacement_warnings = 0;
   double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
+  double observer_s = 0.0;  // time in the measurement layer (shear cases)
 };
 
 /// Steps `world` untimed for `warmup` steps, then timed until both `seconds` and `min_steps`
 /// are reached.
 Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& options,
-                    const Settings& s) {
+                    const Settings& s, cdshear::ShearMeasurement* observer = nullptr) {
   for (std::uint64_t k = 0; k < s.warmup_steps; ++k) {
     const StepReport r = dynamics.step(world, options);
     if (r.blown_up) throw std::runtime_error("warm-up blew up: " + r.problem);
@@ -239,6 +241,11 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.capped += r.solver.hit_cap;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
+    if (observer != nullptr) {  // what `cdshear run` adds to every step: the SPEC 7 observers
+      const auto o0 = Clock::now();
+      observer->after_step(world, dynamics.contacts(), r);
+      m.observer_s += seconds_between(o0, Clock::now());
+    }
     block_solve += r.seconds.solve;
     block_updates += updates;
     const auto now = Clock::now();
@@ -350,12 +357,13 @@ int run(const Settings& s) {
                  static_cast<unsigned long long>(d.steps), d.solid_fraction, d.height, d.contacts,
                  d.kinetic_energy_per_disk, d.top_wall_speed);
 
-    auto report = [&](const std::string& name, double velocity, const StepOptions& options) {
+    auto report = [&](const std::string& name, double velocity, const StepOptions& options,
+                      cdshear::ShearMeasurement* observer = nullptr) {
       std::fprintf(stderr, "  %s: %llu warm-up steps, then >= %.0f s ... ", name.c_str(),
                    static_cast<unsigned long long>(s.warmup_steps), s.seconds);
       std::fflush(stderr);
       const double load = load_average();
-      const Measurement m = measure(box.world, box.dynamics, options, s);
+      const Measurement m = measure(box.world, box.dynamics, options, s, observer);
       const std::string line =
           csv_line(date, host, name, sys, velocity, options, m, solid_fraction(box.world), load);
       std::fprintf(
@@ -368,6 +376,9 @@ int run(const Settings& s) {
                      "  warning: the process ran only %.0f%% of the wall time (load average "
                      "%.1f): wall-clock figures are inflated, see the *_cpu columns\n",
                      100.0 * m.cpu_s / m.wall_s, load);
+      if (observer != nullptr)
+        std::fprintf(stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
+                     100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
     };
@@ -378,7 +389,11 @@ int run(const Settings& s) {
     if (s.run_shear) {
       start_shear(box.world, s.velocity);
       options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
-      report("shear", s.velocity, options);
+      const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
+                            box.world.walls[cdshear::kBoxBottomWall].point.y;
+      cdshear::ShearMeasurement observer(cdshear::MeasureOptions{},
+                                         {options.dt, s.velocity, 0.25, height}, box.world);
+      report("shear", s.velocity, options, &observer);
     }
   }
 

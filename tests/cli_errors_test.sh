@@ -27,13 +27,39 @@ expect_error "--system: system must be 1..7" "$exe" run -q --system 9
 expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.
-"$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done > /dev/null
+"$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done > /dev/null
 expect_error "already holds a run" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
-"$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done --force > /dev/null ||
+"$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done --force \
+  > /dev/null ||
   { echo "FAIL: --force did not overwrite"; fails=$((fails + 1)); }
 checks=$((checks + 1))
+
+# analyze and plot: a folder that is not a run, an empty and a truncated run.h5 give a clear
+# error naming the file, with exit status 2.
+expect_status2() {  # expect_status2 "words in the message" command...
+  local words=$1; shift
+  checks=$((checks + 1))
+  "$@" > out.txt 2> err.txt; local rc=$?
+  if [ $rc -ne 2 ] || ! grep -qF -- "$words" err.txt || grep -q Traceback err.txt; then
+    echo "FAIL: exit $rc, or '$words' not in the error of: $*"; cat err.txt; fails=$((fails + 1))
+  fi
+}
+mkdir -p notarun empty truncated
+expect_status2 "notarun" "$exe" analyze notarun
+expect_status2 "notarun" "$exe" plot notarun
+expect_status2 "nowhere" "$exe" analyze nowhere
+: > empty/run.h5
+expect_status2 "empty/run.h5" "$exe" analyze empty
+expect_status2 "empty/run.h5" "$exe" plot empty
+head -c 3000 done/run.h5 > truncated/run.h5
+expect_status2 "truncated/run.h5" "$exe" analyze truncated
+expect_status2 "truncated/run.h5" "$exe" plot truncated
+expect_error "key 'output.sample_interval': moved to measure.sample_interval" \
+  "$exe" run -q --set output.sample_interval=0.1
+expect_error "key 'measure.boundary_thickness'" "$exe" run -q --set "measure.boundary_thickness=[-1.0]"
+expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set measure.window=5
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

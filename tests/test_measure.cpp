@@ -8,6 +8,8 @@
 #include <numbers>
 #include <random>
 
+#include <nlohmann/json.hpp>
+
 #include "config_error.hpp"
 #include "run_data_file.hpp"
 #include "shear_measurement.hpp"
@@ -300,6 +302,49 @@ TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
   EXPECT_EQ(back.windows[1].regions.at(1).h, 3.0);
   EXPECT_EQ(back.windows[0].regions.at(0).bulk_solid_fraction,
             m.windows()[0].regions.at(0).bulk_solid_fraction);
+}
+
+TEST(RunDataFile, PythonLoadRunReadsTheSameNumbers) {
+  // The same numbers as JSON (shortest round-trip decimal, NaN as null) and as run.h5; the
+  // project's Python package loads run.h5 and must find them bit for bit.
+  World w = lattice_world(10.0, 8.0, 0.5);
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
+  for (int s = 0; s < 200; ++s) {
+    for (std::size_t i = 0; i < w.disks.size(); ++i) w.disks.velocity[i] = {noise(rng), 0.0};
+    feed(m, w, 1);
+  }
+  const testing::TempDir tmp("python_reads");
+  RunMetadata meta;
+  meta.n = w.disks.size();
+  meta.dt = 0.01;
+  write_run_data(tmp.path() / "run.h5", meta, m, w, {});
+  nlohmann::json expected;
+  for (const SeriesRow& r : m.series()) {
+    expected["series"]["com_vx"].push_back(r.com_vx);
+    expected["series"]["kinetic_energy"].push_back(r.kinetic_energy);
+  }
+  for (const WindowProfile& p : m.windows()) {
+    expected["windows"]["vx"].push_back(p.vx);
+    expected["windows"]["solid_fraction"].push_back(p.solid_fraction);
+  }
+  std::ofstream(tmp.path() / "expected.json") << expected.dump();
+  const std::string script =
+      "import json, sys, numpy as np\n"
+      "from cdshear_analysis import load_run\n"
+      "run = load_run(sys.argv[1]); e = json.load(open(sys.argv[1] + '/expected.json'))\n"
+      "ok = True\n"
+      "for group in e:\n"
+      "  for name, values in e[group].items():\n"
+      "    want = np.array(values, dtype=float)\n"
+      "    ok = ok and np.array_equal(run[group][name], want, equal_nan=True)\n"
+      "sys.exit(0 if ok else 1)\n";
+  std::ofstream(tmp.path() / "check.py") << script;
+  const std::string command = "PYTHONPATH='" CDSHEAR_SOURCE_DIR "/python' /usr/bin/python3 '" +
+                              (tmp.path() / "check.py").string() + "' '" + tmp.path().string() +
+                              "'";
+  EXPECT_EQ(std::system(command.c_str()), 0) << command;
 }
 
 TEST(RunDataFile, MissingEmptyAndTruncatedFilesAreClearErrors) {

@@ -73,13 +73,14 @@ void write_integers(const H5Context& ctx, hid_t group, const std::string& name,
 void attr_double(const H5Context& ctx, hid_t obj, const char* name,
                  const std::vector<double>& v) {
   const hsize_t dim = v.size();
-  Handle space(v.size() == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &dim, nullptr),
-               H5Sclose);
+  Handle space(H5Screate_simple(1, &dim, nullptr), H5Sclose);
   Handle a(H5Acreate2(obj, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
   ctx.check(H5Awrite(a, H5T_NATIVE_DOUBLE, v.data()), name, "cannot write attribute");
 }
 void attr_double(const H5Context& ctx, hid_t obj, const char* name, double v) {
-  attr_double(ctx, obj, name, std::vector<double>{v});
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle a(H5Acreate2(obj, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  ctx.check(H5Awrite(a, H5T_NATIVE_DOUBLE, &v), name, "cannot write attribute");
 }
 void attr_int(const H5Context& ctx, hid_t obj, const char* name, std::int64_t v) {
   Handle space(H5Screate(H5S_SCALAR), H5Sclose);
