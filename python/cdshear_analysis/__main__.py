@@ -1,6 +1,8 @@
 """Command line: `python3 -m cdshear_analysis analyze RUN_DIR [--quiet]` writes
 RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
-(default RUN_DIR/figures). Bad input: `error: <file>: <problem>` on stderr, exit status 2."""
+(default RUN_DIR/figures). A run too short for any averaging window is analysed (not steady,
+series values over the last half) and plotted without its profile figures. Bad input:
+`error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
 import os
 import sys
@@ -36,8 +38,11 @@ def main(argv=None):
         else:
             from .plots import plot_run
             out_dir = args.out_dir or os.path.join(args.run_dir, "figures")
-            for name in plot_run(run, summary, out_dir):
+            skipped = []
+            for name in plot_run(run, summary, out_dir, skipped):
                 print(name)
+            for name, reason in skipped:
+                print(f"skipped {name}: {reason}")
     except RunDataError as e:
         print(f"error: {e.path}: {e.problem}", file=sys.stderr)
         return 2

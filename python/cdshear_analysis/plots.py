@@ -6,6 +6,8 @@ com_velocity.png          com_vx / V against strain, with its histogram (average
 height_solid_fraction.png L_y and global solid fraction against strain, transient end marked
 steady_profiles.png       mu_eff, nu, I, Z profiles averaged over the steady windows
 Strain is 2 V t / L_y with the nominal L_y; lengths in d (largest diameter).
+A run without any complete averaging window gets the figures of its series and snapshot; the
+two profile figures are skipped (plot_run reports them in `skipped`).
 """
 import os
 
@@ -28,9 +30,28 @@ FORCE_LINE_WIDTH_MAX = 6.0  # ... capped here: rigid contacts have rare huge ins
 def _title(run, summary, what):
     a = run["attrs"]
     head = f"n = {a['n']}, V = {a['velocity']:g}, $\\sigma_{{yy}}$ = {a['normal_stress']:g}: {what}"
-    if not summary["steady"]:
+    if not summary["steady_windows"]:
+        head += ("\nTOO SHORT (no complete averaging window): last half shown as averaged, "
+                 "indicative")
+    elif not summary["steady"]:
         head += "\nNOT STEADY: last half of the run shown as averaged"
     return head
+
+
+def _regime_text(summary):
+    regime, confidence = summary["regime"], summary["regime_confidence"]
+    if regime is None:
+        return "regime undetermined"
+    return f"regime {regime} (confidence {confidence:.2f})"
+
+
+class SkipFigure(Exception):
+    """A figure that this run cannot have (the message says why)."""
+
+
+def _need_windows(run, summary):
+    if len(run["windows"]["t_start"]) == 0:
+        raise SkipFigure(f"no profiles to draw: {summary['steady_reason']}")
 
 
 def _mark_transient(ax, summary):
@@ -84,6 +105,7 @@ def snapshot(run, summary):
 
 
 def velocity_profiles(run, summary):
+    _need_windows(run, summary)
     w, a = run["windows"], run["attrs"]
     V, strain = float(a["velocity"]), 2 * float(a["velocity"]) / float(a["height"])
     n_windows = len(w["t_start"])
@@ -126,8 +148,7 @@ def com_velocity(run, summary):
     side.barh(0.5 * (edges[1:] + edges[:-1]), counts / max(counts.sum(), 1), height=np.diff(edges),
               color="tab:blue", alpha=0.7)
     side.set(xlabel="fraction")
-    fig.suptitle(_title(run, summary, f"regime {summary['regime']} "
-                 f"(confidence {summary['regime_confidence']:.2f}), "
+    fig.suptitle(_title(run, summary, f"{_regime_text(summary)}, "
                  f"{len(summary['switches'])} band switches"), fontsize=9)
     return fig
 
@@ -152,6 +173,7 @@ def height_solid_fraction(run, summary):
 
 
 def steady_profiles(run, summary):
+    _need_windows(run, summary)
     prof, y = summary["profiles"], summary["profiles"]["y"]
     height = summary["height"]["mean"]
     fig, axes = plt.subplots(2, 2, figsize=(8, 7), sharey=True)
@@ -186,8 +208,10 @@ FIGURES = {"snapshot.png": snapshot, "velocity_profiles.png": velocity_profiles,
            "steady_profiles.png": steady_profiles}
 
 
-def plot_run(run, summary, out_dir):
-    """Write every figure into out_dir; returns the paths written."""
+def plot_run(run, summary, out_dir, skipped=None):
+    """Write every figure the run can have into out_dir; returns the paths written. Figures it
+    cannot have (the profiles of a run without a complete window) are appended to `skipped`
+    (when given) as (file name, reason)."""
     summary = _arrays(summary)
     try:
         os.makedirs(out_dir, exist_ok=True)
@@ -196,7 +220,12 @@ def plot_run(run, summary, out_dir):
     written = []
     for name, make in FIGURES.items():
         path = os.path.join(out_dir, name)
-        fig = make(run, summary)
+        try:
+            fig = make(run, summary)
+        except SkipFigure as e:
+            if skipped is not None:
+                skipped.append((name, str(e)))
+            continue
         fig.savefig(path, dpi=DPI, bbox_inches="tight")
         plt.close(fig)
         written.append(path)

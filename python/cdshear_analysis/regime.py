@@ -51,6 +51,15 @@ def margin(regime, r, f):
     return float(np.clip(m, 0.0, 1.0)) if np.isfinite(m) else 0.0
 
 
+def criterion_text(regime, r, f):
+    """Why (r, f) gives `regime`, e.g. "A: r = 0.85 > 0.3"."""
+    if regime == "A":
+        return f"A: r = {r:.3g} > {SHEAR_RATIO_A:g}"
+    side = ">" if regime == "C" else "<="
+    return (f"{regime}: r = {r:.3g} <= {SHEAR_RATIO_A:g} and f = {f:.3g} {side} "
+            f"{COM_FRACTION_C:g}")
+
+
 def classify_run(r, f, window_r, window_f):
     """Regime, confidence and the statistics used. window_r/window_f: per steady window."""
     regime = classify(r, f)
@@ -60,7 +69,8 @@ def classify_run(r, f, window_r, window_f):
     criteria = dict(shear_rate_ratio=r, shear_rate_ratio_threshold=SHEAR_RATIO_A,
                     com_fraction=f, com_level=COM_LEVEL, com_fraction_threshold=COM_FRACTION_C,
                     window_agreement=agreement, windows_classified=len(votes),
-                    window_votes={k: votes.count(k) for k in "ABC"})
+                    window_votes={k: votes.count(k) for k in "ABC"},
+                    reason=criterion_text(regime, r, f))
     return regime, float(confidence), criteria
 
 

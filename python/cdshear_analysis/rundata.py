@@ -9,7 +9,9 @@ The result is a plain dict:
     run["windows"][name]                 /windows datasets, first axis W (y has length S)
     run["regions"]["h10"][name]          /windows/regions/h10 datasets, plus ["h"] (float),
                                          ordered by increasing h
-    run["snapshot"][name]                /snapshot datasets and attributes, None if absent
+    run["snapshot"][name]                /snapshot datasets and attributes (`time`, `length_x`,
+                                         `height` are attributes; datasets are accepted too, as
+                                         plain floats), None if absent
 Every problem with the folder or file raises RunDataError(path, problem).
 """
 import os
@@ -34,6 +36,13 @@ class RunDataError(Exception):
     def __init__(self, path, problem):
         super().__init__(f"{path}: {problem}")
         self.path, self.problem = str(path), problem
+
+
+def _scalar(value):
+    """A number stored as a one-element array (or 0-d dataset) as a plain number."""
+    if isinstance(value, np.ndarray) and value.size == 1 and value.dtype.kind in "biuf":
+        return value.reshape(()).item()
+    return value
 
 
 def _plain(value):
@@ -65,8 +74,11 @@ def _check_lengths(data, keys, length, what, path):
 
 def _read(f, run_dir, path):
     attrs = {k: _plain(v) for k, v in f.attrs.items()}
-    if "boundary_thickness" in attrs:    # one h may be stored as a scalar
-        attrs["boundary_thickness"] = np.atleast_1d(attrs["boundary_thickness"]).astype(float)
+    for k, v in attrs.items():
+        if k == "boundary_thickness":    # always an array (one h may be stored as a scalar)
+            attrs[k] = np.atleast_1d(np.asarray(v, dtype=float)).ravel()
+        else:
+            attrs[k] = _scalar(v)
     missing = [k for k in REQUIRED_ATTRS if k not in attrs]
     if missing:
         raise RunDataError(path, "missing root attribute(s) " + ", ".join(missing))
@@ -95,6 +107,9 @@ def _read(f, run_dir, path):
     if "snapshot" in f:
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
         snapshot.update({k: _plain(v) for k, v in f["snapshot"].attrs.items()})
+        for k in ("time", "length_x", "height"):   # attributes, or datasets in older files
+            if k in snapshot:
+                snapshot[k] = _scalar(np.asarray(snapshot[k]))
     case = {}
     for text in (attrs.get("case_toml"), _read_text(os.path.join(run_dir, "case.toml"))):
         try:

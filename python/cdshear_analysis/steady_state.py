@@ -104,7 +104,8 @@ def detect_steady_state(time, series, window_start, window_signals):
         whole = block_average(x)
         independent[name] = whole["n_independent"]
         half = len(x) // 2     # each half's mean has an error of about sqrt(2) * whole error
-        drift[name] = abs(np.mean(x[:half]) - np.mean(x[half:])) / (2 * whole["err"])
+        drift[name] = (abs(np.mean(x[:half]) - np.mean(x[half:])) / (2 * whole["err"])
+                       if half else np.nan)
     if not problems:
         if len(steady_windows) < STEADY_MIN_WINDOWS:
             problems.append(f"only {len(steady_windows)} complete window(s) after the transient "

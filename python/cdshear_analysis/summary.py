@@ -4,6 +4,8 @@ written as RUN_DIR/summary.json (keys documented in docs/analysis.md), and the p
 Averages: series (wall friction, height, solid fraction, com_vx) by block averaging over the
 samples at t >= averaging_start_time; window quantities (profiles, regions, slip, bulk) as
 mean and standard error over the averaged windows (t_start >= averaging_start_time).
+A run without any complete window (shorter than `window`) is not steady: its window quantities
+are null, its regime None (reason in regime_criteria), its series averaged over the last half.
 """
 import json
 import math
@@ -46,6 +48,15 @@ def choose_bulk_range(run):
     return None, 0.25 * height, 0.75 * height
 
 
+def no_window_reason(run, time):
+    """The steady_reason of a run without any complete averaging window."""
+    t, window = float(run["attrs"]["time"]), float(run["attrs"]["window"])
+    if not np.isfinite(t) or t <= 0:
+        t = float(time[-1])
+    return (f"no complete averaging window (t = {t:.4g} < window {window:.4g})" if t < window
+            else f"no complete averaging window in the file (t = {t:.4g}, window {window:.4g})")
+
+
 def analyze(run):
     """The summary dict of a loaded run (see docs/analysis.md for every key)."""
     a, s, w = run["attrs"], run["series"], run["windows"]
@@ -54,16 +65,21 @@ def analyze(run):
     time = np.asarray(s["time"], dtype=float)
     if len(time) == 0:
         raise RunDataError(run["path"], "no samples in /series yet")
-    if len(w["t_start"]) == 0:
-        raise RunDataError(run["path"], f"no complete averaging window yet (data up to t = "
-                                        f"{time[-1]:.4g}, window = {a['window']:.4g})")
+    no_window = len(w["t_start"]) == 0
     strain = 2 * V / H0
     mu_wall, com = wall_friction_series(s), np.asarray(s["com_vx"], dtype=float)
-    bulk_h, lo, hi = choose_bulk_range(run)
-    bulk_w = region_quantities(w, lo, hi, sigma, mass)
+    if no_window:   # too short: nothing from windows, series over the last half (indicative)
+        bulk_h, lo, hi = None, np.zeros(0), np.zeros(0)
+        bulk_w = {q: np.zeros(0) for q in QUANTITIES}
+    else:
+        bulk_h, lo, hi = choose_bulk_range(run)
+        bulk_w = region_quantities(w, lo, hi, sigma, mass)
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"]}, w["t_start"],
                              {"bulk_mu_eff": bulk_w["mu_eff"],
                               "bulk_solid_fraction": bulk_w["solid_fraction"]})
+    if no_window:
+        st.update(steady=False, reason=no_window_reason(run, time),
+                  transient_end_time=np.nan)   # no transient end is claimed
     sel, after = st["windows"], time >= st["averaging_start_time"]
 
     def series_avg(x):
@@ -81,7 +97,12 @@ def analyze(run):
     window_f = [rg.com_fraction(com[(time >= t0) & (time < t1)], V)
                 for t0, t1 in zip(t_start, t_end)]
     regime, confidence, criteria = rg.classify_run(r, f, window_r, window_f)
-    criteria.update(bulk_h=bulk_h, bulk_y_range=[float(np.mean(lo[sel])), float(np.mean(hi[sel]))])
+    if no_window:
+        regime, confidence = None, np.nan
+        criteria["reason"] = (f"undetermined: {st['reason']}; the bulk shear rate r needs a "
+                              f"complete window")
+    y_range = [float(np.mean(lo[sel])), float(np.mean(hi[sel]))] if len(sel) else [np.nan] * 2
+    criteria.update(bulk_h=bulk_h, bulk_y_range=y_range)
     visits_both = rg.visits_both_walls(com, V)
     switches = rg.band_switches(time, com, V) if regime == "C" or visits_both else []
     edges, counts = rg.com_histogram(com[after], V)
@@ -125,7 +146,8 @@ def analyze(run):
         "steady_windows": len(sel),
         "steady_window_indices": sel,
         "window_errors": (f"standard error over {len(sel)} windows" if len(sel) > 1 else
-                          "single window: no error estimate for window quantities (null)"),
+                          "single window: no error estimate for window quantities (null)"
+                          if len(sel) else "no complete window: window quantities are null"),
         "regime": regime, "regime_confidence": confidence, "regime_criteria": criteria,
         "mu_eff_wall": series_avg(mu_wall),
         "height": series_avg(s["height"]),
@@ -201,6 +223,8 @@ def format_report(summary, summary_path):
     state = "finished" if c["finished"] else "NOT finished (interrupted or still running)"
     lines = [f"run {summary['run_dir']}: n = {c['n']}, V = {c['velocity']:g}, "
              f"sigma_yy = {c['normal_stress']:g}; t = {c['time']:g} of {c['duration']:g}, {state}"]
+    if not summary["steady_windows"]:
+        return "\n".join([lines[0]] + _too_short_report(summary) + [f"summary: {summary_path}"])
     if summary["steady"]:
         lines.append(f"steady state from strain {summary['transient_end_strain']:.3g} "
                      f"(t = {summary['transient_end_time']:.4g}); {summary['steady_windows']} "
@@ -228,3 +252,25 @@ def format_report(summary, summary_path):
         lines.append(f"warning: {summary['solver']['capped_steps']} steps hit the sweep cap")
     lines.append(f"summary: {summary_path}")
     return "\n".join(lines)
+
+
+def _too_short_report(summary):
+    """The report's lines for a run without any complete averaging window."""
+    com, crit = summary["com_vx"], summary["regime_criteria"]
+    V = summary["case"]["velocity"]
+    f = crit["com_fraction"]
+    f = "n/a" if f is None or not np.isfinite(f) else f"{f:.0%}"
+    com_v = {k: (com[k] / V if com[k] is not None and np.isfinite(com[k]) else np.nan)
+             for k in ("mean", "err")}
+    lines = [f"not steady: run too short for steady state, {summary['steady_reason']}",
+             "  no profiles, bulk, boundary layers, slip or regime (they need a complete window);",
+             f"  the values below are from the series over the last half (t >= "
+             f"{summary['averaging_start_time']:.4g}) and only indicative",
+             "regime undetermined",
+             f"  mu_eff walls  = {pm(summary['mu_eff_wall'])}",
+             f"  L_y           = {pm(summary['height'])}",
+             f"  nu (global)   = {pm(summary['solid_fraction'])}",
+             f"  com_vx / V    = {pm(com_v)}, |com_vx| > V/2 in {f} of samples"]
+    if summary["solver"]["capped_steps"]:
+        lines.append(f"warning: {summary['solver']['capped_steps']} steps hit the sweep cap")
+    return lines

@@ -57,6 +57,10 @@ class Classifier(unittest.TestCase):
         self.assertEqual(regime, "A")
         self.assertAlmostEqual(crit["window_agreement"], 0.5)
         self.assertAlmostEqual(conf, 0.5 * 0.01 / 0.3 + 0.25)
+        self.assertEqual(crit["reason"], "A: r = 0.31 > 0.3")
+        self.assertEqual(classify_run(0.1, 0.9, [], [])[2]["reason"],
+                         "C: r = 0.1 <= 0.3 and f = 0.9 > 0.6")
+        self.assertEqual(self.summaries["B"]["regime_criteria"]["reason"][:2], "B:")
 
 
 class Switches(unittest.TestCase):

@@ -7,10 +7,14 @@ import sys
 import tempfile
 import unittest
 
+import warnings
+
 import h5py
 import numpy as np
 
-from cdshear_analysis import RunDataError, load_run
+from cdshear_analysis import RunDataError, analyze, format_report, load_run
+from cdshear_analysis.plots import plot_run
+from cdshear_analysis.summary import jsonable
 from cdshear_analysis.synthetic import write_synthetic_run
 
 PYTHON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -93,15 +97,15 @@ class RunData(unittest.TestCase):
         write_synthetic_run(missing, kind="A", duration=400.0)
         with h5py.File(os.path.join(missing, "run.h5"), "a") as f:
             del f["series/com_vx"]
-        young = os.path.join(d, "young")
-        write_synthetic_run(young, kind="A", duration=400.0, time_reached=50.0)
+        nodata = os.path.join(d, "nodata")   # written before the first sample
+        write_synthetic_run(nodata, kind="A", duration=400.0, time_reached=0.0)
         cases = [("nowhere", os.path.join(d, "nowhere"), "no such folder"),
                  ("not_a_run", os.path.join(d, "not_a_run"), "no run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),
                  ("truncated", os.path.join(truncated, "run.h5"), "HDF5"),
                  ("missing", os.path.join(missing, "run.h5"), "/series/com_vx"),
-                 ("young", os.path.join(young, "run.h5"), "no complete averaging window")]
+                 ("nodata", os.path.join(nodata, "run.h5"), "no samples in /series")]
         for command in ("analyze", "plot"):
             for name, path, problem in cases:
                 with self.subTest(command=command, case=name):
@@ -163,7 +167,117 @@ class EndToEnd(unittest.TestCase):
             self.assertEqual(summary["steady_windows"], 1)
             self.assertIsNone(summary["bulk"]["mu_eff"]["err"])
             self.assertIsNotNone(summary["bulk"]["mu_eff"]["mean"])
+            self.assertIn(summary["regime"], ("A", "B", "C"))
             self.assertEqual(run_module("analyze", d, "--quiet").stdout, "")
+            written = plot_run(load_run(d), analyze(load_run(d)), os.path.join(d, "figures"))
+            self.assertEqual(sorted(map(os.path.basename, written)), sorted(FIGURES))
+
+
+class WithoutCompleteWindow(unittest.TestCase):
+    """Runs shorter than one averaging window (80): analysed and plotted, flagged, exit 0."""
+
+    def test_analyze_and_plot_a_run_shorter_than_a_window(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=20.0)     # cdshear run, duration = 20
+            result = run_module("analyze", d)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertEqual(result.stderr, "")
+            head = result.stdout.splitlines()[:4]
+            self.assertIn("t = 20 of 20, finished", head[0])
+            self.assertTrue(head[1].startswith("not steady: run too short for steady state, "
+                                               "no complete averaging window (t = 20 < window "
+                                               "80)"), head[1])
+            self.assertIn("only indicative", head[3])
+            self.assertIn("regime undetermined", result.stdout)
+            self.assertLessEqual(len(result.stdout.splitlines()), 14)
+            with open(os.path.join(d, "summary.json")) as f:
+                s = json.loads(f.read(), parse_constant=lambda c: self.fail(c))
+            self.assertEqual(set(s), SUMMARY_KEYS)
+            self.assertFalse(s["steady"])
+            self.assertIn("no complete averaging window (t = 20 < window 80)", s["steady_reason"])
+            self.assertIsNone(s["regime"])
+            self.assertIsNone(s["regime_confidence"])
+            self.assertIn("no complete averaging window", s["regime_criteria"]["reason"])
+            self.assertIsNone(s["regime_criteria"]["shear_rate_ratio"])
+            self.assertEqual(s["regime_criteria"]["com_fraction"], 0.0)
+            self.assertIsNone(s["transient_end_time"])
+            self.assertEqual((s["steady_windows"], s["steady_window_indices"]), (0, []))
+            self.assertEqual(s["averaging_start_time"], 10.0)
+            self.assertIsNone(s["bulk"]["mu_eff"]["mean"])
+            self.assertIsNone(s["bulk"]["h"])
+            self.assertIsNone(s["slip"]["bottom"]["mean"])
+            self.assertEqual(list(s["regions"]), ["h5", "h10"])
+            self.assertIsNone(s["regions"]["h10"]["bulk"]["mu_eff"]["mean"])
+            self.assertEqual(len(s["profiles"]["y"]), 25)
+            self.assertEqual(s["profiles"]["vx"]["mean"], [None] * 25)
+            # the series quantities, over the last half (samples at t = 10 .. 20)
+            self.assertAlmostEqual(s["mu_eff_wall"]["mean"], 0.30, delta=0.03)
+            self.assertAlmostEqual(s["height"]["mean"], 20.0, delta=0.2)
+            self.assertIsNotNone(s["solid_fraction"]["err"])
+            self.assertEqual(sum(s["com_vx"]["histogram"]["counts"]), 21)
+            self.assertIsNotNone(s["com_vx"]["std"])
+            self.assertIsNotNone(s["solver"]["max_sweeps"])
+
+            result = run_module("plot", d)
+            self.assertEqual(result.returncode, 0, result.stderr)
+            self.assertEqual(result.stderr, "")
+            made = ["snapshot.png", "com_velocity.png", "height_solid_fraction.png"]
+            self.assertEqual(sorted(os.listdir(os.path.join(d, "figures"))), sorted(made))
+            for name in made:
+                self.assertIn(os.path.join(d, "figures", name), result.stdout)
+                with open(os.path.join(d, "figures", name), "rb") as f:
+                    self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+            for name in ("velocity_profiles.png", "steady_profiles.png"):
+                self.assertIn(f"skipped {name}: ", result.stdout)
+            self.assertIn("no complete averaging window", result.stdout)
+
+    def test_interrupted_before_the_first_window_and_few_samples(self):
+        with tempfile.TemporaryDirectory() as d:
+            for reached, samples in ((50.0, 100), (1.0, 2), (0.5, 1)):
+                with self.subTest(time_reached=reached):
+                    run_dir = os.path.join(d, f"t{reached:g}")
+                    write_synthetic_run(run_dir, kind="C", duration=400.0, time_reached=reached)
+                    run = load_run(run_dir)
+                    self.assertEqual(len(run["series"]["time"]), samples)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("error")
+                        s = analyze(run)
+                    self.assertFalse(s["steady"])
+                    self.assertIn(f"(t = {reached:g} < window 80)", s["steady_reason"])
+                    self.assertIsNone(s["regime"])
+                    report = format_report(s, "summary.json")
+                    self.assertIn("NOT finished", report.splitlines()[0])
+                    self.assertIn("not steady: run too short", report.splitlines()[1])
+                    json.dumps(jsonable(s), allow_nan=False)
+                    skipped = []
+                    written = plot_run(run, s, os.path.join(run_dir, "figures"), skipped)
+                    self.assertEqual(len(written), 3)
+                    self.assertEqual(sorted(name for name, _ in skipped),
+                                     ["steady_profiles.png", "velocity_profiles.png"])
+
+    def test_scalar_boundary_thickness_and_snapshot_time_as_dataset(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="B", duration=200.0, boundary_thickness=(10.0,))
+            with h5py.File(os.path.join(d, "run.h5"), "a") as f:
+                self.assertEqual(f.attrs["boundary_thickness"].shape, (1,))
+                f.attrs["boundary_thickness"] = 10.0                  # scalar
+                f.attrs["window"] = np.array([80.0])                  # one-element array
+                snap = f["snapshot"]
+                for k in ("time", "length_x", "height"):             # datasets, not attributes
+                    value = snap.attrs[k]
+                    del snap.attrs[k]
+                    snap.create_dataset(k, data=value)
+            run = load_run(d)
+            np.testing.assert_array_equal(run["attrs"]["boundary_thickness"], [10.0])
+            self.assertEqual(run["attrs"]["window"], 80.0)
+            self.assertEqual(run["snapshot"]["time"], 200.0)
+            self.assertIsInstance(run["snapshot"]["height"], float)
+            s = analyze(run)
+            self.assertEqual(len(run["windows"]["t_start"]), 2)
+            self.assertEqual(s["case"]["boundary_thickness"].tolist(), [10.0])
+            self.assertEqual(list(s["regions"]), ["h10"])
+            written = plot_run(run, s, os.path.join(d, "figures"))
+            self.assertEqual(len(written), len(FIGURES))
 
 
 if __name__ == "__main__":
