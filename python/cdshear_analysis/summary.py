@@ -234,6 +234,7 @@ def format_report(summary, summary_path):
         idx = summary["steady_window_indices"]
         lines.append(f"  values below are only indicative: series over the last half (t >= "
                      f"{summary['averaging_start_time']:.4g}), windows {idx[0]}-{idx[-1]}")
+        lines.append(_continue_hint(summary))
     lines.append(f"regime {summary['regime']} (confidence {summary['regime_confidence']:.2f}): "
                  f"bulk shear rate / (2V/L_y) = {crit['shear_rate_ratio']:.3g}, "
                  f"|com_vx| > V/2 in {crit['com_fraction']:.0%} of samples, "
@@ -254,6 +255,14 @@ def format_report(summary, summary_path):
     return "\n".join(lines)
 
 
+def _continue_hint(summary):
+    """How to extend the run towards a steady state: resume it with a longer duration."""
+    c = summary["case"]
+    longer = max(2.0 * c["time"], c["time"] + 4.0 * c.get("window", 80.0))
+    return (f"  to continue it towards a steady state: cdshear run --resume {summary['run_dir']} "
+            f"--set shear.duration={longer:.0f}")
+
+
 def _too_short_report(summary):
     """The report's lines for a run without any complete averaging window."""
     com, crit = summary["com_vx"], summary["regime_criteria"]
@@ -263,6 +272,7 @@ def _too_short_report(summary):
     com_v = {k: (com[k] / V if com[k] is not None and np.isfinite(com[k]) else np.nan)
              for k in ("mean", "err")}
     lines = [f"not steady: run too short for steady state, {summary['steady_reason']}",
+             _continue_hint(summary),
              "  no profiles, bulk, boundary layers, slip or regime (they need a complete window);",
              f"  the values below are from the series over the last half (t >= "
              f"{summary['averaging_start_time']:.4g}) and only indicative",

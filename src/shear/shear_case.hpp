@@ -28,7 +28,7 @@ struct ShearCase {
   double friction_grain = 0.5;  ///< mu_p
   double friction_wall = 0.5;   ///< mu_w
   double wall_mass = 50.0;      ///< M_w of each wall along y
-  double duration = 100.0;      ///< simulated shear time [t]
+  double duration = 240.0;      ///< simulated shear time [t] (default job: 3 windows of 80)
 
   // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
   std::optional<double> dt;             ///< explicit dt [t]
