@@ -377,8 +377,9 @@ int run(const Settings& s) {
                      "%.1f): wall-clock figures are inflated, see the *_cpu columns\n",
                      100.0 * m.cpu_s / m.wall_s, load);
       if (observer != nullptr)
-        std::fprintf(stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
-                     100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
+        std::fprintf(
+            stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
+            100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
     };

@@ -60,6 +60,9 @@ expect_error "key 'output.sample_interval': moved to measure.sample_interval" \
   "$exe" run -q --set output.sample_interval=0.1
 expect_error "key 'measure.boundary_thickness'" "$exe" run -q --set "measure.boundary_thickness=[-1.0]"
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set measure.window=5
+expect_error "a measured run cannot change its time step" \
+  "$exe" run -q --no-analyze --resume done --set step.dt=0.001 --set shear.duration=0.3
+expect_error "lists h = 5.000000 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -181,8 +181,7 @@ TEST(Profiles, ImposedLinearFieldGivesBackShearRateAndInertialNumber) {
   // wall layering in a real packing) and the finite difference is biased.
   for (std::size_t k = 2; k <= 7; ++k) {
     EXPECT_NEAR(p.shear_rate[k], gamma, 0.02 * gamma) << "stripe " << k;
-    EXPECT_NEAR(p.inertial_number[k], gamma * std::sqrt(kInertialMass / sigma),
-                0.02 * gamma);
+    EXPECT_NEAR(p.inertial_number[k], gamma * std::sqrt(kInertialMass / sigma), 0.02 * gamma);
   }
   const RegionValues& r = p.regions.at(0);  // h = 2
   EXPECT_NEAR(r.bulk_shear_rate, gamma, 0.01 * gamma);
@@ -258,6 +257,27 @@ TEST(Regions, BulkAndBoundaryFromAProfileBuiltByHand) {
   EXPECT_NEAR(r.top_velocity_jump, V - 0.5 * (0.1 + (0.1 + 0.9 * 0.5 / 3)), 1e-12);
   EXPECT_NEAR(r.bottom_inertial_number,
               r.bottom_velocity_jump / 3.0 * std::sqrt(kInertialMass / 0.25), 1e-12);
+}
+
+TEST(Regions, TheStripeCutByTheTopWallCountsForItsPartInsideTheCell) {
+  // Mean height 11.6: the stripe [11, 12) is 60% inside the cell, so a uniform packing of solid
+  // fraction 0.8 measures 0.48 there; the top layer (h = 3) must still come out at 0.8.
+  WindowProfile w;
+  w.height = 11.6;
+  std::vector<double> centres;
+  for (int k = 0; k < 15; ++k) {
+    const double y = k + 0.5;
+    centres.push_back(y);
+    w.vx.push_back(y < 12 ? 0.0 : NAN);
+    w.solid_fraction.push_back(y < 11 ? 0.8 : y < 12 ? 0.48 : 0.0);
+    w.coordination.push_back(3.0);
+    w.stress.push_back(y < 11 ? Tensor2{0.0, -0.05, -0.05, 0.25}
+                              : Tensor2{0.0, -0.03, -0.03, 0.15});
+  }
+  const RegionValues r = region_values(w, centres, 3.0, 1.0, 0.25);
+  EXPECT_NEAR(r.top_solid_fraction, 0.8, 1e-12);
+  EXPECT_NEAR(r.top_mu_eff, 0.2, 1e-12);
+  EXPECT_NEAR(r.bulk_solid_fraction, 0.8, 1e-12);
 }
 
 TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {

@@ -28,8 +28,8 @@ Vec2 momentum_above(const World& w, double y) {
   const double bottom = w.walls[kBottomWall].point.y;
   for (std::size_t i = 0; i < w.disks.size(); ++i) {
     const double r = w.disks.radius[i];
-    const StripePart part = disk_in_stripe(w.disks.position[i].y - bottom, r, y,
-                                           std::numeric_limits<double>::max());
+    const StripePart part =
+        disk_in_stripe(w.disks.position[i].y - bottom, r, y, std::numeric_limits<double>::max());
     const double density = w.disks.mass[i] / (std::numbers::pi * r * r);
     p.x += density * (w.disks.velocity[i].x * part.area - w.disks.omega[i] * part.first_moment);
     p.y += density * w.disks.velocity[i].y * part.area;
@@ -81,9 +81,10 @@ TEST(MeasuredShear, ShearStressFollowsTheMomentumBalanceAcrossTheCell) {
     const double T = p.t_end - p.t_start;
     double worst = 0.0;
     for (std::size_t k = 1; m.stripe_centres()[k] < p.height - 1.5; ++k) {
-      const Vec2 predicted = (1.0 / lx) * (p.top_force + (1.0 / T) * (p_above[w + 1][k] - p_above[w][k]));
-      worst = std::max({worst, std::abs(p.stress[k].xy - predicted.x),
-                        std::abs(p.stress[k].yy - predicted.y)});
+      const Vec2 predicted =
+          (1.0 / lx) * (p.top_force + (1.0 / T) * (p_above[w + 1][k] - p_above[w][k]));
+      worst = std::max(
+          {worst, std::abs(p.stress[k].xy - predicted.x), std::abs(p.stress[k].yy - predicted.y)});
       EXPECT_NEAR(p.stress[k].xy, predicted.x, tolerance) << "window " << w << " stripe " << k;
       EXPECT_NEAR(p.stress[k].yy, predicted.y, tolerance) << "window " << w << " stripe " << k;
     }

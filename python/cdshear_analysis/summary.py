@@ -272,10 +272,10 @@ def _too_short_report(summary):
     com_v = {k: (com[k] / V if com[k] is not None and np.isfinite(com[k]) else np.nan)
              for k in ("mean", "err")}
     lines = [f"not steady: run too short for steady state, {summary['steady_reason']}",
-             _continue_hint(summary),
              "  no profiles, bulk, boundary layers, slip or regime (they need a complete window);",
              f"  the values below are from the series over the last half (t >= "
              f"{summary['averaging_start_time']:.4g}) and only indicative",
+             _continue_hint(summary),
              "regime undetermined",
              f"  mu_eff walls  = {pm(summary['mu_eff_wall'])}",
              f"  L_y           = {pm(summary['height'])}",

@@ -188,6 +188,7 @@ class WithoutCompleteWindow(unittest.TestCase):
                                                "no complete averaging window (t = 20 < window "
                                                "80)"), head[1])
             self.assertIn("only indicative", head[3])
+            self.assertIn(f"cdshear run --resume {d} --set shear.duration=340", result.stdout)
             self.assertIn("regime undetermined", result.stdout)
             self.assertLessEqual(len(result.stdout.splitlines()), 14)
             with open(os.path.join(d, "summary.json")) as f:

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -43,8 +44,11 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     _exit(127);
   }
   int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-  }
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) {
+      std::perror("error: waiting for the analysis");
+      return 1;
+    }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
@@ -62,9 +66,9 @@ void register_analysis_commands(CLI::App& app) {
   a->add_option("run_dir", analyze->dir, "run folder (holding run.h5)")->required();
   a->add_flag("-q,--quiet", analyze->quiet, "write summary.json without printing the report");
   a->callback([analyze]() {
-    const int rc = run_analysis("analyze", analyze->dir,
-                                analyze->quiet ? std::vector<std::string>{"--quiet"}
-                                               : std::vector<std::string>{});
+    const int rc = run_analysis(
+        "analyze", analyze->dir,
+        analyze->quiet ? std::vector<std::string>{"--quiet"} : std::vector<std::string>{});
     if (rc != 0) throw CLI::RuntimeError(rc);
   });
   auto plot = std::make_shared<Args>();

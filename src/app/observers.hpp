@@ -63,6 +63,7 @@ class MeasurementObserver : public Observer {
  public:
   explicit MeasurementObserver(ShearMeasurement& measurement) : measurement_(measurement) {}
   void observe(const World& world, const ContactDynamics& dynamics, const StepReport& r) override {
+    if (r.blown_up) return;  // a broken state (NaN, huge overlaps) is not measured
     measurement_.after_step(world, dynamics.contacts(), r);
   }
 

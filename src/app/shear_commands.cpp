@@ -13,9 +13,9 @@
 #include "case_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "measurement_state.hpp"
 #include "observers.hpp"
 #include "outputs.hpp"
-#include "measurement_state.hpp"
 #include "packing_file.hpp"
 #include "run_data_file.hpp"
 #include "run_loop.hpp"
@@ -157,9 +157,9 @@ std::string resolved_case_text(const ShearCase& c, const std::string& packing,
   toml::table resolved = case_to_toml(c);
   resolved["preparation"].as_table()->insert_or_assign("packing", packing);
   std::ostringstream text;
-  text << "# Resolved case written by cdshear " CDSHEAR_VERSION "; `cdshear run --resume "
-       << dir.string() << "` continues it.\n"
-       << resolved << '\n';
+  text << "# Resolved case written by cdshear " CDSHEAR_VERSION;
+  if (!dir.empty()) text << "; `cdshear run --resume " << dir.string() << "` continues it";
+  text << ".\n" << resolved << '\n';
   return text.str();
 }
 
@@ -178,8 +178,8 @@ struct ShearSession {
 void open_resumed(const RunArgs& args, ShearSession& s) {
   s.resuming = true;
   s.dir = args.resume_dir;
-  if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity ||
-      !args.packing.empty() || !args.out_dir.empty() || args.force)
+  if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity || !args.packing.empty() ||
+      !args.out_dir.empty() || args.force)
     throw ConfigError("--resume " + s.dir.string(), "",
                       "a case file, --system, --velocity, --packing, -o and --force cannot be "
                       "combined with --resume: the run continues with its own case.toml");
@@ -252,23 +252,47 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   } catch (const std::exception& e) {
     throw ConfigError(checkpoint, "observers.measurement", e.what());
   }
-  if (state.grain_moment.size() != s.world.disks.size() ||
-      state.window.area.size() != m->stripes())
+  if (state.grain_moment.size() != s.world.disks.size() || state.window.area.size() != m->stripes())
     throw ConfigError(checkpoint, "observers.measurement",
                       "does not match the run's disks or stripes");
   // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
   RunData data = read_run_data(s.dir / "run.h5");
+  const std::string data_file = (s.dir / "run.h5").string();
+  // The step count, the samples and the windows are tied to the time step: a resume that
+  // changes it (step.dt, step.dt_max, step.displacement_per_step) would mix two clocks.
+  if (data.meta.dt != s.c.step.dt)
+    throw ConfigError(data_file, "step.dt",
+                      fmt::format("the run was measured with dt = {}, the resumed case gives dt = "
+                                  "{}; a measured run cannot change its time step (start a new "
+                                  "run from this one's final state instead)",
+                                  data.meta.dt, s.c.step.dt));
+  const MeasureOptions& o = data.options;
+  if (o.sample_interval != s.c.measure.sample_interval || o.window != s.c.measure.window ||
+      o.stripe_thickness != s.c.measure.stripe_thickness ||
+      o.boundary_thickness != s.c.measure.boundary_thickness ||
+      o.force_threshold != s.c.measure.force_threshold ||
+      data.stripe_centres.size() != m->stripes())
+    throw ConfigError(data_file, "measure",
+                      "was written with other [measure] settings than "
+                      "case.toml's: the files do not belong together");
   std::erase_if(data.series, [&](const SeriesRow& r) { return r.step > s.world.step; });
   std::erase_if(data.windows, [&](const WindowProfile& w) {
     return std::llround(w.t_end / s.c.step.dt) > static_cast<long long>(s.world.step);
   });
+  if (data.series.empty() ? state.last_sample_step != 0
+                          : data.series.back().step != state.last_sample_step)
+    throw ConfigError(data_file, "series",
+                      "ends before the checkpoint's last sample (step " +
+                          std::to_string(state.last_sample_step) +
+                          "): run.h5 is older than checkpoint.cbor");
   m->restore(std::move(state), std::move(data.series), std::move(data.windows));
   return m;
 }
 
 RunMetadata run_metadata(const ShearSession& s, bool finished) {
   RunMetadata meta;
-  meta.case_toml = resolved_case_text(s.c, s.packing_used, s.dir);
+  // Without the folder in its header: a resumed run's file must not depend on how DIR was spelt.
+  meta.case_toml = resolved_case_text(s.c, s.packing_used, "");
   meta.n = s.world.disks.size();
   meta.length_x = s.world.domain.length_x;
   meta.height = s.c.height;
@@ -336,8 +360,8 @@ int run_shear(const RunArgs& args) {
       "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
       "-> %s\n",
       s.world.disks.size(), s.world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
-      static_cast<unsigned long long>(s.world.step),
-      static_cast<unsigned long long>(loop.end_step), s.dir.c_str());
+      static_cast<unsigned long long>(s.world.step), static_cast<unsigned long long>(loop.end_step),
+      s.dir.c_str());
   std::fflush(stdout);
   const RunSummary summary = run_until(s.world, s.dynamics, c.step, loop, observers);
 
@@ -353,8 +377,10 @@ int run_shear(const RunArgs& args) {
   end.reached_end = s.world.step >= end_step;
   end.info_name = s.resuming ? fmt::format("run_info_resume_{}.json", s.world.step)
                              : std::string("run_info.json");
-  end.info = {{"resumed", s.resuming},      {"packing", s.packing_used},
-              {"dt", dt},                   {"seed", c.seed},
+  end.info = {{"resumed", s.resuming},
+              {"packing", s.packing_used},
+              {"dt", dt},
+              {"seed", c.seed},
               {"solver_seed", c.step.solver.seed}};
   end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
   const int status_code = finish_run(end, s.world, summary);

@@ -108,13 +108,18 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   if (m.has("boundary_thickness")) {
     mo.boundary_thickness = m.number_array("boundary_thickness");
     if (mo.boundary_thickness.empty()) m.fail("boundary_thickness", "must list at least one h");
-    for (const double h : mo.boundary_thickness)
+    for (std::size_t k = 0; k < mo.boundary_thickness.size(); ++k) {
+      const double h = mo.boundary_thickness[k];
       if (!(h > 0.0) || !std::isfinite(h))
         m.fail("boundary_thickness", "every h must be a positive number, got " + std::to_string(h));
+      for (std::size_t j = 0; j < k; ++j)
+        if (std::abs(mo.boundary_thickness[j] - h) < 1e-9)
+          m.fail("boundary_thickness", "lists h = " + std::to_string(h) + " twice");
+    }
   }
   if (mo.window < mo.sample_interval)
-    m.fail("window", "must be at least measure.sample_interval (" +
-                         std::to_string(mo.sample_interval) + ")");
+    m.fail("window",
+           "must be at least measure.sample_interval (" + std::to_string(mo.sample_interval) + ")");
   m.finish();
 
   root.finish();

@@ -4,12 +4,17 @@ namespace cdshear {
 
 using nlohmann::json;
 
-void to_json(json& j, const Vec2& v) { j = json::array({v.x, v.y}); }
-void from_json(const json& j, Vec2& v) { v = {j.at(0).get<double>(), j.at(1).get<double>()}; }
-void to_json(json& j, const Tensor2& t) { j = json::array({t.xx, t.xy, t.yx, t.yy}); }
+void to_json(json& j, const Vec2& v) {
+  j = json::array({v.x, v.y});
+}
+void from_json(const json& j, Vec2& v) {
+  v = {j.at(0).get<double>(), j.at(1).get<double>()};
+}
+void to_json(json& j, const Tensor2& t) {
+  j = json::array({t.xx, t.xy, t.yx, t.yy});
+}
 void from_json(const json& j, Tensor2& t) {
-  t = {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>(),
-       j.at(3).get<double>()};
+  t = {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>(), j.at(3).get<double>()};
 }
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(IntervalStats, steps, capped_steps, sweeps_sum, sweeps_max,
                                    residual_max, overlap_max)
@@ -23,7 +28,11 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeasurementState, window, grain_moment, inter
                                    last_sample_step, last_sample_time, bottom_impulse_last,
                                    top_impulse_last)
 
-json measurement_state_to_json(const MeasurementState& state) { return state; }
-MeasurementState measurement_state_from_json(const json& j) { return j.get<MeasurementState>(); }
+json measurement_state_to_json(const MeasurementState& state) {
+  return state;
+}
+MeasurementState measurement_state_from_json(const json& j) {
+  return j.get<MeasurementState>();
+}
 
 }  // namespace cdshear

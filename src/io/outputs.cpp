@@ -77,10 +77,10 @@ TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const Worl
 
 void TimeSeriesWriter::write(const World& world, const StepReport& r, const IntervalStats& s) {
   const Vec2 p = linear_momentum(world);
-  std::string row = fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time,
-                                kinetic_energy(world), p.x, p.y, r.contacts,
-                                r.solver.active_contacts, s.capped_steps, s.sweeps_mean(),
-                                s.sweeps_max, s.residual_max, s.overlap_max);
+  std::string row =
+      fmt::format("{},{},{},{},{},{},{},{},{},{},{},{}", world.step, world.time,
+                  kinetic_energy(world), p.x, p.y, r.contacts, r.solver.active_contacts,
+                  s.capped_steps, s.sweeps_mean(), s.sweeps_max, s.residual_max, s.overlap_max);
   for (const Wall& w : world.walls)
     row +=
         fmt::format(",{},{},{},{},{},{},{},{}", w.point.x, w.point.y, w.velocity.x, w.velocity.y,

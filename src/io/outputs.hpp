@@ -25,9 +25,10 @@ nlohmann::json state_to_json(const World& world);
 
 /// One CSV row per sample: step, time, kinetic energy, momentum, contacts, active contacts, the
 /// solver figures of the interval since the previous row (steps that hit the cap, mean and
-/// largest sweeps, largest residual, largest overlap), then position, velocity, contact force of the last step and contact impulse
-/// since the start (its time integral) of each wall (columns named after the walls). Rows are
-/// flushed at every sample so an interrupted run keeps what it measured.
+/// largest sweeps, largest residual, largest overlap), then position, velocity, contact force of
+/// the last step and contact impulse since the start (its time integral) of each wall (columns
+/// named after the walls). Rows are flushed at every sample so an interrupted run keeps what it
+/// measured.
 class TimeSeriesWriter {
  public:
   TimeSeriesWriter(const std::filesystem::path& path, const World& world);

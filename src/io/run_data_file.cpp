@@ -48,30 +48,35 @@ struct H5Context {
 // --- writing ---------------------------------------------------------------------------------
 
 void write_array(const H5Context& ctx, hid_t group, const std::string& name, hid_t mem_type,
-                 const void* data, const std::vector<hsize_t>& dims) {
+                 const void* data, std::size_t size, const std::vector<hsize_t>& dims) {
+  std::size_t count = 1;
+  for (hsize_t d : dims) count *= d;
+  if (count != size)  // a programming error; never let HDF5 read past the buffer
+    ctx.fail(name,
+             "has " + std::to_string(size) + " values for " + std::to_string(count) + " places");
   Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
-  Handle set(H5Dcreate2(group, name.c_str(), mem_type == H5T_NATIVE_DOUBLE ? H5T_IEEE_F64LE
-                                                                            : H5T_STD_I64LE,
-                        space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+  Handle set(H5Dcreate2(group, name.c_str(),
+                        mem_type == H5T_NATIVE_DOUBLE ? H5T_IEEE_F64LE : H5T_STD_I64LE, space,
+                        H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
              H5Dclose);
   if (!set.valid()) ctx.fail(name, "cannot create dataset");
   bool empty = false;
   for (hsize_t d : dims) empty = empty || d == 0;
-  if (!empty) ctx.check(H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), name,
-                        "cannot write dataset");
+  if (!empty)
+    ctx.check(H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), name,
+              "cannot write dataset");
 }
 void write_doubles(const H5Context& ctx, hid_t group, const std::string& name,
                    const std::vector<double>& v, std::vector<hsize_t> dims = {}) {
   if (dims.empty()) dims = {v.size()};
-  write_array(ctx, group, name, H5T_NATIVE_DOUBLE, v.data(), dims);
+  write_array(ctx, group, name, H5T_NATIVE_DOUBLE, v.data(), v.size(), dims);
 }
 void write_integers(const H5Context& ctx, hid_t group, const std::string& name,
                     const std::vector<std::int64_t>& v) {
-  write_array(ctx, group, name, H5T_NATIVE_INT64, v.data(), {v.size()});
+  write_array(ctx, group, name, H5T_NATIVE_INT64, v.data(), v.size(), {v.size()});
 }
 
-void attr_double(const H5Context& ctx, hid_t obj, const char* name,
-                 const std::vector<double>& v) {
+void attr_double(const H5Context& ctx, hid_t obj, const char* name, const std::vector<double>& v) {
   const hsize_t dim = v.size();
   Handle space(H5Screate_simple(1, &dim, nullptr), H5Sclose);
   Handle a(H5Acreate2(obj, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
@@ -117,8 +122,8 @@ std::vector<T> read_array(const H5Context& ctx, hid_t group, const std::string& 
   std::size_t count = 1;
   for (hsize_t d : dataset_dims(ctx, set, name)) count *= d;
   if (expected != std::size_t(-1) && count != expected)
-    ctx.fail(name, "has " + std::to_string(count) + " values, expected " +
-                       std::to_string(expected));
+    ctx.fail(name,
+             "has " + std::to_string(count) + " values, expected " + std::to_string(expected));
   std::vector<T> v(count);
   if (count > 0)
     ctx.check(H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), name,
@@ -215,13 +220,11 @@ const std::vector<SeriesColumn>& series_columns() {
 }
 
 using WindowScalar = std::pair<const char*, double WindowProfile::*>;
-const WindowScalar kWindowScalars[] = {{"t_start", &WindowProfile::t_start},
-                                       {"t_end", &WindowProfile::t_end},
-                                       {"height", &WindowProfile::height},
-                                       {"com_vx", &WindowProfile::com_vx},
-                                       {"wall_mu", &WindowProfile::wall_mu},
-                                       {"slip_bottom", &WindowProfile::slip_bottom},
-                                       {"slip_top", &WindowProfile::slip_top}};
+const WindowScalar kWindowScalars[] = {
+    {"t_start", &WindowProfile::t_start},  {"t_end", &WindowProfile::t_end},
+    {"height", &WindowProfile::height},    {"com_vx", &WindowProfile::com_vx},
+    {"wall_mu", &WindowProfile::wall_mu},  {"slip_bottom", &WindowProfile::slip_bottom},
+    {"slip_top", &WindowProfile::slip_top}};
 using WindowCount = std::pair<const char*, std::uint64_t WindowProfile::*>;
 const WindowCount kWindowCounts[] = {{"samples", &WindowProfile::samples},
                                      {"slip_bottom_count", &WindowProfile::slip_bottom_count},
@@ -230,13 +233,12 @@ using WindowForce = std::pair<const char*, Vec2 WindowProfile::*>;
 const WindowForce kWindowForces[] = {{"bottom_force", &WindowProfile::bottom_force},
                                      {"top_force", &WindowProfile::top_force}};
 using WindowProfileField = std::pair<const char*, std::vector<double> WindowProfile::*>;
-const WindowProfileField kWindowProfiles[] = {
-    {"solid_fraction", &WindowProfile::solid_fraction},
-    {"vx", &WindowProfile::vx},
-    {"mu_eff", &WindowProfile::mu_eff},
-    {"coordination", &WindowProfile::coordination},
-    {"shear_rate", &WindowProfile::shear_rate},
-    {"inertial_number", &WindowProfile::inertial_number}};
+const WindowProfileField kWindowProfiles[] = {{"solid_fraction", &WindowProfile::solid_fraction},
+                                              {"vx", &WindowProfile::vx},
+                                              {"mu_eff", &WindowProfile::mu_eff},
+                                              {"coordination", &WindowProfile::coordination},
+                                              {"shear_rate", &WindowProfile::shear_rate},
+                                              {"inertial_number", &WindowProfile::inertial_number}};
 using WindowTensor = std::pair<const char*, std::vector<Tensor2> WindowProfile::*>;
 const WindowTensor kWindowTensors[] = {{"contact_stress", &WindowProfile::contact_stress},
                                        {"kinetic_stress", &WindowProfile::kinetic_stress},
@@ -330,98 +332,116 @@ void write_snapshot(const H5Context& ctx, hid_t file, const World& world,
 
 }  // namespace
 
-void write_run_data(const fs::path& path, const RunMetadata& meta,
+/// Everything of run.h5 into the open `file`.
+void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
                     const ShearMeasurement& m, const World& world,
                     const std::vector<Contact>& contacts) {
+  const MeasureOptions& o = m.options();
+  attr_string(ctx, file, "format", "cdshear-run");
+  attr_int(ctx, file, "format_version", 1);
+  attr_string(ctx, file, "program_version", CDSHEAR_VERSION);
+  attr_string(ctx, file, "case_toml", meta.case_toml);
+  attr_int(ctx, file, "n", static_cast<std::int64_t>(meta.n));
+  attr_double(ctx, file, "length_x", meta.length_x);
+  attr_double(ctx, file, "height", meta.height);
+  attr_double(ctx, file, "velocity", meta.velocity);
+  attr_double(ctx, file, "normal_stress", meta.normal_stress);
+  attr_double(ctx, file, "dt", meta.dt);
+  attr_int(ctx, file, "seed", static_cast<std::int64_t>(meta.seed));
+  attr_int(ctx, file, "solver_seed", static_cast<std::int64_t>(meta.solver_seed));
+  attr_double(ctx, file, "duration", meta.duration);
+  attr_double(ctx, file, "sample_interval", o.sample_interval);
+  attr_double(ctx, file, "window", o.window);
+  // The intervals actually used: whole numbers of steps and of samples.
+  attr_int(ctx, file, "sample_steps", static_cast<std::int64_t>(m.sample_every()));
+  attr_int(ctx, file, "window_samples", static_cast<std::int64_t>(m.samples_per_window()));
+  attr_double(ctx, file, "stripe_thickness", o.stripe_thickness);
+  attr_double(ctx, file, "boundary_thickness", o.boundary_thickness);
+  attr_double(ctx, file, "force_threshold", o.force_threshold);
+  attr_double(ctx, file, "inertial_mass", kInertialMass);
+  attr_double(ctx, file, "time", meta.time);
+  attr_int(ctx, file, "step", static_cast<std::int64_t>(meta.step));
+  attr_int(ctx, file, "finished", meta.finished ? 1 : 0);
+
+  {
+    Handle g = create_group(ctx, file, "series");
+    const std::vector<SeriesRow>& rows = m.series();
+    for (const SeriesColumn& col : series_columns()) {
+      if (col.integer) {
+        std::vector<std::int64_t> v;
+        for (const SeriesRow& r : rows) v.push_back(static_cast<std::int64_t>(col.get(r)));
+        write_integers(ctx, g, col.name, v);
+      } else {
+        std::vector<double> v;
+        for (const SeriesRow& r : rows) v.push_back(col.get(r));
+        write_doubles(ctx, g, col.name, v);
+      }
+    }
+  }
+
+  Handle g = create_group(ctx, file, "windows");
+  const std::vector<WindowProfile>& ws = m.windows();
+  const hsize_t w_count = ws.size(), s_count = m.stripes();
+  write_doubles(ctx, g, "y", m.stripe_centres());
+  for (const auto& [name, field] : kWindowScalars) {
+    std::vector<double> v;
+    for (const WindowProfile& w : ws) v.push_back(w.*field);
+    write_doubles(ctx, g, name, v);
+  }
+  for (const auto& [name, field] : kWindowCounts) {
+    std::vector<std::int64_t> v;
+    for (const WindowProfile& w : ws) v.push_back(static_cast<std::int64_t>(w.*field));
+    write_integers(ctx, g, name, v);
+  }
+  for (const auto& [name, field] : kWindowForces) {
+    std::vector<double> v;
+    for (const WindowProfile& w : ws) v.insert(v.end(), {(w.*field).x, (w.*field).y});
+    write_doubles(ctx, g, name, v, {w_count, 2});
+  }
+  for (const auto& [name, field] : kWindowProfiles) {
+    std::vector<double> v;
+    for (const WindowProfile& w : ws) v.insert(v.end(), (w.*field).begin(), (w.*field).end());
+    write_doubles(ctx, g, name, v, {w_count, s_count});
+  }
+  for (const auto& [name, field] : kWindowTensors) {
+    std::vector<double> v;
+    for (const WindowProfile& w : ws)
+      for (const Tensor2& t : w.*field) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
+    write_doubles(ctx, g, name, v, {w_count, s_count, 2, 2});
+  }
+  Handle regions = create_group(ctx, g, "regions");
+  for (std::size_t k = 0; k < o.boundary_thickness.size(); ++k) {
+    const std::string group_name = region_group_name(o.boundary_thickness[k]);
+    Handle r = create_group(ctx, regions, group_name);
+    attr_double(ctx, r, "h", o.boundary_thickness[k]);
+    for (const auto& [name, field] : kRegionFields) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws) v.push_back(w.regions.at(k).*field);
+      write_doubles(ctx, r, name, v);
+    }
+  }
+  write_snapshot(ctx, file, world, contacts, meta.dt, o.force_threshold);
+}
+
+void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMeasurement& m,
+                    const World& world, const std::vector<Contact>& contacts) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported as ConfigError
   const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
   const H5Context ctx{tmp.string()};
-  {
-    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-    if (!file.valid()) ctx.fail("", "cannot create the file");
-    const MeasureOptions& o = m.options();
-    attr_string(ctx, file, "format", "cdshear-run");
-    attr_int(ctx, file, "format_version", 1);
-    attr_string(ctx, file, "program_version", CDSHEAR_VERSION);
-    attr_string(ctx, file, "case_toml", meta.case_toml);
-    attr_int(ctx, file, "n", static_cast<std::int64_t>(meta.n));
-    attr_double(ctx, file, "length_x", meta.length_x);
-    attr_double(ctx, file, "height", meta.height);
-    attr_double(ctx, file, "velocity", meta.velocity);
-    attr_double(ctx, file, "normal_stress", meta.normal_stress);
-    attr_double(ctx, file, "dt", meta.dt);
-    attr_int(ctx, file, "seed", static_cast<std::int64_t>(meta.seed));
-    attr_int(ctx, file, "solver_seed", static_cast<std::int64_t>(meta.solver_seed));
-    attr_double(ctx, file, "duration", meta.duration);
-    attr_double(ctx, file, "sample_interval", o.sample_interval);
-    attr_double(ctx, file, "window", o.window);
-    attr_double(ctx, file, "stripe_thickness", o.stripe_thickness);
-    attr_double(ctx, file, "boundary_thickness", o.boundary_thickness);
-    attr_double(ctx, file, "force_threshold", o.force_threshold);
-    attr_double(ctx, file, "inertial_mass", kInertialMass);
-    attr_double(ctx, file, "time", meta.time);
-    attr_int(ctx, file, "step", static_cast<std::int64_t>(meta.step));
-    attr_int(ctx, file, "finished", meta.finished ? 1 : 0);
-
-    {
-      Handle g = create_group(ctx, file, "series");
-      const std::vector<SeriesRow>& rows = m.series();
-      for (const SeriesColumn& col : series_columns()) {
-        if (col.integer) {
-          std::vector<std::int64_t> v;
-          for (const SeriesRow& r : rows) v.push_back(static_cast<std::int64_t>(col.get(r)));
-          write_integers(ctx, g, col.name, v);
-        } else {
-          std::vector<double> v;
-          for (const SeriesRow& r : rows) v.push_back(col.get(r));
-          write_doubles(ctx, g, col.name, v);
-        }
-      }
+  try {
+    const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (file < 0) ctx.fail("", "cannot create the file");
+    try {
+      write_run_file(ctx, file, meta, m, world, contacts);
+    } catch (...) {
+      H5Fclose(file);
+      throw;
     }
-
-    Handle g = create_group(ctx, file, "windows");
-    const std::vector<WindowProfile>& ws = m.windows();
-    const hsize_t w_count = ws.size(), s_count = m.stripes();
-    write_doubles(ctx, g, "y", m.stripe_centres());
-    for (const auto& [name, field] : kWindowScalars) {
-      std::vector<double> v;
-      for (const WindowProfile& w : ws) v.push_back(w.*field);
-      write_doubles(ctx, g, name, v);
-    }
-    for (const auto& [name, field] : kWindowCounts) {
-      std::vector<std::int64_t> v;
-      for (const WindowProfile& w : ws) v.push_back(static_cast<std::int64_t>(w.*field));
-      write_integers(ctx, g, name, v);
-    }
-    for (const auto& [name, field] : kWindowForces) {
-      std::vector<double> v;
-      for (const WindowProfile& w : ws) v.insert(v.end(), {(w.*field).x, (w.*field).y});
-      write_doubles(ctx, g, name, v, {w_count, 2});
-    }
-    for (const auto& [name, field] : kWindowProfiles) {
-      std::vector<double> v;
-      for (const WindowProfile& w : ws) v.insert(v.end(), (w.*field).begin(), (w.*field).end());
-      write_doubles(ctx, g, name, v, {w_count, s_count});
-    }
-    for (const auto& [name, field] : kWindowTensors) {
-      std::vector<double> v;
-      for (const WindowProfile& w : ws)
-        for (const Tensor2& t : w.*field) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
-      write_doubles(ctx, g, name, v, {w_count, s_count, 2, 2});
-    }
-    Handle regions = create_group(ctx, g, "regions");
-    for (std::size_t k = 0; k < o.boundary_thickness.size(); ++k) {
-      const std::string group_name = region_group_name(o.boundary_thickness[k]);
-      Handle r = create_group(ctx, regions, group_name);
-      attr_double(ctx, r, "h", o.boundary_thickness[k]);
-      for (const auto& [name, field] : kRegionFields) {
-        std::vector<double> v;
-        for (const WindowProfile& w : ws) v.push_back(w.regions.at(k).*field);
-        write_doubles(ctx, r, name, v);
-      }
-    }
-    write_snapshot(ctx, file, world, contacts, meta.dt, o.force_threshold);
-    if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) ctx.fail("", "cannot flush (disk full?)");
+    if (H5Fclose(file) < 0) ctx.fail("", "cannot close the file (disk full?)");
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);  // never leave a half-written temporary behind
+    throw;
   }
   std::error_code ec;
   fs::rename(tmp, path, ec);

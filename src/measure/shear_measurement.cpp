@@ -55,8 +55,8 @@ ShearMeasurement::ShearMeasurement(MeasureOptions options, MeasureContext contex
     : options_(std::move(options)), context_(context), length_x_(world.domain.length_x) {
   sample_every_ = steps_in(options_.sample_interval, context_.dt);
   samples_per_window_ = std::max<std::uint64_t>(
-      1, static_cast<std::uint64_t>(std::llround(
-             options_.window / (static_cast<double>(sample_every_) * context_.dt))));
+      1, static_cast<std::uint64_t>(
+             std::llround(options_.window / (static_cast<double>(sample_every_) * context_.dt))));
   const double dy = options_.stripe_thickness;
   const auto stripes = static_cast<std::size_t>(std::ceil(1.25 * context_.nominal_height / dy));
   for (std::size_t k = 0; k < stripes; ++k)
@@ -85,8 +85,7 @@ void ShearMeasurement::reset_window(const World& world) {
   w.top_impulse_start = world.walls[kTop].contact_impulse;
   for (std::vector<double>* v :
        {&w.area, &w.velocity_area, &w.mass, &w.mass_vx, &w.mass_vy, &w.mass_vxx, &w.mass_vxy,
-        &w.mass_vyy, &w.coordination_area, &w.stress_xx, &w.stress_xy, &w.stress_yx,
-        &w.stress_yy})
+        &w.mass_vyy, &w.coordination_area, &w.stress_xx, &w.stress_xy, &w.stress_yx, &w.stress_yy})
     v->assign(s, 0.0);
 }
 
@@ -156,8 +155,8 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   row.contacts = contacts.size();
   row.force_carrying = carrying;
   const double interval_time = world.time - state_.last_sample_time;
-  row.bottom_force = mean_force(world.walls[kBottom].contact_impulse, state_.bottom_impulse_last,
-                                interval_time);
+  row.bottom_force =
+      mean_force(world.walls[kBottom].contact_impulse, state_.bottom_impulse_last, interval_time);
   row.top_force =
       mean_force(world.walls[kTop].contact_impulse, state_.top_impulse_last, interval_time);
   row.bottom_mu = friction_ratio(row.bottom_force);
@@ -176,13 +175,15 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   const auto stripes = static_cast<std::ptrdiff_t>(stripe_centres_.size());
   for (std::size_t i = 0; i < n; ++i) {
     const double yc = d.position[i].y - bottom_y, r = d.radius[i];
+    if (!std::isfinite(yc)) continue;  // never reached in a run: blown-up steps are not fed
     const double grain_area = std::numbers::pi * r * r, density = d.mass[i] / grain_area;
     const Vec2 v = d.velocity[i];
     const double w_i = d.omega[i];
     const Tensor2 m = state_.grain_moment[i];
-    const auto k0 = std::max<std::ptrdiff_t>(0, static_cast<std::ptrdiff_t>(std::floor((yc - r) / dy)));
-    const auto k1 =
-        std::min<std::ptrdiff_t>(stripes - 1, static_cast<std::ptrdiff_t>(std::floor((yc + r) / dy)));
+    const auto k0 =
+        std::max<std::ptrdiff_t>(0, static_cast<std::ptrdiff_t>(std::floor((yc - r) / dy)));
+    const auto k1 = std::min<std::ptrdiff_t>(
+        stripes - 1, static_cast<std::ptrdiff_t>(std::floor((yc + r) / dy)));
     for (std::ptrdiff_t k = k0; k <= k1; ++k) {
       const auto s = static_cast<std::size_t>(k);
       const StripePart part =
@@ -292,27 +293,35 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   out.h = h;
   const double H = w.height;
   const double scale = std::sqrt(kInertialMass / normal_stress);
-  // Sums over the stripes of one region; stripes whose centre lies outside the cell are ignored.
+  // Sums over the stripes of one region. A stripe's share of the cell is the part of it below
+  // the mean height H (the top stripe is cut by the wall): the region's solid fraction and
+  // stresses are per area of the region inside the cell. Stripes are assigned by their centre;
+  // a stripe cut by the top wall belongs to the top layer.
+  const double dy = centres.size() > 1 ? centres[1] - centres[0] : 2.0 * centres[0];
   struct Sums {
-    double sxy = 0, syy = 0, nu = 0, nu_z = 0, count = 0;
+    double sxy = 0, syy = 0, nu = 0, nu_z = 0, inside = 0, count = 0;
     double sy = 0, sv = 0, syy2 = 0, syv = 0;  // least squares of vx against y
   } bulk, bottom, top;
   for (std::size_t k = 0; k < centres.size(); ++k) {
     const double y = centres[k];
-    if (y >= H || std::isnan(w.vx[k])) continue;
-    Sums& s = y < h ? bottom : y > H - h ? top : bulk;
+    const double inside = std::clamp((H - (y - 0.5 * dy)) / dy, 0.0, 1.0);
+    if (inside <= 0.0 || std::isnan(w.vx[k])) continue;
+    Sums& s = y < h ? bottom : (y > H - h || inside < 1.0) ? top : bulk;
     s.sxy += w.stress[k].xy;
     s.syy += w.stress[k].yy;
     s.nu += w.solid_fraction[k];
     s.nu_z += w.solid_fraction[k] * w.coordination[k];
+    s.inside += inside;
     s.count += 1;
     s.sy += y;
     s.sv += w.vx[k];
     s.syy2 += y * y;
     s.syv += y * w.vx[k];
   }
-  const auto mu = [](const Sums& s) { return s.count > 0 ? std::abs(s.sxy) / s.syy : kNaN; };
-  const auto nu = [](const Sums& s) { return s.count > 0 ? s.nu / s.count : kNaN; };
+  const auto mu = [](const Sums& s) {
+    return s.count > 0 && s.syy > 0 ? std::abs(s.sxy) / s.syy : kNaN;
+  };
+  const auto nu = [](const Sums& s) { return s.inside > 0 ? s.nu / s.inside : kNaN; };
   const auto z = [](const Sums& s) { return s.nu > 0 ? s.nu_z / s.nu : kNaN; };
   out.bulk_mu_eff = mu(bulk);
   out.bulk_solid_fraction = nu(bulk);

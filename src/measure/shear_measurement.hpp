@@ -36,18 +36,18 @@ namespace cdshear {
 
 struct MeasureOptions {
   bool enabled = true;
-  double sample_interval = 0.1;  ///< time between samples (series and profiles) [t]
-  double window = 80.0;          ///< averaging window [t]
-  double stripe_thickness = 1.0;  ///< dy [d]
+  double sample_interval = 0.1;                  ///< time between samples (series and profiles) [t]
+  double window = 80.0;                          ///< averaging window [t]
+  double stripe_thickness = 1.0;                 ///< dy [d]
   std::vector<double> boundary_thickness{10.0};  ///< the h of the boundary layers [d]
   double force_threshold = 0.01;  ///< force-carrying: R_n > this * mean R_n (of R_n > 0)
 };
 
 /// What the measurement needs to know beyond the state.
 struct MeasureContext {
-  double dt = 0.0;              ///< time step [t]
-  double velocity = 0.0;        ///< V of the walls [d/t]
-  double normal_stress = 0.25;  ///< imposed sigma_yy [force/length]
+  double dt = 0.0;               ///< time step [t]
+  double velocity = 0.0;         ///< V of the walls [d/t]
+  double normal_stress = 0.25;   ///< imposed sigma_yy [force/length]
   double nominal_height = 20.0;  ///< nominal L_y, sets the number of stripes [d]
 };
 
@@ -75,12 +75,10 @@ struct SeriesRow {
 /// Bulk and boundary-layer quantities of one window for one boundary thickness h (NaN: empty).
 struct RegionValues {
   double h = 0.0;
-  double bulk_mu_eff, bulk_solid_fraction, bulk_coordination, bulk_shear_rate,
-      bulk_inertial_number;
+  double bulk_mu_eff, bulk_solid_fraction, bulk_coordination, bulk_shear_rate, bulk_inertial_number;
   double bottom_mu_eff, bottom_solid_fraction, bottom_coordination, bottom_velocity_jump,
       bottom_inertial_number;
-  double top_mu_eff, top_solid_fraction, top_coordination, top_velocity_jump,
-      top_inertial_number;
+  double top_mu_eff, top_solid_fraction, top_coordination, top_velocity_jump, top_inertial_number;
 };
 
 /// One completed averaging window. Profiles have one entry per stripe (NaN where empty).
@@ -107,10 +105,10 @@ struct WindowSums {
   double slip_bottom_sum = 0.0, slip_top_sum = 0.0;
   std::uint64_t slip_bottom_count = 0, slip_top_count = 0;
   // Per stripe:
-  std::vector<double> area;             ///< sum S_ik
-  std::vector<double> velocity_area;    ///< sum (v_ix S_ik - w_i M1_ik)
+  std::vector<double> area;           ///< sum S_ik
+  std::vector<double> velocity_area;  ///< sum (v_ix S_ik - w_i M1_ik)
   std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
-  std::vector<double> coordination_area;  ///< sum S_ik z_i
+  std::vector<double> coordination_area;                                     ///< sum S_ik z_i
   std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
 };
 
@@ -161,7 +159,7 @@ class ShearMeasurement {
   MeasurementState state_;
   std::vector<SeriesRow> series_;
   std::vector<WindowProfile> windows_;
-  std::vector<int> carrying_count_;  ///< scratch: force-carrying contacts per grain
+  std::vector<int> carrying_count_;   ///< scratch: force-carrying contacts per grain
   std::vector<signed char> touches_;  ///< scratch: bit 1 bottom wall, bit 2 top wall
 };
 

@@ -15,8 +15,8 @@
 namespace cdshear {
 
 struct StripePart {
-  double area = 0.0;           ///< area of the disk between the two heights [length^2]
-  double first_moment = 0.0;   ///< int (y - y_c) dS over that part [length^3]
+  double area = 0.0;          ///< area of the disk between the two heights [length^2]
+  double first_moment = 0.0;  ///< int (y - y_c) dS over that part [length^3]
 };
 
 /// The part of the disk (centre height `centre_y`, `radius`) between heights y0 <= y1.
