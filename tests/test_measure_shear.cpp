@@ -37,24 +37,30 @@ Vec2 momentum_above(const World& w, double y) {
   return p;
 }
 
+/// System 1 at V = 0.5 with measurement windows of `window` time units and h = 5.
+ShearCase system1_case(double window) {
+  ShearCase c;
+  c.velocity = 0.5;
+  resolve_time_step(c);
+  c.measure.window = window;
+  c.measure.boundary_thickness = {5.0};
+  return c;
+}
+
 TEST(MeasuredShear, ShearStressFollowsTheMomentumBalanceAcrossTheCell) {
   // The material above height y gains momentum from the top wall and loses it to the material
   // below: dP_above/dt = F_top_on_grains + L_x sigma_.y(y) (sign conventions of SPEC 7: the top
   // wall's own stripe has sigma_.y = f_top / L_x, f_top the force of the grains on the wall).
   // So over a window of length T: sigma_xy(y) = (f_top,x + dP_above,x(y) / T) / L_x, and the
   // same for sigma_yy with the y components. In a steady state dP = 0 and sigma_xy and sigma_yy
-  // are uniform; in a transient (this run: the start of a shear at
-  // V = 0.5 from a linear profile) the momentum change is measured here independently. The
+  // are uniform; in a transient (this run: the start of a shear at V = 0.5 from a linear
+  // profile) the momentum change is measured here independently. The
   // first 5 time units, where the cell dilates by ~4% and the mean vertical flow advects
   // momentum across the planes (a transport term that is not stress), are left out.
   // Tolerance: 4% of sigma_yy, the grain-scale scatter of stripe stresses that the static test
   // below measures on the same packing (3.4% at most); the stripe stress spreads each grain's
   // moment over its area, it is not the traction on a plane.
-  ShearCase c;
-  c.velocity = 0.5;
-  resolve_time_step(c);
-  c.measure.window = 10.0;
-  c.measure.boundary_thickness = {5.0};
+  const ShearCase c = system1_case(10.0);
   World world = build_shear_world(c, system1_packing());
   ContactDynamics dynamics;
   for (int s = 0; s < static_cast<int>(std::lround(5.0 / c.step.dt)); ++s)
@@ -98,11 +104,7 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   // sigma_yy = 0.25: at rest, sigma_yy = 0.25 in every stripe and no shear stress, within the
   // grain-scale scatter of stripe stresses (each grain's stress spread over its area: measured
   // 3.4% at most here, allowed 4%), and exactly on average over the cell (virial of the walls).
-  ShearCase c;
-  c.velocity = 0.5;
-  resolve_time_step(c);
-  c.measure.window = 4.0;
-  c.measure.boundary_thickness = {5.0};
+  const ShearCase c = system1_case(4.0);
   World world = build_shear_world(c, system1_packing());
   for (Wall& w : world.walls) w.velocity.x = 0.0;
   for (std::size_t i = 0; i < world.disks.size(); ++i) {

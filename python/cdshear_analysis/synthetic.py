@@ -134,8 +134,9 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     attrs = dict(format="cdshear-run", format_version=1, program_version="synthetic", n=n,
                  length_x=length_x, height=height, velocity=V, normal_stress=sigma, dt=dt,
                  seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
-                 window=window, stripe_thickness=dy,
-                 boundary_thickness=np.asarray(boundary_thickness, dtype=float),
+                 window=window, sample_steps=max(1, int(round(sample_interval / dt))),
+                 window_samples=max(1, int(round(window / sample_interval))),
+                 stripe_thickness=dy, boundary_thickness=np.asarray(boundary_thickness, dtype=float),
                  force_threshold=1.0, inertial_mass=m, time=float(t[-1]) if n_samples else 0.0,
                  step=int(series["step"][-1]) if n_samples else 0,
                  finished=int(t_reached >= duration))
