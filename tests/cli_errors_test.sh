@@ -17,7 +17,7 @@ expect_error() {  # expect_error "words in the message" command...
   fi
 }
 expect_error "key 'shear.velocity': must be > 0" "$exe" run -q -V -1 --packing "$packing"
-expect_error "key 'system.n': must be >= 1" "$exe" run -q --set system.n=0
+expect_error "key 'system.n': must be between 1 and 1000000, got 0" "$exe" run -q --set system.n=0
 expect_error "key 'system.height'" "$exe" run -q --set system.height=0.5
 expect_error "/nonexistent/p.json: packing file not found" "$exe" run -q --packing /nonexistent/p.json
 expect_error "key 'n': packing has 511 disks" "$exe" run -q --set system.n=100 --packing "$packing"
@@ -63,6 +63,23 @@ expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set m
 expect_error "a measured run cannot change its time step" \
   "$exe" run -q --no-analyze --resume done --set step.dt=0.001 --set shear.duration=0.3
 expect_error "lists h = 5.000000 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
+
+# Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is
+# prepared or written (docs/reliability.md).
+expect_error "asks for 2.4e+302 steps, more than the limit" "$exe" run -q --set step.dt=1e-300
+expect_error "asks for 2.5e+32 steps" "$exe" run -q --set shear.duration=1e30
+expect_error "more than the limit" "$exe" run -q -V 1e300
+expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9
+expect_error "key 'solver.max_sweeps': must be between 1 and 1000000, got 4294967296" \
+  "$exe" run -q --set solver.max_sweeps=4294967296
+expect_error "exceed the limit of 1e+07" "$exe" run -q --set measure.sample_interval=1e-5 \
+  --set shear.duration=1000
+expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
+expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
+expect_error "unknown command 'frobnicate'" "$exe" frobnicate
+expect_error "already reached t = 0.2" "$exe" run -q --no-analyze --resume done
+[ -e runs ] && { echo "FAIL: a refused run left a folder behind: $(ls -R runs)"; fails=$((fails + 1)); }
+checks=$((checks + 1))
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -222,6 +222,19 @@ TEST(BlowUp, NonFiniteVelocityIsReported) {
   EXPECT_NE(sim.last().problem.find("NaN"), std::string::npos) << sim.last().problem;
 }
 
+TEST(BlowUp, NonFiniteWallIsReportedWithItsName) {
+  // A wall free in y with an infinite applied force: its velocity becomes infinite in the first
+  // step, with no disk touching it. That is a blow-up, named after the wall.
+  SceneDefinition s;
+  s.walls = {testing::free_y_wall("lid", {0.0, 5.0}, {0.0, -1.0}, 1.0,
+                                  {0.0, -std::numeric_limits<double>::infinity()})};
+  s.disks = {disk({0.0, 1.0}, 0.5)};
+  testing::Simulation sim(s, StepOptions{});
+  sim.run(1);
+  ASSERT_TRUE(sim.last().blown_up);
+  EXPECT_NE(sim.last().problem.find("wall 'lid'"), std::string::npos) << sim.last().problem;
+}
+
 // ---- The executable -------------------------------------------------------------------------
 
 struct ProcessResult {

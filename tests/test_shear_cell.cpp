@@ -161,7 +161,7 @@ void expect_case_error(const CaseSource& src, const std::string& key, const std:
 
 TEST(ShearCaseErrors, BadValuesNameTheKey) {
   expect_case_error(with({"shear.velocity=-1"}), "shear.velocity", "must be > 0");
-  expect_case_error(with({"system.n=0"}), "system.n", "must be >= 1");
+  expect_case_error(with({"system.n=0"}), "system.n", "must be between 1 and");
   expect_case_error(with({"system.height=0.5"}), "system.height", "largest grain diameter");
   expect_case_error(with({"shear.velocty=1"}), "shear.velocty", "unknown key");
   expect_case_error(with({"step.dt=fast"}), "step.dt", "\"auto\"");

@@ -33,6 +33,8 @@ int run_scene(const SceneArgs& args) {
   } catch (const SceneError& e) {
     throw ConfigError(args.file, e.key(), e.what());
   }
+  const std::uint64_t end_step =
+      checked_end_step(sf.run.duration, sf.step.dt, 0, args.file, "run.duration");
   const std::filesystem::path dir(args.out_dir);
   std::filesystem::create_directories(dir);
   {
@@ -41,8 +43,6 @@ int run_scene(const SceneArgs& args) {
     write_file_atomic(dir / "scene.toml", resolved.str());
   }
 
-  const std::uint64_t end_step =
-      static_cast<std::uint64_t>(std::llround(sf.run.duration / sf.step.dt));
   RunLoopSettings loop;
   loop.end_step = end_step;
   loop.status_every =

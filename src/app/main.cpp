@@ -19,6 +19,18 @@ int main(int argc, char** argv) {
   cdshear::register_analysis_commands(app);
   // From the start, so that a signal during set-up still ends in a clean stop with a checkpoint.
   cdshear::install_stop_handlers();
+  // An unknown command is named (CLI11 would only say that a subcommand is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    for (const CLI::App* sub : app.get_subcommands({})) known = known || sub->check_name(argv[1]);
+    if (!known) {
+      std::fprintf(stderr,
+                   "error: unknown command '%s'; the commands are scene, prepare, run, analyze, "
+                   "plot (cdshear --help)\n",
+                   argv[1]);
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

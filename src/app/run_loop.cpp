@@ -28,6 +28,7 @@ std::string format_duration(double s) {
 void install_stop_handlers() {
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
+  std::signal(SIGHUP, on_stop_signal);  // a closed terminal or a batch system's hang-up
 }
 
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
@@ -48,7 +49,12 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
       summary.outcome = RunOutcome::kInterrupted;
       break;
     }
-    const StepReport r = dynamics.step(world, options);
+    StepReport r = dynamics.step(world, options);
+    if (!r.blown_up && settings.check_state)
+      if (std::string problem = settings.check_state(world); !problem.empty()) {
+        r.blown_up = true;
+        r.problem = std::move(problem);
+      }
     summary.last = r;
     ++summary.steps;
     ++interval_steps;

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -34,6 +35,9 @@ struct RunLoopSettings {
   std::uint64_t end_step = 0;      ///< run until world.step reaches this
   std::uint64_t status_every = 0;  ///< steps between status lines; 0: none
   bool progress_bar = false;       ///< redraw a bar with time left on stderr
+  /// Optional check of the state after every step: a non-empty answer names a problem and stops
+  /// the run as blown up (for example the shear cell's walls flying apart).
+  std::function<std::string(const World&)> check_state;
 };
 
 enum class RunOutcome { kFinished, kInterrupted, kBlownUp };

@@ -5,12 +5,35 @@
 #include <cmath>
 #include <cstdio>
 
+#include "config_error.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {
 
 std::uint64_t steps_of(double interval, double dt) {
   return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
+}
+
+std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,
+                               const std::string& source, const std::string& key) {
+  const double steps = duration / dt;
+  if (!std::isfinite(steps) || steps > kMaxRunSteps)
+    throw ConfigError(source, key,
+                      fmt::format("duration {:.6g} with dt {:.6g} asks for {:.3g} steps, more than "
+                                  "the limit of {:.0e} (docs/reliability.md)",
+                                  duration, dt, steps, kMaxRunSteps));
+  const auto end = static_cast<std::uint64_t>(std::llround(steps));
+  if (end <= current_step)
+    throw ConfigError(source, key,
+                      current_step == 0
+                          ? fmt::format("duration {:.6g} is less than half a time step ({:.6g}): "
+                                        "the run would do nothing",
+                                        duration, dt)
+                          : fmt::format("the run already reached t = {:.6g} (step {}); to "
+                                        "continue it, give a longer one: --set {}=T",
+                                        static_cast<double>(current_step) * dt, current_step,
+                                        key));
+  return end;
 }
 
 int finish_run(const RunEnd& end, const World& world, const RunSummary& summary) {

@@ -25,4 +25,14 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
 /// Whole number of steps in a time interval (0 when the interval is 0: disabled).
 std::uint64_t steps_of(double interval, double dt);
 
+/// The most steps one run may ask for (docs/reliability.md): about 90 days of system 1 at
+/// 250 steps/s; a larger count is a typo (dt, duration or V off by orders of magnitude).
+inline constexpr double kMaxRunSteps = 2e9;
+
+/// The step at which a run of `duration` with step `dt` ends, checked: a step count that is not
+/// finite or above kMaxRunSteps, or a run with nothing left to do (end at or before
+/// `current_step`), is a ConfigError naming `source` and `key`.
+std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,
+                               const std::string& source, const std::string& key);
+
 }  // namespace cdshear

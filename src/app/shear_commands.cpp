@@ -29,7 +29,7 @@ namespace fs = std::filesystem;
 
 struct CaseArgs {
   std::string file;
-  int system = 0;  // 0: none
+  std::optional<int> system;
   double velocity = 0.0;
   bool has_velocity = false;
   std::vector<std::string> overrides;
@@ -39,7 +39,7 @@ struct CaseArgs {
 CaseSource to_source(const CaseArgs& a) {
   CaseSource s;
   s.file = a.file;
-  if (a.system != 0) s.system = a.system;
+  s.system = a.system;
   if (a.has_velocity) s.velocity = a.velocity;
   s.overrides = a.overrides;
   return s;
@@ -47,7 +47,9 @@ CaseSource to_source(const CaseArgs& a) {
 
 void add_case_options(CLI::App* cmd, CaseArgs& a) {
   cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)");
-  cmd->add_option("--system", a.system, "preset of SPEC 6, 1..7 (n, L_y, sigma_yy, duration)");
+  cmd->add_option_function<int>(
+      "--system", [&a](int k) { a.system = k; },
+      "preset of SPEC 6, 1..7 (n, L_y, sigma_yy, duration)");
   cmd->add_option_function<double>(
       "-V,--velocity",
       [&a](double v) {
@@ -78,6 +80,9 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
           std::fflush(stdout);
         },
         5.0, &g_stop_requested);
+  } catch (const PreparationInterrupted& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    throw CLI::RuntimeError(130);  // like an interrupted run
   } catch (const SceneError& e) {
     // Only the loose random placement can fail this way.
     throw ConfigError("preparation", "preparation.initial_solid_fraction",
@@ -130,12 +135,16 @@ void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path&
                  static_cast<unsigned long long>(c.seed));
 }
 
+/// The most samples a measured run may ask for (docs/reliability.md): run.h5 holds about 150
+/// bytes per sample, kept in memory and rewritten at every checkpoint.
+constexpr double kMaxSamples = 1e7;
+
 struct RunArgs {
   CaseArgs c;
   std::string out_dir;
   std::string resume_dir;
   std::string packing;
-  double stop_at = -1.0;
+  std::optional<double> stop_at;
   bool force = false;
   bool no_analyze = false;
 };
@@ -173,12 +182,22 @@ struct ShearSession {
   std::string packing_used;
   bool resuming = false;
   nlohmann::json observer_state;
+  std::string case_source;  ///< where the case comes from, for error messages
 };
+
+void check_sample_count(const ShearSession& s) {
+  const ShearCase& c = s.c;
+  if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
+    throw ConfigError(s.case_source, "measure.sample_interval",
+                      fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
+                                  "(run.h5 would grow beyond 1.5 GB): sample less often",
+                                  c.duration / c.measure.sample_interval, c.duration, kMaxSamples));
+}
 
 void open_resumed(const RunArgs& args, ShearSession& s) {
   s.resuming = true;
   s.dir = args.resume_dir;
-  if (!args.c.file.empty() || args.c.system != 0 || args.c.has_velocity || !args.packing.empty() ||
+  if (!args.c.file.empty() || args.c.system || args.c.has_velocity || !args.packing.empty() ||
       !args.out_dir.empty() || args.force)
     throw ConfigError("--resume " + s.dir.string(), "",
                       "a case file, --system, --velocity, --packing, -o and --force cannot be "
@@ -190,14 +209,12 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   src.file = (s.dir / "case.toml").string();
   src.overrides = args.c.overrides;
   s.c = load_case(src);
+  s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
   Checkpoint cp = read_checkpoint(s.dir / "checkpoint.cbor");
   s.world = std::move(cp.world);
   s.dynamics.set_contacts(std::move(cp.contacts));
   s.observer_state = std::move(cp.observers);
   s.packing_used = s.c.packing_file;
-  // Overrides given now hold for later resumes too.
-  if (!args.c.overrides.empty())
-    write_file_atomic(s.dir / "case.toml", resolved_case_text(s.c, s.c.packing_file, s.dir));
   std::printf("resuming %s at step %llu, t %.4f\n", s.dir.c_str(),
               static_cast<unsigned long long>(s.world.step), s.world.time);
 }
@@ -205,7 +222,14 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
 void open_new(const RunArgs& args, ShearSession& s) {
   ShearCase& c = s.c;
   c = load_case(to_source(args.c));
+  s.case_source = (args.c.file.empty() ? std::string("built-in default case") : args.c.file) +
+                  (args.c.overrides.empty() ? "" : " (with --set overrides)");
   if (!args.packing.empty()) c.packing_file = args.packing;
+  // A run that asks for too much, or for nothing, is refused before anything is prepared or
+  // written (run_shear checks again once dt is final: the same numbers).
+  resolve_time_step(c);
+  checked_end_step(c.duration, c.step.dt, 0, s.case_source, "shear.duration");
+  check_sample_count(s);
   auto [packing, path] = obtain_packing(c, args.c.quiet);
   s.packing_used = path.string();
   check_packing_matches(c, packing, path);
@@ -319,19 +343,38 @@ int run_shear(const RunArgs& args) {
   const ShearCase& c = s.c;
   const double dt = c.step.dt;
 
-  const std::uint64_t end_step = static_cast<std::uint64_t>(std::llround(c.duration / dt));
   RunLoopSettings loop;
-  loop.end_step = end_step;
-  if (args.stop_at >= 0) loop.end_step = std::min(end_step, steps_of(args.stop_at, dt));
+  const std::uint64_t end_step = loop.end_step = checked_end_step(
+      c.duration, dt, s.world.step, s.case_source, "shear.duration");
+  if (args.stop_at) {
+    if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
+      throw ConfigError("--stop-at", "",
+                        fmt::format("{} is not later than the run's time {}: nothing to do",
+                                    *args.stop_at, s.world.time));
+    loop.end_step = std::min(end_step, steps_of(*args.stop_at, dt));
+  }
+  check_sample_count(s);
   const std::uint64_t status = steps_of(c.status_interval, dt);
   loop.status_every = args.c.quiet ? 0
                       : status > 0 ? status
                                    : std::max<std::uint64_t>(1, end_step / 20);
   loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
+  // Walls flying apart (or through each other) are a blow-up, not a result: L_y must stay within
+  // half and twice the nominal height (dilatancy is tens of percent at the most).
+  loop.check_state = [&c](const World& w) {
+    const double h = w.walls[kTopWall].point.y - w.walls[kBottomWall].point.y;
+    if (h > 0.5 * c.height && h < 2.0 * c.height) return std::string();
+    return fmt::format("the walls flew apart or collapsed: L_y = {:.6g}, outside 0.5 to 2 times "
+                       "the nominal {}",
+                       h, c.height);
+  };
 
   // Observers: measurement (every step), snapshots, then the checkpoint, which writes run.h5
   // first and stores the measurement's running state.
   const std::unique_ptr<ShearMeasurement> measurement = open_measurement(s);
+  // Every check passed: overrides given to a resume hold for later resumes too.
+  if (s.resuming && !args.c.overrides.empty())
+    write_file_atomic(s.dir / "case.toml", resolved_case_text(c, c.packing_file, s.dir));
   bool finished = false;
   CheckpointObserver::Hooks hooks;
   if (measurement) {
@@ -434,7 +477,13 @@ void register_shear_commands(CLI::App& app) {
   r->add_flag("--force", run->force, "overwrite an existing run folder");
   r->add_flag("--no-analyze", run->no_analyze,
               "do not run `cdshear analyze` and `cdshear plot` at the end");
-  r->add_option("--stop-at", run->stop_at,
+  r->add_option_function<double>(
+      "--stop-at",
+      [run](double t) {
+        if (!(t > 0.0) || !std::isfinite(t))
+          throw ConfigError("--stop-at", "", "must be a time > 0, got " + std::to_string(t));
+        run->stop_at = t;
+      },
                 "stop (with a checkpoint) once simulated time reaches this; resume later");
   r->callback([run]() {
     if (const int rc = run_shear(*run); rc != 0) throw CLI::RuntimeError(rc);

@@ -96,13 +96,18 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
   }
   double max_wall_disp = 0.0;
+  const Wall* broken_wall = nullptr;
   for (std::size_t w = 0; w < world.walls.size(); ++w) {
     Wall& wall = world.walls[w];
     wall.velocity = bodies_[n + w].velocity;
     wall.point += dt * wall.velocity;
     wall.contact_force = {};
     max_wall_disp = std::max(max_wall_disp, dt * length(wall.velocity));
+    if (!std::isfinite(wall.point.x) || !std::isfinite(wall.point.y) ||
+        !std::isfinite(wall.velocity.x) || !std::isfinite(wall.velocity.y))
+      broken_wall = broken_wall != nullptr ? broken_wall : &wall;
   }
+  finite = finite && broken_wall == nullptr;
   if (finite) wrap_positions(world);
   world.time += dt;
   ++world.step;
@@ -132,9 +137,16 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.displacement_exceeded = report.max_displacement > options.displacement_bound;
   report.step = world.step;
   report.time = world.time;
-  if (!finite) {
+  if (broken_wall != nullptr) {
+    report.blown_up = true;
+    report.problem = "the position or velocity of wall '" + broken_wall->name +
+                     "' became NaN or infinite";
+  } else if (!finite) {
     report.blown_up = true;
     report.problem = "a disk velocity became NaN or infinite";
+  } else if (!std::isfinite(report.solver.residual)) {
+    report.blown_up = true;
+    report.problem = "the solver residual is NaN or infinite";
   } else if (report.max_overlap > options.abort_overlap) {
     report.blown_up = true;
     report.problem = "overlap " + std::to_string(report.max_overlap) + " exceeds abort_overlap " +

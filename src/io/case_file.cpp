@@ -1,6 +1,7 @@
 #include "case_file.hpp"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "config_error.hpp"
@@ -11,9 +12,8 @@ namespace cdshear {
 namespace {
 
 std::uint64_t read_seed(TomlReader& t, const std::string& key, std::uint64_t fallback) {
-  const std::int64_t v = t.integer(key, static_cast<std::int64_t>(fallback));
-  if (v < 0) t.fail(key, "must be >= 0");
-  return static_cast<std::uint64_t>(v);
+  return static_cast<std::uint64_t>(t.integer_in(
+      key, 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(fallback)));
 }
 
 }  // namespace
@@ -22,9 +22,7 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   TomlReader root(table, file);
 
   TomlReader sys = root.table("system");
-  const std::int64_t n = sys.integer("n", static_cast<std::int64_t>(c.n));
-  if (n < 1) sys.fail("n", "must be >= 1, got " + std::to_string(n));
-  c.n = static_cast<std::size_t>(n);
+  c.n = static_cast<std::size_t>(sys.integer_in("n", 1, kMaxDisks, static_cast<std::int64_t>(c.n)));
   c.height = sys.positive("height", c.height);
   c.diameter_min = sys.positive("diameter_min", c.diameter_min);
   c.diameter_max = sys.positive("diameter_max", c.diameter_max);
@@ -83,9 +81,8 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   p.step.dt = prep.positive("dt", p.step.dt);
   p.compression_dt = prep.positive("compression_dt", p.compression_dt);
   p.step.solver.alpha = prep.positive("alpha", p.step.solver.alpha);
-  const std::int64_t prep_sweeps = prep.integer("max_sweeps", p.step.solver.max_sweeps);
-  if (prep_sweeps < 1) prep.fail("max_sweeps", "must be >= 1");
-  p.step.solver.max_sweeps = static_cast<int>(prep_sweeps);
+  p.step.solver.max_sweeps =
+      static_cast<int>(prep.integer_in("max_sweeps", 1, kMaxSweeps, p.step.solver.max_sweeps));
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
 

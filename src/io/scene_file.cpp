@@ -1,5 +1,7 @@
 #include "scene_file.hpp"
 
+#include <limits>
+
 namespace cdshear {
 
 AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
@@ -11,16 +13,13 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
   s.alpha = solver.positive("alpha", s.alpha);
   s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
   if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
-  const std::int64_t cap = solver.integer("max_sweeps", s.max_sweeps);
-  if (cap < 1) solver.fail("max_sweeps", "must be >= 1");
-  s.max_sweeps = static_cast<int>(cap);
+  s.max_sweeps = static_cast<int>(solver.integer_in("max_sweeps", 1, kMaxSweeps, s.max_sweeps));
   const char* order = s.order == ContactOrder::kRandom ? "random" : "sequential";
   s.order = solver.choice("order", {"random", "sequential"}, order) == "random"
                 ? ContactOrder::kRandom
                 : ContactOrder::kSequential;
-  const std::int64_t seed = solver.integer("seed", static_cast<std::int64_t>(s.seed));
-  if (seed < 0) solver.fail("seed", "must be >= 0");
-  s.seed = static_cast<std::uint64_t>(seed);
+  s.seed = static_cast<std::uint64_t>(solver.integer_in(
+      "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();
   return s;
 }
@@ -62,12 +61,10 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
 
   TomlReader run = root.table("run");
   out.run.duration = run.positive("duration");
-  const std::int64_t status = run.integer("status_every", 0);
-  if (status < 0) run.fail("status_every", "must be >= 0");
-  out.run.status_every = static_cast<std::uint64_t>(status);
-  const std::int64_t sample = run.integer("sample_every", 1);
-  if (sample < 1) run.fail("sample_every", "must be >= 1");
-  out.run.sample_every = static_cast<std::uint64_t>(sample);
+  out.run.status_every =
+      static_cast<std::uint64_t>(run.integer_in("status_every", 0, kMaxStepInterval, 0));
+  out.run.sample_every =
+      static_cast<std::uint64_t>(run.integer_in("sample_every", 1, kMaxStepInterval, 1));
   run.finish();
 
   for (TomlReader& w : root.tables("walls")) {
@@ -97,16 +94,13 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   }
   for (TomlReader& r : root.tables("random_disks")) {
     RandomDisksSpec spec;
-    const std::int64_t count = r.integer("count");
-    if (count < 0) r.fail("count", "must be >= 0");
-    spec.count = static_cast<std::size_t>(count);
+    spec.count = static_cast<std::size_t>(r.integer_in("count", 0, kMaxDisks));
     spec.region_min = r.vec2("region_min");
     spec.region_max = r.vec2("region_max");
     spec.diameter_min = r.positive("diameter_min", 0.8);
     spec.diameter_max = r.positive("diameter_max", 1.0);
-    const std::int64_t seed = r.integer("seed", 1);
-    if (seed < 0) r.fail("seed", "must be >= 0");
-    spec.seed = static_cast<std::uint64_t>(seed);
+    spec.seed = static_cast<std::uint64_t>(
+        r.integer_in("seed", 0, std::numeric_limits<std::int64_t>::max(), 1));
     r.finish();
     s.random_disks.push_back(spec);
   }

@@ -98,6 +98,15 @@ std::int64_t TomlReader::integer(const std::string& key, std::optional<std::int6
   return *n->value<std::int64_t>();
 }
 
+std::int64_t TomlReader::integer_in(const std::string& key, std::int64_t lo, std::int64_t hi,
+                                    std::optional<std::int64_t> fallback) {
+  const std::int64_t v = integer(key, fallback);
+  if (v < lo || v > hi)
+    fail(key, "must be between " + std::to_string(lo) + " and " + std::to_string(hi) + ", got " +
+                  std::to_string(v));
+  return v;
+}
+
 bool TomlReader::boolean(const std::string& key, std::optional<bool> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {

@@ -15,6 +15,12 @@
 
 namespace cdshear {
 
+/// Limits of integer inputs (docs/reliability.md): far above any real use, low enough that the
+/// values fit their types and a typo cannot ask for a machine's worth of memory or time.
+inline constexpr std::int64_t kMaxDisks = 1'000'000;
+inline constexpr std::int64_t kMaxSweeps = 1'000'000;
+inline constexpr std::int64_t kMaxStepInterval = 1'000'000'000'000;
+
 /// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error).
 toml::table parse_toml_file(const std::string& path);
 
@@ -29,6 +35,10 @@ class TomlReader {
   bool has(const std::string& key) const;
   double number(const std::string& key, std::optional<double> fallback = std::nullopt);
   std::int64_t integer(const std::string& key, std::optional<std::int64_t> fallback = std::nullopt);
+  /// An integer in [lo, hi]: every integer key is range-checked against the type and the limit
+  /// it is used with (docs/reliability.md), never silently narrowed.
+  std::int64_t integer_in(const std::string& key, std::int64_t lo, std::int64_t hi,
+                          std::optional<std::int64_t> fallback = std::nullopt);
   bool boolean(const std::string& key, std::optional<bool> fallback = std::nullopt);
   std::string string(const std::string& key, std::optional<std::string> fallback = std::nullopt);
   Vec2 vec2(const std::string& key, std::optional<Vec2> fallback = std::nullopt);

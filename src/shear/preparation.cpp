@@ -47,7 +47,7 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
   double block_start_x = has_piston ? world.walls.back().point.x : 0.0;
   for (std::uint64_t s = 1; s <= max_steps; ++s) {
     if (cancel != nullptr && cancel->load())
-      throw std::runtime_error("preparation interrupted in phase " + std::to_string(phase));
+      throw PreparationInterrupted(phase);
     const StepReport r = dynamics.step(world, step);
     ++stats.preparation_steps;
     stats.capped_steps += r.solver.hit_cap;

@@ -18,12 +18,20 @@
 
 #include <atomic>
 #include <functional>
+#include <stdexcept>
 #include <string>
 
 #include "contact_dynamics.hpp"
 #include "packing.hpp"
 
 namespace cdshear {
+
+/// Thrown when the cancel flag (SIGINT, SIGTERM, SIGHUP) stops a preparation: nothing is written.
+struct PreparationInterrupted : std::runtime_error {
+  explicit PreparationInterrupted(int phase)
+      : std::runtime_error("preparation interrupted in phase " + std::to_string(phase) +
+                           "; nothing was written") {}
+};
 
 struct PreparationOptions {
   std::size_t n = 511;

@@ -45,6 +45,7 @@ void apply_system_preset(ShearCase& c, int system) {
   c.height = r.height;
   c.normal_stress = r.stress;
   c.duration = r.duration;
+  c.measure.window = 80.0;  // SPEC 7's windows
   // System 4 is 50 wide: its packing is prepared to that width by the same protocol.
   sync_preparation(c);
 }
