@@ -60,9 +60,9 @@ expect_error "key 'output.sample_interval': moved to measure.sample_interval" \
   "$exe" run -q --set output.sample_interval=0.1
 expect_error "key 'measure.boundary_thickness'" "$exe" run -q --set "measure.boundary_thickness=[-1.0]"
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set measure.window=5
-expect_error "a measured run cannot change its time step" \
+expect_error "a resumed run keeps its time step" \
   "$exe" run -q --no-analyze --resume done --set step.dt=0.001 --set shear.duration=0.3
-expect_error "lists h = 5.000000 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
+expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
 
 # Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is
 # prepared or written (docs/reliability.md).
@@ -80,6 +80,15 @@ expect_error "unknown command 'frobnicate'" "$exe" frobnicate
 expect_error "already reached t = 0.2" "$exe" run -q --no-analyze --resume done
 [ -e runs ] && { echo "FAIL: a refused run left a folder behind: $(ls -R runs)"; fails=$((fails + 1)); }
 checks=$((checks + 1))
+
+# Errors name their true source: the --set that gave the value, never the case file.
+expect_error "--set shear.velocity=abc: key 'shear.velocity': must be a number" \
+  "$exe" run -q --set shear.velocity=abc
+expect_error "'0.5.3' is not a TOML value" "$exe" run -q --set shear.velocity=0.5.3
+expect_error "the value holds a line break" "$exe" run -q --set $'shear.velocity=0.5\nshear.duration=3'
+expect_error "is a directory, not a TOML file" "$exe" run -q "$work"
+mkfifo fifo.toml && expect_error "is not a regular file" "$exe" run -q fifo.toml
+expect_error "must be > 0, got -1e+300" "$exe" run -q --set shear.normal_stress=-1e300
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

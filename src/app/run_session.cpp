@@ -31,8 +31,7 @@ std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current
                                         duration, dt)
                           : fmt::format("the run already reached t = {:.6g} (step {}); to "
                                         "continue it, give a longer one: --set {}=T",
-                                        static_cast<double>(current_step) * dt, current_step,
-                                        key));
+                                        static_cast<double>(current_step) * dt, current_step, key));
   return end;
 }
 

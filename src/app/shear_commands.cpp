@@ -210,6 +210,17 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   src.overrides = args.c.overrides;
   s.c = load_case(src);
   s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
+  // The step counter, the end of the run and every schedule count steps of one dt: a resume
+  // that changes it (step.dt, dt_max, displacement_per_step) would end at the wrong time.
+  ShearCase before = load_case(CaseSource{.file = src.file});
+  ShearCase after = s.c;
+  resolve_time_step(before);
+  resolve_time_step(after);
+  if (before.step.dt != after.step.dt)
+    throw ConfigError("--set", "step.dt",
+                      fmt::format("changes the time step of the run from {} to {}: a resumed run "
+                                  "keeps its time step (its steps, end and schedules count in it)",
+                                  before.step.dt, after.step.dt));
   Checkpoint cp = read_checkpoint(s.dir / "checkpoint.cbor");
   s.world = std::move(cp.world);
   s.dynamics.set_contacts(std::move(cp.contacts));
@@ -344,8 +355,8 @@ int run_shear(const RunArgs& args) {
   const double dt = c.step.dt;
 
   RunLoopSettings loop;
-  const std::uint64_t end_step = loop.end_step = checked_end_step(
-      c.duration, dt, s.world.step, s.case_source, "shear.duration");
+  const std::uint64_t end_step = loop.end_step =
+      checked_end_step(c.duration, dt, s.world.step, s.case_source, "shear.duration");
   if (args.stop_at) {
     if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
       throw ConfigError("--stop-at", "",
@@ -364,9 +375,10 @@ int run_shear(const RunArgs& args) {
   loop.check_state = [&c](const World& w) {
     const double h = w.walls[kTopWall].point.y - w.walls[kBottomWall].point.y;
     if (h > 0.5 * c.height && h < 2.0 * c.height) return std::string();
-    return fmt::format("the walls flew apart or collapsed: L_y = {:.6g}, outside 0.5 to 2 times "
-                       "the nominal {}",
-                       h, c.height);
+    return fmt::format(
+        "the walls flew apart or collapsed: L_y = {:.6g}, outside 0.5 to 2 times "
+        "the nominal {}",
+        h, c.height);
   };
 
   // Observers: measurement (every step), snapshots, then the checkpoint, which writes run.h5
@@ -484,7 +496,7 @@ void register_shear_commands(CLI::App& app) {
           throw ConfigError("--stop-at", "", "must be a time > 0, got " + std::to_string(t));
         run->stop_at = t;
       },
-                "stop (with a checkpoint) once simulated time reaches this; resume later");
+      "stop (with a checkpoint) once simulated time reaches this; resume later");
   r->callback([run]() {
     if (const int rc = run_shear(*run); rc != 0) throw CLI::RuntimeError(rc);
   });

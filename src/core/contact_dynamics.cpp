@@ -139,8 +139,8 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.time = world.time;
   if (broken_wall != nullptr) {
     report.blown_up = true;
-    report.problem = "the position or velocity of wall '" + broken_wall->name +
-                     "' became NaN or infinite";
+    report.problem =
+        "the position or velocity of wall '" + broken_wall->name + "' became NaN or infinite";
   } else if (!finite) {
     report.blown_up = true;
     report.problem = "a disk velocity became NaN or infinite";

@@ -12,14 +12,15 @@ namespace cdshear {
 namespace {
 
 std::uint64_t read_seed(TomlReader& t, const std::string& key, std::uint64_t fallback) {
-  return static_cast<std::uint64_t>(t.integer_in(
-      key, 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(fallback)));
+  return static_cast<std::uint64_t>(t.integer_in(key, 0, std::numeric_limits<std::int64_t>::max(),
+                                                 static_cast<std::int64_t>(fallback)));
 }
 
 }  // namespace
 
-ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase c) {
-  TomlReader root(table, file);
+ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase c,
+                         std::shared_ptr<const OverrideSources> sources) {
+  TomlReader root(table, file, "", std::move(sources));
 
   TomlReader sys = root.table("system");
   c.n = static_cast<std::size_t>(sys.integer_in("n", 1, kMaxDisks, static_cast<std::int64_t>(c.n)));
@@ -28,9 +29,9 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   c.diameter_max = sys.positive("diameter_max", c.diameter_max);
   if (c.diameter_max < c.diameter_min) sys.fail("diameter_max", "must be >= diameter_min");
   if (c.height <= c.diameter_max)
-    sys.fail("height", "L_y = " + std::to_string(c.height) +
+    sys.fail("height", "L_y = " + format_number(c.height) +
                            " must exceed the largest grain diameter " +
-                           std::to_string(c.diameter_max));
+                           format_number(c.diameter_max));
   c.seed = read_seed(sys, "seed", c.seed);
   sys.finish();
 
@@ -108,15 +109,15 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
     for (std::size_t k = 0; k < mo.boundary_thickness.size(); ++k) {
       const double h = mo.boundary_thickness[k];
       if (!(h > 0.0) || !std::isfinite(h))
-        m.fail("boundary_thickness", "every h must be a positive number, got " + std::to_string(h));
+        m.fail("boundary_thickness", "every h must be a positive number, got " + format_number(h));
       for (std::size_t j = 0; j < k; ++j)
         if (std::abs(mo.boundary_thickness[j] - h) < 1e-9)
-          m.fail("boundary_thickness", "lists h = " + std::to_string(h) + " twice");
+          m.fail("boundary_thickness", "lists h = " + format_number(h) + " twice");
     }
   }
   if (mo.window < mo.sample_interval)
     m.fail("window",
-           "must be at least measure.sample_interval (" + std::to_string(mo.sample_interval) + ")");
+           "must be at least measure.sample_interval (" + format_number(mo.sample_interval) + ")");
   m.finish();
 
   root.finish();
@@ -142,17 +143,16 @@ ShearCase load_case(const CaseSource& src) {
     table = parse_toml_file(src.file);
     name = src.file;
   }
+  auto sources = std::make_shared<OverrideSources>();
   if (src.velocity) {
     if (!table.contains("shear")) table.insert("shear", toml::table{});
     table["shear"].as_table()->insert_or_assign("velocity", *src.velocity);
+    (*sources)["shear.velocity"] = "--velocity";
   }
-  if (!src.overrides.empty()) {
-    apply_overrides(table, src.overrides);
-    name += " (with --set overrides)";
-  }
+  apply_overrides(table, src.overrides, sources.get());
   if (src.velocity && *src.velocity <= 0.0)
     throw ConfigError("--velocity", "shear.velocity", "must be > 0");
-  return case_from_toml(table, name, c);
+  return case_from_toml(table, name, c, sources);
 }
 
 toml::table case_to_toml(const ShearCase& c) {

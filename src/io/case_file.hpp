@@ -2,6 +2,7 @@
 // docs/case-files.md. The resolved case is written back as TOML beside the results.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "shear_case.hpp"
+#include "toml_reader.hpp"
 
 namespace cdshear {
 
@@ -25,7 +27,8 @@ ShearCase load_case(const CaseSource& source);
 
 /// Reads a complete case from a TOML table (as written by case_to_toml); `file` names it in
 /// errors.
-ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base);
+ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base,
+                         std::shared_ptr<const OverrideSources> sources = nullptr);
 
 /// Every parameter of the case, as TOML (the resolved case).
 toml::table case_to_toml(const ShearCase& c);

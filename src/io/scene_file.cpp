@@ -39,8 +39,9 @@ StepOptions read_step_options(TomlReader& step, TomlReader& solver) {
 SceneFile load_scene_file(const std::string& path, const std::vector<std::string>& overrides) {
   SceneFile out;
   out.resolved = parse_toml_file(path);
-  apply_overrides(out.resolved, overrides);
-  TomlReader root(out.resolved, path);
+  auto sources = std::make_shared<OverrideSources>();
+  apply_overrides(out.resolved, overrides, sources.get());
+  TomlReader root(out.resolved, path, "", sources);
   SceneDefinition& s = out.scene;
 
   TomlReader domain = root.table("domain");
@@ -70,6 +71,12 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   for (TomlReader& w : root.tables("walls")) {
     Wall wall;
     wall.name = w.string("name", "wall" + std::to_string(s.walls.size()));
+    // Names head CSV columns: no separators, quotes or line breaks, and no two alike.
+    if (wall.name.empty() || wall.name.find_first_of(",\"\n\r\t ") != std::string::npos)
+      w.fail("name",
+             "'" + wall.name + "' must be a non-empty word without commas, quotes or spaces");
+    for (const Wall& other : s.walls)
+      if (other.name == wall.name) w.fail("name", "'" + wall.name + "' names two walls");
     wall.point = w.vec2("point");
     wall.normal = w.vec2("normal");
     if (!(length(wall.normal) > 0.0)) w.fail("normal", "must not be zero");

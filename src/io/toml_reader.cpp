@@ -1,5 +1,8 @@
 #include "toml_reader.hpp"
 
+#include <fmt/format.h>
+
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -8,6 +11,10 @@ namespace cdshear {
 
 toml::table parse_toml_file(const std::string& path) {
   if (!std::filesystem::exists(path)) throw ConfigError(path, "", "file not found");
+  if (std::filesystem::is_directory(path))
+    throw ConfigError(path, "", "is a directory, not a TOML file");
+  if (!std::filesystem::is_regular_file(path))
+    throw ConfigError(path, "", "is not a regular file (a pipe or a device?)");
   try {
     return toml::parse_file(path);
   } catch (const toml::parse_error& e) {
@@ -18,25 +25,41 @@ toml::table parse_toml_file(const std::string& path) {
   }
 }
 
-void apply_overrides(toml::table& root, const std::vector<std::string>& overrides) {
+std::string format_number(double v) {
+  return fmt::format("{:.6g}", v);
+}
+
+namespace {
+/// A bare word: letters, digits, '_' and '-', starting with a letter (`random`, `auto`).
+bool is_bare_word(const std::string& s) {
+  if (s.empty() || !std::isalpha(static_cast<unsigned char>(s[0]))) return false;
+  for (const char ch : s)
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-') return false;
+  return true;
+}
+}  // namespace
+
+void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
+                     OverrideSources* sources) {
   for (const std::string& item : overrides) {
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
       throw ConfigError("--set " + item, "", "expected key=value");
     const std::string key = item.substr(0, eq);
     std::string value = item.substr(eq + 1);
+    if (item.find_first_of("\n\r") != std::string::npos)
+      throw ConfigError("--set", key, "the value holds a line break; give one key=value per --set");
     toml::table parsed;
     try {
       parsed = toml::parse("v = " + value);
-    } catch (const toml::parse_error&) {
-      // Bare words are strings: --set solver.order=random
-      try {
-        parsed = toml::parse("v = \"" + value + "\"");
-      } catch (const toml::parse_error& e) {
+    } catch (const toml::parse_error& e) {
+      if (!is_bare_word(value))
         throw ConfigError("--set " + item, key,
-                          "cannot parse value: " + std::string(e.description()));
-      }
+                          "'" + value + "' is not a TOML value (" + std::string(e.description()) +
+                              "); strings other than single words need quotes: key='\"text\"'");
+      parsed = toml::parse("v = \"" + value + "\"");  // a bare word: --set solver.order=random
     }
+    if (sources != nullptr) (*sources)[key] = "--set " + item;
     toml::table* at = &root;
     std::string rest = key;
     for (auto dot = rest.find('.'); dot != std::string::npos; dot = rest.find('.')) {
@@ -55,15 +78,23 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
   }
 }
 
-TomlReader::TomlReader(const toml::table& table, std::string file, std::string prefix)
-    : table_(&table), file_(std::move(file)), prefix_(std::move(prefix)) {}
+TomlReader::TomlReader(const toml::table& table, std::string file, std::string prefix,
+                       std::shared_ptr<const OverrideSources> sources)
+    : table_(&table),
+      file_(std::move(file)),
+      prefix_(std::move(prefix)),
+      sources_(std::move(sources)) {}
 
 std::string TomlReader::full_key(const std::string& key) const {
   return prefix_.empty() ? key : prefix_ + "." + key;
 }
 
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
-  throw ConfigError(file_, full_key(key), problem);
+  const std::string full = full_key(key);
+  if (sources_ != nullptr)
+    if (const auto it = sources_->find(full); it != sources_->end())
+      throw ConfigError(it->second, full, problem);  // the value came from the command line
+  throw ConfigError(file_, full, problem);
 }
 
 bool TomlReader::has(const std::string& key) const {
@@ -156,13 +187,13 @@ std::vector<double> TomlReader::number_array(const std::string& key) {
 
 double TomlReader::positive(const std::string& key, std::optional<double> fallback) {
   const double v = number(key, fallback);
-  if (!(v > 0.0)) fail(key, "must be > 0, got " + std::to_string(v));
+  if (!(v > 0.0)) fail(key, "must be > 0, got " + format_number(v));
   return v;
 }
 
 double TomlReader::non_negative(const std::string& key, std::optional<double> fallback) {
   const double v = number(key, fallback);
-  if (!(v >= 0.0)) fail(key, "must be >= 0, got " + std::to_string(v));
+  if (!(v >= 0.0)) fail(key, "must be >= 0, got " + format_number(v));
   return v;
 }
 
@@ -179,9 +210,9 @@ std::string TomlReader::choice(const std::string& key, const std::vector<std::st
 TomlReader TomlReader::table(const std::string& key) {
   static const toml::table empty;
   const toml::node* n = lookup(key);
-  if (n == nullptr) return TomlReader(empty, file_, full_key(key));
+  if (n == nullptr) return TomlReader(empty, file_, full_key(key), sources_);
   if (!n->is_table()) fail(key, "must be a table");
-  return TomlReader(*n->as_table(), file_, full_key(key));
+  return TomlReader(*n->as_table(), file_, full_key(key), sources_);
 }
 
 std::vector<TomlReader> TomlReader::tables(const std::string& key) {
@@ -193,7 +224,7 @@ std::vector<TomlReader> TomlReader::tables(const std::string& key) {
   for (std::size_t i = 0; i < a->size(); ++i) {
     const toml::table* t = (*a)[i].as_table();
     if (t == nullptr) fail(key, "entry " + std::to_string(i) + " must be a table");
-    out.emplace_back(*t, file_, full_key(key) + "[" + std::to_string(i) + "]");
+    out.emplace_back(*t, file_, full_key(key) + "[" + std::to_string(i) + "]", sources_);
   }
   return out;
 }

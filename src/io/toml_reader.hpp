@@ -5,6 +5,8 @@
 #include <toml++/toml.h>
 
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -24,13 +26,20 @@ inline constexpr std::int64_t kMaxStepInterval = 1'000'000'000'000;
 /// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error).
 toml::table parse_toml_file(const std::string& path);
 
-/// Applies `--set` overrides "a.b.c=value" (value in TOML syntax; bare words are strings) to
-/// `root`, creating intermediate tables. Throws ConfigError naming the override.
-void apply_overrides(toml::table& root, const std::vector<std::string>& overrides);
+/// Where an overridden key's value comes from, by dotted key: "--set a.b=1", "--velocity".
+using OverrideSources = std::map<std::string, std::string>;
+
+/// Applies `--set` overrides "a.b.c=value" (value in TOML syntax; a bare word such as `random`
+/// is a string) to `root`, creating intermediate tables, and records each key's source in
+/// `sources` (if given) so that a bad value is blamed on the --set, not on the file. Throws
+/// ConfigError naming the override for a value that is not TOML or holds a newline.
+void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
+                     OverrideSources* sources = nullptr);
 
 class TomlReader {
  public:
-  TomlReader(const toml::table& table, std::string file, std::string prefix = "");
+  TomlReader(const toml::table& table, std::string file, std::string prefix = "",
+             std::shared_ptr<const OverrideSources> sources = nullptr);
 
   bool has(const std::string& key) const;
   double number(const std::string& key, std::optional<double> fallback = std::nullopt);
@@ -70,6 +79,11 @@ class TomlReader {
   std::string file_;
   std::string prefix_;
   std::set<std::string> used_;
+  std::shared_ptr<const OverrideSources> sources_;  ///< keys given on the command line
 };
+
+/// A number as a person writes it: shortest exact form, exponent for large or small values
+/// (never 300 digits).
+std::string format_number(double v);
 
 }  // namespace cdshear

@@ -46,8 +46,7 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
   double ek_sum = 0.0, force_sum = 0.0;
   double block_start_x = has_piston ? world.walls.back().point.x : 0.0;
   for (std::uint64_t s = 1; s <= max_steps; ++s) {
-    if (cancel != nullptr && cancel->load())
-      throw PreparationInterrupted(phase);
+    if (cancel != nullptr && cancel->load()) throw PreparationInterrupted(phase);
     const StepReport r = dynamics.step(world, step);
     ++stats.preparation_steps;
     stats.capped_steps += r.solver.hit_cap;
