@@ -90,5 +90,11 @@ expect_error "is a directory, not a TOML file" "$exe" run -q "$work"
 mkfifo fifo.toml && expect_error "is not a regular file" "$exe" run -q fifo.toml
 expect_error "must be > 0, got -1e+300" "$exe" run -q --set shear.normal_stress=-1e300
 
+# A checkpoint copied from another run (other V) is refused, naming what differs.
+"$exe" run -q --no-analyze --packing "$packing" -V 1 --set shear.duration=0.2 -o other > /dev/null
+cp done/checkpoint.cbor other/checkpoint.cbor
+expect_error "key 'case.velocity': the checkpoint is of a run with velocity = 0.5" \
+  "$exe" run -q --no-analyze --resume other --set shear.duration=0.4
+
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

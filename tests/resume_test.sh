@@ -23,6 +23,9 @@ test -f "$work/stopped/interrupted_state.json"
 "$exe" run "${common[@]}" -o "$work/killed" > /dev/null & pid=$!
 sleep 2; kill -TERM $pid 2>/dev/null || true
 wait $pid || true
+# The kill must have landed mid-run, or this part tests nothing.
+test -f "$work/killed/interrupted_state.json" ||
+  { echo "FAIL: the SIGTERM did not interrupt the run (it had finished)"; exit 1; }
 "$exe" run -q --no-analyze --resume "$work/killed" > /dev/null
 
 # The observers only read the state: without them the run ends in the same state.

@@ -2,12 +2,16 @@
 // so; the executable turns both into a non-zero exit status and a message on stderr.
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <functional>
+
 #include <sys/wait.h>
 
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "checkpoint.hpp"
 #include "config_error.hpp"
 #include "scene_file.hpp"
 #include "test_support.hpp"
@@ -233,6 +237,79 @@ TEST(BlowUp, NonFiniteWallIsReportedWithItsName) {
   sim.run(1);
   ASSERT_TRUE(sim.last().blown_up);
   EXPECT_NE(sim.last().problem.find("wall 'lid'"), std::string::npos) << sim.last().problem;
+}
+
+// ---- Checkpoints are validated like input files ------------------------------------------------
+
+/// A small valid world and contact list to damage.
+Checkpoint sample_checkpoint() {
+  SceneDefinition s;
+  s.domain = {true, 10.0};
+  s.walls = {testing::fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0})};
+  // x = 1.1: not a float32, so CBOR stores it as 8 bytes (the checksum test flips one of them).
+  s.disks = {disk({1.1, 0.5}, 0.5), disk({2.3, 0.5}, 0.5)};
+  Checkpoint cp;
+  cp.world = build_world(s);
+  Contact c;
+  c.key = {0, 2, 0};
+  c.impulse_n = 0.1;
+  cp.contacts = {c};
+  return cp;
+}
+
+/// Writes `cp` as a checkpoint, reads it back and returns the error's text ("" if none).
+std::string checkpoint_error(const Checkpoint& cp) {
+  const TempDir dir("checkpoint");
+  const auto path = dir.path() / "checkpoint.cbor";
+  write_checkpoint(path, cp.world, cp.contacts);
+  try {
+    read_checkpoint(path);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
+  EXPECT_EQ(checkpoint_error(sample_checkpoint()), "");
+  const auto expect = [](const std::function<void(Checkpoint&)>& damage, const std::string& words) {
+    Checkpoint cp = sample_checkpoint();
+    damage(cp);
+    const std::string error = checkpoint_error(cp);
+    EXPECT_NE(error.find(words), std::string::npos) << "'" << words << "' not in: " << error;
+  };
+  expect([](Checkpoint& c) { c.world.disks.position[1].x = std::nan(""); }, "disks[1]");
+  expect([](Checkpoint& c) { c.world.disks.radius[0] = -0.5; }, "disks[0]");
+  expect([](Checkpoint& c) { c.world.domain.length_x = 0.0; }, "length_x");
+  expect([](Checkpoint& c) { c.world.walls[0].mode_y = static_cast<AxisMode>(7); },
+         "unknown wall mode 7");
+  expect([](Checkpoint& c) { c.contacts[0].key.body_b = 3; }, "contacts[0]");
+  expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts[0]");
+}
+
+TEST(CheckpointValidation, AChangedByteFailsTheChecksum) {
+  const TempDir dir("checkpoint_flip");
+  const auto path = dir.path() / "checkpoint.cbor";
+  const Checkpoint cp = sample_checkpoint();
+  write_checkpoint(path, cp.world, cp.contacts);
+  std::string bytes = testing::read_text(path);
+  // Flip one bit of the first disk's x (a double, stored as 8 bytes after its CBOR tag): the
+  // file still parses, with another number.
+  const double x = cp.world.disks.position[0].x;
+  std::string pattern(8, '\0');
+  for (int k = 0; k < 8; ++k)
+    pattern[static_cast<std::size_t>(k)] =
+        static_cast<char>((std::bit_cast<std::uint64_t>(x) >> (8 * (7 - k))) & 0xff);
+  const auto at = bytes.find(pattern);
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 7] = static_cast<char>(bytes[at + 7] ^ 1);
+  std::ofstream(path, std::ios::binary) << bytes;
+  try {
+    read_checkpoint(path);
+    ADD_FAILURE() << "a changed checkpoint was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
+  }
 }
 
 // ---- The executable -------------------------------------------------------------------------

@@ -42,6 +42,7 @@ class CheckpointObserver : public Observer {
   struct Hooks {
     std::function<void(const World&, const ContactDynamics&)> before;
     std::function<nlohmann::json()> observer_state;
+    nlohmann::json case_identity;  ///< stored in every checkpoint
   };
   explicit CheckpointObserver(std::filesystem::path path, Hooks hooks = {})
       : path_(std::move(path)), hooks_(std::move(hooks)) {}
@@ -49,7 +50,8 @@ class CheckpointObserver : public Observer {
     if (r.blown_up) return;  // never replace the last good checkpoint with a broken state
     if (hooks_.before) hooks_.before(world, dynamics);
     write_checkpoint(path_, world, dynamics.contacts(),
-                     hooks_.observer_state ? hooks_.observer_state() : nlohmann::json());
+                     hooks_.observer_state ? hooks_.observer_state() : nlohmann::json(),
+                     hooks_.case_identity);
   }
   const std::filesystem::path& path() const { return path_; }
 

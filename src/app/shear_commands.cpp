@@ -185,6 +185,21 @@ struct ShearSession {
   std::string case_source;  ///< where the case comes from, for error messages
 };
 
+/// The physics a checkpoint belongs to: a checkpoint copied from another run must not resume
+/// under this case.toml.
+nlohmann::json case_identity(const ShearCase& c) {
+  return {{"n", c.n},
+          {"height", c.height},
+          {"diameter_min", c.diameter_min},
+          {"diameter_max", c.diameter_max},
+          {"seed", c.seed},
+          {"velocity", c.velocity},
+          {"normal_stress", c.normal_stress},
+          {"friction_grain", c.friction_grain},
+          {"friction_wall", c.friction_wall},
+          {"wall_mass", c.wall_mass}};
+}
+
 void check_sample_count(const ShearSession& s) {
   const ShearCase& c = s.c;
   if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
@@ -221,7 +236,22 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
                       fmt::format("changes the time step of the run from {} to {}: a resumed run "
                                   "keeps its time step (its steps, end and schedules count in it)",
                                   before.step.dt, after.step.dt));
-  Checkpoint cp = read_checkpoint(s.dir / "checkpoint.cbor");
+  const std::string checkpoint_file = (s.dir / "checkpoint.cbor").string();
+  Checkpoint cp = read_checkpoint(checkpoint_file);
+  const nlohmann::json identity = case_identity(s.c);
+  if (cp.case_identity.is_null())
+    throw ConfigError(checkpoint_file, "case",
+                      "holds no case identity: not a shear-run checkpoint");
+  for (const auto& [key, value] : identity.items())
+    if (cp.case_identity.value(key, nlohmann::json()) != value)
+      throw ConfigError(checkpoint_file, "case." + key,
+                        fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
+                                    "belongs to another run",
+                                    key, cp.case_identity.value(key, nlohmann::json()).dump(),
+                                    src.file, value.dump()));
+  if (cp.world.disks.size() != s.c.n)
+    throw ConfigError(checkpoint_file, "disks",
+                      fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));
   s.world = std::move(cp.world);
   s.dynamics.set_contacts(std::move(cp.contacts));
   s.observer_state = std::move(cp.observers);
@@ -398,6 +428,7 @@ int run_shear(const RunArgs& args) {
       return nlohmann::json{{"measurement", measurement_state_to_json(measurement->state())}};
     };
   }
+  hooks.case_identity = case_identity(c);
   CheckpointObserver checkpoint(s.dir / "checkpoint.cbor", hooks);
   std::vector<ScheduledObserver> observers;
   std::optional<MeasurementObserver> measuring;

@@ -1,5 +1,7 @@
 #include "checkpoint.hpp"
 
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
@@ -30,10 +32,74 @@ Vec2 to_vec2(const json& j) {
   return {j.at(0).get<double>(), j.at(1).get<double>()};
 }
 
+/// FNV-1a over the CBOR encoding of the checkpoint without its checksum field (nlohmann-json
+/// keeps object keys sorted, so the encoding is canonical).
+std::string content_checksum(json j) {
+  j.erase("checksum");
+  std::uint64_t h = 1469598103934665603ull;
+  for (const std::uint8_t byte : json::to_cbor(j)) {
+    h ^= byte;
+    h *= 1099511628211ull;
+  }
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
+  return text;
+}
+
+/// Every field checked like an input file: finite numbers, positive sizes, known modes, contact
+/// indices in range. Names the first bad field.
+void validate(const Checkpoint& cp, const std::string& file) {
+  const World& w = cp.world;
+  const auto fail = [&file](const std::string& key, const std::string& problem) {
+    throw ConfigError(file, key, problem);
+  };
+  const auto finite = [](Vec2 v) { return std::isfinite(v.x) && std::isfinite(v.y); };
+  if (!std::isfinite(w.time) || w.time < 0) fail("time", "must be finite and >= 0");
+  if (w.domain.periodic_x && !(w.domain.length_x > 0 && std::isfinite(w.domain.length_x)))
+    fail("length_x", "must be > 0 when x is periodic");
+  if (!finite(w.body_force)) fail("body_force", "must be finite");
+  if (!(w.friction_disk_disk >= 0)) fail("friction_disk_disk", "must be >= 0");
+  const Disks& d = w.disks;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const std::string at = "[" + std::to_string(i) + "]";
+    if (!finite(d.position[i]) || !finite(d.velocity[i]) || !std::isfinite(d.omega[i]) ||
+        !std::isfinite(d.angle[i]))
+      fail("disks" + at, "position, velocity, angle and omega must be finite");
+    if (!(d.radius[i] > 0) || !(d.mass[i] > 0) || !(d.inertia[i] > 0) ||
+        !std::isfinite(d.radius[i] + d.mass[i] + d.inertia[i]))
+      fail("disks" + at, "radius, mass and inertia must be finite and > 0");
+  }
+  for (std::size_t k = 0; k < w.walls.size(); ++k) {
+    const Wall& wall = w.walls[k];
+    const std::string at = "walls[" + std::to_string(k) + "]";
+    for (const AxisMode m : {wall.mode_x, wall.mode_y})
+      if (m != AxisMode::kFixed && m != AxisMode::kImposed && m != AxisMode::kFree)
+        fail(at + ".mode", "unknown wall mode " + std::to_string(static_cast<int>(m)));
+    if (!finite(wall.point) || !finite(wall.velocity) || !finite(wall.applied_force) ||
+        !finite(wall.contact_impulse) || !finite(wall.contact_force))
+      fail(at, "every vector must be finite");
+    if (std::abs(length(wall.normal) - 1.0) > 1e-9) fail(at + ".normal", "must be a unit vector");
+    if ((wall.mode_x == AxisMode::kFree || wall.mode_y == AxisMode::kFree) && !(wall.mass > 0))
+      fail(at + ".mass", "must be > 0 on a free axis");
+    if (!(wall.friction >= 0)) fail(at + ".friction", "must be >= 0");
+  }
+  const auto n = static_cast<std::int64_t>(d.size());
+  const auto bodies = n + static_cast<std::int64_t>(w.walls.size());
+  for (std::size_t k = 0; k < cp.contacts.size(); ++k) {
+    const Contact& c = cp.contacts[k];
+    if (c.key.body_a < 0 || c.key.body_a >= n || c.key.body_b < 0 || c.key.body_b >= bodies ||
+        c.key.body_a == c.key.body_b)
+      fail("contacts[" + std::to_string(k) + "]", "body index out of range");
+    if (!std::isfinite(c.impulse_n) || !std::isfinite(c.impulse_t) || c.impulse_n < 0)
+      fail("contacts[" + std::to_string(k) + "]", "impulses must be finite, normal >= 0");
+  }
+}
+
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const World& w,
-                      const std::vector<Contact>& contacts, const json& observers) {
+                      const std::vector<Contact>& contacts, const json& observers,
+                      const json& case_identity) {
   const Disks& d = w.disks;
   json walls = json::array();
   for (const Wall& wall : w.walls)
@@ -80,6 +146,8 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
             {"walls", walls},
             {"contacts", {{"a", a}, {"b", b}, {"image", image}, {"rn", rn}, {"rt", rt}}}};
   if (!observers.is_null()) j["observers"] = observers;
+  if (!case_identity.is_null()) j["case"] = case_identity;
+  j["checksum"] = content_checksum(j);
   const std::vector<std::uint8_t> bytes = json::to_cbor(j);
   write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
 }
@@ -93,8 +161,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   Checkpoint cp;
   try {
     const json j = json::from_cbor(bytes);
-    if (j.at("format") != "cdshear-checkpoint")
+    if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
       throw ConfigError(file, "format", "not a cdshear checkpoint");
+    if (!j.contains("checksum") || !j.at("checksum").is_string() ||
+        j.at("checksum").get<std::string>() != content_checksum(j))
+      throw ConfigError(file, "checksum",
+                        "does not match the content: the file was changed or damaged after it "
+                        "was written");
     if (j.at("version") != 1)
       throw ConfigError(file, "version",
                         "unsupported checkpoint version " + j.at("version").dump());
@@ -130,6 +203,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
       w.walls.push_back(wall);
     }
     if (j.contains("observers")) cp.observers = j.at("observers");
+    if (j.contains("case")) cp.case_identity = j.at("case");
     const json& c = j.at("contacts");
     const auto a = c.at("a").get<std::vector<std::int32_t>>();
     const auto b = c.at("b").get<std::vector<std::int32_t>>();
@@ -148,9 +222,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
          {w.disks.image.size(), w.disks.angle.size(), w.disks.velocity.size(), w.disks.omega.size(),
           w.disks.radius.size(), w.disks.mass.size(), w.disks.inertia.size()})
       if (size != n) throw ConfigError(file, "disks", "arrays of different lengths");
-    for (const Contact& con : cp.contacts)
-      if (con.key.body_a < 0 || static_cast<std::size_t>(con.key.body_b) >= n + w.walls.size())
-        throw ConfigError(file, "contacts", "body index out of range");
+    validate(cp, file);
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {

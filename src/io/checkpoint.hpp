@@ -1,6 +1,8 @@
 // Checkpoints: the complete dynamic state (world + contact memory for warm starts), written
 // atomically as CBOR (nlohmann-json's binary format: doubles stored bit-exact), so that a run
-// resumed from one continues exactly as if it had never stopped.
+// resumed from one continues exactly as if it had never stopped. A checkpoint carries a checksum
+// of its content (a changed or damaged file is refused) and, for shear runs, the identity of the
+// case it belongs to (a checkpoint copied from another run is refused).
 #pragma once
 
 #include <filesystem>
@@ -17,12 +19,16 @@ struct Checkpoint {
   World world;
   std::vector<Contact> contacts;  ///< keys and impulses (the rest is recomputed at detection)
   nlohmann::json observers;       ///< observers' running state (null when none was stored)
+  nlohmann::json case_identity;   ///< the physics of the case it belongs to (null: not stored)
 };
 
 void write_checkpoint(const std::filesystem::path& path, const World& world,
                       const std::vector<Contact>& contacts,
-                      const nlohmann::json& observers = nullptr);
-/// Throws ConfigError naming the file when it is missing or not a cdshear checkpoint.
+                      const nlohmann::json& observers = nullptr,
+                      const nlohmann::json& case_identity = nullptr);
+/// Throws ConfigError naming the file and the field when it is missing, not a cdshear
+/// checkpoint, fails its checksum, or holds a value no run can have (NaN, radius <= 0, L_x <= 0,
+/// an unknown wall mode, a contact index out of range).
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 }  // namespace cdshear
