@@ -4,6 +4,7 @@
 # Usage: cli_errors_test.sh CDSHEAR PACKING WORKDIR
 set -uo pipefail
 exe=$1; packing=$2; work=$3
+scene="$(cd "$(dirname "$0")/../scenes" && pwd)/box_settle.toml"
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0; checks=0
 expect_error() {  # expect_error "words in the message" command...
@@ -28,7 +29,7 @@ expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done > /dev/null
-expect_error "already holds a run" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
+expect_error "already holds results (case.toml, checkpoint.cbor" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done --force \
@@ -95,6 +96,15 @@ expect_error "must be > 0, got -1e+300" "$exe" run -q --set shear.normal_stress=
 cp done/checkpoint.cbor other/checkpoint.cbor
 expect_error "key 'case.velocity': the checkpoint is of a run with velocity = 0.5" \
   "$exe" run -q --no-analyze --resume other --set shear.duration=0.4
+
+# One rule for every command that writes a folder: a folder holding anything is refused.
+mkdir -p mine && echo "my notes" > mine/notes.txt
+expect_error "mine: already holds results (notes.txt)" "$exe" run -q --no-analyze \
+  --packing "$packing" --set shear.duration=0.2 -o mine
+expect_error "done: already holds results" "$exe" scene "$scene" -o done
+"$exe" scene -q "$scene" -o done --force > /dev/null 2>&1 || true
+test -f mine/notes.txt || { echo "FAIL: a refused run touched mine/"; fails=$((fails + 1)); }
+checks=$((checks + 1))
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -23,6 +23,7 @@ struct SceneArgs {
   std::vector<std::string> overrides;
   std::string out_dir;
   bool quiet = false;
+  bool force = false;
 };
 
 int run_scene(const SceneArgs& args) {
@@ -36,7 +37,7 @@ int run_scene(const SceneArgs& args) {
   const std::uint64_t end_step =
       checked_end_step(sf.run.duration, sf.step.dt, 0, args.file, "run.duration");
   const std::filesystem::path dir(args.out_dir);
-  std::filesystem::create_directories(dir);
+  claim_output_folder(dir, args.force, "");
   {
     std::ostringstream resolved;
     resolved << sf.resolved << '\n';
@@ -78,6 +79,7 @@ void register_scene_command(CLI::App& app) {
   cmd->add_option("--set", args->overrides, "override a key: --set step.dt=1e-4 (repeatable)");
   cmd->add_option("-o,--output", args->out_dir, "output folder")->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no status lines or progress bar");
+  cmd->add_flag("--force", args->force, "replace the results of an earlier run in the folder");
   cmd->callback([args]() {
     const int rc = run_scene(*args);
     if (rc != 0) throw CLI::RuntimeError(rc);

@@ -1,6 +1,10 @@
 #include "run_session.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <vector>
 
 #include <cmath>
 #include <cstdio>
@@ -12,6 +16,42 @@ namespace cdshear {
 
 std::uint64_t steps_of(double interval, double dt) {
   return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
+}
+
+bool folder_is_free(const std::filesystem::path& dir) {
+  std::error_code ec;
+  return !std::filesystem::exists(dir, ec) ||
+         (std::filesystem::is_directory(dir, ec) && std::filesystem::is_empty(dir, ec));
+}
+
+void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint) {
+  namespace fs = std::filesystem;
+  if (fs::exists(dir) && !fs::is_directory(dir))
+    throw ConfigError(dir.string(), "", "exists and is not a folder");
+  if (!folder_is_free(dir)) {
+    if (!force) {
+      std::vector<std::string> names;
+      for (const fs::directory_entry& e : fs::directory_iterator(dir))
+        names.push_back(e.path().filename().string());
+      std::sort(names.begin(), names.end());
+      if (names.size() > 4) names.resize(4), names.push_back("...");
+      throw ConfigError(dir.string(), "",
+                        fmt::format("already holds results ({}); {}choose another -o, or pass "
+                                    "--force to replace them",
+                                    fmt::join(names, ", "), hint.empty() ? "" : hint + ", "));
+    }
+    // --force: remove what cdshear writes, nothing else.
+    for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+      const std::string name = e.path().filename().string();
+      const bool ours = name == "case.toml" || name == "scene.toml" || name == "run.h5" ||
+                        name == "summary.json" || name == "checkpoint.cbor" ||
+                        name == "timeseries.csv" || name == "final_state.json" ||
+                        name == "interrupted_state.json" || name == "blowup_state.json" ||
+                        name == "figures" || name == "snapshots" || name.rfind("run_info", 0) == 0;
+      if (ours) fs::remove_all(e.path());
+    }
+  }
+  fs::create_directories(dir);
 }
 
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,

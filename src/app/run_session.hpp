@@ -25,6 +25,15 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
 /// Whole number of steps in a time interval (0 when the interval is 0: disabled).
 std::uint64_t steps_of(double interval, double dt);
 
+/// True when `dir` does not exist or is an empty folder.
+bool folder_is_free(const std::filesystem::path& dir);
+
+/// The one rule of every command that writes a folder: a folder holding anything is refused
+/// (ConfigError naming it and what it holds, with `hint` on how to continue) unless `force`;
+/// with `force`, the outputs cdshear writes are removed first (nothing else is touched). Creates
+/// the folder.
+void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint);
+
 /// The most steps one run may ask for (docs/reliability.md): about 90 days of system 1 at
 /// 250 steps/s; a larger count is a typo (dt, duration or V off by orders of magnitude).
 inline constexpr double kMaxRunSteps = 2e9;

@@ -285,19 +285,15 @@ void open_new(const RunArgs& args, ShearSession& s) {
     const std::string base =
         fmt::format("n{}_h{}_V{}_s{}_seed{}", c.n, c.height, c.velocity, c.normal_stress, c.seed);
     s.dir = fs::path("runs") / base;
-    for (int k = 2; fs::exists(s.dir / "case.toml") && !args.force; ++k)
+    for (int k = 2; !folder_is_free(s.dir) && !args.force; ++k)
       s.dir = fs::path("runs") / fmt::format("{}_{}", base, k);
   } else {
     s.dir = args.out_dir;
-    if (fs::exists(s.dir / "case.toml") && !args.force)
-      throw ConfigError(s.dir.string(), "",
-                        "already holds a run (case.toml); continue it with --resume " +
-                            s.dir.string() + ", choose another -o, or pass --force to overwrite");
   }
-  fs::create_directories(s.dir);
-  for (const char* stale : {"final_state.json", "interrupted_state.json", "blowup_state.json",
-                            "checkpoint.cbor", "run.h5", "summary.json"})
-    fs::remove(s.dir / stale);
+  claim_output_folder(s.dir, args.force,
+                      fs::exists(s.dir / "checkpoint.cbor")
+                          ? "continue it with --resume " + s.dir.string()
+                          : std::string());
   write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
 }
 
@@ -461,8 +457,12 @@ int run_shear(const RunArgs& args) {
   RunEnd end;
   end.dir = s.dir;
   end.reached_end = s.world.step >= end_step;
-  end.info_name = s.resuming ? fmt::format("run_info_resume_{}.json", s.world.step)
-                             : std::string("run_info.json");
+  end.info_name = "run_info.json";
+  if (s.resuming) {  // one file per resume, never overwriting an earlier one
+    end.info_name = fmt::format("run_info_resume_{}.json", s.world.step);
+    for (int k = 2; fs::exists(s.dir / end.info_name); ++k)
+      end.info_name = fmt::format("run_info_resume_{}_{}.json", s.world.step, k);
+  }
   end.info = {{"resumed", s.resuming},
               {"packing", s.packing_used},
               {"dt", dt},

@@ -36,6 +36,8 @@ void write_packing(const std::filesystem::path& path, const Packing& p) {
 
 Packing read_packing(const std::filesystem::path& path, double overlap_tolerance) {
   const std::string file = path.string();
+  if (std::filesystem::exists(path) && !std::filesystem::is_regular_file(path))
+    throw ConfigError(file, "", "is not a regular file (a folder?)");
   std::ifstream in(path);
   if (!in) throw ConfigError(file, "", "packing file not found (run `cdshear prepare` first)");
   nlohmann::json j;
