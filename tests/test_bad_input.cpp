@@ -287,6 +287,33 @@ TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
   expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts[0]");
 }
 
+TEST(CheckpointValidation, EveryFieldComesBackExactly) {
+  Checkpoint cp = sample_checkpoint();
+  cp.world.time = 1.0 / 3.0;
+  cp.world.step = 12345;
+  cp.world.disks.velocity[0] = {0.1, -1.0 / 7.0};
+  cp.world.disks.omega[1] = 2.0 / 3.0;
+  cp.world.disks.image[1] = -3;
+  cp.world.walls[0].contact_impulse = {1.0 / 9.0, -5.5};
+  cp.contacts[0].impulse_t = -0.0125;
+  const TempDir dir("checkpoint_round_trip");
+  write_checkpoint(dir.path() / "c.cbor", cp.world, cp.contacts, {{"x", 1}}, {{"n", 2}});
+  const Checkpoint back = read_checkpoint(dir.path() / "c.cbor");
+  EXPECT_EQ(state_hash(back.world), state_hash(cp.world));
+  EXPECT_EQ(back.world.time, cp.world.time);
+  EXPECT_EQ(back.world.domain.length_x, cp.world.domain.length_x);
+  EXPECT_EQ(back.world.disks.radius, cp.world.disks.radius);
+  EXPECT_EQ(back.world.disks.mass, cp.world.disks.mass);
+  EXPECT_EQ(back.world.walls[0].contact_impulse, cp.world.walls[0].contact_impulse);
+  EXPECT_EQ(back.world.walls[0].name, "floor");
+  ASSERT_EQ(back.contacts.size(), 1u);
+  EXPECT_EQ(back.contacts[0].key, cp.contacts[0].key);
+  EXPECT_EQ(back.contacts[0].impulse_n, cp.contacts[0].impulse_n);
+  EXPECT_EQ(back.contacts[0].impulse_t, cp.contacts[0].impulse_t);
+  EXPECT_EQ(back.observers, nlohmann::json({{"x", 1}}));
+  EXPECT_EQ(back.case_identity, nlohmann::json({{"n", 2}}));
+}
+
 TEST(CheckpointValidation, AChangedByteFailsTheChecksum) {
   const TempDir dir("checkpoint_flip");
   const auto path = dir.path() / "checkpoint.cbor";

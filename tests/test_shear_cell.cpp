@@ -60,6 +60,31 @@ TEST(Preparation, System1HasNoOverlapAboveTolerance) {
   EXPECT_LT(o.overlap, 1e-4) << "bodies " << o.body_a << " and " << o.body_b;
 }
 
+TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
+  // SPEC 5.3: v_x = -V + 2V y / L_y, v_y = 0, w = 0; mu_p between grains and mu_w with the
+  // walls, set apart here so that swapping them is caught.
+  ShearCase c;
+  c.velocity = 0.7;
+  c.friction_grain = 0.6;
+  c.friction_wall = 0.3;
+  resolve_time_step(c);
+  const World w = build_shear_world(c, system1_packing());
+  EXPECT_EQ(w.friction_disk_disk, 0.6);
+  for (const Wall& wall : w.walls) EXPECT_EQ(wall.friction, 0.3);
+  EXPECT_EQ(w.walls[kBottomWall].velocity.x, -0.7);
+  EXPECT_EQ(w.walls[kTopWall].velocity.x, 0.7);
+  EXPECT_EQ(w.walls[kTopWall].applied_force.y, -c.normal_stress * w.domain.length_x);
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    EXPECT_NEAR(w.disks.velocity[i].x, -0.7 + 1.4 * w.disks.position[i].y / c.height, 1e-12);
+    EXPECT_EQ(w.disks.velocity[i].y, 0.0);
+    EXPECT_EQ(w.disks.omega[i], 0.0);
+  }
+  // The documented time step at V = 0.5: min(0.005, 0.002 / 0.5) = 0.004.
+  ShearCase d;
+  resolve_time_step(d);
+  EXPECT_DOUBLE_EQ(d.step.dt, 0.004);
+}
+
 struct ShearWindow {
   double time = 0.0;
   Vec2 impulse_bottom, impulse_top;  // integral of the contact force on each wall
