@@ -178,5 +178,43 @@ TEST(DiskOnWall, FrictionlessWallGivesFreeSlidingWithoutSpin) {
   EXPECT_EQ(o.omega, 0.0);
 }
 
+TEST(MovableIncline, DiskRollsDownAWedgeThatSlidesAway) {
+  // A disk (mass m, J = m r^2 / 2) rolling without slip on an incline of angle theta whose wall
+  // is free along x (mass M, no applied force) and fixed along y: the classic cylinder on a
+  // movable wedge. With s the distance rolled down the incline and X the wall's position,
+  // Lagrange's equations give
+  //   (M + m) X'' + m s'' cos(theta) = 0,   m X'' cos(theta) + (3/2) m s'' = m g sin(theta),
+  // so s'' = g sin(theta) / (3/2 - m cos^2(theta) / (M + m)) and X'' = -m s'' cos(theta) / (M + m).
+  // The wall's inverse mass is (1/M, 0) while the contact frame is tilted, so the contact's
+  // Delassus matrix has W_nt = n_x t_x / M != 0: a stepper test of the off-diagonal term.
+  const double theta = 30.0 * std::numbers::pi / 180.0, mu = 1.0;
+  const Vec2 n{std::sin(theta), std::cos(theta)};
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  Wall wedge = fixed_wall("wedge", {0.0, 0.0}, n, mu);
+  wedge.mode_x = AxisMode::kFree;
+  const double m = testing::disk_mass(kR), M = 2.0 * m;
+  wedge.mass = M;
+  s.walls.push_back(wedge);
+  s.disks.push_back(disk(kR * n, kR));
+  StepOptions o;
+  o.dt = kDt;
+  o.solver.alpha = 1e-14;
+  o.solver.max_sweeps = 1000;
+  testing::Simulation sim(s, o);
+  sim.run(kSteps);
+  ASSERT_FALSE(sim.last().blown_up) << sim.last().problem;
+  const double t = kSteps * kDt;
+  const double s_dd = kG * std::sin(theta) / (1.5 - m * std::cos(theta) * std::cos(theta) / (M + m));
+  const double x_dd = -m * s_dd * std::cos(theta) / (M + m);
+  // Disk velocity (X' + s' cos, -s' sin): s' from its vertical part.
+  const double s_d = -sim.world.disks.velocity[0].y / std::sin(theta);
+  EXPECT_NEAR(s_d / t, s_dd, 1e-6 * s_dd);
+  EXPECT_NEAR(sim.world.walls[0].velocity.x / t, x_dd, 1e-6 * std::abs(x_dd));
+  EXPECT_EQ(sim.world.walls[0].velocity.y, 0.0);
+  // Rolling: the contact point does not slide on the wall, w = -s' / r (clockwise going down).
+  EXPECT_NEAR(sim.world.disks.omega[0], -s_d / kR, 1e-6 * s_d / kR);
+}
+
 }  // namespace
 }  // namespace cdshear
