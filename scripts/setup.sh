@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
-          libfmt-dev librandom123-dev libgtest-dev libhdf5-dev
+          libfmt-dev librandom123-dev libgtest-dev libhdf5-dev zlib1g-dev
           python3-numpy python3-scipy python3-matplotlib python3-h5py)
 missing=()
 for p in "${packages[@]}"; do

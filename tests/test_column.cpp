@@ -136,5 +136,30 @@ TEST(Column, SequentialOrderGivesTheSameStatics) {
   EXPECT_LT(r.drift, 1e-6);
 }
 
+TEST(ConvergenceCriterion, CountsOnlyForceCarryingContacts) {
+  // A row of 20 disks resting on the floor, 0.02 apart: 20 floor contacts carry the weight and
+  // 19 side-by-side candidates stay idle (R = 0). After one sweep (cap 1) every floor contact
+  // went from 0 to m g dt: none meets the tolerance. The documented share counts only contacts
+  // that carry force, so it is 0; counting the idle ones would report 19 / 39 converged.
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  for (int k = 0; k < 20; ++k) s.disks.push_back(disk({1.02 * k, kR}, kR));
+  StepOptions o;
+  o.dt = kDt;
+  o.solver.max_sweeps = 1;
+  testing::Simulation sim(s, o);
+  sim.run(1);
+  EXPECT_EQ(sim.last().contacts, 39u);
+  EXPECT_TRUE(sim.last().solver.hit_cap);
+  EXPECT_EQ(sim.last().solver.converged_fraction, 0.0);
+  // With the cap lifted, the step converges (each floor contact is exact after one sweep).
+  o.solver.max_sweeps = 200;
+  testing::Simulation again(s, o);
+  again.run(1);
+  EXPECT_FALSE(again.last().solver.hit_cap);
+  EXPECT_EQ(again.last().solver.converged_fraction, 1.0);
+}
+
 }  // namespace
 }  // namespace cdshear

@@ -205,7 +205,8 @@ TEST(MovableIncline, DiskRollsDownAWedgeThatSlidesAway) {
   sim.run(kSteps);
   ASSERT_FALSE(sim.last().blown_up) << sim.last().problem;
   const double t = kSteps * kDt;
-  const double s_dd = kG * std::sin(theta) / (1.5 - m * std::cos(theta) * std::cos(theta) / (M + m));
+  const double s_dd =
+      kG * std::sin(theta) / (1.5 - m * std::cos(theta) * std::cos(theta) / (M + m));
   const double x_dd = -m * s_dd * std::cos(theta) / (M + m);
   // Disk velocity (X' + s' cos, -s' sin): s' from its vertical part.
   const double s_d = -sim.world.disks.velocity[0].y / std::sin(theta);

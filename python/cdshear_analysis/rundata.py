@@ -15,7 +15,9 @@ The result is a plain dict:
 Every problem with the folder or file raises RunDataError(path, problem).
 """
 import os
+import re
 import tomllib
+import zlib
 
 import h5py
 import numpy as np
@@ -28,6 +30,43 @@ REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
 REQUIRED_WINDOWS = ("y", "t_start", "t_end", "height", "com_vx", "solid_fraction", "vx",
                     "stress", "mu_eff", "coordination", "shear_rate", "inertial_number",
                     "slip_bottom", "slip_top")
+
+
+USER_BLOCK = 512
+SEAL = re.compile(rb"cdshear-run crc32=([0-9a-f]{8}) size=([0-9]+)\n")
+
+
+def _body_checksum(path):
+    """CRC-32 and size of the bytes of `path` after the HDF5 user block."""
+    crc, size = 0, 0
+    with open(path, "rb") as f:
+        f.seek(USER_BLOCK)
+        while chunk := f.read(1 << 20):
+            crc, size = zlib.crc32(chunk, crc), size + len(chunk)
+    return crc, size
+
+
+def seal(path):
+    """Writes the seal of a run.h5 (created with userblock_size=512) into its user block: the
+    CRC-32 and size of the rest, as cdshear does (src/io/run_data_file.cpp). A run.h5 is checked
+    against it before HDF5 opens it, because the HDF5 library can crash on a damaged file."""
+    crc, size = _body_checksum(path)
+    with open(path, "r+b") as f:
+        f.write(b"cdshear-run crc32=%08x size=%d\n" % (crc, size))
+
+
+def check_seal(path):
+    """Raises RunDataError unless `path` carries a seal that matches its content."""
+    with open(path, "rb") as f:
+        m = SEAL.match(f.read(96))
+    if m is None:
+        raise RunDataError(path, "not a cdshear HDF5 run file: no cdshear seal (written by "
+                                 "another program, or damaged: empty or truncated?)")
+    crc, size = _body_checksum(path)
+    if (crc, size) != (int(m.group(1), 16), int(m.group(2))):
+        raise RunDataError(path, f"damaged: its content does not match the checksum it was "
+                                 f"written with ({size} bytes of {int(m.group(2))}; truncated "
+                                 f"or changed?)")
 
 
 class RunDataError(Exception):
@@ -141,6 +180,7 @@ def load_run(run_dir):
         raise RunDataError(run_dir, f"not a run folder (no {RUN_FILE})")
     if os.path.getsize(path) == 0:
         raise RunDataError(path, "empty file")
+    check_seal(path)
     try:
         with h5py.File(path, "r") as f:
             return _read(f, run_dir, path)

@@ -17,6 +17,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from .profiles import regions_for_h
+from .rundata import seal
 
 MU, NU, Z, BAND = 0.30, 0.80, 3.0, 3.0
 
@@ -146,7 +147,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         f"[measure]\nsample_interval = {sample_interval!r}\nwindow = {window!r}\n"
         f"stripe_thickness = {dy!r}\nboundary_thickness = {list(map(float, boundary_thickness))}\n")
     path = os.path.join(run_dir, "run.h5")
-    with h5py.File(path + ".tmp", "w") as f:
+    with h5py.File(path + ".tmp", "w", userblock_size=512) as f:
         f.attrs.update(attrs)
         for k, v in series.items():
             f.create_dataset(f"series/{k}", data=v)
@@ -158,6 +159,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
             for k, v in regions_for_h(W, h, V, sigma, m).items():
                 g.create_dataset(k, data=v)
         _write_snapshot(f.create_group("snapshot"), n, length_x, height, t_reached, rng)
+    seal(path + ".tmp")
     os.replace(path + ".tmp", path)
     with open(os.path.join(run_dir, "case.toml"), "w") as f:
         f.write(attrs["case_toml"])

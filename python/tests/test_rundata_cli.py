@@ -14,6 +14,7 @@ import numpy as np
 
 from cdshear_analysis import RunDataError, analyze, format_report, load_run
 from cdshear_analysis.plots import plot_run
+from cdshear_analysis.rundata import seal
 from cdshear_analysis.summary import jsonable
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -97,13 +98,14 @@ class RunData(unittest.TestCase):
         write_synthetic_run(missing, kind="A", duration=400.0)
         with h5py.File(os.path.join(missing, "run.h5"), "a") as f:
             del f["series/com_vx"]
+        seal(os.path.join(missing, "run.h5"))   # a sealed file that lacks a dataset
         nodata = os.path.join(d, "nodata")   # written before the first sample
         write_synthetic_run(nodata, kind="A", duration=400.0, time_reached=0.0)
         cases = [("nowhere", os.path.join(d, "nowhere"), "no such folder"),
                  ("not_a_run", os.path.join(d, "not_a_run"), "no run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),
-                 ("truncated", os.path.join(truncated, "run.h5"), "HDF5"),
+                 ("truncated", os.path.join(truncated, "run.h5"), "damaged"),
                  ("missing", os.path.join(missing, "run.h5"), "/series/com_vx"),
                  ("nodata", os.path.join(nodata, "run.h5"), "no samples in /series")]
         for command in ("analyze", "plot"):
@@ -268,6 +270,7 @@ class WithoutCompleteWindow(unittest.TestCase):
                     value = snap.attrs[k]
                     del snap.attrs[k]
                     snap.create_dataset(k, data=value)
+            seal(os.path.join(d, "run.h5"))
             run = load_run(d)
             np.testing.assert_array_equal(run["attrs"]["boundary_thickness"], [10.0])
             self.assertEqual(run["attrs"]["window"], 80.0)

@@ -4,8 +4,11 @@
 
 #include <hdf5.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <numbers>
@@ -44,6 +47,62 @@ struct H5Context {
     if (status < 0) fail(object, what);
   }
 };
+
+// --- the seal --------------------------------------------------------------------------------
+// HDF5 1.10 itself can overflow a heap buffer on a damaged file (found by fuzz/fuzz_readers.cpp
+// in 30 s: H5Aexists on a corrupted attribute message), and h5py uses the same library. So a
+// run.h5 carries, in the first bytes of its 512-byte HDF5 user block, the line
+//   cdshear-run crc32=XXXXXXXX size=N
+// with the CRC-32 (zlib) and size of everything after the user block; cdshear and
+// python/cdshear_analysis check it before opening the file with HDF5. One file, one atomic
+// rename: the seal can never disagree with the content it was written for.
+
+constexpr hsize_t kUserBlock = 512;
+constexpr char kSealPrefix[] = "cdshear-run crc32=";
+
+/// CRC-32 and size of the file's bytes after the user block.
+std::pair<std::uint32_t, std::uint64_t> body_checksum(const H5Context& ctx, const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) ctx.fail("", "cannot read the file");
+  in.seekg(static_cast<std::streamoff>(kUserBlock));
+  uLong crc = crc32(0L, Z_NULL, 0);
+  std::uint64_t size = 0;
+  std::vector<char> buffer(1 << 16);
+  while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
+    const auto got = static_cast<uInt>(in.gcount());
+    crc = crc32(crc, reinterpret_cast<const Bytef*>(buffer.data()), got);
+    size += got;
+  }
+  return {static_cast<std::uint32_t>(crc), size};
+}
+
+void seal(const H5Context& ctx, const fs::path& path) {
+  const auto [crc, size] = body_checksum(ctx, path);
+  char line[kUserBlock] = {};
+  std::snprintf(line, sizeof line, "%s%08x size=%llu\n", kSealPrefix, crc,
+                static_cast<unsigned long long>(size));
+  std::fstream out(path, std::ios::binary | std::ios::in | std::ios::out);
+  out.write(line, static_cast<std::streamsize>(std::strlen(line)));
+  out.flush();
+  if (!out) ctx.fail("", "cannot write the seal (disk full?)");
+}
+
+void check_seal(const H5Context& ctx, const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char line[96] = {};
+  in.read(line, sizeof line - 1);
+  unsigned crc = 0;
+  unsigned long long size = 0;
+  if (std::strncmp(line, kSealPrefix, std::strlen(kSealPrefix)) != 0 ||
+      std::sscanf(line + std::strlen(kSealPrefix), "%8x size=%llu", &crc, &size) != 2)
+    ctx.fail("",
+             "has no cdshear seal: not a run.h5 written by cdshear, or damaged (empty or "
+             "truncated?)");
+  const auto [actual_crc, actual_size] = body_checksum(ctx, path);
+  if (actual_size != size || actual_crc != crc)
+    ctx.fail("", "damaged: its content does not match the checksum it was written with (" +
+                     std::to_string(actual_size) + " bytes of " + std::to_string(size) + ")");
+}
 
 // --- writing ---------------------------------------------------------------------------------
 
@@ -429,7 +488,10 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
   const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
   const H5Context ctx{tmp.string()};
   try {
-    const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    // The first kUserBlock bytes are HDF5's user block: it holds the seal (CRC-32 of the rest).
+    Handle create_list(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+    H5Pset_userblock(create_list, kUserBlock);
+    const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, create_list, H5P_DEFAULT);
     if (file < 0) ctx.fail("", "cannot create the file");
     try {
       write_run_file(ctx, file, meta, m, world, contacts);
@@ -438,6 +500,7 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
       throw;
     }
     if (H5Fclose(file) < 0) ctx.fail("", "cannot close the file (disk full?)");
+    seal(ctx, tmp);
   } catch (...) {
     std::error_code ignored;
     fs::remove(tmp, ignored);  // never leave a half-written temporary behind
@@ -452,6 +515,7 @@ RunData read_run_data(const fs::path& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const H5Context ctx{path.string()};
   if (!fs::is_regular_file(path)) ctx.fail("", "no such file (not a cdshear run folder?)");
+  check_seal(ctx, path);  // before HDF5 sees a byte: it can crash on a damaged file
   if (H5Fis_hdf5(path.c_str()) <= 0) ctx.fail("", "not an HDF5 file (empty or truncated?)");
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid()) ctx.fail("", "cannot open as HDF5 (truncated?)");
