@@ -4,3 +4,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 ctest --test-dir build --output-on-failure -j "$(nproc)"
+# A one-minute fuzzing run over every reader (clang, ASan, UBSan; docs/reliability.md).
+scripts/fuzz.sh 60

@@ -43,7 +43,7 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // syntax, or a number out of range
     throw ConfigError(file, "", std::string("not valid JSON: ") + e.what());
   }
   auto need = [&](const char* key) -> const nlohmann::json& {
