@@ -280,18 +280,31 @@ TEST(Regions, TheStripeCutByTheTopWallCountsForItsPartInsideTheCell) {
   EXPECT_NEAR(r.bulk_solid_fraction, 0.8, 1e-12);
 }
 
-TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
-  World w = lattice_world(10.0, 8.0, 0.5);
-  std::mt19937_64 rng(3);
+/// A lattice whose grains get random velocities at every step, measured for `steps` steps.
+struct NoisyRun {
+  World world;
+  ShearMeasurement measurement;
+};
+NoisyRun noisy_run(std::uint64_t seed, int steps) {
+  NoisyRun r{
+      lattice_world(10.0, 8.0, 0.5),
+      ShearMeasurement(quick_options(), {0.01, 0.5, 0.25, 8.0}, lattice_world(10.0, 8.0, 0.5))};
+  std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.1);
-  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
-  for (int s = 0; s < 250; ++s) {
-    for (std::size_t i = 0; i < w.disks.size(); ++i) {
-      w.disks.velocity[i] = {noise(rng), noise(rng)};
-      w.disks.omega[i] = noise(rng);
+  for (int s = 0; s < steps; ++s) {
+    for (std::size_t i = 0; i < r.world.disks.size(); ++i) {
+      r.world.disks.velocity[i] = {noise(rng), noise(rng)};
+      r.world.disks.omega[i] = noise(rng);
     }
-    feed(m, w, 1);
+    feed(r.measurement, r.world, 1);
   }
+  return r;
+}
+
+TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
+  NoisyRun run = noisy_run(3, 250);
+  const World& w = run.world;
+  const ShearMeasurement& m = run.measurement;
   ASSERT_EQ(m.windows().size(), 2u);
   const testing::TempDir tmp("run_data_roundtrip");
   const auto path = tmp.path() / "run.h5";
@@ -327,14 +340,9 @@ TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
 TEST(RunDataFile, PythonLoadRunReadsTheSameNumbers) {
   // The same numbers as JSON (shortest round-trip decimal, NaN as null) and as run.h5; the
   // project's Python package loads run.h5 and must find them bit for bit.
-  World w = lattice_world(10.0, 8.0, 0.5);
-  std::mt19937_64 rng(9);
-  std::normal_distribution<double> noise(0.0, 0.1);
-  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
-  for (int s = 0; s < 200; ++s) {
-    for (std::size_t i = 0; i < w.disks.size(); ++i) w.disks.velocity[i] = {noise(rng), 0.0};
-    feed(m, w, 1);
-  }
+  NoisyRun run = noisy_run(9, 200);
+  const World& w = run.world;
+  const ShearMeasurement& m = run.measurement;
   const testing::TempDir tmp("python_reads");
   RunMetadata meta;
   meta.n = w.disks.size();
