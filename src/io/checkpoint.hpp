@@ -1,7 +1,8 @@
 // Checkpoints: the complete dynamic state (world + contact memory for warm starts), written
 // atomically as CBOR (nlohmann-json's binary format: doubles stored bit-exact), so that a run
-// resumed from one continues exactly as if it had never stopped. A checkpoint carries a checksum
-// of its content (a changed or damaged file is refused) and, for shear runs, the identity of the
+// resumed from one continues exactly as if it had never stopped. A checkpoint starts with a seal
+// line holding the CRC-32 and size of the CBOR after it (a changed or damaged file is refused
+// before it is parsed) and, for shear runs, the identity of the
 // case it belongs to (a checkpoint copied from another run is refused).
 #pragma once
 
