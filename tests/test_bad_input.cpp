@@ -239,6 +239,20 @@ TEST(BlowUp, NonFiniteWallIsReportedWithItsName) {
   EXPECT_NE(sim.last().problem.find("wall 'lid'"), std::string::npos) << sim.last().problem;
 }
 
+TEST(BadInput, RandomPlacementStopsWhenCancelled) {
+  // The flag a signal handler sets: random placement checks it between disks.
+  SceneDefinition s;
+  RandomDisksSpec r;
+  r.count = 1000;
+  r.region_min = {0.0, 0.0};
+  r.region_max = {100.0, 100.0};
+  s.random_disks.push_back(r);
+  std::atomic<bool> cancel{true};
+  EXPECT_THROW(build_world(s, &cancel), PlacementCancelled);
+  cancel = false;
+  EXPECT_EQ(build_world(s, &cancel).disks.size(), 1000u);
+}
+
 // ---- Checkpoints are validated like input files ------------------------------------------------
 
 /// A small valid world and contact list to damage.

@@ -30,9 +30,12 @@ int run_scene(const SceneArgs& args) {
   SceneFile sf = load_scene_file(args.file, args.overrides);
   World world;
   try {
-    world = build_world(sf.scene);
+    world = build_world(sf.scene, &g_stop_requested);
   } catch (const SceneError& e) {
     throw ConfigError(args.file, e.key(), e.what());
+  } catch (const PlacementCancelled& e) {
+    std::fprintf(stderr, "%s; nothing was written\n", e.what());
+    return 130;
   }
   const std::uint64_t end_step =
       checked_end_step(sf.run.duration, sf.step.dt, 0, args.file, "run.duration");

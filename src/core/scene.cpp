@@ -77,13 +77,15 @@ class PlacementGrid {
   std::unordered_map<std::int64_t, std::vector<std::size_t>> cells_;
 };
 
-void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, double density) {
+void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, double density,
+                  const std::atomic<bool>* cancel) {
   const std::string base = "random_disks";
   const double cell = std::max(spec.diameter_max, 2.0 * max_radius(world));
   const bool periodic = world.domain.periodic_x;
   const double lx = world.domain.length_x;
   PlacementGrid grid(world, cell);
   for (std::size_t k = 0; k < spec.count; ++k) {
+    if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) throw PlacementCancelled();
     CounterRandom size_rng(spec.seed, RandomStream::kDiameters, k);
     const double r = 0.5 * size_rng.uniform(spec.diameter_min, spec.diameter_max);
     CounterRandom rng(spec.seed, RandomStream::kPlacement, k);
@@ -150,7 +152,7 @@ void validate_scene(const SceneDefinition& s) {
                          " is shorter than 3 largest diameters; contacts would be ambiguous");
 }
 
-World build_world(const SceneDefinition& s) {
+World build_world(const SceneDefinition& s, const std::atomic<bool>* cancel) {
   validate_scene(s);
   World world;
   world.domain = s.domain;
@@ -179,7 +181,7 @@ World build_world(const SceneDefinition& s) {
                                   short_number(s.overlap_tolerance) + ")");
   }
   for (std::size_t g = 0; g < s.random_disks.size(); ++g)
-    place_random(world, s.random_disks[g], g, s.density);
+    place_random(world, s.random_disks[g], g, s.density, cancel);
   return world;
 }
 

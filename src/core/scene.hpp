@@ -3,6 +3,9 @@
 // the tests, the benchmarks and the shear-cell preparation all build their worlds through it.
 #pragma once
 
+#include <atomic>
+#include <stdexcept>
+
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -57,7 +60,14 @@ struct SceneDefinition {
 /// Builds the world: explicit disks first, then each random group. Throws SceneError when the
 /// definition is invalid, when disks overlap (or cross a wall) by more than the tolerance, or
 /// when random placement cannot fit the disks.
-World build_world(const SceneDefinition& scene);
+/// `cancel` (optional, set by a signal handler at the edges) is checked between placed disks:
+/// when it is set, PlacementCancelled is thrown, so that a long random placement stops at once.
+World build_world(const SceneDefinition& scene, const std::atomic<bool>* cancel = nullptr);
+
+/// Thrown by build_world when its cancel flag is set during random placement.
+struct PlacementCancelled : std::runtime_error {
+  PlacementCancelled() : std::runtime_error("random placement interrupted") {}
+};
 
 /// Checks the definition's values (positive radii, masses of free walls, unit-able normals,
 /// periodic length large enough). Throws SceneError naming the key.

@@ -113,7 +113,12 @@ Packing prepare_packing(const PreparationOptions& o,
   loose.diameter_max = b;
   loose.seed = o.seed;
   scene.random_disks.push_back(loose);
-  World world = build_world(scene);
+  World world;
+  try {
+    world = build_world(scene, cancel);
+  } catch (const PlacementCancelled&) {
+    throw PreparationInterrupted(0);
+  }
   ContactDynamics dynamics;
   Packing packing;
 
