@@ -60,6 +60,51 @@ TEST(Preparation, System1HasNoOverlapAboveTolerance) {
   EXPECT_LT(o.overlap, 1e-4) << "bodies " << o.body_a << " and " << o.body_b;
 }
 
+TEST(Preparation, ThePackingMeetsTheEquilibriumCriteriaWhenCheckedAgain) {
+  // docs/shear-cell.md: phase 2 ends with a block of window_time whose mean kinetic energy per
+  // disk is below kinetic_energy_per_disk, whose piston drift is below piston_speed, and whose
+  // mean piston force equals sigma_xx L_y within force_balance. Rebuilt from the packing file
+  // (at rest, frictionless, no gravity, the piston at L_x under its force) and run for one more
+  // block, the packing must pass the same three tests: it is an equilibrium, not a snapshot of a
+  // packing still moving.
+  const Packing& p = system1_packing();
+  const PreparationOptions o = ShearCase{}.preparation;
+  SceneDefinition s;
+  s.friction_disk_disk = 0.0;
+  Wall bottom, top, left, piston;
+  bottom.name = "bottom", bottom.normal = {0.0, 1.0};
+  top.name = "top", top.point = {0.0, p.height}, top.normal = {0.0, -1.0};
+  left.name = "left", left.normal = {1.0, 0.0};
+  piston.name = "piston", piston.point = {p.length_x, 0.0}, piston.normal = {-1.0, 0.0};
+  piston.mode_x = AxisMode::kFree;
+  piston.mass = o.piston_mass;
+  piston.applied_force = {-o.piston_stress * p.height, 0.0};
+  for (Wall* w : {&bottom, &top, &left, &piston}) w->friction = 0.0;
+  s.walls = {bottom, top, left, piston};
+  s.overlap_tolerance = 1e-3;
+  for (const PackingDisk& d : p.disks) {
+    DiskSpec spec;
+    spec.position = d.position;
+    spec.radius = d.radius;
+    s.disks.push_back(spec);
+  }
+  World world = build_world(s);
+  ContactDynamics dynamics;
+  StepOptions step = o.step;
+  step.dt = o.compression_dt;
+  const auto steps = static_cast<int>(std::lround(o.window_time / step.dt));
+  double ek = 0.0, force = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    ASSERT_FALSE(dynamics.step(world, step).blown_up);
+    ek += kinetic_energy(world) / static_cast<double>(p.n());
+    force += world.walls[3].contact_force.x;
+  }
+  const double applied = o.piston_stress * p.height;
+  EXPECT_LT(ek / steps, o.kinetic_energy_per_disk);
+  EXPECT_LT(std::abs(world.walls[3].point.x - p.length_x) / o.window_time, o.piston_speed);
+  EXPECT_NEAR(force / steps, applied, o.force_balance * applied);
+}
+
 TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   // SPEC 5.3: v_x = -V + 2V y / L_y, v_y = 0, w = 0; mu_p between grains and mu_w with the
   // walls, set apart here so that swapping them is caught.
