@@ -5,6 +5,7 @@
 #include <bit>
 #include <functional>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -299,6 +300,19 @@ TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
          "unknown wall mode 7");
   expect([](Checkpoint& c) { c.contacts[0].key.body_b = 3; }, "contacts[0]");
   expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts[0]");
+}
+
+TEST(CheckpointValidation, APipeIsRefusedWithoutBlocking) {
+  // Opening a FIFO for reading blocks until a writer comes: the reader must refuse it first.
+  const TempDir dir("checkpoint_fifo");
+  const auto path = dir.path() / "checkpoint.cbor";
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0);
+  try {
+    read_checkpoint(path);
+    ADD_FAILURE() << "a FIFO was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
 }
 
 TEST(CheckpointValidation, EveryFieldComesBackExactly) {

@@ -155,6 +155,9 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
   const std::string file = path.string();
+  // A FIFO or a device would block the open until a writer appears: refuse anything but a file.
+  if (std::filesystem::exists(path) && !std::filesystem::is_regular_file(path))
+    throw ConfigError(file, "", "is not a regular file (a pipe, a device or a folder?)");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(file, "", "checkpoint not found");
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
