@@ -182,7 +182,9 @@ struct ShearSession {
   std::string packing_used;
   bool resuming = false;
   nlohmann::json observer_state;
-  std::string case_source;  ///< where the case comes from, for error messages
+  std::string case_source;     ///< where the case comes from, for error messages
+  std::uint64_t end_step = 0;  ///< the step the run ends at (plan_run)
+  std::string dt_warning;      ///< from the time-step rule, printed at start (empty: none)
 };
 
 /// The physics a checkpoint belongs to: a checkpoint copied from another run must not resume
@@ -200,8 +202,14 @@ nlohmann::json case_identity(const ShearCase& c) {
           {"wall_mass", c.wall_mass}};
 }
 
-void check_sample_count(const ShearSession& s) {
-  const ShearCase& c = s.c;
+/// Resolves the time step and checks the run's size (docs/reliability.md) once the case and the
+/// state it starts from are known: a run that asks for too much, or for nothing, is refused
+/// before anything is prepared or written.
+void plan_run(ShearSession& s) {
+  ShearCase& c = s.c;
+  s.dt_warning = resolve_time_step(c);
+  s.end_step =
+      checked_end_step(c.duration, c.step.dt, s.world.step, s.case_source, "shear.duration");
   if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
     throw ConfigError(s.case_source, "measure.sample_interval",
                       fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
@@ -227,7 +235,9 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
   // The step counter, the end of the run and every schedule count steps of one dt: a resume
   // that changes it (step.dt, dt_max, displacement_per_step) would end at the wrong time.
-  ShearCase before = load_case(CaseSource{.file = src.file});
+  CaseSource as_written;
+  as_written.file = src.file;
+  ShearCase before = load_case(as_written);
   ShearCase after = s.c;
   resolve_time_step(before);
   resolve_time_step(after);
@@ -256,6 +266,7 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   s.dynamics.set_contacts(std::move(cp.contacts));
   s.observer_state = std::move(cp.observers);
   s.packing_used = s.c.packing_file;
+  plan_run(s);
   std::printf("resuming %s at step %llu, t %.4f\n", s.dir.c_str(),
               static_cast<unsigned long long>(s.world.step), s.world.time);
 }
@@ -266,11 +277,7 @@ void open_new(const RunArgs& args, ShearSession& s) {
   s.case_source = (args.c.file.empty() ? std::string("built-in default case") : args.c.file) +
                   (args.c.overrides.empty() ? "" : " (with --set overrides)");
   if (!args.packing.empty()) c.packing_file = args.packing;
-  // A run that asks for too much, or for nothing, is refused before anything is prepared or
-  // written (run_shear checks again once dt is final: the same numbers).
-  resolve_time_step(c);
-  checked_end_step(c.duration, c.step.dt, 0, s.case_source, "shear.duration");
-  check_sample_count(s);
+  plan_run(s);  // the new world starts at step 0
   auto [packing, path] = obtain_packing(c, args.c.quiet);
   s.packing_used = path.string();
   check_packing_matches(c, packing, path);
@@ -375,14 +382,12 @@ int run_shear(const RunArgs& args) {
     open_new(args, s);
   else
     open_resumed(args, s);
-  const std::string dt_warning = resolve_time_step(s.c);
-  if (!dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", dt_warning.c_str());
+  if (!s.dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", s.dt_warning.c_str());
   const ShearCase& c = s.c;
   const double dt = c.step.dt;
 
   RunLoopSettings loop;
-  const std::uint64_t end_step = loop.end_step =
-      checked_end_step(c.duration, dt, s.world.step, s.case_source, "shear.duration");
+  const std::uint64_t end_step = loop.end_step = s.end_step;
   if (args.stop_at) {
     if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
       throw ConfigError("--stop-at", "",
@@ -390,7 +395,6 @@ int run_shear(const RunArgs& args) {
                                     *args.stop_at, s.world.time));
     loop.end_step = std::min(end_step, steps_of(*args.stop_at, dt));
   }
-  check_sample_count(s);
   const std::uint64_t status = steps_of(c.status_interval, dt);
   loop.status_every = args.c.quiet ? 0
                       : status > 0 ? status
