@@ -61,6 +61,7 @@ struct Settings {
   double velocity = 0.5;  // shear wall speed V
   double width = 0.0;     // cell width; 0: 20 below 2000 disks, 50 above
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
+  int threads = 1;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
 };
@@ -85,7 +86,8 @@ void usage() {
   --seconds S         measured wall time per case, at least (default 12)
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
-  --order O           NLGS contact order: random (default) or sequential
+  --order O           NLGS contact order: random (default), sequential or coloured
+  --threads N         solver threads (default 1; used by the coloured order only)
   --no-static         skip the static cases
   --no-shear          skip the shear cases
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
@@ -119,13 +121,11 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--velocity") {
       s.velocity = std::stod(value());
     } else if (a == "--order") {
-      const std::string o = value();
-      if (o == "random")
-        s.order = cdshear::ContactOrder::kRandom;
-      else if (o == "sequential")
-        s.order = cdshear::ContactOrder::kSequential;
-      else
-        throw std::invalid_argument("--order must be random or sequential");
+      if (!cdshear::contact_order_from_name(value(), s.order))
+        throw std::invalid_argument("--order must be random, sequential or coloured");
+    } else if (a == "--threads") {
+      s.threads = std::stoi(value());
+      if (s.threads < 1) throw std::invalid_argument("--threads must be at least 1");
     } else if (a == "--no-static") {
       s.run_static = false;
     } else if (a == "--no-shear") {
@@ -268,7 +268,7 @@ const char* kHeader =
     "steps_per_cpu_s,ns_per_update,ns_per_update_best,ns_per_update_cpu,mean_sweeps,"
     "mean_contacts,mean_active,capped_share,share_detect,share_prepare,share_solve,"
     "share_integrate,share_measure,detect_ns_per_disk,solid_fraction,cpu_share,load_avg,compiler,"
-    "build";
+    "build,threads";
 
 /// A number with `decimals` digits after the point.
 std::string num(double x, int decimals) {
@@ -294,7 +294,7 @@ std::string csv_line(const std::string& date, const std::string& host, const std
       "1",
       num(velocity, 3),
       num(options.dt, 4),
-      options.solver.order == cdshear::ContactOrder::kRandom ? "random" : "sequential",
+      cdshear::contact_order_name(options.solver.order),
       std::to_string(m.steps),
       num(m.wall_s, 3),
       num(steps / m.wall_s, 2),
@@ -317,6 +317,7 @@ std::string csv_line(const std::string& date, const std::string& host, const std
       num(load, 2),
       "\"" + compiler() + "\"",
       CDSHEAR_BUILD_TYPE,
+      std::to_string(options.solver.threads),
   };
   std::string line;
   for (const std::string& f : fields) line += (line.empty() ? "" : ",") + f;
@@ -386,6 +387,7 @@ int run(const Settings& s) {
 
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
     options.solver.order = s.order;
+    options.solver.threads = s.threads;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);

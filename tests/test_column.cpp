@@ -136,6 +136,21 @@ TEST(Column, SequentialOrderGivesTheSameStatics) {
   EXPECT_LT(r.drift, 1e-6);
 }
 
+TEST(Column, ColouredOrderOnTwoThreadsGivesTheSameStatics) {
+  // The coloured order cuts the column into bands (slabs of four diameters): contacts inside
+  // each slab, then across slab boundaries, then the floor contact, slabs on two threads.
+  SolverOptions coloured;
+  coloured.order = ContactOrder::kColoured;
+  coloured.threads = 2;
+  coloured.min_rows_per_thread = 1;  // share even these 10 contacts
+  const ColumnRun r = run_column(10, coloured, 2000, 1000);
+  EXPECT_LT(r.mean_wall_error, 1e-4);
+  EXPECT_LT(r.mean_contact_error, 1e-4);
+  EXPECT_LT(r.contact_force_error, 0.15);
+  EXPECT_LT(r.drift, 1e-6);
+  EXPECT_LT(r.largest_overlap, 1e-6);
+}
+
 TEST(ConvergenceCriterion, CountsOnlyForceCarryingContacts) {
   // A row of 20 disks resting on the floor, 0.02 apart: 20 floor contacts carry the weight and
   // 19 side-by-side candidates stay idle (R = 0). After one sweep (cap 1) every floor contact

@@ -24,10 +24,12 @@ struct SceneArgs {
   std::string out_dir;
   bool quiet = false;
   bool force = false;
+  int threads = solver_threads_available();
 };
 
 int run_scene(const SceneArgs& args) {
   SceneFile sf = load_scene_file(args.file, args.overrides);
+  sf.step.solver.threads = args.threads;
   World world;
   try {
     world = build_world(sf.scene, &g_stop_requested);
@@ -80,6 +82,7 @@ void register_scene_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("scene", "Run a system described by a scene file (TOML)");
   cmd->add_option("file", args->file, "scene file")->required();
   cmd->add_option("--set", args->overrides, "override a key: --set step.dt=1e-4 (repeatable)");
+  add_threads_option(cmd, args->threads);
   cmd->add_option("-o,--output", args->out_dir, "output folder")->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no status lines or progress bar");
   cmd->add_flag("--force", args->force, "replace the results of an earlier run in the folder");

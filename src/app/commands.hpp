@@ -2,8 +2,32 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
+
+#include "config_error.hpp"
+#include "nlgs_solver.hpp"
 
 namespace cdshear {
+
+/// Largest --threads accepted.
+inline constexpr int kMaxThreads = 1024;
+
+/// `--threads N`: solver threads of the coloured contact order (default: every processor). Not
+/// part of the case: the results are the same for any N (docs/performance.md).
+inline void add_threads_option(CLI::App* cmd, int& threads) {
+  cmd->add_option_function<int>(
+         "--threads",
+         [&threads](int n) {
+           if (n < 1 || n > kMaxThreads)
+             throw ConfigError("--threads", "",
+                               "must be a whole number from 1 to " + std::to_string(kMaxThreads) +
+                                   ", got " + std::to_string(n));
+           threads = n;
+         },
+         "solver threads (coloured contact order; default: all " +
+             std::to_string(solver_threads_available()) + " processors)")
+      ->type_name("N");
+}
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`
 void register_scene_command(CLI::App& app);

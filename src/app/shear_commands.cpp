@@ -34,6 +34,7 @@ struct CaseArgs {
   bool has_velocity = false;
   std::vector<std::string> overrides;
   bool quiet = false;
+  int threads = solver_threads_available();
 };
 
 CaseSource to_source(const CaseArgs& a) {
@@ -42,6 +43,7 @@ CaseSource to_source(const CaseArgs& a) {
   s.system = a.system;
   if (a.has_velocity) s.velocity = a.velocity;
   s.overrides = a.overrides;
+  s.threads = a.threads;
   return s;
 }
 
@@ -60,6 +62,7 @@ void add_case_options(CLI::App* cmd, CaseArgs& a) {
   cmd->add_option("--set", a.overrides,
                   "override a case key: --set shear.duration=50 (repeatable)");
   cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
+  add_threads_option(cmd, a.threads);
 }
 
 Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
@@ -231,6 +234,7 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   CaseSource src;
   src.file = (s.dir / "case.toml").string();
   src.overrides = args.c.overrides;
+  src.threads = args.c.threads;
   s.c = load_case(src);
   s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
   // The step counter, the end of the run and every schedule count steps of one dt: a resume

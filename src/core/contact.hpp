@@ -41,8 +41,6 @@ struct Contact {
   double friction = 0.0;   ///< Coulomb coefficient of this pair
   double impulse_n = 0.0;  ///< R_n over the step [force time]
   double impulse_t = 0.0;  ///< R_t over the step [force time]
-  // Local Delassus matrix W = H M^-1 H^T (symmetric, 2x2), filled by the solver.
-  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
 };
 
 }  // namespace cdshear

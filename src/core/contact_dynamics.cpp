@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace cdshear {
 namespace {
@@ -58,6 +59,19 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
 
   // 2. prepare free velocities
   bodies_.resize(n + world.walls.size());
+  // Bands of height for the coloured order (nlgs_solver.hpp): four of the largest diameters, so
+  // that a contact spans at most two bands. A property of the packing, not of the thread count.
+  constexpr double kMaxBand = 4095.0;
+  double y_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    y_min = std::min(y_min, d.position[i].y);
+    r_max = std::max(r_max, d.radius[i]);
+  }
+  const double band_height = 8.0 * r_max;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double band = (d.position[i].y - y_min) / band_height;
+    bodies_[i].band = band >= 0.0 ? static_cast<std::uint32_t>(std::min(band, kMaxBand)) : 0;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     SolverBody& b = bodies_[i];
     b.velocity = d.velocity[i] + dt * world.body_force;
@@ -79,7 +93,8 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.seconds.prepare = seconds_since(t0);
 
   // 3. solve
-  report.solver = solve_contacts(contacts_, bodies_, dt, options.solver, world.step, workspace_);
+  report.solver =
+      solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
   report.seconds.solve = seconds_since(t0);
 
   // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities)

@@ -1,5 +1,8 @@
 #include "nlgs_solver.hpp"
 
+#include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -7,102 +10,327 @@
 #include "local_solve.hpp"
 #include "random.hpp"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
 namespace cdshear {
+
 namespace {
 
 /// Delassus entries of one contact: W = sum over its two bodies of H_body M_body^-1 H_body^T with
 /// H rows (n, lever) and (t, lever) in (translation, rotation) coordinates.
-void fill_delassus(Contact& c, const SolverBody& a, const SolverBody& b) {
+void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const SolverBody& b,
+              double inv_dt) {
   const Vec2 n = c.normal, t = c.tangent;
   const Vec2 mn = hadamard(a.inv_mass, n) + hadamard(b.inv_mass, n);
   const Vec2 mt = hadamard(a.inv_mass, t) + hadamard(b.inv_mass, t);
-  c.w_nn = dot(n, mn);
-  c.w_nt = dot(n, mt);
-  c.w_tt =
+  row.body_a = static_cast<std::uint32_t>(c.key.body_a);
+  row.body_b = static_cast<std::uint32_t>(c.key.body_b);
+  row.normal = n;
+  row.lever_a = c.lever_a;
+  row.lever_b = c.lever_b;
+  row.bias_n = c.gap * inv_dt;
+  row.friction = c.friction;
+  row.impulse_n = c.impulse_n;
+  row.impulse_t = c.impulse_t;
+  row.w_nn = dot(n, mn);
+  row.w_nt = dot(n, mt);
+  row.w_tt =
       dot(t, mt) + c.lever_a * c.lever_a * a.inv_inertia + c.lever_b * c.lever_b * b.inv_inertia;
+  row.inv_w_nn = 1.0 / row.w_nn;
+  row.inv_w_tt = 1.0 / row.w_tt;
 }
 
-/// Applies impulse (dn, dt) of contact c: +P on a, -P on b, torques lever * dt on both.
-inline void apply_impulse(const Contact& c, SolverBody& a, SolverBody& b, double dn, double dt) {
-  const Vec2 p = dn * c.normal + dt * c.tangent;
-  a.velocity += hadamard(a.inv_mass, p);
-  b.velocity -= hadamard(b.inv_mass, p);
-  a.omega += a.inv_inertia * c.lever_a * dt;
-  b.omega += b.inv_inertia * c.lever_b * dt;
+/// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
+/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
+inline void apply_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
+                          double dt) {
+  const double px = dn * r.normal.x - dt * r.normal.y;
+  const double py = dn * r.normal.y + dt * r.normal.x;
+  a.velocity.x += a.inv_mass.x * px;
+  a.velocity.y += a.inv_mass.y * py;
+  b.velocity.x -= b.inv_mass.x * px;
+  b.velocity.y -= b.inv_mass.y * py;
+  a.omega += a.inv_inertia * r.lever_a * dt;
+  b.omega += b.inv_inertia * r.lever_b * dt;
+}
+
+
+/// Adds up a chunk's convergence figures (SPEC 3.5): counts, and the sums of |dR| and |R|. The
+/// two square roots of an update are taken together in one packed instruction where the machine
+/// has one (SSE2, every x86-64). Square roots are correctly rounded either way: same sums.
+class TallyAccumulator {
+ public:
+  void count(bool carries, bool converged) {
+    carrying_ += static_cast<std::size_t>(carries);
+    converged_ += static_cast<std::size_t>(carries && converged);
+  }
+#if defined(__SSE2__)
+  void add_lengths(double change2, double force2) {
+    sums_ = _mm_add_pd(sums_, _mm_sqrt_pd(_mm_set_pd(force2, change2)));
+  }
+  SweepTally tally() const {
+    return {converged_, carrying_, _mm_cvtsd_f64(sums_),
+            _mm_cvtsd_f64(_mm_unpackhi_pd(sums_, sums_))};
+  }
+
+ private:
+  __m128d sums_ = _mm_setzero_pd();  // (sum |dR|, sum |R|)
+#else
+  void add_lengths(double change2, double force2) {
+    change_ += std::sqrt(change2);
+    force_ += std::sqrt(force2);
+  }
+  SweepTally tally() const { return {converged_, carrying_, change_, force_}; }
+
+ private:
+  double change_ = 0.0, force_ = 0.0;
+#endif
+  std::size_t converged_ = 0, carrying_ = 0;
+};
+
+/// One Gauss-Seidel update of row r: solve its local problem with every other impulse fixed,
+/// apply the change to the two bodies and count it in the tally.
+///
+/// Common case, w_nt = 0 (every disk-disk contact, and a wall contact whenever the wall's
+/// inverse mass is isotropic or aligned with the contact, as for the flat walls of the shear
+/// cell): the 2x2 problem decouples (local_solve.hpp, cases 1-3 with w_nt = 0) into
+///   R_n = max(0, R_n - (u_n + gap/dt) / w_nn),  R_t = clamp(R_t - u_t / w_tt, -mu R_n, mu R_n),
+/// where u is the current relative velocity (this row's old impulse included): the sticking
+/// impulse -W^-1 b written as a correction of the old one, so no b is formed and no branch taken.
+/// Coupled rows (w_nt != 0, a wall free along a direction oblique to the contact) go through the
+/// general case analysis of solve_local.
+inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alpha,
+                       TallyAccumulator& tally) {
+  SolverBody& a = bodies[r.body_a];
+  SolverBody& b = bodies[r.body_b];
+  const double dvx = a.velocity.x - b.velocity.x;
+  const double dvy = a.velocity.y - b.velocity.y;
+  const double u_n = dvx * r.normal.x + dvy * r.normal.y;
+  const double u_t = dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega;
+  // An open contact that stays open: R = 0 and the biased normal velocity is separating. The
+  // update below would give R = 0 again, change nothing and count nothing; skip it. Half of the
+  // candidates or more are in this case in a dense packing (gap below the margin, not touching).
+  if (r.impulse_n == 0.0 && r.impulse_t == 0.0 && u_n + r.bias_n >= 0.0) return;
+  double r_n, r_t;
+  if (r.w_nt == 0.0) [[likely]] {
+    r_n = std::max(0.0, r.impulse_n - (u_n + r.bias_n) * r.inv_w_nn);
+    const double limit = r.friction * r_n;
+    r_t = std::clamp(r.impulse_t - u_t * r.inv_w_tt, -limit, limit);
+  } else {
+    LocalProblem p;
+    p.w_nn = r.w_nn;
+    p.w_nt = r.w_nt;
+    p.w_tt = r.w_tt;
+    p.b_n = u_n - (r.w_nn * r.impulse_n + r.w_nt * r.impulse_t) + r.bias_n;
+    p.b_t = u_t - (r.w_nt * r.impulse_n + r.w_tt * r.impulse_t);
+    p.mu = r.friction;
+    const LocalSolution s = solve_local(p);
+    r_n = s.r_n;
+    r_t = s.r_t;
+  }
+  const double dn = r_n - r.impulse_n, dt = r_t - r.impulse_t;
+  apply_impulse(r, a, b, dn, dt);
+  r.impulse_n = r_n;
+  r.impulse_t = r_t;
+
+  // Only contacts that carry force (before or after this update) take part in the count: idle
+  // candidates (R = 0 staying 0) would otherwise pass for free, and the criterion would depend on
+  // the contact margin.
+  const double change2 = dn * dn + dt * dt;
+  const double force2 = r_n * r_n + r_t * r_t;
+  tally.count(r_n > 0.0 || dn != 0.0, change2 <= alpha * force2);
+  tally.add_lengths(change2, force2);
+}
+
+/// Builds the rows' visit order, its groups and the parallel phases of a sweep (nlgs_solver.hpp).
+///
+/// Coloured order: every disk has a band (SolverBody::band: slabs of height, fixed by the
+/// geometry, not by the thread count). A contact goes to
+///   - the slab of its band when both disks are in the same band: slabs share no disk, so all
+///     slabs are solved at once (phase 1);
+///   - the boundary between bands s and s + 1 when its disks are in neighbouring bands: the
+///     boundaries s and s + 2 share no disk, so the even boundaries are solved at once (phase 2),
+///     then the odd ones (phase 3);
+///   - the serial group otherwise (a wall contact: a wall touches many; or a contact spanning
+///     more than two bands), solved last by one thread.
+/// Inside every group the seeded shuffle of the contacts is kept. Every row then sees the same
+/// velocities whatever the thread count, and the convergence sums are added group by group in
+/// group order: the result does not depend on the thread count.
+void order_rows(std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
+                std::size_t first_wall, const SolverOptions& options, std::uint64_t step,
+                SolverWorkspace& ws) {
+  const std::size_t nc = contacts.size();
+  auto& order = ws.order;
+  order.resize(nc);
+  std::iota(order.begin(), order.end(), 0u);
+  if (options.order != ContactOrder::kSequential) {
+    CounterRandom rng(options.seed, RandomStream::kContactOrder, step);
+    shuffle(order, rng);
+  }
+  ws.phases.clear();
+  if (options.order != ContactOrder::kColoured) {
+    ws.group_start.assign({0, nc});  // one serial group
+    return;
+  }
+
+  std::size_t bands = 1;
+  for (std::size_t i = 0; i < first_wall && i < bodies.size(); ++i)
+    bands = std::max<std::size_t>(bands, bodies[i].band + 1);
+  // Group ids: slabs [0, bands), even boundaries, odd boundaries, then the serial group.
+  const std::size_t boundaries = bands - 1;
+  const std::size_t even = (boundaries + 1) / 2;
+  const std::size_t serial = bands + boundaries;
+  const auto group_of = [&](const Contact& c) -> std::size_t {
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    if (b >= first_wall) return serial;
+    const std::size_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
+    const std::size_t band_b = bodies[b].band;
+    if (band_a == band_b) return band_a;
+    const std::size_t low = std::min(band_a, band_b);
+    if (std::max(band_a, band_b) != low + 1) return serial;
+    return bands + (low % 2 == 0 ? low / 2 : even + low / 2);
+  };
+  // Stable counting sort by group.
+  auto& start = ws.group_start;
+  start.assign(serial + 2, 0);
+  ws.group_of.resize(nc);
+  for (std::size_t i = 0; i < nc; ++i) {
+    const auto g = static_cast<std::uint32_t>(group_of(contacts[order[i]]));
+    ws.group_of[i] = g;
+    ++start[g + 1];
+  }
+  for (std::size_t g = 1; g < start.size(); ++g) start[g] += start[g - 1];
+  ws.next.assign(start.begin(), start.end() - 1);
+  ws.sorted.resize(nc);
+  for (std::size_t i = 0; i < nc; ++i) ws.sorted[ws.next[ws.group_of[i]]++] = order[i];
+  order.swap(ws.sorted);
+  ws.phases.push_back({0, bands});
+  if (even > 0) ws.phases.push_back({bands, bands + even});
+  if (boundaries > even) ws.phases.push_back({bands + even, serial});
+}
+
+/// Updates the rows of group g and stores its tally.
+void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies,
+                 double alpha) {
+  TallyAccumulator tally;
+  for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i)
+    update_row(ws.rows[i], bodies, alpha, tally);
+  ws.group_tallies[g] = tally.tally();
 }
 
 }  // namespace
 
+const char* contact_order_name(ContactOrder order) {
+  return kContactOrderNames[static_cast<int>(order)];
+}
+
+bool contact_order_from_name(std::string_view name, ContactOrder& order) {
+  for (int k = 0; k < 3; ++k) {
+    if (name == kContactOrderNames[k]) {
+      order = static_cast<ContactOrder>(k);
+      return true;
+    }
+  }
+  return false;
+}
+
+int solver_threads_available() {
+#if defined(_OPENMP)
+  return omp_get_num_procs();
+#else
+  return 1;
+#endif
+}
+
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
-                            double dt, const SolverOptions& options, std::uint64_t step,
-                            SolverWorkspace& workspace) {
+                            std::size_t first_wall, double dt, const SolverOptions& options,
+                            std::uint64_t step, SolverWorkspace& workspace) {
   SolverReport report;
   const std::size_t nc = contacts.size();
   if (nc == 0) return report;
+  SolverWorkspace& ws = workspace;
+  order_rows(contacts, bodies, first_wall, options, step, ws);
 
-  // Prepare: Delassus matrices, then warm start (apply the carried-over impulses).
-  for (Contact& c : contacts) {
+  // Prepare: the rows in visit order (the sweeps then read them front to back), their Delassus
+  // entries, then the warm start (apply the carried-over impulses).
+  auto& rows = ws.rows;
+  rows.resize(nc);
+  const double inv_dt = 1.0 / dt;
+  for (std::size_t i = 0; i < nc; ++i) {
+    const Contact& c = contacts[ws.order[i]];
+    SolverRow& row = rows[i];
     SolverBody& a = bodies[c.key.body_a];
     SolverBody& b = bodies[c.key.body_b];
-    fill_delassus(c, a, b);
-    if (c.impulse_n != 0.0 || c.impulse_t != 0.0) apply_impulse(c, a, b, c.impulse_n, c.impulse_t);
+    fill_row(row, c, a, b, inv_dt);
+    apply_impulse(row, a, b, row.impulse_n, row.impulse_t);
   }
+  const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
+  ws.group_tallies.resize(groups);
 
-  auto& order = workspace.order;
-  order.resize(nc);
-  std::iota(order.begin(), order.end(), 0u);
-  if (options.order == ContactOrder::kRandom) {
-    CounterRandom rng(options.seed, RandomStream::kContactOrder, step);
-    shuffle(order, rng);
-  }
+  // Threads: only for the coloured order (the others are one serial group), and only with
+  // enough rows to share. Their number does not change the result (order_rows).
+  int threads = 1;
+  if (options.order == ContactOrder::kColoured && options.threads > 1)
+    threads = static_cast<int>(
+        std::clamp<std::size_t>(nc / std::max<std::size_t>(options.min_rows_per_thread, 1), 1,
+                                static_cast<std::size_t>(options.threads)));
+  report.colours = ws.phases.size();
 
-  const double inv_dt = 1.0 / dt;
+  bool done = false;
+#if defined(_OPENMP)
+#pragma omp parallel num_threads(threads) if (threads > 1)
+#endif
   for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
-    std::size_t converged = 0, carrying = 0;
-    double sum_change = 0.0, sum_force = 0.0;
-    for (const std::uint32_t k : order) {
-      Contact& c = contacts[k];
-      SolverBody& a = bodies[c.key.body_a];
-      SolverBody& b = bodies[c.key.body_b];
-      const Vec2 dv = a.velocity - b.velocity;
-      const double u_n = dot(dv, c.normal);
-      const double u_t = dot(dv, c.tangent) + c.lever_a * a.omega + c.lever_b * b.omega;
-      LocalProblem p;
-      p.w_nn = c.w_nn;
-      p.w_nt = c.w_nt;
-      p.w_tt = c.w_tt;
-      p.b_n = u_n - (c.w_nn * c.impulse_n + c.w_nt * c.impulse_t) + c.gap * inv_dt;
-      p.b_t = u_t - (c.w_nt * c.impulse_n + c.w_tt * c.impulse_t);
-      p.mu = c.friction;
-      const LocalSolution s = solve_local(p);
-      const double dn = s.r_n - c.impulse_n, dtt = s.r_t - c.impulse_t;
-      if (dn != 0.0 || dtt != 0.0) apply_impulse(c, a, b, dn, dtt);
-      c.impulse_n = s.r_n;
-      c.impulse_t = s.r_t;
-
-      // Only contacts that carry force (before or after this update) take part in the count:
-      // idle candidates (R = 0 staying 0) would otherwise pass for free, and the criterion would
-      // depend on the contact margin.
-      const double change2 = dn * dn + dtt * dtt;
-      const double force2 = s.r_n * s.r_n + s.r_t * s.r_t;
-      const bool carries = s.r_n > 0.0 || dn != 0.0;
-      carrying += carries;
-      converged += carries && change2 <= options.alpha * force2;
-      sum_change += std::sqrt(change2);
-      sum_force += std::sqrt(force2);
+    for (const SolverPhase& phase : ws.phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+      for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+        sweep_group(g, ws, bodies, options.alpha);
     }
-    report.sweeps = sweep;
-    report.converged_fraction =
-        carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
-    if (sum_force > 0.0)
-      report.residual = (sum_change / sum_force) * (sum_change / sum_force);
-    else
-      report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-    if (report.converged_fraction >= options.converged_fraction && report.residual <= options.alpha)
-      break;
-    if (sweep == options.max_sweeps) report.hit_cap = true;
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+#if defined(_OPENMP)
+      report.threads = omp_get_num_threads();
+#endif
+      sweep_group(groups - 1, ws, bodies, options.alpha);
+      std::size_t converged = 0, carrying = 0;
+      double sum_change = 0.0, sum_force = 0.0;
+      for (const SweepTally& t : ws.group_tallies) {
+        converged += t.converged;
+        carrying += t.carrying;
+        sum_change += t.sum_change;
+        sum_force += t.sum_force;
+      }
+      report.sweeps = sweep;
+      report.converged_fraction =
+          carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
+      if (sum_force > 0.0) {
+        const double ratio = sum_change / sum_force;
+        report.residual = ratio * ratio;
+      } else {
+        report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+      }
+      done = report.converged_fraction >= options.converged_fraction &&
+             report.residual <= options.alpha;
+      if (!done && sweep == options.max_sweeps) report.hit_cap = true;
+    }
+    if (done) break;
   }
-  for (const Contact& c : contacts) report.active_contacts += c.impulse_n > 0.0;
+
+  for (std::size_t i = 0; i < nc; ++i) {
+    Contact& c = contacts[ws.order[i]];
+    c.impulse_n = rows[i].impulse_n;
+    c.impulse_t = rows[i].impulse_t;
+    report.active_contacts += c.impulse_n > 0.0;
+  }
   return report;
 }
 

@@ -5,8 +5,17 @@
 // the end-of-step velocities on exit; contacts carry warm-start impulses on entry and the
 // solution on exit.
 //
-// Each sweep visits every contact once (in a seeded random order, or in key order) and solves its
-// 2x2 problem exactly (local_solve.hpp) with the other impulses held fixed. Body velocities are
+// Each sweep visits every contact once and solves its 2x2 problem exactly (local_solve.hpp) with
+// the other impulses held fixed. Orders (SPEC 3.4, "random or colour-ordered"):
+//   - random:     a shuffle of the contacts, seeded by (seed, step), the same in every sweep;
+//   - sequential: key order (disk a, then b, then image);
+//   - coloured:   the same shuffle, grouped by where the contacts are: the packing is cut into
+//                 slabs of height (bands); first the contacts inside each slab, all slabs at
+//                 once (no two share a disk), then those across every second slab boundary,
+//                 then across the others, then the wall contacts. The shuffled order is kept
+//                 inside a group. Groups of one phase are independent, so several threads solve
+//                 them at once, and the result is the same whatever the number of threads (the
+//                 convergence sums are added group by group, in order). Body velocities are
 // kept equal to free velocity + M^-1 H^T R at all times, so that a contact's free velocity is its
 // current relative velocity minus W times its current impulse: a contact update costs O(1).
 //
@@ -19,6 +28,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include "contact.hpp"
@@ -28,14 +38,26 @@ namespace cdshear {
 
 /// What the solver needs of a body. Walls have inverse inertia 0 and a per-axis inverse mass that
 /// is 0 on fixed or imposed axes: no special case in the hot loop.
-struct SolverBody {
+///
+/// One cache line each: two threads updating two different bodies never write the same line.
+struct alignas(64) SolverBody {
   Vec2 velocity;
   double omega = 0.0;
   Vec2 inv_mass;             ///< (1/m_x, 1/m_y); equal for disks [1/mass]
   double inv_inertia = 0.0;  ///< [1/(mass length^2)]
+  /// Where the body is, coarsely (a band of heights): the coloured order keeps the contacts of a
+  /// colour sorted by it, so that each thread works on its own part of the packing and the
+  /// bodies it updates stay in its cache. Any value gives the same results.
+  std::uint32_t band = 0;
 };
 
-enum class ContactOrder { kRandom, kSequential };
+enum class ContactOrder { kRandom, kSequential, kColoured };
+
+/// "random", "sequential", "coloured": the names in case and scene files.
+const char* contact_order_name(ContactOrder order);
+/// The order of that name; false when there is none.
+bool contact_order_from_name(std::string_view name, ContactOrder& order);
+inline constexpr const char* kContactOrderNames[] = {"random", "sequential", "coloured"};
 
 struct SolverOptions {
   double alpha = 1e-6;              ///< tolerance on the squared relative force change
@@ -43,6 +65,10 @@ struct SolverOptions {
   int max_sweeps = 200;             ///< cap on sweeps per step
   ContactOrder order = ContactOrder::kRandom;
   std::uint64_t seed = 1;  ///< keys the random contact order
+  int threads = 1;         ///< threads for the coloured order (the others use one); >= 1
+  /// Contacts per thread below which fewer threads are used (a barrier then costs more than the
+  /// work it shares). No effect on the results.
+  std::size_t min_rows_per_thread = 1500;
 };
 
 struct SolverReport {
@@ -51,16 +77,55 @@ struct SolverReport {
   double residual = 0.0;            ///< (sum |dR| / sum |R|)^2 of the last sweep
   double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
   int active_contacts = 0;          ///< contacts with R_n > 0 at the end
+  std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
+  int threads = 1;                  ///< threads used
+};
+
+/// One contact as the sweeps see it: what an update reads and writes, compact (112 bytes) and
+/// stored in visit order, so that a sweep streams through memory front to back. The tangent is
+/// perp(normal) and is not stored.
+struct SolverRow {
+  std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
+  Vec2 normal;                           ///< unit, from b to a
+  double lever_a = 0.0, lever_b = 0.0;   ///< as in Contact [length]
+  double bias_n = 0.0;                   ///< gap / dt [length/time]
+  double friction = 0.0;                 ///< Coulomb coefficient
+  double impulse_n = 0.0, impulse_t = 0.0;
+  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;  ///< local Delassus matrix [1/mass]
+  double inv_w_nn = 0.0, inv_w_tt = 0.0;      ///< 1/w_nn, 1/w_tt
+};
+
+/// Groups [first_group, last_group) of rows that share no body: a sweep solves them at once,
+/// on as many threads as it has.
+struct SolverPhase {
+  std::size_t first_group = 0, last_group = 0;
+};
+
+/// What one group of rows adds to the convergence test.
+struct SweepTally {
+  std::size_t converged = 0, carrying = 0;
+  double sum_change = 0.0, sum_force = 0.0;  ///< sums of |dR| and |R|
 };
 
 /// Reusable scratch memory, so that a step allocates nothing once warmed up.
 struct SolverWorkspace {
-  std::vector<std::uint32_t> order;
+  std::vector<std::uint32_t> order;       ///< row i solves contacts[order[i]]
+  std::vector<SolverRow> rows;
+  std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
+  std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
+  std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
+  std::vector<std::uint32_t> group_of;    ///< scratch of the group sort
+  std::vector<std::size_t> next;          ///< scratch of the group sort
+  std::vector<std::uint32_t> sorted;      ///< scratch of the group sort
 };
 
-/// Solves the contact problem of one step. `step` keys the random order (with options.seed).
+/// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.
+int solver_threads_available();
+
+/// Solves the contact problem of one step. Bodies from `first_wall` on are walls (shared by many
+/// contacts). `step` keys the random order (with options.seed).
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
-                            double dt, const SolverOptions& options, std::uint64_t step,
-                            SolverWorkspace& workspace);
+                            std::size_t first_wall, double dt, const SolverOptions& options,
+                            std::uint64_t step, SolverWorkspace& workspace);
 
 }  // namespace cdshear

@@ -152,7 +152,10 @@ ShearCase load_case(const CaseSource& src) {
   apply_overrides(table, src.overrides, sources.get());
   if (src.velocity && *src.velocity <= 0.0)
     throw ConfigError("--velocity", "shear.velocity", "must be > 0");
-  return case_from_toml(table, name, c, sources);
+  ShearCase resolved = case_from_toml(table, name, c, sources);
+  resolved.step.solver.threads = src.threads;
+  resolved.preparation.step.solver.threads = src.threads;
+  return resolved;
 }
 
 toml::table case_to_toml(const ShearCase& c) {
@@ -185,7 +188,7 @@ toml::table case_to_toml(const ShearCase& c) {
       {"solver", toml::table{{"alpha", s.alpha},
                              {"converged_fraction", s.converged_fraction},
                              {"max_sweeps", s.max_sweeps},
-                             {"order", s.order == ContactOrder::kRandom ? "random" : "sequential"},
+                             {"order", contact_order_name(s.order)},
                              {"seed", static_cast<std::int64_t>(s.seed)}}},
       {"preparation",
        toml::table{{"initial_solid_fraction", p.initial_solid_fraction},

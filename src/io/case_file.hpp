@@ -19,6 +19,7 @@ struct CaseSource {
   std::optional<int> system;           ///< --system K preset, applied before the file
   std::optional<double> velocity;      ///< --velocity V, applied after the file
   std::vector<std::string> overrides;  ///< --set key=value, applied last
+  int threads = 1;  ///< --threads: solver threads (not part of the case: no effect on results)
 };
 
 /// Builds the case: defaults (system 1), then the preset, then the file, then --velocity, then
