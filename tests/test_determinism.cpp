@@ -71,13 +71,13 @@ TEST(Determinism, ColouredOrderGivesTheSameStateOnAnyNumberOfThreads) {
     }
     EXPECT_GE(most_phases, 2);  // slabs and slab boundaries, not one serial group
 #if defined(_OPENMP)
-    EXPECT_EQ(most_threads, threads);
+    EXPECT_EQ(most_threads, std::min(threads, solver_threads_available()));
 #endif
     return state_hash(sim.world);
   };
   const std::uint64_t one = coloured_hash(1);
   EXPECT_EQ(coloured_hash(2), one);
-  EXPECT_EQ(coloured_hash(3), one);
+  EXPECT_EQ(coloured_hash(3), one);  // 3 where the machine has 3 processors or more
   EXPECT_NE(one, run_hash(1));  // and it is another order than the random one
 }
 

@@ -45,6 +45,37 @@ double current_overlap(const World& world, const Contact& c) {
   return d.radius[a] + d.radius[b] - length(delta);
 }
 
+void ContactDynamics::follow_wrapped_disks(const World& world) {
+  // A contact's key holds the periodic image of b relative to a: b's centre + image_b L_x - a's
+  // centre is the separation. When a moves by s_a periods and b by s_b (their image counters),
+  // the same pair is image_b + s_b - s_a. Renaming the key keeps the contact's impulse for the
+  // next step's warm start, which would otherwise restart from zero for every contact of a disk
+  // that crossed x = 0. The renamed contacts are taken out, sorted and merged back: the list
+  // stays sorted by key in O(contacts).
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  bool any = false;
+  for (std::size_t i = 0; i < n && !any; ++i) any = d.image[i] != image_before_wrap_[i];
+  if (!any) return;
+  renamed_.clear();
+  std::erase_if(contacts_, [&](Contact& c) {
+    const auto a = static_cast<std::size_t>(c.key.body_a);
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    if (b >= n) return false;  // walls have no image
+    const std::int64_t shift =
+        (d.image[b] - image_before_wrap_[b]) - (d.image[a] - image_before_wrap_[a]);
+    if (shift == 0) return false;
+    c.key.image_b += static_cast<std::int32_t>(shift);
+    renamed_.push_back(c);
+    return true;
+  });
+  const auto by_key = [](const Contact& x, const Contact& y) { return x.key < y.key; };
+  std::sort(renamed_.begin(), renamed_.end(), by_key);
+  const auto middle = static_cast<std::ptrdiff_t>(contacts_.size());
+  contacts_.insert(contacts_.end(), renamed_.begin(), renamed_.end());
+  std::inplace_merge(contacts_.begin(), contacts_.begin() + middle, contacts_.end(), by_key);
+}
+
 StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   StepReport report;
   auto t0 = Clock::now();
@@ -123,7 +154,11 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
       broken_wall = broken_wall != nullptr ? broken_wall : &wall;
   }
   finite = finite && broken_wall == nullptr;
-  if (finite) wrap_positions(world);
+  if (finite && world.domain.periodic_x) {
+    image_before_wrap_ = d.image;
+    wrap_positions(world);
+    follow_wrapped_disks(world);
+  }
   world.time += dt;
   ++world.step;
   report.seconds.integrate = seconds_since(t0);

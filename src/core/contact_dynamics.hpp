@@ -61,6 +61,11 @@ class ContactDynamics {
   ContactDetector detector_;
   SolverWorkspace workspace_;
   std::vector<Contact> overlap_scratch_;  ///< every touching pair, when candidates may miss some
+  std::vector<std::int64_t> image_before_wrap_;
+  std::vector<Contact> renamed_;
+
+  /// Renames the contacts of disks that were just wrapped across x = 0 (see the .cpp).
+  void follow_wrapped_disks(const World& world);
 };
 
 /// Overlap (positive) of contact c in the current positions of `world`; <= 0 when apart.

@@ -274,11 +274,12 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 
   // Threads: only for the coloured order (the others are one serial group), and only with
   // enough rows to share. Their number does not change the result (order_rows).
+  // More threads than processors would only wait for each other at every phase.
   int threads = 1;
   if (options.order == ContactOrder::kColoured && options.threads > 1)
-    threads = static_cast<int>(
-        std::clamp<std::size_t>(nc / std::max<std::size_t>(options.min_rows_per_thread, 1), 1,
-                                static_cast<std::size_t>(options.threads)));
+    threads = static_cast<int>(std::clamp<std::size_t>(
+        nc / std::max<std::size_t>(options.min_rows_per_thread, 1), 1,
+        static_cast<std::size_t>(std::min(options.threads, solver_threads_available()))));
   report.colours = ws.phases.size();
 
   bool done = false;
