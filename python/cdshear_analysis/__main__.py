@@ -1,6 +1,7 @@
 """Command line: `python3 -m cdshear_analysis analyze RUN_DIR [--quiet]` writes
 RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
-(default RUN_DIR/figures). A run too short for any averaging window is analysed (not steady,
+(default RUN_DIR/figures); `... study STUDY_DIR` tabulates and plots a parameter study (runs in
+KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py). A run too short for any averaging window is analysed (not steady,
 series values over the last half) and plotted without its profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
@@ -18,8 +19,20 @@ def main(argv=None):
     p_plot = commands.add_parser("plot", help="write PNG figures")
     p_plot.add_argument("run_dir")
     p_plot.add_argument("-o", "--out-dir", help="output folder (default RUN_DIR/figures)")
+    p_study = commands.add_parser("study", help="tabulate and plot a parameter study")
+    p_study.add_argument("study_dir")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
+
+    if args.command == "study":
+        from .study import StudyError, collect, write_study
+        try:
+            for path in write_study(collect(args.study_dir), args.study_dir):
+                print(path)
+        except StudyError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        return 0
 
     from .rundata import RunDataError, load_run
     from .summary import analyze, format_report, write_summary

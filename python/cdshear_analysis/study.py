@@ -1,0 +1,182 @@
+"""Parameter studies: many runs of one case that differ in one setting, compared with a reference.
+
+A study folder holds one run folder per setting, named `KEY=VALUE` after the `--set` it was run
+with (`solver.max_sweeps=50`, `step.dt=0.002`), and one named `reference` (the tightest
+settings). Each must have been analysed (`summary.json`) and hold `run_info.json`.
+`collect(study_dir)` reads them into rows; `write_study(rows, study_dir)` writes `study.csv`,
+`study.md` (each quantity with its error bar, whether it agrees with the reference, and the
+cost) and `figures/<quantity>.png` (the quantity against each setting, reference band shaded).
+
+Agreement: |x - x_ref| <= 2 sqrt(err^2 + err_ref^2) (two combined standard errors, both from
+the blocking analysis of `cdshear analyze`). The scripts/accuracy_study.sh script runs such a
+study (docs/accuracy.md).
+"""
+import csv
+import json
+import math
+import os
+
+# (name in the tables, how to read value and error from summary.json)
+QUANTITIES = [
+    ("mu_eff_wall", lambda s: s["mu_eff_wall"]),
+    ("solid_fraction", lambda s: s["solid_fraction"]),
+    ("height", lambda s: s["height"]),
+    ("bulk_mu_eff", lambda s: s["bulk"]["mu_eff"]),
+    ("bulk_solid_fraction", lambda s: s["bulk"]["solid_fraction"]),
+    ("bulk_coordination", lambda s: s["bulk"]["coordination"]),
+    ("bulk_inertial_number", lambda s: s["bulk"]["inertial_number"]),
+    ("slip_bottom", lambda s: s["slip"]["bottom"]),
+    ("slip_top", lambda s: s["slip"]["top"]),
+]
+
+
+class StudyError(Exception):
+    def __init__(self, path, problem):
+        super().__init__(f"{path}: {problem}")
+        self.path = path
+        self.problem = problem
+
+
+def _read_json(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except FileNotFoundError:
+        raise StudyError(path, "missing (run `cdshear analyze` on the run first)") from None
+    except (OSError, ValueError) as e:
+        raise StudyError(path, f"cannot read: {e}") from None
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def read_run(run_dir, key, value):
+    """One row: the setting, each quantity's mean and error, the solver figures and the cost."""
+    summary = _read_json(os.path.join(run_dir, "summary.json"))
+    info = _read_json(os.path.join(run_dir, "run_info.json"))
+    row = {"key": key, "value": value, "run": os.path.basename(run_dir),
+           "steady": bool(summary.get("steady"))}
+    for name, get in QUANTITIES:
+        try:
+            entry = get(summary)
+            row[name] = float(entry["mean"])
+            row[name + "_err"] = float(entry["err"])
+        except (KeyError, TypeError, ValueError):
+            row[name] = math.nan
+            row[name + "_err"] = math.nan
+    com = summary.get("com_vx") or {}
+    row["com_vx_std"] = float(com.get("std", math.nan))
+    run_summary = info.get("summary", {})
+    steps = float(run_summary.get("steps", 0) or 0)
+    row["mean_sweeps"] = float(run_summary.get("mean_sweeps", math.nan))
+    row["capped_share"] = float(run_summary.get("capped_steps", 0)) / steps if steps else math.nan
+    row["largest_overlap"] = float(run_summary.get("largest_overlap", math.nan))
+    simulated = float(summary.get("case", {}).get("time", math.nan))
+    wall = float(run_summary.get("wall_seconds", math.nan))
+    row["wall_s_per_time"] = wall / simulated if simulated > 0 else math.nan
+    return row
+
+
+def collect(study_dir):
+    """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder."""
+    if not os.path.isdir(study_dir):
+        raise StudyError(study_dir, "not a folder")
+    rows = []
+    for name in sorted(os.listdir(study_dir)):
+        path = os.path.join(study_dir, name)
+        if not os.path.isdir(path) or name == "figures":
+            continue
+        if name == "reference":
+            rows.append(read_run(path, None, None))
+        elif "=" in name:
+            key, text = name.split("=", 1)
+            value = _number(text)
+            rows.append(read_run(path, key, value if value is not None else text))
+    if not any(r["key"] is None for r in rows):
+        raise StudyError(study_dir, "no `reference` run folder")
+    return rows
+
+
+def agrees(row, ref, name):
+    """True when the row's value is within two combined standard errors of the reference's."""
+    x, e, xr, er = row[name], row[name + "_err"], ref[name], ref[name + "_err"]
+    if any(math.isnan(v) for v in (x, e, xr, er)):
+        return None
+    return abs(x - xr) <= 2.0 * math.hypot(e, er)
+
+
+def _sort_key(row):
+    v = row["value"]
+    return (0, v, "") if isinstance(v, float) else (1, 0.0, str(v))
+
+
+def write_study(rows, study_dir):
+    """Writes study.csv, study.md and figures/; returns their paths."""
+    ref = next(r for r in rows if r["key"] is None)
+    columns = ["key", "value", "run", "steady"]
+    for name, _ in QUANTITIES:
+        columns += [name, name + "_err", name + "_agrees"]
+    columns += ["com_vx_std", "mean_sweeps", "capped_share", "largest_overlap", "wall_s_per_time"]
+    csv_path = os.path.join(study_dir, "study.csv")
+    with open(csv_path, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for r in rows:
+            out = dict(r)
+            for name, _ in QUANTITIES:
+                out[name + "_agrees"] = agrees(r, ref, name)
+            w.writerow({c: out.get(c) for c in columns})
+
+    md_path = os.path.join(study_dir, "study.md")
+    keys = sorted({r["key"] for r in rows if r["key"] is not None})
+    shown = ["mu_eff_wall", "solid_fraction", "bulk_mu_eff", "bulk_coordination", "slip_bottom"]
+    with open(md_path, "w", encoding="utf-8") as f:
+        head = " | ".join(shown)
+        f.write(f"| setting | {head} | sweeps | capped | s per t |\n")
+        f.write("|---" * (len(shown) + 4) + "|\n")
+        for r in [ref] + [r for k in keys for r in sorted(
+                (x for x in rows if x["key"] == k), key=_sort_key)]:
+            label = "reference" if r["key"] is None else f"{r['key']}={r['value']}"
+            cells = []
+            for name in shown:
+                ok = agrees(r, ref, name) if r is not ref else True
+                mark = "" if ok in (True, None) else " (differs)"
+                cells.append(f"{r[name]:.4f} ± {r[name + '_err']:.4f}{mark}")
+            f.write(f"| {label} | " + " | ".join(cells) +
+                    f" | {r['mean_sweeps']:.0f} | {100 * r['capped_share']:.0f}% |"
+                    f" {r['wall_s_per_time']:.2f} |\n")
+
+    fig_dir = os.path.join(study_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
+    figures = []
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    for name, _ in QUANTITIES:
+        if not keys:
+            break
+        fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.0), squeeze=False)
+        for ax, key in zip(axes[0], keys):
+            sel = sorted((r for r in rows if r["key"] == key), key=_sort_key)
+            numeric = all(isinstance(r["value"], float) for r in sel)
+            xs = [r["value"] if numeric else i for i, r in enumerate(sel)]
+            ax.errorbar(xs, [r[name] for r in sel], yerr=[r[name + "_err"] for r in sel],
+                        fmt="o", capsize=3)
+            lo, hi = ref[name] - ref[name + "_err"], ref[name] + ref[name + "_err"]
+            ax.axhspan(lo, hi, color="0.85", label="reference ± err")
+            if numeric and min(xs) > 0 and max(xs) / min(xs) > 20:
+                ax.set_xscale("log")
+            if not numeric:
+                ax.set_xticks(xs, [str(r["value"]) for r in sel])
+            ax.set_xlabel(key)
+            ax.set_ylabel(name)
+        fig.tight_layout()
+        path = os.path.join(fig_dir, f"{name}.png")
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        figures.append(path)
+    return [csv_path, md_path] + figures

@@ -1,0 +1,70 @@
+"""The parameter-study collector: rows from analysed runs, agreement with the reference."""
+import json
+import os
+import tempfile
+import unittest
+
+from cdshear_analysis import study
+from cdshear_analysis.__main__ import main
+
+
+def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0):
+    """A run folder with the parts of summary.json and run_info.json that a study reads."""
+    os.makedirs(folder)
+    entry = lambda m, e: {"mean": m, "err": e}  # noqa: E731
+    summary = {
+        "steady": True, "case": {"time": time},
+        "mu_eff_wall": entry(mu, mu_err), "solid_fraction": entry(0.8, 0.001),
+        "height": entry(20.0, 0.01),
+        "bulk": {"mu_eff": entry(mu, mu_err), "solid_fraction": entry(0.81, 0.001),
+                 "coordination": entry(1.6, 0.02), "inertial_number": entry(0.02, 0.002)},
+        "slip": {"bottom": entry(0.05, 0.005), "top": entry(0.05, 0.005)},
+        "com_vx": {"std": 0.02},
+    }
+    info = {"summary": {"steps": 1000, "mean_sweeps": sweeps, "capped_steps": 250,
+                        "largest_overlap": 1e-5, "wall_seconds": wall_seconds}}
+    with open(os.path.join(folder, "summary.json"), "w") as f:
+        json.dump(summary, f)
+    with open(os.path.join(folder, "run_info.json"), "w") as f:
+        json.dump(info, f)
+
+
+class StudyTest(unittest.TestCase):
+    def test_rows_agreement_and_outputs(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.260, 0.004, 900.0, 500.0)
+            fake_run(os.path.join(d, "solver.max_sweeps=50"), 0.300, 0.004, 50.0, 30.0)
+            fake_run(os.path.join(d, "solver.max_sweeps=200"), 0.265, 0.004, 180.0, 100.0)
+            fake_run(os.path.join(d, "solver.order=coloured"), 0.262, 0.004, 180.0, 100.0)
+            rows = study.collect(d)
+            self.assertEqual(len(rows), 4)
+            ref = next(r for r in rows if r["key"] is None)
+            by_value = {r["value"]: r for r in rows if r["key"] is not None}
+            # 0.300 is 0.040 away: more than 2 * sqrt(2) * 0.004 = 0.0113; 0.265 is within.
+            self.assertFalse(study.agrees(by_value[50.0], ref, "mu_eff_wall"))
+            self.assertTrue(study.agrees(by_value[200.0], ref, "mu_eff_wall"))
+            self.assertTrue(study.agrees(by_value["coloured"], ref, "mu_eff_wall"))
+            self.assertAlmostEqual(by_value[50.0]["wall_s_per_time"], 0.3)
+            self.assertAlmostEqual(by_value[50.0]["capped_share"], 0.25)
+            self.assertEqual(main(["study", d]), 0)
+            with open(os.path.join(d, "study.md")) as f:
+                text = f.read()
+            self.assertIn("solver.max_sweeps=50.0 | 0.3000 ± 0.0040 (differs)", text)
+            self.assertNotIn("solver.max_sweeps=200.0 | 0.2650 ± 0.0040 (differs)", text)
+            self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
+
+    def test_missing_reference_and_missing_summary_are_errors(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "step.dt=0.002"), 0.26, 0.004, 100.0, 10.0)
+            with self.assertRaises(study.StudyError) as e:
+                study.collect(d)
+            self.assertIn("reference", e.exception.problem)
+            os.makedirs(os.path.join(d, "reference"))
+            with self.assertRaises(study.StudyError) as e:
+                study.collect(d)
+            self.assertTrue(e.exception.path.endswith("summary.json"))
+            self.assertEqual(main(["study", d]), 2)
+
+
+if __name__ == "__main__":
+    unittest.main()
