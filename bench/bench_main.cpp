@@ -62,6 +62,7 @@ struct Settings {
   double width = 0.0;     // cell width; 0: 20 below 2000 disks, 50 above
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
   int threads = 1;
+  bool skip_dormant = false;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
 };
@@ -88,6 +89,7 @@ void usage() {
   --velocity V        shear wall speed (default 0.5)
   --order O           NLGS contact order: random (default), sequential or coloured
   --threads N         solver threads (default 1; used by the coloured order only)
+  --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
   --no-static         skip the static cases
   --no-shear          skip the shear cases
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
@@ -123,6 +125,8 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.order))
         throw std::invalid_argument("--order must be random, sequential or coloured");
+    } else if (a == "--skip-dormant") {
+      s.skip_dormant = true;
     } else if (a == "--threads") {
       s.threads = std::stoi(value());
       if (s.threads < 1) throw std::invalid_argument("--threads must be at least 1");
@@ -203,6 +207,7 @@ struct Measurement {
   cdshear::StageSeconds stages;
   double updates = 0.0;  // sum of sweeps x contacts
   double sum_sweeps = 0.0, sum_contacts = 0.0, sum_active = 0.0;
+  double sum_dormant = 0.0, sum_woken = 0.0;
   std::uint64_t capped = 0, displacement_warnings = 0;
   double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
@@ -238,6 +243,8 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.sum_sweeps += r.solver.sweeps;
     m.sum_contacts += static_cast<double>(r.contacts);
     m.sum_active += r.solver.active_contacts;
+    m.sum_dormant += static_cast<double>(r.solver.dormant_contacts);
+    m.sum_woken += static_cast<double>(r.solver.woken_contacts);
     m.capped += r.solver.hit_cap;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
@@ -268,7 +275,7 @@ const char* kHeader =
     "steps_per_cpu_s,ns_per_update,ns_per_update_best,ns_per_update_cpu,mean_sweeps,"
     "mean_contacts,mean_active,capped_share,share_detect,share_prepare,share_solve,"
     "share_integrate,share_measure,detect_ns_per_disk,solid_fraction,cpu_share,load_avg,compiler,"
-    "build,threads";
+    "build,threads,dormant_share,woken_per_step";
 
 /// A number with `decimals` digits after the point.
 std::string num(double x, int decimals) {
@@ -318,6 +325,8 @@ std::string csv_line(const std::string& date, const std::string& host, const std
       "\"" + compiler() + "\"",
       CDSHEAR_BUILD_TYPE,
       std::to_string(options.solver.threads),
+      num(m.sum_contacts > 0.0 ? m.sum_dormant / m.sum_contacts : 0.0, 3),
+      num(m.sum_woken / steps, 2),
   };
   std::string line;
   for (const std::string& f : fields) line += (line.empty() ? "" : ",") + f;
@@ -388,6 +397,7 @@ int run(const Settings& s) {
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
     options.solver.order = s.order;
     options.solver.threads = s.threads;
+    options.solver.skip_dormant = s.skip_dormant;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);

@@ -18,7 +18,17 @@ namespace {
 using testing::fixed_wall;
 using testing::free_y_wall;
 
-TEST(DensePacking, CompressedByAForceDrivenWall) {
+/// Solver variants that must all give the same mechanics (docs/performance.md).
+struct Variant {
+  const char* name;
+  ContactOrder order;
+  int threads;
+  bool skip_dormant;
+};
+
+class DensePacking : public ::testing::TestWithParam<Variant> {};
+
+TEST_P(DensePacking, CompressedByAForceDrivenWall) {
   const double width = 20.0, h0 = 14.0, force = 20.0, wall_mass = 5.0;
   SceneDefinition s;
   s.walls = {fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}),
@@ -39,6 +49,10 @@ TEST(DensePacking, CompressedByAForceDrivenWall) {
   // and up to ~800 (measured); with the default cap of 200, 88% of the last 200 steps of this
   // run stop at the cap (22% of all steps).
   o.solver.max_sweeps = 1000;
+  o.solver.order = GetParam().order;
+  o.solver.threads = GetParam().threads;
+  o.solver.min_rows_per_thread = 1;
+  o.solver.skip_dormant = GetParam().skip_dormant;
   testing::Simulation sim(s, o);
   ASSERT_EQ(sim.world.disks.size(), 200u);
 
@@ -90,7 +104,26 @@ TEST(DensePacking, CompressedByAForceDrivenWall) {
   // (measured 0.2-1%); required 3%, and a speed below 0.15.
   EXPECT_NEAR(mean_force.y, force, 0.03 * force);
   EXPECT_LT(std::abs(sim.world.walls[3].velocity.y), 0.15);
+  // With dormant contacts left out, some were left out and some woke up as the packing closed.
+  std::size_t dormant = 0, woken = 0;
+  for (const StepReport& rep : sim.reports) {
+    dormant += rep.solver.dormant_contacts;
+    woken += rep.solver.woken_contacts;
+  }
+  if (GetParam().skip_dormant) {
+    EXPECT_GT(dormant, 0u);
+    EXPECT_GT(woken, 0u);
+  } else {
+    EXPECT_EQ(dormant, 0u);
+  }
 }
+
+INSTANTIATE_TEST_SUITE_P(
+    Solvers, DensePacking,
+    ::testing::Values(Variant{"random", ContactOrder::kRandom, 1, false},
+                      Variant{"random_skip_dormant", ContactOrder::kRandom, 1, true},
+                      Variant{"coloured_2_threads_skip_dormant", ContactOrder::kColoured, 2, true}),
+    [](const ::testing::TestParamInfo<Variant>& info) { return std::string(info.param.name); });
 
 }  // namespace
 }  // namespace cdshear

@@ -214,13 +214,41 @@ void order_rows(std::vector<Contact>& contacts, const std::vector<SolverBody>& b
   if (boundaries > even) ws.phases.push_back({bands + even, serial});
 }
 
-/// Updates the rows of group g and stores its tally.
+/// Updates the awake rows of group g and stores its tally.
 void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies,
                  double alpha) {
   TallyAccumulator tally;
-  for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i)
-    update_row(ws.rows[i], bodies, alpha, tally);
+  for (const std::uint32_t i : ws.awake[g]) update_row(ws.rows[i], bodies, alpha, tally);
   ws.group_tallies[g] = tally.tally();
+}
+
+/// u_n + gap/dt of a row in the current velocities: >= 0 means it stays open at R = 0.
+inline double biased_normal_velocity(const SolverRow& r, const std::vector<SolverBody>& bodies) {
+  const SolverBody& a = bodies[r.body_a];
+  const SolverBody& b = bodies[r.body_b];
+  return (a.velocity.x - b.velocity.x) * r.normal.x + (a.velocity.y - b.velocity.y) * r.normal.y +
+         r.bias_n;
+}
+
+/// Sweeps between two looks at the dormant rows (nlgs_solver.hpp).
+constexpr int kDormantCheckInterval = 8;
+
+/// Wakes every dormant row that would now close (its update would give R > 0): it joins the end
+/// of its group's awake rows. Returns how many woke.
+std::size_t wake_closing_rows(SolverWorkspace& ws, const std::vector<SolverBody>& bodies) {
+  std::size_t woken = 0;
+  for (std::size_t k = 0; k < ws.dormant.size();) {
+    const auto [row, group] = ws.dormant[k];
+    if (biased_normal_velocity(ws.rows[row], bodies) < 0.0) {
+      ws.awake[group].push_back(row);
+      ws.dormant[k] = ws.dormant.back();
+      ws.dormant.pop_back();
+      ++woken;
+    } else {
+      ++k;
+    }
+  }
+  return woken;
 }
 
 }  // namespace
@@ -272,6 +300,24 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
   ws.group_tallies.resize(groups);
 
+  // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is applied.
+  // The sweeps leave them out; every kDormantCheckInterval sweeps, and before the sweeps stop,
+  // those that would now close are woken (nlgs_solver.hpp).
+  ws.awake.resize(groups);
+  ws.dormant.clear();
+  for (std::size_t g = 0; g < groups; ++g) {
+    ws.awake[g].clear();
+    for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+      const SolverRow& r = rows[i];
+      const bool open = r.impulse_n == 0.0 && r.impulse_t == 0.0;
+      if (options.skip_dormant && open && biased_normal_velocity(r, bodies) > 0.0)
+        ws.dormant.push_back({static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(g)});
+      else
+        ws.awake[g].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  report.dormant_contacts = ws.dormant.size();
+
   // Threads: only for the coloured order (the others are one serial group), and only with
   // enough rows to share. Their number does not change the result (order_rows).
   // More threads than processors would only wait for each other at every phase.
@@ -321,6 +367,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       }
       done = report.converged_fraction >= options.converged_fraction &&
              report.residual <= options.alpha;
+      if (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps) {
+        const std::size_t woken = wake_closing_rows(ws, bodies);
+        report.woken_contacts += woken;
+        done = done && woken == 0;
+      }
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
     }
     if (done) break;

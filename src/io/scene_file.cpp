@@ -18,6 +18,7 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       "order", std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
       contact_order_name(s.order));
   contact_order_from_name(order, s.order);
+  s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();
