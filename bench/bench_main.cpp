@@ -63,6 +63,7 @@ struct Settings {
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
   int threads = 1;
   bool skip_dormant = false;
+  int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
 };
@@ -90,6 +91,8 @@ void usage() {
   --order O           NLGS contact order: random (default), sequential or coloured
   --threads N         solver threads (default 1; used by the coloured order only)
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
+  --step-error N      after each case, N times: solve one step with the case's settings and
+                      again to round-off from the same state; print the force errors (stderr)
   --no-static         skip the static cases
   --no-shear          skip the shear cases
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
@@ -125,6 +128,8 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.order))
         throw std::invalid_argument("--order must be random, sequential or coloured");
+    } else if (a == "--step-error") {
+      s.step_error_samples = std::stoi(value());
     } else if (a == "--skip-dormant") {
       s.skip_dormant = true;
     } else if (a == "--threads") {
@@ -333,6 +338,61 @@ std::string csv_line(const std::string& date, const std::string& host, const std
   return line;
 }
 
+/// How far a step solved with `options` is from the same step solved to round-off (alpha 1e-20
+/// on every force-carrying contact, no practical cap), from the same state and warm start:
+/// `samples` times, `spacing` ordinary steps apart. Printed to stderr: the relative L2 error of
+/// all impulses, the largest error of one contact relative to the mean impulse, the relative
+/// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
+/// the sweeps of both solves. The world goes on with `options`.
+void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
+                int spacing) {
+  StepOptions tight = options;
+  tight.solver.alpha = 1e-20;
+  tight.solver.converged_fraction = 1.0;
+  tight.solver.max_sweeps = 200000;
+  tight.solver.skip_dormant = false;
+  std::vector<double> l2, wall;
+  std::fprintf(stderr,
+               "  step error (this step's settings against a solve to round-off):\n"
+               "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall\n");
+  for (int k = 0; k < samples; ++k) {
+    for (int j = 0; j < spacing; ++j) dynamics.step(world, options);
+    World w_ref = world;
+    ContactDynamics d_ref = dynamics;
+    World w_opt = world;
+    ContactDynamics d_opt = dynamics;
+    const StepReport r_opt = d_opt.step(w_opt, options);
+    const StepReport r_ref = d_ref.step(w_ref, tight);
+    const auto& a = d_opt.contacts();
+    const auto& b = d_ref.contacts();
+    double diff2 = 0.0, ref2 = 0.0, ref_sum = 0.0, worst = 0.0;
+    for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+      const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
+      diff2 += dn * dn + dt * dt;
+      ref2 += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
+      ref_sum += std::hypot(b[i].impulse_n, b[i].impulse_t);
+      worst = std::max(worst, std::hypot(dn, dt));
+    }
+    const double mean = ref_sum / static_cast<double>(std::max<std::size_t>(b.size(), 1));
+    const auto top = cdshear::kBoxTopWall;
+    const double wall_error = cdshear::length(w_opt.walls[top].contact_force -
+                                              w_ref.walls[top].contact_force) /
+                              cdshear::length(w_ref.walls[top].contact_force);
+    l2.push_back(std::sqrt(diff2 / ref2));
+    wall.push_back(wall_error);
+    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e\n", r_opt.solver.sweeps,
+                 r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual), l2.back(), worst / mean,
+                 wall_error);
+    dynamics.step(world, options);
+  }
+  std::sort(l2.begin(), l2.end());
+  std::sort(wall.begin(), wall.end());
+  if (!l2.empty())
+    std::fprintf(stderr, "    median impulse error %.2e (largest %.2e), median top-wall error "
+                 "%.2e (largest %.2e)\n",
+                 l2[l2.size() / 2], l2.back(), wall[wall.size() / 2], wall.back());
+}
+
 double solid_fraction(const World& world) {
   double area = 0.0;
   for (const double r : world.disks.radius) area += std::numbers::pi * r * r;
@@ -392,6 +452,8 @@ int run(const Settings& s) {
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
+      if (s.step_error_samples > 0)
+        step_error(box.world, box.dynamics, options, s.step_error_samples, 20);
     };
 
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
