@@ -77,6 +77,14 @@ expect_error "exceed the limit of 1e+07" "$exe" run -q --set measure.sample_inte
   --set shear.duration=1000
 expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
 expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
+expect_error "--threads: must be a whole number from 1 to 1024, got 0" "$exe" run -q --threads 0
+expect_error "--threads = abc" "$exe" run -q --threads abc
+expect_error "--threads: must be a whole number from 1 to 1024, got -2" "$exe" scene "$scene" --threads -2 -o never
+# A malformed command line is bad input: exit status 2, like every other.
+checks=$((checks + 1))
+"$exe" run -q --threads abc > /dev/null 2>&1
+rc=$?
+[[ $rc -eq 2 ]] || { echo "FAIL: --threads abc exited $rc, not 2"; fails=$((fails + 1)); }
 expect_error "unknown command 'frobnicate'" "$exe" frobnicate
 expect_error "already reached t = 0.2" "$exe" run -q --no-analyze --resume done
 [ -e runs ] && { echo "FAIL: a refused run left a folder behind: $(ls -R runs)"; fails=$((fails + 1)); }

@@ -33,8 +33,12 @@ int main(int argc, char** argv) {
   }
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return app.exit(e);  // a command's own exit status (3 blown up, 130 interrupted, ...)
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; a malformed command line is bad input like any other: 2.
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;
   } catch (const cdshear::ConfigError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
