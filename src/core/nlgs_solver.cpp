@@ -147,6 +147,10 @@ inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alp
   tally.add_lengths(change2, force2);
 }
 
+/// Markers of SolverWorkspace::wall_band: no contact yet, contacts in several bands.
+constexpr std::uint32_t kNoBand = 0xffffffffu;
+constexpr std::uint32_t kManyBands = 0xfffffffeu;
+
 /// Builds the rows' visit order, its groups and the parallel phases of a sweep (nlgs_solver.hpp).
 ///
 /// Coloured order: every disk has a band (SolverBody::band: slabs of height, fixed by the
@@ -156,8 +160,10 @@ inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alp
 ///   - the boundary between bands s and s + 1 when its disks are in neighbouring bands: the
 ///     boundaries s and s + 2 share no disk, so the even boundaries are solved at once (phase 2),
 ///     then the odd ones (phase 3);
-///   - the serial group otherwise (a wall contact: a wall touches many; or a contact spanning
-///     more than two bands), solved last by one thread.
+///   - a wall contact goes to the slab of its disk when all the contacts of that wall are in
+///     that one band (a wall is shared by all its contacts);
+///   - the serial group otherwise (a wall touching several bands, or a contact spanning more
+///     than two bands), solved last by one thread.
 /// Inside every group the seeded shuffle of the contacts is kept. Every row then sees the same
 /// velocities whatever the thread count, and the convergence sums are added group by group in
 /// group order: the result does not depend on the thread count.
@@ -185,9 +191,24 @@ void order_rows(std::vector<Contact>& contacts, const std::vector<SolverBody>& b
   const std::size_t boundaries = bands - 1;
   const std::size_t even = (boundaries + 1) / 2;
   const std::size_t serial = bands + boundaries;
+  // A wall whose contacts all have their disk in one band belongs to that band's slab (the
+  // bottom wall to the lowest slab, the top wall to the highest, in a shear cell): no other
+  // group touches it. A wall touching disks of several bands goes to the serial group.
+  const std::size_t walls = bodies.size() > first_wall ? bodies.size() - first_wall : 0;
+  ws.wall_band.assign(walls, kNoBand);
+  for (const Contact& c : contacts) {
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    if (b < first_wall) continue;
+    const std::uint32_t band = bodies[static_cast<std::size_t>(c.key.body_a)].band;
+    std::uint32_t& wb = ws.wall_band[b - first_wall];
+    wb = wb == kNoBand || wb == band ? band : kManyBands;
+  }
   const auto group_of = [&](const Contact& c) -> std::size_t {
     const auto b = static_cast<std::size_t>(c.key.body_b);
-    if (b >= first_wall) return serial;
+    if (b >= first_wall) {
+      const std::uint32_t band = ws.wall_band[b - first_wall];
+      return band < bands ? band : serial;
+    }
     const std::size_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
     const std::size_t band_b = bodies[b].band;
     if (band_a == band_b) return band_a;

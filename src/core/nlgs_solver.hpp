@@ -11,8 +11,9 @@
 //   - sequential: key order (disk a, then b, then image);
 //   - coloured:   the same shuffle, grouped by where the contacts are: the packing is cut into
 //                 slabs of height (bands); first the contacts inside each slab, all slabs at
-//                 once (no two share a disk), then those across every second slab boundary,
-//                 then across the others, then the wall contacts. The shuffled order is kept
+//                 once (no two share a disk; a wall whose contacts are all in one slab goes with
+//                 it), then those across every second slab boundary, then across the others,
+//                 then what is left (a wall touching several slabs) on one thread. The shuffled order is kept
 //                 inside a group. Groups of one phase are independent, so several threads solve
 //                 them at once, and the result is the same whatever the number of threads (the
 //                 convergence sums are added group by group, in order). Body velocities are
@@ -132,6 +133,7 @@ struct SolverWorkspace {
   std::vector<std::uint32_t> group_of;    ///< scratch of the group sort
   std::vector<std::size_t> next;          ///< scratch of the group sort
   std::vector<std::uint32_t> sorted;      ///< scratch of the group sort
+  std::vector<std::uint32_t> wall_band;   ///< band of every contact of each wall, if only one
 };
 
 /// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.
