@@ -9,6 +9,7 @@
 
 #include <cstdio>
 #include <numbers>
+#include <ostream>
 
 #include "test_support.hpp"
 
@@ -25,6 +26,8 @@ struct Variant {
   int threads;
   bool skip_dormant;
 };
+
+void PrintTo(const Variant& v, std::ostream* os) { *os << v.name; }
 
 class DensePacking : public ::testing::TestWithParam<Variant> {};
 
