@@ -27,8 +27,11 @@ def main(argv=None):
     if args.command == "study":
         from .study import StudyError, collect, write_study
         try:
-            for path in write_study(collect(args.study_dir), args.study_dir):
+            skipped = []
+            for path in write_study(collect(args.study_dir, skipped), args.study_dir):
                 print(path)
+            for name in skipped:
+                print(f"left out {name}: no summary.json yet")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2

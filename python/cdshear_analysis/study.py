@@ -81,14 +81,21 @@ def read_run(run_dir, key, value):
     return row
 
 
-def collect(study_dir):
-    """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder."""
+def collect(study_dir, skipped=None):
+    """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder. A run
+    folder without summary.json (still running, or not analysed) is left out and named in
+    `skipped` (a list, when given), so that a study can be tabulated while it runs."""
     if not os.path.isdir(study_dir):
         raise StudyError(study_dir, "not a folder")
     rows = []
     for name in sorted(os.listdir(study_dir)):
         path = os.path.join(study_dir, name)
         if not os.path.isdir(path) or name == "figures":
+            continue
+        if (name == "reference" or "=" in name) and \
+                not os.path.exists(os.path.join(path, "summary.json")):
+            if skipped is not None:
+                skipped.append(name)
             continue
         if name == "reference":
             rows.append(read_run(path, None, None))
@@ -97,7 +104,7 @@ def collect(study_dir):
             value = _number(text)
             rows.append(read_run(path, key, value if value is not None else text))
     if not any(r["key"] is None for r in rows):
-        raise StudyError(study_dir, "no `reference` run folder")
+        raise StudyError(study_dir, "no analysed `reference` run folder")
     return rows
 
 
@@ -107,6 +114,13 @@ def agrees(row, ref, name):
     if any(math.isnan(v) for v in (x, e, xr, er)):
         return None
     return abs(x - xr) <= 2.0 * math.hypot(e, er)
+
+
+def _text(value):
+    """A setting as it was written: 25, not 25.0; 1e-06 stays as Python prints it."""
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+        return str(int(value))
+    return str(value)
 
 
 def _sort_key(row):
@@ -140,7 +154,7 @@ def write_study(rows, study_dir):
         f.write("|---" * (len(shown) + 4) + "|\n")
         for r in [ref] + [r for k in keys for r in sorted(
                 (x for x in rows if x["key"] == k), key=_sort_key)]:
-            label = "reference" if r["key"] is None else f"{r['key']}={r['value']}"
+            label = "reference" if r["key"] is None else f"{r['key']}={_text(r['value'])}"
             cells = []
             for name in shown:
                 ok = agrees(r, ref, name) if r is not ref else True

@@ -49,17 +49,35 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(main(["study", d]), 0)
             with open(os.path.join(d, "study.md")) as f:
                 text = f.read()
-            self.assertIn("solver.max_sweeps=50.0 | 0.3000 ± 0.0040 (differs)", text)
-            self.assertNotIn("solver.max_sweeps=200.0 | 0.2650 ± 0.0040 (differs)", text)
+            self.assertIn("solver.max_sweeps=50 | 0.3000 ± 0.0040 (differs)", text)
+            self.assertIn("solver.max_sweeps=200 | 0.2650 ± 0.0040 |", text)
             self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
 
-    def test_missing_reference_and_missing_summary_are_errors(self):
+    def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "step.dt=0.002"), 0.26, 0.004, 100.0, 10.0)
             with self.assertRaises(study.StudyError) as e:
                 study.collect(d)
             self.assertIn("reference", e.exception.problem)
-            os.makedirs(os.path.join(d, "reference"))
+            os.makedirs(os.path.join(d, "reference"))  # still running: no summary.json
+            with self.assertRaises(study.StudyError) as e:
+                study.collect(d)
+            self.assertEqual(main(["study", d]), 2)
+            fake_run(os.path.join(d, "ref2"), 0.26, 0.004, 100.0, 10.0)
+            os.rename(os.path.join(d, "ref2"), os.path.join(d, "reference_done"))
+            os.rmdir(os.path.join(d, "reference"))
+            os.rename(os.path.join(d, "reference_done"), os.path.join(d, "reference"))
+            os.makedirs(os.path.join(d, "step.dt=0.004"))  # running
+            skipped = []
+            rows = study.collect(d, skipped)
+            self.assertEqual(len(rows), 2)
+            self.assertEqual(skipped, ["step.dt=0.004"])
+
+    def test_unreadable_summary_is_an_error_naming_the_file(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
+            with open(os.path.join(d, "reference", "summary.json"), "w") as f:
+                f.write("{not json")
             with self.assertRaises(study.StudyError) as e:
                 study.collect(d)
             self.assertTrue(e.exception.path.endswith("summary.json"))
