@@ -190,6 +190,9 @@ toml::table case_to_toml(const ShearCase& c) {
                              {"max_sweeps", s.max_sweeps},
                              {"order", contact_order_name(s.order)},
                              {"skip_dormant", s.skip_dormant},
+                             {"criterion", s.criterion == ConvergenceCriterion::kError
+                                               ? "error"
+                                               : "change"},
                              {"seed", static_cast<std::int64_t>(s.seed)}}},
       {"preparation",
        toml::table{{"initial_solid_fraction", p.initial_solid_fraction},

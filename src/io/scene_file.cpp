@@ -19,6 +19,11 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       contact_order_name(s.order));
   contact_order_from_name(order, s.order);
   s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
+  const bool error = s.criterion == ConvergenceCriterion::kError;
+  s.criterion = solver.choice("criterion", {"change", "error"}, error ? "error" : "change") ==
+                        "error"
+                    ? ConvergenceCriterion::kError
+                    : ConvergenceCriterion::kChange;
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();
