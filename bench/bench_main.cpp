@@ -63,6 +63,8 @@ struct Settings {
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
   int threads = 1;
   bool skip_dormant = false;
+  cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
+  int max_sweeps = 200;
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -91,6 +93,8 @@ void usage() {
   --order O           NLGS contact order: random (default), sequential or coloured
   --threads N         solver threads (default 1; used by the coloured order only)
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
+  --criterion C       convergence criterion: change (default) or error (solver.criterion)
+  --max-sweeps N      sweep cap (default 200)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the force errors (stderr)
   --no-static         skip the static cases
@@ -130,6 +134,15 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--order must be random, sequential or coloured");
     } else if (a == "--step-error") {
       s.step_error_samples = std::stoi(value());
+    } else if (a == "--criterion") {
+      const std::string c = value();
+      if (c != "change" && c != "error")
+        throw std::invalid_argument("--criterion must be change or error");
+      s.criterion = c == "error" ? cdshear::ConvergenceCriterion::kError
+                                 : cdshear::ConvergenceCriterion::kChange;
+    } else if (a == "--max-sweeps") {
+      s.max_sweeps = std::stoi(value());
+      if (s.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
     } else if (a == "--skip-dormant") {
       s.skip_dormant = true;
     } else if (a == "--threads") {
@@ -351,6 +364,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.converged_fraction = 1.0;
   tight.solver.max_sweeps = 200000;
   tight.solver.skip_dormant = false;
+  tight.solver.criterion = cdshear::ConvergenceCriterion::kChange;
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -460,6 +474,8 @@ int run(const Settings& s) {
     options.solver.order = s.order;
     options.solver.threads = s.threads;
     options.solver.skip_dormant = s.skip_dormant;
+    options.solver.criterion = s.criterion;
+    options.solver.max_sweeps = s.max_sweeps;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);
