@@ -446,12 +446,14 @@ int run_shear(const RunArgs& args) {
   if (const std::uint64_t every = steps_of(c.checkpoint_interval, dt); every > 0)
     observers.push_back({every, &checkpoint});
 
+  // Threads serve only the coloured order (docs/performance.md): say how many a step may use.
+  const int threads = c.step.solver.order == ContactOrder::kColoured ? c.step.solver.threads : 1;
   std::printf(
-      "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu "
-      "-> %s\n",
+      "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu, "
+      "%s order, up to %d thread%s -> %s\n",
       s.world.disks.size(), s.world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
       static_cast<unsigned long long>(s.world.step), static_cast<unsigned long long>(loop.end_step),
-      s.dir.c_str());
+      contact_order_name(c.step.solver.order), threads, threads == 1 ? "" : "s", s.dir.c_str());
   std::fflush(stdout);
   const RunSummary summary = run_until(s.world, s.dynamics, c.step, loop, observers);
 
@@ -475,7 +477,8 @@ int run_shear(const RunArgs& args) {
               {"packing", s.packing_used},
               {"dt", dt},
               {"seed", c.seed},
-              {"solver_seed", c.step.solver.seed}};
+              {"solver_seed", c.step.solver.seed},
+              {"solver_threads", threads}};
   end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
   const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;
