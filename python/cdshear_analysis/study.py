@@ -150,8 +150,8 @@ def write_study(rows, study_dir):
     shown = ["mu_eff_wall", "solid_fraction", "bulk_mu_eff", "bulk_coordination", "slip_bottom"]
     with open(md_path, "w", encoding="utf-8") as f:
         head = " | ".join(shown)
-        f.write(f"| setting | {head} | sweeps | capped | s per t |\n")
-        f.write("|---" * (len(shown) + 4) + "|\n")
+        f.write(f"| setting | steady | {head} | sweeps | capped | s per t |\n")
+        f.write("|---" * (len(shown) + 5) + "|\n")
         for r in [ref] + [r for k in keys for r in sorted(
                 (x for x in rows if x["key"] == k), key=_sort_key)]:
             label = "reference" if r["key"] is None else f"{r['key']}={_text(r['value'])}"
@@ -160,7 +160,8 @@ def write_study(rows, study_dir):
                 ok = agrees(r, ref, name) if r is not ref else True
                 mark = "" if ok in (True, None) else " (differs)"
                 cells.append(f"{r[name]:.4f} ± {r[name + '_err']:.4f}{mark}")
-            f.write(f"| {label} | " + " | ".join(cells) +
+            steady = "yes" if r["steady"] else "no"
+            f.write(f"| {label} | {steady} | " + " | ".join(cells) +
                     f" | {r['mean_sweeps']:.0f} | {100 * r['capped_share']:.0f}% |"
                     f" {r['wall_s_per_time']:.2f} |\n")
 

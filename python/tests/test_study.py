@@ -49,8 +49,8 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(main(["study", d]), 0)
             with open(os.path.join(d, "study.md")) as f:
                 text = f.read()
-            self.assertIn("solver.max_sweeps=50 | 0.3000 ± 0.0040 (differs)", text)
-            self.assertIn("solver.max_sweeps=200 | 0.2650 ± 0.0040 |", text)
+            self.assertIn("solver.max_sweeps=50 | yes | 0.3000 ± 0.0040 (differs)", text)
+            self.assertIn("solver.max_sweeps=200 | yes | 0.2650 ± 0.0040 |", text)
             self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
 
     def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
