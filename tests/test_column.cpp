@@ -30,11 +30,17 @@ struct ColumnRun {
   int capped = 0;
 };
 
-ColumnRun run_column(int n, const SolverOptions& solver, int steps, int checked_steps) {
+/// n disks of radius kR stacked on a floor under gravity, touching.
+SceneDefinition column_scene(int n) {
   SceneDefinition s;
   s.gravity = {0.0, -kG};
   s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
   for (int k = 0; k < n; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
+  return s;
+}
+
+ColumnRun run_column(int n, const SolverOptions& solver, int steps, int checked_steps) {
+  const SceneDefinition s = column_scene(n);
   StepOptions o;
   o.dt = kDt;
   o.solver = solver;
@@ -140,10 +146,7 @@ TEST(Column, SequentialOrderGivesTheSameStatics) {
 /// step solved with `solver` against the same step (same state and warm start) solved to
 /// round-off, over `samples` steps of a column of n disks stepped with `solver`.
 double step_error_against_round_off(int n, const SolverOptions& solver, int samples) {
-  SceneDefinition s;
-  s.gravity = {0.0, -kG};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
-  for (int k = 0; k < n; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
+  const SceneDefinition s = column_scene(n);
   StepOptions o;
   o.dt = kDt;
   o.solver = solver;

@@ -188,7 +188,7 @@ constexpr std::uint32_t kManyBands = 0xfffffffeu;
 /// Inside every group the seeded shuffle of the contacts is kept. Every row then sees the same
 /// velocities whatever the thread count, and the convergence sums are added group by group in
 /// group order: the result does not depend on the thread count.
-void order_rows(std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
+void order_rows(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
                 std::size_t first_wall, const SolverOptions& options, std::uint64_t step,
                 SolverWorkspace& ws) {
   const std::size_t nc = contacts.size();
