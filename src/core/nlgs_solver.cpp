@@ -22,12 +22,17 @@ namespace cdshear {
 namespace {
 
 /// Delassus entries of one contact: W = sum over its two bodies of H_body M_body^-1 H_body^T with
-/// H rows (n, lever) and (t, lever) in (translation, rotation) coordinates.
+/// H rows (n, lever) and (t, lever) in (translation, rotation) coordinates. With the inverse
+/// masses summed per axis, (m_x, m_y) = M_a^-1 + M_b^-1 (diagonal), and t = perp(n) = (-n_y, n_x):
+///   w_nn = m_x n_x^2 + m_y n_y^2,  w_tt = m_x n_y^2 + m_y n_x^2 + levers^2 / inertias,
+///   w_nt = m_x n_x t_x + m_y n_y t_y = (m_y - m_x) n_x n_y,
+/// so w_nt is exactly 0 whenever m_x = m_y (any two disks) or n is along an axis (a flat wall),
+/// and such rows take the decoupled update. (Computed as n.(M^-1 t), it was a rounding residue
+/// of order 1e-17 instead of 0, which sent most rows to the general local solve.)
 void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const SolverBody& b,
               double inv_dt) {
-  const Vec2 n = c.normal, t = c.tangent;
-  const Vec2 mn = hadamard(a.inv_mass, n) + hadamard(b.inv_mass, n);
-  const Vec2 mt = hadamard(a.inv_mass, t) + hadamard(b.inv_mass, t);
+  const Vec2 n = c.normal;
+  const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
   row.body_a = static_cast<std::uint32_t>(c.key.body_a);
   row.body_b = static_cast<std::uint32_t>(c.key.body_b);
   row.normal = n;
@@ -37,10 +42,10 @@ void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const Solve
   row.friction = c.friction;
   row.impulse_n = c.impulse_n;
   row.impulse_t = c.impulse_t;
-  row.w_nn = dot(n, mn);
-  row.w_nt = dot(n, mt);
-  row.w_tt =
-      dot(t, mt) + c.lever_a * c.lever_a * a.inv_inertia + c.lever_b * c.lever_b * b.inv_inertia;
+  row.w_nn = m_x * n.x * n.x + m_y * n.y * n.y;
+  row.w_nt = (m_y - m_x) * n.x * n.y;
+  row.w_tt = m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
+             c.lever_b * c.lever_b * b.inv_inertia;
   row.inv_w_nn = 1.0 / row.w_nn;
   row.inv_w_tt = 1.0 / row.w_tt;
 }
