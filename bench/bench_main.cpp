@@ -389,9 +389,9 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     }
     const double mean = ref_sum / static_cast<double>(std::max<std::size_t>(b.size(), 1));
     const auto top = cdshear::kBoxTopWall;
-    const double wall_error = cdshear::length(w_opt.walls[top].contact_force -
-                                              w_ref.walls[top].contact_force) /
-                              cdshear::length(w_ref.walls[top].contact_force);
+    const double wall_error =
+        cdshear::length(w_opt.walls[top].contact_force - w_ref.walls[top].contact_force) /
+        cdshear::length(w_ref.walls[top].contact_force);
     l2.push_back(std::sqrt(diff2 / ref2));
     wall.push_back(wall_error);
     std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e\n", r_opt.solver.sweeps,
@@ -402,7 +402,8 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());
   if (!l2.empty())
-    std::fprintf(stderr, "    median impulse error %.2e (largest %.2e), median top-wall error "
+    std::fprintf(stderr,
+                 "    median impulse error %.2e (largest %.2e), median top-wall error "
                  "%.2e (largest %.2e)\n",
                  l2[l2.size() / 2], l2.back(), wall[wall.size() / 2], wall.back());
 }

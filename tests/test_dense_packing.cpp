@@ -27,7 +27,9 @@ struct Variant {
   bool skip_dormant;
 };
 
-void PrintTo(const Variant& v, std::ostream* os) { *os << v.name; }
+void PrintTo(const Variant& v, std::ostream* os) {
+  *os << v.name;
+}
 
 class DensePacking : public ::testing::TestWithParam<Variant> {};
 

@@ -78,7 +78,7 @@ TEST(Determinism, ColouredOrderGivesTheSameStateOnAnyNumberOfThreads) {
   const std::uint64_t one = coloured_hash(1);
   EXPECT_EQ(coloured_hash(2), one);
   EXPECT_EQ(coloured_hash(3), one);  // 3 where the machine has 3 processors or more
-  EXPECT_NE(one, run_hash(1));  // and it is another order than the random one
+  EXPECT_NE(one, run_hash(1));       // and it is another order than the random one
 }
 
 TEST(Determinism, InterleavedRunsDoNotInfluenceEachOther) {

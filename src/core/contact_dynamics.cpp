@@ -124,8 +124,7 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.seconds.prepare = seconds_since(t0);
 
   // 3. solve
-  report.solver =
-      solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
+  report.solver = solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
   report.seconds.solve = seconds_since(t0);
 
   // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities)

@@ -52,8 +52,7 @@ void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const Solve
 
 /// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
 /// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
-inline void apply_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
-                          double dt) {
+inline void apply_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn, double dt) {
   const double px = dn * r.normal.x - dt * r.normal.y;
   const double py = dn * r.normal.y + dt * r.normal.x;
   a.velocity.x += a.inv_mass.x * px;
@@ -63,7 +62,6 @@ inline void apply_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, doub
   a.omega += a.inv_inertia * r.lever_a * dt;
   b.omega += b.inv_inertia * r.lever_b * dt;
 }
-
 
 /// Adds up a chunk's convergence figures (SPEC 3.5): counts, and the sums of |dR| and |R|. The
 /// two square roots of an update are taken together in one packed instruction where the machine
@@ -90,7 +88,9 @@ class TallyAccumulator {
     change_ += std::sqrt(change2);
     force_ += std::sqrt(force2);
   }
-  SweepTally tally() const { return {converged_, carrying_, change_, force_}; }
+  SweepTally tally() const {
+    return {converged_, carrying_, change_, force_};
+  }
 
  private:
   double change_ = 0.0, force_ = 0.0;
@@ -116,7 +116,8 @@ inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alp
   const double dvx = a.velocity.x - b.velocity.x;
   const double dvy = a.velocity.y - b.velocity.y;
   const double u_n = dvx * r.normal.x + dvy * r.normal.y;
-  const double u_t = dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega;
+  const double u_t =
+      dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega;
   // An open contact that stays open: R = 0 and the biased normal velocity is separating. The
   // update below would give R = 0 again, change nothing and count nothing; skip it. Half of the
   // candidates or more are in this case in a dense packing (gap below the margin, not touching).

@@ -13,21 +13,22 @@
 //                 slabs of height (bands); first the contacts inside each slab, all slabs at
 //                 once (no two share a disk; a wall whose contacts are all in one slab goes with
 //                 it), then those across every second slab boundary, then across the others,
-//                 then what is left (a wall touching several slabs) on one thread. The shuffled order is kept
-//                 inside a group. Groups of one phase are independent, so several threads solve
-//                 them at once, and the result is the same whatever the number of threads (the
-//                 convergence sums are added group by group, in order). Body velocities are
+//                 then what is left (a wall touching several slabs) on one thread. The shuffled
+//                 order is kept inside a group. Groups of one phase are independent, so several
+//                 threads solve them at once, and the result is the same whatever the number of
+//                 threads (the convergence sums are added group by group, in order). Body
+//                 velocities are
 // kept equal to free velocity + M^-1 H^T R at all times, so that a contact's free velocity is its
 // current relative velocity minus W times its current impulse: a contact update costs O(1).
 //
-// Dormant contacts (options.skip_dormant): a candidate that carries no impulse after the warm start and whose gap is
-// opening or closing too slowly to close within the step (u_n + gap/dt > 0) is left out of the
-// sweeps: its update would give R = 0 and change nothing. Every 8 sweeps, and whenever the sweeps
-// are about to stop (criterion met, or one sweep before the cap), the dormant contacts are looked
-// at again and those that would now close join their group's sweeps. In dense packings about half
-// of the candidates are dormant; the result is that of sweeping them all, unless a dormant
-// contact closes and opens again between two looks (then it is a Gauss-Seidel iterate of its
-// own, within the same tolerance).
+// Dormant contacts (options.skip_dormant): a candidate that carries no impulse after the warm start
+// and whose gap is opening or closing too slowly to close within the step (u_n + gap/dt > 0) is
+// left out of the sweeps: its update would give R = 0 and change nothing. Every 8 sweeps, and
+// whenever the sweeps are about to stop (criterion met, or one sweep before the cap), the dormant
+// contacts are looked at again and those that would now close join their group's sweeps. In dense
+// packings about half of the candidates are dormant; the result is that of sweeping them all,
+// unless a dormant contact closes and opens again between two looks (then it is a Gauss-Seidel
+// iterate of its own, within the same tolerance).
 //
 // Convergence (SPEC 3.5): after each sweep, with dR_k the change of contact k's impulse during
 // that sweep, stop when both
@@ -84,8 +85,8 @@ struct SolverOptions {
   double converged_fraction = 0.9;  ///< share of contacts that must meet the tolerance
   int max_sweeps = 200;             ///< cap on sweeps per step
   ContactOrder order = ContactOrder::kRandom;
-  std::uint64_t seed = 1;  ///< keys the random contact order
-  int threads = 1;         ///< threads for the coloured order (the others use one); >= 1
+  std::uint64_t seed = 1;     ///< keys the random contact order
+  int threads = 1;            ///< threads for the coloured order (the others use one); >= 1
   bool skip_dormant = false;  ///< leave dormant contacts out of the sweeps (see above)
   ConvergenceCriterion criterion = ConvergenceCriterion::kChange;
   /// Contacts per thread below which fewer threads are used (a barrier then costs more than the
@@ -96,14 +97,14 @@ struct SolverOptions {
 struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
-  double residual = 0.0;            ///< (sum |dR| / sum |R|)^2 of the last sweep
-  double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
-  int active_contacts = 0;          ///< contacts with R_n > 0 at the end
-  std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
-  double error_bound = 0.0;         ///< estimated relative error left after the last sweep
+  double residual = 0.0;             ///< (sum |dR| / sum |R|)^2 of the last sweep
+  double converged_fraction = 1.0;   ///< share of force-carrying contacts meeting it, last sweep
+  int active_contacts = 0;           ///< contacts with R_n > 0 at the end
+  std::size_t colours = 0;           ///< parallel phases of a coloured sweep (0 for the others)
+  double error_bound = 0.0;          ///< estimated relative error left after the last sweep
   std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
-  int threads = 1;                  ///< threads used
+  int threads = 1;                   ///< threads used
 };
 
 /// One contact as the sweeps see it: what an update reads and writes, compact (112 bytes) and
@@ -134,17 +135,17 @@ struct SweepTally {
 
 /// Reusable scratch memory, so that a step allocates nothing once warmed up.
 struct SolverWorkspace {
-  std::vector<std::uint32_t> order;       ///< row i solves contacts[order[i]]
+  std::vector<std::uint32_t> order;  ///< row i solves contacts[order[i]]
   std::vector<SolverRow> rows;
   std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
-  std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
+  std::vector<std::vector<std::uint32_t>> awake;                 ///< rows each group's sweeps visit
   std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
-  std::vector<std::uint32_t> group_of;    ///< scratch of the group sort
-  std::vector<std::size_t> next;          ///< scratch of the group sort
-  std::vector<std::uint32_t> sorted;      ///< scratch of the group sort
-  std::vector<std::uint32_t> wall_band;   ///< band of every contact of each wall, if only one
+  std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
+  std::vector<std::size_t> next;                                 ///< scratch of the group sort
+  std::vector<std::uint32_t> sorted;                             ///< scratch of the group sort
+  std::vector<std::uint32_t> wall_band;  ///< band of every contact of each wall, if only one
 };
 
 /// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.

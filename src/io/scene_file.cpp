@@ -15,15 +15,16 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
   if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
   s.max_sweeps = static_cast<int>(solver.integer_in("max_sweeps", 1, kMaxSweeps, s.max_sweeps));
   const std::string order = solver.choice(
-      "order", std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
+      "order",
+      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
       contact_order_name(s.order));
   contact_order_from_name(order, s.order);
   s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
   const bool error = s.criterion == ConvergenceCriterion::kError;
-  s.criterion = solver.choice("criterion", {"change", "error"}, error ? "error" : "change") ==
-                        "error"
-                    ? ConvergenceCriterion::kError
-                    : ConvergenceCriterion::kChange;
+  s.criterion =
+      solver.choice("criterion", {"change", "error"}, error ? "error" : "change") == "error"
+          ? ConvergenceCriterion::kError
+          : ConvergenceCriterion::kChange;
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();
