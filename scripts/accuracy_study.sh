@@ -56,8 +56,16 @@ done
 # Reference: no practical cap and a tight tolerance on every force-carrying contact.
 reference=(--set solver.max_sweeps=5000 --set solver.alpha=1e-9 --set solver.converged_fraction=1.0)
 
+# Every run of a study starts from the same packing: a given PACKING is copied into OUT_DIR once
+# (a test fixture or cache rebuilt meanwhile cannot change it under a running study); without
+# one, the first run prepares and caches it, and its copy is used from then on.
 packing_args=()
-[[ -n "${PACKING:-}" ]] && packing_args=(--packing "$PACKING")
+if [[ -f "$out/packing.json" ]]; then
+  packing_args=(--packing "$out/packing.json")
+elif [[ -n "${PACKING:-}" ]]; then
+  cp "$PACKING" "$out/packing.json"
+  packing_args=(--packing "$out/packing.json")
+fi
 
 run_one() {  # folder, then --set arguments
   local dir=$1
@@ -74,8 +82,12 @@ run_one() {  # folder, then --set arguments
   "$cdshear" analyze "$dir" >/dev/null
 }
 
-# The first run prepares and caches the packing; the others reuse it.
 run_one "$out/reference" "${reference[@]}"
+if [[ ${#packing_args[@]} -eq 0 ]]; then  # the reference prepared it: keep a copy
+  used=$(sed -n 's/^ *"packing": "\(.*\)",$/\1/p' "$out/reference/run_info.json")
+  cp "$used" "$out/packing.json"
+  packing_args=(--packing "$out/packing.json")
+fi
 pids=()
 for s in "${settings[@]}"; do
   name=${s//\"/}

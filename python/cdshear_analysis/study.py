@@ -176,19 +176,24 @@ def write_study(rows, study_dir):
             break
         fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.0), squeeze=False)
         for ax, key in zip(axes[0], keys):
-            sel = sorted((r for r in rows if r["key"] == key), key=_sort_key)
+            sel = sorted((r for r in rows if r["key"] == key and math.isfinite(r[name])),
+                         key=_sort_key)
+            ax.set_xlabel(key)
+            ax.set_ylabel(name)
+            if not sel:  # too short a run to measure it: an empty panel says so
+                ax.set_title("no values", fontsize=9)
+                continue
             numeric = all(isinstance(r["value"], float) for r in sel)
             xs = [r["value"] if numeric else i for i, r in enumerate(sel)]
             ax.errorbar(xs, [r[name] for r in sel], yerr=[r[name + "_err"] for r in sel],
                         fmt="o", capsize=3)
             lo, hi = ref[name] - ref[name + "_err"], ref[name] + ref[name + "_err"]
-            ax.axhspan(lo, hi, color="0.85", label="reference ± err")
+            if math.isfinite(lo) and math.isfinite(hi):
+                ax.axhspan(lo, hi, color="0.85", label="reference ± err")
             if numeric and min(xs) > 0 and max(xs) / min(xs) > 20:
                 ax.set_xscale("log")
             if not numeric:
                 ax.set_xticks(xs, [str(r["value"]) for r in sel])
-            ax.set_xlabel(key)
-            ax.set_ylabel(name)
         fig.tight_layout()
         path = os.path.join(fig_dir, f"{name}.png")
         fig.savefig(path, dpi=100)

@@ -73,6 +73,15 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(len(rows), 2)
             self.assertEqual(skipped, ["step.dt=0.004"])
 
+    def test_quantities_without_values_give_empty_panels(self):
+        # Runs too short to measure anything (NaN means) still give a table and figures.
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), float("nan"), float("nan"), 100.0, 10.0)
+            fake_run(os.path.join(d, "solver.order=coloured"), float("nan"), float("nan"),
+                     100.0, 10.0)
+            self.assertEqual(main(["study", d]), 0)
+            self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
+
     def test_unreadable_summary_is_an_error_naming_the_file(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
