@@ -194,6 +194,7 @@ def write_study(rows, study_dir):
                 ax.set_xscale("log")
             if not numeric:
                 ax.set_xticks(xs, [str(r["value"]) for r in sel])
+        fig.suptitle(f"{name} (mean ± standard error); grey: reference ± its error", fontsize=9)
         fig.tight_layout()
         path = os.path.join(fig_dir, f"{name}.png")
         fig.savefig(path, dpi=100)

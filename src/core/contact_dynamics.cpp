@@ -92,16 +92,19 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   bodies_.resize(n + world.walls.size());
   // Bands of height for the coloured order (nlgs_solver.hpp): four of the largest diameters, so
   // that a contact spans at most two bands. A property of the packing, not of the thread count.
-  constexpr double kMaxBand = 4095.0;
-  double y_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    y_min = std::min(y_min, d.position[i].y);
-    r_max = std::max(r_max, d.radius[i]);
-  }
-  const double band_height = 8.0 * r_max;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double band = (d.position[i].y - y_min) / band_height;
-    bodies_[i].band = band >= 0.0 ? static_cast<std::uint32_t>(std::min(band, kMaxBand)) : 0;
+  // The other orders do not read them.
+  if (options.solver.order == ContactOrder::kColoured) {
+    constexpr double kMaxBand = 4095.0;
+    double y_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      y_min = std::min(y_min, d.position[i].y);
+      r_max = std::max(r_max, d.radius[i]);
+    }
+    const double band_height = 8.0 * r_max;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double band = (d.position[i].y - y_min) / band_height;
+      bodies_[i].band = band >= 0.0 ? static_cast<std::uint32_t>(std::min(band, kMaxBand)) : 0;
+    }
   }
   for (std::size_t i = 0; i < n; ++i) {
     SolverBody& b = bodies_[i];

@@ -4,6 +4,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numeric>
 
@@ -306,7 +307,7 @@ const char* contact_order_name(ContactOrder order) {
 }
 
 bool contact_order_from_name(std::string_view name, ContactOrder& order) {
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < static_cast<int>(std::size(kContactOrderNames)); ++k) {
     if (name == kContactOrderNames[k]) {
       order = static_cast<ContactOrder>(k);
       return true;
