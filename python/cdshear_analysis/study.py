@@ -2,7 +2,9 @@
 
 A study folder holds one run folder per setting, named `KEY=VALUE` after the `--set` it was run
 with (`solver.max_sweeps=50`, `step.dt=0.002`), and one named `reference` (the tightest
-settings). Each must have been analysed (`summary.json`) and hold `run_info.json`.
+settings; more folders named `reference_<anything>` are further realizations of it, for example
+with another solver seed, and are combined with it). Each must have been analysed
+(`summary.json`) and hold `run_info.json` (and `run_info_resume_*.json` for each resumed part).
 `collect(study_dir)` reads them into rows; `write_study(rows, study_dir)` writes `study.csv`,
 `study.md` (each quantity with its error bar, whether it agrees with the reference, and the
 cost) and `figures/<quantity>.png` (the quantity against each setting, reference band shaded).
@@ -70,15 +72,72 @@ def read_run(run_dir, key, value):
             row[name + "_err"] = math.nan
     com = summary.get("com_vx") or {}
     row["com_vx_std"] = float(com.get("std", math.nan))
-    run_summary = info.get("summary", {})
-    steps = float(run_summary.get("steps", 0) or 0)
-    row["mean_sweeps"] = float(run_summary.get("mean_sweeps", math.nan))
-    row["capped_share"] = float(run_summary.get("capped_steps", 0)) / steps if steps else math.nan
-    row["largest_overlap"] = float(run_summary.get("largest_overlap", math.nan))
+    cost = run_cost(run_dir, info)
+    row["mean_sweeps"] = cost["mean_sweeps"]
+    row["capped_share"] = cost["capped_steps"] / cost["steps"] if cost["steps"] else math.nan
+    row["largest_overlap"] = cost["largest_overlap"]
     simulated = float(summary.get("case", {}).get("time", math.nan))
-    wall = float(run_summary.get("wall_seconds", math.nan))
-    row["wall_s_per_time"] = wall / simulated if simulated > 0 else math.nan
+    row["wall_s_per_time"] = cost["wall_seconds"] / simulated if simulated > 0 else math.nan
     return row
+
+
+def run_cost(run_dir, info=None):
+    """The solver figures and the wall time of a run over all its parts: the first
+    (`run_info.json`) and every resumed one (`run_info_resume_<step>.json`), each of which
+    reports only the steps it ran. Mean sweeps are weighted by steps."""
+    parts = [info if info is not None else _read_json(os.path.join(run_dir, "run_info.json"))]
+    for name in sorted(os.listdir(run_dir)):
+        if name.startswith("run_info_resume_") and name.endswith(".json"):
+            parts.append(_read_json(os.path.join(run_dir, name)))
+    steps = capped = sweeps = wall = 0.0
+    overlap = math.nan
+    for part in parts:
+        p = part.get("summary", {})
+        n = float(p.get("steps", 0) or 0)
+        steps += n
+        capped += float(p.get("capped_steps", 0) or 0)
+        sweeps += n * float(p.get("mean_sweeps", 0) or 0)
+        wall += float(p.get("wall_seconds", 0) or 0)
+        o = float(p.get("largest_overlap", math.nan))
+        overlap = o if math.isnan(overlap) else max(overlap, o)
+    return {"steps": steps, "capped_steps": capped, "wall_seconds": wall,
+            "mean_sweeps": sweeps / steps if steps else math.nan, "largest_overlap": overlap}
+
+
+def combine(rows):
+    """One row from independent realizations of the same setting: each quantity is the
+    inverse-variance weighted mean; its error is 1/sqrt(sum of weights) or, when larger, the
+    standard error of the realizations' scatter; steady only when every
+    realization is; the solver figures are weighted by each realization's share."""
+    if len(rows) == 1:
+        return rows[0]
+    out = dict(rows[0])
+    out["run"] = "+".join(r["run"] for r in rows)
+    out["steady"] = all(r["steady"] for r in rows)
+    out["realizations"] = len(rows)
+    for name, _ in QUANTITIES:
+        pairs = [(r[name], r[name + "_err"]) for r in rows
+                 if math.isfinite(r[name]) and math.isfinite(r[name + "_err"]) and
+                 r[name + "_err"] > 0]
+        if not pairs:
+            out[name] = out[name + "_err"] = math.nan
+            continue
+        weights = [1.0 / e ** 2 for _, e in pairs]
+        mean = sum(w * x for w, (x, _) in zip(weights, pairs)) / sum(weights)
+        err = 1.0 / math.sqrt(sum(weights))
+        if len(pairs) > 1:
+            # Short runs underestimate their own errors; the realizations' scatter (standard
+            # error of their plain mean) is a floor that does not depend on the blocking.
+            xs = [x for x, _ in pairs]
+            m = sum(xs) / len(xs)
+            scatter = math.sqrt(sum((x - m) ** 2 for x in xs) / (len(xs) - 1) / len(xs))
+            err = max(err, scatter)
+        out[name] = mean
+        out[name + "_err"] = err
+    for name in ("com_vx_std", "mean_sweeps", "capped_share", "wall_s_per_time"):
+        out[name] = sum(r[name] for r in rows) / len(rows)
+    out["largest_overlap"] = max(r["largest_overlap"] for r in rows)
+    return out
 
 
 def collect(study_dir, skipped=None):
@@ -88,24 +147,26 @@ def collect(study_dir, skipped=None):
     if not os.path.isdir(study_dir):
         raise StudyError(study_dir, "not a folder")
     rows = []
+    references = []
     for name in sorted(os.listdir(study_dir)):
         path = os.path.join(study_dir, name)
         if not os.path.isdir(path) or name == "figures":
             continue
-        if (name == "reference" or "=" in name) and \
+        is_reference = name == "reference" or name.startswith("reference_")
+        if (is_reference or "=" in name) and \
                 not os.path.exists(os.path.join(path, "summary.json")):
             if skipped is not None:
                 skipped.append(name)
             continue
-        if name == "reference":
-            rows.append(read_run(path, None, None))
+        if is_reference:
+            references.append(read_run(path, None, None))
         elif "=" in name:
             key, text = name.split("=", 1)
             value = _number(text)
             rows.append(read_run(path, key, value if value is not None else text))
-    if not any(r["key"] is None for r in rows):
+    if not references:
         raise StudyError(study_dir, "no analysed `reference` run folder")
-    return rows
+    return [combine(references)] + rows
 
 
 def agrees(row, ref, name):
@@ -131,7 +192,7 @@ def _sort_key(row):
 def write_study(rows, study_dir):
     """Writes study.csv, study.md and figures/; returns their paths."""
     ref = next(r for r in rows if r["key"] is None)
-    columns = ["key", "value", "run", "steady"]
+    columns = ["key", "value", "run", "realizations", "steady"]
     for name, _ in QUANTITIES:
         columns += [name, name + "_err", name + "_agrees"]
     columns += ["com_vx_std", "mean_sweeps", "capped_share", "largest_overlap", "wall_s_per_time"]
@@ -141,6 +202,7 @@ def write_study(rows, study_dir):
         w.writeheader()
         for r in rows:
             out = dict(r)
+            out.setdefault("realizations", 1)
             for name, _ in QUANTITIES:
                 out[name + "_agrees"] = agrees(r, ref, name)
             w.writerow({c: out.get(c) for c in columns})
@@ -154,7 +216,10 @@ def write_study(rows, study_dir):
         f.write("|---" * (len(shown) + 5) + "|\n")
         for r in [ref] + [r for k in keys for r in sorted(
                 (x for x in rows if x["key"] == k), key=_sort_key)]:
-            label = "reference" if r["key"] is None else f"{r['key']}={_text(r['value'])}"
+            label = f"{r['key']}={_text(r['value'])}"
+            if r["key"] is None:
+                n = r.get("realizations", 1)
+                label = "reference" if n == 1 else f"reference ({n} runs combined)"
             cells = []
             for name in shown:
                 ok = agrees(r, ref, name) if r is not ref else True

@@ -53,6 +53,40 @@ class StudyTest(unittest.TestCase):
             self.assertIn("solver.max_sweeps=200 | yes | 0.2650 ± 0.0040 |", text)
             self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
 
+    def test_resumed_parts_count_in_the_cost(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 50.0, time=300.0)
+            # A resumed part: 3000 more steps at 200 sweeps, 250 s, a larger overlap.
+            with open(os.path.join(d, "reference", "run_info_resume_1000.json"), "w") as f:
+                json.dump({"summary": {"steps": 3000, "mean_sweeps": 200.0, "capped_steps": 750,
+                                       "largest_overlap": 4e-5, "wall_seconds": 250.0}}, f)
+            ref = study.collect(d)[0]
+            self.assertAlmostEqual(ref["mean_sweeps"], (1000 * 100.0 + 3000 * 200.0) / 4000)
+            self.assertAlmostEqual(ref["capped_share"], 1000 / 4000)
+            self.assertAlmostEqual(ref["wall_s_per_time"], 300.0 / 300.0)
+            self.assertAlmostEqual(ref["largest_overlap"], 4e-5)
+
+    def test_reference_realizations_are_combined_by_their_errors(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.24, 0.004, 900.0, 500.0)
+            fake_run(os.path.join(d, "reference_seed2"), 0.27, 0.002, 900.0, 500.0)
+            fake_run(os.path.join(d, "solver.max_sweeps=50"), 0.25, 0.004, 50.0, 30.0)
+            rows = study.collect(d)
+            self.assertEqual(len(rows), 2)
+            ref = rows[0]
+            self.assertIsNone(ref["key"])
+            self.assertEqual(ref["realizations"], 2)
+            # weights 1/0.004^2 and 1/0.002^2 (1:4)
+            self.assertAlmostEqual(ref["mu_eff_wall"], (0.24 + 4 * 0.27) / 5)
+            # Their scatter (0.03 apart: standard error 0.015) exceeds the combined error
+            # 1/sqrt(1/0.004^2 + 1/0.002^2) = 0.0018 and sets the error...
+            self.assertAlmostEqual(ref["mu_eff_wall_err"], 0.015)
+            # ...while for the solid fraction (equal values) the combined error does.
+            self.assertAlmostEqual(ref["solid_fraction_err"], 0.001 / 2 ** 0.5)
+            self.assertEqual(main(["study", d]), 0)
+            with open(os.path.join(d, "study.md")) as f:
+                self.assertIn("| reference (2 runs combined) | yes |", f.read())
+
     def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "step.dt=0.002"), 0.26, 0.004, 100.0, 10.0)

@@ -15,6 +15,13 @@
 
 namespace cdshear {
 
+/// The shear phase's step options when the case sets none (solver.skip_dormant on).
+inline StepOptions shear_step_defaults() {
+  StepOptions o;
+  o.solver.skip_dormant = true;
+  return o;
+}
+
 struct ShearCase {
   // System (what the packing is made of).
   std::size_t n = 511;
@@ -34,7 +41,10 @@ struct ShearCase {
   std::optional<double> dt;             ///< explicit dt [t]
   double dt_max = 5e-3;                 ///< [t]
   double displacement_per_step = 2e-3;  ///< target wall displacement per step [d]
-  StepOptions step;                     ///< margin, bounds, solver; step.dt set by resolve_dt
+  /// Margin, bounds, solver; step.dt set by resolve_dt. The shear phase leaves dormant contacts
+  /// out of the sweeps: docs/accuracy.md measured the same steady averages as sweeping every
+  /// contact at 0.74 times the cost. The preparation (static packings, not measured) does not.
+  StepOptions step = shear_step_defaults();
 
   PreparationOptions preparation;  ///< n, height, diameters, seed copied from above
   std::string packing_file;        ///< packing to reuse; empty: cached by parameters
