@@ -255,10 +255,11 @@ def write_study(rows, study_dir):
             lo, hi = ref[name] - ref[name + "_err"], ref[name] + ref[name + "_err"]
             if math.isfinite(lo) and math.isfinite(hi):
                 ax.axhspan(lo, hi, color="0.85", label="reference ± err")
-            if numeric and min(xs) > 0 and max(xs) / min(xs) > 20:
+            if numeric and min(xs) > 0 and max(xs) / min(xs) >= 10:
                 ax.set_xscale("log")
             if not numeric:
-                ax.set_xticks(xs, [str(r["value"]) for r in sel])
+                ax.set_xticks(xs, [str(r["value"]) for r in sel], rotation=20, fontsize=7,
+                              ha="right")
         fig.suptitle(f"{name} (mean ± standard error); grey: reference ± its error", fontsize=9)
         fig.tight_layout()
         path = os.path.join(fig_dir, f"{name}.png")
