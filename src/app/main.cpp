@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <new>
 
 #include "analysis_command.hpp"
 #include "commands.hpp"
@@ -42,8 +43,18 @@ int main(int argc, char** argv) {
   } catch (const cdshear::ConfigError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr,
+                 "error: cdshear %s: out of memory (the limits on sizes are in "
+                 "docs/reliability.md); files already written are kept\n",
+                 argc > 1 ? argv[1] : "");
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    // Every reader turns its failures into ConfigError (file, key, problem); what reaches here
+    // is unexpected: say which command it stopped, and that it is ours to fix.
+    std::fprintf(stderr,
+                 "error: cdshear %s stopped by an unexpected error (please report it): %s\n",
+                 argc > 1 ? argv[1] : "", e.what());
     return 1;
   }
   return 0;
