@@ -5,6 +5,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -248,7 +249,9 @@ int run_sweep(const SweepArgs& args) {
           if (e.exit_code != 0)
             what +=
                 fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
-        } else if (after == RunState::kInterrupted && (e.exit_code == 130 || e.exit_code == 0)) {
+        } else if (after != RunState::kBlownUp &&
+                   (e.exit_code == 130 ||
+                    (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
           interrupted.push_back(j.name);
           what = "interrupted";
         } else {
