@@ -153,11 +153,12 @@ int run_sweep(const SweepArgs& args) {
         run_jobs(prepare_jobs, jobs, [&](const JobEnd& e, const JobProgress&) {
           const Job& j = prepare_jobs[e.job];
           if (!args.quiet || e.exit_code != 0)
-            std::printf(
-                "sweep: %s %s (%s)%s\n", j.name.c_str(),
-                e.exit_code == 0 ? "done" : fmt::format("failed, exit {}", e.exit_code).c_str(),
-                format_seconds(e.seconds).c_str(),
-                e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
+            std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
+                        e.exit_code == 0     ? "done"
+                        : e.exit_code == 130 ? "interrupted"
+                                             : fmt::format("failed, exit {}", e.exit_code).c_str(),
+                        format_seconds(e.seconds).c_str(),
+                        e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
           std::fflush(stdout);
         });
     if (res.interrupted) {
