@@ -35,4 +35,7 @@ void register_scene_command(CLI::App& app);
 /// `cdshear prepare ...` and `cdshear run ...` (shear cell)
 void register_shear_commands(CLI::App& app);
 
+/// `cdshear sweep CAMPAIGN.toml [-o DIR] [--jobs N] [--threads N] [-q] [--force]`
+void register_sweep_command(CLI::App& app);
+
 }  // namespace cdshear

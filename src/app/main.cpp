@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);
+  cdshear::register_sweep_command(app);
   cdshear::register_analysis_commands(app);
   // From the start, so that a signal during set-up still ends in a clean stop with a checkpoint.
   cdshear::install_stop_handlers();
@@ -26,8 +27,8 @@ int main(int argc, char** argv) {
     for (const CLI::App* sub : app.get_subcommands({})) known = known || sub->check_name(argv[1]);
     if (!known) {
       std::fprintf(stderr,
-                   "error: unknown command '%s'; the commands are scene, prepare, run, analyze, "
-                   "plot (cdshear --help)\n",
+                   "error: unknown command '%s'; the commands are scene, prepare, run, sweep, "
+                   "analyze, plot (cdshear --help)\n",
                    argv[1]);
       return 2;
     }

@@ -185,6 +185,24 @@ std::vector<double> TomlReader::number_array(const std::string& key) {
   return out;
 }
 
+std::vector<std::int64_t> TomlReader::integer_array(const std::string& key, std::int64_t lo,
+                                                    std::int64_t hi) {
+  const toml::node* n = lookup(key);
+  if (n == nullptr) fail(key, "is required");
+  const toml::array* a = n->as_array();
+  if (a == nullptr) fail(key, "must be an array of whole numbers, like [1, 2]");
+  std::vector<std::int64_t> out;
+  for (const toml::node& item : *a) {
+    if (!item.is_integer()) fail(key, "must be an array of whole numbers, like [1, 2]");
+    const std::int64_t v = *item.value<std::int64_t>();
+    if (v < lo || v > hi)
+      fail(key, "every entry must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
+                    ", got " + std::to_string(v));
+    out.push_back(v);
+  }
+  return out;
+}
+
 double TomlReader::positive(const std::string& key, std::optional<double> fallback) {
   const double v = number(key, fallback);
   if (!(v > 0.0)) fail(key, "must be > 0, got " + format_number(v));

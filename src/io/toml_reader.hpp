@@ -56,6 +56,8 @@ class TomlReader {
   double non_negative(const std::string& key, std::optional<double> fallback = std::nullopt);
   /// An array of numbers (integers accepted).
   std::vector<double> number_array(const std::string& key);
+  /// An array of integers, each in [lo, hi].
+  std::vector<std::int64_t> integer_array(const std::string& key, std::int64_t lo, std::int64_t hi);
   /// One of `choices`.
   std::string choice(const std::string& key, const std::vector<std::string>& choices,
                      std::optional<std::string> fallback = std::nullopt);

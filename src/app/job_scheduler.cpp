@@ -1,0 +1,133 @@
+// run_jobs: fork + exec, output to append-only log files, waitpid polling (a signal handler that
+// only sets a flag cannot interrupt a blocking wait reliably, so the loop polls every 50 ms).
+#include "job_scheduler.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+#include <thread>
+
+#include "run_loop.hpp"
+
+namespace cdshear {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Starts one job; returns its pid. Throws std::runtime_error if the log cannot be opened or
+/// fork fails (exec failures show in the log and as exit status 127).
+pid_t start_job(const Job& job) {
+  std::filesystem::create_directories(job.log.parent_path());
+  const int fd = ::open(job.log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd < 0)
+    throw std::runtime_error("cannot open log file " + job.log.string() + ": " +
+                             std::strerror(errno));
+  std::string header = "==== cdshear sweep starts:";
+  for (const std::string& a : job.argv) header += " " + a;
+  header += "\n";
+  if (::write(fd, header.data(), header.size()) < 0) { /* the log is best effort */
+  }
+  std::vector<char*> argv;
+  for (const std::string& a : job.argv) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    ::close(fd);
+    throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
+  }
+  if (pid == 0) {  // child: only async-signal-safe calls until exec
+    const int null = ::open("/dev/null", O_RDONLY);
+    if (null >= 0) ::dup2(null, STDIN_FILENO);
+    ::dup2(fd, STDOUT_FILENO);
+    ::dup2(fd, STDERR_FILENO);
+    ::signal(SIGINT, SIG_DFL);  // until the child installs its own handlers
+    ::signal(SIGTERM, SIG_DFL);
+    ::execv(argv[0], argv.data());
+    const char msg[] = "cdshear sweep: exec failed\n";
+    if (::write(STDERR_FILENO, msg, sizeof msg - 1) < 0) {
+    }
+    ::_exit(127);
+  }
+  ::close(fd);
+  return pid;
+}
+
+int exit_code_of(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return 1;
+}
+
+}  // namespace
+
+ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
+                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end) {
+  std::vector<std::size_t> order(jobs.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return jobs[a].cost > jobs[b].cost; });
+  struct Running {
+    std::size_t job;
+    Clock::time_point start;
+  };
+  std::map<pid_t, Running> running;
+  ScheduleResult result;
+  std::size_t next = 0;
+  bool forwarded = false;
+  const std::size_t limit = static_cast<std::size_t>(std::max(1, max_parallel));
+  while (next < order.size() || !running.empty()) {
+    if (g_stop_requested.load()) {
+      result.interrupted = true;
+      if (!forwarded) {
+        for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
+        forwarded = true;
+      }
+    }
+    while (!result.interrupted && next < order.size() && running.size() < limit) {
+      const std::size_t j = order[next++];
+      running[start_job(jobs[j])] = {j, Clock::now()};
+    }
+    if (running.empty()) break;
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    if (pid > 0) {
+      const auto it = running.find(pid);
+      if (it == running.end()) continue;  // not one of ours
+      JobEnd end;
+      end.job = it->second.job;
+      end.exit_code = exit_code_of(status);
+      end.seconds = std::chrono::duration<double>(Clock::now() - it->second.start).count();
+      running.erase(it);
+      result.ends.push_back(end);
+      if (on_end) {
+        JobProgress progress{result.ends.size(),
+                             running.size(),
+                             result.interrupted ? 0 : order.size() - next,
+                             {},
+                             {}};
+        const auto now = Clock::now();
+        for (const auto& [p, r] : running)
+          progress.running_jobs.emplace_back(r.job,
+                                             std::chrono::duration<double>(now - r.start).count());
+        if (!result.interrupted)
+          for (std::size_t k = next; k < order.size(); ++k)
+            progress.waiting_jobs.push_back(order[k]);
+        on_end(end, progress);
+      }
+      continue;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  for (; next < order.size(); ++next) result.never.push_back(order[next]);
+  return result;
+}
+
+}  // namespace cdshear

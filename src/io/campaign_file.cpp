@@ -1,0 +1,312 @@
+// Campaign files: reading, resolving every run (through the same case loader as `cdshear run`,
+// so a bad [set] key is refused before anything runs), writing back, fingerprint and diff.
+#include "campaign_file.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "case_file.hpp"
+#include "config_error.hpp"
+#include "shear_case.hpp"
+#include "toml_reader.hpp"
+
+namespace cdshear {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Case keys the campaign sets itself for every run: [set] may not override them.
+const std::map<std::string, std::string> kOwnedKeys = {
+    {"shear.velocity", "give the velocities in [campaign] velocities or velocity_range"},
+    {"system.seed", "give the seeds in [campaign] seeds"},
+    {"shear.duration", "give [campaign] duration (time units) or strain"},
+    {"measure.boundary_thickness", "give [campaign] boundary_thickness"},
+    {"preparation.packing", "give [campaign.packing] per system"}};
+
+/// A TOML value as the text of its right-hand side (`0.5`, `'random'`, `[5.0, 10.0]`).
+std::string value_text(const toml::node& node) {
+  toml::table t;
+  t.insert("v", node);
+  std::ostringstream out;
+  out << toml::toml_formatter{t, toml::format_flags::none};
+  std::string text = out.str();
+  const auto eq = text.find(" = ");
+  text = eq == std::string::npos ? text : text.substr(eq + 3);
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return text;
+}
+
+/// Every leaf of a table as (dotted key, value text), in key order.
+void flatten(const toml::table& t, const std::string& prefix,
+             std::map<std::string, std::string>& out) {
+  for (const auto& [k, v] : t) {
+    const std::string key =
+        prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    if (const toml::table* sub = v.as_table())
+      flatten(*sub, key, out);
+    else
+      out[key] = value_text(v);
+  }
+}
+
+/// The problem part of a ConfigError's message (without "file: key 'k': ").
+std::string problem_of(const ConfigError& e) {
+  std::string prefix = e.file() + (e.key().empty() ? "" : ": key '" + e.key() + "'") + ": ";
+  const std::string what = e.what();
+  return what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what;
+}
+
+/// Velocities of a range, rounded to 6 significant digits (the precision of the run names).
+std::vector<double> velocity_range(TomlReader& r) {
+  const double from = r.positive("from");
+  const double to = r.positive("to");
+  const auto count = static_cast<int>(r.integer_in("count", 1, 10000));
+  const std::string spacing = r.choice("spacing", {"log", "linear"}, "log");
+  r.finish();
+  if (count > 1 && !(to > from)) r.fail("to", "must be above 'from' when count > 1");
+  if (count == 1 && to != from) r.fail("count", "is 1: then 'from' and 'to' must be equal");
+  std::vector<double> v;
+  for (int k = 0; k < count; ++k) {
+    const double f = count == 1 ? 0.0 : static_cast<double>(k) / (count - 1);
+    const double x = spacing == "log" ? from * std::pow(to / from, f) : from + f * (to - from);
+    v.push_back(std::stod(fmt::format("{:.6g}", x)));
+  }
+  v.front() = from;  // exactly as written
+  v.back() = to;
+  return v;
+}
+
+}  // namespace
+
+std::string campaign_run_name(int system, std::uint64_t seed, double velocity) {
+  return fmt::format("s{}_seed{}_V{}", system, seed, format_number(velocity));
+}
+
+Campaign read_campaign(const std::string& path) {
+  const toml::table table = parse_toml_file(path);
+  const fs::path dir = fs::absolute(fs::path(path)).parent_path();
+  return campaign_from_toml(table, path, dir.string());
+}
+
+Campaign campaign_from_toml(const toml::table& table, const std::string& file,
+                            const std::string& base_dir) {
+  Campaign c;
+  c.file = file;
+  TomlReader root(table, file);
+  if (!root.has("campaign")) root.fail("campaign", "is required (a [campaign] table)");
+  TomlReader t = root.table("campaign");
+
+  c.name = t.string("name");
+  if (c.name.empty() || c.name == "." || c.name == ".." ||
+      c.name.find_first_not_of(
+          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos)
+    t.fail("name", "must be a folder name: letters, digits, '.', '_', '-', got '" + c.name + "'");
+
+  for (const std::int64_t k : t.integer_array("systems", std::numeric_limits<int>::min(),
+                                              std::numeric_limits<int>::max())) {
+    if (k < 1 || k > 7)
+      t.fail("systems",
+             "system " + std::to_string(k) + " is unknown: the systems of SPEC 6 are 1..7");
+    c.systems.push_back(static_cast<int>(k));
+  }
+  if (c.systems.empty()) t.fail("systems", "is empty: name at least one system");
+  for (std::size_t i = 0; i < c.systems.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.systems[i] == c.systems[j])
+        t.fail("systems", "lists system " + std::to_string(c.systems[i]) + " twice");
+
+  const bool has_list = t.has("velocities"), has_range = t.has("velocity_range");
+  if (has_list && has_range)
+    t.fail("velocity_range", "give either velocities or velocity_range, not both");
+  if (!has_list && !has_range)
+    t.fail("velocities", "is required (or a [campaign.velocity_range] table)");
+  if (has_list) {
+    c.velocities = t.number_array("velocities");
+    if (c.velocities.empty()) t.fail("velocities", "is empty: give at least one V");
+    for (const double v : c.velocities)
+      if (!(v > 0.0) || !std::isfinite(v))
+        t.fail("velocities", "every V must be a finite number > 0, got " + format_number(v));
+  } else {
+    TomlReader r = t.table("velocity_range");
+    c.velocities = velocity_range(r);
+  }
+  for (std::size_t i = 0; i < c.velocities.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (format_number(c.velocities[i]) == format_number(c.velocities[j]))
+        t.fail(has_list ? "velocities" : "velocity_range",
+               "gives V = " + format_number(c.velocities[i]) +
+                   " twice (the same run twice; V is told apart to 6 significant digits)");
+
+  if (t.has("seeds")) {
+    for (const std::int64_t s :
+         t.integer_array("seeds", 0, std::numeric_limits<std::int64_t>::max()))
+      c.seeds.push_back(static_cast<std::uint64_t>(s));
+    if (c.seeds.empty()) t.fail("seeds", "is empty: give at least one seed (default [1])");
+  } else {
+    c.seeds = {1};
+  }
+  for (std::size_t i = 0; i < c.seeds.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.seeds[i] == c.seeds[j])
+        t.fail("seeds",
+               "lists seed " + std::to_string(c.seeds[i]) + " twice (the same runs twice)");
+
+  const bool has_duration = t.has("duration"), has_strain = t.has("strain");
+  if (has_duration && has_strain)
+    t.fail("strain", "give either duration (time units) or strain, not both");
+  if (!has_duration && !has_strain)
+    t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
+  if (has_duration) c.duration = t.positive("duration");
+  if (has_strain) c.strain = t.positive("strain");
+
+  if (t.has("boundary_thickness")) {
+    c.boundary_thickness = t.number_array("boundary_thickness");
+    if (c.boundary_thickness.empty()) t.fail("boundary_thickness", "must list at least one h");
+    for (const double h : c.boundary_thickness)
+      if (!(h > 0.0) || !std::isfinite(h))
+        t.fail("boundary_thickness",
+               "every h must be a finite number > 0, got " + format_number(h));
+  }
+  c.analyze = t.boolean("analyze", true);
+
+  TomlReader packings = t.table("packing");
+  for (const int k : c.systems) {
+    const std::string key = std::to_string(k);
+    if (!packings.has(key)) continue;
+    std::string p = packings.string(key);
+    if (p.empty()) packings.fail(key, "is empty: give a packing file, or leave the key out");
+    fs::path abs = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
+    abs = abs.lexically_normal();
+    if (!fs::is_regular_file(abs)) packings.fail(key, "no packing file at " + abs.string());
+    if (c.seeds.size() > 1)
+      packings.fail(key, "a given packing serves one seed, the campaign lists " +
+                             std::to_string(c.seeds.size()));
+    c.packings[k] = abs.string();
+  }
+  packings.finish();  // a packing for a system not in the campaign is refused here
+  t.finish();
+
+  // [set]: case overrides for every run.
+  std::map<std::string, std::string> set_items;
+  if (const toml::node* set = table.get("set")) {
+    if (!set->is_table()) root.fail("set", "must be a table of case keys: [set]");
+    flatten(*set->as_table(), "", set_items);
+  }
+  TomlReader unused_set = root.table("set");  // marks [set] as read for root.finish()
+  (void)unused_set;
+  for (const auto& [key, value] : set_items) {
+    if (const auto it = kOwnedKeys.find(key); it != kOwnedKeys.end())
+      throw ConfigError(file, "set." + key, "is set by the campaign: " + it->second);
+    c.overrides.push_back(key + "=" + value);
+  }
+  root.finish();
+
+  // Every run, resolved by the case loader of `cdshear run`.
+  for (const int system : c.systems)
+    for (const std::uint64_t seed : c.seeds)
+      for (const double v : c.velocities) {
+        CampaignRun run;
+        run.name = campaign_run_name(system, seed, v);
+        run.system = system;
+        run.velocity = v;
+        run.seed = seed;
+        CaseSource src;
+        src.system = system;
+        src.velocity = v;
+        src.overrides = c.overrides;
+        src.overrides.push_back("system.seed=" + std::to_string(seed));
+        ShearCase sc;
+        try {
+          sc = load_case(src);
+        } catch (const ConfigError& e) {
+          const std::string key = e.key().empty() ? std::string("set") : "set." + e.key();
+          throw ConfigError(file, key, problem_of(e) + " (run " + run.name + ")");
+        }
+        run.n = sc.n;
+        run.height = sc.height;
+        run.duration = c.duration ? *c.duration : *c.strain * sc.height / (2.0 * v);
+        sc.duration = run.duration;
+        resolve_time_step(sc);
+        run.dt = sc.step.dt;
+        const double steps = run.duration / run.dt;
+        if (!(steps >= 0.5))
+          t.fail(
+              c.duration ? "duration" : "strain",
+              fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
+                          run.name, run.duration, run.dt));
+        c.runs.push_back(run);
+      }
+  return c;
+}
+
+toml::table campaign_to_toml(const Campaign& c) {
+  toml::array systems, velocities, seeds, boundary;
+  for (const int k : c.systems) systems.push_back(k);
+  for (const double v : c.velocities) velocities.push_back(v);
+  for (const std::uint64_t s : c.seeds) seeds.push_back(static_cast<std::int64_t>(s));
+  for (const double h : c.boundary_thickness) boundary.push_back(h);
+  toml::table campaign{{"name", c.name},
+                       {"systems", systems},
+                       {"velocities", velocities},
+                       {"seeds", seeds},
+                       {"analyze", c.analyze}};
+  if (c.duration) campaign.insert("duration", *c.duration);
+  if (c.strain) campaign.insert("strain", *c.strain);
+  if (!c.boundary_thickness.empty()) campaign.insert("boundary_thickness", boundary);
+  if (!c.packings.empty()) {
+    toml::table packing;
+    for (const auto& [k, p] : c.packings) packing.insert(std::to_string(k), p);
+    campaign.insert("packing", packing);
+  }
+  toml::table set;
+  apply_overrides(set, c.overrides);
+  return toml::table{{"campaign", campaign}, {"set", set}};
+}
+
+std::string campaign_fingerprint(const toml::table& resolved) {
+  std::ostringstream text;
+  text << resolved;
+  std::uint64_t h = 14695981039346656037ull;  // FNV-1a 64
+  for (const unsigned char ch : text.str()) {
+    h ^= ch;
+    h *= 1099511628211ull;
+  }
+  return fmt::format("{:016x}", h);
+}
+
+std::string campaign_file_text(const Campaign& c) {
+  const toml::table t = campaign_to_toml(c);
+  std::ostringstream text;
+  text << "# Resolved campaign written by cdshear " CDSHEAR_VERSION " sweep; fingerprint "
+       << campaign_fingerprint(t) << ".\n"
+       << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
+       << t << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
+  for (const CampaignRun& r : c.runs)
+    text << fmt::format("#   {}  duration {}  dt {}  cost {:.3g}\n", r.name, r.duration, r.dt,
+                        r.cost());
+  return text.str();
+}
+
+std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after) {
+  std::map<std::string, std::string> a, b;
+  flatten(before, "", a);
+  flatten(after, "", b);
+  std::set<std::string> keys;
+  for (const auto& [k, v] : a) keys.insert(k);
+  for (const auto& [k, v] : b) keys.insert(k);
+  std::vector<std::string> out;
+  for (const std::string& k : keys) {
+    const auto ia = a.find(k), ib = b.find(k);
+    const std::string va = ia == a.end() ? "(absent)" : ia->second;
+    const std::string vb = ib == b.end() ? "(absent)" : ib->second;
+    if (va != vb) out.push_back(k + ": " + va + " -> " + vb);
+  }
+  return out;
+}
+
+}  // namespace cdshear

@@ -1,0 +1,74 @@
+// Campaign files (TOML) -> Campaign: the runs of a `cdshear sweep` (systems x velocities x
+// seeds, one duration or strain, shared case overrides), resolved and checked before anything
+// runs. Schema: docs/campaigns.md.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <toml++/toml.h>
+
+namespace cdshear {
+
+/// One shear run of a campaign, fully resolved.
+struct CampaignRun {
+  std::string name;        ///< folder name: s<system>_seed<seed>_V<V>
+  int system = 1;          ///< SPEC 6 preset, 1..7
+  double velocity = 0.0;   ///< V [d/t]
+  std::uint64_t seed = 1;  ///< packing placement seed (case key system.seed)
+  double duration = 0.0;   ///< simulated shear time [t] (from `duration`, or from `strain`)
+  double dt = 0.0;         ///< the run's resolved time step [t]
+  std::size_t n = 0;       ///< disks
+  double height = 0.0;     ///< nominal L_y [d]
+  /// Estimated cost: n x duration / dt [disk steps]; the sweep starts the costliest first.
+  double cost() const { return static_cast<double>(n) * duration / dt; }
+};
+
+struct Campaign {
+  std::string file;  ///< where it was read from (for messages)
+  std::string name;  ///< [campaign] name: default folder campaigns/<name>
+  std::vector<int> systems;
+  std::vector<double> velocities;  ///< every V [d/t], in the order given (a range expanded)
+  std::vector<std::uint64_t> seeds;
+  std::optional<double> duration;  ///< [t], the same for every run; or
+  std::optional<double> strain;    ///< total shear strain 2 V t / L_y, per run t = strain L_y / 2V
+  std::vector<double> boundary_thickness;  ///< measure.boundary_thickness [d]; empty: the case's
+  bool analyze = true;                     ///< each run ends with analyze + plot
+  std::map<int, std::string> packings;     ///< system -> given packing file (absolute path)
+  /// [set]: case-key overrides "key=value" (value as TOML), applied to every run like --set.
+  std::vector<std::string> overrides;
+  std::vector<CampaignRun> runs;  ///< systems x seeds x velocities, in that nesting order
+};
+
+/// Reads and resolves a campaign file. Throws ConfigError naming the file, the key and the
+/// problem (unknown key, unknown system, empty or bad velocities, duplicate runs, both or
+/// neither of duration/strain, a [set] key the case refuses, ...).
+Campaign read_campaign(const std::string& path);
+
+/// The same from a parsed table; `file` names it in errors, `base_dir` anchors relative packing
+/// paths.
+Campaign campaign_from_toml(const toml::table& table, const std::string& file,
+                            const std::string& base_dir);
+
+/// The resolved campaign as TOML: a campaign file itself (velocities expanded, packing paths
+/// absolute); reading it back gives the same campaign.
+toml::table campaign_to_toml(const Campaign& c);
+
+/// What `DIR/campaign.toml` holds: a header with the fingerprint, campaign_to_toml, and every run
+/// (name, duration, dt, cost) as comment lines.
+std::string campaign_file_text(const Campaign& c);
+
+/// A short fingerprint (16 hex digits, FNV-1a 64) of the resolved campaign's TOML text.
+std::string campaign_fingerprint(const toml::table& resolved);
+
+/// The keys (dotted) whose values differ between two resolved campaigns, as
+/// "key: OLD -> NEW" lines; empty when they are the same.
+std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after);
+
+/// The folder name of a run: s<system>_seed<seed>_V<V> (V with 6 significant digits).
+std::string campaign_run_name(int system, std::uint64_t seed, double velocity);
+
+}  // namespace cdshear

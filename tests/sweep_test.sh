@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# `cdshear sweep` end to end on a tiny campaign of system 1 (the fixture's packing, no
+# measurement, a few time units per run): every run finishes from one packing; a second sweep
+# redoes nothing; a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
+# untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
+# finishes all; a changed campaign for the same folder is refused.
+# Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
+set -euo pipefail
+exe=$1; packing=$2; work=$3
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fail() { echo "FAIL: $*"; exit 1; }
+
+campaign() {  # campaign NAME VELOCITIES
+  cat > "$1.toml" <<TOML
+[campaign]
+name = "$1"
+systems = [1]
+velocities = $2
+duration = 4
+analyze = false
+packing = { 1 = "$packing" }
+[set]
+measure.enabled = false
+output.checkpoint_interval = 1
+TOML
+}
+
+# 1. Two runs, two at once, in the default folder campaigns/<name>.
+campaign two "[0.25, 1.0]"
+"$exe" sweep two.toml --jobs 2 > two.out || fail "sweep two exited $? ($(cat two.out))"
+dir=campaigns/two
+for v in 0.25 1; do
+  test -f "$dir/runs/s1_seed1_V$v/final_state.json" || fail "run V$v did not finish"
+  grep -q '"outcome": "finished"' "$dir/runs/s1_seed1_V$v/run_info.json" || fail "V$v outcome"
+  test -s "$dir/logs/s1_seed1_V$v.log" || fail "no log for V$v"
+done
+[ "$(ls "$dir/packings" | wc -l)" -eq 1 ] || fail "expected one packing, got: $(ls "$dir/packings")"
+grep -q "fingerprint" "$dir/campaign.toml" || fail "campaign.toml holds no fingerprint"
+grep -q "2/2 runs finished" two.out || fail "no final summary: $(cat two.out)"
+sums=$(md5sum "$dir"/runs/*/run_info.json)
+"$exe" sweep two.toml > again.out || fail "second sweep exited $?"
+grep -q "2 finished earlier" again.out || fail "second sweep: $(cat again.out)"
+[ "$sums" = "$(md5sum "$dir"/runs/*/run_info.json)" ] || fail "a finished run was redone"
+
+# 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
+campaign three "[0.25, 0.5, 1.0]"
+"$exe" sweep three.toml --jobs 1 -o stopped > stopped.out 2>&1 & pid=$!
+for _ in $(seq 1 600); do
+  ls stopped/runs/*/final_state.json > /dev/null 2>&1 && break
+  kill -0 $pid 2>/dev/null || break
+  sleep 0.2
+done
+sleep 0.5
+kill -TERM $pid 2>/dev/null || true
+rc=0; wait $pid || rc=$?
+[ $rc -eq 130 ] || fail "the stopped sweep exited $rc, not 130: $(cat stopped.out)"
+done_runs=$(ls stopped/runs/*/final_state.json 2>/dev/null | wc -l)
+[ "$done_runs" -ge 1 ] || fail "no run finished before the SIGTERM"
+[ "$done_runs" -lt 3 ] || fail "the SIGTERM did not interrupt the sweep (every run had finished)"
+test -f stopped/runs/s1_seed1_V1/final_state.json || fail "the longest run (V 1) was not first"
+test -f stopped/runs/s1_seed1_V0.5/checkpoint.cbor || fail "the interrupted run left no checkpoint"
+finished_sums=$(md5sum stopped/runs/*/final_state.json | sed 's/final_state/run_info/' |
+                awk '{print $2}' | xargs md5sum)
+"$exe" sweep three.toml --jobs 1 -o stopped > resumed.out 2>&1 ||
+  fail "the resumed sweep exited $?: $(cat resumed.out)"
+for v in 0.25 0.5 1; do
+  test -f "stopped/runs/s1_seed1_V$v/final_state.json" || fail "V$v did not finish on resume"
+done
+[ "$finished_sums" = "$(echo "$finished_sums" | awk '{print $2}' | xargs md5sum)" ] ||
+  fail "a run finished before the SIGTERM was redone"
+ls stopped/runs/s1_seed1_V0.5/run_info_resume_*.json > /dev/null 2>&1 ||
+  fail "the interrupted run was not resumed from its checkpoint"
+grep -q "3/3 runs finished" resumed.out || fail "resumed summary: $(cat resumed.out)"
+
+# 3. A changed campaign for an existing folder is refused, naming what changed.
+campaign three "[0.25, 0.5, 2.0]"
+rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
+grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
+
+echo "sweep_test: campaigns run, skip finished runs, resume interrupted ones, refuse changes"

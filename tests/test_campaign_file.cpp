@@ -1,0 +1,191 @@
+// Campaign files (`cdshear sweep`): a good file is resolved into the right runs (names, V,
+// durations from strain, time steps), velocity ranges are spaced as asked, the resolved campaign
+// reads back to itself, and every bad file is refused naming the file and the key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "campaign_file.hpp"
+#include "config_error.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+using testing::TempDir;
+
+Campaign parse(const std::string& text) {
+  return campaign_from_toml(toml::parse(text), "test.toml", "/tmp");
+}
+
+TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
+  const Campaign c = parse(
+      "[campaign]\nname = \"study\"\nsystems = [1, 2]\nvelocities = [0.05, 0.5]\n"
+      "seeds = [3]\nduration = 100\nboundary_thickness = [5.0, 10.0]\n"
+      "[set]\nmeasure.enabled = false\nsolver.order = \"sequential\"\n");
+  EXPECT_EQ(c.name, "study");
+  ASSERT_EQ(c.runs.size(), 4u);
+  // systems x seeds x velocities
+  EXPECT_EQ(c.runs[0].name, "s1_seed3_V0.05");
+  EXPECT_EQ(c.runs[1].name, "s1_seed3_V0.5");
+  EXPECT_EQ(c.runs[2].name, "s2_seed3_V0.05");
+  EXPECT_EQ(c.runs[3].name, "s2_seed3_V0.5");
+  EXPECT_EQ(c.runs[2].n, 1023u);
+  EXPECT_DOUBLE_EQ(c.runs[2].height, 40.0);
+  EXPECT_EQ(c.runs[3].seed, 3u);
+  for (const CampaignRun& r : c.runs) EXPECT_DOUBLE_EQ(r.duration, 100.0);
+  // dt = min(0.005, 0.002 / V)
+  EXPECT_DOUBLE_EQ(c.runs[0].dt, 0.005);
+  EXPECT_DOUBLE_EQ(c.runs[1].dt, 0.004);
+  EXPECT_DOUBLE_EQ(c.runs[3].cost(), 1023 * 100 / 0.004);
+  ASSERT_EQ(c.overrides.size(), 2u);
+  EXPECT_EQ(c.overrides[0], "measure.enabled=false");
+  EXPECT_EQ(c.overrides[1].rfind("solver.order=", 0), 0u);
+  EXPECT_EQ(c.seeds, std::vector<std::uint64_t>{3});
+  EXPECT_TRUE(c.analyze);
+}
+
+TEST(CampaignFile, LogRangeIsGeometric) {
+  const Campaign c = parse(
+      "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
+      "[campaign.velocity_range]\nfrom = 0.01\nto = 1\ncount = 5\nspacing = \"log\"\n");
+  const std::vector<double> want = {0.01, 0.0316228, 0.1, 0.316228, 1.0};
+  ASSERT_EQ(c.velocities.size(), want.size());
+  for (std::size_t k = 0; k < want.size(); ++k) EXPECT_DOUBLE_EQ(c.velocities[k], want[k]) << k;
+  EXPECT_EQ(c.runs[1].name, "s1_seed1_V0.0316228");
+  // log is the default spacing; linear is evenly spaced
+  const Campaign lin = parse(
+      "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
+      "[campaign.velocity_range]\nfrom = 0.5\nto = 2\ncount = 4\nspacing = \"linear\"\n");
+  EXPECT_EQ(lin.velocities, (std::vector<double>{0.5, 1.0, 1.5, 2.0}));
+  const Campaign dflt = parse(
+      "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
+      "[campaign.velocity_range]\nfrom = 0.1\nto = 10\ncount = 3\n");
+  EXPECT_EQ(dflt.velocities, (std::vector<double>{0.1, 1.0, 10.0}));
+}
+
+TEST(CampaignFile, StrainBecomesADurationPerRun) {
+  // t = strain L_y / (2 V): system 1 (L_y 20) and 2 (L_y 40)
+  const Campaign c =
+      parse("[campaign]\nname = \"s\"\nsystems = [1, 2]\nvelocities = [0.5, 2]\nstrain = 10\n");
+  ASSERT_EQ(c.runs.size(), 4u);
+  EXPECT_DOUBLE_EQ(c.runs[0].duration, 200.0);
+  EXPECT_DOUBLE_EQ(c.runs[1].duration, 50.0);
+  EXPECT_DOUBLE_EQ(c.runs[2].duration, 400.0);
+  EXPECT_DOUBLE_EQ(c.runs[3].duration, 100.0);
+  // the height a [set] gives counts
+  const Campaign h = parse(
+      "[campaign]\nname = \"s\"\nsystems = [1]\nvelocities = [1]\nstrain = 4\n"
+      "[set]\nsystem.height = 30\n");
+  EXPECT_DOUBLE_EQ(h.runs[0].duration, 60.0);
+}
+
+TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
+  TempDir dir("campaign");
+  const std::string packing = dir.write("p.json", "{}");
+  const Campaign c = campaign_from_toml(
+      toml::parse("[campaign]\nname = \"x\"\nsystems = [1]\nstrain = 3\nanalyze = false\n"
+                  "packing = { 1 = \"p.json\" }\n"
+                  "[campaign.velocity_range]\nfrom = 0.02\nto = 2\ncount = 4\n"
+                  "[set]\nstep.dt_max = 0.004\n"),
+      "x.toml", dir.path().string());
+  EXPECT_EQ(c.packings.at(1), packing);  // relative to the campaign file's folder
+  const toml::table resolved = campaign_to_toml(c);
+  const Campaign back = campaign_from_toml(resolved, "back.toml", "/");
+  ASSERT_EQ(back.runs.size(), c.runs.size());
+  for (std::size_t k = 0; k < c.runs.size(); ++k) {
+    EXPECT_EQ(back.runs[k].name, c.runs[k].name);
+    EXPECT_EQ(back.runs[k].duration, c.runs[k].duration);
+    EXPECT_EQ(back.runs[k].dt, c.runs[k].dt);
+  }
+  EXPECT_EQ(campaign_fingerprint(campaign_to_toml(back)), campaign_fingerprint(resolved));
+  EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
+  // a change is named
+  Campaign changed = c;
+  changed.velocities.back() = 3.0;
+  const auto diff = campaign_differences(resolved, campaign_to_toml(changed));
+  ASSERT_EQ(diff.size(), 1u);
+  EXPECT_EQ(diff[0].rfind("campaign.velocities: ", 0), 0u) << diff[0];
+  EXPECT_NE(campaign_fingerprint(campaign_to_toml(changed)), campaign_fingerprint(resolved));
+}
+
+/// The file is refused with a ConfigError naming the file and `key`.
+void expect_refused(const std::string& text, const std::string& key, const std::string& says) {
+  TempDir dir("campaign_bad");
+  const std::string path = dir.write("bad.toml", text);
+  try {
+    read_campaign(path);
+    ADD_FAILURE() << "accepted; expected a refusal naming " << key << "\n" << text;
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path) << e.what();
+    EXPECT_EQ(e.key(), key) << e.what();
+    EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+  }
+}
+
+const std::string kHead = "[campaign]\nname = \"b\"\n";
+
+TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
+  const std::string ok_rest = "systems = [1]\nvelocities = [0.5]\nduration = 10\n";
+  expect_refused(kHead + ok_rest + "velocitys = [1]\n", "campaign.velocitys", "unknown key");
+  expect_refused(kHead + ok_rest + "[extra]\na = 1\n", "extra", "unknown key");
+  expect_refused("[campaign]\n" + ok_rest, "campaign.name", "required");
+  expect_refused(kHead + "systems = [8]\nvelocities = [0.5]\nduration = 10\n", "campaign.systems",
+                 "unknown");
+  expect_refused(kHead + "systems = [0]\nvelocities = [0.5]\nduration = 10\n", "campaign.systems",
+                 "unknown");
+  expect_refused(kHead + "systems = []\nvelocities = [0.5]\nduration = 10\n", "campaign.systems",
+                 "empty");
+  expect_refused(kHead + "systems = [1]\nvelocities = []\nduration = 10\n", "campaign.velocities",
+                 "empty");
+  expect_refused(kHead + "systems = [1]\nduration = 10\n", "campaign.velocities", "required");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5, -1]\nduration = 10\n",
+                 "campaign.velocities", "> 0");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0]\nduration = 10\n", "campaign.velocities",
+                 "> 0");
+  expect_refused(kHead + "systems = [1]\nvelocities = [nan]\nduration = 10\n",
+                 "campaign.velocities", "finite");
+  expect_refused(kHead + "systems = [1]\nvelocities = [inf]\nduration = 10\n",
+                 "campaign.velocities", "finite");
+  expect_refused(kHead + "systems = [1]\nvelocities = [\"fast\"]\nduration = 10\n",
+                 "campaign.velocities", "numbers");
+  expect_refused(kHead +
+                     "systems = [1]\nduration = 10\n[campaign.velocity_range]\nfrom = 0\nto = 1\n"
+                     "count = 3\n",
+                 "campaign.velocity_range.from", "> 0");
+  expect_refused(kHead +
+                     "systems = [1]\nduration = 10\n[campaign.velocity_range]\nfrom = 0.1\nto = 1\n"
+                     "count = 3\nspacing = \"cubic\"\n",
+                 "campaign.velocity_range.spacing", "one of");
+  // duplicate runs: the same system, V and seed twice
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5, 0.50]\nduration = 10\n",
+                 "campaign.velocities", "twice");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nseeds = [2, 2]\nduration = 10\n",
+                 "campaign.seeds", "twice");
+  expect_refused(kHead + "systems = [1, 1]\nvelocities = [0.5]\nduration = 10\n",
+                 "campaign.systems", "twice");
+  // duration or strain: one of them
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 10\nstrain = 2\n",
+                 "campaign.strain", "not both");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\n", "campaign.duration", "required");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = -1\n", "campaign.duration",
+                 "> 0");
+  // [set]: keys the campaign owns, and what the case refuses
+  expect_refused(kHead + ok_rest + "[set]\nshear.velocity = 2\n", "set.shear.velocity",
+                 "set by the campaign");
+  expect_refused(kHead + ok_rest + "[set]\nshear.duration = 2\n", "set.shear.duration",
+                 "set by the campaign");
+  expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = 3\n", "set.measure.enabled",
+                 "true or false");
+  expect_refused(kHead + ok_rest + "[set]\nshear.frobnicate = 3\n", "set.shear.frobnicate",
+                 "unknown key");
+  // a packing for a system the campaign does not run, and a missing packing file
+  expect_refused(kHead + ok_rest + "packing = { 2 = \"p.json\" }\n", "campaign.packing.2",
+                 "unknown key");
+  expect_refused(kHead + ok_rest + "packing = { 1 = \"missing.json\" }\n", "campaign.packing.1",
+                 "no packing file");
+}
+
+}  // namespace
+}  // namespace cdshear
