@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 #include <new>
+#include <string>
 
 #include "analysis_command.hpp"
 #include "commands.hpp"
@@ -24,12 +25,14 @@ int main(int argc, char** argv) {
   // An unknown command is named (CLI11 would only say that a subcommand is required).
   if (argc > 1 && argv[1][0] != '-') {
     bool known = false;
-    for (const CLI::App* sub : app.get_subcommands({})) known = known || sub->check_name(argv[1]);
+    std::string names;  // from the registered commands, so that the list never goes stale
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->check_name(argv[1]);
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
     if (!known) {
-      std::fprintf(stderr,
-                   "error: unknown command '%s'; the commands are scene, prepare, run, sweep, "
-                   "analyze, plot (cdshear --help)\n",
-                   argv[1]);
+      std::fprintf(stderr, "error: unknown command '%s'; the commands are %s (cdshear --help)\n",
+                   argv[1], names.c_str());
       return 2;
     }
   }
