@@ -17,11 +17,15 @@ common=(-q --no-analyze --packing "$packing" --set shear.duration=6
 # Stopped at t = 1.2 (between checkpoints: the stop itself writes one), then resumed.
 "$exe" run "${common[@]}" --stop-at 1.2 -o "$work/stopped" > /dev/null
 test -f "$work/stopped/interrupted_state.json"
+grep -q '"outcome": "stopped"' "$work/stopped/run_info.json" ||
+  { echo "FAIL: a run ended by --stop-at must say outcome \"stopped\", not finished"; exit 1; }
 "$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
 
-# Killed with SIGTERM at whatever step it has reached after 2 s, then resumed.
+# Killed with SIGTERM at whatever step it has reached 0 to 0.3 s after its first checkpoint
+# (t = 0.5 of 6: a fixed sleep from the start would miss a fast run), then resumed.
 "$exe" run "${common[@]}" -o "$work/killed" > /dev/null & pid=$!
-sleep 2; kill -TERM $pid 2>/dev/null || true
+for _ in $(seq 400); do [[ -f "$work/killed/checkpoint.cbor" ]] && break; sleep 0.05; done
+sleep "0.$((RANDOM % 4))"; kill -TERM $pid 2>/dev/null || true
 wait $pid || true
 # The kill must have landed mid-run, or this part tests nothing.
 test -f "$work/killed/interrupted_state.json" ||

@@ -88,6 +88,10 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   info["time"] = world.time;
   info["state_hash"] = fmt::format("{:016x}", state_hash(world));
   info["summary"] = summary_to_json(summary);
+  // Ended by --stop-at before its duration: not finished (a campaign or a study would otherwise
+  // take it for a complete run).
+  if (!end.reached_end && summary.outcome == RunOutcome::kFinished)
+    info["summary"]["outcome"] = "stopped";
   write_file_atomic(end.dir / end.info_name, info.dump(2) + "\n");
   std::printf(
       "%llu steps in %.1f s (%.0f steps/s), sweeps mean %.1f largest %d, capped %llu, largest "
