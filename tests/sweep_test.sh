@@ -45,12 +45,12 @@ grep -q "2 finished earlier" again.out || fail "second sweep: $(cat again.out)"
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 campaign three "[0.25, 0.5, 1.0]"
 "$exe" sweep three.toml --jobs 1 -o stopped > stopped.out 2>&1 & pid=$!
-for _ in $(seq 1 600); do
-  ls stopped/runs/*/final_state.json > /dev/null 2>&1 && break
+# The stop lands once the second run (V 0.5) has written its first checkpoint (t = 1 of 4).
+for _ in $(seq 1 1200); do
+  test -f stopped/runs/s1_seed1_V0.5/checkpoint.cbor && break
   kill -0 $pid 2>/dev/null || break
-  sleep 0.2
+  sleep 0.05
 done
-sleep 0.5
 kill -TERM $pid 2>/dev/null || true
 rc=0; wait $pid || rc=$?
 [ $rc -eq 130 ] || fail "the stopped sweep exited $rc, not 130: $(cat stopped.out)"
@@ -78,4 +78,30 @@ rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
 
-echo "sweep_test: campaigns run, skip finished runs, resume interrupted ones, refuse changes"
+# 4. One sweep per folder: a second one started while the first works there is refused.
+campaign long "[0.5]"
+sed -i 's/^duration = 4/duration = 400/' long.toml
+"$exe" sweep long.toml -o busy > busy.out 2>&1 & pid=$!
+for _ in $(seq 1 600); do test -f busy/runs/s1_seed1_V0.5/checkpoint.cbor && break; sleep 0.05; done
+rc=0; "$exe" sweep long.toml -o busy > second.out 2>&1 || rc=$?
+kill -TERM $pid 2>/dev/null || true
+wait $pid || true
+[ $rc -eq 2 ] || fail "a second sweep in a busy folder exited $rc, not 2: $(cat second.out)"
+grep -q "another sweep" second.out || fail "the refusal does not say why: $(cat second.out)"
+
+# 5. A run longer than the step limit of `cdshear run` is refused before anything starts.
+cat > huge.toml <<TOML
+[campaign]
+name = "huge"
+systems = [1]
+velocities = [1e-9]
+strain = 100
+packing = { 1 = "$packing" }
+TOML
+rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a run beyond the step limit exited $rc, not 2: $(cat huge.out)"
+grep -q "campaign.strain" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
+test ! -e huge || fail "a refused campaign wrote its folder"
+
+echo "sweep_test: campaigns run, skip finished runs, resume interrupted ones, refuse changes, a"\
+  "busy folder and runs beyond the limits"

@@ -161,6 +161,12 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   // duplicate runs: the same system, V and seed twice
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5, 0.50]\nduration = 10\n",
                  "campaign.velocities", "twice");
+  // distinct numbers that name the same run folder (6 significant digits)
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.1, 0.10000001]\nduration = 10\n",
+                 "campaign.velocities", "twice");
+  // checked as the runs will get it: the case refuses an h listed twice
+  expect_refused(kHead + ok_rest + "boundary_thickness = [5.0, 5.0]\n",
+                 "campaign.boundary_thickness", "twice");
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nseeds = [2, 2]\nduration = 10\n",
                  "campaign.seeds", "twice");
   expect_refused(kHead + "systems = [1, 1]\nvelocities = [0.5]\nduration = 10\n",

@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -38,19 +39,26 @@ pid_t start_job(const Job& job) {
   std::vector<char*> argv;
   for (const std::string& a : job.argv) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     ::close(fd);
     throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
   }
   if (pid == 0) {  // child: only async-signal-safe calls until exec
-    const int null = ::open("/dev/null", O_RDONLY);
+    // A sweep that dies without forwarding a stop (SIGKILL, out of memory) stops its runs too:
+    // each writes its checkpoint on the SIGTERM, and a rerun resumes it.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) ::_exit(128 + SIGTERM);  // the sweep died before the prctl
+    const int null = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
     if (null >= 0) ::dup2(null, STDIN_FILENO);
     ::dup2(fd, STDOUT_FILENO);
     ::dup2(fd, STDERR_FILENO);
     ::signal(SIGINT, SIG_DFL);  // until the child installs its own handlers
     ::signal(SIGTERM, SIG_DFL);
-    ::execv(argv[0], argv.data());
+    // The binary this sweep runs, even if the file at argv[0] was rebuilt meanwhile (a resume
+    // must continue with the program that wrote the checkpoint).
+    ::execv("/proc/self/exe", argv.data());
     const char msg[] = "cdshear sweep: exec failed\n";
     if (::write(STDERR_FILENO, msg, sizeof msg - 1) < 0) {
     }
@@ -83,48 +91,59 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
   std::size_t next = 0;
   bool forwarded = false;
   const std::size_t limit = static_cast<std::size_t>(std::max(1, max_parallel));
-  while (next < order.size() || !running.empty()) {
-    if (g_stop_requested.load()) {
-      result.interrupted = true;
-      if (!forwarded) {
-        for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
-        forwarded = true;
+  try {
+    while (next < order.size() || !running.empty()) {
+      if (g_stop_requested.load()) {
+        result.interrupted = true;
+        if (!forwarded) {
+          for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
+          forwarded = true;
+        }
       }
-    }
-    while (!result.interrupted && next < order.size() && running.size() < limit) {
-      const std::size_t j = order[next++];
-      running[start_job(jobs[j])] = {j, Clock::now()};
-    }
-    if (running.empty()) break;
-    int status = 0;
-    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
-    if (pid > 0) {
-      const auto it = running.find(pid);
-      if (it == running.end()) continue;  // not one of ours
-      JobEnd end;
-      end.job = it->second.job;
-      end.exit_code = exit_code_of(status);
-      end.seconds = std::chrono::duration<double>(Clock::now() - it->second.start).count();
-      running.erase(it);
-      result.ends.push_back(end);
-      if (on_end) {
-        JobProgress progress{result.ends.size(),
-                             running.size(),
-                             result.interrupted ? 0 : order.size() - next,
-                             {},
-                             {}};
-        const auto now = Clock::now();
-        for (const auto& [p, r] : running)
-          progress.running_jobs.emplace_back(r.job,
-                                             std::chrono::duration<double>(now - r.start).count());
-        if (!result.interrupted)
-          for (std::size_t k = next; k < order.size(); ++k)
-            progress.waiting_jobs.push_back(order[k]);
-        on_end(end, progress);
+      while (!result.interrupted && next < order.size() && running.size() < limit) {
+        const std::size_t j = order[next++];
+        running[start_job(jobs[j])] = {j, Clock::now()};
       }
-      continue;
+      if (running.empty()) break;
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+      if (pid > 0) {
+        const auto it = running.find(pid);
+        if (it == running.end()) continue;  // not one of ours
+        JobEnd end;
+        end.job = it->second.job;
+        end.exit_code = exit_code_of(status);
+        end.seconds = std::chrono::duration<double>(Clock::now() - it->second.start).count();
+        running.erase(it);
+        result.ends.push_back(end);
+        if (on_end) {
+          JobProgress progress{result.ends.size(),
+                               running.size(),
+                               result.interrupted ? 0 : order.size() - next,
+                               {},
+                               {}};
+          const auto now = Clock::now();
+          for (const auto& [p, r] : running)
+            progress.running_jobs.emplace_back(
+                r.job, std::chrono::duration<double>(now - r.start).count());
+          if (!result.interrupted)
+            for (std::size_t k = next; k < order.size(); ++k)
+              progress.waiting_jobs.push_back(order[k]);
+          on_end(end, progress);
+        }
+        continue;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  } catch (...) {
+    // A failure of the sweep itself (a log that cannot be opened, fork, a callback): no run may
+    // go on unwatched, or a rerun would resume a folder that is still being written.
+    for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
+    for (const auto& [pid, r] : running) {
+      int status = 0;
+      ::waitpid(pid, &status, 0);
+    }
+    throw;
   }
   for (; next < order.size(); ++next) result.never.push_back(order[next]);
   return result;

@@ -1,8 +1,11 @@
 // `cdshear sweep CAMPAIGN.toml`: every run of a campaign (docs/campaigns.md) as a child process
 // of this executable (`prepare` once per system and seed, then `run` or `run --resume`), several
 // at once, resumable, with one log per run and a progress line after each.
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <csignal>
@@ -21,6 +24,7 @@
 #include "job_scheduler.hpp"
 #include "outputs.hpp"
 #include "run_loop.hpp"
+#include "run_session.hpp"
 #include "toml_reader.hpp"
 
 namespace cdshear {
@@ -100,6 +104,12 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
 
 int run_sweep(const SweepArgs& args) {
   const Campaign c = read_campaign(args.file);
+  for (const CampaignRun& r : c.runs)  // the limit `cdshear run` would refuse it with
+    if (r.duration / r.dt > kMaxRunSteps)
+      throw ConfigError(args.file, c.duration ? "campaign.duration" : "campaign.strain",
+                        fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
+                                    "(docs/reliability.md)",
+                                    r.name, r.duration / r.dt, kMaxRunSteps));
   const fs::path dir =
       fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
   const fs::path exe = fs::read_symlink("/proc/self/exe");
@@ -109,6 +119,15 @@ int run_sweep(const SweepArgs& args) {
           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / args.threads);
   check_same_campaign(dir / "campaign.toml", c, args.force);
   for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir / sub);
+  // One sweep per folder at a time: two would start or resume the same runs. The lock is held
+  // until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
+  // that died still hold it.
+  const fs::path lock = dir / ".sweep.lock";
+  const int lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT, 0644);
+  if (lock_fd < 0 || ::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
+    throw ConfigError(dir.string(), "",
+                      "another sweep (or runs it left behind) is working in this folder; wait "
+                      "for it to end, or stop it (its runs checkpoint on SIGTERM)");
   write_file_atomic(dir / "campaign.toml", campaign_file_text(c));
   const std::string threads = std::to_string(args.threads);
 

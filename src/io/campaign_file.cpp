@@ -3,6 +3,7 @@
 #include "campaign_file.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <filesystem>
@@ -220,11 +221,18 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
         src.velocity = v;
         src.overrides = c.overrides;
         src.overrides.push_back("system.seed=" + std::to_string(seed));
+        // Checked here as the run will get it (sweep_command passes the same --set).
+        if (!c.boundary_thickness.empty())
+          src.overrides.push_back(fmt::format("measure.boundary_thickness=[{}]",
+                                              fmt::join(c.boundary_thickness, ", ")));
         ShearCase sc;
         try {
           sc = load_case(src);
         } catch (const ConfigError& e) {
-          const std::string key = e.key().empty() ? std::string("set") : "set." + e.key();
+          const std::string key = e.key() == "measure.boundary_thickness"
+                                      ? std::string("campaign.boundary_thickness")
+                                  : e.key().empty() ? std::string("set")
+                                                    : "set." + e.key();
           throw ConfigError(file, key, problem_of(e) + " (run " + run.name + ")");
         }
         run.n = sc.n;
