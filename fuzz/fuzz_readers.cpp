@@ -1,5 +1,5 @@
 // libFuzzer target over every reader of user files: case files, scene files, packings,
-// checkpoints, run.h5 files and `--set` overrides. The first byte picks the reader, the rest is
+// checkpoints, run.h5 files, `--set` overrides and campaign files. The first byte picks the reader, the rest is
 // the input. The property: a reader either accepts its input or throws ConfigError (a clear
 // error naming the file); any other exception, a crash, a sanitizer report or a hang is a bug.
 // Build and run: docs/reliability.md ("Fuzzing").
@@ -12,6 +12,7 @@
 #include <fstream>
 #include <string>
 
+#include "campaign_file.hpp"
 #include "case_file.hpp"
 #include "checkpoint.hpp"
 #include "config_error.hpp"
@@ -32,9 +33,11 @@ void write_input(const std::string& bytes) {
   std::ofstream(scratch_file(), std::ios::binary | std::ios::trunc) << bytes;
 }
 
+constexpr int kReaders = 7;
+
 void read_with(std::uint8_t reader, const std::string& bytes) {
   using namespace cdshear;
-  switch (reader % 6) {
+  switch (reader % kReaders) {
     case 0: {  // case file
       write_input(bytes);
       CaseSource src;
@@ -73,6 +76,10 @@ void read_with(std::uint8_t reader, const std::string& bytes) {
       write_input(bytes);
       read_run_data(scratch_file());
       break;
+    case 6:  // campaign file (every run resolved by the case loader)
+      write_input(bytes);
+      read_campaign(scratch_file().string());
+      break;
   }
 }
 
@@ -86,7 +93,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const cdshear::ConfigError&) {
     // The expected way to refuse an input.
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "reader %d threw a %s instead of a ConfigError: %s\n", data[0] % 6,
+    std::fprintf(stderr, "reader %d threw a %s instead of a ConfigError: %s\n", data[0] % kReaders,
                  typeid(e).name(), e.what());
     std::abort();
   }

@@ -171,6 +171,11 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "campaign.seeds", "twice");
   expect_refused(kHead + "systems = [1, 1]\nvelocities = [0.5]\nduration = 10\n",
                  "campaign.systems", "twice");
+  // too many runs: 2 seeds x 10000 velocities
+  expect_refused(kHead +
+                     "systems = [1]\nseeds = [1, 2]\nduration = 10\n[campaign.velocity_range]\n"
+                     "from = 0.01\nto = 1\ncount = 10000\n",
+                 "campaign", "more than the limit");
   // duration or strain: one of them
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 10\nstrain = 2\n",
                  "campaign.strain", "not both");

@@ -207,6 +207,17 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   }
   root.finish();
 
+  // A bound on the campaign's size (SPEC 6's whole study is a few hundred runs): each run is
+  // resolved below, and a folder is made for each.
+  const double run_count = static_cast<double>(c.systems.size()) *
+                           static_cast<double>(c.seeds.size()) *
+                           static_cast<double>(c.velocities.size());
+  if (run_count > kMaxCampaignRuns)
+    throw ConfigError(file, "campaign",
+                      fmt::format("lists {:.0f} runs (systems x seeds x velocities), more than the "
+                                  "limit of {}",
+                                  run_count, kMaxCampaignRuns));
+
   // Every run, resolved by the case loader of `cdshear run`.
   for (const int system : c.systems)
     for (const std::uint64_t seed : c.seeds)

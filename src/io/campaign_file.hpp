@@ -46,6 +46,9 @@ struct Campaign {
 /// Reads and resolves a campaign file. Throws ConfigError naming the file, the key and the
 /// problem (unknown key, unknown system, empty or bad velocities, duplicate runs, both or
 /// neither of duration/strain, a [set] key the case refuses, ...).
+/// The most runs a campaign may list (systems x seeds x velocities).
+inline constexpr int kMaxCampaignRuns = 10000;
+
 Campaign read_campaign(const std::string& path);
 
 /// The same from a parsed table; `file` names it in errors, `base_dir` anchors relative packing
