@@ -385,7 +385,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
     for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
-#pragma omp for schedule(dynamic, 1)
+#pragma omp for schedule(static)
 #endif
       for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
         sweep_group(g, ws, bodies, options.alpha);
