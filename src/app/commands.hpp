@@ -14,19 +14,25 @@ inline constexpr int kMaxThreads = 1024;
 
 /// `--threads N`: solver threads of the coloured contact order (default: every processor). Not
 /// part of the case: the results are the same for any N (docs/performance.md).
-inline void add_threads_option(CLI::App* cmd, int& threads) {
+inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
+                             const std::string& description) {
   cmd->add_option_function<int>(
-         "--threads",
-         [&threads](int n) {
+         name,
+         [&value, name](int n) {
            if (n < 1 || n > kMaxThreads)
-             throw ConfigError("--threads", "",
+             throw ConfigError(name, "",
                                "must be a whole number from 1 to " + std::to_string(kMaxThreads) +
                                    ", got " + std::to_string(n));
-           threads = n;
+           value = n;
          },
-         "solver threads (coloured contact order; default: all " +
-             std::to_string(solver_threads_available()) + " processors)")
+         description)
       ->type_name("N");
+}
+
+inline void add_threads_option(CLI::App* cmd, int& threads) {
+  add_count_option(cmd, "--threads", threads,
+                   "solver threads (coloured contact order; default: all " +
+                       std::to_string(solver_threads_available()) + " processors)");
 }
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`

@@ -326,28 +326,9 @@ void register_sweep_command(CLI::App& app) {
       "sweep", "Run a campaign: systems x velocities x seeds (docs/campaigns.md), resumable");
   s->add_option("campaign", args->file, "campaign file (TOML)")->required();
   s->add_option("-o,--output", args->out_dir, "campaign folder; default campaigns/<name>");
-  s->add_option_function<int>(
-       "--jobs",
-       [args](int n) {
-         if (n < 1 || n > kMaxThreads)
-           throw ConfigError(
-               "--jobs", "",
-               fmt::format("must be a whole number from 1 to {}, got {}", kMaxThreads, n));
-         args->jobs = n;
-       },
-       "runs at once (default: processors / --threads, at least 1)")
-      ->type_name("N");
-  s->add_option_function<int>(
-       "--threads",
-       [args](int n) {
-         if (n < 1 || n > kMaxThreads)
-           throw ConfigError(
-               "--threads", "",
-               fmt::format("must be a whole number from 1 to {}, got {}", kMaxThreads, n));
-         args->threads = n;
-       },
-       "solver threads of each run (default 1)")
-      ->type_name("N");
+  add_count_option(s, "--jobs", args->jobs,
+                   "runs at once (default: processors / --threads, at least 1)");
+  add_count_option(s, "--threads", args->threads, "solver threads of each run (default 1)");
   s->add_flag("-q,--quiet", args->quiet, "only the final summary (and failures)");
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");
