@@ -12,6 +12,7 @@ import numpy as np
 
 from cdshear_analysis import report
 from cdshear_analysis.__main__ import main as cli_main
+from cdshear_analysis.synthetic import write_synthetic_run
 
 
 def main(argv):
@@ -246,6 +247,46 @@ class ReportTest(unittest.TestCase):
         self.assertEqual(holes["system"], "1")
         self.assertEqual(holes["steady"], "true")
         self.assertAlmostEqual(float(full["h10_bottom_I"]), 3 * 0.05)
+
+    def test_summaries_written_by_analyze(self):
+        # The real keys: synthetic runs analysed by `analyze`, a regime C one with switches and
+        # one too short for any window (not steady, window quantities null).
+        runs = os.path.join(self.d, "runs")
+        write_synthetic_run(os.path.join(runs, "s1_seed1_V0.5"), kind="A", duration=800.0)
+        write_synthetic_run(os.path.join(runs, "s1_seed1_V0.05"), kind="C", velocity=0.05,
+                            duration=1600.0, seed=2)
+        write_synthetic_run(os.path.join(runs, "s1_seed2_V0.5"), kind="A", duration=40.0)
+        for name in os.listdir(runs):
+            self.assertEqual(main(["analyze", os.path.join(runs, name), "--quiet"]), 0)
+        self.assertEqual(main(["report", self.d]), 0)   # no campaign.toml: the folder's name
+        out = os.path.join(self.d, "report")
+        with open(os.path.join(out, "runs.csv")) as f:
+            rows = {r["run"]: r for r in csv.DictReader(f)}
+        with open(os.path.join(runs, "s1_seed1_V0.5", "summary.json")) as f:
+            s = json.load(f)
+        a = rows["s1_seed1_V0.5"]
+        self.assertEqual((a["system"], a["seed"], a["regime"], a["steady"]), ("1", "1", "A",
+                                                                               "true"))
+        self.assertAlmostEqual(float(a["I_bulk"]), s["bulk"]["inertial_number"]["mean"])
+        self.assertAlmostEqual(float(a["mu_eff_bulk_err"]), s["bulk"]["mu_eff"]["err"])
+        self.assertAlmostEqual(float(a["slip_top"]), s["slip"]["top"]["mean"])
+        self.assertAlmostEqual(float(a["h10_top_I"]),
+                               s["regions"]["h10"]["top"]["inertial_number"]["mean"])
+        self.assertAlmostEqual(float(a["h5_bottom_Z"]),
+                               s["regions"]["h5"]["bottom"]["coordination"]["mean"])
+        self.assertAlmostEqual(float(a["L_y"]), s["height"]["mean"])
+        c = rows["s1_seed1_V0.05"]
+        self.assertEqual(c["regime"], "C")
+        self.assertGreater(int(c["band_switches"]), 0)
+        self.assertNotEqual(c["switch_duration"], "")
+        short = rows["s1_seed2_V0.5"]
+        self.assertEqual((short["steady"], short["regime"], short["I_bulk"]), ("false", "", ""))
+        with open(os.path.join(out, "fits.json")) as f:
+            fits = json.load(f)
+        self.assertEqual(fits["campaign"], os.path.basename(self.d))
+        self.assertEqual(fits["fits"]["mu_power"]["status"], "skipped")
+        with open(os.path.join(out, "index.html")) as f:
+            self.assertIn("campaign.toml: missing", f.read())
 
     def test_bad_campaign_folder_is_an_error(self):
         self.assertEqual(main(["report", os.path.join(self.d, "nothing")]), 2)
