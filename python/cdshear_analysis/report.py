@@ -227,6 +227,8 @@ def _linear_minus(x, y0, c):
 # name: (law, model, parameter names, y column, x range or None, starting values (x, y) -> p0s,
 #        bounds)
 def _p0_power(x, y, sign):
+    """Starting points (y0, amplitude, exponent) of y0 + sign * amplitude * x^exponent: y0 just
+    beyond the smallest (sign +1) or largest (-1) y, the amplitude spanning the data."""
     y0 = float(np.min(y) if sign > 0 else np.max(y))
     spread = float(np.ptp(y)) or 0.1
     return [(y0 - sign * 0.1 * spread, spread / max(float(np.max(x)), 1e-12) ** e, e)
@@ -251,7 +253,7 @@ FITS = {
                       bounds=(-np.inf, np.inf)),
     "Z_power": dict(law="Z = Z_0 - c * I^e", model=_power_minus, params=["Z_0", "c", "e"],
                     y="Z_bulk", range=None,
-                    p0=lambda x, y: [(p[0], -p[1], p[2]) for p in _p0_power(x, y, -1)],
+                    p0=lambda x, y: _p0_power(x, y, -1),
                     bounds=([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])),
 }
 
