@@ -57,6 +57,14 @@ expect_status2 "empty/run.h5" "$exe" plot empty
 head -c 3000 done/run.h5 > truncated/run.h5
 expect_status2 "truncated/run.h5" "$exe" analyze truncated
 expect_status2 "truncated/run.h5" "$exe" plot truncated
+# report: not a campaign folder, an unreadable summary.json or campaign.toml
+expect_status2 "nowhere: not a folder" "$exe" report nowhere
+expect_status2 "notarun/runs: no run folders" "$exe" report notarun
+mkdir -p badcampaign/runs/s1_seed1_V1
+echo "{" > badcampaign/runs/s1_seed1_V1/summary.json
+expect_status2 "s1_seed1_V1/summary.json: cannot read" "$exe" report badcampaign
+echo "[campaign" > badcampaign/campaign.toml
+expect_status2 "badcampaign/campaign.toml: cannot read" "$exe" report badcampaign
 expect_error "key 'output.sample_interval': moved to measure.sample_interval" \
   "$exe" run -q --set output.sample_interval=0.1
 expect_error "key 'measure.boundary_thickness'" "$exe" run -q --set "measure.boundary_thickness=[-1.0]"

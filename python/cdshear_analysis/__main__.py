@@ -1,7 +1,9 @@
 """Command line: `python3 -m cdshear_analysis analyze RUN_DIR [--quiet]` writes
 RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
 (default RUN_DIR/figures); `... study STUDY_DIR` tabulates and plots a parameter study (runs in
-KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py). A run too short for any averaging window is analysed (not steady,
+KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... report CAMPAIGN_DIR
+[-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
+CAMPAIGN_DIR/report; cdshear_analysis/report.py). A run too short for any averaging window is analysed (not steady,
 series values over the last half) and plotted without its profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
@@ -21,6 +23,9 @@ def main(argv=None):
     p_plot.add_argument("-o", "--out-dir", help="output folder (default RUN_DIR/figures)")
     p_study = commands.add_parser("study", help="tabulate and plot a parameter study")
     p_study.add_argument("study_dir")
+    p_report = commands.add_parser("report", help="runs table, fits, figures of a campaign")
+    p_report.add_argument("campaign_dir")
+    p_report.add_argument("-o", "--out-dir", help="output folder (default CAMPAIGN_DIR/report)")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
@@ -35,6 +40,26 @@ def main(argv=None):
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command == "report":
+        from .report import ReportError, collect, write_report
+        try:
+            report = collect(args.campaign_dir)
+            out_dir = args.out_dir or os.path.join(args.campaign_dir, "report")
+            try:
+                paths = write_report(report, out_dir)
+            except OSError as e:
+                print(f"error: {e.filename or out_dir}: cannot write: {e.strerror or e}",
+                      file=sys.stderr)
+                return 1
+        except ReportError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        for path in paths:
+            print(path)
+        for name, reason in report["skipped"]:
+            print(f"left out {name}: {reason}")
         return 0
 
     from .rundata import RunDataError, load_run

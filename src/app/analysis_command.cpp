@@ -81,6 +81,20 @@ void register_analysis_commands(CLI::App& app) {
     const int rc = run_analysis("plot", plot->dir, extra);
     if (rc != 0) throw CLI::RuntimeError(rc);
   });
+  auto report = std::make_shared<Args>();
+  CLI::App* r = app.add_subcommand(
+      "report",
+      "A campaign's runs table, fitted laws mu_eff(I), nu(I), Z(I), figures and index.html "
+      "(default: CAMPAIGN_DIR/report/)");
+  r->add_option("campaign_dir", report->dir, "campaign folder (made by `cdshear sweep`)")
+      ->required();
+  r->add_option("-o,--output", report->out, "folder for the report");
+  r->callback([report]() {
+    std::vector<std::string> extra;
+    if (!report->out.empty()) extra = {"-o", report->out};
+    const int rc = run_analysis("report", report->dir, extra);
+    if (rc != 0) throw CLI::RuntimeError(rc);
+  });
 }
 
 }  // namespace cdshear

@@ -1,5 +1,5 @@
-// `cdshear analyze RUN_DIR` and `cdshear plot RUN_DIR`: the per-run analysis and figures live in
-// the Python package python/cdshear_analysis (numpy, scipy, matplotlib, h5py from Debian); these
+// `cdshear analyze RUN_DIR`, `cdshear plot RUN_DIR` and `cdshear report CAMPAIGN_DIR`: the per-run
+// analysis, figures and campaign reports live in the Python package python/cdshear_analysis (numpy, scipy, matplotlib, h5py from Debian); these
 // commands run it with /usr/bin/python3 so that `cdshear` stays the one entry point.
 #pragma once
 
@@ -11,7 +11,8 @@
 
 namespace cdshear {
 
-/// Runs `python3 -m cdshear_analysis <verb> <run_dir> <extra...>`; returns its exit status.
+/// Runs `python3 -m cdshear_analysis <verb> <dir> <extra...>` (a run folder, or a campaign folder
+/// for `report`); returns its exit status.
 int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  const std::vector<std::string>& extra);
 

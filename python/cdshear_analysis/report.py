@@ -1,0 +1,493 @@
+"""The report of a campaign (`cdshear sweep` folder): `python3 -m cdshear_analysis report DIR`.
+
+`collect(campaign_dir)` reads DIR/campaign.toml (the campaign's name and its list of runs) and
+every DIR/runs/*/summary.json (written by `cdshear analyze`; this module never analyses a run).
+A run folder without summary.json is listed as "not analysed", a run of campaign.toml without a
+folder as "not started"; both are left out. `fit_laws(rows)` fits the bulk laws of SPEC 8 over
+the steady runs; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png and
+index.html (docs/campaigns.md, "Reports", documents every column and key).
+
+Fits: scipy.optimize.curve_fit weighted by the error bars of the quantity (sigma = its standard
+error, absolute_sigma=True); the error of I is not used. Points without a finite positive error
+are left out of the fit (counted in `points_without_error`). A fit with fewer points than
+parameters + 1 is skipped with its reason.
+"""
+import csv
+import html
+import json
+import math
+import os
+import re
+import tomllib
+
+import numpy as np
+
+REPORT_FORMAT = "cdshear-report-fits"
+REPORT_VERSION = 1
+RUN_NAME = re.compile(r"^s(\d+)_seed(\d+)_V(.+)$")  # campaign_run_name() in campaign_file.cpp
+LINEAR_RANGE = (0.03, 0.2)  # SPEC 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
+
+
+class ReportError(Exception):
+    def __init__(self, path, problem):
+        super().__init__(f"{path}: {problem}")
+        self.path = path
+        self.problem = problem
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading the runs
+
+def _pair(summary, *keys):
+    """(mean, err) of a {"mean", "err"} entry at summary[k0][k1]...; None for what is missing,
+    null or not finite."""
+    entry = summary
+    for k in keys:
+        if not isinstance(entry, dict) or k not in entry:
+            return None, None
+        entry = entry[k]
+    if not isinstance(entry, dict):
+        return None, None
+    return _finite(entry.get("mean")), _finite(entry.get("err"))
+
+
+def _finite(x):
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _h_label(h):
+    """h10, h5, h2.5: the column prefix of a boundary thickness."""
+    return "h" + (str(int(h)) if float(h).is_integer() else repr(float(h)))
+
+
+# (column, path in summary.json) of every quantity with an error column
+BULK_QUANTITIES = [
+    ("L_y", ("height",)),
+    ("I_bulk", ("bulk", "inertial_number")),
+    ("mu_eff_wall", ("mu_eff_wall",)),
+    ("mu_eff_bulk", ("bulk", "mu_eff")),
+    ("nu_bulk", ("bulk", "solid_fraction")),
+    ("Z_bulk", ("bulk", "coordination")),
+    ("shear_rate_bulk", ("bulk", "shear_rate")),
+    ("slip_bottom", ("slip", "bottom")),
+    ("slip_top", ("slip", "top")),
+    ("switch_duration", ("switch_duration",)),
+]
+# (column suffix, key in summary["regions"][hK]["bottom" | "top"])
+LAYER_QUANTITIES = [("I", "inertial_number"), ("mu_eff", "mu_eff"), ("nu", "solid_fraction"),
+                    ("Z", "coordination"), ("velocity_jump", "velocity_jump")]
+HEAD_COLUMNS = ["run", "system", "seed", "V", "n", "duration", "time_reached", "finished",
+                "steady", "steady_reason", "regime", "regime_confidence", "transient_end_time",
+                "transient_end_strain", "band_switches"]
+
+
+def read_run(run_dir):
+    """One row of runs.csv from RUN_DIR/summary.json: plain values, `X` and `X_err` pairs, and
+    per boundary thickness h the layer quantities `hK_bottom_I`, ... (None where missing)."""
+    path = os.path.join(run_dir, "summary.json")
+    try:
+        with open(path, encoding="utf-8") as f:
+            s = json.load(f)
+    except (OSError, ValueError) as e:
+        raise ReportError(path, f"cannot read: {e}") from None
+    if not isinstance(s, dict):
+        raise ReportError(path, "not a JSON object")
+    name = os.path.basename(os.path.normpath(run_dir))
+    m = RUN_NAME.match(name)
+    case = s.get("case") if isinstance(s.get("case"), dict) else {}
+    switches = s.get("switches")
+    row = {
+        "run": name,
+        "system": int(m.group(1)) if m else None,
+        "seed": int(m.group(2)) if m else None,
+        "V": _finite(case.get("velocity")) if case.get("velocity") is not None
+        else (_finite(m.group(3)) if m else None),
+        "n": case.get("n"),
+        "duration": _finite(case.get("duration")),
+        "time_reached": _finite(case.get("time")),
+        "finished": case.get("finished"),
+        "steady": bool(s["steady"]) if isinstance(s.get("steady"), bool) else None,
+        "steady_reason": s.get("steady_reason"),
+        "regime": s.get("regime"),
+        "regime_confidence": _finite(s.get("regime_confidence")),
+        "transient_end_time": _finite(s.get("transient_end_time")),
+        "transient_end_strain": _finite(s.get("transient_end_strain")),
+        "band_switches": len(switches) if isinstance(switches, list) else None,
+    }
+    for col, keys in BULK_QUANTITIES:
+        row[col], row[col + "_err"] = _pair(s, *keys)
+    regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}
+    row["_layers"] = []  # the h of each region group present, in order
+    for group in regions.values():
+        h = _finite(group.get("h")) if isinstance(group, dict) else None
+        if h is None:
+            continue
+        label = _h_label(h)
+        row["_layers"].append(h)
+        for side in ("bottom", "top"):
+            for col, key in LAYER_QUANTITIES:
+                c = f"{label}_{side}_{col}"
+                row[c], row[c + "_err"] = _pair(group, side, key)
+    return row
+
+
+def campaign_runs(campaign_toml):
+    """(name, [run names]) from a resolved campaign.toml: [campaign].name and the runs listed in
+    its closing comment (`#   s1_seed1_V0.5  duration ...`)."""
+    try:
+        with open(campaign_toml, "rb") as f:
+            raw = f.read()
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (OSError, ValueError) as e:  # tomllib.TOMLDecodeError is a ValueError
+        raise ReportError(campaign_toml, f"cannot read: {e}") from None
+    name = data.get("campaign", {}).get("name")
+    runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", raw.decode("utf-8"), re.M)
+    return name, runs
+
+
+def collect(campaign_dir):
+    """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)]}."""
+    if not os.path.isdir(campaign_dir):
+        raise ReportError(campaign_dir, "not a folder")
+    toml_path = os.path.join(campaign_dir, "campaign.toml")
+    skipped = []
+    if os.path.isfile(toml_path):
+        name, listed = campaign_runs(toml_path)
+    else:
+        name, listed = None, []
+        skipped.append(("campaign.toml", "missing: the campaign name is the folder's"))
+    if not name:
+        name = os.path.basename(os.path.normpath(campaign_dir))
+    runs_dir = os.path.join(campaign_dir, "runs")
+    folders = sorted(d for d in os.listdir(runs_dir)
+                     if os.path.isdir(os.path.join(runs_dir, d))) if os.path.isdir(runs_dir) \
+        else []
+    if not folders and not listed:
+        raise ReportError(runs_dir, "no run folders (has `cdshear sweep` run here?)")
+    rows = []
+    for d in folders:
+        if not os.path.isfile(os.path.join(runs_dir, d, "summary.json")):
+            skipped.append((d, "not analysed: no summary.json (`cdshear analyze` it)"))
+            continue
+        rows.append(read_run(os.path.join(runs_dir, d)))
+    for r in listed:
+        if r not in folders:
+            skipped.append((r, "not started: no run folder"))
+    rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
+                             r["seed"] if r["seed"] is not None else 0,
+                             r["V"] if r["V"] is not None else math.inf, r["run"]))
+    return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped}
+
+
+def csv_columns(rows):
+    cols = list(HEAD_COLUMNS)
+    for col, _ in BULK_QUANTITIES:
+        cols += [col, col + "_err"]
+    for h in sorted({h for r in rows for h in r["_layers"]}):
+        for side in ("bottom", "top"):
+            for col, _ in LAYER_QUANTITIES:
+                c = f"{_h_label(h)}_{side}_{col}"
+                cols += [c, c + "_err"]
+    return cols
+
+
+def _cell(v):
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ""
+    return str(v)
+
+
+# ---------------------------------------------------------------------------------------------
+# Fits
+
+def _power(x, y0, a, b):
+    return y0 + a * np.power(x, b)
+
+
+def _power_minus(x, y0, c, e):
+    return y0 - c * np.power(x, e)
+
+
+def _linear(x, y0, a):
+    return y0 + a * x
+
+
+def _linear_minus(x, y0, c):
+    return y0 - c * x
+
+
+# name: (law, model, parameter names, y column, x range or None, starting values (x, y) -> p0s,
+#        bounds)
+def _p0_power(x, y, sign):
+    """Starting points (y0, amplitude, exponent) of y0 + sign * amplitude * x^exponent: y0 just
+    beyond the smallest (sign +1) or largest (-1) y, the amplitude spanning the data."""
+    y0 = float(np.min(y) if sign > 0 else np.max(y))
+    spread = float(np.ptp(y)) or 0.1
+    return [(y0 - sign * 0.1 * spread, spread / max(float(np.max(x)), 1e-12) ** e, e)
+            for e in (0.5, 1.0, 2.0)]
+
+
+def _p0_linear(x, y):
+    slope, icpt = np.polyfit(x, y, 1) if len(x) > 1 else (0.0, float(np.mean(y)))
+    return [(float(icpt), float(slope))]
+
+
+FITS = {
+    "mu_power": dict(law="mu_eff = mu_0 + A * I^B", model=_power, params=["mu_0", "A", "B"],
+                     y="mu_eff_bulk", range=None, p0=lambda x, y: _p0_power(x, y, +1),
+                     bounds=([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])),
+    "mu_linear": dict(law="mu_eff = a + b * I  (0.03 < I < 0.2)", model=_linear,
+                      params=["a", "b"], y="mu_eff_bulk", range=LINEAR_RANGE, p0=_p0_linear,
+                      bounds=(-np.inf, np.inf)),
+    "nu_linear": dict(law="nu = nu_max - c * I  (0.03 < I < 0.2)", model=_linear_minus,
+                      params=["nu_max", "c"], y="nu_bulk", range=LINEAR_RANGE,
+                      p0=lambda x, y: [(p[0], -p[1]) for p in _p0_linear(x, y)],
+                      bounds=(-np.inf, np.inf)),
+    "Z_power": dict(law="Z = Z_0 - c * I^e", model=_power_minus, params=["Z_0", "c", "e"],
+                    y="Z_bulk", range=None,
+                    p0=lambda x, y: _p0_power(x, y, -1),
+                    bounds=([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])),
+}
+
+
+def fit_law(name, rows):
+    """One fit of FITS over the steady rows with finite I_bulk > 0 and a finite y with a finite
+    positive error (inside the fit's I range); a dict with the keys of fits.json."""
+    from scipy.optimize import curve_fit
+    spec = FITS[name]
+    k = len(spec["params"])
+    out = {"law": spec["law"], "x": "I_bulk", "y": spec["y"],
+           "I_range": list(spec["range"]) if spec["range"] else None,
+           "status": "skipped", "reason": None, "n_points": 0, "points_without_error": 0,
+           "runs": [], "parameters": None, "chi2": None, "dof": None, "chi2_dof": None}
+    xs, ys, es, runs = [], [], [], []
+    for r in rows:
+        x, y, e = r.get("I_bulk"), r.get(spec["y"]), r.get(spec["y"] + "_err")
+        if r.get("steady") is not True or x is None or y is None or x <= 0:
+            continue
+        if spec["range"] and not spec["range"][0] < x < spec["range"][1]:
+            continue
+        if e is None or e <= 0:
+            out["points_without_error"] += 1
+            continue
+        xs.append(x), ys.append(y), es.append(e), runs.append(r["run"])
+    n = len(xs)
+    out["n_points"], out["runs"] = n, runs
+    if n < k + 1:
+        where = f" with {spec['range'][0]} < I < {spec['range'][1]}" if spec["range"] else ""
+        out["reason"] = (f"too few points: {n} steady runs{where} with {spec['y']} and its "
+                         f"error, {k + 1} needed for {k} parameters")
+        return out
+    x, y, e = np.array(xs), np.array(ys), np.array(es)
+    best = None
+    for p0 in spec["p0"](x, y):
+        try:
+            p, cov = curve_fit(spec["model"], x, y, p0=p0, sigma=e, absolute_sigma=True,
+                               bounds=spec["bounds"], maxfev=20000)
+        except (RuntimeError, ValueError) as err:
+            last = str(err)
+            continue
+        chi2 = float(np.sum(((y - spec["model"](x, *p)) / e) ** 2))
+        if best is None or chi2 < best[2]:
+            best = (p, cov, chi2)
+    if best is None:
+        out["reason"] = f"no convergence: {last}"
+        return out
+    p, cov, chi2 = best
+    dof = n - k
+    errs = np.sqrt(np.diag(cov)) if np.all(np.isfinite(cov)) else np.full(k, np.nan)
+    scale = math.sqrt(max(1.0, chi2 / dof))
+    out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof, parameters={
+        pn: {"value": float(v), "err": _finite(se), "err_scaled": _finite(se * scale)}
+        for pn, v, se in zip(spec["params"], p, errs)})
+    return out
+
+
+def fit_laws(rows):
+    return {name: fit_law(name, rows) for name in FITS}
+
+
+def fit_curve(fit, x):
+    """The fitted curve of a fits.json entry at x (None when the fit was skipped)."""
+    if fit["status"] != "ok":
+        return None
+    spec = next(s for s in FITS.values() if s["law"] == fit["law"])
+    return spec["model"](np.asarray(x, float), *[fit["parameters"][p]["value"]
+                                                 for p in spec["params"]])
+
+
+# ---------------------------------------------------------------------------------------------
+# Output
+
+FIGURES = [
+    ("mu_eff_I.png", "mu_eff (bulk) against I_bulk", "I_bulk", "mu_eff_bulk",
+     ["mu_power", "mu_linear"]),
+    ("nu_I.png", "solid fraction nu (bulk) against I_bulk", "I_bulk", "nu_bulk", ["nu_linear"]),
+    ("Z_I.png", "coordination Z (bulk) against I_bulk", "I_bulk", "Z_bulk", ["Z_power"]),
+    ("slip_V.png", "slip velocity at each wall against V", "V", None, []),
+]
+
+
+def _plot(path, title, xcol, ycol, fit_names, rows, fits):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(5.5, 4.0))
+    systems = sorted({r["system"] for r in rows}, key=lambda s: (s is None, s or 0))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    series = [(ycol, "", "o")] if ycol else [("slip_bottom", " bottom", "v"),
+                                             ("slip_top", " top", "^")]
+    plotted = False
+    xs_all = []
+    for i, system in enumerate(systems):
+        c = colours[i % len(colours)]
+        for col, label, marker in series:
+            for steady in (True, False):
+                sel = [r for r in rows if r["system"] == system and r[xcol] is not None and
+                       r[col] is not None and bool(r["steady"]) == steady]
+                if not sel:
+                    continue
+                x = [r[xcol] for r in sel]
+                xs_all += x
+                yerr = [r[col + "_err"] or 0.0 for r in sel]
+                xerr = [r.get(xcol + "_err") or 0.0 for r in sel]
+                name = f"system {system}" if system is not None else "other runs"
+                ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr, fmt=marker,
+                            color=c, mfc=c if steady else "none", capsize=2, ms=5,
+                            label=f"{name}{label}{'' if steady else ' (not steady)'}")
+                plotted = True
+    for j, fname in enumerate(fit_names):
+        f = fits.get(fname)
+        if f is None or f["status"] != "ok":
+            continue
+        xs = [x for x in xs_all if x > 0]
+        lo, hi = f["I_range"] if f["I_range"] else (min(xs), max(xs))
+        grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
+        ax.plot(grid, fit_curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
+                label=f"{fname}: {f['law']}")
+    if not plotted:
+        ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
+    elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
+        ax.set_xscale("log")
+    ax.set_xlabel(xcol)
+    ax.set_ylabel(ycol or "slip velocity [d/t]")
+    ax.set_title(title, fontsize=9)
+    if plotted:
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _fmt(v, digits=4):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.{digits}g}"
+    return html.escape(str(v))
+
+
+def _pm(row, col):
+    v, e = row.get(col), row.get(col + "_err")
+    if v is None:
+        return ""
+    return _fmt(v) + (f" ± {_fmt(e, 2)}" if e is not None else "")
+
+
+def _html(report, fits, figures):
+    rows = report["rows"]
+    name = html.escape(report["campaign"])
+    shown = ["I_bulk", "mu_eff_bulk", "mu_eff_wall", "nu_bulk", "Z_bulk", "slip_bottom",
+             "slip_top"]
+    out = [f"<!DOCTYPE html>\n<html><head><meta charset='utf-8'><title>Campaign {name}</title>",
+           "<style>body{font-family:sans-serif;max-width:80em}table{border-collapse:collapse;"
+           "font-size:85%}td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
+           "img{max-width:48%}</style></head><body>",
+           f"<h1>Campaign {name}</h1>",
+           f"<p>{len(rows)} analysed runs ({sum(1 for r in rows if r['steady'])} steady); "
+           f"{len(report['skipped'])} left out. Every value: mean ± standard error. "
+           "All columns: <a href='runs.csv'>runs.csv</a>; fits: "
+           "<a href='fits.json'>fits.json</a>.</p>", "<h2>Runs</h2><table><tr>",
+           "".join(f"<th>{c}</th>" for c in
+                   ["run", "system", "V", "steady", "regime (conf.)", "t reached",
+                    "switches"] + shown), "</tr>"]
+    for r in rows:
+        regime = r["regime"] or ""
+        if r["regime_confidence"] is not None:
+            regime += f" ({r['regime_confidence']:.2f})"
+        steady = {True: "yes", False: "no", None: ""}[r["steady"]]
+        cells = [html.escape(r["run"]), _fmt(r["system"]), _fmt(r["V"]),
+                 steady if r["steady"] is not False else
+                 f"<span title='{html.escape(r['steady_reason'] or '')}'>no</span>",
+                 html.escape(regime), _fmt(r["time_reached"]), _fmt(r["band_switches"])]
+        cells += [_pm(r, c) for c in shown]
+        out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    out.append("</table><h2>Fits over the steady runs (bulk)</h2><table><tr><th>fit</th>"
+               "<th>law</th><th>points</th><th>parameters</th><th>chi2/dof</th></tr>")
+    for fname, f in fits.items():
+        if f["status"] == "ok":
+            params = "<br>".join(f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}"
+                                 for p, v in f["parameters"].items())
+            chi = _fmt(f["chi2_dof"], 3)
+        else:
+            params, chi = "skipped: " + html.escape(f["reason"]), ""
+        out.append(f"<tr><td>{fname}</td><td>{html.escape(f['law'])}</td>"
+                   f"<td>{f['n_points']}</td><td style='text-align:left'>{params}</td>"
+                   f"<td>{chi}</td></tr>")
+    out.append("</table><p>Errors from the error bars (absolute); fits.json also gives them "
+               "scaled by sqrt(chi2/dof) when that exceeds 1.</p><h2>Figures</h2>")
+    for fig in figures:
+        out.append(f"<img src='figures/{html.escape(fig)}' alt='{html.escape(fig)}'>")
+    out.append("<h2>Runs left out</h2>")
+    if report["skipped"]:
+        out.append("<ul>" + "".join(f"<li>{html.escape(n)}: {html.escape(why)}</li>"
+                                    for n, why in report["skipped"]) + "</ul>")
+    else:
+        out.append("<p>none</p>")
+    out.append("</body></html>\n")
+    return "\n".join(out)
+
+
+def write_report(report, out_dir):
+    """runs.csv, fits.json, figures/*.png and index.html in out_dir; returns their paths."""
+    rows = report["rows"]
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
+    paths = []
+    csv_path = os.path.join(out_dir, "runs.csv")
+    cols = csv_columns(rows)
+    with open(csv_path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in rows:
+            w.writerow([_cell(r.get(c)) for c in cols])
+    paths.append(csv_path)
+
+    fits = fit_laws(rows)
+    fits_path = os.path.join(out_dir, "fits.json")
+    with open(fits_path, "w", encoding="utf-8") as f:
+        json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
+                   "campaign": report["campaign"], "runs_analysed": len(rows),
+                   "runs_steady": sum(1 for r in rows if r["steady"]), "fits": fits},
+                  f, indent=1, allow_nan=False)
+    paths.append(fits_path)
+
+    figures = []
+    for fname, title, xcol, ycol, fit_names in FIGURES:
+        _plot(os.path.join(fig_dir, fname), title, xcol, ycol, fit_names, rows, fits)
+        figures.append(fname)
+        paths.append(os.path.join(fig_dir, fname))
+
+    index = os.path.join(out_dir, "index.html")
+    with open(index, "w", encoding="utf-8") as f:
+        f.write(_html(report, fits, figures))
+    paths.append(index)
+    return paths

@@ -1,0 +1,303 @@
+"""The campaign report: rows from fake summary.json files, the fits, runs left out, index.html."""
+import contextlib
+import csv
+import io
+import json
+import os
+import re
+import tempfile
+import unittest
+
+import numpy as np
+
+from cdshear_analysis import report
+from cdshear_analysis.__main__ import main as cli_main
+from cdshear_analysis.synthetic import write_synthetic_run
+
+
+def main(argv):
+    """The command line, its printed paths kept out of the test output."""
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        return cli_main(argv)
+
+
+def entry(mean, err):
+    return {"mean": mean, "err": err}
+
+
+def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=True, regime="A",
+                 layers=(5.0, 10.0)):
+    """A run folder with the parts of summary.json (docs/analysis.md) that a report reads."""
+    os.makedirs(run_dir, exist_ok=True)
+    e_mu, e_nu, e_z = errs
+    layer = {"mu_eff": entry(mu + 0.05, e_mu), "solid_fraction": entry(nu - 0.03, e_nu),
+             "coordination": entry(Z - 0.2, e_z), "velocity_jump": entry(0.3 * V, 0.01 * V),
+             "inertial_number": entry(3 * I, 0.1 * I)}
+    s = {
+        "format": "cdshear-summary", "version": 1, "run_dir": run_dir,
+        "case": {"n": 511, "velocity": V, "normal_stress": 0.25, "length_x": 20.0,
+                 "height": 20.0, "duration": 1000.0, "time": 1000.0, "finished": True,
+                 "window": 80.0, "boundary_thickness": list(layers)},
+        "steady": steady, "steady_reason": "transient over at t = 100" if steady else
+        "a series still drifts", "transient_end_time": 100.0, "transient_end_strain": 5.0,
+        "regime": regime, "regime_confidence": 0.9,
+        "mu_eff_wall": entry(mu, e_mu), "height": entry(20.1, 0.01),
+        "solid_fraction": entry(nu, e_nu),
+        "bulk": {"h": layers[0], "y_range": [5, 15], "mu_eff": entry(mu, e_mu),
+                 "solid_fraction": entry(nu, e_nu), "coordination": entry(Z, e_z),
+                 "shear_rate": entry(I * 0.5, I * 0.01), "inertial_number": entry(I, 0.01 * I)},
+        "slip": {"bottom": entry(0.1 * V, 0.01 * V), "top": entry(0.12 * V, 0.01 * V)},
+        "regions": {report._h_label(h): {"h": h, "bulk": {}, "bottom": layer, "top": layer}
+                    for h in layers},
+        "switches": [], "switch_duration": entry(None, None),
+    }
+    with open(os.path.join(run_dir, "summary.json"), "w") as f:
+        json.dump(s, f)
+    return s
+
+
+def fake_campaign(d, name, system_runs, listed_extra=()):
+    """campaign.toml as `cdshear sweep` writes it (name + the runs' comment) and the run folders
+    of system_runs: {system: [(V, I, mu, nu, Z), ...]}."""
+    names = []
+    for system, runs in system_runs.items():
+        for V, I, mu, nu, Z in runs:
+            run = f"s{system}_seed1_V{V:.6g}"
+            names.append(run)
+            fake_summary(os.path.join(d, "runs", run), V, I, mu, nu, Z)
+    with open(os.path.join(d, "campaign.toml"), "w") as f:
+        f.write(f"# Resolved campaign\n[campaign]\nname = '{name}'\nsystems = [1]\n"
+                f"velocities = [1.0]\nseeds = [1]\nduration = 1000.0\n\n[set]\n\n"
+                "# Runs (name, duration [t], dt [t], cost n x duration / dt):\n")
+        for run in names + list(listed_extra):
+            f.write(f"#   {run}  duration 1000  dt 0.001  cost 5.1e+08\n")
+
+
+def within(test, fit, truth, sigmas=2.0):
+    for p, value in truth.items():
+        got = fit["parameters"][p]
+        test.assertLessEqual(abs(got["value"] - value), sigmas * got["err"],
+                             f"{p}: {got['value']} ± {got['err']}, truth {value}")
+
+
+class ReportTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.d = self.tmp.name
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def power_law_campaign(self, seed=7):
+        """Two systems, 16 runs, I from 0.003 to 0.3: mu = 0.25 + 0.5 I^0.6, nu = 0.82 - 0.35 I,
+        Z = 3.2 - 2.0 I^0.7, each with Gaussian noise of its error bar."""
+        rng = np.random.default_rng(seed)
+        self.truth = {"mu_power": {"mu_0": 0.25, "A": 0.5, "B": 0.6},
+                      "nu_linear": {"nu_max": 0.82, "c": 0.35},
+                      "Z_power": {"Z_0": 3.2, "c": 2.0, "e": 0.7}}
+        runs = {1: [], 2: []}
+        for k, I in enumerate(np.geomspace(0.003, 0.3, 16)):
+            runs[1 + k % 2].append((float(10 * I), float(I),
+                                    0.25 + 0.5 * I ** 0.6 + 0.003 * rng.standard_normal(),
+                                    0.82 - 0.35 * I + 0.002 * rng.standard_normal(),
+                                    3.2 - 2.0 * I ** 0.7 + 0.02 * rng.standard_normal()))
+        fake_campaign(self.d, "test_campaign", runs)
+
+    def test_power_law_fits_recover_the_parameters(self):
+        self.power_law_campaign()
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(self.d, "report", "fits.json")) as f:
+            fits = json.load(f)
+        self.assertEqual(fits["format"], "cdshear-report-fits")
+        self.assertEqual(fits["campaign"], "test_campaign")
+        for name, truth in self.truth.items():
+            fit = fits["fits"][name]
+            self.assertEqual(fit["status"], "ok", fit["reason"])
+            within(self, fit, truth)
+            self.assertLess(fit["chi2_dof"], 3.0)
+        self.assertEqual(fits["fits"]["mu_power"]["n_points"], 16)
+        # only 0.03 < I < 0.2 for the linear ones
+        self.assertEqual(fits["fits"]["nu_linear"]["n_points"],
+                         sum(1 for I in np.geomspace(0.003, 0.3, 16) if 0.03 < I < 0.2))
+        # a wrong truth is caught: the test can fail
+        with self.assertRaises(AssertionError):
+            within(self, fits["fits"]["mu_power"], {"mu_0": 0.27})
+
+    def test_linear_fit_recovers_the_parameters_on_its_range_only(self):
+        rng = np.random.default_rng(3)
+        runs = {1: []}
+        for I in np.geomspace(0.005, 0.5, 20):
+            # linear inside 0.03 < I < 0.2; far off outside, so that a fit not restricted to
+            # the range misses the parameters
+            mu = 0.28 + 0.9 * I if 0.03 < I < 0.2 else 0.1
+            runs[1].append((float(I), float(I), mu + 0.003 * rng.standard_normal(), 0.8, 3.0))
+        fake_campaign(self.d, "lin", runs)
+        rows = report.collect(self.d)["rows"]
+        fit = report.fit_law("mu_linear", rows)
+        self.assertEqual(fit["status"], "ok", fit["reason"])
+        within(self, fit, {"a": 0.28, "b": 0.9})
+        self.assertEqual(fit["I_range"], [0.03, 0.2])
+        self.assertTrue(all(0.03 < r["I_bulk"] < 0.2 for r in rows if r["run"] in fit["runs"]))
+
+    def test_parameter_errors_follow_the_error_bars(self):
+        # absolute_sigma: twice the error bars on the same points give twice the errors (a fit
+        # that rescaled them by its scatter would give the same errors both times)
+        self.power_law_campaign()
+        rows = report.collect(self.d)["rows"]
+        first = report.fit_law("mu_power", rows)
+        for r in rows:
+            r["mu_eff_bulk_err"] *= 2
+        second = report.fit_law("mu_power", rows)
+        for p in ("mu_0", "A", "B"):
+            self.assertAlmostEqual(second["parameters"][p]["value"],
+                                   first["parameters"][p]["value"], places=5)
+            self.assertAlmostEqual(second["parameters"][p]["err"] / first["parameters"][p]["err"],
+                                   2.0, places=3)
+        self.assertAlmostEqual(second["chi2"], first["chi2"] / 4, places=6)
+
+    def test_nan_values_are_left_out(self):
+        # Python's json writes and reads NaN; a summary edited by hand may hold it
+        self.power_law_campaign()
+        path = os.path.join(self.d, "runs", "s1_seed1_V0.03", "summary.json")
+        with open(path) as f:
+            s = json.load(f)
+        s["bulk"]["mu_eff"]["mean"] = float("nan")
+        with open(path, "w") as f:
+            json.dump(s, f)
+        rows = report.collect(self.d)["rows"]
+        self.assertIn("s1_seed1_V0.03", [r["run"] for r in rows])
+        fit = report.fit_law("mu_power", rows)
+        self.assertEqual((fit["status"], fit["n_points"]), ("ok", 15))
+        self.assertEqual(main(["report", self.d]), 0)
+
+    def test_not_steady_runs_are_not_fitted(self):
+        self.power_law_campaign()
+        rows = report.collect(self.d)["rows"]
+        for r in rows[:10]:
+            r["steady"] = False
+        fit = report.fit_law("mu_power", rows)
+        self.assertEqual(fit["n_points"], 6)
+        self.assertNotIn(rows[0]["run"], fit["runs"])
+
+    def test_too_few_points_skip_the_fit_with_the_reason(self):
+        fake_campaign(self.d, "few", {1: [(0.1, 0.05, 0.3, 0.8, 3.0), (0.2, 0.1, 0.33, 0.79,
+                                                                        2.9),
+                                          (0.4, 0.15, 0.36, 0.78, 2.8)]})
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(self.d, "report", "fits.json")) as f:
+            fits = json.load(f)["fits"]
+        self.assertEqual(fits["mu_power"]["status"], "skipped")   # 3 points, 3 parameters
+        self.assertIn("too few points: 3", fits["mu_power"]["reason"])
+        self.assertIsNone(fits["mu_power"]["parameters"])
+        self.assertEqual(fits["mu_linear"]["status"], "ok")       # 3 points, 2 parameters
+        with open(os.path.join(self.d, "report", "index.html")) as f:
+            self.assertIn("skipped: too few points", f.read())
+
+    def test_runs_not_analysed_or_not_started_are_listed_and_left_out(self):
+        fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]},
+                      listed_extra=["s1_seed1_V1", "s1_seed1_V10"])
+        os.makedirs(os.path.join(self.d, "runs", "s1_seed1_V1"))   # running: no summary.json
+        r = report.collect(self.d)
+        self.assertEqual([row["run"] for row in r["rows"]], ["s1_seed1_V0.1"])
+        skipped = dict(r["skipped"])
+        self.assertIn("not analysed", skipped["s1_seed1_V1"])
+        self.assertIn("not started", skipped["s1_seed1_V10"])
+        self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "out")]), 0)
+        with open(os.path.join(self.d, "out", "index.html")) as f:
+            text = f.read()
+        self.assertIn("s1_seed1_V1: not analysed", text)
+        with open(os.path.join(self.d, "out", "runs.csv")) as f:
+            self.assertEqual(len(list(csv.DictReader(f))), 1)
+
+    def test_index_references_only_files_that_exist(self):
+        self.power_law_campaign()
+        out = os.path.join(self.d, "report")
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(out, "index.html")) as f:
+            text = f.read()
+        self.assertIn("<h1>Campaign test_campaign</h1>", text)
+        refs = re.findall(r"(?:src|href)='([^']+)'", text)
+        images = [r for r in refs if r.endswith(".png")]
+        self.assertEqual(len(images), len(report.FIGURES))
+        for ref in refs:
+            self.assertFalse(os.path.isabs(ref) or ref.startswith(".."), ref)
+            self.assertTrue(os.path.isfile(os.path.join(out, ref)), ref)
+
+    def test_missing_quantities_give_empty_cells(self):
+        fake_campaign(self.d, "holes", {1: [(0.1, 0.05, 0.3, 0.8, 3.0),
+                                            (0.2, 0.1, 0.33, 0.79, 2.9)]})
+        path = os.path.join(self.d, "runs", "s1_seed1_V0.2", "summary.json")
+        with open(path) as f:
+            s = json.load(f)
+        del s["slip"], s["regions"], s["regime_confidence"]
+        s["bulk"]["coordination"] = {"mean": None, "err": None}   # NaN is written as null
+        s["bulk"]["solid_fraction"]["err"] = None                  # single window: no error
+        s["regime"] = None
+        with open(path, "w") as f:
+            json.dump(s, f)
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(self.d, "report", "runs.csv")) as f:
+            rows = {r["run"]: r for r in csv.DictReader(f)}
+        full, holes = rows["s1_seed1_V0.1"], rows["s1_seed1_V0.2"]
+        for col in ("slip_bottom", "slip_top_err", "Z_bulk", "Z_bulk_err", "nu_bulk_err",
+                    "regime", "regime_confidence", "h10_top_I", "h5_bottom_mu_eff_err"):
+            self.assertEqual(holes[col], "", col)
+            self.assertNotEqual(full[col], "", col)
+        self.assertAlmostEqual(float(holes["nu_bulk"]), 0.79)
+        self.assertEqual(holes["system"], "1")
+        self.assertEqual(holes["steady"], "true")
+        self.assertAlmostEqual(float(full["h10_bottom_I"]), 3 * 0.05)
+
+    def test_summaries_written_by_analyze(self):
+        # The real keys: synthetic runs analysed by `analyze`, a regime C one with switches and
+        # one too short for any window (not steady, window quantities null).
+        runs = os.path.join(self.d, "runs")
+        write_synthetic_run(os.path.join(runs, "s1_seed1_V0.5"), kind="A", duration=800.0)
+        write_synthetic_run(os.path.join(runs, "s1_seed1_V0.05"), kind="C", velocity=0.05,
+                            duration=1600.0, seed=2)
+        write_synthetic_run(os.path.join(runs, "s1_seed2_V0.5"), kind="A", duration=40.0)
+        for name in os.listdir(runs):
+            self.assertEqual(main(["analyze", os.path.join(runs, name), "--quiet"]), 0)
+        self.assertEqual(main(["report", self.d]), 0)   # no campaign.toml: the folder's name
+        out = os.path.join(self.d, "report")
+        with open(os.path.join(out, "runs.csv")) as f:
+            rows = {r["run"]: r for r in csv.DictReader(f)}
+        with open(os.path.join(runs, "s1_seed1_V0.5", "summary.json")) as f:
+            s = json.load(f)
+        a = rows["s1_seed1_V0.5"]
+        self.assertEqual((a["system"], a["seed"], a["regime"], a["steady"]), ("1", "1", "A",
+                                                                               "true"))
+        self.assertAlmostEqual(float(a["I_bulk"]), s["bulk"]["inertial_number"]["mean"])
+        self.assertAlmostEqual(float(a["mu_eff_bulk_err"]), s["bulk"]["mu_eff"]["err"])
+        self.assertAlmostEqual(float(a["slip_top"]), s["slip"]["top"]["mean"])
+        self.assertAlmostEqual(float(a["h10_top_I"]),
+                               s["regions"]["h10"]["top"]["inertial_number"]["mean"])
+        self.assertAlmostEqual(float(a["h5_bottom_Z"]),
+                               s["regions"]["h5"]["bottom"]["coordination"]["mean"])
+        self.assertAlmostEqual(float(a["L_y"]), s["height"]["mean"])
+        c = rows["s1_seed1_V0.05"]
+        self.assertEqual(c["regime"], "C")
+        self.assertGreater(int(c["band_switches"]), 0)
+        self.assertNotEqual(c["switch_duration"], "")
+        short = rows["s1_seed2_V0.5"]
+        self.assertEqual((short["steady"], short["regime"], short["I_bulk"]), ("false", "", ""))
+        with open(os.path.join(out, "fits.json")) as f:
+            fits = json.load(f)
+        self.assertEqual(fits["campaign"], os.path.basename(self.d))
+        self.assertEqual(fits["fits"]["mu_power"]["status"], "skipped")
+        with open(os.path.join(out, "index.html")) as f:
+            self.assertIn("campaign.toml: missing", f.read())
+
+    def test_bad_campaign_folder_is_an_error(self):
+        self.assertEqual(main(["report", os.path.join(self.d, "nothing")]), 2)
+        self.assertEqual(main(["report", self.d]), 2)   # no runs/ and no campaign.toml
+        os.makedirs(os.path.join(self.d, "runs", "s1_seed1_V1"))
+        with open(os.path.join(self.d, "runs", "s1_seed1_V1", "summary.json"), "w") as f:
+            f.write("{not json")
+        with self.assertRaises(report.ReportError) as e:
+            report.collect(self.d)
+        self.assertTrue(e.exception.path.endswith("summary.json"))
+
+
+if __name__ == "__main__":
+    unittest.main()
