@@ -81,6 +81,19 @@ TEST(CampaignFile, StrainBecomesADurationPerRun) {
   EXPECT_DOUBLE_EQ(h.runs[0].duration, 60.0);
 }
 
+TEST(CampaignFile, DurationsPerSystem) {
+  // SPEC 6 gives each system its own simulated time; the resolved form keeps the table.
+  const Campaign c = parse(
+      "[campaign]\nname = \"p\"\nsystems = [1, 2]\nvelocities = [0.5]\n"
+      "duration = { 1 = 20000, 2 = 10000 }\n");
+  ASSERT_EQ(c.runs.size(), 2u);
+  EXPECT_DOUBLE_EQ(c.runs[0].duration, 20000.0);
+  EXPECT_DOUBLE_EQ(c.runs[1].duration, 10000.0);
+  const Campaign back =
+      campaign_from_toml(campaign_to_toml(c), "p.toml", std::filesystem::current_path().string());
+  EXPECT_EQ(back.duration_of_system, c.duration_of_system);
+}
+
 TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
   TempDir dir("campaign");
   const std::string packing = dir.write("p.json", "{}");
@@ -176,6 +189,13 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                      "systems = [1]\nseeds = [1, 2]\nduration = 10\n[campaign.velocity_range]\n"
                      "from = 0.01\nto = 1\ncount = 10000\n",
                  "campaign", "more than the limit");
+  // per-system durations: every system, and only those
+  expect_refused(kHead + "systems = [1, 2]\nvelocities = [0.5]\nduration = { 1 = 100 }\n",
+                 "campaign.duration.2", "missing");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = { 1 = 100, 3 = 5 }\n",
+                 "campaign.duration.3", "unknown key");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = { 1 = -1 }\n",
+                 "campaign.duration.1", "> 0");
   // duration or strain: one of them
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 10\nstrain = 2\n",
                  "campaign.strain", "not both");

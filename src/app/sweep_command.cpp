@@ -106,7 +106,7 @@ int run_sweep(const SweepArgs& args) {
   const Campaign c = read_campaign(args.file);
   for (const CampaignRun& r : c.runs)  // the limit `cdshear run` would refuse it with
     if (r.duration / r.dt > kMaxRunSteps)
-      throw ConfigError(args.file, c.duration ? "campaign.duration" : "campaign.strain",
+      throw ConfigError(args.file, c.strain ? "campaign.strain" : "campaign.duration",
                         fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
                                     "(docs/reliability.md)",
                                     r.name, r.duration / r.dt, kMaxRunSteps));

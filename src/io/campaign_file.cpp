@@ -136,12 +136,12 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
     TomlReader r = t.table("velocity_range");
     c.velocities = velocity_range(r);
   }
-  for (std::size_t i = 0; i < c.velocities.size(); ++i)
-    for (std::size_t j = 0; j < i; ++j)
-      if (format_number(c.velocities[i]) == format_number(c.velocities[j]))
-        t.fail(has_list ? "velocities" : "velocity_range",
-               "gives V = " + format_number(c.velocities[i]) +
-                   " twice (the same run twice; V is told apart to 6 significant digits)");
+  std::set<std::string> velocity_names;  // as the run folders name them
+  for (const double v : c.velocities)
+    if (!velocity_names.insert(format_number(v)).second)
+      t.fail(has_list ? "velocities" : "velocity_range",
+             "gives V = " + format_number(v) +
+                 " twice (the same run twice; V is told apart to 6 significant digits)");
 
   if (t.has("seeds")) {
     for (const std::int64_t s :
@@ -162,7 +162,23 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
     t.fail("strain", "give either duration (time units) or strain, not both");
   if (!has_duration && !has_strain)
     t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
-  if (has_duration) c.duration = t.positive("duration");
+  if (has_duration) {
+    if (t.has_table("duration")) {
+      // One duration per system (SPEC 6 gives each its own simulated time).
+      TomlReader per = t.table("duration");
+      for (const int k : c.systems) {
+        const std::string key = std::to_string(k);
+        if (!per.has(key))
+          per.fail(key,
+                   "is missing: a per-system duration must give every system of the "
+                   "campaign its own");
+        c.duration_of_system[k] = per.positive(key);
+      }
+      per.finish();  // a system not in the campaign is refused here
+    } else {
+      c.duration = t.positive("duration");
+    }
+  }
   if (has_strain) c.strain = t.positive("strain");
 
   if (t.has("boundary_thickness")) {
@@ -248,14 +264,16 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
         }
         run.n = sc.n;
         run.height = sc.height;
-        run.duration = c.duration ? *c.duration : *c.strain * sc.height / (2.0 * v);
+        run.duration = c.duration                      ? *c.duration
+                       : !c.duration_of_system.empty() ? c.duration_of_system.at(system)
+                                                       : *c.strain * sc.height / (2.0 * v);
         sc.duration = run.duration;
         resolve_time_step(sc);
         run.dt = sc.step.dt;
         const double steps = run.duration / run.dt;
         if (!(steps >= 0.5))
           t.fail(
-              c.duration ? "duration" : "strain",
+              c.strain ? "strain" : "duration",
               fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
                           run.name, run.duration, run.dt));
         c.runs.push_back(run);
@@ -275,6 +293,11 @@ toml::table campaign_to_toml(const Campaign& c) {
                        {"seeds", seeds},
                        {"analyze", c.analyze}};
   if (c.duration) campaign.insert("duration", *c.duration);
+  if (!c.duration_of_system.empty()) {
+    toml::table per;
+    for (const auto& [k, d] : c.duration_of_system) per.insert(std::to_string(k), d);
+    campaign.insert("duration", per);
+  }
   if (c.strain) campaign.insert("strain", *c.strain);
   if (!c.boundary_thickness.empty()) campaign.insert("boundary_thickness", boundary);
   if (!c.packings.empty()) {

@@ -33,8 +33,9 @@ struct Campaign {
   std::vector<int> systems;
   std::vector<double> velocities;  ///< every V [d/t], in the order given (a range expanded)
   std::vector<std::uint64_t> seeds;
-  std::optional<double> duration;  ///< [t], the same for every run; or
-  std::optional<double> strain;    ///< total shear strain 2 V t / L_y, per run t = strain L_y / 2V
+  std::optional<double> duration;            ///< [t], the same for every run; or per system:
+  std::map<int, double> duration_of_system;  ///< [t] (`duration = { 1 = 20000, 7 = 13000 }`); or
+  std::optional<double> strain;  ///< total shear strain 2 V t / L_y, per run t = strain L_y / 2V
   std::vector<double> boundary_thickness;  ///< measure.boundary_thickness [d]; empty: the case's
   bool analyze = true;                     ///< each run ends with analyze + plot
   std::map<int, std::string> packings;     ///< system -> given packing file (absolute path)

@@ -101,6 +101,11 @@ bool TomlReader::has(const std::string& key) const {
   return table_->contains(key);
 }
 
+bool TomlReader::has_table(const std::string& key) const {
+  const toml::node* node = table_->get(key);
+  return node != nullptr && node->is_table();
+}
+
 const toml::node* TomlReader::lookup(const std::string& key) {
   used_.insert(key);
   return table_->get(key);
