@@ -12,8 +12,8 @@ namespace cdshear {
 /// Largest --threads accepted.
 inline constexpr int kMaxThreads = 1024;
 
-/// `--threads N`: solver threads of the coloured contact order (default: every processor). Not
-/// part of the case: the results are the same for any N (docs/performance.md).
+/// An option NAME taking a whole number from 1 to kMaxThreads (threads, jobs); a value outside
+/// is bad input naming the option.
 inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
                              const std::string& description) {
   cmd->add_option_function<int>(
@@ -29,6 +29,8 @@ inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
       ->type_name("N");
 }
 
+/// `--threads N`: solver threads of the coloured contact order (default: every processor). Not
+/// part of the case: the results are the same for any N (docs/performance.md).
 inline void add_threads_option(CLI::App* cmd, int& threads) {
   add_count_option(cmd, "--threads", threads,
                    "solver threads (coloured contact order; default: all " +
