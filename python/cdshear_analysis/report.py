@@ -19,6 +19,7 @@ import math
 import os
 import re
 import tomllib
+import warnings
 
 import numpy as np
 
@@ -144,7 +145,9 @@ def campaign_runs(campaign_toml):
         data = tomllib.loads(raw.decode("utf-8"))
     except (OSError, ValueError) as e:  # tomllib.TOMLDecodeError is a ValueError
         raise ReportError(campaign_toml, f"cannot read: {e}") from None
-    name = data.get("campaign", {}).get("name")
+    campaign = data.get("campaign")
+    name = campaign.get("name") if isinstance(campaign, dict) else None
+    name = name if isinstance(name, str) else None
     runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", raw.decode("utf-8"), re.M)
     return name, runs
 
@@ -261,7 +264,7 @@ FITS = {
 def fit_law(name, rows):
     """One fit of FITS over the steady rows with finite I_bulk > 0 and a finite y with a finite
     positive error (inside the fit's I range); a dict with the keys of fits.json."""
-    from scipy.optimize import curve_fit
+    from scipy.optimize import OptimizeWarning, curve_fit
     spec = FITS[name]
     k = len(spec["params"])
     out = {"law": spec["law"], "x": "I_bulk", "y": spec["y"],
@@ -290,8 +293,11 @@ def fit_law(name, rows):
     best = None
     for p0 in spec["p0"](x, y):
         try:
-            p, cov = curve_fit(spec["model"], x, y, p0=p0, sigma=e, absolute_sigma=True,
-                               bounds=spec["bounds"], maxfev=20000)
+            with warnings.catch_warnings():
+                # a covariance that cannot be estimated is handled below, not printed
+                warnings.simplefilter("ignore", OptimizeWarning)
+                p, cov = curve_fit(spec["model"], x, y, p0=p0, sigma=e, absolute_sigma=True,
+                                   bounds=spec["bounds"], maxfev=20000)
         except (RuntimeError, ValueError) as err:
             last = str(err)
             continue
@@ -303,7 +309,11 @@ def fit_law(name, rows):
         return out
     p, cov, chi2 = best
     dof = n - k
-    errs = np.sqrt(np.diag(cov)) if np.all(np.isfinite(cov)) else np.full(k, np.nan)
+    if not np.all(np.isfinite(cov)):
+        # degenerate points (for example every run at the same I): no parameter errors, no fit
+        out["reason"] = "covariance not estimable: the points do not determine the parameters"
+        return out
+    errs = np.sqrt(np.diag(cov))
     scale = math.sqrt(max(1.0, chi2 / dof))
     out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof, parameters={
         pn: {"value": float(v), "err": _finite(se), "err_scaled": _finite(se * scale)}

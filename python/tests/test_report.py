@@ -193,6 +193,16 @@ class ReportTest(unittest.TestCase):
         with open(os.path.join(self.d, "report", "index.html")) as f:
             self.assertIn("skipped: too few points", f.read())
 
+    def test_degenerate_points_skip_the_fit_instead_of_giving_no_errors(self):
+        # four runs at the same I: a line through them is not determined
+        fake_campaign(self.d, "same", {1: [(v, 0.1, 0.3 + 0.01 * k, 0.8, 3.0)
+                                           for k, v in enumerate((0.1, 0.2, 0.4, 0.8))]})
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(self.d, "report", "fits.json")) as f:
+            fits = json.load(f)["fits"]
+        self.assertEqual(fits["mu_linear"]["status"], "skipped")
+        self.assertIn("covariance not estimable", fits["mu_linear"]["reason"])
+
     def test_runs_not_analysed_or_not_started_are_listed_and_left_out(self):
         fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]},
                       listed_extra=["s1_seed1_V1", "s1_seed1_V10"])
