@@ -5,7 +5,8 @@ every DIR/runs/*/summary.json (written by `cdshear analyze`; this module never a
 A run folder without summary.json is listed as "not analysed", a run of campaign.toml without a
 folder as "not started"; both are left out. `fit_laws(rows)` fits the bulk laws of SPEC 8 over
 the steady runs; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png and
-index.html (docs/campaigns.md, "Reports", documents every column and key).
+index.html, with the transition velocities and SPEC 8 predictions of transitions.py
+(docs/campaigns.md, "Reports", documents every column and key).
 
 Fits: scipy.optimize.curve_fit weighted by the error bars of the quantity (sigma = its standard
 error, absolute_sigma=True); the error of I is not used. Points without a finite positive error
@@ -22,6 +23,8 @@ import tomllib
 import warnings
 
 import numpy as np
+
+from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
 REPORT_VERSION = 1
@@ -121,6 +124,12 @@ def read_run(run_dir):
     }
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
+    # for transitions.predictions (not in runs.csv): sigma_yy, the switches, and the friction
+    # of each wall, which summary.json does not hold yet (read when it does)
+    row["_sigma_yy"] = _finite(case.get("normal_stress"))
+    row["_switches"] = switches if isinstance(switches, list) else []
+    row["_mu_wall_bottom"] = _pair(s, "mu_eff_wall_bottom")[0]
+    row["_mu_wall_top"] = _pair(s, "mu_eff_wall_top")[0]
     regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}
     row["_layers"] = []  # the h of each region group present, in order
     for group in regions.values():
@@ -397,6 +406,58 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
     plt.close(fig)
 
 
+REGIME_MARKERS = {"A": ("o", "tab:red"), "B": ("s", "tab:blue"), "C": ("^", "tab:green"),
+                  None: ("x", "0.4")}
+
+
+def _plot_regimes(path, rows, transitions):
+    """The regime diagram: V (log) against system, one marker per run (seeds side by side),
+    open when not steady; the V_AB and V_BC brackets as bars, their estimates as ticks."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    systems = sorted({r["system"] for r in rows if r["system"] is not None})
+    fig, ax = plt.subplots(figsize=(6.0, 1.2 + 0.6 * max(1, len(systems))))
+    seen = set()
+    vs = []
+    for i, system in enumerate(systems):
+        sel = [r for r in rows if r["system"] == system and r["V"] is not None and r["V"] > 0]
+        seeds = sorted({r["seed"] for r in sel if r["seed"] is not None})
+        for r in sel:
+            k = seeds.index(r["seed"]) if r["seed"] in seeds else 0
+            y = i + 0.12 * (k - (len(seeds) - 1) / 2)
+            g = r["regime"] if r["regime"] in REGIME_MARKERS else None
+            marker, colour = REGIME_MARKERS[g]
+            label = f"regime {g or 'undetermined'}" if g not in seen else None
+            seen.add(g)
+            ax.plot([r["V"]], [y], marker, color=colour, ms=7, label=label,
+                    mfc=colour if r["steady"] or marker == "x" else "none")
+            vs.append(r["V"])
+        t = transitions.get(str(system), {})
+        for key, dy, ls in (("V_AB", 0.3, "-"), ("V_BC", -0.3, "--")):
+            b = t.get(key)
+            if not b or b["estimate"] is None:
+                continue
+            lo, hi = b["bracket"]
+            ax.plot([lo, hi], [i + dy] * 2, ls, color="k", lw=1)
+            ax.plot([b["estimate"]], [i + dy], "|", color="k", ms=10)
+            ax.annotate(key, (b["estimate"], i + dy), fontsize=6, xytext=(3, 2),
+                        textcoords="offset points")
+    if vs:
+        ax.set_xscale("log")
+        ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    else:
+        ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
+    ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
+    ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
+    ax.set_xlabel("wall velocity V")
+    ax.set_title("regime diagram (open: not steady; bars: V_AB above, V_BC below)", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def _fmt(v, digits=4):
     if v is None:
         return ""
@@ -412,7 +473,75 @@ def _pm(row, col):
     return _fmt(v) + (f" ± {_fmt(e, 2)}" if e is not None else "")
 
 
-def _html(report, fits, figures):
+def _html_transitions(transitions, preds):
+    out = ["<h2>Transition velocities</h2><p>Regimes by V (seeds by majority vote, every run "
+           "with a regime, steady or not); brackets [largest B or C, smallest A above] and "
+           "[largest C, smallest B above]; estimate: geometric mean.</p><table><tr>"
+           "<th>system</th><th>regimes by V</th><th>not steady</th><th>V_AB</th><th>V_BC</th>"
+           "<th>flags</th></tr>"]
+
+    def cell(b):
+        lo, hi = b["bracket"]
+        text = f"[{_fmt(lo) or '–'}, {_fmt(hi) or '–'}]"
+        if b["estimate"] is not None:
+            text = f"{_fmt(b['estimate'], 3)} in {text}"
+        return text + (f"<br><small>{html.escape(b['note'])}</small>" if b["note"] else "")
+
+    for key, t in transitions.items():
+        seq = ", ".join(f"{_fmt(e['V'])}: {e['regime'] or '?'}" for e in t["velocities"])
+        ns = ", ".join(html.escape(n) for e in t["velocities"] for n in e["not_steady"])
+        flags = "<br>".join(html.escape(f) for f in t["flags"])
+        out.append(f"<tr><td>{html.escape(key)}</td><td style='text-align:left'>{seq}</td>"
+                   f"<td style='text-align:left'>{ns or 'none'}</td><td>{cell(t['V_AB'])}</td>"
+                   f"<td>{cell(t['V_BC'])}</td><td style='text-align:left'>{flags}</td></tr>")
+    out.append("</table>")
+    out.append("<h2>Predictions (SPEC 8) beside the runs</h2><ul>")
+    for key in ("V_AB", "symmetric_state_stability"):
+        out.append(f"<li>{key}: {html.escape(preds[key]['status'])}: "
+                   f"{html.escape(preds[key]['reason'])}</li>")
+    out.append("</ul><h3>Regime C: band switch time T = 2 rho nu V L_y / (delta_mu sigma_yy)"
+               "</h3>")
+    sw = preds["switch_time_C"]
+    if sw:
+        out.append("<table><tr><th>run</th><th>V</th><th>L_y</th><th>nu</th><th>delta_mu</th>"
+                   "<th>predicted T</th><th>switches</th><th>measured duration</th>"
+                   "<th>mean interval</th><th>time / switch</th><th>delta_mu implied</th>"
+                   "</tr>")
+        for e in sw:
+            pred = _fmt(e["predicted_T"]) if e["predicted_T"] is not None else \
+                f"<small>{html.escape(e['reason'])}</small>"
+            dur = _fmt(e["switch_duration"]) + (f" ± {_fmt(e['switch_duration_err'], 2)}"
+                                                 if e["switch_duration_err"] else "")
+            out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
+                html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
+                _fmt(e["delta_mu"]), pred, e["switch_count"], dur, _fmt(e["mean_interval"]),
+                _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
+        out.append("</table><p>Measured duration: com_vx from ±0.5 V to ∓0.5 V (compare with "
+                   "T/2, fits.json <code>predicted_T_levels</code>); delta_mu implied: the "
+                   "friction difference that this duration needs.</p>")
+    else:
+        out.append("<p>no run in regime C</p>")
+    out.append("<h3>Regime A: time to steady state T_SS = L_y² / D, "
+               "D = (d mu_eff / d gamma_dot) sigma_yy / (rho nu)</h3>")
+    ss = preds["steady_state_time_A"]
+    if ss:
+        out.append("<table><tr><th>run</th><th>V</th><th>I_bulk</th><th>law</th>"
+                   "<th>d mu / d I</th><th>D</th><th>predicted T_SS</th>"
+                   "<th>measured transient end</th></tr>")
+        for e in ss:
+            pred = _fmt(e["predicted_T_SS"]) if e["predicted_T_SS"] is not None else \
+                f"<small>{html.escape(e['reason'])}</small>"
+            out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
+                html.escape(e["run"]), _fmt(e["V"]), _fmt(e["I_bulk"]), _fmt(e["law"]),
+                _fmt(e["dmu_dI"]), _fmt(e["D"]), pred,
+                _fmt(e["measured_transient_end_time"])]) + "</tr>")
+        out.append("</table>")
+    else:
+        out.append("<p>no run in regime A</p>")
+    return out
+
+
+def _html(report, fits, figures, transitions=None, preds=None):
     rows = report["rows"]
     name = html.escape(report["campaign"])
     shown = ["I_bulk", "mu_eff_bulk", "mu_eff_wall", "nu_bulk", "Z_bulk", "slip_bottom",
@@ -453,7 +582,10 @@ def _html(report, fits, figures):
                    f"<td>{f['n_points']}</td><td style='text-align:left'>{params}</td>"
                    f"<td>{chi}</td></tr>")
     out.append("</table><p>Errors from the error bars (absolute); fits.json also gives them "
-               "scaled by sqrt(chi2/dof) when that exceeds 1.</p><h2>Figures</h2>")
+               "scaled by sqrt(chi2/dof) when that exceeds 1.</p>")
+    if transitions is not None:
+        out += _html_transitions(transitions, preds)
+    out.append("<h2>Figures</h2>")
     for fig in figures:
         out.append(f"<img src='figures/{html.escape(fig)}' alt='{html.escape(fig)}'>")
     out.append("<h2>Runs left out</h2>")
@@ -482,11 +614,14 @@ def write_report(report, out_dir):
     paths.append(csv_path)
 
     fits = fit_laws(rows)
+    transitions = find_transitions(rows)
+    preds = predictions(rows, fits)
     fits_path = os.path.join(out_dir, "fits.json")
     with open(fits_path, "w", encoding="utf-8") as f:
         json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
                    "campaign": report["campaign"], "runs_analysed": len(rows),
-                   "runs_steady": sum(1 for r in rows if r["steady"]), "fits": fits},
+                   "runs_steady": sum(1 for r in rows if r["steady"]), "fits": fits,
+                   "transitions": transitions, "predictions": preds},
                   f, indent=1, allow_nan=False)
     paths.append(fits_path)
 
@@ -495,9 +630,12 @@ def write_report(report, out_dir):
         _plot(os.path.join(fig_dir, fname), title, xcol, ycol, fit_names, rows, fits)
         figures.append(fname)
         paths.append(os.path.join(fig_dir, fname))
+    _plot_regimes(os.path.join(fig_dir, "regimes.png"), rows, transitions)
+    figures.append("regimes.png")
+    paths.append(os.path.join(fig_dir, "regimes.png"))
 
     index = os.path.join(out_dir, "index.html")
     with open(index, "w", encoding="utf-8") as f:
-        f.write(_html(report, fits, figures))
+        f.write(_html(report, fits, figures, transitions, preds))
     paths.append(index)
     return paths

@@ -228,7 +228,7 @@ class ReportTest(unittest.TestCase):
         self.assertIn("<h1>Campaign test_campaign</h1>", text)
         refs = re.findall(r"(?:src|href)='([^']+)'", text)
         images = [r for r in refs if r.endswith(".png")]
-        self.assertEqual(len(images), len(report.FIGURES))
+        self.assertEqual(len(images), len(report.FIGURES) + 1)  # + regimes.png
         for ref in refs:
             self.assertFalse(os.path.isabs(ref) or ref.startswith(".."), ref)
             self.assertTrue(os.path.isfile(os.path.join(out, ref)), ref)

@@ -1,0 +1,249 @@
+"""Transition velocities of each system and the SPEC 8 predictions, for `cdshear report`.
+
+`find_transitions(rows)` (fits.json `transitions`): per system, the runs' regimes by V (every
+analysed run with a regime, steady or not; the runs that are not steady are named), seeds
+combined by majority vote per V, and the brackets of V_AB and V_BC:
+  V_AB in [largest V classified B or C, smallest V classified A above it];
+  V_BC in [largest V classified C, smallest V classified B above it];
+the estimate is the geometric mean of the bracket. A sequence whose regimes do not go C -> B -> A
+as V increases is flagged "not monotonic"; a transition without a run on one side is
+"unbracketed" with the side that is missing.
+
+`predictions(rows, fits)` (fits.json `predictions`): the SPEC 8 predictions the summaries can
+give, each next to what the runs show (docs/campaigns.md, "Reports"). Anything that cannot be
+computed is given with its reason.
+"""
+import math
+
+from .regime import COM_LEVEL
+
+RHO = 1.0                  # SPEC 1: 2D mass density
+INERTIAL_MASS = math.pi / 4  # SPEC 1/7: m in I = gamma_dot sqrt(m / sigma_yy)
+RANK = {"C": 0, "B": 1, "A": 2}
+
+
+# ---------------------------------------------------------------------------------------------
+# Transition velocities
+
+def vote(regimes):
+    """(majority regime or None on a tie / no vote, {regime: count})."""
+    votes = {k: regimes.count(k) for k in "ABC" if regimes.count(k)}
+    if not votes:
+        return None, votes
+    top = max(votes.values())
+    winners = [k for k, n in votes.items() if n == top]
+    return (winners[0] if len(winners) == 1 else None), votes
+
+
+def system_sequence(rows):
+    """Per V (ascending): {"V", "regime", "votes", "runs", "not_steady", "note"}."""
+    by_v = {}
+    for r in rows:
+        if r.get("V") is None:
+            continue
+        by_v.setdefault(r["V"], []).append(r)
+    out = []
+    for V in sorted(by_v):
+        runs = by_v[V]
+        regime, votes = vote([r["regime"] for r in runs if r.get("regime") in RANK])
+        note = None
+        if not votes:
+            note = "no run with a regime"
+        elif regime is None:
+            note = "tie between seeds: " + ", ".join(f"{k} {n}" for k, n in votes.items())
+        out.append({"V": V, "regime": regime, "votes": votes, "runs": [r["run"] for r in runs],
+                    "not_steady": [r["run"] for r in runs if r.get("steady") is not True],
+                    "note": note})
+    return out
+
+
+def _bracket(name, lo, hi, below_text, above_text):
+    out = {"bracket": [lo, hi], "estimate": None, "status": "bracketed", "note": None}
+    if lo is not None and hi is not None:
+        out["estimate"] = math.sqrt(lo * hi)
+    elif lo is None and hi is None:
+        out.update(status="unbracketed", note=f"{name}: {below_text}")
+    elif lo is None:
+        out.update(status="unbracketed", note=f"{name} below the smallest V run ({hi:g}): "
+                                              f"{below_text}")
+    else:
+        out.update(status="unbracketed", note=f"{name} above the largest V run ({lo:g}): "
+                                              f"{above_text}")
+    return out
+
+
+def brackets(sequence):
+    """V_AB, V_BC and the flags of one system's sequence (system_sequence)."""
+    seq = [(e["V"], e["regime"]) for e in sequence if e["regime"] is not None]
+    flags = [f"V = {e['V']:g}: {e['note']}" for e in sequence if e["note"]]
+    ranks = [RANK[g] for _, g in seq]
+    monotonic = all(a <= b for a, b in zip(ranks, ranks[1:]))
+    if not monotonic:
+        flags.append("not monotonic: " + ", ".join(f"{g} at {v:g}" for v, g in seq))
+    # V_AB: the last change to A (everything above the bracket is A)
+    not_a = [v for v, g in seq if g != "A"]
+    lo_ab = max(not_a) if not_a else None
+    above = [v for v, g in seq if g == "A" and (lo_ab is None or v > lo_ab)]
+    hi_ab = min(above) if above else None
+    v_ab = _bracket("V_AB", lo_ab, hi_ab, "no run classified B or C",
+                    "no run classified A above it")
+    if not seq:
+        v_ab["note"] = "V_AB: no run with a regime"
+    # V_BC: the last C, the first B above it
+    c = [v for v, g in seq if g == "C"]
+    lo_bc = max(c) if c else None
+    b_above = [v for v, g in seq if g == "B" and (lo_bc is None or v > lo_bc)]
+    hi_bc = min(b_above) if b_above else None
+    if lo_bc is None and hi_bc is None:
+        v_bc = _bracket("V_BC", None, None, "no run classified B or C", "")
+    else:
+        v_bc = _bracket("V_BC", lo_bc, hi_bc, "no run classified C",
+                        "no run classified B above the largest C")
+    if lo_bc is not None and hi_bc is None:
+        a_above = [v for v, g in seq if g == "A" and v > lo_bc]
+        if a_above:
+            v_bc["note"] += f" (C at {lo_bc:g} is followed by A at {min(a_above):g})"
+    return {"monotonic": monotonic, "flags": flags, "V_AB": v_ab, "V_BC": v_bc}
+
+
+def find_transitions(rows):
+    """fits.json `transitions`: {"<system>": {...}} for every system of the rows."""
+    out = {}
+    systems = sorted({r["system"] for r in rows if r.get("system") is not None})
+    for s in systems:
+        seq = system_sequence([r for r in rows if r["system"] == s])
+        out[str(s)] = {"system": s, "velocities": seq,
+                       "sequence": " ".join(e["regime"] or "?" for e in seq), **brackets(seq)}
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Predictions
+
+def switch_time(V, L_y, nu, delta_mu, sigma_yy, rho=RHO):
+    """SPEC 8: T = 2 rho nu V L_y / (delta_mu sigma_yy), a block of mass rho nu L_x L_y taken
+    from -V to +V by the force delta_mu sigma_yy L_x."""
+    return 2 * rho * nu * V * L_y / (delta_mu * sigma_yy)
+
+
+def law_slope(fit, I):
+    """d mu_eff / d I of a fits.json entry (mu_power or mu_linear) at I."""
+    p = {k: v["value"] for k, v in fit["parameters"].items()}
+    if "B" in p:
+        return p["A"] * p["B"] * I ** (p["B"] - 1)
+    return p["b"]
+
+
+def steady_state_time(fit, I, L_y, nu, sigma_yy, rho=RHO, m=INERTIAL_MASS):
+    """SPEC 8: T_SS = L_y^2 / D, D = (d mu / d gamma_dot) sigma_yy / (rho nu) with
+    d mu / d gamma_dot = (d mu / d I) sqrt(m / sigma_yy) (I = gamma_dot sqrt(m / sigma_yy)).
+    Returns (T_SS, D)."""
+    dmu_dgd = law_slope(fit, I) * math.sqrt(m / sigma_yy)
+    D = dmu_dgd * sigma_yy / (rho * nu)
+    return L_y ** 2 / D, D
+
+
+def _missing(row, cols):
+    return [c for c in cols if row.get(c) is None]
+
+
+def switch_predictions(rows):
+    """One entry per regime-C run: the predicted switch time beside the measured switches."""
+    out = []
+    for r in rows:
+        if r.get("regime") != "C":
+            continue
+        e = {"run": r["run"], "system": r["system"], "V": r["V"], "steady": r.get("steady"),
+             "L_y": r.get("L_y"), "nu_bulk": r.get("nu_bulk"), "sigma_yy": r.get("_sigma_yy"),
+             "rho": RHO, "delta_mu": None, "delta_mu_source": None,
+             "predicted_T": None, "predicted_T_levels": None, "reason": None}
+        sw = r.get("_switches") or []
+        starts = sorted(s["start_time"] for s in sw if isinstance(s, dict)
+                        and s.get("start_time") is not None)
+        observed = r.get("time_reached")
+        e.update(switch_count=len(sw), observed_time=observed,
+                 switch_duration=r.get("switch_duration"),
+                 switch_duration_err=r.get("switch_duration_err"),
+                 mean_interval=((starts[-1] - starts[0]) / (len(starts) - 1)
+                                if len(starts) >= 2 else None),
+                 time_per_switch=(observed / len(sw) if sw and observed else None))
+        if not sw:
+            e["measured_note"] = (f"no switch in {observed:g} time units" if observed
+                                  else "no switch")
+        b, t = r.get("_mu_wall_bottom"), r.get("_mu_wall_top")
+        if b is not None and t is not None:
+            e["delta_mu"], e["delta_mu_source"] = abs(b - t), "summary.json mu_eff_wall_bottom/top"
+        missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
+        if e["delta_mu"] is None:
+            missing.append("delta_mu (summary.json has only the combined wall friction "
+                           "mu_eff_wall; the friction of each wall is missing)")
+        if missing:
+            e["reason"] = "not computed: missing " + ", ".join(missing)
+        elif e["delta_mu"] <= 0 or e["sigma_yy"] <= 0:
+            e["reason"] = "not computed: delta_mu or sigma_yy is not positive"
+        else:
+            T = switch_time(e["V"], e["L_y"], e["nu_bulk"], e["delta_mu"], e["sigma_yy"])
+            e["predicted_T"], e["predicted_T_levels"] = T, T * COM_LEVEL
+        # the delta_mu that the measured duration implies (com_vx from +-COM_LEVEL V to the
+        # other sign: a velocity change 2 COM_LEVEL V)
+        d = e["switch_duration"]
+        if d and d > 0 and not _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]) \
+                and e["sigma_yy"] > 0:
+            e["delta_mu_implied"] = (2 * COM_LEVEL * RHO * e["nu_bulk"] * e["V"] * e["L_y"]
+                                     / (d * e["sigma_yy"]))
+        else:
+            e["delta_mu_implied"] = None
+        out.append(e)
+    return out
+
+
+def steady_state_predictions(rows, fits):
+    """One entry per regime-A run: T_SS from the fitted mu_eff(I) beside transient_end_time."""
+    law = next((k for k in ("mu_power", "mu_linear")
+                if fits.get(k, {}).get("status") == "ok"), None)
+    out = []
+    for r in rows:
+        if r.get("regime") != "A":
+            continue
+        e = {"run": r["run"], "system": r["system"], "V": r["V"], "steady": r.get("steady"),
+             "I_bulk": r.get("I_bulk"), "L_y": r.get("L_y"), "nu_bulk": r.get("nu_bulk"),
+             "sigma_yy": r.get("_sigma_yy"), "law": law, "dmu_dI": None, "D": None,
+             "predicted_T_SS": None, "measured_transient_end_time": r.get("transient_end_time"),
+             "reason": None}
+        missing = _missing(e, ["I_bulk", "L_y", "nu_bulk", "sigma_yy"])
+        if law is None:
+            e["reason"] = "not computed: no mu_eff(I) fit (mu_power and mu_linear skipped)"
+        elif missing:
+            e["reason"] = "not computed: missing " + ", ".join(missing)
+        elif e["I_bulk"] <= 0 or e["sigma_yy"] <= 0 or e["nu_bulk"] <= 0:
+            e["reason"] = "not computed: I_bulk, sigma_yy or nu_bulk is not positive"
+        else:
+            fit = fits[law]
+            e["dmu_dI"] = law_slope(fit, e["I_bulk"])
+            if e["dmu_dI"] <= 0:
+                e["reason"] = (f"not computed: d mu_eff / d I = {e['dmu_dI']:.3g} <= 0 at "
+                               f"I = {e['I_bulk']:.3g} (no diffusion)")
+            else:
+                e["predicted_T_SS"], e["D"] = steady_state_time(
+                    fit, e["I_bulk"], e["L_y"], e["nu_bulk"], e["sigma_yy"])
+                if law == "mu_linear" and not fits[law]["I_range"][0] < e["I_bulk"] < \
+                        fits[law]["I_range"][1]:
+                    e["note"] = "I_bulk outside the range of the linear law"
+        if e["measured_transient_end_time"] is None:
+            e["measured_note"] = "no transient_end_time (run not steady)"
+        out.append(e)
+    return out
+
+
+def predictions(rows, fits):
+    """fits.json `predictions`."""
+    return {
+        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "com_level": COM_LEVEL},
+        "V_AB": {"status": "not available",
+                 "reason": "needs the boundary friction law mu_eff(I_boundary), not fitted yet"},
+        "symmetric_state_stability": {
+            "status": "not available",
+            "reason": "needs the boundary friction law mu_eff(I_boundary), not fitted yet"},
+        "switch_time_C": switch_predictions(rows),
+        "steady_state_time_A": steady_state_predictions(rows, fits),
+    }
