@@ -428,9 +428,8 @@ def _plot_regimes(path, rows, transitions):
             y = i + 0.12 * (k - (len(seeds) - 1) / 2)
             g = r["regime"] if r["regime"] in REGIME_MARKERS else None
             marker, colour = REGIME_MARKERS[g]
-            label = f"regime {g or 'undetermined'}" if g not in seen else None
             seen.add(g)
-            ax.plot([r["V"]], [y], marker, color=colour, ms=7, label=label,
+            ax.plot([r["V"]], [y], marker, color=colour, ms=7,
                     mfc=colour if r["steady"] or marker == "x" else "none")
             vs.append(r["V"])
         t = transitions.get(str(system), {})
@@ -446,7 +445,10 @@ def _plot_regimes(path, rows, transitions):
     if vs:
         ax.set_xscale("log")
         ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
-        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+        handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
+                           label=f"regime {g or 'undetermined'}")[0]
+                   for g in ("A", "B", "C", None) if g in seen]
+        ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     else:
         ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
     ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])

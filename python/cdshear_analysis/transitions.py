@@ -176,7 +176,7 @@ def switch_predictions(rows):
         missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
         if e["delta_mu"] is None:
             missing.append("delta_mu (summary.json has only the combined wall friction "
-                           "mu_eff_wall; the friction of each wall is missing)")
+                           "mu_eff_wall; the friction of each wall during the switches is missing)")
         if missing:
             e["reason"] = "not computed: missing " + ", ".join(missing)
         elif e["delta_mu"] <= 0 or e["sigma_yy"] <= 0:
