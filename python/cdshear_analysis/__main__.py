@@ -60,6 +60,8 @@ def main(argv=None):
             print(path)
         for name, reason in report["skipped"]:
             print(f"left out {name}: {reason}")
+        for note in report.get("notes", []):
+            print(f"note: {note}")
         return 0
 
     from .rundata import RunDataError, load_run

@@ -162,16 +162,18 @@ def campaign_runs(campaign_toml):
 
 
 def collect(campaign_dir):
-    """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)]}."""
+    """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)],
+    "notes": [text]} (notes: about the campaign folder, not about a run)."""
     if not os.path.isdir(campaign_dir):
         raise ReportError(campaign_dir, "not a folder")
     toml_path = os.path.join(campaign_dir, "campaign.toml")
     skipped = []
+    notes = []
     if os.path.isfile(toml_path):
         name, listed = campaign_runs(toml_path)
     else:
         name, listed = None, []
-        skipped.append(("campaign.toml", "missing: the campaign name is the folder's"))
+        notes.append("campaign.toml is missing: the campaign name is the folder's")
     if not name:
         name = os.path.basename(os.path.normpath(campaign_dir))
     runs_dir = os.path.join(campaign_dir, "runs")
@@ -192,7 +194,8 @@ def collect(campaign_dir):
     rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
-    return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped}
+    return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
+            "notes": notes}
 
 
 def csv_columns(rows):
@@ -556,7 +559,9 @@ def _html(report, fits, figures, transitions=None, preds=None):
            f"<p>{len(rows)} analysed runs ({sum(1 for r in rows if r['steady'])} steady); "
            f"{len(report['skipped'])} left out. Every value: mean ± standard error. "
            "All columns: <a href='runs.csv'>runs.csv</a>; fits: "
-           "<a href='fits.json'>fits.json</a>.</p>", "<h2>Runs</h2><table><tr>",
+           "<a href='fits.json'>fits.json</a>.</p>",
+           "".join(f"<p>Note: {html.escape(n)}</p>" for n in report.get("notes", [])),
+           "<h2>Runs</h2><table><tr>",
            "".join(f"<th>{c}</th>" for c in
                    ["run", "system", "V", "steady", "regime (conf.)", "t reached",
                     "switches"] + shown), "</tr>"]
@@ -575,8 +580,12 @@ def _html(report, fits, figures, transitions=None, preds=None):
                "<th>law</th><th>points</th><th>parameters</th><th>chi2/dof</th></tr>")
     for fname, f in fits.items():
         if f["status"] == "ok":
-            params = "<br>".join(f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}"
-                                 for p, v in f["parameters"].items())
+            # with chi2/dof > 1 the scatter exceeds the error bars: the scaled error too
+            scaled = f["chi2_dof"] is not None and f["chi2_dof"] > 1
+            params = "<br>".join(
+                f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}" +
+                (f" (scaled: ± {_fmt(v['err_scaled'], 2)})" if scaled else "")
+                for p, v in f["parameters"].items())
             chi = _fmt(f["chi2_dof"], 3)
         else:
             params, chi = "skipped: " + html.escape(f["reason"]), ""
