@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `mpirun -n 3 cdshear sweep` end to end (rank 0 hands out, ranks 1 and 2 run): a tiny campaign
 # of system 1 (the fixture's packing, no measurement) finishes every run; a second mpirun redoes
-# nothing; an mpirun stopped by SIGTERM exits 130 with checkpoints, and the same command again
+# nothing; an mpirun whose ranks get SIGTERM exits 130 with checkpoints, and the same command again
 # resumes the interrupted runs and finishes all; a plain `cdshear sweep` on the same folder still
 # works (MPI is only initialized under a launcher).
 # Usage: sweep_mpi_test.sh MPIEXEC CDSHEAR PACKING WORKDIR
@@ -49,16 +49,20 @@ campaign three "[0.25, 0.5, 2.0]" 4
 rc=0; mpi "$exe" sweep three.toml -o three > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign under mpirun exited $rc, not 2: $(cat changed.out)"
 
-# 3. SIGTERM to mpirun once both workers' runs have a checkpoint: exit 130, then resume.
+# 3. SIGTERM to the ranks once both workers' runs have a checkpoint: exit 130, then resume.
 campaign long "[0.5, 1.0]" 40
-mpi "$exe" sweep long.toml -o long > stopped.out 2>&1 & pid=$!
+"$mpiexec" --oversubscribe --allow-run-as-root -n 3 "$exe" sweep long.toml -o long > stopped.out 2>&1 & pid=$!
 for _ in $(seq 1 1200); do
   test -f long/runs/s1_seed1_V0.5/checkpoint.cbor && test -f long/runs/s1_seed1_V1/checkpoint.cbor &&
     break
   kill -0 $pid 2>/dev/null || break
   sleep 0.05
 done
-kill -TERM $pid 2>/dev/null || true
+# SIGTERM to every rank, as SLURM's scancel or time limit gives it (Open MPI 4's mpirun itself,
+# on SIGTERM, signals the ranks only after odls_base_sigkill_timeout and then exits 1).
+ranks=$(pgrep -P $pid || true)
+[ -n "$ranks" ] || fail "no rank processes under mpirun"
+kill -TERM $ranks 2>/dev/null || true
 rc=0; wait $pid || rc=$?
 [ $rc -eq 130 ] || fail "the stopped mpirun exited $rc, not 130: $(cat stopped.out)"
 grep -q "interrupted: run the same command again" stopped.out || fail "no stop summary: $(cat stopped.out)"
