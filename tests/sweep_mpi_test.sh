@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # `mpirun -n 3 cdshear sweep` end to end (rank 0 hands out, ranks 1 and 2 run): a tiny campaign
 # of system 1 (the fixture's packing, no measurement) finishes every run; a second mpirun redoes
-# nothing; an mpirun whose ranks get SIGTERM exits 130 with checkpoints, and the same command again
-# resumes the interrupted runs and finishes all; a plain `cdshear sweep` on the same folder still
-# works (MPI is only initialized under a launcher).
+# nothing; a plain `cdshear sweep` on the same folder still works (MPI is only initialized under
+# a launcher); bad input exits 2; an mpirun whose ranks get SIGTERM exits 130 with checkpoints,
+# and the same command again resumes the interrupted runs and finishes all; a SIGTERM to one
+# worker rank stops the whole sweep.
 # Usage: sweep_mpi_test.sh MPIEXEC CDSHEAR PACKING WORKDIR
 set -euo pipefail
 mpiexec=$1; exe=$2; packing=$3; work=$4
@@ -77,4 +78,25 @@ for v in 0.5 1; do
   ls long/runs/s1_seed1_V$v/run_info_resume_*.json > /dev/null 2>&1 || fail "V$v not resumed"
 done
 grep -q "2/2 runs finished" resumed.out || fail "resumed summary: $(cat resumed.out)"
+# 4. SIGTERM to one worker rank only (a node going down): the whole sweep stops, 130.
+campaign one "[0.5, 1.0]" 40
+"$mpiexec" --oversubscribe --allow-run-as-root -n 3 "$exe" sweep one.toml -o one > one.out 2>&1 &
+pid=$!
+for _ in $(seq 1 1200); do
+  test -f one/runs/s1_seed1_V0.5/checkpoint.cbor && test -f one/runs/s1_seed1_V1/checkpoint.cbor &&
+    break
+  sleep 0.05
+done
+worker=""
+for r in $(pgrep -P $pid || true); do
+  grep -qz '^OMPI_COMM_WORLD_RANK=2$' /proc/$r/environ 2>/dev/null && worker=$r
+done
+[ -n "$worker" ] || fail "no rank 2 under mpirun"
+kill -TERM "$worker"
+rc=0; wait $pid || rc=$?
+[ $rc -eq 130 ] || fail "a SIGTERM to rank 2 only: mpirun exited $rc, not 130: $(cat one.out)"
+grep -q "0 failed, 2 interrupted" one.out || fail "rank 2's SIGTERM did not stop all: $(cat one.out)"
+for v in 0.5 1; do
+  test -f "one/runs/s1_seed1_V$v/interrupted_state.json" || fail "V$v was not stopped cleanly"
+done
 echo "sweep_mpi_test: runs on worker ranks, nothing redone, exit codes, SIGTERM + resume"
