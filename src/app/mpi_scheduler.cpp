@@ -37,7 +37,9 @@ enum Tag : int {
   kStopped = 5,  // worker -> 0: a stop was requested on this worker (a signal)
 };
 
-void pause() { std::this_thread::sleep_for(std::chrono::milliseconds(50)); }
+void pause() {
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+}
 
 std::string encode(const Job& j) {
   std::string s = j.name + '\0' + j.log.string() + '\0';
@@ -81,7 +83,8 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
   while (true) {
     if (!result.interrupted && g_stop_requested.load()) {
       result.interrupted = true;
-      for (const auto& [rank, b] : busy) MPI_Send(nullptr, 0, MPI_CHAR, rank, kStop, MPI_COMM_WORLD);
+      for (const auto& [rank, b] : busy)
+        MPI_Send(nullptr, 0, MPI_CHAR, rank, kStop, MPI_COMM_WORLD);
     }
     while (!result.interrupted && next < order.size() && !idle.empty()) {
       const int rank = idle.back();
@@ -118,8 +121,8 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
     JobEnd end{job, static_cast<int>(msg[0]), msg[1]};
     result.ends.push_back(end);
     if (!on_end) continue;
-    JobProgress progress{result.ends.size(), busy.size(),
-                         result.interrupted ? 0 : order.size() - next, {}, {}};
+    JobProgress progress{
+        result.ends.size(), busy.size(), result.interrupted ? 0 : order.size() - next, {}, {}};
     const auto now = Clock::now();
     for (const auto& [rank, b] : busy)
       progress.running_jobs.emplace_back(b.job,

@@ -122,7 +122,8 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
           ? args.jobs
           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / args.threads);
   if (remote != nullptr && args.jobs > 0)
-    std::fprintf(stderr, "warning: --jobs is ignored under MPI: each worker rank runs one run at "
+    std::fprintf(stderr,
+                 "warning: --jobs is ignored under MPI: each worker rank runs one run at "
                  "a time\n");
   const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end) {
     return remote != nullptr ? (*remote)(list, on_end) : run_jobs(list, jobs, on_end);
@@ -178,18 +179,17 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
       std::printf("sweep %s: preparing %zu packing%s\n", c.name.c_str(), prepare_jobs.size(),
                   prepare_jobs.size() == 1 ? "" : "s");
     std::fflush(stdout);
-    const ScheduleResult res =
-        schedule(prepare_jobs, [&](const JobEnd& e, const JobProgress&) {
-          const Job& j = prepare_jobs[e.job];
-          if (!args.quiet || e.exit_code != 0)
-            std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
-                        e.exit_code == 0     ? "done"
-                        : e.exit_code == 130 ? "interrupted"
-                                             : fmt::format("failed, exit {}", e.exit_code).c_str(),
-                        format_seconds(e.seconds).c_str(),
-                        e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
-          std::fflush(stdout);
-        });
+    const ScheduleResult res = schedule(prepare_jobs, [&](const JobEnd& e, const JobProgress&) {
+      const Job& j = prepare_jobs[e.job];
+      if (!args.quiet || e.exit_code != 0)
+        std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
+                    e.exit_code == 0     ? "done"
+                    : e.exit_code == 130 ? "interrupted"
+                                         : fmt::format("failed, exit {}", e.exit_code).c_str(),
+                    format_seconds(e.seconds).c_str(),
+                    e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
+      std::fflush(stdout);
+    });
     if (res.interrupted) {
       std::printf(
           "sweep %s: interrupted while preparing packings; run the same command again "
@@ -268,49 +268,45 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
   double done_cost = 0.0, done_seconds = 0.0;  // runs that ran to the end in this sweep
   std::size_t finished_now = 0;
   std::vector<std::string> interrupted;
-  const ScheduleResult res =
-      schedule(run_jobs_list, [&](const JobEnd& e, const JobProgress& p) {
-        const Job& j = run_jobs_list[e.job];
-        const RunState after = run_state(dir / "runs" / j.name);
-        std::string what = state_name(after);
-        if (after == RunState::kFinished) {
-          ++finished_now;
-          done_cost += j.cost;
-          done_seconds += e.seconds;
-          if (e.exit_code != 0)
-            what +=
-                fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
-        } else if (after != RunState::kBlownUp &&
-                   (e.exit_code == 130 ||
-                    (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
-          interrupted.push_back(j.name);
-          what = "interrupted";
-        } else {
-          failed.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
-                                       e.exit_code, j.log.string()));
-          what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
-        }
-        if (args.quiet) return;
-        std::string eta;
-        if (done_cost > 0 && (p.running > 0 || p.waiting > 0)) {
-          // Seconds per unit of cost so far, times the cost left (a running job's share done
-          // subtracted), shared among the parallel slots.
-          const double rate = done_seconds / done_cost;
-          double left = 0.0;
-          for (const std::size_t w : p.waiting_jobs) left += rate * run_jobs_list[w].cost;
-          for (const auto& [r, elapsed] : p.running_jobs)
-            left += std::max(0.0, rate * run_jobs_list[r].cost - elapsed);
-          eta = "; about " +
-                format_seconds(left / std::max<std::size_t>(
-                                          1, std::min<std::size_t>(jobs, p.running + p.waiting))) +
-                " left";
-        }
-        std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n",
-                    j.name.c_str(), what.c_str(), format_seconds(e.seconds).c_str(),
-                    finished_before + finished_now, c.runs.size(), p.running, p.waiting,
-                    eta.c_str());
-        std::fflush(stdout);
-      });
+  const ScheduleResult res = schedule(run_jobs_list, [&](const JobEnd& e, const JobProgress& p) {
+    const Job& j = run_jobs_list[e.job];
+    const RunState after = run_state(dir / "runs" / j.name);
+    std::string what = state_name(after);
+    if (after == RunState::kFinished) {
+      ++finished_now;
+      done_cost += j.cost;
+      done_seconds += e.seconds;
+      if (e.exit_code != 0)
+        what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
+    } else if (after != RunState::kBlownUp &&
+               (e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
+      interrupted.push_back(j.name);
+      what = "interrupted";
+    } else {
+      failed.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
+                                   e.exit_code, j.log.string()));
+      what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
+    }
+    if (args.quiet) return;
+    std::string eta;
+    if (done_cost > 0 && (p.running > 0 || p.waiting > 0)) {
+      // Seconds per unit of cost so far, times the cost left (a running job's share done
+      // subtracted), shared among the parallel slots.
+      const double rate = done_seconds / done_cost;
+      double left = 0.0;
+      for (const std::size_t w : p.waiting_jobs) left += rate * run_jobs_list[w].cost;
+      for (const auto& [r, elapsed] : p.running_jobs)
+        left += std::max(0.0, rate * run_jobs_list[r].cost - elapsed);
+      eta = "; about " +
+            format_seconds(left / std::max<std::size_t>(
+                                      1, std::min<std::size_t>(jobs, p.running + p.waiting))) +
+            " left";
+    }
+    std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n", j.name.c_str(),
+                what.c_str(), format_seconds(e.seconds).c_str(), finished_before + finished_now,
+                c.runs.size(), p.running, p.waiting, eta.c_str());
+    std::fflush(stdout);
+  });
 
   const std::size_t finished = finished_before + finished_now;
   std::printf(
