@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
           libfmt-dev librandom123-dev libgtest-dev libhdf5-dev zlib1g-dev
-          clang libclang-rt-14-dev
+          clang libclang-rt-14-dev openmpi-bin libopenmpi-dev
           python3-numpy python3-scipy python3-matplotlib python3-h5py)
 missing=()
 for p in "${packages[@]}"; do

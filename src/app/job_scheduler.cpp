@@ -77,7 +77,8 @@ int exit_code_of(int status) {
 }  // namespace
 
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
-                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end) {
+                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
+                        const std::function<bool()>& also_stop) {
   std::vector<std::size_t> order(jobs.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -93,8 +94,9 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
   const std::size_t limit = static_cast<std::size_t>(std::max(1, max_parallel));
   try {
     while (next < order.size() || !running.empty()) {
-      if (g_stop_requested.load()) {
+      if (!result.interrupted && (g_stop_requested.load() || (also_stop && also_stop())))
         result.interrupted = true;
+      if (result.interrupted) {
         if (!forwarded) {
           for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
           forwarded = true;

@@ -38,7 +38,10 @@ struct ScheduleResult {
 /// Runs the jobs, at most `max_parallel` at once, starting the costliest first. After each job
 /// ends, `on_end` is called (from this thread). Polls g_stop_requested: once it is set, no job is
 /// started, SIGTERM is sent to every running child, and the call returns when they have exited.
+/// `also_stop`, if given, is polled the same way: a true answer is a stop request like
+/// g_stop_requested (the MPI worker passes "rank 0 asked to stop").
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
-                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end);
+                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
+                        const std::function<bool()>& also_stop = {});
 
 }  // namespace cdshear

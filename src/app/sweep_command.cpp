@@ -22,6 +22,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "job_scheduler.hpp"
+#include "mpi_scheduler.hpp"
 #include "outputs.hpp"
 #include "run_loop.hpp"
 #include "run_session.hpp"
@@ -102,7 +103,9 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
                list.c_str());
 }
 
-int run_sweep(const SweepArgs& args) {
+/// `remote`: null for a sweep on this machine (run_jobs, --jobs at once); under MPI, the
+/// scheduler that hands the jobs to `workers` worker ranks, one at a time each.
+int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers) {
   const Campaign c = read_campaign(args.file);
   for (const CampaignRun& r : c.runs)  // the limit `cdshear run` would refuse it with
     if (r.duration / r.dt > kMaxRunSteps)
@@ -114,9 +117,17 @@ int run_sweep(const SweepArgs& args) {
       fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
   const fs::path exe = fs::read_symlink("/proc/self/exe");
   const int jobs =
-      args.jobs > 0
+      remote != nullptr ? workers
+      : args.jobs > 0
           ? args.jobs
           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / args.threads);
+  if (remote != nullptr && args.jobs > 0)
+    std::fprintf(stderr,
+                 "warning: --jobs is ignored under MPI: each worker rank runs one run at "
+                 "a time\n");
+  const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end) {
+    return remote != nullptr ? (*remote)(list, on_end) : run_jobs(list, jobs, on_end);
+  };
   check_same_campaign(dir / "campaign.toml", c, args.force);
   for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir / sub);
   // One sweep per folder at a time: two would start or resume the same runs. The lock is held
@@ -168,18 +179,17 @@ int run_sweep(const SweepArgs& args) {
       std::printf("sweep %s: preparing %zu packing%s\n", c.name.c_str(), prepare_jobs.size(),
                   prepare_jobs.size() == 1 ? "" : "s");
     std::fflush(stdout);
-    const ScheduleResult res =
-        run_jobs(prepare_jobs, jobs, [&](const JobEnd& e, const JobProgress&) {
-          const Job& j = prepare_jobs[e.job];
-          if (!args.quiet || e.exit_code != 0)
-            std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
-                        e.exit_code == 0     ? "done"
-                        : e.exit_code == 130 ? "interrupted"
-                                             : fmt::format("failed, exit {}", e.exit_code).c_str(),
-                        format_seconds(e.seconds).c_str(),
-                        e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
-          std::fflush(stdout);
-        });
+    const ScheduleResult res = schedule(prepare_jobs, [&](const JobEnd& e, const JobProgress&) {
+      const Job& j = prepare_jobs[e.job];
+      if (!args.quiet || e.exit_code != 0)
+        std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
+                    e.exit_code == 0     ? "done"
+                    : e.exit_code == 130 ? "interrupted"
+                                         : fmt::format("failed, exit {}", e.exit_code).c_str(),
+                    format_seconds(e.seconds).c_str(),
+                    e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
+      std::fflush(stdout);
+    });
     if (res.interrupted) {
       std::printf(
           "sweep %s: interrupted while preparing packings; run the same command again "
@@ -248,58 +258,55 @@ int run_sweep(const SweepArgs& args) {
     for (const Planned& p : planned) resumed += p.before == RunState::kInterrupted;
     std::printf(
         "sweep %s: %zu runs: %zu finished earlier, %zu to resume, %zu to start; up to %d "
-        "at once, %s thread%s each -> %s\n",
+        "at once%s, %s thread%s each -> %s\n",
         c.name.c_str(), c.runs.size(), finished_before, resumed, planned.size() - resumed, jobs,
-        threads.c_str(), args.threads == 1 ? "" : "s", dir.c_str());
+        remote != nullptr ? " (MPI: one per worker rank)" : "", threads.c_str(),
+        args.threads == 1 ? "" : "s", dir.c_str());
     std::fflush(stdout);
   }
 
   double done_cost = 0.0, done_seconds = 0.0;  // runs that ran to the end in this sweep
   std::size_t finished_now = 0;
   std::vector<std::string> interrupted;
-  const ScheduleResult res =
-      run_jobs(run_jobs_list, jobs, [&](const JobEnd& e, const JobProgress& p) {
-        const Job& j = run_jobs_list[e.job];
-        const RunState after = run_state(dir / "runs" / j.name);
-        std::string what = state_name(after);
-        if (after == RunState::kFinished) {
-          ++finished_now;
-          done_cost += j.cost;
-          done_seconds += e.seconds;
-          if (e.exit_code != 0)
-            what +=
-                fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
-        } else if (after != RunState::kBlownUp &&
-                   (e.exit_code == 130 ||
-                    (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
-          interrupted.push_back(j.name);
-          what = "interrupted";
-        } else {
-          failed.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
-                                       e.exit_code, j.log.string()));
-          what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
-        }
-        if (args.quiet) return;
-        std::string eta;
-        if (done_cost > 0 && (p.running > 0 || p.waiting > 0)) {
-          // Seconds per unit of cost so far, times the cost left (a running job's share done
-          // subtracted), shared among the parallel slots.
-          const double rate = done_seconds / done_cost;
-          double left = 0.0;
-          for (const std::size_t w : p.waiting_jobs) left += rate * run_jobs_list[w].cost;
-          for (const auto& [r, elapsed] : p.running_jobs)
-            left += std::max(0.0, rate * run_jobs_list[r].cost - elapsed);
-          eta = "; about " +
-                format_seconds(left / std::max<std::size_t>(
-                                          1, std::min<std::size_t>(jobs, p.running + p.waiting))) +
-                " left";
-        }
-        std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n",
-                    j.name.c_str(), what.c_str(), format_seconds(e.seconds).c_str(),
-                    finished_before + finished_now, c.runs.size(), p.running, p.waiting,
-                    eta.c_str());
-        std::fflush(stdout);
-      });
+  const ScheduleResult res = schedule(run_jobs_list, [&](const JobEnd& e, const JobProgress& p) {
+    const Job& j = run_jobs_list[e.job];
+    const RunState after = run_state(dir / "runs" / j.name);
+    std::string what = state_name(after);
+    if (after == RunState::kFinished) {
+      ++finished_now;
+      done_cost += j.cost;
+      done_seconds += e.seconds;
+      if (e.exit_code != 0)
+        what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
+    } else if (after != RunState::kBlownUp &&
+               (e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
+      interrupted.push_back(j.name);
+      what = "interrupted";
+    } else {
+      failed.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
+                                   e.exit_code, j.log.string()));
+      what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
+    }
+    if (args.quiet) return;
+    std::string eta;
+    if (done_cost > 0 && (p.running > 0 || p.waiting > 0)) {
+      // Seconds per unit of cost so far, times the cost left (a running job's share done
+      // subtracted), shared among the parallel slots.
+      const double rate = done_seconds / done_cost;
+      double left = 0.0;
+      for (const std::size_t w : p.waiting_jobs) left += rate * run_jobs_list[w].cost;
+      for (const auto& [r, elapsed] : p.running_jobs)
+        left += std::max(0.0, rate * run_jobs_list[r].cost - elapsed);
+      eta = "; about " +
+            format_seconds(left / std::max<std::size_t>(
+                                      1, std::min<std::size_t>(jobs, p.running + p.waiting))) +
+            " left";
+    }
+    std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n", j.name.c_str(),
+                what.c_str(), format_seconds(e.seconds).c_str(), finished_before + finished_now,
+                c.runs.size(), p.running, p.waiting, eta.c_str());
+    std::fflush(stdout);
+  });
 
   const std::size_t finished = finished_before + finished_now;
   std::printf(
@@ -333,7 +340,16 @@ void register_sweep_command(CLI::App& app) {
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");
   s->callback([args]() {
-    if (const int rc = run_sweep(*args); rc != 0) throw CLI::RuntimeError(rc);
+    int rc = 0;
+#ifdef CDSHEAR_WITH_MPI
+    if (mpi_launch_detected())  // only then is MPI initialized (docs/campaigns.md)
+      rc = run_sweep_under_mpi([&](const RemoteScheduler* remote, int workers) {
+        return run_sweep(*args, remote, workers);
+      });
+    else
+#endif
+      rc = run_sweep(*args, nullptr, 0);
+    if (rc != 0) throw CLI::RuntimeError(rc);
   });
 }
 

@@ -1,0 +1,29 @@
+// `mpirun -n N cdshear sweep`: the sweep's jobs handed out to MPI ranks (docs/campaigns.md, "On a
+// cluster (MPI)"). Declared always, defined only in a build with MPI (CDSHEAR_WITH_MPI).
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "job_scheduler.hpp"
+
+namespace cdshear {
+
+using JobEndCallback = std::function<void(const JobEnd&, const JobProgress&)>;
+
+/// Runs jobs somewhere else (on the worker ranks); same contract as run_jobs.
+using RemoteScheduler =
+    std::function<ScheduleResult(const std::vector<Job>&, const JobEndCallback&)>;
+
+/// True if the environment says that an MPI launcher (mpirun, srun) started this process among
+/// more than one rank. Reads only the environment: MPI is not initialized.
+bool mpi_launch_detected();
+
+/// Initializes MPI, and on rank 0 calls sweep(scheduler, workers) with a scheduler that hands
+/// jobs to the other ranks, one at a time each; the other ranks run the jobs they are handed
+/// until rank 0 is done. Finalizes MPI. Returns the sweep's exit code on every rank (a
+/// ConfigError or other exception of rank 0 is rethrown there; the workers return 2 or 1). With
+/// one rank, calls sweep(nullptr, 0).
+int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int workers)>& sweep);
+
+}  // namespace cdshear
