@@ -137,6 +137,10 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
 
 /// Rank 0: every worker stops what it runs (if anything) and returns `code`.
 void release_workers(int size, int code) {
+  // Rank 0's summary is out before any rank can end the job (mpirun kills the others when one
+  // exits non-zero).
+  std::fflush(stdout);
+  std::fflush(stderr);
   for (int r = 1; r < size; ++r) {
     MPI_Send(nullptr, 0, MPI_CHAR, r, kStop, MPI_COMM_WORLD);
     MPI_Send(&code, 1, MPI_INT, r, kQuit, MPI_COMM_WORLD);
@@ -194,6 +198,12 @@ int serve(int rank) {
     } catch (const std::exception& e) {  // a log that cannot be opened, fork refused
       std::fprintf(stderr, "cdshear sweep, MPI rank %d: %s: %s\n", rank, job.name.c_str(),
                    e.what());
+    }
+    // A stop that came during the run is told before its result: messages from one rank
+    // arrive in order, so rank 0 knows the sweep was interrupted even if this was its last run.
+    if (g_stop_requested.load() && !told) {
+      MPI_Send(nullptr, 0, MPI_CHAR, 0, kStopped, MPI_COMM_WORLD);
+      told = true;
     }
     MPI_Send(msg, 3, MPI_DOUBLE, 0, kResult, MPI_COMM_WORLD);
   }
