@@ -76,13 +76,18 @@ int exit_code_of(int status) {
 
 }  // namespace
 
-ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
-                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
-                        const std::function<bool()>& also_stop) {
+std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs) {
   std::vector<std::size_t> order(jobs.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return jobs[a].cost > jobs[b].cost; });
+  return order;
+}
+
+ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
+                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
+                        const std::function<bool()>& also_stop) {
+  const std::vector<std::size_t> order = costliest_first(jobs);
   struct Running {
     std::size_t job;
     Clock::time_point start;

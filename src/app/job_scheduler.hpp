@@ -40,6 +40,9 @@ struct ScheduleResult {
 /// started, SIGTERM is sent to every running child, and the call returns when they have exited.
 /// `also_stop`, if given, is polled the same way: a true answer is a stop request like
 /// g_stop_requested (the MPI worker passes "rank 0 asked to stop").
+/// The jobs' indices, costliest first (ties in list order): the order both schedulers start them.
+std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs);
+
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
                         const std::function<bool()>& also_stop = {});

@@ -67,10 +67,7 @@ Job decode(const std::string& s) {
 /// Rank 0: the jobs to the workers, costliest first, as they free up.
 ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
                                    const JobEndCallback& on_end) {
-  std::vector<std::size_t> order(jobs.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return jobs[a].cost > jobs[b].cost; });
+  const std::vector<std::size_t> order = costliest_first(jobs);
   std::vector<int> idle;
   for (int r = size - 1; r >= 1; --r) idle.push_back(r);
   struct Busy {
