@@ -1,8 +1,8 @@
 // libFuzzer target over every reader of user files: case files, scene files, packings,
-// checkpoints, run.h5 files, `--set` overrides and campaign files. The first byte picks the reader, the rest is
-// the input. The property: a reader either accepts its input or throws ConfigError (a clear
-// error naming the file); any other exception, a crash, a sanitizer report or a hang is a bug.
-// Build and run: docs/reliability.md ("Fuzzing").
+// checkpoints, run.h5 files, `--set` overrides and campaign files. The first byte picks the reader,
+// the rest is the input. The property: a reader either accepts its input or throws ConfigError (a
+// clear error naming the file); any other exception, a crash, a sanitizer report or a hang is a
+// bug. Build and run: docs/reliability.md ("Fuzzing").
 #include <unistd.h>
 
 #include <cstdint>

@@ -1,6 +1,7 @@
 // `cdshear analyze RUN_DIR`, `cdshear plot RUN_DIR` and `cdshear report CAMPAIGN_DIR`: the per-run
-// analysis, figures and campaign reports live in the Python package python/cdshear_analysis (numpy, scipy, matplotlib, h5py from Debian); these
-// commands run it with /usr/bin/python3 so that `cdshear` stays the one entry point.
+// analysis, figures and campaign reports live in the Python package python/cdshear_analysis (numpy,
+// scipy, matplotlib, h5py from Debian); these commands run it with /usr/bin/python3 so that
+// `cdshear` stays the one entry point.
 #pragma once
 
 #include <CLI/CLI.hpp>
