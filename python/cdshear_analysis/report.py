@@ -358,6 +358,20 @@ FIGURES = [
 ]
 
 
+AXIS_LABELS = {"V": "wall velocity V [d/t]", "I_bulk": "bulk inertial number I"}
+
+
+def _label_log_axis(ax):
+    """A log x axis spanning less than two decades shows one labelled tick or none: label 1, 2
+    and 5 of every decade instead, in plain numbers."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+    lo, hi = ax.get_xlim()
+    if hi / lo < 100:
+        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _plot(path, title, xcol, ycol, fit_names, rows, fits):
     import matplotlib
     matplotlib.use("Agg")
@@ -399,7 +413,8 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
         ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
     elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
         ax.set_xscale("log")
-    ax.set_xlabel(xcol)
+        _label_log_axis(ax)
+    ax.set_xlabel(AXIS_LABELS.get(xcol, xcol))
     ax.set_ylabel(ycol or "slip velocity [d/t]")
     ax.set_title(title, fontsize=9)
     if plotted:
@@ -448,6 +463,7 @@ def _plot_regimes(path, rows, transitions):
     if vs:
         ax.set_xscale("log")
         ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
+        _label_log_axis(ax)
         handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
                            label=f"regime {g or 'undetermined'}")[0]
                    for g in ("A", "B", "C", None) if g in seen]
@@ -456,7 +472,7 @@ def _plot_regimes(path, rows, transitions):
         ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
     ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
     ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
-    ax.set_xlabel("wall velocity V")
+    ax.set_xlabel(AXIS_LABELS["V"])
     ax.set_title("regime diagram (open: not steady; bars: V_AB above, V_BC below)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
