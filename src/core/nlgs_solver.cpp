@@ -419,10 +419,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
       recent_change.back() = change;
       report.error_bound = remaining_error_bound(recent_change, sweep);
-      const double tested =
-          options.criterion == ConvergenceCriterion::kError ? report.error_bound : change;
-      done = report.converged_fraction >= options.converged_fraction &&
-             tested * tested <= options.alpha;
+      // alpha bounds the square of the tested quantity (the residual is the change squared).
+      const double tested2 = options.criterion == ConvergenceCriterion::kError
+                                 ? report.error_bound * report.error_bound
+                                 : report.residual;
+      done = report.converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
       if (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps) {
         const std::size_t woken = wake_closing_rows(ws, bodies);
         report.woken_contacts += woken;

@@ -16,10 +16,10 @@
 //                 then what is left (a wall touching several slabs) on one thread. The shuffled
 //                 order is kept inside a group. Groups of one phase are independent, so several
 //                 threads solve them at once, and the result is the same whatever the number of
-//                 threads (the convergence sums are added group by group, in order). Body
-//                 velocities are
-// kept equal to free velocity + M^-1 H^T R at all times, so that a contact's free velocity is its
-// current relative velocity minus W times its current impulse: a contact update costs O(1).
+//                 threads (the convergence sums are added group by group, in order).
+// Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
+// free velocity is its current relative velocity minus W times its current impulse: a contact
+// update costs O(1).
 //
 // Dormant contacts (options.skip_dormant): a candidate that carries no impulse after the warm start
 // and whose gap is opening or closing too slowly to close within the step (u_n + gap/dt > 0) is
