@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "run_loop.hpp"
+#include "toml_reader.hpp"
 
 namespace cdshear {
 
@@ -33,10 +34,6 @@ bool folder_is_free(const std::filesystem::path& dir);
 /// with `force`, the outputs cdshear writes are removed first (nothing else is touched). Creates
 /// the folder.
 void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint);
-
-/// The most steps one run may ask for (docs/reliability.md): about 90 days of system 1 at
-/// 250 steps/s; a larger count is a typo (dt, duration or V off by orders of magnitude).
-inline constexpr double kMaxRunSteps = 2e9;
 
 /// The step at which a run of `duration` with step `dt` ends, checked: a step count that is not
 /// finite or above kMaxRunSteps, or a run with nothing left to do (end at or before

@@ -107,12 +107,6 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
 /// scheduler that hands the jobs to `workers` worker ranks, one at a time each.
 int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers) {
   const Campaign c = read_campaign(args.file);
-  for (const CampaignRun& r : c.runs)  // the limit `cdshear run` would refuse it with
-    if (r.duration / r.dt > kMaxRunSteps)
-      throw ConfigError(args.file, c.strain ? "campaign.strain" : "campaign.duration",
-                        fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
-                                    "(docs/reliability.md)",
-                                    r.name, r.duration / r.dt, kMaxRunSteps));
   const fs::path dir =
       fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
   const fs::path exe = fs::read_symlink("/proc/self/exe");
@@ -239,12 +233,9 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
       j.argv = {exe.string(), "run",
                 "--system",   std::to_string(r.system),
                 "-V",         fmt::format("{}", r.velocity),
-                "--set",      fmt::format("system.seed={}", r.seed),
                 "--set",      fmt::format("shear.duration={}", r.duration)};
-      if (!c.boundary_thickness.empty())
-        j.argv.insert(j.argv.end(), {"--set", fmt::format("measure.boundary_thickness=[{}]",
-                                                          fmt::join(c.boundary_thickness, ", "))});
-      for (const std::string& o : c.overrides) j.argv.insert(j.argv.end(), {"--set", o});
+      for (const std::string& o : run_case_overrides(c, r))
+        j.argv.insert(j.argv.end(), {"--set", o});
       j.argv.insert(j.argv.end(),
                     {"--packing", packing.string(), "--threads", threads, "-o", rdir.string()});
       if (fs::is_directory(rdir) && !fs::is_empty(rdir)) j.argv.push_back("--force");

@@ -55,13 +55,6 @@ void flatten(const toml::table& t, const std::string& prefix,
   }
 }
 
-/// The problem part of a ConfigError's message (without "file: key 'k': ").
-std::string problem_of(const ConfigError& e) {
-  std::string prefix = e.file() + (e.key().empty() ? "" : ": key '" + e.key() + "'") + ": ";
-  const std::string what = e.what();
-  return what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what;
-}
-
 /// Velocities of a range, rounded to 6 significant digits (the precision of the run names).
 std::vector<double> velocity_range(TomlReader& r) {
   const double from = r.positive("from");
@@ -83,6 +76,15 @@ std::vector<double> velocity_range(TomlReader& r) {
 }
 
 }  // namespace
+
+std::vector<std::string> run_case_overrides(const Campaign& c, const CampaignRun& r) {
+  std::vector<std::string> o = {"system.seed=" + std::to_string(r.seed)};
+  if (!c.boundary_thickness.empty())
+    o.push_back(
+        fmt::format("measure.boundary_thickness=[{}]", fmt::join(c.boundary_thickness, ", ")));
+  o.insert(o.end(), c.overrides.begin(), c.overrides.end());
+  return o;
+}
 
 std::string campaign_run_name(int system, std::uint64_t seed, double velocity) {
   return fmt::format("s{}_seed{}_V{}", system, seed, format_number(velocity));
@@ -246,12 +248,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
         CaseSource src;
         src.system = system;
         src.velocity = v;
-        src.overrides = c.overrides;
-        src.overrides.push_back("system.seed=" + std::to_string(seed));
-        // Checked here as the run will get it (sweep_command passes the same --set).
-        if (!c.boundary_thickness.empty())
-          src.overrides.push_back(fmt::format("measure.boundary_thickness=[{}]",
-                                              fmt::join(c.boundary_thickness, ", ")));
+        src.overrides = run_case_overrides(c, run);  // checked as the run will get them
         ShearCase sc;
         try {
           sc = load_case(src);
@@ -260,7 +257,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                                       ? std::string("campaign.boundary_thickness")
                                   : e.key().empty() ? std::string("set")
                                                     : "set." + e.key();
-          throw ConfigError(file, key, problem_of(e) + " (run " + run.name + ")");
+          throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
         }
         run.n = sc.n;
         run.height = sc.height;
@@ -276,6 +273,11 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
               c.strain ? "strain" : "duration",
               fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
                           run.name, run.duration, run.dt));
+        if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
+          t.fail(c.strain ? "strain" : "duration",
+                 fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
+                             "(docs/reliability.md)",
+                             run.name, steps, kMaxRunSteps));
         c.runs.push_back(run);
       }
   return c;

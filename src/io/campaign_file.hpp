@@ -75,4 +75,9 @@ std::vector<std::string> campaign_differences(const toml::table& before, const t
 /// The folder name of a run: s<system>_seed<seed>_V<V> (V with 6 significant digits).
 std::string campaign_run_name(int system, std::uint64_t seed, double velocity);
 
+/// The case overrides (`--set KEY=VALUE`) of one run besides its system, V and duration: its
+/// seed, the campaign's boundary thicknesses and [set]. The reader checks them with the case
+/// loader; the sweep passes the same to `cdshear run`.
+std::vector<std::string> run_case_overrides(const Campaign& c, const CampaignRun& r);
+
 }  // namespace cdshear

@@ -11,13 +11,17 @@ class ConfigError : public std::runtime_error {
   ConfigError(const std::string& file, const std::string& key, const std::string& problem)
       : std::runtime_error(file + (key.empty() ? "" : ": key '" + key + "'") + ": " + problem),
         file_(file),
-        key_(key) {}
+        key_(key),
+        problem_(problem) {}
   const std::string& file() const { return file_; }
   const std::string& key() const { return key_; }
+  /// The problem alone, to be told again under another file or key.
+  const std::string& problem() const { return problem_; }
 
  private:
   std::string file_;
   std::string key_;
+  std::string problem_;
 };
 
 }  // namespace cdshear

@@ -22,6 +22,10 @@ namespace cdshear {
 inline constexpr std::int64_t kMaxDisks = 1'000'000;
 inline constexpr std::int64_t kMaxSweeps = 1'000'000;
 inline constexpr std::int64_t kMaxStepInterval = 1'000'000'000'000;
+/// The most steps one run may ask for (docs/reliability.md): about 90 days of system 1 at
+/// 250 steps/s; a larger count is a typo (dt, duration or V off by orders of magnitude).
+/// `cdshear run` (checked_end_step) and campaign files (read_campaign) refuse more.
+inline constexpr double kMaxRunSteps = 2e9;
 
 /// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error).
 toml::table parse_toml_file(const std::string& path);
