@@ -88,11 +88,7 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
                         const std::function<bool()>& also_stop) {
   const std::vector<std::size_t> order = costliest_first(jobs);
-  struct Running {
-    std::size_t job;
-    Clock::time_point start;
-  };
-  std::map<pid_t, Running> running;
+  std::map<pid_t, StartedJob> running;
   ScheduleResult result;
   std::size_t next = 0;
   bool forwarded = false;
@@ -123,21 +119,8 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
         end.seconds = std::chrono::duration<double>(Clock::now() - it->second.start).count();
         running.erase(it);
         result.ends.push_back(end);
-        if (on_end) {
-          JobProgress progress{result.ends.size(),
-                               running.size(),
-                               result.interrupted ? 0 : order.size() - next,
-                               {},
-                               {}};
-          const auto now = Clock::now();
-          for (const auto& [p, r] : running)
-            progress.running_jobs.emplace_back(
-                r.job, std::chrono::duration<double>(now - r.start).count());
-          if (!result.interrupted)
-            for (std::size_t k = next; k < order.size(); ++k)
-              progress.waiting_jobs.push_back(order[k]);
-          on_end(end, progress);
-        }
+        if (on_end)
+          on_end(end, job_progress(result.ends.size(), running, order, next, result.interrupted));
         continue;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -3,8 +3,10 @@
 // Used by `cdshear sweep`; knows nothing about runs.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,27 @@ struct JobProgress {
   std::vector<std::size_t> waiting_jobs;                     ///< not started yet
 };
 
+/// A job started at `start` (by a child process here, or by a worker rank under MPI).
+struct StartedJob {
+  std::size_t job = 0;
+  std::chrono::steady_clock::time_point start;
+};
+
+/// The progress after `done` jobs ended, with `running` still going (keyed by pid or by rank)
+/// and order[next...] waiting (none once interrupted).
+template <class Key>
+JobProgress job_progress(std::size_t done, const std::map<Key, StartedJob>& running,
+                         const std::vector<std::size_t>& order, std::size_t next,
+                         bool interrupted) {
+  JobProgress p{done, running.size(), interrupted ? 0 : order.size() - next, {}, {}};
+  const auto now = std::chrono::steady_clock::now();
+  for (const auto& [key, r] : running)
+    p.running_jobs.emplace_back(r.job, std::chrono::duration<double>(now - r.start).count());
+  if (!interrupted)
+    p.waiting_jobs.assign(order.begin() + static_cast<std::ptrdiff_t>(next), order.end());
+  return p;
+}
+
 struct ScheduleResult {
   bool interrupted = false;        ///< a stop was requested: no more jobs were started
   std::vector<JobEnd> ends;        ///< in the order they ended
@@ -40,11 +63,11 @@ struct ScheduleResult {
 /// started, SIGTERM is sent to every running child, and the call returns when they have exited.
 /// `also_stop`, if given, is polled the same way: a true answer is a stop request like
 /// g_stop_requested (the MPI worker passes "rank 0 asked to stop").
-/// The jobs' indices, costliest first (ties in list order): the order both schedulers start them.
-std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs);
-
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
                         const std::function<bool()>& also_stop = {});
+
+/// The jobs' indices, costliest first (ties in list order): the order both schedulers start them.
+std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs);
 
 }  // namespace cdshear

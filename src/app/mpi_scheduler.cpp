@@ -37,7 +37,8 @@ enum Tag : int {
   kStopped = 5,  // worker -> 0: a stop was requested on this worker (a signal)
 };
 
-void pause() {
+/// Between two polls of the message queue (not POSIX pause(): nothing signals a message).
+void idle_wait() {
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
 }
 
@@ -70,11 +71,7 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
   const std::vector<std::size_t> order = costliest_first(jobs);
   std::vector<int> idle;
   for (int r = size - 1; r >= 1; --r) idle.push_back(r);
-  struct Busy {
-    std::size_t job;
-    Clock::time_point start;
-  };
-  std::map<int, Busy> busy;
+  std::map<int, StartedJob> busy;
   ScheduleResult result;
   std::size_t next = 0;
   while (true) {
@@ -96,7 +93,7 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
     if (!flag) {
-      pause();
+      idle_wait();
       continue;
     }
     if (st.MPI_TAG == kStopped) {
@@ -117,16 +114,8 @@ ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
     }
     JobEnd end{job, static_cast<int>(msg[0]), msg[1]};
     result.ends.push_back(end);
-    if (!on_end) continue;
-    JobProgress progress{
-        result.ends.size(), busy.size(), result.interrupted ? 0 : order.size() - next, {}, {}};
-    const auto now = Clock::now();
-    for (const auto& [rank, b] : busy)
-      progress.running_jobs.emplace_back(b.job,
-                                         std::chrono::duration<double>(now - b.start).count());
-    if (!result.interrupted)
-      for (std::size_t k = next; k < order.size(); ++k) progress.waiting_jobs.push_back(order[k]);
-    on_end(end, progress);
+    if (on_end)
+      on_end(end, job_progress(result.ends.size(), busy, order, next, result.interrupted));
   }
   for (; next < order.size(); ++next) result.never.push_back(order[next]);
   return result;
@@ -156,7 +145,7 @@ int serve(int rank) {
     MPI_Status st;
     MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
     if (!flag) {
-      pause();
+      idle_wait();
       continue;
     }
     if (st.MPI_TAG == kQuit) {
