@@ -153,11 +153,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   } else {
     c.seeds = {1};
   }
-  for (std::size_t i = 0; i < c.seeds.size(); ++i)
-    for (std::size_t j = 0; j < i; ++j)
-      if (c.seeds[i] == c.seeds[j])
-        t.fail("seeds",
-               "lists seed " + std::to_string(c.seeds[i]) + " twice (the same runs twice)");
+  std::set<std::uint64_t> seen_seeds;  // n log n: a long list must not take quadratic time
+  for (const std::uint64_t seed : c.seeds)
+    if (!seen_seeds.insert(seed).second)
+      t.fail("seeds", "lists seed " + std::to_string(seed) + " twice (the same runs twice)");
 
   const bool has_duration = t.has("duration"), has_strain = t.has("strain");
   if (has_duration && has_strain)
