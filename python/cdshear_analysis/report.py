@@ -20,10 +20,11 @@ import math
 import os
 import re
 import tomllib
-import warnings
 
 import numpy as np
 
+from . import fitting
+from .fitting import finite as _finite
 from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
@@ -55,14 +56,6 @@ def _pair(summary, *keys):
     return _finite(entry.get("mean")), _finite(entry.get("err"))
 
 
-def _finite(x):
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
-
-
 def _h_label(h):
     """h10, h5, h2.5: the column prefix of a boundary thickness."""
     return "h" + (str(int(h)) if float(h).is_integer() else repr(float(h)))
@@ -73,6 +66,8 @@ BULK_QUANTITIES = [
     ("L_y", ("height",)),
     ("I_bulk", ("bulk", "inertial_number")),
     ("mu_eff_wall", ("mu_eff_wall",)),
+    ("mu_eff_wall_bottom", ("mu_eff_wall_bottom",)),
+    ("mu_eff_wall_top", ("mu_eff_wall_top",)),
     ("mu_eff_bulk", ("bulk", "mu_eff")),
     ("nu_bulk", ("bulk", "solid_fraction")),
     ("Z_bulk", ("bulk", "coordination")),
@@ -80,6 +75,7 @@ BULK_QUANTITIES = [
     ("slip_bottom", ("slip", "bottom")),
     ("slip_top", ("slip", "top")),
     ("switch_duration", ("switch_duration",)),
+    ("switch_delta_mu", ("switch_delta_mu",)),
 ]
 # (column suffix, key in summary["regions"][hK]["bottom" | "top"])
 LAYER_QUANTITIES = [("I", "inertial_number"), ("mu_eff", "mu_eff"), ("nu", "solid_fraction"),
@@ -124,12 +120,9 @@ def read_run(run_dir):
     }
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
-    # for transitions.predictions (not in runs.csv): sigma_yy, the switches, and the friction
-    # of each wall, which summary.json does not hold yet (read when it does)
+    # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     row["_switches"] = switches if isinstance(switches, list) else []
-    row["_mu_wall_bottom"] = _pair(s, "mu_eff_wall_bottom")[0]
-    row["_mu_wall_top"] = _pair(s, "mu_eff_wall_top")[0]
     regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}
     row["_layers"] = []  # the h of each region group present, in order
     for group in regions.values():
@@ -221,129 +214,29 @@ def _cell(v):
 
 
 # ---------------------------------------------------------------------------------------------
-# Fits
-
-def _power(x, y0, a, b):
-    return y0 + a * np.power(x, b)
-
-
-def _power_minus(x, y0, c, e):
-    return y0 - c * np.power(x, e)
-
-
-def _linear(x, y0, a):
-    return y0 + a * x
-
-
-def _linear_minus(x, y0, c):
-    return y0 - c * x
-
-
-# name: (law, model, parameter names, y column, x range or None, starting values (x, y) -> p0s,
-#        bounds)
-def _p0_power(x, y, sign):
-    """Starting points (y0, amplitude, exponent) of y0 + sign * amplitude * x^exponent: y0 just
-    beyond the smallest (sign +1) or largest (-1) y, the amplitude spanning the data."""
-    y0 = float(np.min(y) if sign > 0 else np.max(y))
-    spread = float(np.ptp(y)) or 0.1
-    return [(y0 - sign * 0.1 * spread, spread / max(float(np.max(x)), 1e-12) ** e, e)
-            for e in (0.5, 1.0, 2.0)]
-
-
-def _p0_linear(x, y):
-    slope, icpt = np.polyfit(x, y, 1) if len(x) > 1 else (0.0, float(np.mean(y)))
-    return [(float(icpt), float(slope))]
-
+# Fits of the bulk laws (fitting.py does the fitting; boundary_laws.py the boundary layers)
 
 FITS = {
-    "mu_power": dict(law="mu_eff = mu_0 + A * I^B", model=_power, params=["mu_0", "A", "B"],
-                     y="mu_eff_bulk", range=None, p0=lambda x, y: _p0_power(x, y, +1),
-                     bounds=([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])),
-    "mu_linear": dict(law="mu_eff = a + b * I  (0.03 < I < 0.2)", model=_linear,
-                      params=["a", "b"], y="mu_eff_bulk", range=LINEAR_RANGE, p0=_p0_linear,
-                      bounds=(-np.inf, np.inf)),
-    "nu_linear": dict(law="nu = nu_max - c * I  (0.03 < I < 0.2)", model=_linear_minus,
-                      params=["nu_max", "c"], y="nu_bulk", range=LINEAR_RANGE,
-                      p0=lambda x, y: [(p[0], -p[1]) for p in _p0_linear(x, y)],
-                      bounds=(-np.inf, np.inf)),
-    "Z_power": dict(law="Z = Z_0 - c * I^e", model=_power_minus, params=["Z_0", "c", "e"],
-                    y="Z_bulk", range=None,
-                    p0=lambda x, y: _p0_power(x, y, -1),
-                    bounds=([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])),
+    "mu_power": fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_bulk", "I_bulk"),
+    "mu_linear": fitting.law("linear_plus", ["a", "b"], "mu_eff_bulk", "I_bulk", LINEAR_RANGE),
+    "nu_linear": fitting.law("linear_minus", ["nu_max", "c"], "nu_bulk", "I_bulk",
+                             LINEAR_RANGE),
+    "Z_power": fitting.law("power_minus", ["Z_0", "c", "e"], "Z_bulk", "I_bulk"),
 }
 
 
-def fit_law(name, rows):
-    """One fit of FITS over the steady rows with finite I_bulk > 0 and a finite y with a finite
-    positive error (inside the fit's I range); a dict with the keys of fits.json."""
-    from scipy.optimize import OptimizeWarning, curve_fit
-    spec = FITS[name]
-    k = len(spec["params"])
-    out = {"law": spec["law"], "x": "I_bulk", "y": spec["y"],
-           "I_range": list(spec["range"]) if spec["range"] else None,
-           "status": "skipped", "reason": None, "n_points": 0, "points_without_error": 0,
-           "runs": [], "parameters": None, "chi2": None, "dof": None, "chi2_dof": None}
-    xs, ys, es, runs = [], [], [], []
-    for r in rows:
-        x, y, e = r.get("I_bulk"), r.get(spec["y"]), r.get(spec["y"] + "_err")
-        if r.get("steady") is not True or x is None or y is None or x <= 0:
-            continue
-        if spec["range"] and not spec["range"][0] < x < spec["range"][1]:
-            continue
-        if e is None or e <= 0:
-            out["points_without_error"] += 1
-            continue
-        xs.append(x), ys.append(y), es.append(e), runs.append(r["run"])
-    n = len(xs)
-    out["n_points"], out["runs"] = n, runs
-    if n < k + 1:
-        where = f" with {spec['range'][0]} < I < {spec['range'][1]}" if spec["range"] else ""
-        out["reason"] = (f"too few points: {n} steady runs{where} with {spec['y']} and its "
-                         f"error, {k + 1} needed for {k} parameters")
-        return out
-    x, y, e = np.array(xs), np.array(ys), np.array(es)
-    best = None
-    for p0 in spec["p0"](x, y):
-        try:
-            with warnings.catch_warnings():
-                # a covariance that cannot be estimated is handled below, not printed
-                warnings.simplefilter("ignore", OptimizeWarning)
-                p, cov = curve_fit(spec["model"], x, y, p0=p0, sigma=e, absolute_sigma=True,
-                                   bounds=spec["bounds"], maxfev=20000)
-        except (RuntimeError, ValueError) as err:
-            last = str(err)
-            continue
-        chi2 = float(np.sum(((y - spec["model"](x, *p)) / e) ** 2))
-        if best is None or chi2 < best[2]:
-            best = (p, cov, chi2)
-    if best is None:
-        out["reason"] = f"no convergence: {last}"
-        return out
-    p, cov, chi2 = best
-    dof = n - k
-    if not np.all(np.isfinite(cov)):
-        # degenerate points (for example every run at the same I): no parameter errors, no fit
-        out["reason"] = "covariance not estimable: the points do not determine the parameters"
-        return out
-    errs = np.sqrt(np.diag(cov))
-    scale = math.sqrt(max(1.0, chi2 / dof))
-    out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof, parameters={
-        pn: {"value": float(v), "err": _finite(se), "err_scaled": _finite(se * scale)}
-        for pn, v, se in zip(spec["params"], p, errs)})
-    return out
+def fit_law(name, rows, x="I_bulk", y=None):
+    """One law of FITS over the steady rows, with the columns x and y (default: the law's)."""
+    spec = dict(FITS[name])
+    y = y or spec["y"]
+    spec.update(x=x, y=y, law=fitting.law(spec["model"], spec["params"], y, x,
+                                          spec["range"])["law"])
+    return fitting.fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"]) for r in rows
+                              if r.get("steady") is True])
 
 
 def fit_laws(rows):
     return {name: fit_law(name, rows) for name in FITS}
-
-
-def fit_curve(fit, x):
-    """The fitted curve of a fits.json entry at x (None when the fit was skipped)."""
-    if fit["status"] != "ok":
-        return None
-    spec = next(s for s in FITS.values() if s["law"] == fit["law"])
-    return spec["model"](np.asarray(x, float), *[fit["parameters"][p]["value"]
-                                                 for p in spec["params"]])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -405,9 +298,9 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
         if f is None or f["status"] != "ok":
             continue
         xs = [x for x in xs_all if x > 0]
-        lo, hi = f["I_range"] if f["I_range"] else (min(xs), max(xs))
+        lo, hi = f["range"] if f["range"] else (min(xs), max(xs))
         grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
-        ax.plot(grid, fit_curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
+        ax.plot(grid, fitting.curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
                 label=f"{fname}: {f['law']}")
     if not plotted:
         ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)

@@ -35,6 +35,27 @@ def wall_friction_series(series):
         return np.where(den > 0, num / den, np.nan)
 
 
+def wall_friction_of(series, side):
+    """|f_x| / |f_y| of one wall ("bottom" or "top") per sample (NaN if 0/0)."""
+    fx, fy = np.abs(series[f"{side}_fx"]), np.abs(series[f"{side}_fy"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(fy > 0, fx / fy, np.nan)
+
+
+def switch_friction_difference(series, time, switch):
+    """delta_mu of one band switch: |mean over the switch of (bottom_fx + top_fx)| / the mean
+    normal force of a wall over it, the net tangential force of the walls on the grains per
+    unit normal force, which takes the block from one wall's velocity to the other's
+    (SPEC 8: T = 2 rho nu V L_y / (delta_mu sigma_yy)). NaN without samples in the switch."""
+    sel = (time >= switch["start_time"]) & (time <= switch["end_time"])
+    if not sel.any():
+        return np.nan
+    fx = np.asarray(series["bottom_fx"], float)[sel] + np.asarray(series["top_fx"], float)[sel]
+    fy = 0.5 * (np.abs(np.asarray(series["bottom_fy"], float)[sel])
+                + np.abs(np.asarray(series["top_fy"], float)[sel]))
+    return float(abs(np.mean(fx)) / np.mean(fy)) if np.mean(fy) > 0 else np.nan
+
+
 def choose_bulk_range(run):
     """(h, lo, hi): the smallest h of the file whose bulk h < y < H - h holds BULK_MIN_STRIPES
     stripes (H the mean window height), else h = None and the central half H/4 < y < 3H/4.
@@ -105,6 +126,8 @@ def analyze(run):
     criteria.update(bulk_h=bulk_h, bulk_y_range=y_range)
     visits_both = rg.visits_both_walls(com, V)
     switches = rg.band_switches(time, com, V) if regime == "C" or visits_both else []
+    for sw in switches:
+        sw["delta_mu"] = switch_friction_difference(s, time, sw)
     edges, counts = rg.com_histogram(com[after], V)
     com_block = block_average(com[after])
 
@@ -127,6 +150,7 @@ def analyze(run):
     for name, (i, j) in STRESS_COMPONENTS.items():
         profiles[name] = win(w["stress"][..., i, j])
     durations = [sw["duration"] for sw in switches]
+    delta_mus = [sw["delta_mu"] for sw in switches if np.isfinite(sw["delta_mu"])]
     get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
     return {
         "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION, "run_dir": run["run_dir"],
@@ -150,6 +174,8 @@ def analyze(run):
                           if len(sel) else "no complete window: window quantities are null"),
         "regime": regime, "regime_confidence": confidence, "regime_criteria": criteria,
         "mu_eff_wall": series_avg(mu_wall),
+        "mu_eff_wall_bottom": series_avg(wall_friction_of(s, "bottom")),
+        "mu_eff_wall_top": series_avg(wall_friction_of(s, "top")),
         "height": series_avg(s["height"]),
         "solid_fraction": series_avg(s["solid_fraction"]),
         "com_vx": dict(mean=com_block["mean"], err=com_block["err"], std=com_block["std"],
@@ -164,6 +190,8 @@ def analyze(run):
         "switches": switches,
         "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
         if durations else mean_err(np.nan, np.nan),
+        "switch_delta_mu": mean_err(*window_mean(np.array(delta_mus, dtype=float)))
+        if delta_mus else mean_err(np.nan, np.nan),
         "solver": dict(capped_steps=int(np.nansum(s.get("capped_steps", [0]))),
                        max_sweeps=get("sweeps_max", np.nanmax),
                        mean_sweeps=get("sweeps_mean", np.nanmean),

@@ -4,7 +4,8 @@ Kinds:
   "A"          linear velocity profile with 10% slip at each wall, com_vx AR(1) noise about 0;
   "B"          shear in two boundary bands of thickness 3, still bulk, com_vx noise about 0;
   "C"          one band; the bulk moves with one wall: com_vx at +V or -V, switching at
-               `switch_times` (each switch a linear ramp over `switch_duration`);
+               `switch_times` (each switch a linear ramp over `switch_duration`, the wall
+               forces carrying the block's acceleration);
   "noise"      no structure: white-noise profiles and com_vx (std 0.4 V);
   "transient"  regime A whose wall friction and height relax as exp(-t / transient_tau)
                (mu from 0.55 to 0.30, L_y from 19 to 20).
@@ -74,19 +75,25 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
             ramp = np.clip((t - ts) / switch_duration, 0, 1)
             state = np.where(t >= ts, old * (1 - 2 * ramp), state)
         com = V * state + ar1(n_samples, 0.8, 0.05 * V, rng)
+        accel = V * np.gradient(state, t)             # of the block, without the noise
     elif kind == "noise":
         com = rng.normal(0, 0.4 * V, n_samples)
     else:
         com = ar1(n_samples, 0.95, (0.2 if kind == "B" else 0.05) * V, rng)
+    if kind != "C":
+        accel = np.zeros_like(t)
     fy = sigma * length_x * (1 + ar1(n_samples, 0.5, 0.02, rng))
     mean_area = np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
+    # Newton for the grains (rho = 1): the walls' net tangential force on them, -(bottom_fx +
+    # top_fx), is their mass times the block's acceleration (nonzero during a switch only)
+    block_force = n * mean_area * accel
     series = dict(
         step=np.round(t / dt).astype(np.int64), time=t, com_vx=com, height=height_t,
         solid_fraction=n * mean_area / (length_x * height_t),
         kinetic_energy=0.5 * n * 0.6 * (0.1 * V) ** 2 * (1 + 0.1 * rng.random(n_samples)),
         contacts=rng.integers(900, 1100, n_samples),
         force_carrying=rng.integers(500, 700, n_samples),
-        bottom_fx=mu * fy, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu, top_mu=mu,
+        bottom_fx=mu * fy - block_force, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu, top_mu=mu,
         sweeps_mean=40 + 5 * rng.random(n_samples), sweeps_max=rng.integers(60, 201, n_samples),
         capped_steps=(rng.random(n_samples) < 0.001).astype(np.int64),
         residual_max=1e-6 * rng.random(n_samples), overlap_max=1e-3 * rng.random(n_samples))

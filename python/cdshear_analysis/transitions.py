@@ -15,6 +15,7 @@ computed is given with its reason.
 """
 import math
 
+from . import fitting
 from .regime import COM_LEVEL
 
 RHO = 1.0                  # SPEC 1: 2D mass density
@@ -126,19 +127,11 @@ def switch_time(V, L_y, nu, delta_mu, sigma_yy, rho=RHO):
     return 2 * rho * nu * V * L_y / (delta_mu * sigma_yy)
 
 
-def law_slope(fit, I):
-    """d mu_eff / d I of a fits.json entry (mu_power or mu_linear) at I."""
-    p = {k: v["value"] for k, v in fit["parameters"].items()}
-    if "B" in p:
-        return p["A"] * p["B"] * I ** (p["B"] - 1)
-    return p["b"]
-
-
 def steady_state_time(fit, I, L_y, nu, sigma_yy, rho=RHO, m=INERTIAL_MASS):
     """SPEC 8: T_SS = L_y^2 / D, D = (d mu / d gamma_dot) sigma_yy / (rho nu) with
     d mu / d gamma_dot = (d mu / d I) sqrt(m / sigma_yy) (I = gamma_dot sqrt(m / sigma_yy)).
     Returns (T_SS, D)."""
-    dmu_dgd = law_slope(fit, I) * math.sqrt(m / sigma_yy)
+    dmu_dgd = fitting.slope(fit, I) * math.sqrt(m / sigma_yy)
     D = dmu_dgd * sigma_yy / (rho * nu)
     return L_y ** 2 / D, D
 
@@ -155,7 +148,7 @@ def switch_predictions(rows):
             continue
         e = {"run": r["run"], "system": r["system"], "V": r["V"], "steady": r.get("steady"),
              "L_y": r.get("L_y"), "nu_bulk": r.get("nu_bulk"), "sigma_yy": r.get("_sigma_yy"),
-             "rho": RHO, "delta_mu": None, "delta_mu_source": None,
+             "rho": RHO, "delta_mu": None, "delta_mu_err": None, "delta_mu_source": None,
              "predicted_T": None, "predicted_T_levels": None, "reason": None}
         sw = r.get("_switches") or []
         starts = sorted(s["start_time"] for s in sw if isinstance(s, dict)
@@ -170,13 +163,15 @@ def switch_predictions(rows):
         if not sw:
             e["measured_note"] = (f"no switch in {observed:g} time units" if observed
                                   else "no switch")
-        b, t = r.get("_mu_wall_bottom"), r.get("_mu_wall_top")
-        if b is not None and t is not None:
-            e["delta_mu"], e["delta_mu_source"] = abs(b - t), "summary.json mu_eff_wall_bottom/top"
+        if r.get("switch_delta_mu") is not None:
+            e["delta_mu"] = r["switch_delta_mu"]
+            e["delta_mu_err"] = r.get("switch_delta_mu_err")
+            e["delta_mu_source"] = ("summary.json switch_delta_mu: the net tangential force of "
+                                    "the walls per unit normal force, over each switch")
         missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
         if e["delta_mu"] is None:
-            missing.append("delta_mu (summary.json has only the combined wall friction "
-                           "mu_eff_wall; the friction of each wall during the switches is missing)")
+            missing.append("delta_mu (no band switch with wall forces: summary.json "
+                           "switch_delta_mu is null)")
         if missing:
             e["reason"] = "not computed: missing " + ", ".join(missing)
         elif e["delta_mu"] <= 0 or e["sigma_yy"] <= 0:
@@ -219,15 +214,15 @@ def steady_state_predictions(rows, fits):
             e["reason"] = "not computed: I_bulk, sigma_yy or nu_bulk is not positive"
         else:
             fit = fits[law]
-            e["dmu_dI"] = law_slope(fit, e["I_bulk"])
+            e["dmu_dI"] = fitting.slope(fit, e["I_bulk"])
             if e["dmu_dI"] <= 0:
                 e["reason"] = (f"not computed: d mu_eff / d I = {e['dmu_dI']:.3g} <= 0 at "
                                f"I = {e['I_bulk']:.3g} (no diffusion)")
             else:
                 e["predicted_T_SS"], e["D"] = steady_state_time(
                     fit, e["I_bulk"], e["L_y"], e["nu_bulk"], e["sigma_yy"])
-                if law == "mu_linear" and not fits[law]["I_range"][0] < e["I_bulk"] < \
-                        fits[law]["I_range"][1]:
+                if law == "mu_linear" and not fits[law]["range"][0] < e["I_bulk"] < \
+                        fits[law]["range"][1]:
                     e["note"] = "I_bulk outside the range of the linear law"
         if e["measured_transient_end_time"] is None:
             e["measured_note"] = "no transient_end_time (run not steady)"

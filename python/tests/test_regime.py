@@ -48,6 +48,27 @@ class Classifier(unittest.TestCase):
         self.assertGreater(counts[:3].sum() + counts[-3:].sum(), 0.9 * counts.sum())
         self.assertEqual(self.summaries["A"]["switches"], [])
 
+    def test_switch_friction_difference_and_predicted_switch_time(self):
+        # The synthetic block (mass n <area>, rho = 1) goes from +V to -V in a linear ramp of
+        # 20 t, its acceleration carried by the wall forces: delta_mu = mass 2 V / 20 over
+        # sigma_yy L_x. The switch detected between +-0.5 V lasts half the ramp, which is what
+        # SPEC 8's T times 0.5 predicts from that delta_mu.
+        from cdshear_analysis.transitions import COM_LEVEL, switch_time
+        s = self.summaries["C"]
+        mass = 511 * np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
+        expected = mass * 2 * 0.5 / 20.0 / (0.25 * 20.0)
+        for sw in s["switches"]:
+            self.assertAlmostEqual(sw["delta_mu"], expected, delta=0.05 * expected)
+        self.assertAlmostEqual(s["switch_delta_mu"]["mean"], expected, delta=0.05 * expected)
+        # each wall's friction: 0.30 at the top; the synthetic puts the switches' force on the
+        # bottom wall only (3 ramps of 20 t in 2000 t, at delta_mu ~ 3)
+        self.assertAlmostEqual(s["mu_eff_wall_top"]["mean"], 0.30, delta=0.01)
+        self.assertGreater(s["mu_eff_wall_bottom"]["mean"], 0.30 + 0.5 * 0.03 * expected)
+        self.assertTrue(np.isnan(self.summaries["A"]["switch_delta_mu"]["mean"]))  # no switch
+        T = switch_time(0.5, s["height"]["mean"], mass / (20.0 * s["height"]["mean"]),
+                        s["switch_delta_mu"]["mean"], 0.25)
+        self.assertAlmostEqual(COM_LEVEL * T, s["switch_duration"]["mean"], delta=1.5)
+
     def test_transient_end_found_in_run(self):
         self.assertGreater(self.summaries["transient"]["transient_end_time"], 150.0)
         self.assertLess(self.summaries["transient"]["transient_end_time"], 700.0)

@@ -136,7 +136,7 @@ class ReportTest(unittest.TestCase):
         fit = report.fit_law("mu_linear", rows)
         self.assertEqual(fit["status"], "ok", fit["reason"])
         within(self, fit, {"a": 0.28, "b": 0.9})
-        self.assertEqual(fit["I_range"], [0.03, 0.2])
+        self.assertEqual(fit["range"], [0.03, 0.2])
         self.assertTrue(all(0.03 < r["I_bulk"] < 0.2 for r in rows if r["run"] in fit["runs"]))
 
     def test_parameter_errors_follow_the_error_bars(self):

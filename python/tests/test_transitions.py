@@ -6,7 +6,7 @@ import os
 import tempfile
 import unittest
 
-from cdshear_analysis import report, transitions as tr
+from cdshear_analysis import fitting, report, transitions as tr
 from tests.test_report import fake_summary, main
 
 
@@ -101,8 +101,8 @@ class TransitionTest(unittest.TestCase):
 class PredictionTest(unittest.TestCase):
     def c_row(self, **kw):
         r = row(0.01, "C", L_y=20.0, nu_bulk=0.8, _sigma_yy=0.25, time_reached=5000.0,
-                switch_duration=30.0, switch_duration_err=2.0, _mu_wall_bottom=0.30,
-                _mu_wall_top=0.28,
+                switch_duration=30.0, switch_duration_err=2.0, switch_delta_mu=0.02,
+                switch_delta_mu_err=0.004,
                 _switches=[{"start_time": 1000.0}, {"start_time": 2500.0},
                            {"start_time": 4000.0}])
         r.update(kw)
@@ -123,7 +123,7 @@ class PredictionTest(unittest.TestCase):
         self.assertIsNone(e["reason"])
 
     def test_switch_time_without_wall_frictions_says_what_is_missing(self):
-        (e,) = tr.switch_predictions([self.c_row(_mu_wall_bottom=None, _switches=[],
+        (e,) = tr.switch_predictions([self.c_row(switch_delta_mu=None, _switches=[],
                                                  switch_duration=None)])
         self.assertIsNone(e["predicted_T"])
         self.assertIn("delta_mu", e["reason"])
@@ -132,7 +132,7 @@ class PredictionTest(unittest.TestCase):
         self.assertIsNone(e["delta_mu_implied"])
 
     def linear_fit(self, a=0.3, b=0.5):
-        return {"status": "ok", "I_range": [0.03, 0.2],
+        return {"status": "ok", "model": "linear_plus", "range": [0.03, 0.2],
                 "parameters": {"a": {"value": a}, "b": {"value": b}}}
 
     def test_steady_state_time_for_a_linear_law(self):
@@ -152,9 +152,9 @@ class PredictionTest(unittest.TestCase):
         self.assertEqual(e["measured_transient_end_time"], 300.0)
 
     def test_power_law_slope_and_preference(self):
-        power = {"status": "ok", "parameters": {"mu_0": {"value": 0.25}, "A": {"value": 1.0},
+        power = {"status": "ok", "model": "power_plus", "parameters": {"mu_0": {"value": 0.25}, "A": {"value": 1.0},
                                                 "B": {"value": 2.0}}}
-        self.assertAlmostEqual(tr.law_slope(power, 0.1), 0.2)
+        self.assertAlmostEqual(fitting.slope(power, 0.1), 0.2)
         fits = {"mu_power": power, "mu_linear": self.linear_fit()}
         (e,) = tr.steady_state_predictions(
             [row(1.0, "A", I_bulk=0.1, L_y=20.0, nu_bulk=0.8, _sigma_yy=0.25)], fits)
@@ -195,8 +195,7 @@ class ReportTransitionTest(unittest.TestCase):
                 s["switches"] = [{"start_time": 100.0, "duration": 40.0},
                                  {"start_time": 700.0, "duration": 50.0}]
                 s["switch_duration"] = {"mean": 45.0, "err": 5.0}
-                s["mu_eff_wall_bottom"] = {"mean": 0.31, "err": 0.01}
-                s["mu_eff_wall_top"] = {"mean": 0.29, "err": 0.01}
+                s["switch_delta_mu"] = {"mean": 0.02, "err": 0.004}
                 with open(os.path.join(s["run_dir"], "summary.json"), "w") as f:
                     json.dump(s, f)
         self.assertEqual(main(["report", self.d]), 0)

@@ -1,0 +1,197 @@
+"""Weighted least-squares fits of the SPEC 8 laws, shared by the bulk and the boundary laws.
+
+A law (LAWS) is a model y(x; parameters) with its starting points and bounds; `fit(law, points)`
+fits it to points (x, y, err, label) with scipy.optimize.curve_fit weighted by the error bars
+(sigma = the standard error of y, absolute_sigma=True; the error of x is not used). Points
+without a finite positive error are left out (counted in `points_without_error`); a fit with
+fewer points than parameters + 1 is skipped with its reason. Several starting points are tried
+and the smallest chi2 kept, so a power law is found whether its exponent is below or above 1.
+
+The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
+range, status ("ok" | "skipped"), reason, n_points, points_without_error, runs, parameters
+({name: {value, err, err_scaled}}), covariance (rows and columns in the order of parameters),
+chi2, dof, chi2_dof. err_scaled multiplies err by sqrt(chi2/dof) when that exceeds 1 (the
+scatter is larger than the error bars say).
+"""
+import math
+import warnings
+
+import numpy as np
+
+
+def finite(x):
+    """float(x) if it is a finite number, else None."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def power_plus(x, y0, a, b):
+    return y0 + a * np.power(x, b)
+
+
+def power_minus(x, y0, c, e):
+    return y0 - c * np.power(x, e)
+
+
+def linear_plus(x, y0, a):
+    return y0 + a * x
+
+
+def linear_minus(x, y0, c):
+    return y0 - c * x
+
+
+def p0_power(x, y, sign):
+    """Starting points (y0, amplitude, exponent) of y0 + sign * amplitude * x^exponent: y0 just
+    beyond the smallest (sign +1) or largest (-1) y, the amplitude spanning the data."""
+    y0 = float(np.min(y) if sign > 0 else np.max(y))
+    spread = float(np.ptp(y)) or 0.1
+    return [(y0 - sign * 0.1 * spread, spread / max(float(np.max(x)), 1e-12) ** e, e)
+            for e in (0.5, 1.0, 2.0)]
+
+
+def p0_linear(x, y, sign):
+    """(intercept, sign * slope) of the straight line through the points."""
+    slope, icpt = np.polyfit(x, y, 1) if len(np.unique(x)) > 1 else (0.0, float(np.mean(y)))
+    return [(float(icpt), sign * float(slope))]
+
+
+EXPONENT_BOUNDS = ([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])
+
+# The model families: formula (with X and Y for the variables), model, parameter names,
+# starting points, bounds
+MODELS = {
+    "power_plus": dict(formula="Y = {0} + {1} * X^{2}", model=power_plus,
+                       p0=lambda x, y: p0_power(x, y, +1), bounds=EXPONENT_BOUNDS),
+    "power_minus": dict(formula="Y = {0} - {1} * X^{2}", model=power_minus,
+                        p0=lambda x, y: p0_power(x, y, -1), bounds=EXPONENT_BOUNDS),
+    "linear_plus": dict(formula="Y = {0} + {1} * X", model=linear_plus,
+                        p0=lambda x, y: p0_linear(x, y, +1), bounds=(-np.inf, np.inf)),
+    "linear_minus": dict(formula="Y = {0} - {1} * X", model=linear_minus,
+                         p0=lambda x, y: p0_linear(x, y, -1), bounds=(-np.inf, np.inf)),
+}
+
+
+def law(model, params, y, x, x_range=None):
+    """A law: model family, parameter names, the names of y and x, an optional open x range."""
+    text = MODELS[model]["formula"].format(*params).replace("Y", y).replace("X", x)
+    if x_range:
+        text += f"  ({x_range[0]:g} < {x} < {x_range[1]:g})"
+    return {"model": model, "params": list(params), "y": y, "x": x, "range": x_range,
+            "law": text}
+
+
+def select(points, x_range=None):
+    """(points kept, count without a usable error): x > 0, finite y, x inside x_range, a finite
+    positive error. points: iterable of (x, y, err, label)."""
+    kept, no_err = [], 0
+    for x, y, e, label in points:
+        x, y, e = finite(x), finite(y), finite(e)
+        if x is None or y is None or x <= 0:
+            continue
+        if x_range and not x_range[0] < x < x_range[1]:
+            continue
+        if e is None or e <= 0:
+            no_err += 1
+            continue
+        kept.append((x, y, e, label))
+    return kept, no_err
+
+
+def fit(spec, points):
+    """Fit a law (see `law`) to points (x, y, err, label); the fits.json dict."""
+    from scipy.optimize import OptimizeWarning, curve_fit
+    family = MODELS[spec["model"]]
+    k = len(spec["params"])
+    kept, no_err = select(points, spec["range"])
+    out = {"law": spec["law"], "model": spec["model"], "x": spec["x"], "y": spec["y"],
+           "range": list(spec["range"]) if spec["range"] else None,
+           "status": "skipped", "reason": None, "n_points": len(kept),
+           "points_without_error": no_err, "runs": [p[3] for p in kept], "parameters": None,
+           "covariance": None, "chi2": None, "dof": None, "chi2_dof": None}
+    if len(kept) < k + 1:
+        where = (f" with {spec['range'][0]:g} < {spec['x']} < {spec['range'][1]:g}"
+                 if spec["range"] else "")
+        out["reason"] = (f"too few points: {len(kept)}{where} with {spec['y']} and its error, "
+                         f"{k + 1} needed for {k} parameters")
+        return out
+    x, y, e = (np.array([p[i] for p in kept]) for i in range(3))
+    if len(np.unique(x)) < k:
+        # for example every run at the same x: the parameters are not determined
+        out["reason"] = (f"covariance not estimable: {len(np.unique(x))} distinct {spec['x']} "
+                         f"for {k} parameters")
+        return out
+    best, last = None, None
+    for p0 in family["p0"](x, y):
+        try:
+            with warnings.catch_warnings():
+                # a covariance that cannot be estimated is handled below, not printed
+                warnings.simplefilter("ignore", OptimizeWarning)
+                p, cov = curve_fit(family["model"], x, y, p0=p0, sigma=e, absolute_sigma=True,
+                                   bounds=family["bounds"], maxfev=20000)
+        except (RuntimeError, ValueError) as err:
+            last = str(err)
+            continue
+        chi2 = float(np.sum(((y - family["model"](x, *p)) / e) ** 2))
+        if best is None or chi2 < best[2]:
+            best = (p, cov, chi2)
+    if best is None:
+        out["reason"] = f"no convergence: {last}"
+        return out
+    p, cov, chi2 = best
+    dof = len(kept) - k
+    if not np.all(np.isfinite(cov)):
+        # degenerate points (for example every run at the same x): no parameter errors, no fit
+        out["reason"] = "covariance not estimable: the points do not determine the parameters"
+        return out
+    errs = np.sqrt(np.diag(cov))
+    scale = math.sqrt(max(1.0, chi2 / dof))
+    out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof,
+               covariance=[[float(c) for c in row] for row in cov], parameters={
+                   pn: {"value": float(v), "err": finite(se), "err_scaled": finite(se * scale)}
+                   for pn, v, se in zip(spec["params"], p, errs)})
+    return out
+
+
+def curve(result, x):
+    """A fit's curve at x (None when the fit was skipped)."""
+    if result is None or result["status"] != "ok":
+        return None
+    return MODELS[result["model"]]["model"](
+        np.asarray(x, float), *[v["value"] for v in result["parameters"].values()])
+
+
+def slope(result, x):
+    """d y / d x of a fit at x (power or linear family)."""
+    p = [v["value"] for v in result["parameters"].values()]
+    sign = -1.0 if result["model"].endswith("minus") else 1.0
+    if result["model"].startswith("power"):
+        return sign * p[1] * p[2] * x ** (p[2] - 1)
+    return sign * p[1]
+
+
+def parameter_samples(result, count, rng):
+    """count parameter vectors drawn from the fit's Gaussian (value, covariance), for
+    propagating its uncertainty into a derived quantity; shape (count, k)."""
+    mean = np.array([v["value"] for v in result["parameters"].values()])
+    return rng.multivariate_normal(mean, np.array(result["covariance"]), size=count,
+                                   check_valid="ignore")
+
+
+def solve_for_x(result, target, params=None):
+    """The x > 0 at which the fit's y equals target (monotonic families), or None. params:
+    a parameter vector instead of the fitted values."""
+    p = params if params is not None else [v["value"] for v in result["parameters"].values()]
+    y0, amp = p[0], p[1]
+    sign = -1.0 if result["model"].endswith("minus") else 1.0
+    if amp == 0:
+        return None
+    u = sign * (target - y0) / amp   # = X^exponent (power) or X (linear)
+    if u <= 0:
+        return None
+    if result["model"].startswith("power"):
+        return float(u ** (1.0 / p[2])) if p[2] > 0 else None
+    return float(u)
