@@ -7,7 +7,8 @@ cd "$(dirname "$0")/.."
 packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
           libfmt-dev librandom123-dev libgtest-dev libhdf5-dev zlib1g-dev
           clang libclang-rt-14-dev openmpi-bin libopenmpi-dev
-          python3-numpy python3-scipy python3-matplotlib python3-h5py)
+          python3-numpy python3-scipy python3-matplotlib python3-h5py
+          chromium-headless-shell)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
