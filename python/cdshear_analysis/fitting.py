@@ -77,7 +77,8 @@ MODELS = {
 
 def law(model, params, y, x, x_range=None):
     """A law: model family, parameter names, the names of y and x, an optional open x range."""
-    text = MODELS[model]["formula"].format(*params).replace("Y", y).replace("X", x)
+    text = MODELS[model]["formula"].format(*params).replace("Y", y).replace(
+        "X", f"({x})" if " " in x else x)
     if x_range:
         text += f"  ({x_range[0]:g} < {x} < {x_range[1]:g})"
     return {"model": model, "params": list(params), "y": y, "x": x, "range": x_range,

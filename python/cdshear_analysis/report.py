@@ -19,11 +19,15 @@ import json
 import math
 import os
 import re
+import shutil
 import tomllib
 
 import numpy as np
 
 from . import fitting
+from .boundary_laws import fit_boundary
+from .campaign_figures import write_figures
+from .boundary_laws import h_label as _h_label
 from .fitting import finite as _finite
 from .transitions import find_transitions, predictions
 
@@ -56,11 +60,6 @@ def _pair(summary, *keys):
     return _finite(entry.get("mean")), _finite(entry.get("err"))
 
 
-def _h_label(h):
-    """h10, h5, h2.5: the column prefix of a boundary thickness."""
-    return "h" + (str(int(h)) if float(h).is_integer() else repr(float(h)))
-
-
 # (column, path in summary.json) of every quantity with an error column
 BULK_QUANTITIES = [
     ("L_y", ("height",)),
@@ -77,12 +76,26 @@ BULK_QUANTITIES = [
     ("switch_duration", ("switch_duration",)),
     ("switch_delta_mu", ("switch_delta_mu",)),
 ]
-# (column suffix, key in summary["regions"][hK]["bottom" | "top"])
+# (column suffix, key in summary["regions"][hK][part]) of each part of a region group: the
+# boundary layers ("bottom", "top") and the bulk between them ("bulk", for the influence of h)
 LAYER_QUANTITIES = [("I", "inertial_number"), ("mu_eff", "mu_eff"), ("nu", "solid_fraction"),
                     ("Z", "coordination"), ("velocity_jump", "velocity_jump")]
+REGION_PARTS = {"bulk": LAYER_QUANTITIES[:4], "bottom": LAYER_QUANTITIES,
+                "top": LAYER_QUANTITIES}
 HEAD_COLUMNS = ["run", "system", "seed", "V", "n", "duration", "time_reached", "finished",
                 "steady", "steady_reason", "regime", "regime_confidence", "transient_end_time",
                 "transient_end_strain", "band_switches"]
+
+
+def _profiles(profiles):
+    """{"y", "vx", "mu_eff"} lists of the steady profiles (summary.json `profiles`), or None."""
+    try:
+        out = {"y": [float(v) for v in profiles["y"]]}
+        for k in ("vx", "mu_eff"):
+            out[k] = [float(v) if v is not None else math.nan for v in profiles[k]["mean"]]
+    except (KeyError, TypeError, ValueError):
+        return None
+    return out if len(out["y"]) == len(out["vx"]) == len(out["mu_eff"]) > 0 else None
 
 
 def read_run(run_dir):
@@ -123,6 +136,7 @@ def read_run(run_dir):
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     row["_switches"] = switches if isinstance(switches, list) else []
+    row["_profiles"] = _profiles(s.get("profiles"))
     regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}
     row["_layers"] = []  # the h of each region group present, in order
     for group in regions.values():
@@ -131,10 +145,10 @@ def read_run(run_dir):
             continue
         label = _h_label(h)
         row["_layers"].append(h)
-        for side in ("bottom", "top"):
-            for col, key in LAYER_QUANTITIES:
-                c = f"{label}_{side}_{col}"
-                row[c], row[c + "_err"] = _pair(group, side, key)
+        for part, quantities in REGION_PARTS.items():
+            for col, key in quantities:
+                c = f"{label}_{part}_{col}"
+                row[c], row[c + "_err"] = _pair(group, part, key)
     return row
 
 
@@ -196,9 +210,9 @@ def csv_columns(rows):
     for col, _ in BULK_QUANTITIES:
         cols += [col, col + "_err"]
     for h in sorted({h for r in rows for h in r["_layers"]}):
-        for side in ("bottom", "top"):
-            for col, _ in LAYER_QUANTITIES:
-                c = f"{_h_label(h)}_{side}_{col}"
+        for part, quantities in REGION_PARTS.items():
+            for col, _ in quantities:
+                c = f"{_h_label(h)}_{part}_{col}"
                 cols += [c, c + "_err"]
     return cols
 
@@ -242,136 +256,6 @@ def fit_laws(rows):
 # ---------------------------------------------------------------------------------------------
 # Output
 
-FIGURES = [
-    ("mu_eff_I.png", "mu_eff (bulk) against I_bulk", "I_bulk", "mu_eff_bulk",
-     ["mu_power", "mu_linear"]),
-    ("nu_I.png", "solid fraction nu (bulk) against I_bulk", "I_bulk", "nu_bulk", ["nu_linear"]),
-    ("Z_I.png", "coordination Z (bulk) against I_bulk", "I_bulk", "Z_bulk", ["Z_power"]),
-    ("slip_V.png", "slip velocity at each wall against V", "V", None, []),
-]
-
-
-AXIS_LABELS = {"V": "wall velocity V [d/t]", "I_bulk": "bulk inertial number I"}
-
-
-def _label_log_axis(ax):
-    """A log x axis spanning less than two decades shows one labelled tick or none: label 1, 2
-    and 5 of every decade instead, in plain numbers."""
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
-    lo, hi = ax.get_xlim()
-    if hi / lo < 100:
-        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
-        ax.xaxis.set_minor_formatter(NullFormatter())
-
-
-def _plot(path, title, xcol, ycol, fit_names, rows, fits):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(5.5, 4.0))
-    systems = sorted({r["system"] for r in rows}, key=lambda s: (s is None, s or 0))
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    series = [(ycol, "", "o")] if ycol else [("slip_bottom", " bottom", "v"),
-                                             ("slip_top", " top", "^")]
-    plotted = False
-    xs_all = []
-    for i, system in enumerate(systems):
-        c = colours[i % len(colours)]
-        for col, label, marker in series:
-            for steady in (True, False):
-                sel = [r for r in rows if r["system"] == system and r[xcol] is not None and
-                       r[col] is not None and bool(r["steady"]) == steady]
-                if not sel:
-                    continue
-                x = [r[xcol] for r in sel]
-                xs_all += x
-                yerr = [r[col + "_err"] or 0.0 for r in sel]
-                xerr = [r.get(xcol + "_err") or 0.0 for r in sel]
-                name = f"system {system}" if system is not None else "other runs"
-                ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr, fmt=marker,
-                            color=c, mfc=c if steady else "none", capsize=2, ms=5,
-                            label=f"{name}{label}{'' if steady else ' (not steady)'}")
-                plotted = True
-    for j, fname in enumerate(fit_names):
-        f = fits.get(fname)
-        if f is None or f["status"] != "ok":
-            continue
-        xs = [x for x in xs_all if x > 0]
-        lo, hi = f["range"] if f["range"] else (min(xs), max(xs))
-        grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
-        ax.plot(grid, fitting.curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
-                label=f"{fname}: {f['law']}")
-    if not plotted:
-        ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
-    elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
-        ax.set_xscale("log")
-        _label_log_axis(ax)
-    ax.set_xlabel(AXIS_LABELS.get(xcol, xcol))
-    ax.set_ylabel(ycol or "slip velocity [d/t]")
-    ax.set_title(title, fontsize=9)
-    if plotted:
-        ax.legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-REGIME_MARKERS = {"A": ("o", "tab:red"), "B": ("s", "tab:blue"), "C": ("^", "tab:green"),
-                  None: ("x", "0.4")}
-
-
-def _plot_regimes(path, rows, transitions):
-    """The regime diagram: V (log) against system, one marker per run (seeds side by side),
-    open when not steady; the V_AB and V_BC brackets as bars, their estimates as ticks."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    systems = sorted({r["system"] for r in rows if r["system"] is not None})
-    fig, ax = plt.subplots(figsize=(6.0, 1.2 + 0.6 * max(1, len(systems))))
-    seen = set()
-    vs = []
-    for i, system in enumerate(systems):
-        sel = [r for r in rows if r["system"] == system and r["V"] is not None and r["V"] > 0]
-        seeds = sorted({r["seed"] for r in sel if r["seed"] is not None})
-        for r in sel:
-            k = seeds.index(r["seed"]) if r["seed"] in seeds else 0
-            y = i + 0.12 * (k - (len(seeds) - 1) / 2)
-            g = r["regime"] if r["regime"] in REGIME_MARKERS else None
-            marker, colour = REGIME_MARKERS[g]
-            seen.add(g)
-            ax.plot([r["V"]], [y], marker, color=colour, ms=7,
-                    mfc=colour if r["steady"] or marker == "x" else "none")
-            vs.append(r["V"])
-        t = transitions.get(str(system), {})
-        for key, dy, ls in (("V_AB", 0.3, "-"), ("V_BC", -0.3, "--")):
-            b = t.get(key)
-            if not b or b["estimate"] is None:
-                continue
-            lo, hi = b["bracket"]
-            ax.plot([lo, hi], [i + dy] * 2, ls, color="k", lw=1)
-            ax.plot([b["estimate"]], [i + dy], "|", color="k", ms=10)
-            ax.annotate(key, (b["estimate"], i + dy), fontsize=6, xytext=(3, 2),
-                        textcoords="offset points")
-    if vs:
-        ax.set_xscale("log")
-        ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
-        _label_log_axis(ax)
-        handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
-                           label=f"regime {g or 'undetermined'}")[0]
-                   for g in ("A", "B", "C", None) if g in seen]
-        ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    else:
-        ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
-    ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
-    ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
-    ax.set_xlabel(AXIS_LABELS["V"])
-    ax.set_title("regime diagram (open: not steady; bars: V_AB above, V_BC below)", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def _fmt(v, digits=4):
     if v is None:
         return ""
@@ -385,6 +269,50 @@ def _pm(row, col):
     if v is None:
         return ""
     return _fmt(v) + (f" ± {_fmt(e, 2)}" if e is not None else "")
+
+
+def _interval_text(e):
+    if e["V_AB"] is None:
+        return f"<small>{html.escape(e['reason'] or '')}</small>"
+    iv = e["interval"]
+    return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "")
+
+
+def _html_v_ab(v_ab):
+    out = ["<h3>V_AB from the laws: boundary friction law = bulk mu_0</h3>"]
+    if v_ab["status"] != "ok":
+        return out + [f"<p>{html.escape(v_ab['status'])}: {html.escape(v_ab['reason'])}</p>"]
+    systems = v_ab["systems"]
+    hs = sorted({k for e in systems.values() for k in e if k.startswith("h")},
+                key=lambda k: float(k[1:]))
+    out.append(f"<p>{html.escape(v_ab['method'])}.</p><table><tr><th>system</th>"
+               "<th>measured V_AB (bracket)</th><th>from mu(h I_b), regimes B and C, all h</th>"
+               + "".join(f"<th>from mu(I_b), {h}</th>" for h in hs) + "</tr>")
+    for key, e in systems.items():
+        m = e.get("measured")
+        meas = "" if not m else (f"{_fmt(m['estimate'], 3) if m['estimate'] else '–'} "
+                                 f"[{_fmt(m['bracket'][0]) or '–'}, "
+                                 f"{_fmt(m['bracket'][1]) or '–'}]")
+        out.append(f"<tr><td>{html.escape(key)}</td><td>{meas}</td>"
+                   f"<td>{_interval_text(e['from_hI_law'])}</td>"
+                   + "".join(f"<td>{_interval_text(e[h])}</td>" for h in hs) + "</tr>")
+    return out + ["</table>"]
+
+
+def _html_stability(st):
+    out = ["<h3>Stability of the symmetric state: d mu_boundary / d (h I_b) between "
+           "velocities (B and C runs)</h3>"]
+    if st["status"] != "ok":
+        return out + [f"<p>{html.escape(st['status'])}: {html.escape(st['reason'])}</p>"]
+    out.append("<table><tr><th>system</th><th>h</th><th>V interval</th><th>slope</th>"
+               "<th>trend</th><th>predicted</th><th>regimes observed</th></tr>")
+    for e in st["intervals"]:
+        slope = _fmt(e["slope"], 3) + (f" ± {_fmt(e['slope_err'], 2)}" if e["slope_err"]
+                                       else "")
+        out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
+            _fmt(e["system"]), _fmt(e["h"]), f"{_fmt(e['V'][0])} – {_fmt(e['V'][1])}", slope,
+            e["trend"], e["predicted"] or "", e["observed"]]) + "</tr>")
+    return out + ["</table>"]
 
 
 def _html_transitions(transitions, preds):
@@ -409,11 +337,10 @@ def _html_transitions(transitions, preds):
                    f"<td style='text-align:left'>{ns or 'none'}</td><td>{cell(t['V_AB'])}</td>"
                    f"<td>{cell(t['V_BC'])}</td><td style='text-align:left'>{flags}</td></tr>")
     out.append("</table>")
-    out.append("<h2>Predictions (SPEC 8) beside the runs</h2><ul>")
-    for key in ("V_AB", "symmetric_state_stability"):
-        out.append(f"<li>{key}: {html.escape(preds[key]['status'])}: "
-                   f"{html.escape(preds[key]['reason'])}</li>")
-    out.append("</ul><h3>Regime C: band switch time T = 2 rho nu V L_y / (delta_mu sigma_yy)"
+    out.append("<h2>Predictions (SPEC 8) beside the runs</h2>")
+    out += _html_v_ab(preds["V_AB"])
+    out += _html_stability(preds["symmetric_state_stability"])
+    out.append("<h3>Regime C: band switch time T = 2 rho nu V L_y / (delta_mu sigma_yy)"
                "</h3>")
     sw = preds["switch_time_C"]
     if sw:
@@ -455,7 +382,69 @@ def _html_transitions(transitions, preds):
     return out
 
 
-def _html(report, fits, figures, transitions=None, preds=None):
+def _fit_table(items):
+    """An HTML table of fits: (name, fits.json fit) pairs."""
+    out = ["<table><tr><th>fit</th><th>law</th><th>points</th><th>parameters</th>"
+           "<th>chi2/dof</th></tr>"]
+    for fname, f in items:
+        if f["status"] == "ok":
+            # with chi2/dof > 1 the scatter exceeds the error bars: the scaled error too
+            scaled = f["chi2_dof"] is not None and f["chi2_dof"] > 1
+            params = "<br>".join(
+                f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}" +
+                (f" (scaled: ± {_fmt(v['err_scaled'], 2)})" if scaled else "")
+                for p, v in f["parameters"].items())
+            chi = _fmt(f["chi2_dof"], 3)
+        else:
+            params, chi = "skipped: " + html.escape(f["reason"]), ""
+        out.append(f"<tr><td>{html.escape(fname)}</td><td>{html.escape(f['law'])}</td>"
+                   f"<td>{f['n_points']}</td><td style='text-align:left'>{params}</td>"
+                   f"<td>{chi}</td></tr>")
+    return out + ["</table>"]
+
+
+def _html_boundary(boundary):
+    hs = [_h_label(h) for h in boundary["thicknesses"]]
+    out = ["<h2>Boundary-layer laws</h2><p>Points: the boundary layers of the steady runs, "
+           "each wall of a run in regime A or B, the sheared wall only in regime C (the other "
+           "layer moves with its wall). Thicknesses h: "
+           + (", ".join(f"{h:g}" for h in boundary["thicknesses"]) or "none") + ".</p>"]
+    out += _fit_table([(f"{h} {name}", boundary[h][name]) for h in hs
+                       for name in ("mu_power", "nu_linear", "nu_ratio_linear", "Z_power")])
+    all_h = boundary["all_h"]
+    out.append("<h3>mu_eff against I_boundary and against h I_boundary, every h together</h3>")
+    out += _fit_table([(k, v) for k, v in all_h.items() if k != "collapse"])
+    out.append("<ul>")
+    for g, c in all_h["collapse"].items():
+        verdict = (f"collapses in {html.escape(c['collapses_in'])}" if c["collapses_in"]
+                   else html.escape(c["note"] or ""))
+        out.append(f"<li>regime{'s B and C' if g == 'BC' else ' A'}: chi2/dof "
+                   f"{_fmt(c['chi2_dof_I'], 3) or '–'} in I_boundary, "
+                   f"{_fmt(c['chi2_dof_hI'], 3) or '–'} in h I_boundary: {verdict}</li>")
+    out.append("</ul><h3>The bulk law measured with each h (bulk h &lt; y &lt; L_y - h)</h3>")
+    out += _fit_table([(f"{h} {name}", boundary[h]["bulk"][name]) for h in hs
+                       for name in boundary[h]["bulk"]])
+    return out
+
+
+def _html_run_figures(run_figures):
+    out = ["<h2>Each run's figures</h2><p>From <code>cdshear plot</code> (copied here): "
+           "snapshot with force chains, velocity profiles by shear distance, centre-of-mass "
+           "velocity against strain and its histogram, solid fraction and L_y against strain, "
+           "steady profiles (mu_eff, nu, Z, I).</p>"]
+    if not run_figures:
+        return out + ["<p>none (runs without figures/: <code>cdshear plot</code> them)</p>"]
+    out.append("<table>")
+    for run, names in run_figures.items():
+        links = " ".join(f"<a href='runs/{html.escape(run)}/{html.escape(n)}'>"
+                         f"{html.escape(n[:-4])}</a>" for n in names)
+        out.append(f"<tr><td>{html.escape(run)}</td><td style='text-align:left'>{links}</td>"
+                   "</tr>")
+    return out + ["</table>"]
+
+
+def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
+          run_figures=None):
     rows = report["rows"]
     name = html.escape(report["campaign"])
     shown = ["I_bulk", "mu_eff_bulk", "mu_eff_wall", "nu_bulk", "Z_bulk", "slip_bottom",
@@ -485,29 +474,18 @@ def _html(report, fits, figures, transitions=None, preds=None):
                  html.escape(regime), _fmt(r["time_reached"]), _fmt(r["band_switches"])]
         cells += [_pm(r, c) for c in shown]
         out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    out.append("</table><h2>Fits over the steady runs (bulk)</h2><table><tr><th>fit</th>"
-               "<th>law</th><th>points</th><th>parameters</th><th>chi2/dof</th></tr>")
-    for fname, f in fits.items():
-        if f["status"] == "ok":
-            # with chi2/dof > 1 the scatter exceeds the error bars: the scaled error too
-            scaled = f["chi2_dof"] is not None and f["chi2_dof"] > 1
-            params = "<br>".join(
-                f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}" +
-                (f" (scaled: ± {_fmt(v['err_scaled'], 2)})" if scaled else "")
-                for p, v in f["parameters"].items())
-            chi = _fmt(f["chi2_dof"], 3)
-        else:
-            params, chi = "skipped: " + html.escape(f["reason"]), ""
-        out.append(f"<tr><td>{fname}</td><td>{html.escape(f['law'])}</td>"
-                   f"<td>{f['n_points']}</td><td style='text-align:left'>{params}</td>"
-                   f"<td>{chi}</td></tr>")
-    out.append("</table><p>Errors from the error bars (absolute); fits.json also gives them "
+    out.append("</table><h2>Fits over the steady runs (bulk)</h2>")
+    out += _fit_table(fits.items())
+    out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
                "scaled by sqrt(chi2/dof) when that exceeds 1.</p>")
+    if boundary is not None:
+        out += _html_boundary(boundary)
     if transitions is not None:
         out += _html_transitions(transitions, preds)
     out.append("<h2>Figures</h2>")
     for fig in figures:
         out.append(f"<img src='figures/{html.escape(fig)}' alt='{html.escape(fig)}'>")
+    out += _html_run_figures(run_figures or {})
     out.append("<h2>Runs left out</h2>")
     if report["skipped"]:
         out.append("<ul>" + "".join(f"<li>{html.escape(n)}: {html.escape(why)}</li>"
@@ -516,6 +494,24 @@ def _html(report, fits, figures, transitions=None, preds=None):
         out.append("<p>none</p>")
     out.append("</body></html>\n")
     return "\n".join(out)
+
+
+def copy_run_figures(report, out_dir):
+    """Each run's own figures (RUN/figures/*.png, `cdshear plot`) copied to out_dir/runs/RUN/,
+    so that the report folder stands alone; {run: [file names]}."""
+    out = {}
+    for r in report["rows"]:
+        src = os.path.join(report["campaign_dir"], "runs", r["run"], "figures")
+        names = sorted(n for n in os.listdir(src) if n.endswith(".png")) \
+            if os.path.isdir(src) else []
+        if not names:
+            continue
+        dst = os.path.join(out_dir, "runs", r["run"])
+        os.makedirs(dst, exist_ok=True)
+        for n in names:
+            shutil.copyfile(os.path.join(src, n), os.path.join(dst, n))
+        out[r["run"]] = names
+    return out
 
 
 def write_report(report, out_dir):
@@ -535,27 +531,23 @@ def write_report(report, out_dir):
 
     fits = fit_laws(rows)
     transitions = find_transitions(rows)
-    preds = predictions(rows, fits)
+    boundary = fit_boundary(rows, FITS)
+    preds = predictions(rows, fits, boundary, transitions)
     fits_path = os.path.join(out_dir, "fits.json")
     with open(fits_path, "w", encoding="utf-8") as f:
         json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
                    "campaign": report["campaign"], "runs_analysed": len(rows),
                    "runs_steady": sum(1 for r in rows if r["steady"]), "fits": fits,
-                   "transitions": transitions, "predictions": preds},
+                   "boundary": boundary, "transitions": transitions, "predictions": preds},
                   f, indent=1, allow_nan=False)
     paths.append(fits_path)
 
-    figures = []
-    for fname, title, xcol, ycol, fit_names in FIGURES:
-        _plot(os.path.join(fig_dir, fname), title, xcol, ycol, fit_names, rows, fits)
-        figures.append(fname)
-        paths.append(os.path.join(fig_dir, fname))
-    _plot_regimes(os.path.join(fig_dir, "regimes.png"), rows, transitions)
-    figures.append("regimes.png")
-    paths.append(os.path.join(fig_dir, "regimes.png"))
+    figures = write_figures(fig_dir, rows, fits, transitions, boundary, preds)
+    paths += [os.path.join(fig_dir, f) for f in figures]
+    run_figures = copy_run_figures(report, out_dir)
 
     index = os.path.join(out_dir, "index.html")
     with open(index, "w", encoding="utf-8") as f:
-        f.write(_html(report, fits, figures, transitions, preds))
+        f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures))
     paths.append(index)
     return paths

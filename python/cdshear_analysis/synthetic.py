@@ -4,8 +4,9 @@ Kinds:
   "A"          linear velocity profile with 10% slip at each wall, com_vx AR(1) noise about 0;
   "B"          shear in two boundary bands of thickness 3, still bulk, com_vx noise about 0;
   "C"          one band; the bulk moves with one wall: com_vx at +V or -V, switching at
-               `switch_times` (each switch a linear ramp over `switch_duration`, the wall
-               forces carrying the block's acceleration);
+               `switch_times` (each switch a linear ramp over `switch_duration`; with
+               `switch_forces` the bottom wall's force carries the block's acceleration, as
+               Newton's law for the grains says: a fast synthetic switch makes it large);
   "noise"      no structure: white-noise profiles and com_vx (std 0.4 V);
   "transient"  regime A whose wall friction and height relax as exp(-t / transient_tau)
                (mu from 0.55 to 0.30, L_y from 19 to 20).
@@ -53,7 +54,8 @@ def _profile(kind, y, height, velocity, com, rng):
 def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_reached=None,
                         sample_interval=0.5, window=80.0, n=511, height=20.0, length_x=20.0,
                         normal_stress=0.25, boundary_thickness=(5.0, 10.0), switch_times=None,
-                        switch_duration=20.0, transient_tau=100.0, seed=1):
+                        switch_duration=20.0, transient_tau=100.0, seed=1,
+                        switch_forces=False):
     """Write RUN_DIR/run.h5 and RUN_DIR/case.toml; returns the run.h5 path.
 
     time_reached < duration makes an interrupted run (attribute finished = 0)."""
@@ -75,12 +77,13 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
             ramp = np.clip((t - ts) / switch_duration, 0, 1)
             state = np.where(t >= ts, old * (1 - 2 * ramp), state)
         com = V * state + ar1(n_samples, 0.8, 0.05 * V, rng)
-        accel = V * np.gradient(state, t)             # of the block, without the noise
+        # the block's acceleration, without the noise
+        accel = V * np.gradient(state, t) if len(t) > 1 else np.zeros_like(t)
     elif kind == "noise":
         com = rng.normal(0, 0.4 * V, n_samples)
     else:
         com = ar1(n_samples, 0.95, (0.2 if kind == "B" else 0.05) * V, rng)
-    if kind != "C":
+    if kind != "C" or not switch_forces:
         accel = np.zeros_like(t)
     fy = sigma * length_x * (1 + ar1(n_samples, 0.5, 0.02, rng))
     mean_area = np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)

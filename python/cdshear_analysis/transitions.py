@@ -230,15 +230,25 @@ def steady_state_predictions(rows, fits):
     return out
 
 
-def predictions(rows, fits):
-    """fits.json `predictions`."""
+def predictions(rows, fits, boundary=None, transitions=None):
+    """fits.json `predictions`. boundary: boundary_laws.fit_boundary (without it, V_AB and the
+    stability are "not available"); transitions: find_transitions, for the measured V_AB."""
+    from .boundary_laws import predict_v_ab, symmetric_state_stability
+    missing = {"status": "not available",
+               "reason": "needs the boundary friction law mu_eff(I_boundary), not fitted"}
+    if boundary is None:
+        v_ab, stability = dict(missing), dict(missing)
+    else:
+        v_ab = predict_v_ab(rows, fits, boundary)
+        for key, entry in v_ab["systems"].items():
+            measured = (transitions or {}).get(key, {}).get("V_AB")
+            entry["measured"] = ({"bracket": measured["bracket"],
+                                  "estimate": measured["estimate"]} if measured else None)
+        stability = symmetric_state_stability(rows, boundary)
     return {
         "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "com_level": COM_LEVEL},
-        "V_AB": {"status": "not available",
-                 "reason": "needs the boundary friction law mu_eff(I_boundary), not fitted yet"},
-        "symmetric_state_stability": {
-            "status": "not available",
-            "reason": "needs the boundary friction law mu_eff(I_boundary), not fitted yet"},
+        "V_AB": v_ab,
+        "symmetric_state_stability": stability,
         "switch_time_C": switch_predictions(rows),
         "steady_state_time_A": steady_state_predictions(rows, fits),
     }

@@ -54,7 +54,10 @@ class Classifier(unittest.TestCase):
         # sigma_yy L_x. The switch detected between +-0.5 V lasts half the ramp, which is what
         # SPEC 8's T times 0.5 predicts from that delta_mu.
         from cdshear_analysis.transitions import COM_LEVEL, switch_time
-        s = self.summaries["C"]
+        run_dir = os.path.join(self.tmp.name, "C_forces")
+        write_synthetic_run(run_dir, kind="C", duration=2000.0, seed=3, switch_forces=True)
+        s = analyze(load_run(run_dir))
+        self.assertEqual(len(s["switches"]), 3)
         mass = 511 * np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
         expected = mass * 2 * 0.5 / 20.0 / (0.25 * 20.0)
         for sw in s["switches"]:
@@ -65,6 +68,8 @@ class Classifier(unittest.TestCase):
         self.assertAlmostEqual(s["mu_eff_wall_top"]["mean"], 0.30, delta=0.01)
         self.assertGreater(s["mu_eff_wall_bottom"]["mean"], 0.30 + 0.5 * 0.03 * expected)
         self.assertTrue(np.isnan(self.summaries["A"]["switch_delta_mu"]["mean"]))  # no switch
+        # without the forces of the block, the same switches need no friction difference
+        self.assertLess(self.summaries["C"]["switch_delta_mu"]["mean"], 0.05 * expected)
         T = switch_time(0.5, s["height"]["mean"], mass / (20.0 * s["height"]["mean"]),
                         s["switch_delta_mu"]["mean"], 0.25)
         self.assertAlmostEqual(COM_LEVEL * T, s["switch_duration"]["mean"], delta=1.5)

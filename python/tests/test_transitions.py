@@ -215,7 +215,11 @@ class ReportTransitionTest(unittest.TestCase):
         with open(os.path.join(out, "index.html")) as f:
             text = f.read()
         self.assertIn("Transition velocities", text)
-        self.assertIn("not available: needs the boundary friction law", text)
+        self.assertIn("V_AB from the laws", text)
+        self.assertIn("Boundary-layer laws", text)
+        self.assertEqual(sorted(fits["predictions"]["V_AB"]["systems"]), ["1"])
+        self.assertEqual(fits["predictions"]["V_AB"]["systems"]["1"]["measured"]["bracket"],
+                         [0.2, 1.0])
 
 
 if __name__ == "__main__":

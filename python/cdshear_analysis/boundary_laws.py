@@ -1,0 +1,237 @@
+"""The boundary-layer laws of SPEC 8 over a campaign, the influence of h on the bulk law, and the
+predictions that need the boundary law (V_AB, stability of the symmetric state).
+
+Points. One point per (steady run, boundary thickness h, wall) from the run's `hK_bottom_*` and
+`hK_top_*` columns (report.read_run), with I_boundary > 0. In regime C only the sheared layer
+counts: the wall whose velocity jump is the larger; the other layer moves with its wall and is
+not sheared (its I_boundary is noise about 0), so it is no point of a flow law. The two walls of
+an A or B run give two points (they share the run's shear stress).
+
+Fits (fitting.py, weighted by the error bars), fits.json `boundary`:
+  per h, key "hK": `mu_power` mu_b = mu_0 + A I_b^B, `nu_linear` nu_b = nu_max - c I_b,
+    `nu_ratio_linear` nu_b / nu_bulk = r_0 - c I_b (nu_bulk of the same run and h), `Z_power`
+    Z_b = Z_0 - c I_b^e, and under "bulk" the bulk laws of report.FITS with that h's bulk
+    (h < y < L_y - h): how the bulk law depends on h (creep next to the boundary layers);
+  pooled over every h, key "all_h": mu_eff against I_b and against h I_b, for the layers of runs
+    in regime B or C and, separately, in regime A (`mu_I_BC`, `mu_hI_BC`, `mu_I_A`, `mu_hI_A`),
+    with `collapse`: per group the chi2/dof of the two fits; the variable with the smaller one
+    collapses the thicknesses (SPEC 8 expects h I for B and C, I for A). Needs two h at least.
+
+Predictions, fits.json `predictions`:
+  V_AB: in regime B the bulk is at rest, so each layer takes the whole jump dv = V and
+    h I_b = sqrt(m / sigma_yy) V. The bulk starts to flow when the boundary friction reaches
+    the bulk's critical friction mu_0 (mu_power of the bulk): h I_b* solves mu_hI_BC(h I_b*) =
+    mu_0, and V_AB = h I_b* / sqrt(m / sigma_yy) per system (its sigma_yy). The same from each
+    h's own law mu_power(I_b*) = mu_0: V_AB = h I_b* / sqrt(m / sigma_yy). Uncertainties: 68%
+    interval of MONTE_CARLO draws of the parameters from their covariances (bulk and boundary
+    fits taken as independent), with a fixed seed.
+  symmetric_state_stability: the symmetric state (B) is unstable when the boundary friction
+    decreases with the velocity jump. Per system and h, between consecutive velocities with B
+    or C runs, the slope d mu_b / d (h I_b) of the sheared layers' points (mean of the two walls
+    for B) with its error; "decreasing" when slope + 2 err < 0, "increasing" when slope - 2 err
+    > 0, else "undetermined"; beside it the regimes observed at the two velocities.
+"""
+import math
+
+import numpy as np
+
+from . import fitting
+
+INERTIAL_MASS = math.pi / 4   # SPEC 7: m in I = gamma_dot sqrt(m / sigma_yy)
+MONTE_CARLO = 4000            # parameter draws for the V_AB intervals
+SEED = 20261123               # of those draws: a report is reproducible
+
+LAYER_LAWS = {
+    "mu_power": fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_boundary", "I_boundary"),
+    "nu_linear": fitting.law("linear_minus", ["nu_max", "c"], "nu_boundary", "I_boundary"),
+    "nu_ratio_linear": fitting.law("linear_minus", ["r_0", "c"], "nu_boundary / nu_bulk",
+                                   "I_boundary"),
+    "Z_power": fitting.law("power_minus", ["Z_0", "c", "e"], "Z_boundary", "I_boundary"),
+}
+POOLED = {f"mu_{x}_{g}": (fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_boundary",
+                                      "I_boundary" if x == "I" else "h * I_boundary"), x, g)
+          for g in ("BC", "A") for x in ("I", "hI")}
+
+
+def h_label(h):
+    """h10, h5, h2.5: the column prefix of a boundary thickness (as report._h_label)."""
+    return "h" + (str(int(h)) if float(h).is_integer() else repr(float(h)))
+
+
+def thicknesses(rows):
+    return sorted({h for r in rows for h in r.get("_layers", [])})
+
+
+def _ratio(a, ea, b, eb):
+    if a is None or b is None or b == 0:
+        return None, None
+    q = a / b
+    err = abs(q) * math.hypot((ea or 0) / a if a else 0, (eb or 0) / b) if ea and eb else None
+    return q, err
+
+
+def layer_points(rows, h):
+    """The boundary-layer points of thickness h (see the module's doc): dicts with run, system,
+    V, regime, side, h, I, hI, mu, nu, Z, nu_ratio (each with _err), velocity_jump."""
+    label = h_label(h)
+    out = []
+    for r in rows:
+        if r.get("steady") is not True or h not in r.get("_layers", []):
+            continue
+        sides = ["bottom", "top"]
+        if r.get("regime") == "C":
+            jumps = {s: r.get(f"{label}_{s}_velocity_jump") for s in sides}
+            if None in jumps.values():
+                continue
+            sides = [max(sides, key=lambda s: abs(jumps[s]))]
+        for side in sides:
+            c = f"{label}_{side}_"
+            I = r.get(c + "I")
+            if I is None or I <= 0:
+                continue
+            p = {"run": r["run"], "system": r.get("system"), "V": r.get("V"),
+                 "regime": r.get("regime"), "side": side, "h": h, "I": I,
+                 "I_err": r.get(c + "I_err"), "hI": h * I,
+                 "velocity_jump": r.get(c + "velocity_jump")}
+            for q, col in (("mu", "mu_eff"), ("nu", "nu"), ("Z", "Z")):
+                p[q], p[q + "_err"] = r.get(c + col), r.get(c + col + "_err")
+            p["nu_ratio"], p["nu_ratio_err"] = _ratio(
+                p["nu"], p["nu_err"], r.get(f"{label}_bulk_nu"), r.get(f"{label}_bulk_nu_err"))
+            out.append(p)
+    return out
+
+
+def _points(points, x, y):
+    return [(p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}") for p in points]
+
+
+def fit_boundary(rows, bulk_fits):
+    """fits.json `boundary` (see the module's doc). bulk_fits: report.FITS (for the bulk by h)."""
+    from .report import fit_law   # the bulk laws, on each h's bulk columns
+    out = {"thicknesses": thicknesses(rows)}
+    pooled = []
+    for h in out["thicknesses"]:
+        pts = layer_points(rows, h)
+        pooled += pts
+        label = h_label(h)
+        entry = {"h": h, "n_points": len(pts)}
+        for name, spec in LAYER_LAWS.items():
+            y = {"mu_power": "mu", "nu_linear": "nu", "nu_ratio_linear": "nu_ratio",
+                 "Z_power": "Z"}[name]
+            entry[name] = fitting.fit(spec, _points(pts, "I", y))
+        bulk = {}
+        for name in bulk_fits:
+            col = {"mu_eff_bulk": "mu_eff", "nu_bulk": "nu", "Z_bulk": "Z"}[bulk_fits[name]["y"]]
+            bulk[name] = fit_law(name, rows, x=f"{label}_bulk_I", y=f"{label}_bulk_{col}")
+        entry["bulk"] = bulk
+        out[label] = entry
+    groups = {"BC": [p for p in pooled if p["regime"] in ("B", "C")],
+              "A": [p for p in pooled if p["regime"] == "A"]}
+    all_h = {}
+    for name, (spec, x, g) in POOLED.items():
+        all_h[name] = fitting.fit(spec, _points(groups[g], x, "mu"))
+    collapse = {}
+    for g in groups:
+        fi, fh = all_h[f"mu_I_{g}"], all_h[f"mu_hI_{g}"]
+        c = {"chi2_dof_I": fi["chi2_dof"], "chi2_dof_hI": fh["chi2_dof"], "collapses_in": None,
+             "note": None}
+        if len(out["thicknesses"]) < 2:
+            c["note"] = "one boundary thickness only: nothing to collapse"
+        elif fi["status"] != "ok" or fh["status"] != "ok":
+            c["note"] = "a fit was skipped"
+        else:
+            c["collapses_in"] = "h * I_boundary" if fh["chi2_dof"] < fi["chi2_dof"] \
+                else "I_boundary"
+        collapse[g] = c
+    all_h["collapse"] = collapse
+    out["all_h"] = all_h
+    return out
+
+
+def _interval(values):
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)])
+    if len(v) < 0.5 * MONTE_CARLO:
+        return None, None, len(v) / MONTE_CARLO
+    lo, mid, hi = np.percentile(v, [16, 50, 84])
+    return [float(lo), float(hi)], float(mid), len(v) / MONTE_CARLO
+
+
+def _crossing(law, mu_0_fit, scale):
+    """(estimate, 68% interval, fraction of draws with a crossing, reason) of
+    x* / scale with law(x*) = mu_0 of the bulk."""
+    if law["status"] != "ok" or mu_0_fit is None or mu_0_fit["status"] != "ok":
+        return None, None, None, "a fit is missing (skipped)"
+    mu_0 = mu_0_fit["parameters"]["mu_0"]["value"]
+    x = fitting.solve_for_x(law, mu_0)
+    if x is None:
+        return None, None, None, (f"the boundary law does not reach the bulk mu_0 = "
+                                  f"{mu_0:.4g} at any positive x")
+    rng = np.random.default_rng(SEED)
+    laws = fitting.parameter_samples(law, MONTE_CARLO, rng)
+    mu0s = fitting.parameter_samples(mu_0_fit, MONTE_CARLO, rng)[:, 0]
+    xs = [fitting.solve_for_x(law, m, params=p) for p, m in zip(laws, mu0s)]
+    interval, _, frac = _interval([v / scale if v is not None else None for v in xs])
+    return x / scale, interval, frac, None
+
+
+def predict_v_ab(rows, bulk_fits, boundary):
+    """fits.json predictions `V_AB`: per system, from the pooled B/C law in h I_b and from each
+    h's law in I_b, beside the measured bracket (filled in by the caller)."""
+    mu_fit = bulk_fits.get("mu_power")
+    out = {"status": "ok", "reason": None, "method": (
+        "bulk mu_0 (mu_power) = boundary law at h I_b* (B: dv = V, so V_AB = h I_b* / "
+        "sqrt(m / sigma_yy)); 68% interval of parameter draws"), "systems": {}}
+    if mu_fit is None or mu_fit["status"] != "ok":
+        return {"status": "not available", "reason": "the bulk law mu_power (mu_0) was skipped",
+                "systems": {}}
+    for system in sorted({r["system"] for r in rows if r.get("system") is not None}):
+        sigmas = {r.get("_sigma_yy") for r in rows if r["system"] == system} - {None}
+        if len(sigmas) != 1:
+            continue
+        scale = math.sqrt(INERTIAL_MASS / sigmas.pop())
+        entry = {}
+        v, iv, frac, why = _crossing(boundary["all_h"]["mu_hI_BC"], mu_fit, scale)
+        entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
+                                "reason": why}
+        for h in boundary["thicknesses"]:
+            v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
+            entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
+                                 "reason": why}
+        out["systems"][str(system)] = entry
+    return out
+
+
+def symmetric_state_stability(rows, boundary):
+    """fits.json predictions `symmetric_state_stability` (see the module's doc)."""
+    entries = []
+    for h in boundary["thicknesses"]:
+        pts = [p for p in layer_points(rows, h) if p["regime"] in ("B", "C")]
+        for system in sorted({p["system"] for p in pts if p["system"] is not None}):
+            by_v = {}
+            for p in pts:
+                if p["system"] == system and p["mu_err"]:
+                    by_v.setdefault(p["V"], []).append(p)
+            vs = sorted(by_v)
+            for v0, v1 in zip(vs, vs[1:]):
+                def mean(ps, k):
+                    return float(np.mean([p[k] for p in ps]))
+                a, b = by_v[v0], by_v[v1]
+                dx = mean(b, "hI") - mean(a, "hI")
+                e = math.hypot(mean(a, "mu_err") / math.sqrt(len(a)),
+                               mean(b, "mu_err") / math.sqrt(len(b)))
+                if dx <= 0:
+                    slope, err, trend = None, None, "undetermined"
+                else:
+                    slope, err = (mean(b, "mu") - mean(a, "mu")) / dx, e / dx
+                    trend = ("decreasing" if slope + 2 * err < 0 else
+                             "increasing" if slope - 2 * err > 0 else "undetermined")
+                observed = sorted({p["regime"] for p in a + b})
+                entries.append({
+                    "system": system, "h": h, "V": [v0, v1], "slope": slope, "slope_err": err,
+                    "trend": trend, "predicted": {"decreasing": "unstable (C)",
+                                                  "increasing": "stable (B)"}.get(trend),
+                    "observed": "".join(observed)})
+    if not entries:
+        return {"status": "not available", "reason": "no two velocities of a system with "
+                "steady B or C runs", "intervals": []}
+    return {"status": "ok", "reason": None, "intervals": entries}

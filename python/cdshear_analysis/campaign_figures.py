@@ -1,0 +1,350 @@
+"""The figures of a campaign report (SPEC 9, across runs), written by report.write_report.
+
+Bulk laws (mu_eff_I, nu_I, Z_I) and slip against V with their fits; the regime diagram; the
+boundary laws (boundary_mu_I, boundary_mu_hI, boundary_nu_I, boundary_nu_ratio, boundary_Z_I)
+and the bulk law for each h (bulk_mu_by_h); switch time / V against L_y (switch_time); and per
+system the steady velocity and mu_eff profiles of every V (profiles_sK). Every point has its
+error bars (standard errors of `analyze`); open markers are runs that are not steady.
+"""
+import numpy as np
+
+from . import fitting
+from .boundary_laws import h_label, layer_points
+
+FIGURES = [
+    ("mu_eff_I.png", "mu_eff (bulk) against I_bulk", "I_bulk", "mu_eff_bulk",
+     ["mu_power", "mu_linear"]),
+    ("nu_I.png", "solid fraction nu (bulk) against I_bulk", "I_bulk", "nu_bulk", ["nu_linear"]),
+    ("Z_I.png", "coordination Z (bulk) against I_bulk", "I_bulk", "Z_bulk", ["Z_power"]),
+    ("slip_V.png", "slip velocity at each wall against V", "V", None, []),
+]
+
+
+AXIS_LABELS = {"V": "wall velocity V [d/t]", "I_bulk": "bulk inertial number I"}
+
+
+def _label_log_axis(ax):
+    """A log x axis spanning less than two decades shows one labelled tick or none: label 1, 2
+    and 5 of every decade instead, in plain numbers."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+    lo, hi = ax.get_xlim()
+    if hi / lo < 100:
+        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+def _plot(path, title, xcol, ycol, fit_names, rows, fits):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(5.5, 4.0))
+    systems = sorted({r["system"] for r in rows}, key=lambda s: (s is None, s or 0))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    series = [(ycol, "", "o")] if ycol else [("slip_bottom", " bottom", "v"),
+                                             ("slip_top", " top", "^")]
+    plotted = False
+    xs_all = []
+    for i, system in enumerate(systems):
+        c = colours[i % len(colours)]
+        for col, label, marker in series:
+            for steady in (True, False):
+                sel = [r for r in rows if r["system"] == system and r[xcol] is not None and
+                       r[col] is not None and bool(r["steady"]) == steady]
+                if not sel:
+                    continue
+                x = [r[xcol] for r in sel]
+                xs_all += x
+                yerr = [r[col + "_err"] or 0.0 for r in sel]
+                xerr = [r.get(xcol + "_err") or 0.0 for r in sel]
+                name = f"system {system}" if system is not None else "other runs"
+                ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr, fmt=marker,
+                            color=c, mfc=c if steady else "none", capsize=2, ms=5,
+                            label=f"{name}{label}{'' if steady else ' (not steady)'}")
+                plotted = True
+    for j, fname in enumerate(fit_names):
+        f = fits.get(fname)
+        if f is None or f["status"] != "ok":
+            continue
+        xs = [x for x in xs_all if x > 0]
+        lo, hi = f["range"] if f["range"] else (min(xs), max(xs))
+        grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
+        ax.plot(grid, fitting.curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
+                label=f"{fname}: {f['law']}")
+    if not plotted:
+        ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
+    elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
+        ax.set_xscale("log")
+        _label_log_axis(ax)
+    ax.set_xlabel(AXIS_LABELS.get(xcol, xcol))
+    ax.set_ylabel(ycol or "slip velocity [d/t]")
+    ax.set_title(title, fontsize=9)
+    if plotted:
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+REGIME_MARKERS = {"A": ("o", "tab:red"), "B": ("s", "tab:blue"), "C": ("^", "tab:green"),
+                  None: ("x", "0.4")}
+
+
+def _plot_regimes(path, rows, transitions):
+    """The regime diagram: V (log) against system, one marker per run (seeds side by side),
+    open when not steady; the V_AB and V_BC brackets as bars, their estimates as ticks."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    systems = sorted({r["system"] for r in rows if r["system"] is not None})
+    fig, ax = plt.subplots(figsize=(6.0, 1.2 + 0.6 * max(1, len(systems))))
+    seen = set()
+    vs = []
+    for i, system in enumerate(systems):
+        sel = [r for r in rows if r["system"] == system and r["V"] is not None and r["V"] > 0]
+        seeds = sorted({r["seed"] for r in sel if r["seed"] is not None})
+        for r in sel:
+            k = seeds.index(r["seed"]) if r["seed"] in seeds else 0
+            y = i + 0.12 * (k - (len(seeds) - 1) / 2)
+            g = r["regime"] if r["regime"] in REGIME_MARKERS else None
+            marker, colour = REGIME_MARKERS[g]
+            seen.add(g)
+            ax.plot([r["V"]], [y], marker, color=colour, ms=7,
+                    mfc=colour if r["steady"] or marker == "x" else "none")
+            vs.append(r["V"])
+        t = transitions.get(str(system), {})
+        for key, dy, ls in (("V_AB", 0.3, "-"), ("V_BC", -0.3, "--")):
+            b = t.get(key)
+            if not b or b["estimate"] is None:
+                continue
+            lo, hi = b["bracket"]
+            ax.plot([lo, hi], [i + dy] * 2, ls, color="k", lw=1)
+            ax.plot([b["estimate"]], [i + dy], "|", color="k", ms=10)
+            ax.annotate(key, (b["estimate"], i + dy), fontsize=6, xytext=(3, 2),
+                        textcoords="offset points")
+    if vs:
+        ax.set_xscale("log")
+        ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
+        _label_log_axis(ax)
+        handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
+                           label=f"regime {g or 'undetermined'}")[0]
+                   for g in ("A", "B", "C", None) if g in seen]
+        ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    else:
+        ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
+    ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
+    ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
+    ax.set_xlabel(AXIS_LABELS["V"])
+    ax.set_title("regime diagram (open: not steady; bars: V_AB above, V_BC below)", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------------------------------
+# Boundary layers, h, switches, profiles
+
+H_MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
+H_STYLES = ["-", "--", ":", "-."]
+
+
+def _figure(size=(5.5, 4.0)):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=size)
+    return plt, fig, ax
+
+
+def _finish(plt, fig, ax, path, title, xlabel, ylabel, xs, legend=True):
+    if not xs:
+        ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
+    elif min(xs) > 0 and max(xs) / min(xs) >= 10:
+        ax.set_xscale("log")
+        _label_log_axis(ax)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    if xs and legend:
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _curve(ax, fit, xs, style, label):
+    """The fit's curve over the points' x range (inside its own range), if it was fitted."""
+    xs = [x for x in xs if x > 0]
+    if fit is None or fit["status"] != "ok" or not xs:
+        return
+    lo, hi = fit["range"] if fit["range"] else (min(xs), max(xs))
+    grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
+    ax.plot(grid, fitting.curve(fit, grid), style, color="k", lw=1, label=label)
+
+
+def _mu_0_line(ax, fits):
+    f = fits.get("mu_power")
+    if f and f["status"] == "ok":
+        mu_0 = f["parameters"]["mu_0"]["value"]
+        ax.axhline(mu_0, color="0.5", lw=0.8, ls=":", label=f"bulk mu_0 = {mu_0:.3g}")
+
+
+def boundary_law_figure(path, rows, boundary, y, ylabel, law, fits=None):
+    """A boundary-layer quantity against I_boundary: colour per system, marker per h, the law
+    of each h."""
+    plt, fig, ax = _figure()
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    systems = sorted({r["system"] for r in rows if r.get("system") is not None})
+    xs = []
+    for k, h in enumerate(boundary["thicknesses"]):
+        pts = layer_points(rows, h)
+        for i, system in enumerate(systems):
+            sel = [p for p in pts if p["system"] == system and p[y] is not None]
+            if not sel:
+                continue
+            xs += [p["I"] for p in sel]
+            ax.errorbar([p["I"] for p in sel], [p[y] for p in sel],
+                        yerr=[p[y + "_err"] or 0 for p in sel], fmt=H_MARKERS[k % 8],
+                        color=colours[i % len(colours)], ms=4, capsize=2,
+                        label=f"system {system}, h = {h:g}")
+        _curve(ax, boundary[h_label(h)][law], [p["I"] for p in pts], H_STYLES[k % 4],
+               f"h = {h:g}: {boundary[h_label(h)][law]['law']}")
+    if fits is not None:
+        _mu_0_line(ax, fits)
+    _finish(plt, fig, ax, path, f"{ylabel} of the boundary layers (sheared layers of steady "
+            "runs)", "boundary inertial number I_boundary", ylabel, xs)
+
+
+def boundary_collapse_figure(path, rows, boundary, fits):
+    """mu_eff of the layers against h I_boundary: colour per regime, marker per h, the pooled
+    laws of B and C and of A (SPEC 8: B and C collapse in h I, A does not)."""
+    plt, fig, ax = _figure()
+    xs = {"BC": [], "A": []}
+    for k, h in enumerate(boundary["thicknesses"]):
+        pts = layer_points(rows, h)
+        for g in ("A", "B", "C"):
+            sel = [p for p in pts if p["regime"] == g and p["mu"] is not None]
+            if not sel:
+                continue
+            xs["A" if g == "A" else "BC"] += [p["hI"] for p in sel]
+            ax.errorbar([p["hI"] for p in sel], [p["mu"] for p in sel],
+                        yerr=[p["mu_err"] or 0 for p in sel], fmt=H_MARKERS[k % 8],
+                        color=REGIME_MARKERS[g][1], ms=4, capsize=2,
+                        label=f"regime {g}, h = {h:g}")
+    all_h = boundary["all_h"]
+    _curve(ax, all_h["mu_hI_BC"], xs["BC"], "-", "B and C: " + all_h["mu_hI_BC"]["law"])
+    _curve(ax, all_h["mu_hI_A"], xs["A"], "--", "A: " + all_h["mu_hI_A"]["law"])
+    _mu_0_line(ax, fits)
+    _finish(plt, fig, ax, path, "boundary mu_eff against h * I_boundary (= sqrt(m/sigma) dv)",
+            "h * I_boundary [d]", "mu_eff (boundary layer)", xs["BC"] + xs["A"])
+
+
+def bulk_by_h_figure(path, rows, boundary):
+    """The bulk mu_eff(I) measured with each h (bulk h < y < L_y - h), with each h's fit."""
+    plt, fig, ax = _figure()
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    xs = []
+    for k, h in enumerate(boundary["thicknesses"]):
+        c = h_label(h)
+        sel = [r for r in rows if r.get("steady") is True and r.get(f"{c}_bulk_I")
+               and r[f"{c}_bulk_I"] > 0 and r.get(f"{c}_bulk_mu_eff") is not None]
+        if not sel:
+            continue
+        x = [r[f"{c}_bulk_I"] for r in sel]
+        xs += x
+        ax.errorbar(x, [r[f"{c}_bulk_mu_eff"] for r in sel],
+                    yerr=[r.get(f"{c}_bulk_mu_eff_err") or 0 for r in sel],
+                    fmt=H_MARKERS[k % 8], color=colours[k % len(colours)], ms=4, capsize=2,
+                    label=f"bulk with h = {h:g}")
+        _curve(ax, boundary[c]["bulk"]["mu_power"], x, H_STYLES[k % 4],
+               f"h = {h:g}: mu_power")
+    _finish(plt, fig, ax, path, "bulk mu_eff(I) measured with each boundary thickness h",
+            "bulk inertial number I", "mu_eff (bulk)", xs)
+
+
+def switch_time_figure(path, switch_predictions):
+    """Regime C: switch time / V against L_y. Measured: the switch duration (com_vx from +-0.5 V
+    to -+0.5 V) / (0.5 V), comparable to the predicted T / V = 2 rho nu L_y / (delta_mu
+    sigma_yy), and the mean interval between switches / V."""
+    plt, fig, ax = _figure()
+    xs = []
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    systems = sorted({e["system"] for e in switch_predictions if e["system"] is not None})
+    for i, system in enumerate(systems):
+        c = colours[i % len(colours)]
+        sel = [e for e in switch_predictions if e["system"] == system and e["L_y"]]
+        for key, marker, label, scale in (
+                ("switch_duration", "o", "switch duration / (0.5 V)", 0.5),
+                ("predicted_T", "x", "predicted T / V", 1.0),
+                ("mean_interval", "s", "mean interval / V", 1.0)):
+            pts = [(e["L_y"], e[key] / (scale * e["V"])) for e in sel if e.get(key)]
+            if pts:
+                xs += [p[0] for p in pts]
+                ax.plot(*zip(*pts), marker, color=c, mfc="none" if marker == "s" else c,
+                        label=f"system {system}: {label}")
+    _finish(plt, fig, ax, path, "regime C: band switch time / V against L_y", "L_y [d]",
+            "time / V [t^2 / d]", xs)
+
+
+def profile_figures(fig_dir, rows):
+    """Per system, the steady profiles of every V: v_x / V and mu_eff against y / L_y.
+    Returns the file names."""
+    import os
+    names = []
+    systems = sorted({r["system"] for r in rows if r.get("system") is not None})
+    for system in systems:
+        sel = sorted((r for r in rows if r["system"] == system and r.get("_profiles")),
+                     key=lambda r: r["V"] or 0)
+        if not sel:
+            continue
+        plt, fig, axes = _figure((9.0, 4.0))
+        plt.close(fig)
+        fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.0), sharey=True)
+        cmap = plt.get_cmap("viridis")
+        for k, r in enumerate(sel):
+            p = r["_profiles"]
+            height = r.get("L_y") or max(p["y"])
+            colour = cmap(k / max(1, len(sel) - 1))
+            label = f"V = {r['V']:g} ({r['regime'] or '?'}{'' if r['steady'] else ', not steady'})"
+            y = np.asarray(p["y"], float) / height
+            axes[0].plot(np.asarray(p["vx"], float) / r["V"], y, "-", color=colour, label=label)
+            axes[1].plot(p["mu_eff"], y, "-", color=colour)
+        axes[0].set_xlabel("v_x / V")
+        axes[0].set_ylabel("y / L_y")
+        axes[0].axvline(0, color="0.7", lw=0.6)
+        axes[1].set_xlabel("mu_eff")
+        axes[0].legend(fontsize=6)
+        fig.suptitle(f"system {system}: steady velocity and mu_eff profiles", fontsize=9)
+        fig.tight_layout()
+        name = f"profiles_s{system}.png"
+        fig.savefig(os.path.join(fig_dir, name), dpi=110)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def write_figures(fig_dir, rows, fits, transitions, boundary, preds):
+    """Every figure of the report into fig_dir; returns their file names."""
+    import os
+    names = []
+    for fname, title, xcol, ycol, fit_names in FIGURES:
+        _plot(os.path.join(fig_dir, fname), title, xcol, ycol, fit_names, rows, fits)
+        names.append(fname)
+    _plot_regimes(os.path.join(fig_dir, "regimes.png"), rows, transitions)
+    names.append("regimes.png")
+    for name, y, label, law in (("boundary_mu_I.png", "mu", "mu_eff", "mu_power"),
+                                ("boundary_nu_I.png", "nu", "solid fraction nu", "nu_linear"),
+                                ("boundary_nu_ratio.png", "nu_ratio", "nu_boundary / nu_bulk",
+                                 "nu_ratio_linear"),
+                                ("boundary_Z_I.png", "Z", "coordination Z", "Z_power")):
+        boundary_law_figure(os.path.join(fig_dir, name), rows, boundary, y, label, law,
+                            fits if y == "mu" else None)
+        names.append(name)
+    boundary_collapse_figure(os.path.join(fig_dir, "boundary_mu_hI.png"), rows, boundary, fits)
+    names.append("boundary_mu_hI.png")
+    bulk_by_h_figure(os.path.join(fig_dir, "bulk_mu_by_h.png"), rows, boundary)
+    names.append("bulk_mu_by_h.png")
+    switch_time_figure(os.path.join(fig_dir, "switch_time.png"), preds["switch_time_C"])
+    names.append("switch_time.png")
+    names += profile_figures(fig_dir, rows)
+    return names

@@ -1,0 +1,167 @@
+"""Boundary-layer laws, the h I collapse, V_AB from the laws and the stability of the symmetric
+state, on synthetic campaign rows with known laws (noise of the size of their error bars)."""
+import math
+import unittest
+
+import numpy as np
+
+from cdshear_analysis import boundary_laws as bl
+from cdshear_analysis import fitting, report
+from cdshear_analysis.transitions import predictions
+
+SIGMA = 0.25
+SCALE = math.sqrt(math.pi / 4 / SIGMA)   # sqrt(m / sigma_yy)
+# the truth: B and C layers follow mu = 0.2 + 0.4 (h I)^0.5 whatever h; A layers follow
+# mu = 0.33 + 0.6 I^0.8; the bulk mu = 0.3 + 0.9 I^0.7 (mu_0 = 0.3)
+BC_LAW = {"mu_0": 0.2, "A": 0.4, "B": 0.5}
+A_LAW = {"mu_0": 0.33, "A": 0.6, "B": 0.8}
+BULK = {"mu_0": 0.3, "A": 0.9, "B": 0.7}
+
+
+def layer(row, h, side, I, mu, nu, Z, dv, err=0.004):
+    c = f"{bl.h_label(h)}_{side}_"
+    row.update({c + "I": I, c + "I_err": 0.02 * I, c + "mu_eff": mu, c + "mu_eff_err": err,
+                c + "nu": nu, c + "nu_err": 0.002, c + "Z": Z, c + "Z_err": 0.02,
+                c + "velocity_jump": dv, c + "velocity_jump_err": 0.01 * dv})
+
+
+def campaign_rows(seed=5, hs=(3.0, 5.0, 7.0)):
+    """Two systems; per system B/C runs at low V (layers on the B/C law in h I) and A runs at
+    high V (layers on the A law in I); bulk on the bulk law."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for system in (1, 2):
+        for k, V in enumerate(np.geomspace(0.01, 3.0, 12)):
+            regime = "C" if V < 0.02 else "B" if V < 0.3 else "A"
+            I_bulk = 0.0 if regime != "A" else 0.05 * V
+            row = {"run": f"s{system}_seed1_V{V:.6g}", "system": system, "V": float(V),
+                   "regime": regime, "steady": True, "_layers": list(hs), "_sigma_yy": SIGMA,
+                   "I_bulk": I_bulk or None, "I_bulk_err": 0.01 * I_bulk or None,
+                   "mu_eff_bulk": BULK["mu_0"] + BULK["A"] * I_bulk ** BULK["B"]
+                   + 0.003 * rng.standard_normal(), "mu_eff_bulk_err": 0.003,
+                   "nu_bulk": 0.80 - 0.3 * I_bulk, "nu_bulk_err": 0.002,
+                   "Z_bulk": 3.0, "Z_bulk_err": 0.02}
+            for h in hs:
+                c = bl.h_label(h)
+                row.update({c + "_bulk_I": row["I_bulk"], c + "_bulk_mu_eff":
+                            row["mu_eff_bulk"] + 0.01 * (h - 5), c + "_bulk_mu_eff_err": 0.003,
+                            c + "_bulk_nu": 0.80, c + "_bulk_nu_err": 0.002,
+                            c + "_bulk_Z": 3.0, c + "_bulk_Z_err": 0.02})
+                for side in ("bottom", "top"):
+                    if regime == "C" and side == "top":   # not sheared: moves with its wall
+                        layer(row, h, side, 1e-4, 0.5, 0.82, 3.5, 0.001 * V)
+                        continue
+                    dv = V if regime != "A" else 0.3 * V
+                    I_b = SCALE * dv / h
+                    law = BC_LAW if regime != "A" else A_LAW
+                    x = h * I_b if regime != "A" else I_b
+                    mu = law["mu_0"] + law["A"] * x ** law["B"] + 0.004 * rng.standard_normal()
+                    layer(row, h, side, I_b, mu, 0.78 - 0.2 * I_b, 2.5 - I_b, dv)
+            rows.append(row)
+    return rows
+
+
+def within(test, fit, truth, sigmas=2.5):
+    test.assertEqual(fit["status"], "ok", fit["reason"])
+    for p, value in truth.items():
+        got = fit["parameters"][p]
+        test.assertLessEqual(abs(got["value"] - value), sigmas * got["err"],
+                             f"{p}: {got['value']} ± {got['err']}, truth {value}")
+
+
+class BoundaryLawTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.rows = campaign_rows()
+        cls.fits = report.fit_laws(cls.rows)
+        cls.boundary = bl.fit_boundary(cls.rows, report.FITS)
+
+    def test_regime_c_keeps_the_sheared_layer_only(self):
+        pts = bl.layer_points(self.rows, 5.0)
+        c = [p for p in pts if p["regime"] == "C"]
+        self.assertEqual({p["side"] for p in c}, {"bottom"})
+        self.assertEqual(len([p for p in pts if p["regime"] == "B"]),
+                         2 * len({p["run"] for p in pts if p["regime"] == "B"}))
+
+    def test_pooled_laws_recover_the_parameters_and_the_collapse(self):
+        all_h = self.boundary["all_h"]
+        within(self, all_h["mu_hI_BC"], BC_LAW)
+        within(self, all_h["mu_I_A"], A_LAW)
+        self.assertEqual(all_h["collapse"]["BC"]["collapses_in"], "h * I_boundary")
+        self.assertEqual(all_h["collapse"]["A"]["collapses_in"], "I_boundary")
+        self.assertLess(all_h["mu_hI_BC"]["chi2_dof"], 2.0)
+        self.assertGreater(all_h["mu_I_BC"]["chi2_dof"], 10.0)
+
+    def test_per_h_laws_and_the_bulk_by_h(self):
+        self.assertEqual(self.boundary["thicknesses"], [3.0, 5.0, 7.0])
+        for h in (3.0, 5.0, 7.0):
+            e = self.boundary[bl.h_label(h)]
+            within(self, e["nu_linear"], {"nu_max": 0.78, "c": 0.2})
+            within(self, e["Z_power"], {"Z_0": 2.5, "c": 1.0, "e": 1.0})
+            # the bulk law shifted by 0.01 (h - 5): mu_0 follows h
+            within(self, e["bulk"]["mu_power"], {"mu_0": 0.3 + 0.01 * (h - 5), "B": 0.7})
+            # nu_boundary / nu_bulk = (0.78 - 0.2 I) / 0.80
+            within(self, e["nu_ratio_linear"], {"r_0": 0.78 / 0.8, "c": 0.2 / 0.8})
+
+    def test_v_ab_from_the_laws(self):
+        # B/C law = bulk mu_0: 0.2 + 0.4 x^0.5 = 0.3 -> x = (0.1 / 0.4)^2 = h I_b*, and in B
+        # dv = V: V_AB = x / sqrt(m / sigma)
+        truth = (0.1 / 0.4) ** 2 / SCALE
+        p = predictions(self.rows, self.fits, self.boundary)["V_AB"]
+        self.assertEqual(p["status"], "ok")
+        for system in ("1", "2"):
+            e = p["systems"][system]["from_hI_law"]
+            lo, hi = e["interval"]   # 68%: about 2 sigma wide; the truth within 2 sigma
+            self.assertTrue(lo < e["V_AB"] < hi)
+            self.assertLess(lo - 0.5 * (hi - lo), truth)
+            self.assertGreater(hi + 0.5 * (hi - lo), truth)
+            self.assertGreater(e["draws_crossing"], 0.9)
+        # by hand from the fitted parameters
+        law = self.boundary["all_h"]["mu_hI_BC"]["parameters"]
+        mu_0 = self.fits["mu_power"]["parameters"]["mu_0"]["value"]
+        x = ((mu_0 - law["mu_0"]["value"]) / law["A"]["value"]) ** (1 / law["B"]["value"])
+        self.assertAlmostEqual(p["systems"]["1"]["from_hI_law"]["V_AB"], x / SCALE)
+
+    def test_v_ab_not_reached_says_why(self):
+        fits = dict(self.fits)
+        fits["mu_power"] = dict(fits["mu_power"])
+        fits["mu_power"]["parameters"] = dict(fits["mu_power"]["parameters"],
+                                              mu_0={"value": 0.1, "err": 0.001})
+        p = bl.predict_v_ab(self.rows, fits, self.boundary)
+        e = p["systems"]["1"]["from_hI_law"]
+        self.assertIsNone(e["V_AB"])
+        self.assertIn("does not reach the bulk mu_0", e["reason"])
+
+    def test_stability_from_the_sign_of_the_slope(self):
+        st = bl.symmetric_state_stability(self.rows, self.boundary)
+        self.assertEqual(st["status"], "ok")
+        # the B/C law increases with h I: every resolved interval is "increasing"
+        trends = {e["trend"] for e in st["intervals"]}
+        self.assertIn("increasing", trends)
+        self.assertNotIn("decreasing", trends)
+        # a velocity-weakening boundary (mu falls with dv at low V) is flagged unstable
+        rows = campaign_rows(seed=6)
+        for r in rows:
+            if r["regime"] in ("B", "C"):
+                for side in ("bottom", "top"):
+                    c = f"h5_{side}_mu_eff"
+                    r[c] = 0.4 - 0.05 * math.log10(r["V"] / 0.01)
+        st = bl.symmetric_state_stability(rows, bl.fit_boundary(rows, report.FITS))
+        # (two C runs side by side have one point each: too uncertain, "undetermined")
+        weak = [e for e in st["intervals"] if e["h"] == 5.0 and e["observed"] != "C"]
+        self.assertTrue(weak)
+        self.assertEqual({e["trend"] for e in weak}, {"decreasing"})
+        self.assertEqual({e["predicted"] for e in weak}, {"unstable (C)"})
+
+    def test_solve_for_x_inverts_the_laws(self):
+        for model, params, x in (("power_plus", [0.2, 0.4, 0.5], 0.3),
+                                 ("power_minus", [3.0, 2.0, 0.7], 0.1),
+                                 ("linear_minus", [0.8, 0.3], 0.2)):
+            fit = {"status": "ok", "model": model,
+                   "parameters": {f"p{i}": {"value": v} for i, v in enumerate(params)}}
+            y = float(fitting.curve(fit, x))
+            self.assertAlmostEqual(fitting.solve_for_x(fit, y), x)
+
+
+if __name__ == "__main__":
+    unittest.main()
