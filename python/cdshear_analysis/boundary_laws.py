@@ -106,8 +106,8 @@ def _points(points, x, y):
 
 
 def fit_boundary(rows, bulk_fits):
-    """fits.json `boundary` (see the module's doc). bulk_fits: report.FITS (for the bulk by h)."""
-    from .report import fit_law   # the bulk laws, on each h's bulk columns
+    """fits.json `boundary` (see the module's doc). bulk_fits: the bulk laws (report.FITS),
+    fitted again on each h's bulk columns."""
     out = {"thicknesses": thicknesses(rows)}
     pooled = []
     for h in out["thicknesses"]:
@@ -120,9 +120,10 @@ def fit_boundary(rows, bulk_fits):
                  "Z_power": "Z"}[name]
             entry[name] = fitting.fit(spec, _points(pts, "I", y))
         bulk = {}
-        for name in bulk_fits:
-            col = {"mu_eff_bulk": "mu_eff", "nu_bulk": "nu", "Z_bulk": "Z"}[bulk_fits[name]["y"]]
-            bulk[name] = fit_law(name, rows, x=f"{label}_bulk_I", y=f"{label}_bulk_{col}")
+        for name, spec in bulk_fits.items():
+            col = {"mu_eff_bulk": "mu_eff", "nu_bulk": "nu", "Z_bulk": "Z"}[spec["y"]]
+            bulk[name] = fitting.fit_columns(spec, rows, x=f"{label}_bulk_I",
+                                             y=f"{label}_bulk_{col}")
         entry["bulk"] = bulk
         out[label] = entry
     groups = {"BC": [p for p in pooled if p["regime"] in ("B", "C")],

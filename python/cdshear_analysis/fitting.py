@@ -157,6 +157,15 @@ def fit(spec, points):
     return out
 
 
+def fit_columns(spec, rows, x=None, y=None):
+    """Fit a law to the steady rows (report.read_run) with the columns x and y (default: the
+    law's own), the error of y from the column y + "_err"."""
+    x, y = x or spec["x"], y or spec["y"]
+    spec = dict(law(spec["model"], spec["params"], y, x, spec["range"]))
+    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"]) for r in rows
+                      if r.get("steady") is True])
+
+
 def curve(result, x):
     """A fit's curve at x (None when the fit was skipped)."""
     if result is None or result["status"] != "ok":

@@ -4,14 +4,10 @@
 every DIR/runs/*/summary.json (written by `cdshear analyze`; this module never analyses a run).
 A run folder without summary.json is listed as "not analysed", a run of campaign.toml without a
 folder as "not started"; both are left out. `fit_laws(rows)` fits the bulk laws of SPEC 8 over
-the steady runs; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png and
-index.html, with the transition velocities and SPEC 8 predictions of transitions.py
+the steady runs (fitting.py); `write_report(report, out_dir)` writes runs.csv, fits.json,
+figures/*.png (campaign_figures.py) and index.html, with the boundary-layer laws of
+boundary_laws.py and the transition velocities and SPEC 8 predictions of transitions.py
 (docs/campaigns.md, "Reports", documents every column and key).
-
-Fits: scipy.optimize.curve_fit weighted by the error bars of the quantity (sigma = its standard
-error, absolute_sigma=True); the error of I is not used. Points without a finite positive error
-are left out of the fit (counted in `points_without_error`). A fit with fewer points than
-parameters + 1 is skipped with its reason.
 """
 import csv
 import html
@@ -22,12 +18,10 @@ import re
 import shutil
 import tomllib
 
-import numpy as np
-
 from . import fitting
 from .boundary_laws import fit_boundary
-from .campaign_figures import write_figures
 from .boundary_laws import h_label as _h_label
+from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .transitions import find_transitions, predictions
 
@@ -239,14 +233,9 @@ FITS = {
 }
 
 
-def fit_law(name, rows, x="I_bulk", y=None):
+def fit_law(name, rows, x=None, y=None):
     """One law of FITS over the steady rows, with the columns x and y (default: the law's)."""
-    spec = dict(FITS[name])
-    y = y or spec["y"]
-    spec.update(x=x, y=y, law=fitting.law(spec["model"], spec["params"], y, x,
-                                          spec["range"])["law"])
-    return fitting.fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"]) for r in rows
-                              if r.get("steady") is True])
+    return fitting.fit_columns(FITS[name], rows, x, y)
 
 
 def fit_laws(rows):
