@@ -6,11 +6,13 @@
 # and solid fraction over the second half of the run with block-averaging errors (the same
 # estimator for both, python/cdshear_analysis/peers.py), LAMMPS' largest overlap in d.
 #
-#   bench/peers/side_by_side.sh [-T DURATION] [-V VELOCITY] [--packing FILE] [-o DIR]
+#   bench/peers/side_by_side.sh [-T DURATION] [-V VELOCITY] [--kappa K] [--packing FILE] [-o DIR]
 #
 # -T: simulated time of each run (default 400; about 3 minutes on one core in all);
-# -V: wall speed (default 0.5); --packing: a system-1 packing of `cdshear prepare` (default:
-# the one `cdshear run --system 1` caches in packings/, prepared first if absent, 1.5-2 min);
+# -V: wall speed (default 0.5); --kappa: LAMMPS' stiffness level k_n / sigma_yy (default 1e4,
+# the issue's; dt = t_c / 50 follows it, so the cost grows as sqrt(kappa));
+# --packing: a system-1 packing of `cdshear prepare` (default: the one `cdshear run --system 1`
+# caches in packings/, prepared first if absent, 1.5-2 min);
 # -o: output folder (default runs/peers/V<V>_T<T>, refused if it exists and is not empty).
 # Environment: CDSHEAR (the executable, default build/cdshear, built by scripts/setup.sh if
 # absent), LMP (default lmp; Debian's lammps package is installed if missing).
@@ -25,12 +27,14 @@ die() { echo "side_by_side.sh: error: $*" >&2; exit 2; }
 
 T=400
 V=0.5
+kappa=1e4
 packing=""
 out=""
 while [ $# -gt 0 ]; do
   case "$1" in
     -T|--duration) [ $# -ge 2 ] || die "$1 needs a value"; T="$2"; shift 2 ;;
     -V|--velocity) [ $# -ge 2 ] || die "$1 needs a value"; V="$2"; shift 2 ;;
+    --kappa) [ $# -ge 2 ] || die "$1 needs a value"; kappa="$2"; shift 2 ;;
     --packing) [ $# -ge 2 ] || die "$1 needs a value"; packing="$2"; shift 2 ;;
     -o|--output) [ $# -ge 2 ] || die "$1 needs a value"; out="$2"; shift 2 ;;
     -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
@@ -42,6 +46,8 @@ positive='^[0-9]+([.][0-9]+)?([eE][-+]?[0-9]+)?$'
   || die "-T must be a number of at least 20 (time units), got '$T'"
 [[ "$V" =~ $positive ]] && awk -v v="$V" 'BEGIN{exit !(v > 0)}' \
   || die "-V must be a positive number, got '$V'"
+[[ "$kappa" =~ $positive ]] && awk -v k="$kappa" 'BEGIN{exit !(k >= 100)}' \
+  || die "--kappa must be a number of at least 100, got '$kappa'"
 [ -z "$packing" ] || [ -f "$packing" ] || die "packing file '$packing' not found"
 out="${out:-runs/peers/V${V}_T${T}}"
 if [ -d "$out" ] && [ -n "$(ls -A "$out")" ]; then
@@ -89,7 +95,7 @@ cd_cmd=("$cdshear" run --system 1 -V "$V" --packing "$packing" --set "shear.dura
         --threads 1 -q --no-analyze -o "$out/cdshear")
 lmp_cmd=("$lmp" -in "$root/bench/peers/lammps/in.shear" -screen none -log none
          -var data "$out/packing.data" -var vars "$out/packing.data.vars"
-         -var V "$V" -var T "$T" -var out "$out/lammps")
+         -var V "$V" -var T "$T" -var kappa "$kappa" -var out "$out/lammps")
 printf '%q ' "${cd_cmd[@]}" >"$out/command.txt"; echo >>"$out/command.txt"
 printf '%q ' "${lmp_cmd[@]}" >>"$out/command.txt"; echo >>"$out/command.txt"
 
@@ -97,7 +103,7 @@ echo "side_by_side.sh: cdshear, T = $T, V = $V" >&2
 t0=$(now)
 "${cd_cmd[@]}" || die "cdshear run failed (see above)"
 t1=$(now)
-echo "side_by_side.sh: LAMMPS, T = $T, V = $V" >&2
+echo "side_by_side.sh: LAMMPS, T = $T, V = $V, kappa = $kappa" >&2
 "${lmp_cmd[@]}" || die "LAMMPS failed: see $out/lammps/log.lammps"
 t2=$(now)
 cd_s=$(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.3f", b - a}')
