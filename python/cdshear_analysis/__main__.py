@@ -3,7 +3,9 @@ RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes
 (default RUN_DIR/figures); `... study STUDY_DIR` tabulates and plots a parameter study (runs in
 KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... report CAMPAIGN_DIR
 [-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
-CAMPAIGN_DIR/report; cdshear_analysis/report.py). A run too short for any averaging window is analysed (not steady,
+CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
+writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
+of bench/peers/side_by_side.sh (cdshear_analysis/peers.py). A run too short for any averaging window is analysed (not steady,
 series values over the last half) and plotted without its profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
@@ -26,6 +28,16 @@ def main(argv=None):
     p_report = commands.add_parser("report", help="runs table, fits, figures of a campaign")
     p_report.add_argument("campaign_dir")
     p_report.add_argument("-o", "--out-dir", help="output folder (default CAMPAIGN_DIR/report)")
+    p_data = commands.add_parser("lammps-data", help="a packing as a LAMMPS data file")
+    p_data.add_argument("packing")
+    p_data.add_argument("-o", "--output", required=True, help="data file (and OUTPUT.vars)")
+    p_side = commands.add_parser("side-by-side", help="table of bench/peers/side_by_side.sh")
+    p_side.add_argument("--cdshear-run", required=True, help="cdshear run folder (run.h5)")
+    p_side.add_argument("--lammps-dir", required=True, help="folder with series.txt, dump.txt")
+    p_side.add_argument("--duration", type=float, required=True, help="simulated time T")
+    p_side.add_argument("--cdshear-seconds", type=float, required=True, help="its wall time")
+    p_side.add_argument("--lammps-seconds", type=float, required=True, help="its wall time")
+    p_side.add_argument("--json", help="also write the figures to this JSON file")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
@@ -40,6 +52,30 @@ def main(argv=None):
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command in ("lammps-data", "side-by-side"):
+        from .peers import PeerError, format_side_by_side, side_by_side, write_lammps_packing
+        from .rundata import RunDataError
+        try:
+            if args.command == "lammps-data":
+                info = write_lammps_packing(args.packing, args.output)
+                print(f"{args.output}: {info['n_grains']} grains, 2 walls of {info['n_wall']} "
+                      f"disks, L_x = {info['length_x']:.6g}, L_y = {info['height0']:.6g}")
+                return 0
+            result = side_by_side(args.cdshear_run, args.lammps_dir, args.duration,
+                                  args.cdshear_seconds, args.lammps_seconds)
+        except (PeerError, RunDataError) as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        except OSError as e:
+            print(f"error: {e.filename}: {e.strerror}", file=sys.stderr)
+            return 1
+        print(format_side_by_side(result))
+        if args.json:
+            import json
+            with open(args.json, "w", encoding="utf-8") as f:
+                json.dump(result, f, indent=1)
         return 0
 
     if args.command == "report":

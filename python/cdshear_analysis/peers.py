@@ -1,0 +1,316 @@
+"""Side by side with soft-contact DEM (LAMMPS): packing conversion and the common estimator.
+
+`bench/peers/side_by_side.sh` shears the same packing with cdshear and with LAMMPS
+(`bench/peers/lammps/in.shear`, pair style gran/hooke/history) and prints one table. This module
+holds the Python half of it:
+
+- `packing_to_lammps(packing)`: a cdshear packing (the JSON of `cdshear prepare`, SPEC 5) as a
+  LAMMPS data file (`atom_style sphere`, 2D) plus an include file of LAMMPS variables
+  (`write_lammps_packing`). Grains keep their position and radius; each flat wall of the
+  shear cell becomes a row of `n_wall` overlapping disks (type 2 bottom, type 3 top) whose tops
+  are on the wall line: LAMMPS has no flat wall that is free in y under Newton's law, so
+  in.shear makes each row one rigid body (fix rigid, y free, x imposed, no rotation).
+- `lammps_series(path)`, `cdshear_series(run_dir)`: the global series of either code as
+  arrays (time, wall forces, height, solid fraction).
+- `side_by_side(...)`: the same estimator for both: means over the second half of the run,
+  errors by block averaging (statistics.block_average).
+- `max_overlap_from_dump(path)`: the largest overlap (grain-grain and grain-wall) over the
+  snapshots of a LAMMPS dump.
+
+Units: SPEC 1 (largest diameter d = 1, 2D density 1, sigma_yy = 0.25).
+
+LAMMPS' data-file density. With atom_style sphere, read_data sets the mass from the density
+column as m = density * 4/3 pi r^3, also when `dimension 2` (checked with LAMMPS 20220106: a
+disk of diameter 1 and density 1 gets m = 0.5236 = pi/6). The disks of SPEC 1 have m = pi r^2
+(2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for a grain, and
+(M_w / n_wall) / (4/3 pi R_w^3) for a wall disk, so that a wall row weighs M_w = 50.
+"""
+import json
+import math
+import os
+
+import numpy as np
+
+from .statistics import block_average
+
+GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
+WALL_MASS = 50.0        # M_w of SPEC 4, mass of each wall
+WALL_RADIUS = 0.5       # R_w: radius of the wall disks (d)
+WALL_SPACING = 0.05     # largest distance between neighbouring wall disks (d)
+BOX_MARGIN = 5.0        # room above and below the walls in the fixed (f) y boundary (d)
+
+
+class PeerError(Exception):
+    """A packing, series or dump that cannot be used: `path` and `problem`."""
+
+    def __init__(self, path, problem):
+        super().__init__(f"{path}: {problem}")
+        self.path, self.problem = path, problem
+
+
+def load_packing(path):
+    """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            packing = json.load(f)
+    except (OSError, ValueError) as e:
+        raise PeerError(path, f"cannot read packing: {e}") from e
+    if not isinstance(packing, dict) or packing.get("format") != "cdshear-packing":
+        raise PeerError(path, "not a cdshear packing (format != cdshear-packing)")
+    for key in ("length_x", "height", "disks_xyr"):
+        if key not in packing:
+            raise PeerError(path, f"packing has no '{key}'")
+    return packing
+
+
+def ripple(wall_radius, spacing, grain_radius):
+    """Height by which a grain of radius r sinks between two wall disks (radius R, centres s
+    apart) below its height on top of one: (r + R) - sqrt((r + R)^2 - (s/2)^2), about
+    s^2 / (8 (r + R)). It is the roughness of the wall as the grain feels it (d)."""
+    a = grain_radius + wall_radius
+    return a - math.sqrt(a * a - 0.25 * spacing * spacing)
+
+
+def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACING,
+                      wall_mass=WALL_MASS, margin=BOX_MARGIN):
+    """(data_text, variables): the LAMMPS data file and the variables of the include file.
+
+    Geometry (SPEC 4, 5): the packing's bottom wall is the line y = 0, its top wall y = height,
+    x periodic with period length_x. Grains: type 1, ids 1..n, centre x wrapped into
+    [0, length_x). Walls: n_wall = ceil(length_x / wall_spacing) disks of radius R_w per wall,
+    spaced length_x / n_wall, centres at y = -R_w (bottom, type 2) and height + R_w (top,
+    type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from
+    -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).
+    """
+    lx, height = float(packing["length_x"]), float(packing["height"])
+    xyr = np.asarray(packing["disks_xyr"], dtype=float)
+    if xyr.ndim != 2 or xyr.shape[1] != 3 or len(xyr) == 0:
+        raise PeerError("packing", "disks_xyr must be a non-empty list of [x, y, r]")
+    if not (lx > 0 and height > 0 and np.all(xyr[:, 2] > 0)):
+        raise PeerError("packing", "length_x, height and every radius must be positive")
+    n = len(xyr)
+    n_wall = int(math.ceil(lx / wall_spacing))
+    spacing = lx / n_wall
+    x = np.mod(xyr[:, 0], lx)
+    x[x >= lx] = 0.0          # mod can round up to lx itself
+    y, r = xyr[:, 1], xyr[:, 2]
+    grain_mass = math.pi * r * r                      # 2D density 1
+    grain_density = grain_mass / (4.0 / 3.0 * math.pi * r ** 3)   # = 3 / (4 r), see module doc
+    wall_atom_mass = wall_mass / n_wall
+    wall_density = wall_atom_mass / (4.0 / 3.0 * math.pi * wall_radius ** 3)
+    ylo, yhi = -2.0 * wall_radius - margin, height + 2.0 * wall_radius + margin
+
+    lines = [f"LAMMPS data file from a cdshear packing (n = {n}, L_x = {lx!r}, "
+             f"L_y = {height!r}); walls as rows of {n_wall} disks",
+             "",
+             f"{n + 2 * n_wall} atoms",
+             "3 atom types",
+             "",
+             f"0.0 {lx!r} xlo xhi",
+             f"{ylo!r} {yhi!r} ylo yhi",
+             "-0.5 0.5 zlo zhi",
+             "",
+             "Atoms # sphere",
+             ""]
+    # atom-ID atom-type diameter density x y z
+    for i in range(n):
+        lines.append(f"{i + 1} {GRAIN_TYPE} {2.0 * r[i]!r} {grain_density[i]!r} "
+                     f"{x[i]!r} {y[i]!r} 0.0")
+    for w, (kind, yc) in enumerate(((BOTTOM_TYPE, -wall_radius),
+                                    (TOP_TYPE, height + wall_radius))):
+        for k in range(n_wall):
+            atom_id = n + w * n_wall + k + 1
+            lines.append(f"{atom_id} {kind} {2.0 * wall_radius!r} {wall_density!r} "
+                         f"{(k + 0.5) * spacing!r} {yc!r} 0.0")
+    data_text = "\n".join(lines) + "\n"
+
+    variables = dict(
+        n_grains=n, n_wall=n_wall, length_x=lx, height0=height, wall_radius=wall_radius,
+        wall_spacing=spacing, wall_mass=wall_mass,
+        grain_area=float(np.sum(grain_mass)),            # sum of pi r^2 (density 1)
+        grain_mass_min=float(grain_mass.min()),          # lightest grain, for t_c and gamma_n
+        wall_ripple=ripple(wall_radius, spacing, float(r.min())))
+    return data_text, variables
+
+
+def write_lammps_packing(packing_path, data_path, vars_path=None, **options):
+    """Writes the data file and the include file (`variable NAME equal VALUE` lines read by
+    in.shear); returns the variables. vars_path defaults to data_path + '.vars'."""
+    packing = load_packing(packing_path)
+    try:
+        data_text, variables = packing_to_lammps(packing, **options)
+    except PeerError as e:
+        raise PeerError(packing_path, e.problem) from e
+    vars_path = vars_path or data_path + ".vars"
+    with open(data_path, "w", encoding="utf-8") as f:
+        f.write(data_text)
+    with open(vars_path, "w", encoding="utf-8") as f:
+        f.write(f"# written by cdshear_analysis.peers from {os.path.basename(packing_path)}\n")
+        for key, value in variables.items():
+            f.write(f"variable {key} equal {value!r}\n")
+    return variables
+
+
+# ---------------------------------------------------------------------------------------------
+# Series of either code and the common estimator
+
+def lammps_series(path):
+    """The series file of in.shear (fix ave/time: interval means over every step of each
+    sample interval). Columns: step, time, bottom_fx, bottom_fy, top_fx, top_fy (forces of the
+    grains on each wall, the applied force removed), height (distance between the walls'
+    lines), solid_fraction (grain area / (L_x height)), com_vx. Returns a dict of arrays."""
+    names = ("step", "time", "bottom_fx", "bottom_fy", "top_fx", "top_fy", "height",
+             "solid_fraction", "com_vx")
+    try:
+        table = np.loadtxt(path, comments="#", ndmin=2)
+    except (OSError, ValueError) as e:
+        raise PeerError(path, f"cannot read LAMMPS series: {e}") from e
+    if table.shape[0] == 0 or table.shape[1] != len(names):
+        raise PeerError(path, f"expected rows of {len(names)} columns, got {table.shape}")
+    return {name: table[:, k] for k, name in enumerate(names)}
+
+
+def cdshear_series(run_dir):
+    """/series of RUN_DIR/run.h5 (docs/run-data.md) with the same names."""
+    from .rundata import load_run
+    run = load_run(run_dir)
+    s = run["series"]
+    return {name: np.asarray(s[name], dtype=float)
+            for name in ("time", "bottom_fx", "bottom_fy", "top_fx", "top_fy", "height",
+                         "com_vx", "solid_fraction")}
+
+
+def second_half_estimates(series, duration):
+    """mu_eff and solid fraction over the samples with time > duration / 2, same estimator for
+    both codes:
+      mu_eff = <|f_x^bottom| + |f_x^top|> / <|f_y^bottom| + |f_y^top|> (ratio of the time
+      averaged tangential and normal wall forces), error err(a - mu b) / <b> with a, b the
+      two sums per sample (first-order propagation; err = block averaging);
+      solid fraction: block average of the series; height likewise.
+    """
+    t = series["time"]
+    keep = t > 0.5 * duration
+    if np.count_nonzero(keep) < 16:
+        raise PeerError("series", f"only {np.count_nonzero(keep)} samples in the second half")
+    a = np.abs(series["bottom_fx"][keep]) + np.abs(series["top_fx"][keep])
+    b = np.abs(series["bottom_fy"][keep]) + np.abs(series["top_fy"][keep])
+    mu = float(a.mean() / b.mean())
+    mu_err = block_average(a - mu * b)["err"] / float(b.mean())
+    nu = block_average(series["solid_fraction"][keep])
+    h = block_average(series["height"][keep])
+    return dict(mu_eff=mu, mu_eff_err=float(mu_err), solid_fraction=nu["mean"],
+                solid_fraction_err=nu["err"], height=h["mean"], height_err=h["err"],
+                samples=int(np.count_nonzero(keep)),
+                normal_force=float(b.mean() / 2.0))
+
+
+# ---------------------------------------------------------------------------------------------
+# Overlaps in a LAMMPS dump
+
+def read_dump(path):
+    """Snapshots of `dump custom ... id type x y radius`: a list of (step, array[id, type, x,
+    y, radius]) and the box's x length."""
+    snaps, lx = [], None
+    try:
+        with open(path, encoding="utf-8") as f:
+            lines = f.read().split("\n")
+    except OSError as e:
+        raise PeerError(path, f"cannot read dump: {e}") from e
+    i = 0
+    while i < len(lines):
+        if lines[i].startswith("ITEM: TIMESTEP"):
+            step = int(lines[i + 1])
+            count = int(lines[i + 3])
+            xlo, xhi = (float(v) for v in lines[i + 5].split()[:2])
+            lx = xhi - xlo
+            header = lines[i + 8].split()[2:]
+            want = ["id", "type", "x", "y", "radius"]
+            if header != want:
+                raise PeerError(path, f"dump columns {header}, expected {want}")
+            rows = np.array([lines[i + 9 + k].split() for k in range(count)], dtype=float)
+            snaps.append((step, rows))
+            i += 9 + count
+        else:
+            i += 1
+    if not snaps:
+        raise PeerError(path, "no snapshot in dump")
+    return snaps, lx
+
+
+def max_overlap(rows, lx):
+    """Largest overlap r_i + r_j - |x_i - x_j| over the grain-grain pairs (nearest periodic
+    image in x) and the grain-wall-disk pairs of one snapshot (0 when nothing overlaps)."""
+    kind = rows[:, 1].astype(int)
+    grains = rows[kind == GRAIN_TYPE]
+    walls = rows[kind != GRAIN_TYPE]
+    best = 0.0
+    for others, same in ((grains, True), (walls, False)):
+        dx = grains[:, None, 2] - others[None, :, 2]
+        dx -= lx * np.round(dx / lx)
+        dy = grains[:, None, 3] - others[None, :, 3]
+        overlap = grains[:, None, 4] + others[None, :, 4] - np.hypot(dx, dy)
+        if same:
+            np.fill_diagonal(overlap, -np.inf)
+        best = max(best, float(overlap.max()))
+    return best
+
+
+def max_overlap_from_dump(path):
+    """(largest overlap over all snapshots, mean of the per-snapshot largest, snapshots)."""
+    snaps, lx = read_dump(path)
+    per = np.array([max_overlap(rows, lx) for _, rows in snaps])
+    return float(per.max()), float(per.mean()), len(per)
+
+
+# ---------------------------------------------------------------------------------------------
+# The table of bench/peers/side_by_side.sh
+
+def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seconds):
+    """Both codes' figures as a dict: wall seconds per simulated time unit, their ratio, the
+    second-half estimates (mu_eff, solid fraction, height), LAMMPS' largest overlap."""
+    cd = second_half_estimates(cdshear_series(cdshear_run), duration)
+    lm = second_half_estimates(lammps_series(os.path.join(lammps_dir, "series.txt")), duration)
+    cd["seconds_per_time"] = cdshear_seconds / duration
+    lm["seconds_per_time"] = lammps_seconds / duration
+    dump = os.path.join(lammps_dir, "dump.txt")
+    if os.path.exists(dump):
+        lm["max_overlap"], lm["mean_max_overlap"], lm["snapshots"] = max_overlap_from_dump(dump)
+    from .rundata import load_run
+    overlap = load_run(cdshear_run)["series"].get("overlap_max")
+    if overlap is not None and len(overlap):
+        cd["max_overlap"] = float(np.nanmax(overlap))
+    return dict(duration=duration, cdshear=cd, lammps=lm,
+                ratio=lm["seconds_per_time"] / cd["seconds_per_time"])
+
+
+def format_side_by_side(result):
+    """The printed table (plain text, one row per figure)."""
+    cd, lm = result["cdshear"], result["lammps"]
+
+    def pm(d, key, digits):
+        err = d.get(key + "_err")
+        text = f"{d[key]:.{digits}f}"
+        return text + (f" +- {err:.{digits}f}" if err is not None and np.isfinite(err) else "")
+
+    def overlap(d):
+        return f"{d['max_overlap']:.2e}" if "max_overlap" in d else "n/a"
+
+    rows = [("wall s per time unit", f"{cd['seconds_per_time']:.3f}",
+             f"{lm['seconds_per_time']:.3f}"),
+            ("ratio LAMMPS / cdshear", "", f"{result['ratio']:.2f}"),
+            ("mu_eff (wall forces)", pm(cd, "mu_eff", 4), pm(lm, "mu_eff", 4)),
+            ("solid fraction", pm(cd, "solid_fraction", 4), pm(lm, "solid_fraction", 4)),
+            ("L_y", pm(cd, "height", 3), pm(lm, "height", 3)),
+            ("mean normal wall force", f"{cd['normal_force']:.4f}", f"{lm['normal_force']:.4f}"),
+            ("max overlap (d)", overlap(cd), overlap(lm)),
+            ("samples in second half", str(cd["samples"]), str(lm["samples"]))]
+    width = max(len(r[0]) for r in rows)
+    lines = [f"side by side over t in ({0.5 * result['duration']:g}, {result['duration']:g}] "
+             "(second half), errors: block averaging",
+             f"{'':{width}}  {'cdshear':>20}  {'LAMMPS':>20}"]
+    lines += [f"{name:{width}}  {a:>20}  {b:>20}" for name, a, b in rows]
+    if "snapshots" in lm:
+        lines.append(f"(LAMMPS overlap: largest over {lm['snapshots']} snapshots; mean of the "
+                     f"per-snapshot largest {lm['mean_max_overlap']:.2e}; cdshear: largest "
+                     "after a step, every step)")
+    return "\n".join(lines)

@@ -1,0 +1,168 @@
+"""The LAMMPS peer's Python half (cdshear_analysis/peers.py): packing -> data file (counts, box,
+diameters, masses, wall rows), overlaps of a snapshot, the common second-half estimator.
+No LAMMPS needed."""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import numpy as np
+
+from cdshear_analysis.peers import (PeerError, lammps_series, max_overlap, packing_to_lammps,
+                                    ripple, second_half_estimates, write_lammps_packing)
+
+PYTHON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+PACKING = {"format": "cdshear-packing", "version": 1, "n": 3, "length_x": 5.0, "height": 4.0,
+           "diameter_min": 0.8, "diameter_max": 1.0,
+           # the first centre lies just left of x = 0: it must be wrapped into [0, L_x)
+           "disks_xyr": [[-0.01, 0.45, 0.45], [2.0, 1.5, 0.5], [4.0, 3.6, 0.4]]}
+
+
+def parse_data(text):
+    """(header counts and box, atoms as rows [id, type, diameter, density, x, y, z])."""
+    lines = text.split("\n")
+    head = {}
+    for line in lines:
+        parts = line.split()
+        if line.endswith(" atoms"):
+            head["atoms"] = int(parts[0])
+        elif line.endswith(" atom types"):
+            head["types"] = int(parts[0])
+        elif line.endswith("xlo xhi"):
+            head["x"] = (float(parts[0]), float(parts[1]))
+        elif line.endswith("ylo yhi"):
+            head["y"] = (float(parts[0]), float(parts[1]))
+        elif line.endswith("zlo zhi"):
+            head["z"] = (float(parts[0]), float(parts[1]))
+    start = lines.index("Atoms # sphere") + 2
+    atoms = np.array([l.split() for l in lines[start:] if l.strip()], dtype=float)
+    return head, atoms
+
+
+class PackingToLammps(unittest.TestCase):
+    def setUp(self):
+        self.text, self.vars = packing_to_lammps(PACKING)
+        self.head, self.atoms = parse_data(self.text)
+
+    def test_counts_and_box(self):
+        n_wall = math.ceil(5.0 / 0.05)
+        self.assertEqual(self.vars["n_wall"], n_wall)
+        self.assertEqual(self.head["atoms"], 3 + 2 * n_wall)
+        self.assertEqual(len(self.atoms), 3 + 2 * n_wall)
+        self.assertEqual(self.head["types"], 3)
+        self.assertEqual(self.head["x"], (0.0, 5.0))
+        self.assertEqual(self.head["z"], (-0.5, 0.5))
+        ylo, yhi = self.head["y"]
+        self.assertLess(ylo, -1.0)          # below the bottom wall's disks (centres at -0.5)
+        self.assertGreater(yhi, 5.0)        # above the top ones (centres at 4.5)
+        self.assertEqual(list(self.atoms[:, 0]), list(range(1, len(self.atoms) + 1)))
+        self.assertTrue(np.all((self.atoms[:, 4] >= 0.0) & (self.atoms[:, 4] < 5.0)))
+
+    def test_grains_diameters_and_masses(self):
+        grains = self.atoms[self.atoms[:, 1] == 1]
+        xyr = np.array(PACKING["disks_xyr"])
+        self.assertEqual(len(grains), 3)
+        np.testing.assert_allclose(grains[:, 2], 2 * xyr[:, 2], rtol=0, atol=0)
+        np.testing.assert_allclose(grains[:, 5], xyr[:, 1], rtol=0, atol=0)
+        self.assertAlmostEqual(grains[0, 4], 5.0 - 0.01, places=12)
+        # LAMMPS: m = density * 4/3 pi r^3; SPEC 1: m = pi r^2 (2D density 1)
+        mass = grains[:, 3] * 4.0 / 3.0 * math.pi * (grains[:, 2] / 2) ** 3
+        np.testing.assert_allclose(mass, math.pi * xyr[:, 2] ** 2, rtol=1e-12)
+        self.assertAlmostEqual(self.vars["grain_area"], float(np.sum(math.pi * xyr[:, 2] ** 2)),
+                               places=12)
+        self.assertAlmostEqual(self.vars["grain_mass_min"], math.pi * 0.4 ** 2, places=12)
+
+    def test_walls_rows_of_mass_50_with_tops_on_the_wall_lines(self):
+        for kind, top_line, sign in ((2, 0.0, +1), (3, 4.0, -1)):
+            wall = self.atoms[self.atoms[:, 1] == kind]
+            self.assertEqual(len(wall), self.vars["n_wall"])
+            radius = wall[:, 2] / 2
+            np.testing.assert_allclose(radius, 0.5)
+            np.testing.assert_allclose(wall[:, 5] + sign * radius, top_line, atol=1e-12)
+            mass = wall[:, 3] * 4.0 / 3.0 * math.pi * radius ** 3
+            self.assertAlmostEqual(float(mass.sum()), 50.0, places=9)
+            gaps = np.diff(np.sort(wall[:, 4]))
+            np.testing.assert_allclose(gaps, 5.0 / len(wall), rtol=1e-9)
+            self.assertLessEqual(gaps.max(), 0.05 + 1e-12)
+
+    def test_ripple(self):
+        # s^2 / (8 (r + R)) to leading order
+        self.assertAlmostEqual(ripple(0.5, 0.05, 0.4), 0.05 ** 2 / (8 * 0.9), delta=1e-7)
+
+    def test_write_files_and_command_line(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            packing = os.path.join(tmp, "p.json")
+            with open(packing, "w") as f:
+                json.dump(PACKING, f)
+            data = os.path.join(tmp, "p.data")
+            variables = write_lammps_packing(packing, data)
+            with open(data) as f:
+                self.assertEqual(f.read(), self.text)
+            with open(data + ".vars") as f:
+                lines = [l.split() for l in f if l.startswith("variable")]
+            self.assertEqual({l[1] for l in lines}, set(variables))
+            self.assertTrue(all(l[2] == "equal" for l in lines))
+            out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "lammps-data",
+                                  packing, "-o", os.path.join(tmp, "q.data")],
+                                 cwd=PYTHON_DIR, capture_output=True, text=True)
+            self.assertEqual(out.returncode, 0, out.stderr)
+            self.assertIn("3 grains", out.stdout)
+            bad = os.path.join(tmp, "bad.json")
+            with open(bad, "w") as f:
+                json.dump({"format": "something else"}, f)
+            with self.assertRaises(PeerError):
+                write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "lammps-data",
+                                  bad, "-o", os.path.join(tmp, "b.data")],
+                                 cwd=PYTHON_DIR, capture_output=True, text=True)
+            self.assertEqual(out.returncode, 2)
+            self.assertIn("not a cdshear packing", out.stderr)
+
+
+class Estimates(unittest.TestCase):
+    def test_overlap_of_a_snapshot(self):
+        # [id, type, x, y, radius]; grains 1 and 2 overlap by 0.01 across the periodic boundary,
+        # grain 3 overlaps a wall disk by 0.002
+        rows = np.array([[1, 1, 0.2, 2.0, 0.5], [2, 1, 9.21, 2.0, 0.5],
+                         [3, 1, 5.0, 0.498, 0.5], [4, 2, 5.0, -0.5, 0.5],
+                         [5, 3, 5.0, 8.5, 0.5]])
+        self.assertAlmostEqual(max_overlap(rows, 10.0), 0.01, places=12)
+        rows[1, 2] = 8.0
+        self.assertAlmostEqual(max_overlap(rows, 10.0), 0.002, places=12)
+
+    def test_second_half_estimator(self):
+        rng = np.random.default_rng(3)
+        t = np.arange(1, 2001) * 0.1
+        fy = 5.0 + 0.3 * rng.standard_normal(len(t))
+        series = dict(time=t, bottom_fx=0.3 * fy, top_fx=-0.3 * fy, bottom_fy=-fy, top_fy=fy,
+                      height=20 + 0.1 * rng.standard_normal(len(t)),
+                      solid_fraction=0.8 + 0.01 * rng.standard_normal(len(t)))
+        series["bottom_fx"][:1000] = 100.0     # first half: ignored
+        est = second_half_estimates(series, 200.0)
+        self.assertEqual(est["samples"], 1000)
+        self.assertAlmostEqual(est["mu_eff"], 0.3, places=12)
+        self.assertLess(est["mu_eff_err"], 1e-12)
+        self.assertAlmostEqual(est["solid_fraction"], 0.8, delta=0.002)
+        self.assertAlmostEqual(est["solid_fraction_err"], 0.01 / math.sqrt(1000), delta=1e-4)
+
+    def test_lammps_series_file(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "series.txt")
+            with open(path, "w") as f:
+                f.write("# Time-averaged data\n# TimeStep v_now ...\n"
+                        "159 0.05 1 -2 -1 2 20 0.8 0.001\n318 0.15 1 -2 -1 2 20 0.8 0.002\n")
+            s = lammps_series(path)
+            self.assertEqual(list(s["step"]), [159, 318])
+            self.assertEqual(list(s["com_vx"]), [0.001, 0.002])
+            with open(path, "a") as f:
+                f.write("477 0.25 1\n")
+            with self.assertRaises(PeerError):
+                lammps_series(path)
+
+
+if __name__ == "__main__":
+    unittest.main()
