@@ -7,8 +7,11 @@
 # estimator for both, python/cdshear_analysis/peers.py), LAMMPS' largest overlap in d.
 #
 #   bench/peers/side_by_side.sh [-T DURATION] [-V VELOCITY] [--kappa K] [--packing FILE] [-o DIR]
+#                               [--cdshear-set KEY=VALUE]...
 #
 # -T: simulated time of each run (default 400; about 3 minutes on one core in all);
+# --cdshear-set: a case setting of the cdshear run (repeatable), e.g. the coarser time step
+# `step.displacement_per_step=0.005` (docs/accuracy.md);
 # -V: wall speed (default 0.5); --kappa: LAMMPS' stiffness level k_n / sigma_yy (default 1e4,
 # the issue's; dt = t_c / 50 follows it, so the cost grows as sqrt(kappa));
 # --packing: a system-1 packing of `cdshear prepare` (default: the one `cdshear run --system 1`
@@ -30,6 +33,7 @@ V=0.5
 kappa=1e4
 packing=""
 out=""
+cd_sets=()
 while [ $# -gt 0 ]; do
   case "$1" in
     -T|--duration) [ $# -ge 2 ] || die "$1 needs a value"; T="$2"; shift 2 ;;
@@ -37,7 +41,8 @@ while [ $# -gt 0 ]; do
     --kappa) [ $# -ge 2 ] || die "$1 needs a value"; kappa="$2"; shift 2 ;;
     --packing) [ $# -ge 2 ] || die "$1 needs a value"; packing="$2"; shift 2 ;;
     -o|--output) [ $# -ge 2 ] || die "$1 needs a value"; out="$2"; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --cdshear-set) [ $# -ge 2 ] || die "$1 needs KEY=VALUE"; cd_sets+=(--set "$2"); shift 2 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument '$1' (see --help)" ;;
   esac
 done
@@ -92,7 +97,7 @@ PYTHONPATH="$root/python" "$python" -m cdshear_analysis lammps-data "$packing" \
 
 now() { date +%s.%N; }
 cd_cmd=("$cdshear" run --system 1 -V "$V" --packing "$packing" --set "shear.duration=$T"
-        --threads 1 -q --no-analyze -o "$out/cdshear")
+        --threads 1 -q --no-analyze -o "$out/cdshear" "${cd_sets[@]}")
 lmp_cmd=("$lmp" -in "$root/bench/peers/lammps/in.shear" -screen none -log none
          -var data "$out/packing.data" -var vars "$out/packing.data.vars"
          -var V "$V" -var T "$T" -var kappa "$kappa" -var out "$out/lammps")
