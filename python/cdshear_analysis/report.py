@@ -147,8 +147,8 @@ def read_run(run_dir):
 
 
 def campaign_runs(campaign_toml):
-    """(name, [run names]) from a resolved campaign.toml: [campaign].name and the runs listed in
-    its closing comment (`#   s1_seed1_V0.5  duration ...`)."""
+    """(name, [run names], text) from a resolved campaign.toml: [campaign].name, the runs listed
+    in its closing comment (`#   s1_seed1_V0.5  duration ...`) and the whole file."""
     try:
         with open(campaign_toml, "rb") as f:
             raw = f.read()
@@ -158,8 +158,25 @@ def campaign_runs(campaign_toml):
     campaign = data.get("campaign")
     name = campaign.get("name") if isinstance(campaign, dict) else None
     name = name if isinstance(name, str) else None
-    runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", raw.decode("utf-8"), re.M)
-    return name, runs
+    text = raw.decode("utf-8")
+    runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", text, re.M)
+    return name, runs, text
+
+
+def software(campaign_text, run_dirs):
+    """What made the campaign: the sweep's version (first line of campaign.toml, "written by
+    cdshear X sweep") and {version: number of runs} from each run's run_info.json."""
+    m = re.search(r"written by (\S+) (\S+) sweep", campaign_text or "")
+    versions = {}
+    for d in run_dirs:
+        try:
+            with open(os.path.join(d, "run_info.json"), encoding="utf-8") as f:
+                info = json.load(f)
+            v = f"{info.get('program', '?')} {info.get('version', '?')}"
+        except (OSError, ValueError, AttributeError):
+            v = "unknown (no readable run_info.json)"
+        versions[v] = versions.get(v, 0) + 1
+    return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}
 
 
 def collect(campaign_dir):
@@ -171,9 +188,9 @@ def collect(campaign_dir):
     skipped = []
     notes = []
     if os.path.isfile(toml_path):
-        name, listed = campaign_runs(toml_path)
+        name, listed, text = campaign_runs(toml_path)
     else:
-        name, listed = None, []
+        name, listed, text = None, [], None
         notes.append("campaign.toml is missing: the campaign name is the folder's")
     if not name:
         name = os.path.basename(os.path.normpath(campaign_dir))
@@ -196,7 +213,8 @@ def collect(campaign_dir):
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
-            "notes": notes}
+            "notes": notes, "campaign_toml": text,
+            "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
 
 
 def csv_columns(rows):
@@ -475,6 +493,14 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     for fig in figures:
         out.append(f"<img src='figures/{html.escape(fig)}' alt='{html.escape(fig)}'>")
     out += _html_run_figures(run_figures or {})
+    sw = report.get("software") or {}
+    out.append("<h2>Software and configuration</h2><p>Campaign resolved by "
+               f"{html.escape(sw.get('sweep') or 'unknown')}; runs made by "
+               + (", ".join(f"{html.escape(v)} ({n} runs)" for v, n in sw.get("runs", {}).items())
+                  or "none") + "; report by cdshear_analysis (this folder's Python package).</p>")
+    if report.get("campaign_toml"):
+        out.append("<details><summary>The resolved campaign file (campaign.toml)</summary><pre>"
+                   + html.escape(report["campaign_toml"]) + "</pre></details>")
     out.append("<h2>Runs left out</h2>")
     if report["skipped"]:
         out.append("<ul>" + "".join(f"<li>{html.escape(n)}: {html.escape(why)}</li>"
@@ -526,7 +552,8 @@ def write_report(report, out_dir):
     with open(fits_path, "w", encoding="utf-8") as f:
         json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
                    "campaign": report["campaign"], "runs_analysed": len(rows),
-                   "runs_steady": sum(1 for r in rows if r["steady"]), "fits": fits,
+                   "runs_steady": sum(1 for r in rows if r["steady"]),
+                   "software": report.get("software"), "fits": fits,
                    "boundary": boundary, "transitions": transitions, "predictions": preds},
                   f, indent=1, allow_nan=False)
     paths.append(fits_path)

@@ -66,7 +66,7 @@ def fake_campaign(d, name, system_runs, listed_extra=()):
             names.append(run)
             fake_summary(os.path.join(d, "runs", run), V, I, mu, nu, Z)
     with open(os.path.join(d, "campaign.toml"), "w") as f:
-        f.write(f"# Resolved campaign\n[campaign]\nname = '{name}'\nsystems = [1]\n"
+        f.write(f"# Resolved campaign written by cdshear 0.1.0 sweep; fingerprint 0\n[campaign]\nname = '{name}'\nsystems = [1]\n"
                 f"velocities = [1.0]\nseeds = [1]\nduration = 1000.0\n\n[set]\n\n"
                 "# Runs (name, duration [t], dt [t], cost n x duration / dt):\n")
         for run in names + list(listed_extra):
@@ -226,6 +226,11 @@ class ReportTest(unittest.TestCase):
         with open(os.path.join(out, "index.html")) as f:
             text = f.read()
         self.assertIn("<h1>Campaign test_campaign</h1>", text)
+        # the resolved campaign file and what made the runs (no run_info.json in fake runs)
+        self.assertIn("The resolved campaign file (campaign.toml)", text)
+        self.assertIn("name = &#x27;test_campaign&#x27;", text)
+        self.assertIn("unknown (no readable run_info.json) (16 runs)", text)
+        self.assertIn("Campaign resolved by cdshear 0.1.0", text)
         refs = re.findall(r"(?:src|href)='([^']+)'", text)
         images = [r for r in refs if r.endswith(".png")]
         # every figure written is shown, and nothing else (no profiles: fake summaries lack them)
