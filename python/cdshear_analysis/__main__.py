@@ -5,8 +5,9 @@ KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... report
 [-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
 CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
-of bench/peers/side_by_side.sh (cdshear_analysis/peers.py). A run too short for any averaging window is analysed (not steady,
-series values over the last half) and plotted without its profile figures. Bad input:
+of bench/peers/side_by_side.sh (cdshear_analysis/peers.py). A run too short for any averaging
+window is analysed (not steady, series values over the last half) and plotted without its
+profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
 import os

@@ -96,7 +96,8 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         kinetic_energy=0.5 * n * 0.6 * (0.1 * V) ** 2 * (1 + 0.1 * rng.random(n_samples)),
         contacts=rng.integers(900, 1100, n_samples),
         force_carrying=rng.integers(500, 700, n_samples),
-        bottom_fx=mu * fy - block_force, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu, top_mu=mu,
+        bottom_fx=mu * fy - block_force, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu,
+        top_mu=mu,
         sweeps_mean=40 + 5 * rng.random(n_samples), sweeps_max=rng.integers(60, 201, n_samples),
         capped_steps=(rng.random(n_samples) < 0.001).astype(np.int64),
         residual_max=1e-6 * rng.random(n_samples), overlap_max=1e-3 * rng.random(n_samples))

@@ -66,7 +66,8 @@ def fake_campaign(d, name, system_runs, listed_extra=()):
             names.append(run)
             fake_summary(os.path.join(d, "runs", run), V, I, mu, nu, Z)
     with open(os.path.join(d, "campaign.toml"), "w") as f:
-        f.write(f"# Resolved campaign written by cdshear 0.1.0 sweep; fingerprint 0\n[campaign]\nname = '{name}'\nsystems = [1]\n"
+        f.write("# Resolved campaign written by cdshear 0.1.0 sweep; fingerprint 0\n"
+                f"[campaign]\nname = '{name}'\nsystems = [1]\n"
                 f"velocities = [1.0]\nseeds = [1]\nduration = 1000.0\n\n[set]\n\n"
                 "# Runs (name, duration [t], dt [t], cost n x duration / dt):\n")
         for run in names + list(listed_extra):

@@ -152,8 +152,9 @@ class PredictionTest(unittest.TestCase):
         self.assertEqual(e["measured_transient_end_time"], 300.0)
 
     def test_power_law_slope_and_preference(self):
-        power = {"status": "ok", "model": "power_plus", "parameters": {"mu_0": {"value": 0.25}, "A": {"value": 1.0},
-                                                "B": {"value": 2.0}}}
+        power = {"status": "ok", "model": "power_plus",
+                 "parameters": {"mu_0": {"value": 0.25}, "A": {"value": 1.0},
+                                "B": {"value": 2.0}}}
         self.assertAlmostEqual(fitting.slope(power, 0.1), 0.2)
         fits = {"mu_power": power, "mu_linear": self.linear_fit()}
         (e,) = tr.steady_state_predictions(
