@@ -65,6 +65,8 @@ struct Settings {
   bool skip_dormant = false;
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
+  double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
+  double alpha = 1e-6;      // convergence tolerance (solver.alpha); 0: always the cap
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -95,6 +97,9 @@ void usage() {
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
+  --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
+  --alpha A           convergence tolerance (solver.alpha, default 1e-6; 0: every step sweeps
+                      max-sweeps times, to compare settings at equal sweeps)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the force errors (stderr)
   --no-static         skip the static cases
@@ -143,6 +148,13 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--max-sweeps") {
       s.max_sweeps = std::stoi(value());
       if (s.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
+    } else if (a == "--alpha") {
+      s.alpha = std::stod(value());
+      if (!(s.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
+    } else if (a == "--relaxation") {
+      s.relaxation = std::stod(value());
+      if (!(s.relaxation > 0.0 && s.relaxation < 2.0))
+        throw std::invalid_argument("--relaxation must be in (0, 2)");
     } else if (a == "--skip-dormant") {
       s.skip_dormant = true;
     } else if (a == "--threads") {
@@ -356,7 +368,8 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// `samples` times, `spacing` ordinary steps apart. Printed to stderr: the relative L2 error of
 /// all impulses, the largest error of one contact relative to the mean impulse, the relative
 /// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
-/// the sweeps of both solves. The world goes on with `options`.
+/// the sweeps of both solves. The reference is plain Gauss-Seidel whatever `options` relaxes.
+/// The world goes on with `options`.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
                 int spacing) {
   StepOptions tight = options;
@@ -365,6 +378,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.max_sweeps = 200000;
   tight.solver.skip_dormant = false;
   tight.solver.criterion = cdshear::ConvergenceCriterion::kChange;
+  tight.solver.relaxation = 1.0;  // one reference for every relaxation: Gauss-Seidel's solution
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -477,6 +491,8 @@ int run(const Settings& s) {
     options.solver.skip_dormant = s.skip_dormant;
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;
+    options.solver.relaxation = s.relaxation;
+    options.solver.alpha = s.alpha;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);

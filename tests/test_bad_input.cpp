@@ -183,6 +183,21 @@ TEST(BadInput, OverrideWithUnknownKeyIsRefused) {
   EXPECT_EQ(load_scene_file(path, {"solver.seed=4"}).step.solver.seed, 4u);
 }
 
+TEST(BadInput, RelaxationOutsideZeroToTwoIsRefused) {
+  TempDir dir("relaxation");
+  const std::string path = dir.write("scene.toml", scene_text());
+  for (const char* bad :
+       {"solver.relaxation=2.0", "solver.relaxation=0.0", "solver.relaxation=-1.0"}) {
+    try {
+      load_scene_file(path, {bad});
+      ADD_FAILURE() << "no ConfigError for " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), "solver.relaxation") << bad;
+    }
+  }
+  EXPECT_EQ(load_scene_file(path, {"solver.relaxation=1.5"}).step.solver.relaxation, 1.5);
+}
+
 TEST(BlowUp, TooFastApproachWithZeroMarginIsReported) {
   // Two disks 0.001 apart closing at 800 per time unit with contact_margin 0: they are no
   // candidate contact at the start of the step, and after it they overlap by 0.799. The step

@@ -110,7 +110,13 @@ class TallyAccumulator {
 /// impulse -W^-1 b written as a correction of the old one, so no b is formed and no branch taken.
 /// Coupled rows (w_nt != 0, a wall free along a direction oblique to the contact) go through the
 /// general case analysis of solve_local.
-inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alpha,
+///
+/// kRelaxed: the update is over- (or under-) relaxed by omega and projected back on the cone,
+///   R_n <- max(0, R_n + omega (R_n,GS - R_n)),  R_t <- clamp(R_t + omega (R_t,GS - R_t), +-mu R_n)
+/// (projected SOR; omega = 1 gives R_GS). A template parameter, so that plain Gauss-Seidel keeps
+/// its own arithmetic: R + 1 (R_GS - R) is not always R_GS in floating point.
+template <bool kRelaxed>
+inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alpha, double omega,
                        TallyAccumulator& tally) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];
@@ -139,6 +145,11 @@ inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alp
     const LocalSolution s = solve_local(p);
     r_n = s.r_n;
     r_t = s.r_t;
+  }
+  if constexpr (kRelaxed) {
+    r_n = std::max(0.0, r.impulse_n + omega * (r_n - r.impulse_n));
+    const double limit = r.friction * r_n;
+    r_t = std::clamp(r.impulse_t + omega * (r_t - r.impulse_t), -limit, limit);
   }
   const double dn = r_n - r.impulse_n, dt = r_t - r.impulse_t;
   apply_impulse(r, a, b, dn, dt);
@@ -264,10 +275,16 @@ void order_rows(const std::vector<Contact>& contacts, const std::vector<SolverBo
 }
 
 /// Updates the awake rows of group g and stores its tally.
-void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies,
-                 double alpha) {
+void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
+                 double omega) {
   TallyAccumulator tally;
-  for (const std::uint32_t i : ws.awake[g]) update_row(ws.rows[i], bodies, alpha, tally);
+  if (omega == 1.0) {
+    for (const std::uint32_t i : ws.awake[g])
+      update_row<false>(ws.rows[i], bodies, alpha, omega, tally);
+  } else {
+    for (const std::uint32_t i : ws.awake[g])
+      update_row<true>(ws.rows[i], bodies, alpha, omega, tally);
+  }
   ws.group_tallies[g] = tally.tally();
 }
 
@@ -388,7 +405,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #pragma omp for schedule(static)
 #endif
       for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-        sweep_group(g, ws, bodies, options.alpha);
+        sweep_group(g, ws, bodies, options.alpha, options.relaxation);
     }
 #if defined(_OPENMP)
 #pragma omp single
@@ -397,7 +414,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #if defined(_OPENMP)
       report.threads = omp_get_num_threads();
 #endif
-      sweep_group(groups - 1, ws, bodies, options.alpha);
+      sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation);
       std::size_t converged = 0, carrying = 0;
       double sum_change = 0.0, sum_force = 0.0;
       for (const SweepTally& t : ws.group_tallies) {

@@ -89,6 +89,10 @@ struct SolverOptions {
   int threads = 1;            ///< threads for the coloured order (the others use one); >= 1
   bool skip_dormant = false;  ///< leave dormant contacts out of the sweeps (see above)
   ConvergenceCriterion criterion = ConvergenceCriterion::kChange;
+  /// Projected over-relaxation of each update, in (0, 2): R <- proj(R + omega (R_GS - R)), with
+  /// R_GS the exact local solution and proj the Signorini-Coulomb projection. 1 is plain
+  /// Gauss-Seidel (and takes exactly its code path); docs/performance.md, "Over-relaxation".
+  double relaxation = 1.0;
   /// Contacts per thread below which fewer threads are used (a barrier then costs more than the
   /// work it shares). No effect on the results.
   std::size_t min_rows_per_thread = 1500;

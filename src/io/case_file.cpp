@@ -191,6 +191,7 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"max_sweeps", s.max_sweeps},
                    {"order", contact_order_name(s.order)},
                    {"skip_dormant", s.skip_dormant},
+                   {"relaxation", s.relaxation},
                    {"criterion", s.criterion == ConvergenceCriterion::kError ? "error" : "change"},
                    {"seed", static_cast<std::int64_t>(s.seed)}}},
       {"preparation",

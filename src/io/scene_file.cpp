@@ -20,6 +20,8 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       contact_order_name(s.order));
   contact_order_from_name(order, s.order);
   s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
+  s.relaxation = solver.positive("relaxation", s.relaxation);
+  if (!(s.relaxation < 2.0)) solver.fail("relaxation", "must be < 2 (projected SOR diverges)");
   const bool error = s.criterion == ConvergenceCriterion::kError;
   s.criterion =
       solver.choice("criterion", {"change", "error"}, error ? "error" : "change") == "error"
