@@ -106,7 +106,12 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   // two grain layers per stripe: measured 2.6% to 4.9% at most over the packings and solver
   // versions this test has seen; allowed 6%), and on average over the cell the virial of the
   // walls (see below).
-  ShearCase c = system1_case(4.0);
+  // A window of 16 t: the walls' forces balance up to the packing's momentum change over the
+  // window divided by its length, and a packing at rest jitters (more with the shear phase's
+  // over-relaxation, solver.relaxation = 1.6, than with plain Gauss-Seidel). Measured |bottom +
+  // top| / (sigma_yy L_x): relaxation 1.6: 1.16%, 0.56%, 0.28% over 4, 8, 16 t; Gauss-Seidel:
+  // 0.41% over 4 t, 0.11% over 16 t. Allowed 1%.
+  ShearCase c = system1_case(16.0);
   c.measure.stripe_thickness = 2.0;  // two grain layers per stripe: less grain-scale scatter
   World world = build_shear_world(c, system1_packing());
   for (Wall& w : world.walls) w.velocity.x = 0.0;

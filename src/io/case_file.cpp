@@ -84,6 +84,9 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   p.step.solver.alpha = prep.positive("alpha", p.step.solver.alpha);
   p.step.solver.max_sweeps =
       static_cast<int>(prep.integer_in("max_sweeps", 1, kMaxSweeps, p.step.solver.max_sweeps));
+  p.step.solver.relaxation = prep.positive("relaxation", p.step.solver.relaxation);
+  if (!(p.step.solver.relaxation < 2.0))
+    prep.fail("relaxation", "must be < 2 (projected SOR diverges)");
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
 
@@ -209,6 +212,7 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"compression_dt", p.compression_dt},
                    {"alpha", p.step.solver.alpha},
                    {"max_sweeps", p.step.solver.max_sweeps},
+                   {"relaxation", p.step.solver.relaxation},
                    {"packing", c.packing_file}}},
       {"output", toml::table{{"status_interval", c.status_interval},
                              {"checkpoint_interval", c.checkpoint_interval},
