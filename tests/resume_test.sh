@@ -51,5 +51,15 @@ done
 if ! cmp -s "$work/straight/final_state.json" "$work/unobserved/final_state.json"; then
   echo "FAIL: the run without measurement observers ends in another state"; status=1
 fi
+# A case.toml written before a parameter existed: the resume says which parameter today's
+# default fills in, and with what value (the run then writes the complete case.toml).
+"$exe" run "${common[@]}" --stop-at 0.4 -o "$work/older" > /dev/null
+sed -i '/^\[solver\]/,/^\[/{/^relaxation = /d}' "$work/older/case.toml"
+! grep -q '^relaxation = 1.6' "$work/older/case.toml" ||
+  { echo "FAIL: the test could not remove solver.relaxation from case.toml"; exit 1; }
+warning=$("$exe" run -q --no-analyze --resume "$work/older" 2>&1 >/dev/null)
+if ! grep -q "case.toml does not set solver.relaxation (written by an earlier cdshear): this resume runs with today's value 1.6" <<<"$warning"; then
+  echo "FAIL: resuming a case.toml without solver.relaxation gave no warning: $warning"; status=1
+fi
 [ $status -eq 0 ] && echo "resume_test: stopped and killed runs resumed bit-identically"
 exit $status

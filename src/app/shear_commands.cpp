@@ -220,6 +220,27 @@ void plan_run(ShearSession& s) {
                                   c.duration / c.measure.sample_interval, c.duration, kMaxSamples));
 }
 
+/// A case.toml written by an earlier cdshear lacks the parameters added since: the resume runs
+/// them with today's defaults (for example solver.relaxation, 1.6 since it exists, where the
+/// run's first part had plain Gauss-Seidel). Says so, with each value, on stderr.
+void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
+  toml::table written;
+  try {
+    written = toml::parse_file(file);
+  } catch (const toml::parse_error&) {
+    return;  // load_case has read it already; nothing to compare if it cannot be read again
+  }
+  const toml::table resolved = case_to_toml(c);
+  for (const std::string& key : keys_missing_from(written, c)) {
+    std::ostringstream value;
+    value << resolved.at_path(key);
+    std::fprintf(stderr,
+                 "warning: %s does not set %s (written by an earlier cdshear): this resume runs "
+                 "with today's value %s; give --set %s=... to choose another\n",
+                 file.c_str(), key.c_str(), value.str().c_str(), key.c_str());
+  }
+}
+
 void open_resumed(const RunArgs& args, ShearSession& s) {
   s.resuming = true;
   s.dir = args.resume_dir;
@@ -237,6 +258,7 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   src.threads = args.c.threads;
   s.c = load_case(src);
   s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
+  warn_of_new_defaults(src.file, s.c);
   // The step counter, the end of the run and every schedule count steps of one dt: a resume
   // that changes it (step.dt, dt_max, displacement_per_step) would end at the wrong time.
   CaseSource as_written;

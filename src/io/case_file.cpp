@@ -225,4 +225,18 @@ toml::table case_to_toml(const ShearCase& c) {
                               {"force_threshold", c.measure.force_threshold}}}};
 }
 
+std::vector<std::string> keys_missing_from(const toml::table& table, const ShearCase& c) {
+  std::vector<std::string> missing;
+  const toml::table resolved = case_to_toml(c);
+  for (const auto& [section, values] : resolved) {
+    const toml::table* given = table[section].as_table();
+    const toml::table* wanted = values.as_table();
+    if (wanted == nullptr) continue;
+    for (const auto& [key, value] : *wanted)
+      if (given == nullptr || !given->contains(key))
+        missing.push_back(std::string(section.str()) + "." + std::string(key.str()));
+  }
+  return missing;
+}
+
 }  // namespace cdshear
