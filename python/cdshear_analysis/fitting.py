@@ -10,7 +10,8 @@ and the smallest chi2 kept, so a power law is found whether its exponent is belo
 The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
 range, status ("ok" | "skipped"), reason, n_points, points_without_error, runs, parameters
 ({name: {value, err, err_scaled}}), covariance (rows and columns in the order of parameters),
-chi2, dof, chi2_dof. err_scaled multiplies err by sqrt(chi2/dof) when that exceeds 1 (the
+chi2, dof, chi2_dof, note (a parameter at the bound of its range, e.g. an exponent at 0.001:
+the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when that exceeds 1 (the
 scatter is larger than the error bars say).
 """
 import math
@@ -112,7 +113,7 @@ def fit(spec, points):
            "range": list(spec["range"]) if spec["range"] else None,
            "status": "skipped", "reason": None, "n_points": len(kept),
            "points_without_error": no_err, "runs": [p[3] for p in kept], "parameters": None,
-           "covariance": None, "chi2": None, "dof": None, "chi2_dof": None}
+           "covariance": None, "chi2": None, "dof": None, "chi2_dof": None, "note": None}
     if len(kept) < k + 1:
         where = (f" with {spec['range'][0]:g} < {spec['x']} < {spec['range'][1]:g}"
                  if spec["range"] else "")
@@ -150,6 +151,14 @@ def fit(spec, points):
         return out
     errs = np.sqrt(np.diag(cov))
     scale = math.sqrt(max(1.0, chi2 / dof))
+    lo, hi = family["bounds"]
+    at_bound = [pn for k_, pn in enumerate(spec["params"])
+                if np.ndim(lo) and (np.isclose(p[k_], lo[k_]) or np.isclose(p[k_], hi[k_]))]
+    if at_bound:
+        # e.g. an exponent pushed to 0.001: the points follow another form (a logarithm), and
+        # the other parameters then trade off without bound (huge errors)
+        out["note"] = (f"{', '.join(at_bound)} at the bound of its range: the points do not "
+                       "follow this form; read the parameters with care")
     out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof,
                covariance=[[float(c) for c in row] for row in cov], parameters={
                    pn: {"value": float(v), "err": finite(se), "err_scaled": finite(se * scale)}

@@ -402,6 +402,8 @@ def _fit_table(items):
                 (f" (scaled: ± {_fmt(v['err_scaled'], 2)})" if scaled else "")
                 for p, v in f["parameters"].items())
             chi = _fmt(f["chi2_dof"], 3)
+            if f.get("note"):
+                params += f"<br><small>{html.escape(f['note'])}</small>"
         else:
             params, chi = "skipped: " + html.escape(f["reason"]), ""
         out.append(f"<tr><td>{html.escape(fname)}</td><td>{html.escape(f['law'])}</td>"

@@ -16,6 +16,7 @@ SCALE = math.sqrt(math.pi / 4 / SIGMA)   # sqrt(m / sigma_yy)
 BC_LAW = {"mu_0": 0.2, "A": 0.4, "B": 0.5}
 A_LAW = {"mu_0": 0.33, "A": 0.6, "B": 0.8}
 BULK = {"mu_0": 0.3, "A": 0.9, "B": 0.7}
+LAWS_Z = fitting.law("power_minus", ["Z_0", "c", "e"], "Z", "I")
 
 
 def layer(row, h, side, I, mu, nu, Z, dv, err=0.004):
@@ -152,6 +153,16 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertTrue(weak)
         self.assertEqual({e["trend"] for e in weak}, {"decreasing"})
         self.assertEqual({e["predicted"] for e in weak}, {"unstable (C)"})
+
+    def test_a_law_of_another_form_is_flagged(self):
+        # Z = 2 - 0.3 ln(I): no power law Z_0 - c I^e fits it but one with e -> 0 (its bound)
+        pts = [(x, 2.0 - 0.3 * math.log(x), 0.01, str(k))
+               for k, x in enumerate(np.geomspace(1e-4, 0.3, 12))]
+        fit = fitting.fit(LAWS_Z, pts)
+        self.assertEqual(fit["status"], "ok")
+        self.assertIn("e at the bound of its range", fit["note"])
+        self.assertIsNone(fitting.fit(LAWS_Z, [(x, 3.0 - 2.0 * x ** 0.7, 0.01, "")
+                                               for x in np.geomspace(1e-3, 0.3, 12)])["note"])
 
     def test_solve_for_x_inverts_the_laws(self):
         for model, params, x in (("power_plus", [0.2, 0.4, 0.5], 0.3),
