@@ -11,8 +11,8 @@ The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): 
 range, status ("ok" | "skipped"), reason, n_points, points_without_error, runs, parameters
 ({name: {value, err, err_scaled}}), covariance (rows and columns in the order of parameters),
 chi2, dof, chi2_dof, note (a parameter at the bound of its range, e.g. an exponent at 0.001:
-the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when that exceeds 1 (the
-scatter is larger than the error bars say).
+the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when that
+exceeds 1 (the scatter is larger than the error bars say).
 """
 import math
 import warnings
