@@ -6,6 +6,8 @@ and the bulk law for each h (bulk_mu_by_h); switch time / V against L_y (switch_
 system the steady velocity and mu_eff profiles of every V (profiles_sK). Every point has its
 error bars (standard errors of `analyze`); open markers are runs that are not steady.
 """
+import os
+
 import numpy as np
 
 from . import fitting
@@ -148,11 +150,11 @@ H_MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
 H_STYLES = ["-", "--", ":", "-."]
 
 
-def _figure(size=(5.5, 4.0)):
+def _figure(size=(5.5, 4.0), columns=1):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=size)
+    fig, ax = plt.subplots(1, columns, figsize=size, sharey=columns > 1)
     return plt, fig, ax
 
 
@@ -289,7 +291,6 @@ def switch_time_figure(path, switch_predictions):
 def profile_figures(fig_dir, rows):
     """Per system, the steady profiles of every V: v_x / V and mu_eff against y / L_y.
     Returns the file names."""
-    import os
     names = []
     systems = sorted({r["system"] for r in rows if r.get("system") is not None})
     for system in systems:
@@ -297,9 +298,7 @@ def profile_figures(fig_dir, rows):
                      key=lambda r: r["V"] or 0)
         if not sel:
             continue
-        plt, fig, axes = _figure((9.0, 4.0))
-        plt.close(fig)
-        fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.0), sharey=True)
+        plt, fig, axes = _figure((9.0, 4.0), columns=2)
         cmap = plt.get_cmap("viridis")
         for k, r in enumerate(sel):
             p = r["_profiles"]
@@ -325,7 +324,6 @@ def profile_figures(fig_dir, rows):
 
 def write_figures(fig_dir, rows, fits, transitions, boundary, preds):
     """Every figure of the report into fig_dir; returns their file names."""
-    import os
     names = []
     for fname, title, xcol, ycol, fit_names in FIGURES:
         _plot(os.path.join(fig_dir, fname), title, xcol, ycol, fit_names, rows, fits)
