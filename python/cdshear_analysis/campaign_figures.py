@@ -4,7 +4,8 @@ Bulk laws (mu_eff_I, nu_I, Z_I) and slip against V with their fits; the regime d
 boundary laws (boundary_mu_I, boundary_mu_hI, boundary_nu_I, boundary_nu_ratio, boundary_Z_I)
 and the bulk law for each h (bulk_mu_by_h); switch time / V against L_y (switch_time); and per
 system the steady velocity and mu_eff profiles of every V (profiles_sK). Every point has its
-error bars (standard errors of `analyze`); open markers are runs that are not steady.
+error bars (standard errors of `analyze`); open markers are runs that are not steady, crosses
+steady runs outside the regimes a law is fitted to (regime B and C runs on the bulk laws).
 """
 import os
 
@@ -47,12 +48,19 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
                                              ("slip_top", " top", "^")]
     plotted = False
     xs_all = []
+    # runs outside the regimes the fits take (bulk laws: A only) are drawn as crosses
+    regimes = next((fits[f].get("regimes") for f in fit_names if fits.get(f)), None)
+    kinds = [("steady", True, ""), ("not steady", False, " (not steady)")]
+    if regimes:
+        kinds.insert(1, ("other regime", True, f" (regime not {'/'.join(regimes)}, not fitted)"))
     for i, system in enumerate(systems):
         c = colours[i % len(colours)]
         for col, label, marker in series:
-            for steady in (True, False):
+            for kind, steady, suffix in kinds:
                 sel = [r for r in rows if r["system"] == system and r[xcol] is not None and
-                       r[col] is not None and bool(r["steady"]) == steady]
+                       r[col] is not None and bool(r["steady"]) == steady and
+                       (not regimes or not steady or
+                        (r.get("regime") in regimes) == (kind == "steady"))]
                 if not sel:
                     continue
                 x = [r[xcol] for r in sel]
@@ -60,9 +68,10 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
                 yerr = [r[col + "_err"] or 0.0 for r in sel]
                 xerr = [r.get(xcol + "_err") or 0.0 for r in sel]
                 name = f"system {system}" if system is not None else "other runs"
-                ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr, fmt=marker,
-                            color=c, mfc=c if steady else "none", capsize=2, ms=5,
-                            label=f"{name}{label}{'' if steady else ' (not steady)'}")
+                ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr,
+                            fmt="x" if kind == "other regime" else marker, color=c,
+                            mfc=c if kind == "steady" else "none", capsize=2, ms=5,
+                            label=f"{name}{label}{suffix}")
                 plotted = True
     for j, fname in enumerate(fit_names):
         f = fits.get(fname)

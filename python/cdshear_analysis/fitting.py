@@ -76,14 +76,15 @@ MODELS = {
 }
 
 
-def law(model, params, y, x, x_range=None):
-    """A law: model family, parameter names, the names of y and x, an optional open x range."""
+def law(model, params, y, x, x_range=None, regimes=None):
+    """A law: model family, parameter names, the names of y and x, an optional open x range,
+    and the regimes whose runs it is fitted to (None: every steady run)."""
     text = MODELS[model]["formula"].format(*params).replace("Y", y).replace(
         "X", f"({x})" if " " in x else x)
     if x_range:
         text += f"  ({x_range[0]:g} < {x} < {x_range[1]:g})"
     return {"model": model, "params": list(params), "y": y, "x": x, "range": x_range,
-            "law": text}
+            "regimes": list(regimes) if regimes else None, "law": text}
 
 
 def select(points, x_range=None):
@@ -111,7 +112,7 @@ def fit(spec, points):
     kept, no_err = select(points, spec["range"])
     out = {"law": spec["law"], "model": spec["model"], "x": spec["x"], "y": spec["y"],
            "range": list(spec["range"]) if spec["range"] else None,
-           "status": "skipped", "reason": None, "n_points": len(kept),
+           "regimes": spec.get("regimes"), "status": "skipped", "reason": None, "n_points": len(kept),
            "points_without_error": no_err, "runs": [p[3] for p in kept], "parameters": None,
            "covariance": None, "chi2": None, "dof": None, "chi2_dof": None, "note": None}
     if len(kept) < k + 1:
@@ -167,12 +168,14 @@ def fit(spec, points):
 
 
 def fit_columns(spec, rows, x=None, y=None):
-    """Fit a law to the steady rows (report.read_run) with the columns x and y (default: the
-    law's own), the error of y from the column y + "_err"."""
+    """Fit a law to the steady rows (report.read_run) of the law's regimes with the columns x
+    and y (default: the law's own), the error of y from the column y + "_err"."""
     x, y = x or spec["x"], y or spec["y"]
-    spec = dict(law(spec["model"], spec["params"], y, x, spec["range"]))
+    regimes = spec.get("regimes")
+    spec = dict(law(spec["model"], spec["params"], y, x, spec["range"], regimes))
     return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"]) for r in rows
-                      if r.get("steady") is True])
+                      if r.get("steady") is True
+                      and (not regimes or r.get("regime") in regimes)])
 
 
 def curve(result, x):

@@ -242,12 +242,19 @@ def _cell(v):
 # ---------------------------------------------------------------------------------------------
 # Fits of the bulk laws (fitting.py does the fitting; boundary_laws.py the boundary layers)
 
+# The bulk laws take the steady runs in regime A only: in B and C the bulk does not flow (it
+# moves as a block, I_bulk ~ 1e-5 from noise) and sits below its yield friction, so its
+# (I, mu_eff) is no point of the flow law (docs/campaigns.md, "Which runs each law takes").
+BULK_REGIMES = ("A",)
 FITS = {
-    "mu_power": fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_bulk", "I_bulk"),
-    "mu_linear": fitting.law("linear_plus", ["a", "b"], "mu_eff_bulk", "I_bulk", LINEAR_RANGE),
+    "mu_power": fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_bulk", "I_bulk",
+                            regimes=BULK_REGIMES),
+    "mu_linear": fitting.law("linear_plus", ["a", "b"], "mu_eff_bulk", "I_bulk", LINEAR_RANGE,
+                             BULK_REGIMES),
     "nu_linear": fitting.law("linear_minus", ["nu_max", "c"], "nu_bulk", "I_bulk",
-                             LINEAR_RANGE),
-    "Z_power": fitting.law("power_minus", ["Z_0", "c", "e"], "Z_bulk", "I_bulk"),
+                             LINEAR_RANGE, BULK_REGIMES),
+    "Z_power": fitting.law("power_minus", ["Z_0", "c", "e"], "Z_bulk", "I_bulk",
+                           regimes=BULK_REGIMES),
 }
 
 

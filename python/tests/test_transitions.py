@@ -189,7 +189,9 @@ class ReportTransitionTest(unittest.TestCase):
         self.tmp.cleanup()
 
     def test_report_writes_transitions_predictions_and_the_diagram(self):
-        for V, g in ((0.01, "C"), (0.05, "B"), (0.2, "B"), (1.0, "A"), (2.0, "A")):
+        runs = ((0.01, "C"), (0.05, "B"), (0.2, "B"), (1.0, "A"), (1.5, "A"), (2.0, "A"),
+                (3.0, "A"))
+        for V, g in runs:
             s = fake_summary(os.path.join(self.d, "runs", f"s1_seed1_V{V:g}"), V, 0.1 * V,
                              0.3 + 0.2 * V, 0.8 - 0.05 * V, 3.5, regime=g, steady=V > 0.02)
             if g == "C":   # one C run with switches and a friction per wall
@@ -211,7 +213,12 @@ class ReportTransitionTest(unittest.TestCase):
         self.assertAlmostEqual(c["predicted_T"], tr.RHO
                                * 2 * (0.8 - 0.05 * 0.01) * 0.01 * 20.1 / (0.02 * 0.25))
         self.assertEqual(c["mean_interval"], 600.0)
-        self.assertEqual(len(fits["predictions"]["steady_state_time_A"]), 2)
+        self.assertEqual(len(fits["predictions"]["steady_state_time_A"]), 4)
+        # the bulk laws take the regime A runs only (the bulk of B and C does not flow)
+        mu = fits["fits"]["mu_power"]
+        self.assertEqual(mu["regimes"], ["A"])
+        self.assertEqual(sorted(mu["runs"]), sorted(f"s1_seed1_V{V:g}" for V, g in runs
+                                                    if g == "A"))
         self.assertTrue(os.path.isfile(os.path.join(out, "figures", "regimes.png")))
         with open(os.path.join(out, "index.html")) as f:
             text = f.read()
