@@ -101,7 +101,7 @@ void usage() {
   --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
   --reference-relaxation W
                       relaxation of --step-error's reference solve (default 1: Gauss-Seidel;
-                      same fixed point, but 1.6 to 1.8 reach round-off in tall cells)
+                      every relaxation has the same fixed point)
   --alpha A           convergence tolerance (solver.alpha, default 1e-6; 0: every step sweeps
                       max-sweeps times, to compare settings at equal sweeps)
   --step-error N      after each case, N times: solve one step with the case's settings and
@@ -378,8 +378,9 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
 /// the sweeps of both solves. The reference relaxes its updates by `reference_relaxation`
 /// whatever `options` does (every relaxation has Gauss-Seidel's fixed points, so a converged
-/// reference is the same solution; 1 takes hundreds of thousands of sweeps in a cell 200 d tall).
-/// A reference that stops at its cap is flagged. The world goes on with `options`.
+/// reference is the same solution). A reference that stops at its cap is flagged: in the
+/// 200 d tall cell most do, whatever the relaxation (docs/accuracy.md, "Tall cells"). The world
+/// goes on with `options`.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
                 int spacing, double reference_relaxation) {
   StepOptions tight = options;
