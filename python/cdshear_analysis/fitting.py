@@ -113,7 +113,8 @@ def fit(spec, points):
     out = {"law": spec["law"], "model": spec["model"], "x": spec["x"], "y": spec["y"],
            "range": list(spec["range"]) if spec["range"] else None,
            "regimes": spec.get("regimes"), "status": "skipped", "reason": None,
-           "n_points": len(kept), "points_without_error": no_err, "runs": [p[3] for p in kept], "parameters": None,
+           "n_points": len(kept), "points_without_error": no_err, "runs": [p[3] for p in kept],
+           "parameters": None,
            "covariance": None, "chi2": None, "dof": None, "chi2_dof": None, "note": None}
     if len(kept) < k + 1:
         where = (f" with {spec['range'][0]:g} < {spec['x']} < {spec['range'][1]:g}"
