@@ -490,7 +490,9 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
                  html.escape(regime), _fmt(r["time_reached"]), _fmt(r["band_switches"])]
         cells += [_pm(r, c) for c in shown]
         out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    out.append("</table><h2>Fits over the steady runs (bulk)</h2>")
+    out.append("</table><h2>Fits of the bulk laws</h2><p>Over the steady runs in regime "
+               f"{' or '.join(BULK_REGIMES)}: in B and C the bulk moves as a block and is no "
+               "point of the flow law (crosses on the figures).</p>")
     out += _fit_table(fits.items())
     out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
                "scaled by sqrt(chi2/dof) when that exceeds 1.</p>")
