@@ -77,7 +77,10 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
         f = fits.get(fname)
         if f is None or f["status"] != "ok":
             continue
-        xs = [x for x in xs_all if x > 0]
+        # the curve spans the points it was fitted to (no extrapolation over other regimes)
+        fitted = set(f.get("runs") or [])
+        xs = [r[xcol] for r in rows if r.get("run") in fitted and (r.get(xcol) or 0) > 0] or \
+            [x for x in xs_all if x > 0]
         lo, hi = f["range"] if f["range"] else (min(xs), max(xs))
         grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
         ax.plot(grid, fitting.curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
@@ -261,14 +264,22 @@ def bulk_by_h_figure(path, rows, boundary):
                and r[f"{c}_bulk_I"] > 0 and r.get(f"{c}_bulk_mu_eff") is not None]
         if not sel:
             continue
-        x = [r[f"{c}_bulk_I"] for r in sel]
-        xs += x
-        ax.errorbar(x, [r[f"{c}_bulk_mu_eff"] for r in sel],
-                    yerr=[r.get(f"{c}_bulk_mu_eff_err") or 0 for r in sel],
-                    fmt=H_MARKERS[k % 8], color=colours[k % len(colours)], ms=4, capsize=2,
-                    label=f"bulk with h = {h:g}")
-        _curve(ax, boundary[c]["bulk"]["mu_power"], x, H_STYLES[k % 4],
-               f"h = {h:g}: mu_power")
+        fit = boundary[c]["bulk"]["mu_power"]
+        regimes = fit.get("regimes") if fit else None
+        for fitted in (True, False):
+            part = [r for r in sel if not regimes or (r.get("regime") in regimes) == fitted]
+            if not part:
+                continue
+            x = [r[f"{c}_bulk_I"] for r in part]
+            xs += x
+            ax.errorbar(x, [r[f"{c}_bulk_mu_eff"] for r in part],
+                        yerr=[r.get(f"{c}_bulk_mu_eff_err") or 0 for r in part],
+                        fmt=H_MARKERS[k % 8] if fitted else "x", color=colours[k % len(colours)],
+                        ms=4, capsize=2, label=f"bulk with h = {h:g}" + (
+                            "" if fitted else f" (regime not {'/'.join(regimes)}, not fitted)"))
+        fitted_runs = set(fit.get("runs") or []) if fit else set()
+        _curve(ax, fit, [r[f"{c}_bulk_I"] for r in sel if r["run"] in fitted_runs],
+               H_STYLES[k % 4], f"h = {h:g}: mu_power")
     _finish(plt, fig, ax, path, "bulk mu_eff(I) measured with each boundary thickness h",
             "bulk inertial number I", "mu_eff (bulk)", xs)
 
