@@ -281,6 +281,27 @@ TEST(ShearCase, DefaultTimeStepBoundsTheWallDisplacement) {
   EXPECT_FALSE(resolve_time_step(fast).empty());
 }
 
+// The preparation's contact order and dormant-contact skipping change the packing, so they
+// enter the cache name; at their defaults the name is the one packings had before the keys
+// existed (the fixtures and users' caches stay valid).
+TEST(ShearCase, PreparationSolverKeysEnterThePackingCacheName) {
+  const ShearCase base = load_case(with({}));
+  EXPECT_EQ(base.preparation.step.solver.order, ContactOrder::kRandom);
+  EXPECT_FALSE(base.preparation.step.solver.skip_dormant);
+  const std::string name = packing_cache_name(base.preparation);
+  EXPECT_EQ(packing_cache_name(load_case(with({"preparation.order=random"})).preparation), name);
+  const ShearCase coloured = load_case(with({"preparation.order=coloured"}));
+  EXPECT_EQ(coloured.preparation.step.solver.order, ContactOrder::kColoured);
+  const ShearCase skipping = load_case(with({"preparation.skip_dormant=true"}));
+  EXPECT_TRUE(skipping.preparation.step.solver.skip_dormant);
+  const std::string a = packing_cache_name(coloured.preparation);
+  const std::string b = packing_cache_name(skipping.preparation);
+  EXPECT_NE(a, name);
+  EXPECT_NE(b, name);
+  EXPECT_NE(a, b);
+  expect_case_error(with({"preparation.order=diagonal"}), "preparation.order", "coloured");
+}
+
 TEST(ShearCase, PresetsFollowTheReferenceTable) {
   ShearCase c;
   apply_system_preset(c, 7);

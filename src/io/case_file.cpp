@@ -87,6 +87,12 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   p.step.solver.relaxation = prep.positive("relaxation", p.step.solver.relaxation);
   if (!(p.step.solver.relaxation < 2.0))
     prep.fail("relaxation", "must be < 2 (projected SOR diverges)");
+  const std::string prep_order = prep.choice(
+      "order",
+      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
+      contact_order_name(p.step.solver.order));
+  contact_order_from_name(prep_order, p.step.solver.order);
+  p.step.solver.skip_dormant = prep.boolean("skip_dormant", p.step.solver.skip_dormant);
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
 
@@ -213,6 +219,8 @@ toml::table case_to_toml(const ShearCase& c) {
                    {"alpha", p.step.solver.alpha},
                    {"max_sweeps", p.step.solver.max_sweeps},
                    {"relaxation", p.step.solver.relaxation},
+                   {"order", contact_order_name(p.step.solver.order)},
+                   {"skip_dormant", p.step.solver.skip_dormant},
                    {"packing", c.packing_file}}},
       {"output", toml::table{{"status_interval", c.status_interval},
                              {"checkpoint_interval", c.checkpoint_interval},

@@ -92,10 +92,13 @@ std::string packing_cache_name(const PreparationOptions& o) {
                   o.kinetic_energy_per_disk, o.piston_speed, o.force_balance, o.window_time,
                   o.max_time_per_phase, o.step.dt, o.compression_dt, o.step.contact_margin,
                   o.step.abort_overlap, s.alpha, s.converged_fraction, s.max_sweeps, s.seed);
-  // Added only when it is not 1, so that the names of packings made before it existed hold.
-  const std::string relaxed = s.relaxation != 1.0 ? fmt::format(" r{}", s.relaxation) : "";
+  // Added only when they differ from the defaults they were introduced with (relaxation 1,
+  // random order, every contact swept), so that the names of packings made before them hold.
+  std::string added = s.relaxation != 1.0 ? fmt::format(" r{}", s.relaxation) : "";
+  if (s.order != ContactOrder::kRandom) added += fmt::format(" o{}", contact_order_name(s.order));
+  if (s.skip_dormant) added += " sd";
   std::uint32_t h = 2166136261u;  // FNV-1a
-  for (const unsigned char ch : all + relaxed) h = (h ^ ch) * 16777619u;
+  for (const unsigned char ch : all + added) h = (h ^ ch) * 16777619u;
   return fmt::format("n{}_h{}_d{}-{}_seed{}_s{}_{:08x}.json", o.n, o.height, o.diameter_min,
                      o.diameter_max, o.seed, o.piston_stress, h);
 }
