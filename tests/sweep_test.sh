@@ -3,7 +3,8 @@
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
 # redoes nothing; a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
 # untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
-# finishes all; a changed campaign for the same folder is refused.
+# finishes all; a run killed between its last step and its analysis is analysed, not run again;
+# a changed campaign for the same folder is refused.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -41,6 +42,31 @@ sums=$(md5sum "$dir"/runs/*/run_info.json)
 "$exe" sweep two.toml > again.out || fail "second sweep exited $?"
 grep -q "2 finished earlier" again.out || fail "second sweep: $(cat again.out)"
 [ "$sums" = "$(md5sum "$dir"/runs/*/run_info.json)" ] || fail "a finished run was redone"
+
+# 1b. A run killed after its last step, before its run_info.json and its analysis were written,
+# is not run again (a resume would be refused: it reached its end); a missing summary.json is
+# made by `cdshear analyze`.
+cat > measured.toml <<TOML
+[campaign]
+name = "measured"
+systems = [1]
+velocities = [1.0]
+duration = 4
+packing = { 1 = "$packing" }
+[set]
+output.checkpoint_interval = 1
+measure.window = 1
+TOML
+"$exe" sweep measured.toml -o measured > measured.out 2>&1 || fail "measured: $(cat measured.out)"
+ended=measured/runs/s1_seed1_V1
+test -f $ended/summary.json || fail "the measured run was not analysed"
+rm $ended/run_info.json $ended/summary.json
+state=$(md5sum $ended/final_state.json)
+"$exe" sweep measured.toml -o measured > ended.out 2>&1 || fail "ended: $(cat ended.out)"
+grep -q "1 finished earlier (1 to analyse)" ended.out || fail "ended run: $(cat ended.out)"
+[ "$state" = "$(md5sum $ended/final_state.json)" ] || fail "the ended run was run again"
+test -f $ended/summary.json || fail "the ended run was not analysed"
+ls $ended/run_info_resume_*.json > /dev/null 2>&1 && fail "the ended run was resumed"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 campaign three "[0.25, 0.5, 1.0]"
@@ -103,5 +129,5 @@ rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
 grep -q "campaign.strain" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
 test ! -e huge || fail "a refused campaign wrote its folder"
 
-echo "sweep_test: campaigns run, skip finished runs, resume interrupted ones, refuse changes, a"\
-  "busy folder and runs beyond the limits"
+echo "sweep_test: campaigns run, skip finished runs (analysing one killed before its analysis),"\
+  "resume interrupted ones, refuse changes, a busy folder and runs beyond the limits"

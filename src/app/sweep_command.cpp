@@ -11,12 +11,11 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
+#include <set>
 #include <thread>
 
-#include <nlohmann/json.hpp>
 
 #include "campaign_file.hpp"
 #include "commands.hpp"
@@ -59,22 +58,14 @@ const char* state_name(RunState s) {
   return "?";
 }
 
-/// Finished: final_state.json (written only when the run reached its duration) and a
-/// run_info*.json whose outcome is "finished". Blown up: blowup_state.json (a resume would
-/// repeat the same steps). Interrupted: a checkpoint to resume from. Otherwise new.
+/// Finished: final_state.json (written only when the run reached its duration), whether or not
+/// a run_info*.json says "finished" too: a run killed between writing the two has every step
+/// done, and resuming it would be refused (it reached its end), so it counts as finished.
+/// Blown up: blowup_state.json (a resume would repeat the same steps). Interrupted: a
+/// checkpoint to resume from. Otherwise new.
 RunState run_state(const fs::path& dir) {
   if (!fs::is_directory(dir)) return RunState::kNew;
-  bool finished_info = false;
-  for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind("run_info", 0) != 0 || e.path().extension() != ".json") continue;
-    std::ifstream in(e.path());
-    const nlohmann::json info = nlohmann::json::parse(in, nullptr, false);
-    if (info.is_object() && info.contains("summary") && info["summary"].is_object() &&
-        info["summary"].value("outcome", "") == "finished")
-      finished_info = true;
-  }
-  if (finished_info && fs::exists(dir / "final_state.json")) return RunState::kFinished;
+  if (fs::exists(dir / "final_state.json")) return RunState::kFinished;
   if (fs::exists(dir / "blowup_state.json")) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
   return RunState::kNew;
@@ -202,12 +193,22 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
   std::vector<Planned> planned;
   std::vector<std::string> failed;  // "NAME: why, log FILE"
   std::size_t finished_before = 0;
+  std::set<std::size_t> analysis_jobs;  // jobs that only analyse a finished run
   for (const CampaignRun& r : c.runs) {
     const fs::path rdir = dir / "runs" / r.name;
     const fs::path log = dir / "logs" / (r.name + ".log");
     const RunState state = run_state(rdir);
     if (state == RunState::kFinished) {
       ++finished_before;
+      // Killed after its last step but before (or during) its analysis: analyse it now.
+      if (c.analyze && fs::exists(rdir / "run.h5") && !fs::exists(rdir / "summary.json")) {
+        Job j;
+        j.name = r.name;
+        j.log = log;
+        j.argv = {exe.string(), "analyze", "-q", rdir.string()};
+        analysis_jobs.insert(run_jobs_list.size());
+        run_jobs_list.push_back(j);
+      }
       continue;
     }
     if (state == RunState::kBlownUp) {
@@ -248,9 +249,11 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
     std::size_t resumed = 0;
     for (const Planned& p : planned) resumed += p.before == RunState::kInterrupted;
     std::printf(
-        "sweep %s: %zu runs: %zu finished earlier, %zu to resume, %zu to start; up to %d "
+        "sweep %s: %zu runs: %zu finished earlier%s, %zu to resume, %zu to start; up to %d "
         "at once%s, %s thread%s each -> %s\n",
-        c.name.c_str(), c.runs.size(), finished_before, resumed, planned.size() - resumed, jobs,
+        c.name.c_str(), c.runs.size(), finished_before,
+        analysis_jobs.empty() ? "" : fmt::format(" ({} to analyse)", analysis_jobs.size()).c_str(),
+        resumed, planned.size() - resumed, jobs,
         remote != nullptr ? " (MPI: one per worker rank)" : "", threads.c_str(),
         args.threads == 1 ? "" : "s", dir.c_str());
     std::fflush(stdout);
@@ -261,6 +264,15 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
   std::vector<std::string> interrupted;
   const ScheduleResult res = schedule(run_jobs_list, [&](const JobEnd& e, const JobProgress& p) {
     const Job& j = run_jobs_list[e.job];
+    if (analysis_jobs.count(e.job) != 0) {
+      if (e.exit_code != 0)
+        failed.push_back(fmt::format("{}: finished, but its analysis failed (exit {}), log {}",
+                                     j.name, e.exit_code, j.log.string()));
+      else if (!args.quiet)
+        std::printf("sweep: %s analysed (it had ended before its analysis)\n", j.name.c_str());
+      std::fflush(stdout);
+      return;
+    }
     const RunState after = run_state(dir / "runs" / j.name);
     std::string what = state_name(after);
     if (after == RunState::kFinished) {
