@@ -16,7 +16,6 @@
 #include <set>
 #include <thread>
 
-
 #include "campaign_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
