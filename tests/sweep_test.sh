@@ -60,12 +60,13 @@ TOML
 "$exe" sweep measured.toml -o measured > measured.out 2>&1 || fail "measured: $(cat measured.out)"
 ended=measured/runs/s1_seed1_V1
 test -f $ended/summary.json || fail "the measured run was not analysed"
-rm $ended/run_info.json $ended/summary.json
+rm -r $ended/run_info.json $ended/summary.json $ended/figures
 state=$(md5sum $ended/final_state.json)
 "$exe" sweep measured.toml -o measured > ended.out 2>&1 || fail "ended: $(cat ended.out)"
 grep -q "1 finished earlier (1 to analyse)" ended.out || fail "ended run: $(cat ended.out)"
 [ "$state" = "$(md5sum $ended/final_state.json)" ] || fail "the ended run was run again"
 test -f $ended/summary.json || fail "the ended run was not analysed"
+ls $ended/figures/*.png > /dev/null 2>&1 || fail "the ended run's figures were not made"
 ls $ended/run_info_resume_*.json > /dev/null 2>&1 && fail "the ended run was resumed"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.

@@ -57,6 +57,7 @@ void register_analysis_commands(CLI::App& app) {
   struct Args {
     std::string dir, out;
     bool quiet = false;
+    bool plot = false;
   };
   auto analyze = std::make_shared<Args>();
   CLI::App* a = app.add_subcommand(
@@ -65,10 +66,13 @@ void register_analysis_commands(CLI::App& app) {
       "summary.json");
   a->add_option("run_dir", analyze->dir, "run folder (holding run.h5)")->required();
   a->add_flag("-q,--quiet", analyze->quiet, "write summary.json without printing the report");
+  a->add_flag("--plot", analyze->plot,
+              "then write the run's figures too (RUN_DIR/figures/), as `cdshear run` does");
   a->callback([analyze]() {
-    const int rc = run_analysis(
+    int rc = run_analysis(
         "analyze", analyze->dir,
         analyze->quiet ? std::vector<std::string>{"--quiet"} : std::vector<std::string>{});
+    if (rc == 0 && analyze->plot) rc = run_analysis("plot", analyze->dir, {});
     if (rc != 0) throw CLI::RuntimeError(rc);
   });
   auto plot = std::make_shared<Args>();

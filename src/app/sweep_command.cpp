@@ -199,12 +199,13 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
     const RunState state = run_state(rdir);
     if (state == RunState::kFinished) {
       ++finished_before;
-      // Killed after its last step but before (or during) its analysis: analyse it now.
+      // Killed after its last step but before (or during) its analysis: analyse and plot it
+      // now, as the run would have.
       if (c.analyze && fs::exists(rdir / "run.h5") && !fs::exists(rdir / "summary.json")) {
         Job j;
         j.name = r.name;
         j.log = log;
-        j.argv = {exe.string(), "analyze", "-q", rdir.string()};
+        j.argv = {exe.string(), "analyze", "-q", "--plot", rdir.string()};
         analysis_jobs.insert(run_jobs_list.size());
         run_jobs_list.push_back(j);
       }

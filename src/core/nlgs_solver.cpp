@@ -341,14 +341,38 @@ int solver_threads_available() {
 #endif
 }
 
-SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
+SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
                             std::size_t first_wall, double dt, const SolverOptions& options,
                             std::uint64_t step, SolverWorkspace& workspace) {
   SolverReport report;
   const std::size_t nc = contacts.size();
   if (nc == 0) return report;
   SolverWorkspace& ws = workspace;
-  order_rows(contacts, bodies, first_wall, options, step, ws);
+  order_rows(contacts, all_bodies, first_wall, options, step, ws);
+
+  // Coloured order: the sweeps work on a copy of the bodies the rows touch, numbered in the
+  // order the rows first use them. A slab's rows are contiguous, so its bodies are too, and two
+  // threads solving two slabs write to different cache lines (with the bodies in their own
+  // numbering, neighbours in space are scattered in memory and the threads' writes to shared
+  // cache lines serialise them). The arithmetic is the same, so are the results.
+  const bool renumbered = options.order == ContactOrder::kColoured;
+  if (renumbered) {
+    constexpr std::uint32_t kNotLocal = 0xffffffffu;
+    ws.local_of.assign(all_bodies.size(), kNotLocal);
+    ws.local_bodies.clear();
+    ws.global_of.clear();
+    for (std::size_t i = 0; i < nc; ++i) {
+      const Contact& c = contacts[ws.order[i]];
+      for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
+        const auto body = static_cast<std::size_t>(key);
+        if (ws.local_of[body] != kNotLocal) continue;
+        ws.local_of[body] = static_cast<std::uint32_t>(ws.local_bodies.size());
+        ws.local_bodies.push_back(all_bodies[body]);
+        ws.global_of.push_back(static_cast<std::uint32_t>(body));
+      }
+    }
+  }
+  std::vector<SolverBody>& bodies = renumbered ? ws.local_bodies : all_bodies;
 
   // Prepare: the rows in visit order (the sweeps then read them front to back), their Delassus
   // entries, then the warm start (apply the carried-over impulses).
@@ -358,9 +382,15 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   for (std::size_t i = 0; i < nc; ++i) {
     const Contact& c = contacts[ws.order[i]];
     SolverRow& row = rows[i];
-    SolverBody& a = bodies[c.key.body_a];
-    SolverBody& b = bodies[c.key.body_b];
+    const auto global_a = static_cast<std::size_t>(c.key.body_a);
+    const auto global_b = static_cast<std::size_t>(c.key.body_b);
+    const std::size_t ia = renumbered ? ws.local_of[global_a] : global_a;
+    const std::size_t ib = renumbered ? ws.local_of[global_b] : global_b;
+    SolverBody& a = bodies[ia];
+    SolverBody& b = bodies[ib];
     fill_row(row, c, a, b, inv_dt);
+    row.body_a = static_cast<std::uint32_t>(ia);
+    row.body_b = static_cast<std::uint32_t>(ib);
     apply_impulse(row, a, b, row.impulse_n, row.impulse_t);
   }
   const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
@@ -457,6 +487,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     c.impulse_t = rows[i].impulse_t;
     report.active_contacts += c.impulse_n > 0.0;
   }
+  if (renumbered)
+    for (std::size_t k = 0; k < ws.global_of.size(); ++k)
+      all_bodies[ws.global_of[k]] = ws.local_bodies[k];
   return report;
 }
 

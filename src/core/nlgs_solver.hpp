@@ -150,6 +150,11 @@ struct SolverWorkspace {
   std::vector<std::size_t> next;                                 ///< scratch of the group sort
   std::vector<std::uint32_t> sorted;                             ///< scratch of the group sort
   std::vector<std::uint32_t> wall_band;  ///< band of every contact of each wall, if only one
+  /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
+  /// (each slab's bodies side by side in memory), and the map back to `bodies`.
+  std::vector<SolverBody> local_bodies;
+  std::vector<std::uint32_t> local_of;   ///< body -> its local index (kNotLocal: untouched)
+  std::vector<std::uint32_t> global_of;  ///< local index -> body
 };
 
 /// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.
