@@ -77,14 +77,8 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
         f = fits.get(fname)
         if f is None or f["status"] != "ok":
             continue
-        # the curve spans the points it was fitted to (no extrapolation over other regimes)
-        fitted = set(f.get("runs") or [])
-        xs = [r[xcol] for r in rows if r.get("run") in fitted and (r.get(xcol) or 0) > 0] or \
-            [x for x in xs_all if x > 0]
-        lo, hi = f["range"] if f["range"] else (min(xs), max(xs))
-        grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
-        ax.plot(grid, fitting.curve(f, grid), "-" if j == 0 else "--", color="k", lw=1,
-                label=f"{fname}: {f['law']}")
+        _curve(ax, f, _fitted_x(rows, f, xcol) or xs_all, "-" if j == 0 else "--",
+               f"{fname}: {f['law']}")
     if not plotted:
         ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
     elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
@@ -186,6 +180,12 @@ def _finish(plt, fig, ax, path, title, xlabel, ylabel, xs, legend=True):
     plt.close(fig)
 
 
+def _fitted_x(rows, fit, xcol):
+    """x of the rows a fit took: its curve spans those, not the runs of other regimes."""
+    runs = set((fit or {}).get("runs") or [])
+    return [r[xcol] for r in rows if r.get("run") in runs and (r.get(xcol) or 0) > 0]
+
+
 def _curve(ax, fit, xs, style, label):
     """The fit's curve over the points' x range (inside its own range), if it was fitted."""
     xs = [x for x in xs if x > 0]
@@ -277,9 +277,8 @@ def bulk_by_h_figure(path, rows, boundary):
                         fmt=H_MARKERS[k % 8] if fitted else "x", color=colours[k % len(colours)],
                         ms=4, capsize=2, label=f"bulk with h = {h:g}" + (
                             "" if fitted else f" (regime not {'/'.join(regimes)}, not fitted)"))
-        fitted_runs = set(fit.get("runs") or []) if fit else set()
-        _curve(ax, fit, [r[f"{c}_bulk_I"] for r in sel if r["run"] in fitted_runs],
-               H_STYLES[k % 4], f"h = {h:g}: mu_power")
+        _curve(ax, fit, _fitted_x(sel, fit, f"{c}_bulk_I"), H_STYLES[k % 4],
+               f"h = {h:g}: mu_power")
     _finish(plt, fig, ax, path, "bulk mu_eff(I) measured with each boundary thickness h",
             "bulk inertial number I", "mu_eff (bulk)", xs)
 

@@ -231,7 +231,7 @@ void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
     return;  // load_case has read it already; nothing to compare if it cannot be read again
   }
   const toml::table resolved = case_to_toml(c);
-  for (const std::string& key : keys_missing_from(written, c)) {
+  for (const std::string& key : keys_missing_from(written, resolved)) {
     std::ostringstream value;
     value << resolved.at_path(key);
     std::fprintf(stderr,

@@ -87,11 +87,7 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   p.step.solver.relaxation = prep.positive("relaxation", p.step.solver.relaxation);
   if (!(p.step.solver.relaxation < 2.0))
     prep.fail("relaxation", "must be < 2 (projected SOR diverges)");
-  const std::string prep_order = prep.choice(
-      "order",
-      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
-      contact_order_name(p.step.solver.order));
-  contact_order_from_name(prep_order, p.step.solver.order);
+  p.step.solver.order = read_contact_order(prep, p.step.solver.order);
   p.step.solver.skip_dormant = prep.boolean("skip_dormant", p.step.solver.skip_dormant);
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
@@ -233,9 +229,8 @@ toml::table case_to_toml(const ShearCase& c) {
                               {"force_threshold", c.measure.force_threshold}}}};
 }
 
-std::vector<std::string> keys_missing_from(const toml::table& table, const ShearCase& c) {
+std::vector<std::string> keys_missing_from(const toml::table& table, const toml::table& resolved) {
   std::vector<std::string> missing;
-  const toml::table resolved = case_to_toml(c);
   for (const auto& [section, values] : resolved) {
     const toml::table* given = table[section].as_table();
     const toml::table* wanted = values.as_table();

@@ -34,9 +34,9 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
 /// Every parameter of the case, as TOML (the resolved case).
 toml::table case_to_toml(const ShearCase& c);
 
-/// The dotted keys of the resolved case `c` that `table` (a case file as written) does not
-/// hold: in a case.toml written by an earlier cdshear, the parameters that the current defaults
-/// now fill in (a resume then runs them with today's defaults).
-std::vector<std::string> keys_missing_from(const toml::table& table, const ShearCase& c);
+/// The dotted keys of `resolved` (case_to_toml of a case) that `table` (a case file as written)
+/// does not hold: in a case.toml written by an earlier cdshear, the parameters that the current
+/// defaults now fill in (a resume then runs them with today's defaults).
+std::vector<std::string> keys_missing_from(const toml::table& table, const toml::table& resolved);
 
 }  // namespace cdshear

@@ -9,16 +9,21 @@ AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
   return m == "free" ? AxisMode::kFree : m == "imposed" ? AxisMode::kImposed : AxisMode::kFixed;
 }
 
+ContactOrder read_contact_order(TomlReader& table, ContactOrder order) {
+  const std::string name = table.choice(
+      "order",
+      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
+      contact_order_name(order));
+  contact_order_from_name(name, order);
+  return order;
+}
+
 SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
   s.alpha = solver.positive("alpha", s.alpha);
   s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
   if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
   s.max_sweeps = static_cast<int>(solver.integer_in("max_sweeps", 1, kMaxSweeps, s.max_sweeps));
-  const std::string order = solver.choice(
-      "order",
-      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
-      contact_order_name(s.order));
-  contact_order_from_name(order, s.order);
+  s.order = read_contact_order(solver, s.order);
   s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
   s.relaxation = solver.positive("relaxation", s.relaxation);
   if (!(s.relaxation < 2.0)) solver.fail("relaxation", "must be < 2 (projected SOR diverges)");

@@ -32,6 +32,9 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
 
 /// The [solver] table, shared by scene and shear-case files; absent keys keep `base`'s values.
 SolverOptions read_solver_options(TomlReader& solver, SolverOptions base);
+
+/// The contact order under `table`.order (random, sequential or coloured), `base` if absent.
+ContactOrder read_contact_order(TomlReader& table, ContactOrder base);
 /// The [step] and [solver] tables of a scene file.
 StepOptions read_step_options(TomlReader& step, TomlReader& solver);
 
