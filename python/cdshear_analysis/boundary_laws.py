@@ -7,7 +7,8 @@ counts: the wall whose velocity jump is the larger; the other layer moves with i
 not sheared (its I_boundary is noise about 0), so it is no point of a flow law. The two walls of
 an A or B run give two points (they share the run's shear stress).
 
-Fits (fitting.py, weighted by the error bars), fits.json `boundary`:
+Fits (fitting.py, weighted by the error bars; the seeds of one (system, V) give one point per
+h and layer, fitting.combine), fits.json `boundary`:
   per h, key "hK": `mu_power` mu_b = mu_0 + A I_b^B, `nu_linear` nu_b = nu_max - c I_b,
     `nu_ratio_linear` nu_b / nu_bulk = r_0 - c I_b (nu_bulk of the same run and h), `Z_power`
     Z_b = Z_0 - c I_b^e, and under "bulk" the bulk laws of report.FITS with that h's bulk
@@ -30,6 +31,10 @@ Predictions, fits.json `predictions`:
     or C runs, the slope d mu_b / d (h I_b) of the sheared layers' points (mean of the two walls
     for B) with its error; "decreasing" when slope + 2 err < 0, "increasing" when slope - 2 err
     > 0, else "undetermined"; beside it the regimes observed at the two velocities.
+  switch_time_C, `delta_mu_law` of each regime-C run (predict_delta_mu): the friction
+    difference between the walls that the pooled B/C law mu_hI_BC gives at the two walls'
+    measured velocity jumps (h I_b = sqrt(m / sigma_yy) dv), per h, beside the delta_mu
+    measured over the switches.
 """
 import math
 
@@ -102,7 +107,15 @@ def layer_points(rows, h):
 
 
 def _points(points, x, y):
-    return [(p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}") for p in points]
+    """fitting.fit points (x, y, err, "run:side", group): the seeds of one (system, V), h,
+    regime and layer are one point (the sheared layer of C runs, whichever wall it is at)."""
+    out = []
+    for p in points:
+        key = fitting.group_key(p)
+        if key is not None:
+            key += (p["h"], p["regime"], "sheared" if p["regime"] == "C" else p["side"])
+        out.append((p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}", key))
+    return out
 
 
 def fit_boundary(rows, bulk_fits):
@@ -236,3 +249,70 @@ def symmetric_state_stability(rows, boundary):
         return {"status": "not available", "reason": "no two velocities of a system with "
                 "steady B or C runs", "intervals": []}
     return {"status": "ok", "reason": None, "intervals": entries}
+
+
+def predict_delta_mu(row, boundary):
+    """The friction difference between the walls of a regime-C run from the boundary law
+    (fits.json predictions `switch_time_C`, `delta_mu_law`; docs/campaigns.md): per h of the
+    run, the pooled B/C law mu_hI_BC (mu_eff of the sheared layers against h I_b =
+    sqrt(m / sigma_yy) dv, every h) at each wall's measured velocity jump dv (`hK_bottom_
+    velocity_jump`, `hK_top_velocity_jump`, taken >= 0), delta_mu = |mu(bottom) - mu(top)|, with
+    the 68% interval of MONTE_CARLO draws of the law's parameters (clipped to the bounds of its
+    family) and of the two jumps (Gaussian, their errors). predicted_T is filled in by the
+    caller (transitions.switch_predictions)."""
+    law = boundary["all_h"]["mu_hI_BC"]
+    out = {"law": "mu_hI_BC: " + law["law"], "law_note": law.get("note"), "status": "ok",
+           "reason": None, "by_h": {}}
+    sigma = row.get("_sigma_yy")
+    if law["status"] != "ok":
+        return dict(out, status="not available",
+                    reason=f"the boundary law mu_hI_BC was skipped: {law['reason']}")
+    if sigma is None or sigma <= 0:
+        return dict(out, status="not available", reason="no positive sigma_yy (normal_stress)")
+    scale = math.sqrt(INERTIAL_MASS / sigma)
+    model = fitting.MODELS[law["model"]]
+    lo_b, hi_b = (np.broadcast_to(b, (len(law["parameters"]),)) for b in model["bounds"])
+    rng = np.random.default_rng(SEED)
+    params = np.clip(fitting.parameter_samples(law, MONTE_CARLO, rng), lo_b, hi_b)
+    span = law.get("x_span")
+    for h in row.get("_layers", []):
+        label = h_label(h)
+        dv = {s: (row.get(f"{label}_{s}_velocity_jump"),
+                  row.get(f"{label}_{s}_velocity_jump_err")) for s in ("bottom", "top")}
+        e = {"h": h, "velocity_jump_bottom": dv["bottom"][0], "velocity_jump_top": dv["top"][0],
+             "hI_bottom": None, "hI_top": None, "mu_bottom": None, "mu_top": None,
+             "delta_mu": None, "interval": None, "interval_note": None, "note": None,
+             "reason": None}
+        out["by_h"][label] = e
+        missing = [s for s, (v, _) in dv.items() if v is None]
+        if missing:
+            e["reason"] = f"no velocity jump of the {' and '.join(missing)} layer for h = {h:g}"
+            continue
+        x = {s: scale * max(0.0, v) for s, (v, _) in dv.items()}
+        mu = {s: float(fitting.curve(law, x[s])) for s in x}
+        draws = {}
+        with np.errstate(all="ignore"):
+            for s, (v, err) in dv.items():
+                xs = scale * np.maximum(0.0, rng.normal(v, err or 0.0, MONTE_CARLO))
+                draws[s] = model["model"](xs, *params.T)
+            interval, _, _ = _interval(np.abs(draws["bottom"] - draws["top"]))
+        delta = abs(mu["bottom"] - mu["top"])
+        e.update(hI_bottom=x["bottom"], hI_top=x["top"], mu_bottom=mu["bottom"],
+                 mu_top=mu["top"], delta_mu=delta, interval=interval)
+        if law.get("note"):
+            # a parameter at its bound: the Gaussian of the covariance is no description of
+            # the law's uncertainty (its draws give nonsense)
+            e.update(interval=None, interval_note="no interval: the law has a parameter at the "
+                     "bound of its range (law_note), its covariance does not describe it")
+        elif interval and not interval[0] <= delta <= interval[1]:
+            e.update(interval=None, interval_note="no interval: the parameter draws do not "
+                     "bracket delta_mu, the law's covariance does not describe its uncertainty")
+        notes = [f"{s} h I_b = {x[s]:.3g}" for s in x   # (rounding: a fitted point is inside)
+                 if span and not span[0] * (1 - 1e-9) <= x[s] <= span[1] * (1 + 1e-9)]
+        if notes:
+            notes = [", ".join(notes) + f" outside the law's points ({span[0]:.3g} to "
+                     f"{span[1]:.3g}): extrapolated"]
+        if min(mu.values()) < 0:
+            notes.append("the law gives mu_eff < 0 there: the extrapolation means nothing")
+        e["note"] = "; ".join(notes) or None
+    return out

@@ -1,18 +1,21 @@
 """Weighted least-squares fits of the SPEC 8 laws, shared by the bulk and the boundary laws.
 
 A law (LAWS) is a model y(x; parameters) with its starting points and bounds; `fit(law, points)`
-fits it to points (x, y, err, label) with scipy.optimize.curve_fit weighted by the error bars
-(sigma = the standard error of y, absolute_sigma=True; the error of x is not used). Points
-without a finite positive error are left out (counted in `points_without_error`); a fit with
+fits it to points (x, y, err, label[, group]) with scipy.optimize.curve_fit weighted by the error
+bars (sigma = the standard error of y, absolute_sigma=True; the error of x is not used). Points
+without a finite positive error are left out (counted in `points_without_error`); the points of
+one group (the seeds of a (system, V), `group_key`) are combined into one first (`combine`:
+inverse-variance weighted mean, its error at least the seeds' standard error); a fit with
 fewer points than parameters + 1 is skipped with its reason. Several starting points are tried
 and the smallest chi2 kept, so a power law is found whether its exponent is below or above 1.
 
 The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
-range, status ("ok" | "skipped"), reason, n_points, points_without_error, runs, parameters
-({name: {value, err, err_scaled}}), covariance (rows and columns in the order of parameters),
-chi2, dof, chi2_dof, note (a parameter at the bound of its range, e.g. an exponent at 0.001:
-the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when that
-exceeds 1 (the scatter is larger than the error bars say).
+range, status ("ok" | "skipped"), reason, n_points (after combining), points_without_error,
+runs (every run of the points), n_runs, combined (the points made of 2+ runs), x_span,
+parameters ({name: {value, err, err_scaled}}), covariance (rows and columns in the order of
+parameters), chi2, dof, chi2_dof, note (a parameter at the bound of its range, e.g. an exponent
+at 0.001: the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when
+that exceeds 1 (the scatter is larger than the error bars say).
 """
 import math
 import warnings
@@ -87,20 +90,60 @@ def law(model, params, y, x, x_range=None, regimes=None):
             "regimes": list(regimes) if regimes else None, "law": text}
 
 
+def group_key(row):
+    """The (system, V) of a campaign run, V to 6 significant digits as in its folder name: the
+    runs of one key (its seeds) are one point of a fit. None (a run alone) without either."""
+    system, V = row.get("system"), finite(row.get("V"))
+    return None if system is None or V is None else (system, f"{V:.6g}")
+
+
+def combine(points):
+    """One point per group of seeds: points (x, y, err, label, group) with a usable error ->
+    (x, y, err, [labels], detail), in the order of each group's first point. A point whose group
+    is None stands alone. Weights w = 1 / err^2: y and x are the weighted means; the error is the
+    propagated 1 / sqrt(sum w), or with 2 seeds or more the standard error of their y values
+    (std, ddof 1, / sqrt(seeds)) when that is larger: the seeds scatter more than their error
+    bars say. detail (None for a point of one run): runs, x, y, err, err_propagated, err_seeds
+    and the seeds' own y and err, for fits.json `combined`."""
+    groups = {}
+    for k, (x, y, e, label, group) in enumerate(points):
+        groups.setdefault(("alone", k) if group is None else ("group", group), []).append(
+            (x, y, e, label))
+    out = []
+    for members in groups.values():
+        if len(members) == 1:
+            x, y, e, label = members[0]
+            out.append((x, y, e, [label], None))
+            continue
+        xs, ys, es = (np.array([m[i] for m in members], float) for i in range(3))
+        w = 1.0 / es ** 2
+        x, y = float(np.sum(w * xs) / np.sum(w)), float(np.sum(w * ys) / np.sum(w))
+        e_prop = float(1.0 / math.sqrt(np.sum(w)))
+        e_seeds = float(np.std(ys, ddof=1) / math.sqrt(len(ys)))
+        labels = [m[3] for m in members]
+        out.append((x, y, max(e_prop, e_seeds), labels, {
+            "runs": labels, "x": x, "y": y, "err": max(e_prop, e_seeds),
+            "err_propagated": e_prop, "err_seeds": e_seeds,
+            "y_runs": [float(v) for v in ys], "err_runs": [float(v) for v in es]}))
+    return out
+
+
 def select(points, x_range=None):
-    """(points kept, count without a usable error): x > 0, finite y, x inside x_range, a finite
-    positive error. points: iterable of (x, y, err, label)."""
-    kept, no_err = [], 0
-    for x, y, e, label in points:
-        x, y, e = finite(x), finite(y), finite(e)
+    """(points kept, count without a usable error): x > 0, finite y and a finite positive error,
+    the seeds of one (system, V) combined (`combine`), then the combined x inside x_range.
+    points: iterable of (x, y, err, label) or (x, y, err, label, group); a point without a
+    usable error is counted when its own x lies inside x_range."""
+    usable, no_err = [], 0
+    for p in points:
+        x, y, e = finite(p[0]), finite(p[1]), finite(p[2])
         if x is None or y is None or x <= 0:
             continue
-        if x_range and not x_range[0] < x < x_range[1]:
-            continue
         if e is None or e <= 0:
-            no_err += 1
+            if not x_range or x_range[0] < x < x_range[1]:
+                no_err += 1
             continue
-        kept.append((x, y, e, label))
+        usable.append((x, y, e, p[3], p[4] if len(p) > 4 else None))
+    kept = [p for p in combine(usable) if not x_range or x_range[0] < p[0] < x_range[1]]
     return kept, no_err
 
 
@@ -113,14 +156,20 @@ def fit(spec, points):
     out = {"law": spec["law"], "model": spec["model"], "x": spec["x"], "y": spec["y"],
            "range": list(spec["range"]) if spec["range"] else None,
            "regimes": spec.get("regimes"), "status": "skipped", "reason": None,
-           "n_points": len(kept), "points_without_error": no_err, "runs": [p[3] for p in kept],
+           "n_points": len(kept), "points_without_error": no_err,
+           "runs": [label for p in kept for label in p[3]],
+           "n_runs": sum(len(p[3]) for p in kept),
+           "combined": [p[4] for p in kept if p[4] is not None],
+           "x_span": [min(p[0] for p in kept), max(p[0] for p in kept)] if kept else None,
            "parameters": None,
            "covariance": None, "chi2": None, "dof": None, "chi2_dof": None, "note": None}
     if len(kept) < k + 1:
         where = (f" with {spec['range'][0]:g} < {spec['x']} < {spec['range'][1]:g}"
                  if spec["range"] else "")
-        out["reason"] = (f"too few points: {len(kept)}{where} with {spec['y']} and its error, "
-                         f"{k + 1} needed for {k} parameters")
+        runs = (f" (from {out['n_runs']} runs, seeds of a (system, V) combined)"
+                if out["n_runs"] > len(kept) else "")
+        out["reason"] = (f"too few points: {len(kept)}{where} with {spec['y']} and its error"
+                         f"{runs}, {k + 1} needed for {k} parameters")
         return out
     x, y, e = (np.array([p[i] for p in kept]) for i in range(3))
     if len(np.unique(x)) < k:
@@ -170,12 +219,13 @@ def fit(spec, points):
 
 def fit_columns(spec, rows, x=None, y=None):
     """Fit a law to the steady rows (report.read_run) of the law's regimes with the columns x
-    and y (default: the law's own), the error of y from the column y + "_err"."""
+    and y (default: the law's own), the error of y from the column y + "_err"; the seeds of one
+    (system, V) are one point (`combine`)."""
     x, y = x or spec["x"], y or spec["y"]
     regimes = spec.get("regimes")
     spec = dict(law(spec["model"], spec["params"], y, x, spec["range"], regimes))
-    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"]) for r in rows
-                      if r.get("steady") is True
+    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"], group_key(r))
+                      for r in rows if r.get("steady") is True
                       and (not regimes or r.get("regime") in regimes)])
 
 

@@ -4,10 +4,11 @@
 every DIR/runs/*/summary.json (written by `cdshear analyze`; this module never analyses a run).
 A run folder without summary.json is listed as "not analysed", a run of campaign.toml without a
 folder as "not started"; both are left out. `fit_laws(rows)` fits the bulk laws of SPEC 8 over
-the steady runs (fitting.py); `write_report(report, out_dir)` writes runs.csv, fits.json,
-figures/*.png (campaign_figures.py) and index.html, with the boundary-layer laws of
-boundary_laws.py and the transition velocities and SPEC 8 predictions of transitions.py
-(docs/campaigns.md, "Reports", documents every column and key).
+the steady runs of every system (fitting.py; the seeds of one (system, V) are one point),
+`fit_laws_per_system(rows)` the same laws over each system alone; `write_report(report,
+out_dir)` writes runs.csv, fits.json, figures/*.png (campaign_figures.py) and index.html, with
+the boundary-layer laws of boundary_laws.py and the transition velocities and SPEC 8
+predictions of transitions.py (docs/campaigns.md, "Reports", documents every column and key).
 """
 import csv
 import html
@@ -264,7 +265,16 @@ def fit_law(name, rows, x=None, y=None):
 
 
 def fit_laws(rows):
+    """fits.json `fits`: every law of FITS over the runs of every system (SPEC 8)."""
     return {name: fit_law(name, rows) for name in FITS}
+
+
+def fit_laws_per_system(rows):
+    """fits.json `fits_per_system`: {"<system>": {law: fit}}, the laws of FITS over each
+    system's runs alone (runs without a system number are in no system); a law with too few
+    points of that system is skipped with its reason, as in `fits`."""
+    systems = sorted({r["system"] for r in rows if r.get("system") is not None})
+    return {str(s): fit_laws([r for r in rows if r.get("system") == s]) for s in systems}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -359,7 +369,8 @@ def _html_transitions(transitions, preds):
     sw = preds["switch_time_C"]
     if sw:
         out.append("<table><tr><th>run</th><th>V</th><th>L_y</th><th>nu</th><th>delta_mu</th>"
-                   "<th>predicted T</th><th>switches</th><th>measured duration</th>"
+                   "<th>predicted T</th><th>delta_mu from the law, T from it</th>"
+                   "<th>switches</th><th>measured duration</th>"
                    "<th>mean interval</th><th>time / switch</th><th>delta_mu implied</th>"
                    "</tr>")
         for e in sw:
@@ -369,11 +380,15 @@ def _html_transitions(transitions, preds):
                                                  if e["switch_duration_err"] else "")
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
-                _fmt(e["delta_mu"]), pred, e["switch_count"], dur, _fmt(e["mean_interval"]),
+                _fmt(e["delta_mu"]), pred, _delta_mu_law_text(e["delta_mu_law"]),
+                e["switch_count"], dur, _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
         out.append("</table><p>Measured duration: com_vx from ±0.5 V to ∓0.5 V (compare with "
                    "T/2, fits.json <code>predicted_T_levels</code>); delta_mu implied: the "
-                   "friction difference that this duration needs.</p>")
+                   "friction difference that this duration needs. delta_mu from the law: "
+                   "|mu(bottom) - mu(top)| of the boundary law of B and C in h I_b at each "
+                   "wall's measured velocity jump, per h, 68% interval in brackets, and the T "
+                   "of that delta_mu.</p>")
     else:
         out.append("<p>no run in regime C</p>")
     out.append("<h3>Regime A: time to steady state T_SS = L_y² / D, "
@@ -396,6 +411,28 @@ def _html_transitions(transitions, preds):
     return out
 
 
+def _delta_mu_law_text(d):
+    """The cell of delta_mu from the boundary law: per h, delta_mu [interval], T."""
+    if d["status"] != "ok":
+        return f"<small>{html.escape(d['reason'] or '')}</small>"
+    out = []
+    for label, e in d["by_h"].items():
+        if e["delta_mu"] is None:
+            out.append(f"{label}: <small>{html.escape(e['reason'] or '')}</small>")
+            continue
+        iv = e["interval"]
+        text = f"{label}: {_fmt(e['delta_mu'], 3)}"
+        text += f" [{_fmt(iv[0], 2)}, {_fmt(iv[1], 2)}]" if iv else ""
+        text += f", T = {_fmt(e['predicted_T'], 3)}" if e["predicted_T"] is not None else ""
+        flags = [f for f, on in (("extrapolated", "extrapolated" in (e["note"] or "")),
+                                 ("mu &lt; 0", "< 0" in (e["note"] or "")),
+                                 ("no interval", e["interval_note"])) if on]
+        out.append(text + (f" <small>({', '.join(flags)})</small>" if flags else ""))
+    if d["law_note"]:
+        out.append(f"<small>law: {html.escape(d['law_note'])}</small>")
+    return "<br>".join(out)
+
+
 def _fit_table(items):
     """An HTML table of fits: (name, fits.json fit) pairs."""
     out = ["<table><tr><th>fit</th><th>law</th><th>points</th><th>parameters</th>"
@@ -413,8 +450,10 @@ def _fit_table(items):
                 params += f"<br><small>{html.escape(f['note'])}</small>"
         else:
             params, chi = "skipped: " + html.escape(f["reason"]), ""
+        points = f"{f['n_points']}" + (f" ({f['n_runs']} runs)"
+                                        if f.get("n_runs", 0) > f["n_points"] else "")
         out.append(f"<tr><td>{html.escape(fname)}</td><td>{html.escape(f['law'])}</td>"
-                   f"<td>{f['n_points']}</td><td style='text-align:left'>{params}</td>"
+                   f"<td>{points}</td><td style='text-align:left'>{params}</td>"
                    f"<td>{chi}</td></tr>")
     return out + ["</table>"]
 
@@ -460,7 +499,7 @@ def _html_run_figures(run_figures):
 
 
 def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
-          run_figures=None):
+          run_figures=None, per_system=None):
     rows = report["rows"]
     name = html.escape(report["campaign"])
     shown = ["I_bulk", "mu_eff_bulk", "mu_eff_wall", "nu_bulk", "Z_bulk", "slip_bottom",
@@ -495,7 +534,15 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
                "point of the flow law (crosses on the figures).</p>")
     out += _fit_table(fits.items())
     out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
-               "scaled by sqrt(chi2/dof) when that exceeds 1.</p>")
+               "scaled by sqrt(chi2/dof) when that exceeds 1. The seeds of one (system, V) are "
+               "one point: their inverse-variance weighted mean, its error the larger of the "
+               "propagated one and the seeds' standard error.</p>")
+    if per_system:
+        out.append("<h3>The bulk laws per system</h3><p>The same laws fitted on each "
+                   "system's runs alone (the laws of SPEC 8 are the ones over all systems, "
+                   "above): do the systems agree?</p>")
+        out += _fit_table([(f"system {s}: {name}", f) for s, laws in per_system.items()
+                           for name, f in laws.items()])
     if boundary is not None:
         out += _html_boundary(boundary)
     if transitions is not None:
@@ -556,6 +603,7 @@ def write_report(report, out_dir):
     paths.append(csv_path)
 
     fits = fit_laws(rows)
+    per_system = fit_laws_per_system(rows)
     transitions = find_transitions(rows)
     boundary = fit_boundary(rows, FITS)
     preds = predictions(rows, fits, boundary, transitions)
@@ -565,6 +613,7 @@ def write_report(report, out_dir):
                    "campaign": report["campaign"], "runs_analysed": len(rows),
                    "runs_steady": sum(1 for r in rows if r["steady"]),
                    "software": report.get("software"), "fits": fits,
+                   "fits_per_system": per_system,
                    "boundary": boundary, "transitions": transitions, "predictions": preds},
                   f, indent=1, allow_nan=False)
     paths.append(fits_path)
@@ -575,6 +624,7 @@ def write_report(report, out_dir):
 
     index = os.path.join(out_dir, "index.html")
     with open(index, "w", encoding="utf-8") as f:
-        f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures))
+        f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures,
+                      per_system))
     paths.append(index)
     return paths

@@ -140,8 +140,10 @@ def _missing(row, cols):
     return [c for c in cols if row.get(c) is None]
 
 
-def switch_predictions(rows):
-    """One entry per regime-C run: the predicted switch time beside the measured switches."""
+def switch_predictions(rows, boundary=None):
+    """One entry per regime-C run: the predicted switch time beside the measured switches, and
+    (`delta_mu_law`) delta_mu and T from the boundary law at the walls' velocity jumps
+    (boundary: boundary_laws.fit_boundary; without it that is "not available")."""
     out = []
     for r in rows:
         if r.get("regime") != "C":
@@ -188,7 +190,34 @@ def switch_predictions(rows):
                                      / (d * e["sigma_yy"]))
         else:
             e["delta_mu_implied"] = None
+        e["delta_mu_law"] = _delta_mu_law(r, e, boundary)
         out.append(e)
+    return out
+
+
+def _delta_mu_law(row, e, boundary):
+    """boundary_laws.predict_delta_mu of the run, with per h the switch time T of its delta_mu
+    (`predicted_T`, and `predicted_T_interval` from the interval of delta_mu)."""
+    from .boundary_laws import predict_delta_mu
+    if boundary is None:
+        return {"law": None, "law_note": None, "status": "not available",
+                "reason": "needs the boundary friction law mu_eff(h I_boundary), not fitted",
+                "by_h": {}}
+    out = predict_delta_mu(row, boundary)
+    ok = not _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]) and e["sigma_yy"] > 0
+
+    def T(dmu):
+        return switch_time(e["V"], e["L_y"], e["nu_bulk"], dmu, e["sigma_yy"]) \
+            if ok and dmu and dmu > 0 else None
+    for entry in out["by_h"].values():
+        entry["predicted_T"] = T(entry["delta_mu"])
+        iv = entry["interval"]
+        # (T falls as delta_mu grows; a lower end of 0 gives no upper end: null)
+        entry["predicted_T_interval"] = [T(iv[1]), T(iv[0])] if iv else None
+        if entry["delta_mu"] is not None and entry["predicted_T"] is None \
+                and entry["reason"] is None:
+            entry["reason"] = ("T not computed: " + ("delta_mu is 0" if ok else "missing " +
+                               ", ".join(_missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]))))
     return out
 
 
@@ -249,6 +278,6 @@ def predictions(rows, fits, boundary=None, transitions=None):
         "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "com_level": COM_LEVEL},
         "V_AB": v_ab,
         "symmetric_state_stability": stability,
-        "switch_time_C": switch_predictions(rows),
+        "switch_time_C": switch_predictions(rows, boundary),
         "steady_state_time_A": steady_state_predictions(rows, fits),
     }
