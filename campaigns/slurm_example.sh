@@ -4,11 +4,11 @@
 # the cluster's MPI (CMake finds it; `cmake -DCDSHEAR_MPI=OFF` builds without). Adapt the
 # #SBATCH lines to your cluster; submit the same script again to resume after a time limit.
 #
-# Rank 0 reads the campaign, holds the folder lock, prepares the packings (through the workers)
-# and hands the runs out, costliest first; every other rank runs one run at a time as a child
-# process. So ask for (runs at once) + 1 tasks: rank 0 takes almost no CPU.
+# Rank 0 reads the campaign, holds the folder lock, has the packings prepared and hands the runs
+# out, costliest first, to every rank, itself included: each rank (rank 0 too, while it
+# coordinates) runs one run at a time as a child process. So ask for as many tasks as runs at once.
 #SBATCH --job-name=cdshear-paper
-#SBATCH --ntasks=33                # 32 runs at once + rank 0
+#SBATCH --ntasks=32                # 32 runs at once, one per rank (rank 0 included)
 #SBATCH --cpus-per-task=1          # = --threads below: solver threads of each run
 #SBATCH --mem-per-cpu=2G
 #SBATCH --time=24:00:00

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <map>
@@ -23,15 +24,23 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// Starts one job; returns its pid. Throws std::runtime_error if the log cannot be opened or
-/// fork fails (exec failures show in the log and as exit status 127).
+int exit_code_of(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return 1;
+}
+
+}  // namespace
+
 pid_t start_job(const Job& job) {
   std::filesystem::create_directories(job.log.parent_path());
   const int fd = ::open(job.log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd < 0)
     throw std::runtime_error("cannot open log file " + job.log.string() + ": " +
                              std::strerror(errno));
-  std::string header = "==== cdshear sweep starts:";
+  std::string header = "==== cdshear sweep starts";
+  if (!job.where.empty()) header += " (" + job.where + ")";
+  header += ":";
   for (const std::string& a : job.argv) header += " " + a;
   header += "\n";
   if (::write(fd, header.data(), header.size()) < 0) { /* the log is best effort */
@@ -68,13 +77,14 @@ pid_t start_job(const Job& job) {
   return pid;
 }
 
-int exit_code_of(int status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return 1;
+std::optional<int> job_exit_code(pid_t pid) {
+  int status = 0;
+  const pid_t ended = ::waitpid(pid, &status, WNOHANG);
+  if (ended == 0 || (ended < 0 && errno == EINTR)) return std::nullopt;
+  // -1: not (or no longer) a child of this process, which start_job's caller does not let
+  // happen; an exit code rather than "still running" so that nobody waits for it forever.
+  return ended == pid ? exit_code_of(status) : 1;
 }
-
-}  // namespace
 
 std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs) {
   std::vector<std::size_t> order(jobs.size());

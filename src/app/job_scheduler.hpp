@@ -3,10 +3,13 @@
 // Used by `cdshear sweep`; knows nothing about runs.
 #pragma once
 
+#include <sys/types.h>
+
 #include <chrono>
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +20,7 @@ struct Job {
   std::vector<std::string> argv;  ///< argv[0] is the program (a path: not looked up in PATH)
   std::filesystem::path log;      ///< stdout and stderr, appended
   double cost = 0.0;              ///< estimated cost, any unit: the costliest start first
+  std::string where;  ///< if set, in the log's first line (under MPI: the rank and host running it)
 };
 
 struct JobEnd {
@@ -66,6 +70,16 @@ struct ScheduleResult {
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
                         const std::function<bool()>& also_stop = {});
+
+/// Starts one job as a child process of this one, as run_jobs does (rank 0 of an MPI sweep keeps
+/// one of its own beside its workers): the command line (and `where`) appended to the log as its
+/// first line, then the job's output. Returns its pid. Throws std::runtime_error if the log cannot
+/// be opened or fork fails (exec failures show in the log and as exit status 127).
+pid_t start_job(const Job& job);
+
+/// The exit code of the child `pid` started by start_job (128 + signal if a signal ended it) if
+/// it has ended, which reaps it; nothing while it runs. Does not wait.
+std::optional<int> job_exit_code(pid_t pid);
 
 /// The jobs' indices, costliest first (ties in list order): the order both schedulers start them.
 std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs);

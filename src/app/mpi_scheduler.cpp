@@ -1,16 +1,25 @@
 // MPI scheduler of `cdshear sweep` (built only with CDSHEAR_WITH_MPI). Rank 0 runs the sweep as
-// without MPI (campaign, folder lock, packings, resume rules, progress, summary, exit code) but
-// hands each job, costliest first, to the next free worker rank (1..N-1); rank 0 itself runs no
-// job. A worker runs one job at a time as a child process through run_jobs (same logs, same
-// SIGTERM forwarding, same checkpoint on stop) and reports its exit code. Nothing is shared but
-// the campaign folder, which must be on a file system every node sees under the same path.
-// Locking: only rank 0 holds DIR/.sweep.lock (and its own children inherit it); the workers'
-// runs do not, so a sweep that dies leaves them to the kernel's PR_SET_PDEATHSIG SIGTERM.
+// without MPI (campaign, folder lock, packings, resume rules, progress, summary, exit code) and
+// hands each job, costliest first, to the next free rank, itself included: every rank 0..N-1
+// runs one job at a time as a child process (same logs, same SIGTERM forwarding, same
+// checkpoint on stop). A worker (rank 1..N-1) runs the job it is sent through run_jobs and
+// reports its exit code; rank 0 starts its own with start_job and looks whether it ended
+// between two polls of the message queue, so that it still coordinates while its run runs.
+// Nothing is shared but the campaign folder, which must be on a file system every node sees
+// under the same path.
+// Locking: only rank 0 holds DIR/.sweep.lock (and its own runs inherit it); the workers' runs
+// do not, so a sweep that dies leaves them to the kernel's PR_SET_PDEATHSIG SIGTERM.
 // A stop request (SIGINT/SIGTERM/SIGHUP) on any rank stops the whole sweep: a worker tells rank
-// 0, rank 0 tells every busy worker, each forwards SIGTERM to its run, and rank 0 exits 130.
+// 0, rank 0 tells every busy worker and sends SIGTERM to its own run, each run checkpoints, rank
+// 0 waits for them all and exits 130. A job that rank 0 cannot start (its log cannot be opened,
+// fork refused) fails the sweep as it would without MPI (every run stops with its checkpoint);
+// on a worker it fails that job only.
 #include "mpi_scheduler.hpp"
 
 #include <mpi.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,6 +27,7 @@
 #include <cstdlib>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -65,57 +75,100 @@ Job decode(const std::string& s) {
   return j;
 }
 
-/// Rank 0: the jobs to the workers, costliest first, as they free up.
-ScheduleResult schedule_on_workers(const std::vector<Job>& jobs, int size,
-                                   const JobEndCallback& on_end) {
+/// "MPI rank R on HOST", in the first line of the log of each job that rank runs.
+std::string rank_and_host(int rank) {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  return "MPI rank " + std::to_string(rank) + " on " + (host[0] != '\0' ? host : "?");
+}
+
+/// Rank 0: the jobs to the ranks, costliest first, as they free up. Rank 0 is one of them: its
+/// job is its own child process, which it watches between two polls of the message queue.
+ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
+                                 const JobEndCallback& on_end) {
   const std::vector<std::size_t> order = costliest_first(jobs);
-  std::vector<int> idle;
-  for (int r = size - 1; r >= 1; --r) idle.push_back(r);
-  std::map<int, StartedJob> busy;
+  std::vector<int> idle;  // taken from the back: rank 0, 1, 2... at the start
+  for (int r = size - 1; r >= 0; --r) idle.push_back(r);
+  std::map<int, StartedJob> busy;  // by rank
+  pid_t local = -1;                // rank 0's own run, while busy holds rank 0
+  const std::string here = rank_and_host(0);
   ScheduleResult result;
   std::size_t next = 0;
-  while (true) {
-    if (!result.interrupted && g_stop_requested.load()) {
-      result.interrupted = true;
-      for (const auto& [rank, b] : busy)
-        MPI_Send(nullptr, 0, MPI_CHAR, rank, kStop, MPI_COMM_WORLD);
-    }
-    while (!result.interrupted && next < order.size() && !idle.empty()) {
-      const int rank = idle.back();
-      idle.pop_back();
-      const std::size_t j = order[next++];
-      const std::string msg = encode(jobs[j]);
-      MPI_Send(msg.data(), static_cast<int>(msg.size()), MPI_CHAR, rank, kJob, MPI_COMM_WORLD);
-      busy[rank] = {j, Clock::now()};
-    }
-    if (busy.empty()) break;
-    int flag = 0;
-    MPI_Status st;
-    MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
-    if (!flag) {
-      idle_wait();
-      continue;
-    }
-    if (st.MPI_TAG == kStopped) {
-      MPI_Recv(nullptr, 0, MPI_CHAR, st.MPI_SOURCE, kStopped, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-      g_stop_requested.store(true);  // a signal on any rank stops the sweep
-      continue;
-    }
-    double msg[3] = {1, 0, 0};
-    MPI_Recv(msg, 3, MPI_DOUBLE, st.MPI_SOURCE, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    const auto it = busy.find(st.MPI_SOURCE);
-    if (st.MPI_TAG != kResult || it == busy.end()) continue;
+  // The job of `rank` ended (or was never started: its worker was stopped first).
+  const auto ended = [&](int rank, int exit_code, double seconds, bool started) {
+    const auto it = busy.find(rank);
     const std::size_t job = it->second.job;
     busy.erase(it);
-    idle.push_back(st.MPI_SOURCE);
-    if (msg[2] != 0) {  // the worker was stopped before it could start it
+    idle.push_back(rank);
+    if (!started) {
       result.never.push_back(job);
-      continue;
+      return;
     }
-    JobEnd end{job, static_cast<int>(msg[0]), msg[1]};
+    JobEnd end{job, exit_code, seconds};
     result.ends.push_back(end);
     if (on_end)
       on_end(end, job_progress(result.ends.size(), busy, order, next, result.interrupted));
+  };
+  try {
+    while (true) {
+      if (!result.interrupted && g_stop_requested.load()) {
+        result.interrupted = true;
+        for (const auto& [rank, b] : busy)
+          if (rank != 0) MPI_Send(nullptr, 0, MPI_CHAR, rank, kStop, MPI_COMM_WORLD);
+        // As run_jobs does: the run writes its checkpoint and exits; it is waited for below.
+        if (local > 0) ::kill(local, SIGTERM);
+      }
+      while (!result.interrupted && next < order.size() && !idle.empty()) {
+        const int rank = idle.back();
+        const std::size_t j = order[next];
+        if (rank == 0) {
+          Job job = jobs[j];
+          job.where = here;
+          local = start_job(job);  // throws if it cannot: the sweep fails, as without MPI
+        } else {
+          const std::string msg = encode(jobs[j]);
+          MPI_Send(msg.data(), static_cast<int>(msg.size()), MPI_CHAR, rank, kJob, MPI_COMM_WORLD);
+        }
+        idle.pop_back();
+        ++next;
+        busy[rank] = {j, Clock::now()};
+      }
+      if (busy.empty()) break;
+      if (local > 0) {
+        if (const std::optional<int> code = job_exit_code(local)) {
+          local = -1;
+          ended(0, *code, std::chrono::duration<double>(Clock::now() - busy.at(0).start).count(),
+                true);
+          continue;
+        }
+      }
+      int flag = 0;
+      MPI_Status st;
+      MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+      if (!flag) {
+        idle_wait();
+        continue;
+      }
+      if (st.MPI_TAG == kStopped) {
+        MPI_Recv(nullptr, 0, MPI_CHAR, st.MPI_SOURCE, kStopped, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        g_stop_requested.store(true);  // a signal on any rank stops the sweep
+        continue;
+      }
+      double msg[3] = {1, 0, 0};
+      MPI_Recv(msg, 3, MPI_DOUBLE, st.MPI_SOURCE, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      if (st.MPI_TAG != kResult || !busy.contains(st.MPI_SOURCE)) continue;
+      // msg[2] != 0: the worker was stopped before it could start the job.
+      ended(st.MPI_SOURCE, static_cast<int>(msg[0]), msg[1], msg[2] == 0);
+    }
+  } catch (...) {
+    // The sweep fails (a job rank 0 cannot start, a callback): its own run may not go on
+    // unwatched, as in run_jobs; run_sweep_under_mpi then stops the workers.
+    if (local > 0) {
+      ::kill(local, SIGTERM);
+      int status = 0;
+      ::waitpid(local, &status, 0);
+    }
+    throw;
   }
   for (; next < order.size(); ++next) result.never.push_back(order[next]);
   return result;
@@ -161,7 +214,8 @@ int serve(int rank) {
     MPI_Get_count(&st, MPI_CHAR, &count);
     std::string text(static_cast<std::size_t>(count), '\0');
     MPI_Recv(text.data(), count, MPI_CHAR, 0, kJob, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    const Job job = decode(text);
+    Job job = decode(text);
+    job.where = rank_and_host(rank);
     bool stop_from_0 = false;
     const auto asked_to_stop = [&] {
       int pending = 0;
@@ -217,7 +271,7 @@ bool mpi_launch_detected() {
   return std::getenv("PMIX_RANK") != nullptr && ntasks != nullptr && std::atoi(ntasks) > 1;
 }
 
-int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int workers)>& sweep) {
+int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int ranks)>& sweep) {
   MpiSession session;
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
@@ -226,11 +280,11 @@ int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int work
   if (rank != 0) return serve(rank);
   const RemoteScheduler scheduler = [size](const std::vector<Job>& jobs,
                                            const JobEndCallback& on_end) {
-    return schedule_on_workers(jobs, size, on_end);
+    return schedule_on_ranks(jobs, size, on_end);
   };
   int code = 1;
   try {
-    code = sweep(&scheduler, size - 1);
+    code = sweep(&scheduler, size);
   } catch (const ConfigError&) {
     release_workers(size, 2);
     throw;

@@ -11,7 +11,8 @@ namespace cdshear {
 
 using JobEndCallback = std::function<void(const JobEnd&, const JobProgress&)>;
 
-/// Runs jobs somewhere else (on the worker ranks); same contract as run_jobs.
+/// Runs jobs on the MPI ranks, one at a time each, rank 0's as its own child process; same
+/// contract as run_jobs.
 using RemoteScheduler =
     std::function<ScheduleResult(const std::vector<Job>&, const JobEndCallback&)>;
 
@@ -19,11 +20,11 @@ using RemoteScheduler =
 /// more than one rank. Reads only the environment: MPI is not initialized.
 bool mpi_launch_detected();
 
-/// Initializes MPI, and on rank 0 calls sweep(scheduler, workers) with a scheduler that hands
-/// jobs to the other ranks, one at a time each; the other ranks run the jobs they are handed
-/// until rank 0 is done. Finalizes MPI. Returns the sweep's exit code on every rank (a
-/// ConfigError or other exception of rank 0 is rethrown there; the workers return 2 or 1). With
-/// one rank, calls sweep(nullptr, 0).
-int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int workers)>& sweep);
+/// Initializes MPI, and on rank 0 calls sweep(scheduler, ranks) with a scheduler that hands
+/// jobs to every rank (`ranks` of them, rank 0 included), one at a time each; the other ranks
+/// run the jobs they are handed until rank 0 is done. Finalizes MPI. Returns the sweep's exit
+/// code on every rank (a ConfigError or other exception of rank 0 is rethrown there; the workers
+/// return 2 or 1). With one rank, calls sweep(nullptr, 0).
+int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int ranks)>& sweep);
 
 }  // namespace cdshear

@@ -94,21 +94,20 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
 }
 
 /// `remote`: null for a sweep on this machine (run_jobs, --jobs at once); under MPI, the
-/// scheduler that hands the jobs to `workers` worker ranks, one at a time each.
-int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers) {
+/// scheduler that hands the jobs to the `ranks` ranks (rank 0 included), one at a time each.
+int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   const Campaign c = read_campaign(args.file);
   const fs::path dir =
       fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
   const fs::path exe = fs::read_symlink("/proc/self/exe");
   const int jobs =
-      remote != nullptr ? workers
+      remote != nullptr ? ranks
       : args.jobs > 0
           ? args.jobs
           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / args.threads);
   if (remote != nullptr && args.jobs > 0)
     std::fprintf(stderr,
-                 "warning: --jobs is ignored under MPI: each worker rank runs one run at "
-                 "a time\n");
+                 "warning: --jobs is ignored under MPI: each rank runs one run at a time\n");
   const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end) {
     return remote != nullptr ? (*remote)(list, on_end) : run_jobs(list, jobs, on_end);
   };
@@ -253,9 +252,8 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int workers)
         "at once%s, %s thread%s each -> %s\n",
         c.name.c_str(), c.runs.size(), finished_before,
         analysis_jobs.empty() ? "" : fmt::format(" ({} to analyse)", analysis_jobs.size()).c_str(),
-        resumed, planned.size() - resumed, jobs,
-        remote != nullptr ? " (MPI: one per worker rank)" : "", threads.c_str(),
-        args.threads == 1 ? "" : "s", dir.c_str());
+        resumed, planned.size() - resumed, jobs, remote != nullptr ? " (MPI: one per rank)" : "",
+        threads.c_str(), args.threads == 1 ? "" : "s", dir.c_str());
     std::fflush(stdout);
   }
 
@@ -346,8 +344,8 @@ void register_sweep_command(CLI::App& app) {
     int rc = 0;
 #ifdef CDSHEAR_WITH_MPI
     if (mpi_launch_detected())  // only then is MPI initialized (docs/campaigns.md)
-      rc = run_sweep_under_mpi([&](const RemoteScheduler* remote, int workers) {
-        return run_sweep(*args, remote, workers);
+      rc = run_sweep_under_mpi([&](const RemoteScheduler* remote, int ranks) {
+        return run_sweep(*args, remote, ranks);
       });
     else
 #endif
