@@ -30,8 +30,8 @@ namespace {
 /// so w_nt is exactly 0 whenever m_x = m_y (any two disks) or n is along an axis (a flat wall),
 /// and such rows take the decoupled update. (Computed as n.(M^-1 t), it was a rounding residue
 /// of order 1e-17 instead of 0, which sent most rows to the general local solve.)
-void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const SolverBody& b,
-              double inv_dt) {
+void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const SolverBody& a,
+              const SolverBody& b, double inv_dt) {
   const Vec2 n = c.normal;
   const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
   row.body_a = static_cast<std::uint32_t>(c.key.body_a);
@@ -43,12 +43,12 @@ void fill_row(SolverRow& row, const Contact& c, const SolverBody& a, const Solve
   row.friction = c.friction;
   row.impulse_n = c.impulse_n;
   row.impulse_t = c.impulse_t;
-  row.w_nn = m_x * n.x * n.x + m_y * n.y * n.y;
-  row.w_nt = (m_y - m_x) * n.x * n.y;
-  row.w_tt = m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
-             c.lever_b * c.lever_b * b.inv_inertia;
-  row.inv_w_nn = 1.0 / row.w_nn;
-  row.inv_w_tt = 1.0 / row.w_tt;
+  w.w_nn = m_x * n.x * n.x + m_y * n.y * n.y;
+  w.w_nt = (m_y - m_x) * n.x * n.y;
+  w.w_tt = m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
+           c.lever_b * c.lever_b * b.inv_inertia;
+  row.inv_w_nn = 1.0 / w.w_nn;
+  row.inv_w_tt = w.w_nt == 0.0 ? 1.0 / w.w_tt : kCoupledRow;
 }
 
 /// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
@@ -108,7 +108,8 @@ class TallyAccumulator {
 ///   R_n = max(0, R_n - (u_n + gap/dt) / w_nn),  R_t = clamp(R_t - u_t / w_tt, -mu R_n, mu R_n),
 /// where u is the current relative velocity (this row's old impulse included): the sticking
 /// impulse -W^-1 b written as a correction of the old one, so no b is formed and no branch taken.
-/// Coupled rows (w_nt != 0, a wall free along a direction oblique to the contact) go through the
+/// Coupled rows (w_nt != 0, a wall free along a direction oblique to the contact; marked by
+/// inv_w_tt = kCoupledRow, so the test reads a value the update loads anyway) go through the
 /// general case analysis of solve_local.
 ///
 /// kRelaxed: the update is over- (or under-) relaxed by omega and projected back on the cone,
@@ -116,8 +117,8 @@ class TallyAccumulator {
 /// (projected SOR; omega = 1 gives R_GS). A template parameter, so that plain Gauss-Seidel keeps
 /// its own arithmetic: R + 1 (R_GS - R) is not always R_GS in floating point.
 template <bool kRelaxed>
-inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alpha, double omega,
-                       TallyAccumulator& tally) {
+inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<SolverBody>& bodies,
+                       double alpha, double omega, TallyAccumulator& tally) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];
   const double dvx = a.velocity.x - b.velocity.x;
@@ -130,17 +131,17 @@ inline void update_row(SolverRow& r, std::vector<SolverBody>& bodies, double alp
   // candidates or more are in this case in a dense packing (gap below the margin, not touching).
   if (r.impulse_n == 0.0 && r.impulse_t == 0.0 && u_n + r.bias_n >= 0.0) return;
   double r_n, r_t;
-  if (r.w_nt == 0.0) [[likely]] {
+  if (r.inv_w_tt != kCoupledRow) [[likely]] {
     r_n = std::max(0.0, r.impulse_n - (u_n + r.bias_n) * r.inv_w_nn);
     const double limit = r.friction * r_n;
     r_t = std::clamp(r.impulse_t - u_t * r.inv_w_tt, -limit, limit);
   } else {
     LocalProblem p;
-    p.w_nn = r.w_nn;
-    p.w_nt = r.w_nt;
-    p.w_tt = r.w_tt;
-    p.b_n = u_n - (r.w_nn * r.impulse_n + r.w_nt * r.impulse_t) + r.bias_n;
-    p.b_t = u_t - (r.w_nt * r.impulse_n + r.w_tt * r.impulse_t);
+    p.w_nn = w.w_nn;
+    p.w_nt = w.w_nt;
+    p.w_tt = w.w_tt;
+    p.b_n = u_n - (w.w_nn * r.impulse_n + w.w_nt * r.impulse_t) + r.bias_n;
+    p.b_t = u_t - (w.w_nt * r.impulse_n + w.w_tt * r.impulse_t);
     p.mu = r.friction;
     const LocalSolution s = solve_local(p);
     r_n = s.r_n;
@@ -280,10 +281,10 @@ void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bo
   TallyAccumulator tally;
   if (omega == 1.0) {
     for (const std::uint32_t i : ws.awake[g])
-      update_row<false>(ws.rows[i], bodies, alpha, omega, tally);
+      update_row<false>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally);
   } else {
     for (const std::uint32_t i : ws.awake[g])
-      update_row<true>(ws.rows[i], bodies, alpha, omega, tally);
+      update_row<true>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally);
   }
   ws.group_tallies[g] = tally.tally();
 }
@@ -378,6 +379,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // entries, then the warm start (apply the carried-over impulses).
   auto& rows = ws.rows;
   rows.resize(nc);
+  ws.delassus.resize(nc);
   const double inv_dt = 1.0 / dt;
   for (std::size_t i = 0; i < nc; ++i) {
     const Contact& c = contacts[ws.order[i]];
@@ -388,7 +390,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     const std::size_t ib = renumbered ? ws.local_of[global_b] : global_b;
     SolverBody& a = bodies[ia];
     SolverBody& b = bodies[ib];
-    fill_row(row, c, a, b, inv_dt);
+    fill_row(row, ws.delassus[i], c, a, b, inv_dt);
     row.body_a = static_cast<std::uint32_t>(ia);
     row.body_b = static_cast<std::uint32_t>(ib);
     apply_impulse(row, a, b, row.impulse_n, row.impulse_t);

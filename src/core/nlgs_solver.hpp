@@ -111,9 +111,13 @@ struct SolverReport {
   int threads = 1;                   ///< threads used
 };
 
-/// One contact as the sweeps see it: what an update reads and writes, compact (112 bytes) and
+/// One contact as the sweeps see it: what an update reads and writes, compact (88 bytes) and
 /// stored in visit order, so that a sweep streams through memory front to back. The tangent is
-/// perp(normal) and is not stored.
+/// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
+/// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
+/// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt = 1 / w_tt > 0).
+/// On system 7's shape the rows of a step (about 11000) are 1.2 MB at 112 bytes, more than this
+/// machine's 1 MB L2 per core: each sweep streams them from L3, so their size is time.
 struct SolverRow {
   std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
   Vec2 normal;                           ///< unit, from b to a
@@ -121,8 +125,17 @@ struct SolverRow {
   double bias_n = 0.0;                   ///< gap / dt [length/time]
   double friction = 0.0;                 ///< Coulomb coefficient
   double impulse_n = 0.0, impulse_t = 0.0;
-  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;  ///< local Delassus matrix [1/mass]
-  double inv_w_nn = 0.0, inv_w_tt = 0.0;      ///< 1/w_nn, 1/w_tt
+  double inv_w_nn = 0.0;  ///< 1/w_nn [mass]
+  double inv_w_tt = 0.0;  ///< 1/w_tt [mass]; kCoupledRow for a coupled row
+};
+static_assert(sizeof(SolverRow) == 88);
+
+/// inv_w_tt of a coupled row (w_nt != 0): it goes through the general local solve.
+inline constexpr double kCoupledRow = -1.0;
+
+/// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
+struct DelassusEntries {
+  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
 };
 
 /// Groups [first_group, last_group) of rows that share no body: a sweep solves them at once,
@@ -141,6 +154,7 @@ struct SweepTally {
 struct SolverWorkspace {
   std::vector<std::uint32_t> order;  ///< row i solves contacts[order[i]]
   std::vector<SolverRow> rows;
+  std::vector<DelassusEntries> delassus;  ///< of rows[i], read by coupled rows only
   std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
