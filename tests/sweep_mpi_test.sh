@@ -6,7 +6,8 @@
 # as a plain sweep (MPI is only initialized under a launcher with more than one rank); bad input
 # exits 2; an mpirun whose ranks get SIGTERM exits 130 with checkpoints (rank 0's own run stopped
 # cleanly too), and the same command again resumes the interrupted runs and finishes all; under
-# `mpirun -n 2`, a SIGTERM to the one worker rank stops the whole sweep, rank 0's run included.
+# `mpirun -n 2`, a SIGTERM to the one worker rank stops the whole sweep, rank 0's run included;
+# a job that rank 0 cannot start (its log cannot be opened) fails that job only, as on a worker.
 # Usage: sweep_mpi_test.sh MPIEXEC CDSHEAR PACKING WORKDIR
 set -euo pipefail
 mpiexec=$1; exe=$2; packing=$3; work=$4
@@ -125,4 +126,22 @@ for r in 0 1; do
   [ "$(runs_of_rank one $r)" -eq 1 ] ||
     fail "mpirun -n 2: rank $r ran $(runs_of_rank one $r) runs, not 1: $(head -qn 1 one/logs/*.log)"
 done
-echo "sweep_mpi_test: runs on every rank (rank 0 too), nothing redone, exit codes, SIGTERM + resume"
+# 5. A job that rank 0 cannot start fails that job only, as on a worker: the costliest run (the
+# fastest V, dt = 0.002 / V; rank 0 takes the first job) has a folder where its log should be;
+# the other run finishes, the sweep exits 1 with that one failure.
+campaign badlog "[0.25, 0.5]" 2
+mkdir -p badlog/logs/s1_seed1_V0.5.log  # a folder: open(O_WRONLY) fails, root or not
+rc=0
+"$mpiexec" --oversubscribe --allow-run-as-root -n 2 "$exe" sweep badlog.toml -o badlog \
+  > badlog.out 2>&1 || rc=$?
+[ $rc -eq 1 ] || fail "a log that cannot be opened: mpirun exited $rc, not 1: $(cat badlog.out)"
+grep -q "MPI rank 0: s1_seed1_V0.5: cannot open log file" badlog.out ||
+  fail "rank 0 did not report the job it could not start: $(cat badlog.out)"
+grep -q "1/2 runs finished (0 earlier), 1 failed, 0 interrupted, 0 not started" badlog.out ||
+  fail "rank 0's failed start stopped the sweep: $(cat badlog.out)"
+grep -q "failed: s1_seed1_V0.5: not started, exit 1" badlog.out ||
+  fail "no failure: $(cat badlog.out)"
+test -f badlog/runs/s1_seed1_V0.25/final_state.json ||
+  fail "V0.25 did not finish: $(cat badlog.out)"
+echo "sweep_mpi_test: runs on every rank (rank 0 too), nothing redone, exit codes," \
+  "SIGTERM + resume, a job rank 0 cannot start fails alone"

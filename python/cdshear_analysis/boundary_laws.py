@@ -281,8 +281,8 @@ def predict_delta_mu(row, boundary):
                   row.get(f"{label}_{s}_velocity_jump_err")) for s in ("bottom", "top")}
         e = {"h": h, "velocity_jump_bottom": dv["bottom"][0], "velocity_jump_top": dv["top"][0],
              "hI_bottom": None, "hI_top": None, "mu_bottom": None, "mu_top": None,
-             "delta_mu": None, "interval": None, "interval_note": None, "note": None,
-             "reason": None}
+             "delta_mu": None, "interval": None, "interval_note": None,
+             "extrapolated": False, "mu_negative": False, "note": None, "reason": None}
         out["by_h"][label] = e
         missing = [s for s, (v, _) in dv.items() if v is None]
         if missing:
@@ -293,7 +293,9 @@ def predict_delta_mu(row, boundary):
         draws = {}
         with np.errstate(all="ignore"):
             for s, (v, err) in dv.items():
-                xs = scale * np.maximum(0.0, rng.normal(v, err or 0.0, MONTE_CARLO))
+                sd = fitting.finite(err)   # no usable error (None, NaN, < 0): the jump itself
+                sd = sd if sd is not None and sd > 0 else 0.0
+                xs = scale * np.maximum(0.0, rng.normal(v, sd, MONTE_CARLO))
                 draws[s] = model["model"](xs, *params.T)
             interval, _, _ = _interval(np.abs(draws["bottom"] - draws["top"]))
         delta = abs(mu["bottom"] - mu["top"])
@@ -309,10 +311,12 @@ def predict_delta_mu(row, boundary):
                      "bracket delta_mu, the law's covariance does not describe its uncertainty")
         notes = [f"{s} h I_b = {x[s]:.3g}" for s in x   # (rounding: a fitted point is inside)
                  if span and not span[0] * (1 - 1e-9) <= x[s] <= span[1] * (1 + 1e-9)]
+        e["extrapolated"] = bool(notes)
         if notes:
             notes = [", ".join(notes) + f" outside the law's points ({span[0]:.3g} to "
                      f"{span[1]:.3g}): extrapolated"]
-        if min(mu.values()) < 0:
+        e["mu_negative"] = min(mu.values()) < 0
+        if e["mu_negative"]:
             notes.append("the law gives mu_eff < 0 there: the extrapolation means nothing")
         e["note"] = "; ".join(notes) or None
     return out

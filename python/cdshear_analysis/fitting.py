@@ -5,9 +5,10 @@ fits it to points (x, y, err, label[, group]) with scipy.optimize.curve_fit weig
 bars (sigma = the standard error of y, absolute_sigma=True; the error of x is not used). Points
 without a finite positive error are left out (counted in `points_without_error`); the points of
 one group (the seeds of a (system, V), `group_key`) are combined into one first (`combine`:
-inverse-variance weighted mean, its error at least the seeds' standard error); a fit with
-fewer points than parameters + 1 is skipped with its reason. Several starting points are tried
-and the smallest chi2 kept, so a power law is found whether its exponent is below or above 1.
+inverse-variance weighted mean, its error at least that of the seeds' scatter about it); a fit
+with fewer points than parameters + 1 is skipped with its reason. Several starting points are
+tried and the smallest chi2 kept, so a power law is found whether its exponent is below or
+above 1.
 
 The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
 range, status ("ok" | "skipped"), reason, n_points (after combining), points_without_error,
@@ -21,6 +22,8 @@ import math
 import warnings
 
 import numpy as np
+
+from .statistics import weighted_mean
 
 
 def finite(x):
@@ -100,11 +103,12 @@ def group_key(row):
 def combine(points):
     """One point per group of seeds: points (x, y, err, label, group) with a usable error ->
     (x, y, err, [labels], detail), in the order of each group's first point. A point whose group
-    is None stands alone. Weights w = 1 / err^2: y and x are the weighted means; the error is the
-    propagated 1 / sqrt(sum w), or with 2 seeds or more the standard error of their y values
-    (std, ddof 1, / sqrt(seeds)) when that is larger: the seeds scatter more than their error
-    bars say. detail (None for a point of one run): runs, x, y, err, err_propagated, err_seeds
-    and the seeds' own y and err, for fits.json `combined`."""
+    is None stands alone. statistics.weighted_mean, weights w = 1 / err^2: y and x are the
+    weighted means; the error is the propagated 1 / sqrt(sum w), or with 2 seeds or more the
+    error of the weighted mean from the seeds' scatter, sqrt(sum w (y - y_w)^2 / ((k - 1) sum w))
+    (std / sqrt(k) for equal errors), when that is larger: the seeds scatter more than their
+    error bars say. detail (None for a point of one run): runs, x, y, err, err_propagated,
+    err_seeds and the seeds' own y and err, for fits.json `combined`."""
     groups = {}
     for k, (x, y, e, label, group) in enumerate(points):
         groups.setdefault(("alone", k) if group is None else ("group", group), []).append(
@@ -115,16 +119,14 @@ def combine(points):
             x, y, e, label = members[0]
             out.append((x, y, e, [label], None))
             continue
-        xs, ys, es = (np.array([m[i] for m in members], float) for i in range(3))
-        w = 1.0 / es ** 2
-        x, y = float(np.sum(w * xs) / np.sum(w)), float(np.sum(w * ys) / np.sum(w))
-        e_prop = float(1.0 / math.sqrt(np.sum(w)))
-        e_seeds = float(np.std(ys, ddof=1) / math.sqrt(len(ys)))
+        xs, ys, es = ([float(m[i]) for m in members] for i in range(3))
+        y, e_prop, e_seeds = weighted_mean(ys, es)
+        x = weighted_mean(xs, es)[0]   # x with the weights of y
         labels = [m[3] for m in members]
         out.append((x, y, max(e_prop, e_seeds), labels, {
             "runs": labels, "x": x, "y": y, "err": max(e_prop, e_seeds),
             "err_propagated": e_prop, "err_seeds": e_seeds,
-            "y_runs": [float(v) for v in ys], "err_runs": [float(v) for v in es]}))
+            "y_runs": ys, "err_runs": es}))
     return out
 
 
@@ -148,7 +150,9 @@ def select(points, x_range=None):
 
 
 def fit(spec, points):
-    """Fit a law (see `law`) to points (x, y, err, label); the fits.json dict."""
+    """Fit a law (see `law`) to points (x, y, err, label) or (x, y, err, label, group), group
+    the key of the seeds to combine into one point (`group_key`; None or absent: the point stands
+    alone, see `select` and `combine`); the fits.json dict."""
     from scipy.optimize import OptimizeWarning, curve_fit
     family = MODELS[spec["model"]]
     k = len(spec["params"])

@@ -424,8 +424,8 @@ def _delta_mu_law_text(d):
         text = f"{label}: {_fmt(e['delta_mu'], 3)}"
         text += f" [{_fmt(iv[0], 2)}, {_fmt(iv[1], 2)}]" if iv else ""
         text += f", T = {_fmt(e['predicted_T'], 3)}" if e["predicted_T"] is not None else ""
-        flags = [f for f, on in (("extrapolated", "extrapolated" in (e["note"] or "")),
-                                 ("mu &lt; 0", "< 0" in (e["note"] or "")),
+        flags = [f for f, on in (("extrapolated", e["extrapolated"]),
+                                 ("mu &lt; 0", e["mu_negative"]),
                                  ("no interval", e["interval_note"])) if on]
         out.append(text + (f" <small>({', '.join(flags)})</small>" if flags else ""))
     if d["law_note"]:

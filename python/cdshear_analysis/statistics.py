@@ -11,7 +11,11 @@ Uncertainty everywhere is the standard error of the mean.
   largest error over those levels is taken and `converged` is False.
 - `window_mean(values)`: mean over averaging windows (axis 0) and standard error
   std(ddof=1) / sqrt(n) over the finite entries; NaN error with fewer than 2.
+- `weighted_mean(values, errs)`: the inverse-variance weighted mean of independent estimates
+  (the seeds or realizations of one setting), with its propagated error and the error from
+  their scatter about it; the callers (fitting.combine, study.combine) take the larger.
 """
+import math
 import warnings
 
 import numpy as np
@@ -77,3 +81,25 @@ def window_mean(values):
 def mean_err(mean, err):
     """The {"mean": x, "err": e} pair used throughout summary.json."""
     return {"mean": mean, "err": err}
+
+
+def weighted_mean(values, errs):
+    """Inverse-variance weighted mean of independent estimates values[i] +- errs[i] (finite,
+    errs > 0). Returns (mean, err_propagated, err_scatter): weights w = 1 / err^2, mean =
+    sum(w y) / sum(w), err_propagated = 1 / sqrt(sum w) (right when the error bars are), and
+    err_scatter = sqrt(sum(w (y - mean)^2) / ((k - 1) sum w)), the standard error of the weighted
+    mean from the estimates' scatter about it (std(ddof=1) / sqrt(k) for equal errors; NaN for
+    k < 2, and only a rough figure for k = 2 or 3: one or two degrees of freedom)."""
+    pairs = [(float(y), float(e)) for y, e in zip(values, errs)]
+    if not pairs:
+        return math.nan, math.nan, math.nan
+    weights = [1.0 / e ** 2 for _, e in pairs]
+    total = sum(weights)
+    mean = sum(w * y for w, (y, _) in zip(weights, pairs)) / total
+    propagated = 1.0 / math.sqrt(total)
+    k = len(pairs)
+    if k < 2:
+        return mean, propagated, math.nan
+    scatter = math.sqrt(sum(w * (y - mean) ** 2 for w, (y, _) in zip(weights, pairs))
+                        / ((k - 1) * total))
+    return mean, propagated, scatter

@@ -18,6 +18,8 @@ import json
 import math
 import os
 
+from .statistics import weighted_mean
+
 # (name in the tables, how to read value and error from summary.json)
 QUANTITIES = [
     ("mu_eff_wall", lambda s: s["mu_eff_wall"]),
@@ -106,9 +108,10 @@ def run_cost(run_dir, info=None):
 
 def combine(rows):
     """One row from independent realizations of the same setting: each quantity is the
-    inverse-variance weighted mean; its error is 1/sqrt(sum of weights) or, when larger, the
-    standard error of the realizations' scatter; steady only when every
-    realization is; the solver figures are weighted by each realization's share."""
+    inverse-variance weighted mean (statistics.weighted_mean); its error is 1/sqrt(sum of
+    weights) or, when larger, the error of that mean from the realizations' scatter about it;
+    steady only when every realization is; the solver figures are weighted by each
+    realization's share."""
     if len(rows) == 1:
         return rows[0]
     out = dict(rows[0])
@@ -122,15 +125,10 @@ def combine(rows):
         if not pairs:
             out[name] = out[name + "_err"] = math.nan
             continue
-        weights = [1.0 / e ** 2 for _, e in pairs]
-        mean = sum(w * x for w, (x, _) in zip(weights, pairs)) / sum(weights)
-        err = 1.0 / math.sqrt(sum(weights))
+        mean, err, scatter = weighted_mean([x for x, _ in pairs], [e for _, e in pairs])
         if len(pairs) > 1:
-            # Short runs underestimate their own errors; the realizations' scatter (standard
-            # error of their plain mean) is a floor that does not depend on the blocking.
-            xs = [x for x, _ in pairs]
-            m = sum(xs) / len(xs)
-            scatter = math.sqrt(sum((x - m) ** 2 for x in xs) / (len(xs) - 1) / len(xs))
+            # Short runs underestimate their own errors; the realizations' scatter about the
+            # weighted mean is a floor that does not depend on the blocking.
             err = max(err, scatter)
         out[name] = mean
         out[name + "_err"] = err

@@ -74,7 +74,10 @@ class SeedsCombinedTest(unittest.TestCase):
             y = (w1 * y1 + w2 * y2) / (w1 + w2)
             x = (w1 * I + w2 * 1.1 * I) / (w1 + w2)
             e_prop = 1 / math.sqrt(w1 + w2)
-            e_seeds = abs(y2 - y1) / 2             # std (ddof 1) / sqrt(2) of two values
+            # the scatter about the weighted mean, weighted, k - 1 = 1: 0.4 |y2 - y1| here
+            # (a plain mean's std (ddof 1) / sqrt(2) would be 0.5 |y2 - y1|)
+            e_seeds = math.sqrt((w1 * (y1 - y) ** 2 + w2 * (y2 - y) ** 2) / (w1 + w2))
+            self.assertAlmostEqual(e_seeds, 0.4 * gap, places=12)
             self.assertEqual(sorted(c["runs"]), [f"s1_seed1_V{V:g}", f"s1_seed2_V{V:g}"])
             self.assertAlmostEqual(c["y"], y, places=12)
             self.assertAlmostEqual(c["x"], x, places=12)
@@ -101,14 +104,27 @@ class SeedsCombinedTest(unittest.TestCase):
         self.assertGreater(abs(separate["chi2"] - fit["chi2"]), 1e-3)
 
     def test_one_seed_per_v_is_not_changed(self):
-        # single runs: the points and the fit as without combining, no `combined` entries
+        # single runs: each run its own point, no `combined` entries, and the fit is a plain
+        # weighted least-squares fit of the raw points (scipy's curve_fit called here directly,
+        # from the known parameters: not through fitting.py)
+        from scipy.optimize import curve_fit
         self.two_seed_campaign()
         rows = [r for r in report.collect(self.d)["rows"] if r["seed"] == 1]
         fit = report.fit_law("mu_power", rows)
+        self.assertEqual(fit["status"], "ok", fit["reason"])
         self.assertEqual((fit["n_points"], fit["n_runs"], fit["combined"]), (6, 6, []))
-        plain = fitting.fit(report.FITS["mu_power"], [
-            (r["I_bulk"], r["mu_eff_bulk"], r["mu_eff_bulk_err"], r["run"]) for r in rows])
-        self.assertEqual(fit["parameters"], plain["parameters"])
+        x = np.array([0.05 * V for V in self.velocities])
+        y = np.array([mu_law(I, 0.25, 0.5, 0.6) - gap / 2 for I, gap in zip(x, self.gaps)])
+        p, cov = curve_fit(mu_law, x, y, p0=(0.25, 0.5, 0.6), sigma=np.full(6, 0.003),
+                           absolute_sigma=True, bounds=([-np.inf, -np.inf, 1e-3], np.inf))
+        for k, name in enumerate(("mu_0", "A", "B")):
+            self.assertAlmostEqual(fit["parameters"][name]["value"], p[k], places=5)
+            self.assertAlmostEqual(fit["parameters"][name]["err"], math.sqrt(cov[k][k]),
+                                   places=5)
+        chi2 = float(np.sum(((y - mu_law(x, *p)) / 0.003) ** 2))
+        self.assertAlmostEqual(fit["chi2"], chi2, places=5)
+        # a combining that changed single points (x, y or err) would move the fit
+        self.assertEqual(sorted(fit["runs"]), sorted(f"s1_seed1_V{V:g}" for V in self.velocities))
 
     def test_only_seeds_that_qualify_are_combined(self):
         # at V = 0.1 seed 2 is not steady, at V = 0.2 it is in regime B: those seeds of 1 stand
@@ -283,6 +299,8 @@ class DeltaMuFromTheLawTest(unittest.TestCase):
                 # the top layer (dv = 0.001 V) lies far below the law's points
                 self.assertIn("top h I_b", x["note"])
                 self.assertIn("extrapolated", x["note"])
+                self.assertIs(x["extrapolated"], True)
+                self.assertIs(x["mu_negative"], False)   # 0.2 + 0.4 sqrt(h I_b) > 0
             # the measured delta_mu is still the one of summary.json (none here)
             self.assertIsNone(e["delta_mu"])
 
@@ -307,6 +325,38 @@ class DeltaMuFromTheLawTest(unittest.TestCase):
         self.assertIsNone(d["by_h"]["h5"]["delta_mu"])
         self.assertIn("no velocity jump of the top layer", d["by_h"]["h5"]["reason"])
         self.assertIsNotNone(d["by_h"]["h3"]["delta_mu"])
+
+    def test_a_jump_without_a_finite_error_is_drawn_without_scatter(self):
+        # NaN or None as the error of a velocity jump: the draws use the jump itself (error 0),
+        # not NaN draws
+        rows = {}
+        for err in (0.0, math.nan, None):
+            row = dict(self.c_row())
+            for label in ("h3", "h5", "h7"):
+                for s in ("bottom", "top"):
+                    row[f"{label}_{s}_velocity_jump_err"] = err
+            rows[err if err is None or err == 0 else "nan"] = bl.predict_delta_mu(
+                row, self.boundary)
+        for label in ("h3", "h5", "h7"):
+            iv = rows[0.0]["by_h"][label]["interval"]
+            self.assertTrue(iv and all(math.isfinite(v) for v in iv), iv)
+            self.assertEqual(rows["nan"]["by_h"][label]["interval"], iv)
+            self.assertEqual(rows[None]["by_h"][label]["interval"], iv)
+
+    def test_the_flags_are_keys_that_the_html_reads(self):
+        d = bl.predict_delta_mu(self.c_row(), self.boundary)
+        for e in d["by_h"].values():
+            e["predicted_T"] = None     # (transitions fills it in)
+
+        def h5_cell():
+            return next(c for c in report._delta_mu_law_text(d).split("<br>")
+                        if c.startswith("h5: "))
+        self.assertIn("<small>(extrapolated)</small>", h5_cell())
+        # the flags come from the keys, not from the note's text
+        d["by_h"]["h5"].update(extrapolated=False, mu_negative=True, note="extrapolated, < 0")
+        self.assertIn("<small>(mu &lt; 0)</small>", h5_cell())
+        d["by_h"]["h5"].update(mu_negative=False)
+        self.assertNotIn("<small>", h5_cell())
 
     def test_a_law_at_its_bound_gives_no_interval(self):
         boundary = json.loads(json.dumps(self.boundary))

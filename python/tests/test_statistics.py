@@ -4,7 +4,7 @@ import unittest
 import numpy as np
 
 from cdshear_analysis.profiles import regions_for_h
-from cdshear_analysis.statistics import block_average, window_mean
+from cdshear_analysis.statistics import block_average, weighted_mean, window_mean
 from cdshear_analysis.steady_state import detect_steady_state, mser_truncation
 from cdshear_analysis.synthetic import ar1
 
@@ -36,6 +36,23 @@ class BlockAveraging(unittest.TestCase):
         np.testing.assert_allclose(mean, [3.0, 2.0])
         self.assertAlmostEqual(err[0], 2.0 / np.sqrt(3))
         self.assertTrue(np.isnan(err[1]))
+
+    def test_weighted_mean(self):
+        # equal errors: the plain mean, its scatter error std(ddof=1) / sqrt(k)
+        ys = [1.0, 2.0, 4.0]
+        mean, prop, scatter = weighted_mean(ys, [0.5] * 3)
+        self.assertAlmostEqual(mean, np.mean(ys))
+        self.assertAlmostEqual(prop, 0.5 / np.sqrt(3))
+        self.assertAlmostEqual(scatter, np.std(ys, ddof=1) / np.sqrt(3))
+        # unequal errors: weights 1:4, the scatter about the weighted mean, weighted
+        mean, prop, scatter = weighted_mean([0.24, 0.27], [0.004, 0.002])
+        self.assertAlmostEqual(mean, (0.24 + 4 * 0.27) / 5)
+        self.assertAlmostEqual(prop, 1 / np.sqrt(1 / 0.004 ** 2 + 1 / 0.002 ** 2))
+        self.assertAlmostEqual(scatter, np.sqrt(0.2 * 0.024 ** 2 + 0.8 * 0.006 ** 2))
+        # one estimate: no scatter
+        mean, prop, scatter = weighted_mean([3.0], [0.1])
+        self.assertEqual((mean, prop), (3.0, 0.1))
+        self.assertTrue(np.isnan(scatter))
 
 
 def relaxing(t, tau, amplitude, noise, rng):

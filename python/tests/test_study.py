@@ -78,9 +78,11 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(ref["realizations"], 2)
             # weights 1/0.004^2 and 1/0.002^2 (1:4)
             self.assertAlmostEqual(ref["mu_eff_wall"], (0.24 + 4 * 0.27) / 5)
-            # Their scatter (0.03 apart: standard error 0.015) exceeds the combined error
-            # 1/sqrt(1/0.004^2 + 1/0.002^2) = 0.0018 and sets the error...
-            self.assertAlmostEqual(ref["mu_eff_wall_err"], 0.015)
+            # Their scatter about that mean, sqrt(sum w (x - mean)^2 / ((k - 1) sum w)) =
+            # sqrt(0.2 * 0.024^2 + 0.8 * 0.006^2) = 0.012 (the weighted mean's; a plain mean's
+            # would be 0.015), exceeds the combined error 1/sqrt(1/0.004^2 + 1/0.002^2) = 0.0018
+            # and sets the error...
+            self.assertAlmostEqual(ref["mu_eff_wall_err"], 0.012)
             # ...while for the solid fraction (equal values) the combined error does.
             self.assertAlmostEqual(ref["solid_fraction_err"], 0.001 / 2 ** 0.5)
             self.assertEqual(main(["study", d]), 0)

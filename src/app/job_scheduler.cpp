@@ -86,6 +86,15 @@ std::optional<int> job_exit_code(pid_t pid) {
   return ended == pid ? exit_code_of(status) : 1;
 }
 
+void stop_and_wait(const std::vector<pid_t>& pids) {
+  for (const pid_t pid : pids) ::kill(pid, SIGTERM);
+  for (const pid_t pid : pids) {
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+  }
+}
+
 std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs) {
   std::vector<std::size_t> order(jobs.size());
   std::iota(order.begin(), order.end(), 0);
@@ -138,11 +147,9 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
   } catch (...) {
     // A failure of the sweep itself (a log that cannot be opened, fork, a callback): no run may
     // go on unwatched, or a rerun would resume a folder that is still being written.
-    for (const auto& [pid, r] : running) ::kill(pid, SIGTERM);
-    for (const auto& [pid, r] : running) {
-      int status = 0;
-      ::waitpid(pid, &status, 0);
-    }
+    std::vector<pid_t> pids;
+    for (const auto& [pid, r] : running) pids.push_back(pid);
+    stop_and_wait(pids);
     throw;
   }
   for (; next < order.size(); ++next) result.never.push_back(order[next]);

@@ -81,6 +81,11 @@ pid_t start_job(const Job& job);
 /// it has ended, which reaps it; nothing while it runs. Does not wait.
 std::optional<int> job_exit_code(pid_t pid);
 
+/// Sends SIGTERM to every child in `pids` (started by start_job), then waits until each has
+/// exited (and reaps it): their runs write their checkpoint and stop together. For a failure of
+/// the sweep itself, when no run may go on unwatched.
+void stop_and_wait(const std::vector<pid_t>& pids);
+
 /// The jobs' indices, costliest first (ties in list order): the order both schedulers start them.
 std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs);
 

@@ -11,14 +11,14 @@
 // do not, so a sweep that dies leaves them to the kernel's PR_SET_PDEATHSIG SIGTERM.
 // A stop request (SIGINT/SIGTERM/SIGHUP) on any rank stops the whole sweep: a worker tells rank
 // 0, rank 0 tells every busy worker and sends SIGTERM to its own run, each run checkpoints, rank
-// 0 waits for them all and exits 130. A job that rank 0 cannot start (its log cannot be opened,
-// fork refused) fails the sweep as it would without MPI (every run stops with its checkpoint);
-// on a worker it fails that job only.
+// 0 waits for them all and exits 130. A job that a rank cannot start (its log cannot be opened,
+// fork refused) fails that job only, on rank 0 as on a worker: the error is printed, the job is
+// reported as ended with exit code 1, and the sweep goes on (unlike a sweep without MPI, where
+// run_jobs throws and the sweep fails).
 #include "mpi_scheduler.hpp"
 
 #include <mpi.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,6 +28,7 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 
@@ -121,10 +122,17 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
       while (!result.interrupted && next < order.size() && !idle.empty()) {
         const int rank = idle.back();
         const std::size_t j = order[next];
+        bool not_started = false;
         if (rank == 0) {
           Job job = jobs[j];
           job.where = here;
-          local = start_job(job);  // throws if it cannot: the sweep fails, as without MPI
+          try {
+            local = start_job(job);
+          } catch (const std::runtime_error& e) {
+            // As on a worker (serve): that job fails with exit code 1, the sweep goes on.
+            std::fprintf(stderr, "cdshear sweep, MPI rank 0: %s: %s\n", job.name.c_str(), e.what());
+            not_started = true;
+          }
         } else {
           const std::string msg = encode(jobs[j]);
           MPI_Send(msg.data(), static_cast<int>(msg.size()), MPI_CHAR, rank, kJob, MPI_COMM_WORLD);
@@ -132,6 +140,7 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
         idle.pop_back();
         ++next;
         busy[rank] = {j, Clock::now()};
+        if (not_started) ended(0, 1, 0.0, true);  // the result a worker sends in that case
       }
       if (busy.empty()) break;
       if (local > 0) {
@@ -161,13 +170,12 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
       ended(st.MPI_SOURCE, static_cast<int>(msg[0]), msg[1], msg[2] == 0);
     }
   } catch (...) {
-    // The sweep fails (a job rank 0 cannot start, a callback): its own run may not go on
-    // unwatched, as in run_jobs; run_sweep_under_mpi then stops the workers.
-    if (local > 0) {
-      ::kill(local, SIGTERM);
-      int status = 0;
-      ::waitpid(local, &status, 0);
-    }
+    // The sweep fails (a callback throws): its own run may not go on unwatched, as in run_jobs.
+    // The busy workers are told to stop first, so that every run writes its checkpoint at the
+    // same time; run_sweep_under_mpi then releases the workers.
+    for (const auto& [rank, b] : busy)
+      if (rank != 0) MPI_Send(nullptr, 0, MPI_CHAR, rank, kStop, MPI_COMM_WORLD);
+    if (local > 0) stop_and_wait({local});
     throw;
   }
   for (; next < order.size(); ++next) result.never.push_back(order[next]);
