@@ -5,7 +5,8 @@
 # nothing; a plain `cdshear sweep` on the same folder still works, and `mpirun -n 1` runs a campaign
 # as a plain sweep (MPI is only initialized under a launcher with more than one rank); bad input
 # exits 2; an mpirun whose ranks get SIGTERM exits 130 with checkpoints (rank 0's own run stopped
-# cleanly too), and the same command again resumes the interrupted runs and finishes all; under
+# cleanly too), and the same command again resumes the interrupted runs and finishes all (with
+# rank 0's periodic progress line before the first run finished); under
 # `mpirun -n 2`, a SIGTERM to the one worker rank stops the whole sweep, rank 0's run included;
 # a job that rank 0 cannot start (its log cannot be opened) fails that job only, as on a worker.
 # Usage: sweep_mpi_test.sh MPIEXEC CDSHEAR PACKING WORKDIR
@@ -93,8 +94,15 @@ for v in 0.5 1; do
   test -f "long/runs/s1_seed1_V$v/interrupted_state.json" || fail "V$v was not stopped cleanly"
 done
 [ "$(runs_of_rank long 0)" -eq 1 ] || fail "rank 0 ran no run: $(head -qn 1 long/logs/*.log)"
-mpi "$exe" sweep long.toml -o long > resumed.out 2>&1 || fail "the resumed mpirun exited $?: $(cat resumed.out)"
+mpi "$exe" sweep long.toml -o long --progress-every 1 > resumed.out 2>&1 ||
+  fail "the resumed mpirun exited $?: $(cat resumed.out)"
 grep -q "2 to resume" resumed.out || fail "nothing resumed: $(cat resumed.out)"
+# Rank 0's loop prints the periodic progress line too, with an estimate before any run finished.
+tick=$(grep -n -m 1 '^sweep: after .*: runs done 0/2, running 2, left 0; about .* left$' \
+       resumed.out | cut -d: -f1 || true)
+first_end=$(grep -n -m 1 '^sweep: s1_seed1_V.* finished (' resumed.out | cut -d: -f1 || true)
+[ -n "$tick" ] && [ -n "$first_end" ] && [ "$tick" -lt "$first_end" ] ||
+  fail "no periodic progress line before the first run finished: $(cat resumed.out)"
 for v in 0.5 1; do
   test -f "long/runs/s1_seed1_V$v/final_state.json" || fail "V$v did not finish on resume"
   ls long/runs/s1_seed1_V$v/run_info_resume_*.json > /dev/null 2>&1 || fail "V$v not resumed"

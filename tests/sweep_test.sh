@@ -4,7 +4,8 @@
 # redoes nothing; a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
 # untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
 # finishes all; a run killed between its last step and its analysis is analysed, not run again;
-# a changed campaign for the same folder is refused.
+# a changed campaign for the same folder is refused; `--progress-every` prints a progress line
+# with an estimate before any run has finished.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -130,5 +131,23 @@ rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
 grep -q "campaign.strain" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
 test ! -e huge || fail "a refused campaign wrote its folder"
 
+# 6. --progress-every: a progress line with runs done / running / left and an estimate of the
+# time left from the running runs' logs, before any run has finished (each runs several seconds);
+# a bad period is refused.
+campaign ticks "[0.5, 1.0]"
+sed -i 's/^duration = 4/duration = 40/' ticks.toml
+"$exe" sweep ticks.toml --jobs 2 -o ticks --progress-every 1 > ticks.out 2>&1 ||
+  fail "sweep ticks exited $?: $(cat ticks.out)"
+grep -q "2/2 runs finished" ticks.out || fail "ticks: $(cat ticks.out)"
+tick=$(grep -n -m 1 '^sweep: after .*: runs done 0/2, running 2, left 0; about .* left$' ticks.out |
+       cut -d: -f1 || true)
+first_end=$(grep -n -m 1 '^sweep: s1_seed1_V.* finished (' ticks.out | cut -d: -f1 || true)
+[ -n "$tick" ] || fail "no periodic progress line with an estimate: $(cat ticks.out)"
+[ -n "$first_end" ] && [ "$tick" -lt "$first_end" ] ||
+  fail "no periodic progress line before the first run finished: $(cat ticks.out)"
+rc=0; "$exe" sweep ticks.toml -o ticks --progress-every -1 > bad_every.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "--progress-every -1 exited $rc, not 2: $(cat bad_every.out)"
+
 echo "sweep_test: campaigns run, skip finished runs (analysing one killed before its analysis),"\
-  "resume interrupted ones, refuse changes, a busy folder and runs beyond the limits"
+  "resume interrupted ones, refuse changes, a busy folder and runs beyond the limits;"\
+  "periodic progress lines with an estimate before any run has finished"

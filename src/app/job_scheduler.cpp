@@ -103,11 +103,21 @@ std::vector<std::size_t> costliest_first(const std::vector<Job>& jobs) {
   return order;
 }
 
+JobTicker::JobTicker(const JobTick& tick)
+    : tick_(tick), active_(tick.every > 0 && static_cast<bool>(tick.call)) {
+  // At most a year: a longer period is "never", and would overflow the clock's duration.
+  const double every = std::min(tick.every, 365.0 * 86400.0);
+  if (active_)
+    period_ = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(every));
+  due_ = Clock::now() + period_;
+}
+
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
-                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
-                        const std::function<bool()>& also_stop) {
+                        const JobEndCallback& on_end, const std::function<bool()>& also_stop,
+                        const JobTick& tick) {
   const std::vector<std::size_t> order = costliest_first(jobs);
   std::map<pid_t, StartedJob> running;
+  JobTicker ticker(tick);
   ScheduleResult result;
   std::size_t next = 0;
   bool forwarded = false;
@@ -127,6 +137,7 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
         running[start_job(jobs[j])] = {j, Clock::now()};
       }
       if (running.empty()) break;
+      ticker.poll(result.ends.size(), running, order, next, result.interrupted);
       int status = 0;
       const pid_t pid = ::waitpid(-1, &status, WNOHANG);
       if (pid > 0) {

@@ -56,6 +56,39 @@ JobProgress job_progress(std::size_t done, const std::map<Key, StartedJob>& runn
   return p;
 }
 
+/// Called by a scheduler after each job ends, from its own thread.
+using JobEndCallback = std::function<void(const JobEnd&, const JobProgress&)>;
+
+/// A periodic call from a scheduler's loop (the sweep's progress line): `call` with the progress,
+/// every `every` seconds from the loop's start; none if `every` <= 0 or `call` is empty, and none
+/// once a stop was requested.
+struct JobTick {
+  double every = 0.0;  ///< [s]
+  std::function<void(const JobProgress&)> call;
+};
+
+/// Polled by both scheduler loops (run_jobs, and rank 0's under MPI) on each pass: calls the
+/// JobTick when it is due. Its timing lives here once.
+class JobTicker {
+ public:
+  explicit JobTicker(const JobTick& tick);
+  template <class Key>
+  void poll(std::size_t done, const std::map<Key, StartedJob>& running,
+            const std::vector<std::size_t>& order, std::size_t next, bool interrupted) {
+    if (!active_ || interrupted) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now < due_) return;
+    due_ = now + period_;
+    tick_.call(job_progress(done, running, order, next, interrupted));
+  }
+
+ private:
+  const JobTick& tick_;
+  bool active_ = false;
+  std::chrono::steady_clock::duration period_{};
+  std::chrono::steady_clock::time_point due_;
+};
+
 struct ScheduleResult {
   bool interrupted = false;        ///< a stop was requested: no more jobs were started
   std::vector<JobEnd> ends;        ///< in the order they ended
@@ -63,13 +96,14 @@ struct ScheduleResult {
 };
 
 /// Runs the jobs, at most `max_parallel` at once, starting the costliest first. After each job
-/// ends, `on_end` is called (from this thread). Polls g_stop_requested: once it is set, no job is
-/// started, SIGTERM is sent to every running child, and the call returns when they have exited.
-/// `also_stop`, if given, is polled the same way: a true answer is a stop request like
-/// g_stop_requested (the MPI worker passes "rank 0 asked to stop").
+/// ends, `on_end` is called (from this thread); `tick`, if set, every tick.every seconds. Polls
+/// g_stop_requested: once it is set, no job is started, SIGTERM is sent to every running child,
+/// and the call returns when they have exited. `also_stop`, if given, is polled the same way: a
+/// true answer is a stop request like g_stop_requested (the MPI worker passes "rank 0 asked to
+/// stop").
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
-                        const std::function<void(const JobEnd&, const JobProgress&)>& on_end,
-                        const std::function<bool()>& also_stop = {});
+                        const JobEndCallback& on_end, const std::function<bool()>& also_stop = {},
+                        const JobTick& tick = {});
 
 /// Starts one job as a child process of this one, as run_jobs does (rank 0 of an MPI sweep keeps
 /// one of its own beside its workers): the command line (and `where`) appended to the log as its

@@ -86,7 +86,7 @@ std::string rank_and_host(int rank) {
 /// Rank 0: the jobs to the ranks, costliest first, as they free up. Rank 0 is one of them: its
 /// job is its own child process, which it watches between two polls of the message queue.
 ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
-                                 const JobEndCallback& on_end) {
+                                 const JobEndCallback& on_end, const JobTick& tick) {
   const std::vector<std::size_t> order = costliest_first(jobs);
   std::vector<int> idle;  // taken from the back: rank 0, 1, 2... at the start
   for (int r = size - 1; r >= 0; --r) idle.push_back(r);
@@ -95,6 +95,7 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
   const std::string here = rank_and_host(0);
   ScheduleResult result;
   std::size_t next = 0;
+  JobTicker ticker(tick);
   // The job of `rank` ended (or was never started: its worker was stopped first).
   const auto ended = [&](int rank, int exit_code, double seconds, bool started) {
     const auto it = busy.find(rank);
@@ -143,6 +144,7 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
         if (not_started) ended(0, 1, 0.0, true);  // the result a worker sends in that case
       }
       if (busy.empty()) break;
+      ticker.poll(result.ends.size(), busy, order, next, result.interrupted);
       if (local > 0) {
         if (const std::optional<int> code = job_exit_code(local)) {
           local = -1;
@@ -287,8 +289,8 @@ int run_sweep_under_mpi(const std::function<int(const RemoteScheduler*, int rank
   if (size < 2) return sweep(nullptr, 0);
   if (rank != 0) return serve(rank);
   const RemoteScheduler scheduler = [size](const std::vector<Job>& jobs,
-                                           const JobEndCallback& on_end) {
-    return schedule_on_ranks(jobs, size, on_end);
+                                           const JobEndCallback& on_end, const JobTick& tick) {
+    return schedule_on_ranks(jobs, size, on_end, tick);
   };
   int code = 1;
   try {

@@ -9,12 +9,10 @@
 
 namespace cdshear {
 
-using JobEndCallback = std::function<void(const JobEnd&, const JobProgress&)>;
-
 /// Runs jobs on the MPI ranks, one at a time each, rank 0's as its own child process; same
-/// contract as run_jobs.
+/// contract as run_jobs (its periodic `tick` called by rank 0's loop).
 using RemoteScheduler =
-    std::function<ScheduleResult(const std::vector<Job>&, const JobEndCallback&)>;
+    std::function<ScheduleResult(const std::vector<Job>&, const JobEndCallback&, const JobTick&)>;
 
 /// True if the environment says that an MPI launcher (mpirun, srun) started this process among
 /// more than one rank. Reads only the environment: MPI is not initialized.

@@ -1,6 +1,7 @@
 // `cdshear sweep CAMPAIGN.toml`: every run of a campaign (docs/campaigns.md) as a child process
 // of this executable (`prepare` once per system and seed, then `run` or `run --resume`), several
-// at once, resumable, with one log per run and a progress line after each.
+// at once, resumable, with one log per run, a progress line after each and, every
+// --progress-every seconds, one with an estimate from the running runs' logs.
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -8,12 +9,19 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
+#include <string_view>
 #include <thread>
 
 #include "campaign_file.hpp"
@@ -38,6 +46,7 @@ struct SweepArgs {
   int threads = 1;  ///< solver threads of each run
   bool quiet = false;
   bool force = false;
+  double progress_every = 600.0;  ///< [s] between periodic progress lines; 0: none
 };
 
 /// What a run folder holds, from its files (docs/campaigns.md, "Resume rules").
@@ -76,6 +85,101 @@ std::string format_seconds(double s) {
   return fmt::format("{:.1f} h", s / 3600);
 }
 
+/// The time left [s] that the progress lines give: the waiting jobs' cost and the running jobs'
+/// cost still to do, at `rate` seconds per unit of cost, shared among the parallel slots (`slots`,
+/// at most the jobs not done). `share_left(job)`: the share of a running job's cost still to do,
+/// where its log tells it; otherwise (or without share_left) its whole cost's time less the time
+/// it has run (at least 0).
+double seconds_left(double rate, const JobProgress& p, const std::vector<Job>& jobs, int slots,
+                    const std::function<std::optional<double>(std::size_t)>& share_left = {}) {
+  double left = 0.0;
+  for (const std::size_t w : p.waiting_jobs) left += rate * jobs[w].cost;
+  for (const auto& [r, elapsed] : p.running_jobs) {
+    const std::optional<double> share = share_left ? share_left(r) : std::nullopt;
+    left += share ? rate * jobs[r].cost * *share : std::max(0.0, rate * jobs[r].cost - elapsed);
+  }
+  return left / static_cast<double>(std::max<std::size_t>(
+                    1, std::min<std::size_t>(static_cast<std::size_t>(std::max(1, slots)),
+                                             p.running + p.waiting)));
+}
+
+/// What a run's log says of its current sitting: the part of the log from byte `from` on (its
+/// size when the sweep planned the run; the log is append-only and only that run writes it).
+struct SittingLog {
+  std::optional<double> resumed_at;  ///< t of its checkpoint ("resuming DIR at step N, t T")
+  std::optional<double> t;           ///< t of its last status line ("step N  t T  contacts ...")
+  double age = 0.0;  ///< [s] since that line was written, if it is the log's last; 0 otherwise
+};
+
+/// Reads at most the first and the last 4 KB of the sitting; a partial last line is ignored. A
+/// log that is missing or unreadable, or says nothing yet, gives an empty answer.
+SittingLog read_sitting_log(const fs::path& log, std::uintmax_t from) {
+  constexpr std::uintmax_t kBytes = 4096;
+  SittingLog out;
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(log, ec);
+  if (ec || size <= from) return out;
+  std::ifstream in(log, std::ios::binary);
+  const auto read = [&](std::uintmax_t at, std::uintmax_t n) {
+    std::string text(static_cast<std::size_t>(n), '\0');
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(at));
+    in.read(text.data(), static_cast<std::streamsize>(n));
+    text.resize(static_cast<std::size_t>(std::max<std::streamsize>(0, in.gcount())));
+    return text;
+  };
+  // The complete lines of `text`, the first one dropped if `text` may start inside a line.
+  const auto lines = [](const std::string& text, bool skip_first) {
+    std::vector<std::string_view> v;
+    std::size_t start = 0;
+    for (std::size_t nl = text.find('\n'); nl != std::string::npos;
+         start = nl + 1, nl = text.find('\n', start)) {
+      if (skip_first) {
+        skip_first = false;
+        continue;
+      }
+      v.push_back(std::string_view(text).substr(start, nl - start));
+    }
+    return v;
+  };
+  const auto number_after = [](std::string_view line, std::string_view key,
+                               bool last) -> std::optional<double> {
+    const std::size_t at = last ? line.rfind(key) : line.find(key);
+    if (at == std::string_view::npos) return std::nullopt;
+    const std::string rest(line.substr(at + key.size()));
+    char* end = nullptr;
+    const double x = std::strtod(rest.c_str(), &end);
+    if (end == rest.c_str() || !std::isfinite(x)) return std::nullopt;
+    return x;
+  };
+  // A resumed run says where it resumed before its first status line (src/app/shear_commands.cpp).
+  const std::string head = read(from, std::min(size - from, kBytes));
+  for (const std::string_view line : lines(head, false)) {
+    if (line.starts_with("step ")) break;
+    if (line.starts_with("resuming ") && line.find(" at step ") != std::string_view::npos)
+      out.resumed_at = number_after(line, ", t ", true);
+  }
+  // The last status line (src/app/run_loop.cpp): "step %10llu  t %10.4f  contacts ...".
+  const std::uintmax_t tail_from = std::max(from, size - std::min(size, kBytes));
+  const std::string tail = read(tail_from, size - tail_from);
+  const std::vector<std::string_view> tail_lines = lines(tail, tail_from > from);
+  for (std::size_t i = tail_lines.size(); i-- > 0;) {
+    const std::string_view line = tail_lines[i];
+    if (!line.starts_with("step ") || line.find(" contacts ") == std::string_view::npos) continue;
+    out.t = number_after(line, "  t ", false);
+    if (!out.t) continue;
+    if (i + 1 == tail_lines.size() && !tail.empty() && tail.back() == '\n') {
+      // Nothing written since: the log's age is the line's.
+      const auto mtime = fs::last_write_time(log, ec);
+      if (!ec)
+        out.age = std::max(
+            0.0, std::chrono::duration<double>(fs::file_time_type::clock::now() - mtime).count());
+    }
+    break;
+  }
+  return out;
+}
+
 /// Refuses a campaign that differs from the one DIR was made for, unless --force.
 void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
   if (!fs::exists(file)) return;
@@ -108,8 +212,16 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   if (remote != nullptr && args.jobs > 0)
     std::fprintf(stderr,
                  "warning: --jobs is ignored under MPI: each rank runs one run at a time\n");
-  const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end) {
-    return remote != nullptr ? (*remote)(list, on_end) : run_jobs(list, jobs, on_end);
+  const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end,
+                            const JobTick& tick) {
+    return remote != nullptr ? (*remote)(list, on_end, tick)
+                             : run_jobs(list, jobs, on_end, {}, tick);
+  };
+  const auto sweep_start = std::chrono::steady_clock::now();
+  const double tick_every = args.quiet ? 0.0 : args.progress_every;
+  const auto since_start = [&] {
+    return format_seconds(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count());
   };
   check_same_campaign(dir / "campaign.toml", c, args.force);
   for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir / sub);
@@ -162,17 +274,25 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
       std::printf("sweep %s: preparing %zu packing%s\n", c.name.c_str(), prepare_jobs.size(),
                   prepare_jobs.size() == 1 ? "" : "s");
     std::fflush(stdout);
-    const ScheduleResult res = schedule(prepare_jobs, [&](const JobEnd& e, const JobProgress&) {
-      const Job& j = prepare_jobs[e.job];
-      if (!args.quiet || e.exit_code != 0)
-        std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
-                    e.exit_code == 0     ? "done"
-                    : e.exit_code == 130 ? "interrupted"
-                                         : fmt::format("failed, exit {}", e.exit_code).c_str(),
-                    format_seconds(e.seconds).c_str(),
-                    e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
-      std::fflush(stdout);
-    });
+    const ScheduleResult res = schedule(
+        prepare_jobs,
+        [&](const JobEnd& e, const JobProgress&) {
+          const Job& j = prepare_jobs[e.job];
+          if (!args.quiet || e.exit_code != 0)
+            std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
+                        e.exit_code == 0     ? "done"
+                        : e.exit_code == 130 ? "interrupted"
+                                             : fmt::format("failed, exit {}", e.exit_code).c_str(),
+                        format_seconds(e.seconds).c_str(),
+                        e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
+          std::fflush(stdout);
+        },
+        JobTick{tick_every, [&](const JobProgress& p) {
+                  std::printf("sweep: after %s: packings done %zu/%zu, preparing %zu, left %zu\n",
+                              since_start().c_str(), p.done, prepare_jobs.size(), p.running,
+                              p.waiting);
+                  std::fflush(stdout);
+                }});
     if (res.interrupted) {
       std::printf(
           "sweep %s: interrupted while preparing packings; run the same command again "
@@ -189,6 +309,9 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   };
   std::vector<Job> run_jobs_list;
   std::vector<Planned> planned;
+  // Per job: the run's duration (0 for an analysis), and where its log's current sitting starts.
+  std::vector<double> duration_of;
+  std::vector<std::uintmax_t> log_from;
   std::vector<std::string> failed;  // "NAME: why, log FILE"
   std::size_t finished_before = 0;
   std::set<std::size_t> analysis_jobs;  // jobs that only analyse a finished run
@@ -207,6 +330,8 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
         j.argv = {exe.string(), "analyze", "-q", "--plot", rdir.string()};
         analysis_jobs.insert(run_jobs_list.size());
         run_jobs_list.push_back(j);
+        duration_of.push_back(0.0);
+        log_from.push_back(0);
       }
       continue;
     }
@@ -241,6 +366,10 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
       if (fs::is_directory(rdir) && !fs::is_empty(rdir)) j.argv.push_back("--force");
     }
     if (!c.analyze) j.argv.push_back("--no-analyze");
+    std::error_code ec;
+    const std::uintmax_t log_size = fs::file_size(log, ec);
+    log_from.push_back(ec ? 0 : log_size);
+    duration_of.push_back(r.duration);
     run_jobs_list.push_back(j);
     planned.push_back({&r, state});
   }
@@ -260,7 +389,7 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   double done_cost = 0.0, done_seconds = 0.0;  // runs that ran to the end in this sweep
   std::size_t finished_now = 0;
   std::vector<std::string> interrupted;
-  const ScheduleResult res = schedule(run_jobs_list, [&](const JobEnd& e, const JobProgress& p) {
+  const auto on_end = [&](const JobEnd& e, const JobProgress& p) {
     const Job& j = run_jobs_list[e.job];
     if (analysis_jobs.count(e.job) != 0) {
       if (e.exit_code != 0)
@@ -290,24 +419,58 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
     }
     if (args.quiet) return;
     std::string eta;
-    if (done_cost > 0 && (p.running > 0 || p.waiting > 0)) {
-      // Seconds per unit of cost so far, times the cost left (a running job's share done
-      // subtracted), shared among the parallel slots.
-      const double rate = done_seconds / done_cost;
-      double left = 0.0;
-      for (const std::size_t w : p.waiting_jobs) left += rate * run_jobs_list[w].cost;
-      for (const auto& [r, elapsed] : p.running_jobs)
-        left += std::max(0.0, rate * run_jobs_list[r].cost - elapsed);
+    // Seconds per unit of cost of the runs finished in this sweep, times the cost left (a running
+    // run's elapsed time subtracted), shared among the parallel slots.
+    if (done_cost > 0 && (p.running > 0 || p.waiting > 0))
       eta = "; about " +
-            format_seconds(left / std::max<std::size_t>(
-                                      1, std::min<std::size_t>(jobs, p.running + p.waiting))) +
+            format_seconds(seconds_left(done_seconds / done_cost, p, run_jobs_list, jobs)) +
             " left";
-    }
     std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n", j.name.c_str(),
                 what.c_str(), format_seconds(e.seconds).c_str(), finished_before + finished_now,
                 c.runs.size(), p.running, p.waiting, eta.c_str());
     std::fflush(stdout);
-  });
+  };
+  // Every --progress-every seconds: the same counts, and the time left from the seconds per unit
+  // of cost of the finished runs and of the running ones together (the seconds each has run in
+  // this sitting over the cost it has done since it started or resumed, from its log), times the
+  // cost left (a running run's share from its last status line).
+  const auto on_tick = [&](const JobProgress& p) {
+    double seconds = done_seconds, cost = done_cost;
+    std::map<std::size_t, double> share;  // running job -> share of its cost still to do
+    for (const auto& [j, elapsed] : p.running_jobs) {
+      const double d = duration_of[j];
+      if (!(d > 0)) continue;  // an analysis
+      const SittingLog s = read_sitting_log(run_jobs_list[j].log, log_from[j]);
+      const double f0 = std::clamp(s.resumed_at.value_or(0.0) / d, 0.0, 1.0);
+      if (s.t) {
+        const double f = std::clamp(*s.t / d, 0.0, 1.0);
+        share[j] = 1.0 - f;
+        // Its elapsed time when that line was written (a clock that disagrees: now).
+        const double at = s.age < elapsed ? elapsed - s.age : elapsed;
+        if (f > f0 && at > 0) {
+          seconds += at;
+          cost += run_jobs_list[j].cost * (f - f0);
+        }
+      } else if (s.resumed_at) {
+        share[j] = 1.0 - f0;
+      }
+    }
+    std::string eta = "; no estimate yet";
+    if (cost > 0)
+      eta = "; about " +
+            format_seconds(seconds_left(seconds / cost, p, run_jobs_list, jobs,
+                                        [&](std::size_t j) -> std::optional<double> {
+                                          const auto it = share.find(j);
+                                          if (it == share.end()) return std::nullopt;
+                                          return it->second;
+                                        })) +
+            " left";
+    std::printf("sweep: after %s: runs done %zu/%zu, running %zu, left %zu%s\n",
+                since_start().c_str(), finished_before + finished_now, c.runs.size(), p.running,
+                p.waiting, eta.c_str());
+    std::fflush(stdout);
+  };
+  const ScheduleResult res = schedule(run_jobs_list, on_end, JobTick{tick_every, on_tick});
 
   const std::size_t finished = finished_before + finished_now;
   std::printf(
@@ -338,6 +501,17 @@ void register_sweep_command(CLI::App& app) {
                    "runs at once (default: processors / --threads, at least 1)");
   add_count_option(s, "--threads", args->threads, "solver threads of each run (default 1)");
   s->add_flag("-q,--quiet", args->quiet, "only the final summary (and failures)");
+  s->add_option_function<double>(
+       "--progress-every",
+       [args](double seconds) {
+         if (!(seconds >= 0.0) || !std::isfinite(seconds))
+           throw ConfigError("--progress-every", "",
+                             fmt::format("must be a number of seconds >= 0, got {}", seconds));
+         args->progress_every = seconds;
+       },
+       "seconds between progress lines with a time estimate from the running runs' logs "
+       "(default 600; 0: none)")
+      ->type_name("SECONDS");
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");
   s->callback([args]() {
