@@ -83,7 +83,7 @@ class JobTicker {
   }
 
  private:
-  const JobTick& tick_;
+  JobTick tick_;  // a copy: the ticker must not outlive a caller's temporary
   bool active_ = false;
   std::chrono::steady_clock::duration period_{};
   std::chrono::steady_clock::time_point due_;
