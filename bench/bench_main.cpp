@@ -63,6 +63,7 @@ struct Settings {
   cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
   int threads = 1;
   bool skip_dormant = false;
+  int anderson_depth = 0, anderson_period = 1;
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
@@ -96,6 +97,8 @@ void usage() {
   --order O           NLGS contact order: random (default), sequential or coloured
   --threads N         solver threads (default 1; used by the coloured order only)
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
+  --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth)
+  --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
   --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
@@ -165,6 +168,13 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--relaxation must be in (0, 2)");
     } else if (a == "--skip-dormant") {
       s.skip_dormant = true;
+    } else if (a == "--anderson") {
+      s.anderson_depth = std::stoi(value());
+      if (s.anderson_depth < 0 || s.anderson_depth > cdshear::kMaxAndersonDepth)
+        throw std::invalid_argument("--anderson must be in 0..16");
+    } else if (a == "--anderson-period") {
+      s.anderson_period = std::stoi(value());
+      if (s.anderson_period < 1) throw std::invalid_argument("--anderson-period must be >= 1");
     } else if (a == "--threads") {
       s.threads = std::stoi(value());
       if (s.threads < 1) throw std::invalid_argument("--threads must be at least 1");
@@ -502,6 +512,8 @@ int run(const Settings& s) {
     options.solver.order = s.order;
     options.solver.threads = s.threads;
     options.solver.skip_dormant = s.skip_dormant;
+    options.solver.anderson_depth = s.anderson_depth;
+    options.solver.anderson_period = s.anderson_period;
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;
     options.solver.relaxation = s.relaxation;

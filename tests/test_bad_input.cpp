@@ -198,6 +198,25 @@ TEST(BadInput, RelaxationOutsideZeroToTwoIsRefused) {
   EXPECT_EQ(load_scene_file(path, {"solver.relaxation=1.5"}).step.solver.relaxation, 1.5);
 }
 
+TEST(BadInput, AndersonKeysOutOfRangeAreRefused) {
+  TempDir dir("anderson");
+  const std::string path = dir.write("scene.toml", scene_text());
+  for (const auto& [bad, key] : {std::pair{"solver.anderson_depth=-1", "solver.anderson_depth"},
+                                 std::pair{"solver.anderson_depth=17", "solver.anderson_depth"},
+                                 std::pair{"solver.anderson_period=0", "solver.anderson_period"}}) {
+    try {
+      load_scene_file(path, {bad});
+      ADD_FAILURE() << "no ConfigError for " << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), key) << bad;
+    }
+  }
+  const SolverOptions s =
+      load_scene_file(path, {"solver.anderson_depth=5", "solver.anderson_period=2"}).step.solver;
+  EXPECT_EQ(s.anderson_depth, 5);
+  EXPECT_EQ(s.anderson_period, 2);
+}
+
 TEST(BlowUp, TooFastApproachWithZeroMarginIsReported) {
   // Two disks 0.001 apart closing at 800 per time unit with contact_margin 0: they are no
   // candidate contact at the start of the step, and after it they overlap by 0.799. The step

@@ -232,6 +232,45 @@ TEST(Column, OverRelaxationShrinksTheErrorAtEqualSweeps) {
   EXPECT_LT(1000.0 * e_relaxed, e_plain);
 }
 
+TEST(Column, AndersonAcceleratedSolverReachesTheSameStatics) {
+  // Anderson mixing of the impulses (depth 5, every second sweep) on top of over-relaxation,
+  // driven to round-off: the mix is projected on the Signorini-Coulomb set and its fixed points
+  // are those of the sweeps, so the statics are exact as before.
+  SolverOptions tight;
+  tight.alpha = 1e-24;
+  tight.converged_fraction = 1.0;
+  tight.max_sweeps = 5000;
+  tight.relaxation = 1.6;
+  tight.anderson_depth = 5;
+  tight.anderson_period = 2;
+  const ColumnRun r = run_column(10, tight, 1000, 500);
+  EXPECT_LT(r.wall_force_error, 1e-11);
+  EXPECT_LT(r.contact_force_error, 1e-11);
+  EXPECT_LT(r.largest_friction, 1e-12);
+  EXPECT_LT(r.drift, 1e-12);
+  EXPECT_LT(r.largest_overlap, 1e-12);
+  EXPECT_EQ(r.capped, 0);
+}
+
+TEST(Column, AndersonAccelerationShrinksTheErrorAtEqualSweeps) {
+  // Same measure as above (chain of 20, fixed sweeps, error against round-off). Measured:
+  // over-relaxation alone 2.4e-4 after 50 sweeps; with Anderson mixing (depth 5, every second
+  // sweep) 4e-15, round-off. Required: a hundred times below over-relaxation alone at the same
+  // 50 sweeps.
+  SolverOptions relaxed;
+  relaxed.alpha = 0.0;
+  relaxed.max_sweeps = 50;
+  relaxed.relaxation = 1.6;
+  SolverOptions mixed = relaxed;
+  mixed.anderson_depth = 5;
+  mixed.anderson_period = 2;
+  const double e_relaxed = step_error_against_round_off(20, relaxed, 10);
+  const double e_mixed = step_error_against_round_off(20, mixed, 10);
+  std::printf("error on a chain of 20 after 50 sweeps: relaxation 1.6 %.2g; with Anderson %.2g\n",
+              e_relaxed, e_mixed);
+  EXPECT_LT(100.0 * e_mixed, e_relaxed);
+}
+
 TEST(Column, ColouredOrderOnTwoThreadsGivesTheSameStatics) {
   // The coloured order cuts the column into bands (slabs of four diameters): contacts inside
   // each slab, then across slab boundaries, then the floor contact, slabs on two threads.

@@ -426,6 +426,20 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         static_cast<std::size_t>(std::min(options.threads, solver_threads_available()))));
   report.colours = ws.phases.size();
 
+  const bool accelerate = options.anderson_depth > 0;
+  const int period = std::max(options.anderson_period, 1);
+  const auto gather_impulses = [&](std::vector<double>& v) {
+    v.resize(2 * nc);
+    for (std::size_t i = 0; i < nc; ++i) {
+      v[2 * i] = rows[i].impulse_n;
+      v[2 * i + 1] = rows[i].impulse_t;
+    }
+  };
+  if (accelerate) {
+    ws.anderson.reset(2 * nc, options.anderson_depth);
+    gather_impulses(ws.anderson_x);
+  }
+
   bool done = false;
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
 #if defined(_OPENMP)
@@ -479,6 +493,24 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         done = done && woken == 0;
       }
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
+      if (accelerate && !done && sweep % period == 0) {
+        // The Anderson mix of the last images, projected on the Signorini-Coulomb set; the
+        // bodies follow through the change of each impulse.
+        gather_impulses(ws.anderson_g);
+        ws.anderson.mix(ws.anderson_x, ws.anderson_g);
+        for (std::size_t i = 0; i < nc; ++i) {
+          SolverRow& r = rows[i];
+          const double r_n = std::max(0.0, ws.anderson_g[2 * i]);
+          const double limit = r.friction * r_n;
+          const double r_t = std::clamp(ws.anderson_g[2 * i + 1], -limit, limit);
+          apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n,
+                        r_t - r.impulse_t);
+          r.impulse_n = r_n;
+          r.impulse_t = r_t;
+          ws.anderson_x[2 * i] = r_n;
+          ws.anderson_x[2 * i + 1] = r_t;
+        }
+      }
     }
     if (done) break;
   }

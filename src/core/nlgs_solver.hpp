@@ -48,6 +48,7 @@
 #include <utility>
 #include <vector>
 
+#include "anderson.hpp"
 #include "contact.hpp"
 #include "vec2.hpp"
 
@@ -96,7 +97,15 @@ struct SolverOptions {
   /// Contacts per thread below which fewer threads are used (a barrier then costs more than the
   /// work it shares). No effect on the results.
   std::size_t min_rows_per_thread = 1500;
+  /// Anderson acceleration of the sweeps (anderson.hpp): 0 = off, else the number of past
+  /// differences mixed. Every `anderson_period` sweeps, the impulses become the Anderson mix of
+  /// the last images, projected on the Signorini-Coulomb set (docs/performance.md).
+  int anderson_depth = 0;
+  int anderson_period = 1;
 };
+
+/// Largest SolverOptions::anderson_depth.
+inline constexpr int kMaxAndersonDepth = 16;
 
 struct SolverReport {
   int sweeps = 0;
@@ -158,7 +167,9 @@ struct SolverWorkspace {
   std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
-  std::vector<std::vector<std::uint32_t>> awake;                 ///< rows each group's sweeps visit
+  AndersonMixer anderson;                 ///< options.anderson_depth > 0
+  std::vector<double> anderson_x, anderson_g;     ///< (R_n, R_t) of every row, before and after
+  std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
   std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
   std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
   std::vector<std::size_t> next;                                 ///< scratch of the group sort

@@ -177,6 +177,21 @@ toml::table case_to_toml(const ShearCase& c) {
     step.insert("dt", *c.dt);
   else
     step.insert("dt", "auto");
+  toml::table solver{
+      {"alpha", s.alpha},
+      {"converged_fraction", s.converged_fraction},
+      {"max_sweeps", s.max_sweeps},
+      {"order", contact_order_name(s.order)},
+      {"skip_dormant", s.skip_dormant},
+      {"relaxation", s.relaxation},
+      {"criterion", s.criterion == ConvergenceCriterion::kError ? "error" : "change"},
+      {"seed", static_cast<std::int64_t>(s.seed)}};
+  // Written only when on, so that the resolved cases (and fingerprints) of runs without it stay
+  // those of before the option existed; absent means off.
+  if (s.anderson_depth > 0) {
+    solver.insert("anderson_depth", s.anderson_depth);
+    solver.insert("anderson_period", s.anderson_period);
+  }
   return toml::table{
       {"system", toml::table{{"n", static_cast<std::int64_t>(c.n)},
                              {"height", c.height},
@@ -190,15 +205,7 @@ toml::table case_to_toml(const ShearCase& c) {
                             {"wall_mass", c.wall_mass},
                             {"duration", c.duration}}},
       {"step", step},
-      {"solver",
-       toml::table{{"alpha", s.alpha},
-                   {"converged_fraction", s.converged_fraction},
-                   {"max_sweeps", s.max_sweeps},
-                   {"order", contact_order_name(s.order)},
-                   {"skip_dormant", s.skip_dormant},
-                   {"relaxation", s.relaxation},
-                   {"criterion", s.criterion == ConvergenceCriterion::kError ? "error" : "change"},
-                   {"seed", static_cast<std::int64_t>(s.seed)}}},
+      {"solver", solver},
       {"preparation",
        toml::table{{"initial_solid_fraction", p.initial_solid_fraction},
                    {"gravity", p.gravity},

@@ -32,6 +32,10 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       solver.choice("criterion", {"change", "error"}, error ? "error" : "change") == "error"
           ? ConvergenceCriterion::kError
           : ConvergenceCriterion::kChange;
+  s.anderson_depth =
+      static_cast<int>(solver.integer_in("anderson_depth", 0, kMaxAndersonDepth, s.anderson_depth));
+  s.anderson_period =
+      static_cast<int>(solver.integer_in("anderson_period", 1, 1000, s.anderson_period));
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();

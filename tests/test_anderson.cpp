@@ -1,0 +1,86 @@
+// Anderson acceleration (anderson.hpp) on linear fixed-point problems, where its answer is known:
+// with depth >= n it is a Krylov method and solves an n-dimensional linear problem in n + 1 maps
+// (Walker and Ni 2011: type-II Anderson with full memory is equivalent to GMRES).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "anderson.hpp"
+
+namespace cdshear {
+namespace {
+
+/// Jacobi iteration x <- G(x) = D^-1 (b - (A - D) x) of the 1D Laplacian A = tridiag(-1, 2, -1),
+/// whose solution with b = 1 is x_i = (i + 1) (n - i) / 2. Jacobi alone contracts the error by
+/// cos(pi / (n + 1)) per map: about 0.99 for n = 20.
+std::vector<double> jacobi(const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  std::vector<double> g(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double left = i > 0 ? x[i - 1] : 0.0;
+    const double right = i + 1 < n ? x[i + 1] : 0.0;
+    g[i] = (1.0 + left + right) / 2.0;
+  }
+  return g;
+}
+
+double error(const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  double worst = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double exact = static_cast<double>((i + 1) * (n - i)) / 2.0;
+    worst = std::max(worst, std::abs(x[i] - exact) / exact);
+  }
+  return worst;
+}
+
+TEST(Anderson, FullDepthSolvesALinearProblemInNPlusOneMaps) {
+  constexpr std::size_t kN = 8;
+  AndersonMixer mixer;
+  mixer.reset(kN, 16);
+  std::vector<double> x(kN, 0.0);
+  for (std::size_t k = 0; k <= kN + 1; ++k) {
+    std::vector<double> g = jacobi(x);
+    mixer.mix(x, g);
+    x = g;
+  }
+  EXPECT_LT(error(x), 1e-8);  // Jacobi alone after 10 maps: 0.6
+  std::vector<double> plain(kN, 0.0);
+  for (std::size_t k = 0; k <= kN + 1; ++k) plain = jacobi(plain);
+  EXPECT_GT(error(plain), 0.1);
+}
+
+TEST(Anderson, SmallDepthBeatsThePlainIterationByFar) {
+  // n = 20, depth 5, 60 maps: the plain iteration is still about 50% off (0.99^60, measured
+  // 0.53); the mixed one is 4000 times closer (measured 1.3e-4). Required: below 1e-3.
+  constexpr std::size_t kN = 20;
+  AndersonMixer mixer;
+  mixer.reset(kN, 5);
+  std::vector<double> x(kN, 0.0), plain(kN, 0.0);
+  for (int k = 0; k < 60; ++k) {
+    std::vector<double> g = jacobi(x);
+    mixer.mix(x, g);
+    x = g;
+    plain = jacobi(plain);
+  }
+  std::printf("relative error after 60 maps: Jacobi %.2g, with Anderson (depth 5) %.2g\n",
+              error(plain), error(x));
+  EXPECT_LT(error(x), 1e-3);
+  EXPECT_GT(error(plain), 0.3);
+  EXPECT_EQ(mixer.kept(), 5);
+}
+
+TEST(Anderson, FirstMixAfterAResetIsThePlainMap) {
+  AndersonMixer mixer;
+  mixer.reset(3, 4);
+  const std::vector<double> x{1.0, 2.0, 3.0};
+  std::vector<double> g = jacobi(x);
+  const std::vector<double> expected = g;
+  mixer.mix(x, g);
+  EXPECT_EQ(g, expected);
+  EXPECT_EQ(mixer.kept(), 0);
+}
+
+}  // namespace
+}  // namespace cdshear
