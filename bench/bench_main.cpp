@@ -68,6 +68,7 @@ struct Settings {
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
+  int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   double alpha = 1e-6;                // convergence tolerance (solver.alpha); 0: always the cap
   int step_error_samples = 0;
   bool save = false;
@@ -99,6 +100,7 @@ void usage() {
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
   --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth)
   --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
+  --reference-anderson M  Anderson depth of --step-error's reference (default 0: plain)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
   --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
@@ -168,6 +170,10 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--relaxation must be in (0, 2)");
     } else if (a == "--skip-dormant") {
       s.skip_dormant = true;
+    } else if (a == "--reference-anderson") {
+      s.reference_anderson = std::stoi(value());
+      if (s.reference_anderson < 0 || s.reference_anderson > cdshear::kMaxAndersonDepth)
+        throw std::invalid_argument("--reference-anderson must be in 0..16");
     } else if (a == "--anderson") {
       s.anderson_depth = std::stoi(value());
       if (s.anderson_depth < 0 || s.anderson_depth > cdshear::kMaxAndersonDepth)
@@ -387,12 +393,13 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// all impulses, the largest error of one contact relative to the mean impulse, the relative
 /// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
 /// the sweeps of both solves. The reference relaxes its updates by `reference_relaxation`
-/// whatever `options` does (every relaxation has Gauss-Seidel's fixed points, so a converged
-/// reference is the same solution). A reference that stops at its cap is flagged: in the
-/// 200 d tall cell most do, whatever the relaxation (docs/accuracy.md, "Tall cells"). The world
-/// goes on with `options`.
+/// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
+/// `options` does (every relaxation and mix has Gauss-Seidel's fixed points, so a converged
+/// reference is the same solution where the solution is unique). A reference that stops at its cap
+/// is flagged: in the 200 d tall cell most do, whatever the relaxation (docs/accuracy.md, "Tall
+/// cells"). The world goes on with `options`.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
-                int spacing, double reference_relaxation) {
+                int spacing, double reference_relaxation, int reference_anderson) {
   StepOptions tight = options;
   tight.solver.alpha = 1e-20;
   tight.solver.converged_fraction = 1.0;
@@ -400,6 +407,8 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.skip_dormant = false;
   tight.solver.criterion = cdshear::ConvergenceCriterion::kChange;
   tight.solver.relaxation = reference_relaxation;
+  tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
+  tight.solver.anderson_period = 2;
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -505,7 +514,7 @@ int run(const Settings& s) {
       lines.push_back(line);
       if (s.step_error_samples > 0)
         step_error(box.world, box.dynamics, options, s.step_error_samples, 20,
-                   s.reference_relaxation);
+                   s.reference_relaxation, s.reference_anderson);
     };
 
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3

@@ -82,5 +82,21 @@ TEST(Anderson, FirstMixAfterAResetIsThePlainMap) {
   EXPECT_EQ(mixer.kept(), 0);
 }
 
+TEST(Anderson, AGrowingResidualDropsTheHistory) {
+  // Residuals 1, 0.5 (kept: one difference), then 2 (grew: history dropped, iterate unmixed).
+  AndersonMixer mixer;
+  mixer.reset(2, 4);
+  const std::vector<double> x{0.0, 0.0};
+  std::vector<double> g{1.0, 0.0};
+  mixer.mix(x, g);
+  g = {0.5, 0.0};
+  mixer.mix(x, g);
+  EXPECT_EQ(mixer.kept(), 1);
+  g = {2.0, 0.0};
+  mixer.mix(x, g);
+  EXPECT_EQ(mixer.kept(), 0);
+  EXPECT_EQ(g, (std::vector<double>{2.0, 0.0}));
+}
+
 }  // namespace
 }  // namespace cdshear

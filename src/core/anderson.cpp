@@ -69,6 +69,17 @@ void AndersonMixer::reset(std::size_t n, int depth) {
 
 void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   const std::size_t n = n_;
+  double f2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) f2 += (g[i] - x[i]) * (g[i] - x[i]);
+  if (have_last_ && f2 > last_f2_) {
+    // The residual grew since the last map: the mixes of the kept history made things worse
+    // (the map is only piecewise linear: contacts open, close, stick and slip). Start again
+    // from this iterate, unmixed.
+    kept_ = 0;
+    next_column_ = 0;
+    have_last_ = false;
+  }
+  last_f2_ = f2;
   if (have_last_) {
     const int c = next_column_;
     double* df = column(delta_f_, c);

@@ -3,7 +3,9 @@
 //   x_{k+1} = G(x_k) - sum_j gamma_j (G(x_{j+1}) - G(x_j)),
 //   gamma = argmin || f_k - sum_j gamma_j (f_{j+1} - f_j) ||_2,   f = G(x) - x,
 // the least-squares problem solved through its normal equations (depth is small), with a
-// relative Tikhonov term so that nearly parallel differences do not blow gamma up. A plain
+// relative Tikhonov term so that nearly parallel differences do not blow gamma up. Safeguard:
+// when the residual |f| of a map is larger than the last one's, the history is dropped and the
+// iterate is left unmixed (restart). A plain
 // function of the vectors it is given: no I/O, no randomness, fixed summation order.
 #pragma once
 
@@ -34,6 +36,7 @@ class AndersonMixer {
   int kept_ = 0;         // columns in use
   int next_column_ = 0;  // the ring's next column to overwrite
   bool have_last_ = false;
+  double last_f2_ = 0.0;                   // |f|^2 of the last map
   std::vector<double> delta_f_, delta_g_;  // depth columns of n, column-major
   std::vector<double> last_f_, last_g_;
   std::vector<double> gram_;  // depth x depth, delta_f^T delta_f

@@ -426,18 +426,22 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         static_cast<std::size_t>(std::min(options.threads, solver_threads_available()))));
   report.colours = ws.phases.size();
 
+  // Anderson acceleration mixes the rows awake at the start (the others are open and
+  // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
   const bool accelerate = options.anderson_depth > 0;
   const int period = std::max(options.anderson_period, 1);
-  const auto gather_impulses = [&](std::vector<double>& v) {
-    v.resize(2 * nc);
-    for (std::size_t i = 0; i < nc; ++i) {
-      v[2 * i] = rows[i].impulse_n;
-      v[2 * i + 1] = rows[i].impulse_t;
-    }
-  };
   if (accelerate) {
-    ws.anderson.reset(2 * nc, options.anderson_depth);
-    gather_impulses(ws.anderson_x);
+    ws.anderson_rows.clear();
+    for (std::size_t g = 0; g < groups; ++g)
+      ws.anderson_rows.insert(ws.anderson_rows.end(), ws.awake[g].begin(), ws.awake[g].end());
+    const std::size_t n = ws.anderson_rows.size();
+    ws.anderson.reset(2 * n, options.anderson_depth);
+    ws.anderson_x.resize(2 * n);
+    ws.anderson_g.resize(2 * n);
+    for (std::size_t k = 0; k < n; ++k) {
+      ws.anderson_x[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
+      ws.anderson_x[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
+    }
   }
 
   bool done = false;
@@ -493,22 +497,27 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         done = done && woken == 0;
       }
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
-      if (accelerate && !done && sweep % period == 0) {
+      if (accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps) {
         // The Anderson mix of the last images, projected on the Signorini-Coulomb set; the
-        // bodies follow through the change of each impulse.
-        gather_impulses(ws.anderson_g);
+        // bodies follow through the change of each impulse. Never after the last sweep: a step
+        // ends on a sweep's result, not on an extrapolation.
+        const std::size_t n = ws.anderson_rows.size();
+        for (std::size_t k = 0; k < n; ++k) {
+          ws.anderson_g[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
+          ws.anderson_g[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
+        }
         ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-        for (std::size_t i = 0; i < nc; ++i) {
-          SolverRow& r = rows[i];
-          const double r_n = std::max(0.0, ws.anderson_g[2 * i]);
+        for (std::size_t k = 0; k < n; ++k) {
+          SolverRow& r = rows[ws.anderson_rows[k]];
+          const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
           const double limit = r.friction * r_n;
-          const double r_t = std::clamp(ws.anderson_g[2 * i + 1], -limit, limit);
+          const double r_t = std::clamp(ws.anderson_g[2 * k + 1], -limit, limit);
           apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n,
                         r_t - r.impulse_t);
           r.impulse_n = r_n;
           r.impulse_t = r_t;
-          ws.anderson_x[2 * i] = r_n;
-          ws.anderson_x[2 * i + 1] = r_t;
+          ws.anderson_x[2 * k] = r_n;
+          ws.anderson_x[2 * k + 1] = r_t;
         }
       }
     }
