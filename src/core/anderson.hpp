@@ -5,8 +5,8 @@
 // the least-squares problem solved through its normal equations (depth is small), with a
 // relative Tikhonov term so that nearly parallel differences do not blow gamma up. Safeguard:
 // when the residual |f| of a map is larger than the last one's, the history is dropped and the
-// iterate is left unmixed (restart). A plain
-// function of the vectors it is given: no I/O, no randomness, fixed summation order.
+// iterate is left unmixed (restart). A plain function of the vectors it is given: no I/O, no
+// randomness, fixed summation order.
 #pragma once
 
 #include <cstddef>

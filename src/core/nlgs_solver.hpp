@@ -17,6 +17,9 @@
 //                 order is kept inside a group. Groups of one phase are independent, so several
 //                 threads solve them at once, and the result is the same whatever the number of
 //                 threads (the convergence sums are added group by group, in order).
+// Anderson acceleration (options.anderson_depth > 0, anderson.hpp): every anderson_period sweeps
+// the impulses of the rows awake at the start become the Anderson mix of the last sweeps'
+// results, projected on the Signorini-Coulomb set; never after the last sweep. Same fixed points.
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
 // free velocity is its current relative velocity minus W times its current impulse: a contact
 // update costs O(1).
