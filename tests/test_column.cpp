@@ -90,10 +90,14 @@ ColumnRun run_column(int n, const SolverOptions& solver, int steps, int checked_
 }
 
 /// A column of 10 stepped with the solver driven to round-off (alpha 1e-24, every contact, cap
-/// 5000) and the given relaxation: the forces must be the exact statics at every step within
-/// `tolerance`, and nothing may move, overlap, mobilise friction or hit the cap.
-void expect_exact_statics(double relaxation, double tolerance) {
+/// 5000) and the given relaxation and Anderson mixing (depth, every `anderson_period` sweeps;
+/// depth 0: none): the forces must be the exact statics at every step within `tolerance`, and
+/// nothing may move, overlap, mobilise friction or hit the cap.
+void expect_exact_statics(double relaxation, double tolerance, int anderson_depth = 0,
+                          int anderson_period = 1) {
   SolverOptions tight;
+  tight.anderson_depth = anderson_depth;
+  tight.anderson_period = anderson_period;
   tight.alpha = 1e-24;
   tight.converged_fraction = 1.0;
   tight.max_sweeps = 5000;
@@ -236,20 +240,7 @@ TEST(Column, AndersonAcceleratedSolverReachesTheSameStatics) {
   // Anderson mixing of the impulses (depth 5, every second sweep) on top of over-relaxation,
   // driven to round-off: the mix is projected on the Signorini-Coulomb set and its fixed points
   // are those of the sweeps, so the statics are exact as before.
-  SolverOptions tight;
-  tight.alpha = 1e-24;
-  tight.converged_fraction = 1.0;
-  tight.max_sweeps = 5000;
-  tight.relaxation = 1.6;
-  tight.anderson_depth = 5;
-  tight.anderson_period = 2;
-  const ColumnRun r = run_column(10, tight, 1000, 500);
-  EXPECT_LT(r.wall_force_error, 1e-11);
-  EXPECT_LT(r.contact_force_error, 1e-11);
-  EXPECT_LT(r.largest_friction, 1e-12);
-  EXPECT_LT(r.drift, 1e-12);
-  EXPECT_LT(r.largest_overlap, 1e-12);
-  EXPECT_EQ(r.capped, 0);
+  expect_exact_statics(1.6, 1e-11, 5, 2);
 }
 
 TEST(Column, AndersonAccelerationShrinksTheErrorAtEqualSweeps) {

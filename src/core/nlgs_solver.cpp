@@ -430,18 +430,19 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
   const bool accelerate = options.anderson_depth > 0;
   const int period = std::max(options.anderson_period, 1);
+  const auto gather_mixed_impulses = [&](std::vector<double>& v) {
+    v.resize(2 * ws.anderson_rows.size());
+    for (std::size_t k = 0; k < ws.anderson_rows.size(); ++k) {
+      v[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
+      v[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
+    }
+  };
   if (accelerate) {
     ws.anderson_rows.clear();
     for (std::size_t g = 0; g < groups; ++g)
       ws.anderson_rows.insert(ws.anderson_rows.end(), ws.awake[g].begin(), ws.awake[g].end());
-    const std::size_t n = ws.anderson_rows.size();
-    ws.anderson.reset(2 * n, options.anderson_depth);
-    ws.anderson_x.resize(2 * n);
-    ws.anderson_g.resize(2 * n);
-    for (std::size_t k = 0; k < n; ++k) {
-      ws.anderson_x[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
-      ws.anderson_x[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
-    }
+    ws.anderson.reset(2 * ws.anderson_rows.size(), options.anderson_depth);
+    gather_mixed_impulses(ws.anderson_x);
   }
 
   bool done = false;
@@ -501,13 +502,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         // The Anderson mix of the last images, projected on the Signorini-Coulomb set; the
         // bodies follow through the change of each impulse. Never after the last sweep: a step
         // ends on a sweep's result, not on an extrapolation.
-        const std::size_t n = ws.anderson_rows.size();
-        for (std::size_t k = 0; k < n; ++k) {
-          ws.anderson_g[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
-          ws.anderson_g[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
-        }
+        gather_mixed_impulses(ws.anderson_g);
         ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-        for (std::size_t k = 0; k < n; ++k) {
+        for (std::size_t k = 0; k < ws.anderson_rows.size(); ++k) {
           SolverRow& r = rows[ws.anderson_rows[k]];
           const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
           const double limit = r.friction * r_n;
