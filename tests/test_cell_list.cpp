@@ -1,5 +1,6 @@
-// The cell-list contact detector (ContactDetector) against a brute-force all-pairs search over
-// random configurations, periodic and not, for several margins.
+// The contact detector (ContactDetector: a neighbour list built with a cell list) against a
+// brute-force all-pairs search over random configurations, periodic and not, for several
+// margins, and a detector kept from step to step against a fresh one.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -129,6 +130,95 @@ TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
   }
   for (std::int64_t im : sim.world.disks.image) crossings += std::abs(im);
   EXPECT_GT(crossings, 0);
+}
+
+/// Candidates of `kept` (a detector that has seen earlier configurations, so may reuse its
+/// neighbour list) against a fresh detector's, field by field and bit for bit, and against the
+/// brute-force search.
+void compare_kept_with_fresh(ContactDetector& kept, const World& world, double margin,
+                             const std::string& what) {
+  std::vector<Contact> reused, fresh;
+  kept.detect(world, margin, reused);
+  ContactDetector().detect(world, margin, fresh);
+  ASSERT_EQ(reused.size(), fresh.size()) << what;
+  for (std::size_t k = 0; k < reused.size(); ++k) {
+    ASSERT_EQ(reused[k].key, fresh[k].key) << what << " entry " << k;
+    ASSERT_EQ(reused[k].gap, fresh[k].gap) << what << " entry " << k;
+    ASSERT_EQ(reused[k].normal.x, fresh[k].normal.x) << what << " entry " << k;
+    ASSERT_EQ(reused[k].normal.y, fresh[k].normal.y) << what << " entry " << k;
+    ASSERT_EQ(reused[k].lever_b, fresh[k].lever_b) << what << " entry " << k;
+  }
+  compare_with_brute_force(world, margin, what);
+}
+
+TEST(ContactDetection, NeighbourListGivesTheCandidatesOfAFreshSearchAtEveryStep) {
+  // Disks drifting along +x across the periodic boundary and falling onto the floor: one
+  // detector kept from step to step (as in ContactDynamics) must find exactly what a fresh search
+  // finds, whether it reuses its neighbour list or builds it again.
+  SceneDefinition s;
+  s.domain = {true, 6.0};
+  s.gravity = {1.0, -0.2};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  RandomDisksSpec r;
+  r.count = 25;
+  r.region_min = {0.0, 0.0};
+  r.region_max = {6.0, 6.0};
+  r.seed = 4;
+  s.random_disks.push_back(r);
+  testing::Simulation sim(s, StepOptions{});
+  sim.options.dt = 0.005;
+  ContactDetector kept;
+  constexpr int kSteps = 300;
+  for (int k = 0; k < kSteps; ++k) {
+    sim.run(1);
+    compare_kept_with_fresh(kept, sim.world, 0.05, "step " + std::to_string(sim.world.step));
+  }
+  // The disks moved by more than the skin (the list was built again) but most steps reused it.
+  EXPECT_GT(kept.neighbour_builds(), 2u);
+  EXPECT_LT(kept.neighbour_builds(), static_cast<std::uint64_t>(kSteps / 3));
+}
+
+TEST(ContactDetection, NeighbourListFindsEveryPairThatClosesIn) {
+  // Each disk moves at its own velocity (random directions, up to 0.01 per step), so pairs keep
+  // closing in and separating, across the periodic boundary too: the kept detector must find
+  // each pair in the step where it comes within the margin.
+  std::mt19937_64 rng(12);
+  World world = build_world(random_scene(rng, true, 7.3, 8.0, 40));
+  std::uniform_real_distribution<double> u(-0.007, 0.007);
+  std::vector<Vec2> velocity(world.disks.size());
+  for (Vec2& v : velocity) v = {u(rng), u(rng)};
+  const double lx = world.domain.length_x;
+  ContactDetector kept;
+  constexpr int kSteps = 300;
+  for (int k = 0; k < kSteps; ++k) {
+    for (std::size_t i = 0; i < world.disks.size(); ++i) {
+      Vec2& p = world.disks.position[i];
+      p = p + velocity[i];
+      p.x -= lx * std::floor(p.x / lx);
+    }
+    compare_kept_with_fresh(kept, world, 0.05, "step " + std::to_string(k));
+  }
+  EXPECT_GT(kept.neighbour_builds(), 10u);
+  EXPECT_LT(kept.neighbour_builds(), static_cast<std::uint64_t>(kSteps / 2));
+}
+
+TEST(ContactDetection, NeighbourListIsBuiltAgainForAJumpAWiderMarginOrANewRadius) {
+  std::mt19937_64 rng(11);
+  World world = build_world(random_scene(rng, true, 7.3, 8.0, 40));
+  ContactDetector kept;
+  compare_kept_with_fresh(kept, world, 0.05, "first");
+  compare_kept_with_fresh(kept, world, 0.05, "same configuration");
+  EXPECT_EQ(kept.neighbour_builds(), 1u);
+  compare_kept_with_fresh(kept, world, 0.0, "narrower margin");  // covered by the list
+  EXPECT_EQ(kept.neighbour_builds(), 1u);
+  compare_kept_with_fresh(kept, world, 0.3, "wider margin");
+  EXPECT_EQ(kept.neighbour_builds(), 2u);
+  world.disks.position[0] = world.disks.position[7] + Vec2{0.9, 0.0};  // a jump next to disk 7
+  compare_kept_with_fresh(kept, world, 0.3, "after a jump");
+  EXPECT_EQ(kept.neighbour_builds(), 3u);
+  world.disks.radius[3] *= 1.5;
+  compare_kept_with_fresh(kept, world, 0.3, "after a radius change");
+  EXPECT_EQ(kept.neighbour_builds(), 4u);
 }
 
 TEST(ContactDetection, WarmStartKeepsImpulsesOfPersistingContacts) {

@@ -9,67 +9,115 @@ double wall_gap(const World& world, std::size_t i, const Wall& w) {
   return dot(world.disks.position[i] - w.point, w.normal) - world.disks.radius[i];
 }
 
+bool ContactDetector::neighbours_cover(const World& world, double margin) const {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  if (built_reach_ < margin || built_position_.size() != n ||
+      built_periodic_ != world.domain.periodic_x || built_length_x_ != world.domain.length_x)
+    return false;
+  // Every pair closer than the margin now was closer than margin + 2 max displacement at the
+  // build; that is within the list's reach while 2 max displacement <= built_reach - margin.
+  const double allowed = 0.5 * (built_reach_ - margin);
+  const double allowed2 = allowed * allowed;
+  const double lx = world.domain.length_x;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (d.radius[i] != built_radius_[i]) return false;
+    double dx = d.position[i].x - built_position_[i].x;
+    if (world.domain.periodic_x && std::abs(dx) > 0.5 * lx) dx -= lx * std::nearbyint(dx / lx);
+    const double dy = d.position[i].y - built_position_[i].y;
+    if (!(dx * dx + dy * dy <= allowed2)) return false;  // NaN too: rebuild
+  }
+  return true;
+}
+
+void ContactDetector::build_neighbours(const World& world, double margin) {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const double skin = kSkinPerDiameter * 2.0 * max_radius(world);
+  const double reach = margin + skin;
+  cells_.build(world, std::max(2.0 * max_radius(world) + reach, 1e-12));
+  neighbours_.clear();
+  start_.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    around_.clear();
+    cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t, Vec2 delta) {
+      const double cutoff = d.radius[i] + d.radius[j] + reach;
+      if (length_squared(delta) < cutoff * cutoff) around_.push_back(j);
+    });
+    // A disk is visited once per i (one image: the nearest), so sorting by j gives the
+    // (j, image) order of the keys.
+    std::sort(around_.begin(), around_.end());
+    neighbours_.insert(neighbours_.end(), around_.begin(), around_.end());
+    start_[i + 1] = neighbours_.size();
+  }
+  built_position_ = d.position;
+  built_radius_ = d.radius;
+  built_reach_ = reach;
+  built_length_x_ = world.domain.length_x;
+  built_periodic_ = world.domain.periodic_x;
+  ++builds_;
+}
+
 void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts) {
   const Disks& d = world.disks;
   const std::size_t n = d.size();
-  const double reach = 2.0 * max_radius(world) + margin;
-  cells_.build(world, std::max(reach, 1e-12));
+  if (!neighbours_cover(world, margin)) build_neighbours(world, margin);
   fresh_.clear();
 
+  const double lx = world.domain.length_x;
   for (std::size_t i = 0; i < n; ++i) {
-    // Disk-disk candidates with j > i, in ascending (j, image) order.
-    around_.clear();
-    cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t image, Vec2 delta) {
+    // Disk-disk candidates with j > i, in ascending j (the nearest image of each).
+    const Vec2 pi = d.position[i];
+    for (std::size_t k = start_[i]; k < start_[i + 1]; ++k) {
+      const std::int32_t j = neighbours_[k];
+      Vec2 delta = d.position[j] - pi;
+      const double shift = world.domain.periods_in(delta.x);
+      delta.x -= shift * lx;
       const double cutoff = d.radius[i] + d.radius[j] + margin;
-      if (length_squared(delta) < cutoff * cutoff) around_.push_back({j, image, delta});
-    });
-    std::sort(around_.begin(), around_.end(), [](const Candidate& a, const Candidate& b) {
-      return a.j != b.j ? a.j < b.j : a.image < b.image;
-    });
-    for (const Candidate& c : around_) {
-      const double dist = length(c.delta);
-      Contact k;
-      k.key = {static_cast<std::int32_t>(i), c.j, c.image};
+      if (!(length_squared(delta) < cutoff * cutoff)) continue;
+      const double dist = length(delta);
+      Contact c;
+      c.key = {static_cast<std::int32_t>(i), j, -static_cast<std::int32_t>(shift)};
       // Normal from b (= j) to a (= i): -delta / |delta|.
-      k.normal = dist > 0.0 ? (-1.0 / dist) * c.delta : Vec2{0.0, 1.0};
-      k.tangent = perp(k.normal);
-      k.gap = dist - d.radius[i] - d.radius[c.j];
+      c.normal = dist > 0.0 ? (-1.0 / dist) * delta : Vec2{0.0, 1.0};
+      c.tangent = perp(c.normal);
+      c.gap = dist - d.radius[i] - d.radius[j];
       // One contact point for both disks, in the middle of the gap (or overlap): then R on a and
       // -R on b act at the same point and conserve angular momentum. Taking each disk's own
       // surface point (-r_a n and +r_b n, which are `gap` apart) would add a spurious couple
       // gap * R_t whenever a contact carries friction before it has closed.
-      const double half_gap = 0.5 * k.gap;
-      k.arm_a = -(d.radius[i] + half_gap) * k.normal;
-      k.lever_a = -(d.radius[i] + half_gap);
-      k.lever_b = -(d.radius[c.j] + half_gap);
-      k.friction = world.friction_disk_disk;
-      fresh_.push_back(k);
+      const double half_gap = 0.5 * c.gap;
+      c.arm_a = -(d.radius[i] + half_gap) * c.normal;
+      c.lever_a = -(d.radius[i] + half_gap);
+      c.lever_b = -(d.radius[j] + half_gap);
+      c.friction = world.friction_disk_disk;
+      fresh_.push_back(c);
     }
     // Disk-wall candidates, walls numbered after the disks.
     for (std::size_t w = 0; w < world.walls.size(); ++w) {
       const Wall& wall = world.walls[w];
       const double gap = wall_gap(world, i, wall);
       if (gap >= margin) continue;
-      Contact k;
-      k.key = {static_cast<std::int32_t>(i), static_cast<std::int32_t>(n + w), 0};
-      k.normal = wall.normal;
-      k.tangent = perp(wall.normal);
-      k.arm_a = -d.radius[i] * k.normal;
-      k.lever_a = -d.radius[i];
-      k.lever_b = 0.0;
-      k.gap = gap;
-      k.friction = wall.friction;
-      fresh_.push_back(k);
+      Contact c;
+      c.key = {static_cast<std::int32_t>(i), static_cast<std::int32_t>(n + w), 0};
+      c.normal = wall.normal;
+      c.tangent = perp(wall.normal);
+      c.arm_a = -d.radius[i] * c.normal;
+      c.lever_a = -d.radius[i];
+      c.lever_b = 0.0;
+      c.gap = gap;
+      c.friction = wall.friction;
+      fresh_.push_back(c);
     }
   }
 
   // Warm start: both lists are sorted by key; carry impulses over.
   std::size_t p = 0;
-  for (Contact& k : fresh_) {
-    while (p < contacts.size() && contacts[p].key < k.key) ++p;
-    if (p < contacts.size() && contacts[p].key == k.key) {
-      k.impulse_n = contacts[p].impulse_n;
-      k.impulse_t = contacts[p].impulse_t;
+  for (Contact& c : fresh_) {
+    while (p < contacts.size() && contacts[p].key < c.key) ++p;
+    if (p < contacts.size() && contacts[p].key == c.key) {
+      c.impulse_n = contacts[p].impulse_n;
+      c.impulse_t = contacts[p].impulse_t;
     }
   }
   contacts.swap(fresh_);
