@@ -10,19 +10,45 @@ namespace {
 
 constexpr int kMaxDepth = 16;  // kMaxAndersonDepth
 
-/// a . b with four running sums (i mod 4), added at the end: four independent chains of
-/// additions instead of one, in a fixed order (the same result on every run).
-double dot(const double* a, const double* b, std::size_t n) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-  std::size_t i = 0;
-  for (; i + 4 <= n; i += 4) {
-    s0 += a[i] * b[i];
-    s1 += a[i + 1] * b[i + 1];
-    s2 += a[i + 2] * b[i + 2];
-    s3 += a[i + 3] * b[i + 3];
+/// The dot products of `u` and of `v` with m columns, in one pass over the columns:
+/// uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four running sums (i mod 4) that are
+/// added at the end, (s0 + s1) + (s2 + s3): four independent chains of additions instead of one,
+/// in a fixed order. The pass goes block by block (a multiple of 4 elements, so every running sum
+/// still adds its terms in increasing i): a block of u and v stays in L1 while the m columns go
+/// by, and each column is read from memory once for both products.
+void dot_columns(const double* u, const double* v, const double* const* columns, int m,
+                 std::size_t n, double* uc, double* vc) {
+  constexpr std::size_t kBlock = 512;
+  std::array<std::array<double, 4>, kMaxDepth> su{}, sv{};
+  std::size_t begin = 0;
+  for (; begin + 4 <= n; begin += kBlock) {
+    const std::size_t end = std::min(n - n % 4, begin + kBlock);
+    for (int j = 0; j < m; ++j) {
+      const double* c = columns[j];
+      double u0 = su[j][0], u1 = su[j][1], u2 = su[j][2], u3 = su[j][3];
+      double v0 = sv[j][0], v1 = sv[j][1], v2 = sv[j][2], v3 = sv[j][3];
+      for (std::size_t i = begin; i < end; i += 4) {
+        u0 += u[i] * c[i];
+        u1 += u[i + 1] * c[i + 1];
+        u2 += u[i + 2] * c[i + 2];
+        u3 += u[i + 3] * c[i + 3];
+        v0 += v[i] * c[i];
+        v1 += v[i + 1] * c[i + 1];
+        v2 += v[i + 2] * c[i + 2];
+        v3 += v[i + 3] * c[i + 3];
+      }
+      su[j] = {u0, u1, u2, u3};
+      sv[j] = {v0, v1, v2, v3};
+    }
   }
-  for (; i < n; ++i) s0 += a[i] * b[i];
-  return (s0 + s1) + (s2 + s3);
+  for (int j = 0; j < m; ++j) {
+    for (std::size_t i = n - n % 4; i < n; ++i) {
+      su[j][0] += u[i] * columns[j][i];
+      sv[j][0] += v[i] * columns[j][i];
+    }
+    uc[j] = (su[j][0] + su[j][1]) + (su[j][2] + su[j][3]);
+    vc[j] = (sv[j][0] + sv[j][1]) + (sv[j][2] + sv[j][3]);
+  }
 }
 
 /// Solves the m x m system a x = b (a symmetric positive semi-definite plus a small diagonal)
@@ -93,10 +119,14 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     }
     next_column_ = (c + 1) % depth_;
     kept_ = std::min(kept_ + 1, depth_);
+    // The new column's row of the Gram matrix, and the right-hand side delta_f_j . f (below).
+    std::array<const double*, kMaxDepth> columns{};
+    for (int j = 0; j < kept_; ++j) columns[j] = column(delta_f_, j);
+    std::array<double, kMaxDepth> gram_row{};
+    dot_columns(df, last_f_.data(), columns.data(), kept_, n, gram_row.data(), rhs_.data());
     for (int j = 0; j < kept_; ++j) {
-      const double v = dot(df, column(delta_f_, j), n);
-      gram_[static_cast<std::size_t>(c * depth_ + j)] = v;
-      gram_[static_cast<std::size_t>(j * depth_ + c)] = v;
+      gram_[static_cast<std::size_t>(c * depth_ + j)] = gram_row[j];
+      gram_[static_cast<std::size_t>(j * depth_ + c)] = gram_row[j];
     }
   } else {
     for (std::size_t i = 0; i < n; ++i) {
@@ -116,16 +146,19 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   for (int r = 0; r < m; ++r) {
     for (int c = 0; c < m; ++c) a[r * m + c] = gram_[static_cast<std::size_t>(r * depth_ + c)];
     a[r * m + r] += 1e-10 * trace;
-    b[r] = dot(column(delta_f_, r), last_f_.data(), n);
+    b[r] = rhs_[r];
   }
   if (!solve_small(a, b, m)) {
     kept_ = 0;  // start the history again
     return;
   }
-  for (int j = 0; j < m; ++j) {
-    const double* dg = column(delta_g_, j);
-    const double gamma = b[j];
-    for (std::size_t i = 0; i < n; ++i) g[i] -= gamma * dg[i];
+  // g -= sum_j gamma_j delta_g_j, the terms subtracted in order j = 0, 1, ...: one pass over g.
+  std::array<const double*, kMaxDepth> dg{};
+  for (int j = 0; j < m; ++j) dg[j] = column(delta_g_, j);
+  for (std::size_t i = 0; i < n; ++i) {
+    double gi = g[i];
+    for (int j = 0; j < m; ++j) gi -= b[j] * dg[j][i];
+    g[i] = gi;
   }
 }
 

@@ -9,6 +9,7 @@
 // randomness, fixed summation order.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -39,7 +40,8 @@ class AndersonMixer {
   double last_f2_ = 0.0;                   // |f|^2 of the last map
   std::vector<double> delta_f_, delta_g_;  // depth columns of n, column-major
   std::vector<double> last_f_, last_g_;
-  std::vector<double> gram_;  // depth x depth, delta_f^T delta_f
+  std::vector<double> gram_;      // depth x depth, delta_f^T delta_f
+  std::array<double, 16> rhs_{};  // delta_f_j . f of the last map (16: kMaxAndersonDepth)
 };
 
 }  // namespace cdshear
