@@ -163,14 +163,11 @@ struct SweepTally {
 };
 
 /// Reusable scratch memory, so that a step allocates nothing once warmed up.
-/// Once the dormant rows are known, `rows` (with `delassus` and `order`) is reordered: the rows
-/// awake at the start, group after group in visit order, then the dormant ones (compact_rows).
 struct SolverWorkspace {
   std::vector<std::uint32_t> order;  ///< row i solves contacts[order[i]]
   std::vector<SolverRow> rows;
   std::vector<DelassusEntries> delassus;  ///< of rows[i], read by coupled rows only
-  /// Rows of group g before the compaction: [group_start[g], group_start[g+1]).
-  std::vector<std::size_t> group_start;
+  std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
   AndersonMixer anderson;                 ///< options.anderson_depth > 0
@@ -182,9 +179,6 @@ struct SolverWorkspace {
   std::vector<std::size_t> next;                                 ///< scratch of the group sort
   std::vector<std::uint32_t> sorted;                             ///< scratch of the group sort
   std::vector<std::uint32_t> wall_band;  ///< band of every contact of each wall, if only one
-  std::vector<SolverRow> compact_rows;   ///< scratch of the compaction
-  std::vector<DelassusEntries> compact_delassus;  ///< scratch of the compaction
-  std::vector<std::uint32_t> compact_order;       ///< scratch of the compaction
   /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
   /// (each slab's bodies side by side in memory), and the map back to `bodies`.
   std::vector<SolverBody> local_bodies;
