@@ -108,12 +108,11 @@ TEST(ContactDetection, MatchesBruteForceOnRandomConfigurations) {
   EXPECT_GT(across_boundary, 100);
 }
 
-TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
-  // Disks that moved across the periodic boundary (positions wrapped by the step) keep being
-  // found through the right image.
+/// 25 disks drifting along +x (so they cross x = L_x = 6) while they settle on a floor.
+SceneDefinition drifting_scene() {
   SceneDefinition s;
   s.domain = {true, 6.0};
-  s.gravity = {1.0, -0.2};  // drift along +x so disks cross x = L_x, settle on the floor
+  s.gravity = {1.0, -0.2};
   s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
   RandomDisksSpec r;
   r.count = 25;
@@ -121,7 +120,13 @@ TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
   r.region_max = {6.0, 6.0};
   r.seed = 4;
   s.random_disks.push_back(r);
-  testing::Simulation sim(s, StepOptions{});
+  return s;
+}
+
+TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
+  // Disks that moved across the periodic boundary (positions wrapped by the step) keep being
+  // found through the right image.
+  testing::Simulation sim(drifting_scene(), StepOptions{});
   sim.options.dt = 0.005;
   std::int64_t crossings = 0;
   for (int k = 0; k < 20; ++k) {
@@ -155,17 +160,7 @@ TEST(ContactDetection, NeighbourListGivesTheCandidatesOfAFreshSearchAtEveryStep)
   // Disks drifting along +x across the periodic boundary and falling onto the floor: one
   // detector kept from step to step (as in ContactDynamics) must find exactly what a fresh search
   // finds, whether it reuses its neighbour list or builds it again.
-  SceneDefinition s;
-  s.domain = {true, 6.0};
-  s.gravity = {1.0, -0.2};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
-  RandomDisksSpec r;
-  r.count = 25;
-  r.region_min = {0.0, 0.0};
-  r.region_max = {6.0, 6.0};
-  r.seed = 4;
-  s.random_disks.push_back(r);
-  testing::Simulation sim(s, StepOptions{});
+  testing::Simulation sim(drifting_scene(), StepOptions{});
   sim.options.dt = 0.005;
   ContactDetector kept;
   constexpr int kSteps = 300;
