@@ -8,7 +8,7 @@ namespace cdshear {
 
 namespace {
 
-constexpr int kMaxDepth = 16;  // kMaxAndersonDepth
+constexpr int kMaxDepth = AndersonMixer::kMaxDepth;
 
 /// The dot products of `u` and of `v` with m columns, in one pass over the columns:
 /// uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four running sums (i mod 4) that are

@@ -17,6 +17,9 @@ namespace cdshear {
 
 class AndersonMixer {
  public:
+  /// Largest history kept (reset clamps `depth` to it): the fixed-size scratch of a mix.
+  static constexpr int kMaxDepth = 16;
+
   /// Forgets the history; vectors of length n from now on, `depth` differences kept (>= 1).
   void reset(std::size_t n, int depth);
 
@@ -40,8 +43,8 @@ class AndersonMixer {
   double last_f2_ = 0.0;                   // |f|^2 of the last map
   std::vector<double> delta_f_, delta_g_;  // depth columns of n, column-major
   std::vector<double> last_f_, last_g_;
-  std::vector<double> gram_;      // depth x depth, delta_f^T delta_f
-  std::array<double, 16> rhs_{};  // delta_f_j . f of the last map (16: kMaxAndersonDepth)
+  std::vector<double> gram_;             // depth x depth, delta_f^T delta_f
+  std::array<double, kMaxDepth> rhs_{};  // delta_f_j . f of the last map
 };
 
 }  // namespace cdshear

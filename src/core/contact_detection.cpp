@@ -33,9 +33,9 @@ bool ContactDetector::neighbours_cover(const World& world, double margin) const 
 void ContactDetector::build_neighbours(const World& world, double margin) {
   const Disks& d = world.disks;
   const std::size_t n = d.size();
-  const double skin = kSkinPerDiameter * 2.0 * max_radius(world);
-  const double reach = margin + skin;
-  cells_.build(world, std::max(2.0 * max_radius(world) + reach, 1e-12));
+  const double largest_diameter = 2.0 * max_radius(world);
+  const double reach = margin + kSkinPerDiameter * largest_diameter;
+  cells_.build(world, std::max(largest_diameter + reach, 1e-12));
   neighbours_.clear();
   start_.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {

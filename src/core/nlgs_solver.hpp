@@ -108,7 +108,7 @@ struct SolverOptions {
 };
 
 /// Largest SolverOptions::anderson_depth.
-inline constexpr int kMaxAndersonDepth = 16;
+inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;
 
 struct SolverReport {
   int sweeps = 0;
