@@ -95,8 +95,39 @@ void AndersonMixer::reset(std::size_t n, int depth) {
 
 void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   const std::size_t n = n_;
-  double f2 = 0.0;
-  for (std::size_t i = 0; i < n; ++i) f2 += (g[i] - x[i]) * (g[i] - x[i]);
+  // One pass: f = g - x, its squared length, and the new differences delta_f = f - f_last and
+  // delta_g = g - g_last written into the ring's next column. When there is no last map yet, or
+  // the history is dropped below, that column is not in use (kept_ = 0) and what was written
+  // there is never read. |f|^2 keeps four running sums (i mod 4), added (s0 + s1) + (s2 + s3):
+  // it only decides the restart below.
+  const int c = next_column_;
+  double* __restrict df = column(delta_f_, c);
+  double* __restrict dg = column(delta_g_, c);
+  double* __restrict last_f = last_f_.data();
+  double* __restrict last_g = last_g_.data();
+  const double* __restrict xs = x.data();
+  const double* __restrict gs = g.data();
+  std::array<double, 4> f2_sums{};
+  std::size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      const double f = gs[i + k] - xs[i + k];
+      f2_sums[k] += f * f;
+      df[i + k] = f - last_f[i + k];
+      dg[i + k] = gs[i + k] - last_g[i + k];
+      last_f[i + k] = f;
+      last_g[i + k] = gs[i + k];
+    }
+  }
+  for (; i < n; ++i) {
+    const double f = gs[i] - xs[i];
+    f2_sums[0] += f * f;
+    df[i] = f - last_f[i];
+    dg[i] = gs[i] - last_g[i];
+    last_f[i] = f;
+    last_g[i] = gs[i];
+  }
+  const double f2 = (f2_sums[0] + f2_sums[1]) + (f2_sums[2] + f2_sums[3]);
   if (have_last_ && f2 > last_f2_) {
     // The residual grew since the last map: the mixes of the kept history made things worse
     // (the map is only piecewise linear: contacts open, close, stick and slip). Start again
@@ -107,16 +138,6 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   }
   last_f2_ = f2;
   if (have_last_) {
-    const int c = next_column_;
-    double* df = column(delta_f_, c);
-    double* dg = column(delta_g_, c);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double f = g[i] - x[i];
-      df[i] = f - last_f_[i];
-      dg[i] = g[i] - last_g_[i];
-      last_f_[i] = f;
-      last_g_[i] = g[i];
-    }
     next_column_ = (c + 1) % depth_;
     kept_ = std::min(kept_ + 1, depth_);
     // The new column's row of the Gram matrix, and the right-hand side delta_f_j . f (below).
@@ -129,10 +150,6 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
       gram_[static_cast<std::size_t>(j * depth_ + c)] = gram_row[j];
     }
   } else {
-    for (std::size_t i = 0; i < n; ++i) {
-      last_f_[i] = g[i] - x[i];
-      last_g_[i] = g[i];
-    }
     have_last_ = true;
   }
   if (kept_ == 0) return;
@@ -152,13 +169,18 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     kept_ = 0;  // start the history again
     return;
   }
-  // g -= sum_j gamma_j delta_g_j, the terms subtracted in order j = 0, 1, ...: one pass over g.
-  std::array<const double*, kMaxDepth> dg{};
-  for (int j = 0; j < m; ++j) dg[j] = column(delta_g_, j);
-  for (std::size_t i = 0; i < n; ++i) {
-    double gi = g[i];
-    for (int j = 0; j < m; ++j) gi -= b[j] * dg[j][i];
-    g[i] = gi;
+  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: block
+  // by block (a block of g stays in L1 while the m columns go by), the inner loop over the
+  // elements of a block (independent, so it vectorises).
+  constexpr std::size_t kBlock = 512;
+  double* __restrict gw = g.data();
+  for (std::size_t begin = 0; begin < n; begin += kBlock) {
+    const std::size_t end = std::min(n, begin + kBlock);
+    for (int j = 0; j < m; ++j) {
+      const double* __restrict dgj = column(delta_g_, j);
+      const double gamma = b[j];
+      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
+    }
   }
 }
 
