@@ -282,23 +282,25 @@ TEST(ShearCase, DefaultTimeStepBoundsTheWallDisplacement) {
 }
 
 // The preparation's contact order and dormant-contact skipping change the packing, so they
-// enter the cache name; at their defaults the name is the one packings had before the keys
-// existed (the fixtures and users' caches stay valid).
+// enter the cache name; a packing prepared in the random order (the default before the coloured
+// one) keeps the name it had before the keys existed (older caches stay valid for that order).
 TEST(ShearCase, PreparationSolverKeysEnterThePackingCacheName) {
   const ShearCase base = load_case(with({}));
-  EXPECT_EQ(base.preparation.step.solver.order, ContactOrder::kRandom);
+  EXPECT_EQ(base.preparation.step.solver.order, ContactOrder::kColoured);
   EXPECT_FALSE(base.preparation.step.solver.skip_dormant);
   const std::string name = packing_cache_name(base.preparation);
-  EXPECT_EQ(packing_cache_name(load_case(with({"preparation.order=random"})).preparation), name);
-  const ShearCase coloured = load_case(with({"preparation.order=coloured"}));
-  EXPECT_EQ(coloured.preparation.step.solver.order, ContactOrder::kColoured);
+  EXPECT_EQ(packing_cache_name(load_case(with({"preparation.order=coloured"})).preparation), name);
+  const ShearCase random = load_case(with({"preparation.order=random"}));
+  EXPECT_EQ(random.preparation.step.solver.order, ContactOrder::kRandom);
   const ShearCase skipping = load_case(with({"preparation.skip_dormant=true"}));
   EXPECT_TRUE(skipping.preparation.step.solver.skip_dormant);
-  const std::string a = packing_cache_name(coloured.preparation);
+  const std::string a = packing_cache_name(random.preparation);
   const std::string b = packing_cache_name(skipping.preparation);
   EXPECT_NE(a, name);
   EXPECT_NE(b, name);
   EXPECT_NE(a, b);
+  // The random order's name is the one of the packing committed before the change.
+  EXPECT_EQ(a, "n511_h20_d0.8-1_seed1_s0.25_ecd48f39.json");
   expect_case_error(with({"preparation.order=diagonal"}), "preparation.order", "coloured");
 }
 

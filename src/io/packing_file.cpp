@@ -92,8 +92,10 @@ std::string packing_cache_name(const PreparationOptions& o) {
                   o.kinetic_energy_per_disk, o.piston_speed, o.force_balance, o.window_time,
                   o.max_time_per_phase, o.step.dt, o.compression_dt, o.step.contact_margin,
                   o.step.abort_overlap, s.alpha, s.converged_fraction, s.max_sweeps, s.seed);
-  // Added only when they differ from the defaults they were introduced with (relaxation 1,
-  // random order, every contact swept), so that the names of packings made before them hold.
+  // Added only when they differ from the values they were introduced with (relaxation 1, random
+  // order, every contact swept), so that the names of packings made before them hold: a packing
+  // prepared in the random order (the default until 2026-11-23) keeps its name, and today's
+  // default, the coloured order, carries " ocoloured".
   std::string added = s.relaxation != 1.0 ? fmt::format(" r{}", s.relaxation) : "";
   if (s.order != ContactOrder::kRandom) added += fmt::format(" o{}", contact_order_name(s.order));
   if (s.skip_dormant) added += " sd";
