@@ -166,7 +166,11 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     b[r] = rhs_[r];
   }
   if (!solve_small(a, b, m)) {
-    kept_ = 0;  // start the history again
+    // Start the history again; the ring too, since the columns in use are always 0 .. kept_ - 1
+    // (with next_column_ left where it was, the next difference would be written to a column
+    // the next mix does not read, and column 0's stale one read instead).
+    kept_ = 0;
+    next_column_ = 0;
     return;
   }
   // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: block
