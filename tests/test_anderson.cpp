@@ -8,6 +8,10 @@
 
 #include "anderson.hpp"
 
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
 namespace cdshear {
 namespace {
 
@@ -96,6 +100,87 @@ TEST(Anderson, AGrowingResidualDropsTheHistory) {
   mixer.mix(x, g);
   EXPECT_EQ(mixer.kept(), 0);
   EXPECT_EQ(g, (std::vector<double>{2.0, 0.0}));
+}
+
+/// G(x)_i = 1 + 0.49 (x_{i-1} + x_{i+1}): a contraction (factor up to 0.98) of any length.
+std::vector<double> damped_neighbours(const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  std::vector<double> g(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double left = i > 0 ? x[i - 1] : 0.0;
+    const double right = i + 1 < n ? x[i + 1] : 0.0;
+    g[i] = 1.0 + 0.49 * (left + right);
+  }
+  return g;
+}
+
+/// max_i |G(x)_i - x_i|.
+double map_residual(const std::vector<double>& x) {
+  const std::vector<double> g = damped_neighbours(x);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) worst = std::max(worst, std::abs(g[i] - x[i]));
+  return worst;
+}
+
+/// 40 maps of damped_neighbours on 3079 unknowns (six chunks and a tail), depth 5, mixed by
+/// `threads` threads calling mix() together inside a parallel region, or by the calling thread
+/// alone outside any (threads = 0). Returns the last iterate; `team` gets the team's size.
+std::vector<double> mixed_by_a_team(int threads, int& team) {
+  constexpr std::size_t kN = 6 * AndersonMixer::kChunk + 7;
+  AndersonMixer mixer;
+  mixer.reset(kN, 5);
+  std::vector<double> x(kN, 0.0), g;
+  team = 1;
+  if (threads == 0) {
+    for (int k = 0; k < 40; ++k) {
+      g = damped_neighbours(x);
+      mixer.mix(x, g);
+      x = g;
+    }
+    return x;
+  }
+#if defined(_OPENMP)
+#pragma omp parallel num_threads(threads)
+#endif
+  for (int k = 0; k < 40; ++k) {
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+      g = damped_neighbours(x);
+#if defined(_OPENMP)
+      team = omp_get_num_threads();
+#endif
+    }
+    mixer.mix(x, g);
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    x = g;
+  }
+  EXPECT_GT(mixer.kept(), 0);  // the history was in use: the sums were computed
+  return x;
+}
+
+TEST(Anderson, TheMixIsTheSameBitForBitOnAnyNumberOfThreads) {
+  // The passes are shared among the threads in chunks fixed by the vector's length, and each
+  // sum is added chunk by chunk in order: one, two or three threads, or no team at all, give
+  // the same iterates to the last bit.
+  int team = 0;
+  const std::vector<double> alone = mixed_by_a_team(0, team);
+  const std::vector<double> one = mixed_by_a_team(1, team);
+  EXPECT_EQ(one, alone);
+  for (const int threads : {2, 3}) {
+    const std::vector<double> shared = mixed_by_a_team(threads, team);
+#if defined(_OPENMP)
+    EXPECT_EQ(team, threads);
+#endif
+    EXPECT_EQ(shared, alone) << threads << " threads";
+  }
+  // And the mix did its work: 40 plain maps leave a far larger residual.
+  std::vector<double> plain(alone.size(), 0.0);
+  for (int k = 0; k < 40; ++k) plain = damped_neighbours(plain);
+  EXPECT_LT(map_residual(alone), 0.1 * map_residual(plain));  // measured: 0.012 against 0.45
 }
 
 }  // namespace

@@ -107,10 +107,10 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   // versions this test has seen; allowed 6%), and on average over the cell the virial of the
   // walls (see below).
   // A window of 16 t: the walls' forces balance up to the packing's momentum change over the
-  // window divided by its length, and a packing at rest jitters (more with the shear phase's
-  // over-relaxation, solver.relaxation = 1.6, than with plain Gauss-Seidel). Measured |bottom +
-  // top| / (sigma_yy L_x): relaxation 1.6: 1.16%, 0.56%, 0.28% over 4, 8, 16 t; Gauss-Seidel:
-  // 0.41% over 4 t, 0.11% over 16 t. Allowed 1%.
+  // window divided by its length (checked to round-off: momentum conservation), and a packing
+  // "at rest" still creeps. Measured |bottom + top| / (sigma_yy L_x) over 16 t: 0.28% on an
+  // earlier packing; 0.80% to 1.07% on today's, over five round-off variants of the Anderson
+  // mix's sums (solver.relaxation 1.6), 0.84% to 0.99% with plain Gauss-Seidel. Allowed 2%.
   ShearCase c = system1_case(16.0);
   c.measure.stripe_thickness = 2.0;  // two grain layers per stripe: less grain-scale scatter
   World world = build_shear_world(c, system1_packing());
@@ -121,6 +121,13 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   }
   ContactDynamics dynamics;
   for (int s = 0; s < 500; ++s) ASSERT_FALSE(dynamics.step(world, c.step).blown_up);
+  const auto momentum_x = [&world] {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < world.disks.size(); ++i)
+      sum += world.disks.mass[i] * world.disks.velocity[i].x;
+    return sum;
+  };
+  const double start_momentum_x = momentum_x();
   ShearMeasurement m(c.measure, {c.step.dt, c.velocity, c.normal_stress, c.height}, world);
   while (m.windows().empty()) {
     const StepReport r = dynamics.step(world, c.step);
@@ -133,7 +140,11 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   // stripe, equal to the walls' tangential traction, which the two walls exert equally and
   // oppositely.
   const double shear_traction = p.top_force.x / world.domain.length_x;
-  EXPECT_NEAR(-p.bottom_force.x / world.domain.length_x, shear_traction, 0.01 * c.normal_stress);
+  // The window means are the forces on the walls: the grains receive their opposite.
+  const double momentum_rate = (momentum_x() - start_momentum_x) / (p.t_end - p.t_start);
+  EXPECT_NEAR(-(p.bottom_force.x + p.top_force.x), momentum_rate,
+              1e-9 * c.normal_stress * world.domain.length_x);
+  EXPECT_NEAR(-p.bottom_force.x / world.domain.length_x, shear_traction, 0.02 * c.normal_stress);
   for (std::size_t k = 1; m.stripe_centres()[k] < p.height - 1.5; ++k) {
     EXPECT_NEAR(p.stress[k].yy, c.normal_stress, 0.06 * c.normal_stress) << "stripe " << k;
     EXPECT_NEAR(p.stress[k].xy, shear_traction, 0.06 * c.normal_stress) << "stripe " << k;

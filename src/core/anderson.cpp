@@ -10,45 +10,43 @@ namespace {
 
 constexpr int kMaxDepth = AndersonMixer::kMaxDepth;
 
-/// The dot products of `u` and of `v` with m columns, in one pass over the columns:
-/// uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four running sums (i mod 4) that are
-/// added at the end, (s0 + s1) + (s2 + s3): four independent chains of additions instead of one,
-/// in a fixed order. The pass goes block by block (a multiple of 4 elements, so every running sum
-/// still adds its terms in increasing i): a block of u and v stays in L1 while the m columns go
-/// by, and each column is read from memory once for both products.
-void dot_columns(const double* u, const double* v, const double* const* columns, int m,
-                 std::size_t n, double* uc, double* vc) {
-  constexpr std::size_t kBlock = 512;
-  std::array<std::array<double, 4>, kMaxDepth> su{}, sv{};
-  std::size_t begin = 0;
-  for (; begin + 4 <= n; begin += kBlock) {
-    const std::size_t end = std::min(n - n % 4, begin + kBlock);
-    for (int j = 0; j < m; ++j) {
-      const double* c = columns[j];
-      double u0 = su[j][0], u1 = su[j][1], u2 = su[j][2], u3 = su[j][3];
-      double v0 = sv[j][0], v1 = sv[j][1], v2 = sv[j][2], v3 = sv[j][3];
-      for (std::size_t i = begin; i < end; i += 4) {
-        u0 += u[i] * c[i];
-        u1 += u[i + 1] * c[i + 1];
-        u2 += u[i + 2] * c[i + 2];
-        u3 += u[i + 3] * c[i + 3];
-        v0 += v[i] * c[i];
-        v1 += v[i + 1] * c[i + 1];
-        v2 += v[i + 2] * c[i + 2];
-        v3 += v[i + 3] * c[i + 3];
-      }
-      su[j] = {u0, u1, u2, u3};
-      sv[j] = {v0, v1, v2, v3};
-    }
-  }
+/// The dot products, over one chunk of `len` elements, of `u` and of `v` with m columns read
+/// from element `offset` on: uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four
+/// running sums (i mod 4, the tail in sum 0) that are added at the end, (s0 + s1) + (s2 + s3):
+/// four independent chains of additions instead of one, in a fixed order. The chunk of u and v
+/// stays in L1 while the m columns go by, and each column is read once for both products.
+void dot_columns(const double* u, const double* v, const double* const* columns, std::size_t offset,
+                 int m, std::size_t len, double* uc, double* vc) {
+  const std::size_t body = len - len % 4;
   for (int j = 0; j < m; ++j) {
-    for (std::size_t i = n - n % 4; i < n; ++i) {
-      su[j][0] += u[i] * columns[j][i];
-      sv[j][0] += v[i] * columns[j][i];
+    const double* c = columns[j] + offset;
+    double u0 = 0.0, u1 = 0.0, u2 = 0.0, u3 = 0.0;
+    double v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
+    for (std::size_t i = 0; i < body; i += 4) {
+      u0 += u[i] * c[i];
+      u1 += u[i + 1] * c[i + 1];
+      u2 += u[i + 2] * c[i + 2];
+      u3 += u[i + 3] * c[i + 3];
+      v0 += v[i] * c[i];
+      v1 += v[i + 1] * c[i + 1];
+      v2 += v[i + 2] * c[i + 2];
+      v3 += v[i + 3] * c[i + 3];
     }
-    uc[j] = (su[j][0] + su[j][1]) + (su[j][2] + su[j][3]);
-    vc[j] = (sv[j][0] + sv[j][1]) + (sv[j][2] + sv[j][3]);
+    for (std::size_t i = body; i < len; ++i) {
+      u0 += u[i] * c[i];
+      v0 += v[i] * c[i];
+    }
+    uc[j] = (u0 + u1) + (u2 + u3);
+    vc[j] = (v0 + v1) + (v2 + v3);
   }
+}
+
+/// values[0] + values[stride] + ... + values[(count - 1) stride], added in that order: the
+/// chunks' shares of a sum, so that the sum does not depend on which thread did which chunk.
+double sum_in_chunk_order(const double* values, std::size_t stride, std::size_t count) {
+  double sum = 0.0;
+  for (std::size_t k = 0; k < count; ++k) sum += values[k * stride];
+  return sum;
 }
 
 /// Solves the m x m system a x = b (a symmetric positive semi-definite plus a small diagonal)
@@ -91,101 +89,148 @@ void AndersonMixer::reset(std::size_t n, int depth) {
   last_f_.assign(n, 0.0);
   last_g_.assign(n, 0.0);
   gram_.assign(static_cast<std::size_t>(depth_ * depth_), 0.0);
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  chunk_f2_.assign(chunks, 0.0);
+  chunk_dots_.assign(chunks * 2 * kMaxDepth, 0.0);
 }
 
 void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   const std::size_t n = n_;
-  // One pass: f = g - x, its squared length, and the new differences delta_f = f - f_last and
-  // delta_g = g - g_last written into the ring's next column. When there is no last map yet, or
-  // the history is dropped below, that column is not in use (kept_ = 0) and what was written
-  // there is never read. |f|^2 keeps four running sums (i mod 4), added (s0 + s1) + (s2 + s3):
-  // it only decides the restart below.
-  const int c = next_column_;
+  const std::size_t chunks = chunk_f2_.size();
+  // Pass 1, chunk by chunk: f = g - x, each chunk's share of |f|^2, and the new differences
+  // delta_f = f - f_last and delta_g = g - g_last written into the ring's next column. When there
+  // is no last map yet, or the history is dropped below, that column is not in use (kept_ = 0)
+  // and what was written there is never read. |f|^2 only decides the restart below.
+  const int c = next_column_;  // every thread reads it before the barrier that ends this pass
   double* __restrict df = column(delta_f_, c);
   double* __restrict dg = column(delta_g_, c);
   double* __restrict last_f = last_f_.data();
   double* __restrict last_g = last_g_.data();
   const double* __restrict xs = x.data();
   const double* __restrict gs = g.data();
-  std::array<double, 4> f2_sums{};
-  std::size_t i = 0;
-  for (; i + 4 <= n; i += 4) {
-    for (std::size_t k = 0; k < 4; ++k) {
-      const double f = gs[i + k] - xs[i + k];
-      f2_sums[k] += f * f;
-      df[i + k] = f - last_f[i + k];
-      dg[i + k] = gs[i + k] - last_g[i + k];
-      last_f[i + k] = f;
-      last_g[i + k] = gs[i + k];
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
+    std::array<double, 4> f2_sums{};
+    std::size_t i = begin;
+    for (; i + 4 <= end; i += 4) {
+      for (std::size_t k = 0; k < 4; ++k) {
+        const double f = gs[i + k] - xs[i + k];
+        f2_sums[k] += f * f;
+        df[i + k] = f - last_f[i + k];
+        dg[i + k] = gs[i + k] - last_g[i + k];
+        last_f[i + k] = f;
+        last_g[i + k] = gs[i + k];
+      }
     }
-  }
-  for (; i < n; ++i) {
-    const double f = gs[i] - xs[i];
-    f2_sums[0] += f * f;
-    df[i] = f - last_f[i];
-    dg[i] = gs[i] - last_g[i];
-    last_f[i] = f;
-    last_g[i] = gs[i];
-  }
-  const double f2 = (f2_sums[0] + f2_sums[1]) + (f2_sums[2] + f2_sums[3]);
-  if (have_last_ && f2 > last_f2_) {
-    // The residual grew since the last map: the mixes of the kept history made things worse
-    // (the map is only piecewise linear: contacts open, close, stick and slip). Start again
-    // from this iterate, unmixed.
-    kept_ = 0;
-    next_column_ = 0;
-    have_last_ = false;
-  }
-  last_f2_ = f2;
-  if (have_last_) {
-    next_column_ = (c + 1) % depth_;
-    kept_ = std::min(kept_ + 1, depth_);
-    // The new column's row of the Gram matrix, and the right-hand side delta_f_j . f (below).
-    std::array<const double*, kMaxDepth> columns{};
-    for (int j = 0; j < kept_; ++j) columns[j] = column(delta_f_, j);
-    std::array<double, kMaxDepth> gram_row{};
-    dot_columns(df, last_f_.data(), columns.data(), kept_, n, gram_row.data(), rhs_.data());
-    for (int j = 0; j < kept_; ++j) {
-      gram_[static_cast<std::size_t>(c * depth_ + j)] = gram_row[j];
-      gram_[static_cast<std::size_t>(j * depth_ + c)] = gram_row[j];
+    for (; i < end; ++i) {
+      const double f = gs[i] - xs[i];
+      f2_sums[0] += f * f;
+      df[i] = f - last_f[i];
+      dg[i] = gs[i] - last_g[i];
+      last_f[i] = f;
+      last_g[i] = gs[i];
     }
-  } else {
-    have_last_ = true;
+    chunk_f2_[chunk] = (f2_sums[0] + f2_sums[1]) + (f2_sums[2] + f2_sums[3]);
   }
-  if (kept_ == 0) return;
 
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+  {
+    const double f2 = sum_in_chunk_order(chunk_f2_.data(), 1, chunks);
+    if (have_last_ && f2 > last_f2_) {
+      // The residual grew since the last map: the mixes of the kept history made things worse
+      // (the map is only piecewise linear: contacts open, close, stick and slip). Start again
+      // from this iterate, unmixed.
+      kept_ = 0;
+      next_column_ = 0;
+      have_last_ = false;
+    }
+    last_f2_ = f2;
+    dots_pending_ = have_last_;
+    if (have_last_) {
+      next_column_ = (c + 1) % depth_;
+      kept_ = std::min(kept_ + 1, depth_);
+    } else {
+      have_last_ = true;
+    }
+    update_pending_ = false;
+  }
+
+  if (dots_pending_) {
+    // The new column's row of the Gram matrix, delta_f_c . delta_f_j, and the right-hand side
+    // delta_f_j . f, chunk by chunk (a chunk of both vectors stays in L1 while the columns go
+    // by; each column is read once for both products).
+    const int m = kept_;
+    std::array<const double*, kMaxDepth> columns{};
+    for (int j = 0; j < m; ++j) columns[j] = column(delta_f_, j);
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+      const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
+      double* sums = &chunk_dots_[chunk * 2 * kMaxDepth];
+      dot_columns(df + begin, last_f + begin, columns.data(), begin, m, end - begin, sums,
+                  sums + kMaxDepth);
+    }
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+      for (int j = 0; j < m; ++j) {
+        const double gram = sum_in_chunk_order(&chunk_dots_[j], 2 * kMaxDepth, chunks);
+        gram_[static_cast<std::size_t>(c * depth_ + j)] = gram;
+        gram_[static_cast<std::size_t>(j * depth_ + c)] = gram;
+        rhs_[j] = sum_in_chunk_order(&chunk_dots_[kMaxDepth + j], 2 * kMaxDepth, chunks);
+      }
+      update_pending_ = solve_for_gamma();
+    }
+  }
+  if (!update_pending_) return;
+
+  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: chunk
+  // by chunk (a chunk of g stays in L1 while the m columns go by), the inner loop over the
+  // elements of a chunk (independent, so it vectorises).
   const int m = kept_;
+  double* __restrict gw = g.data();
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
+    for (int j = 0; j < m; ++j) {
+      const double* __restrict dgj = column(delta_g_, j);
+      const double gamma = gamma_[j];
+      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
+    }
+  }
+}
+
+bool AndersonMixer::solve_for_gamma() {
+  const int m = kept_;
+  if (m == 0) return false;
   std::array<double, kMaxDepth * kMaxDepth> a{};
-  std::array<double, kMaxDepth> b{};
   double trace = 0.0;
   for (int j = 0; j < m; ++j) trace += gram_[static_cast<std::size_t>(j * depth_ + j)];
-  if (!(trace > 0.0)) return;
+  if (!(trace > 0.0)) return false;
   for (int r = 0; r < m; ++r) {
-    for (int c = 0; c < m; ++c) a[r * m + c] = gram_[static_cast<std::size_t>(r * depth_ + c)];
+    for (int col = 0; col < m; ++col)
+      a[r * m + col] = gram_[static_cast<std::size_t>(r * depth_ + col)];
     a[r * m + r] += 1e-10 * trace;
-    b[r] = rhs_[r];
+    gamma_[r] = rhs_[r];
   }
-  if (!solve_small(a, b, m)) {
+  if (!solve_small(a, gamma_, m)) {
     // Start the history again; the ring too, since the columns in use are always 0 .. kept_ - 1
     // (with next_column_ left where it was, the next difference would be written to a column
     // the next mix does not read, and column 0's stale one read instead).
     kept_ = 0;
     next_column_ = 0;
-    return;
+    return false;
   }
-  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: block
-  // by block (a block of g stays in L1 while the m columns go by), the inner loop over the
-  // elements of a block (independent, so it vectorises).
-  constexpr std::size_t kBlock = 512;
-  double* __restrict gw = g.data();
-  for (std::size_t begin = 0; begin < n; begin += kBlock) {
-    const std::size_t end = std::min(n, begin + kBlock);
-    for (int j = 0; j < m; ++j) {
-      const double* __restrict dgj = column(delta_g_, j);
-      const double gamma = b[j];
-      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
-    }
-  }
+  return true;
 }
 
 }  // namespace cdshear

@@ -430,22 +430,49 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
   const bool accelerate = options.anderson_depth > 0;
   const int period = std::max(options.anderson_period, 1);
+  // Called by every thread of the team (the loop is shared; v has its size already).
   const auto gather_mixed_impulses = [&](std::vector<double>& v) {
-    v.resize(2 * ws.anderson_rows.size());
-    for (std::size_t k = 0; k < ws.anderson_rows.size(); ++k) {
+    const std::size_t mixed = ws.anderson_rows.size();
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t k = 0; k < mixed; ++k) {
       v[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
       v[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
     }
   };
+  // The mixed impulses of group g's rows, projected on the Signorini-Coulomb set; the bodies
+  // follow through the change of each impulse. Groups of one phase share no body, so they are
+  // applied at once, phase after phase, then the serial group: each body receives its changes
+  // in group order, as one thread going through the rows would give them, bit for bit.
+  const auto apply_mixed_impulses = [&](std::size_t g) {
+    for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
+      SolverRow& r = rows[ws.anderson_rows[k]];
+      const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
+      const double limit = r.friction * r_n;
+      const double r_t = std::clamp(ws.anderson_g[2 * k + 1], -limit, limit);
+      apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n, r_t - r.impulse_t);
+      r.impulse_n = r_n;
+      r.impulse_t = r_t;
+      ws.anderson_x[2 * k] = r_n;
+      ws.anderson_x[2 * k + 1] = r_t;
+    }
+  };
   if (accelerate) {
     ws.anderson_rows.clear();
-    for (std::size_t g = 0; g < groups; ++g)
+    ws.anderson_group_start.assign(1, 0);
+    for (std::size_t g = 0; g < groups; ++g) {
       ws.anderson_rows.insert(ws.anderson_rows.end(), ws.awake[g].begin(), ws.awake[g].end());
+      ws.anderson_group_start.push_back(ws.anderson_rows.size());
+    }
     ws.anderson.reset(2 * ws.anderson_rows.size(), options.anderson_depth);
+    ws.anderson_x.resize(2 * ws.anderson_rows.size());
+    ws.anderson_g.resize(2 * ws.anderson_rows.size());
     gather_mixed_impulses(ws.anderson_x);
   }
 
   bool done = false;
+  bool mix_now = false;  // set on one thread, read by all after the barrier
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
 #if defined(_OPENMP)
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -498,25 +525,23 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         done = done && woken == 0;
       }
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
-      if (accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps) {
-        // The Anderson mix of the last images, projected on the Signorini-Coulomb set; the
-        // bodies follow through the change of each impulse. Never after the last sweep: a step
-        // ends on a sweep's result, not on an extrapolation.
-        gather_mixed_impulses(ws.anderson_g);
-        ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-        for (std::size_t k = 0; k < ws.anderson_rows.size(); ++k) {
-          SolverRow& r = rows[ws.anderson_rows[k]];
-          const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
-          const double limit = r.friction * r_n;
-          const double r_t = std::clamp(ws.anderson_g[2 * k + 1], -limit, limit);
-          apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n,
-                        r_t - r.impulse_t);
-          r.impulse_n = r_n;
-          r.impulse_t = r_t;
-          ws.anderson_x[2 * k] = r_n;
-          ws.anderson_x[2 * k + 1] = r_t;
-        }
+      // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
+      mix_now = accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps;
+    }
+    if (mix_now) {
+      // The Anderson mix of the last images, every pass shared among the threads.
+      gather_mixed_impulses(ws.anderson_g);
+      ws.anderson.mix(ws.anderson_x, ws.anderson_g);
+      for (const SolverPhase& phase : ws.phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+        for (std::size_t g = phase.first_group; g < phase.last_group; ++g) apply_mixed_impulses(g);
       }
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+      apply_mixed_impulses(groups - 1);
     }
     if (done) break;
   }

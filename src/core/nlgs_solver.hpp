@@ -20,6 +20,9 @@
 // Anderson acceleration (options.anderson_depth > 0, anderson.hpp): every anderson_period sweeps
 // the impulses of the rows awake at the start become the Anderson mix of the last sweeps'
 // results, projected on the Signorini-Coulomb set; never after the last sweep. Same fixed points.
+// The mix's passes are shared among the threads (its sums are added in chunks fixed by the
+// vector's length, anderson.hpp), and the mixed impulses are applied phase by phase like a
+// sweep: the result is the same on any number of threads.
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
 // free velocity is its current relative velocity minus W times its current impulse: a contact
 // update costs O(1).
@@ -171,9 +174,11 @@ struct SolverWorkspace {
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
   AndersonMixer anderson;                 ///< options.anderson_depth > 0
-  std::vector<std::uint32_t> anderson_rows;       ///< the rows it mixes: those awake at the start
-  std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
-  std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
+  std::vector<std::uint32_t> anderson_rows;  ///< the rows it mixes: those awake at the start
+  std::vector<std::size_t>
+      anderson_group_start;                    ///< group g's: anderson_rows[start[g], start[g+1])
+  std::vector<double> anderson_x, anderson_g;  ///< their (R_n, R_t) before and after a period
+  std::vector<std::vector<std::uint32_t>> awake;                 ///< rows each group's sweeps visit
   std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
   std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
   std::vector<std::size_t> next;                                 ///< scratch of the group sort
