@@ -474,77 +474,91 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   bool done = false;
   bool mix_now = false;  // set on one thread, read by all after the barrier
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
-#if defined(_OPENMP)
-#pragma omp parallel num_threads(threads) if (threads > 1)
-#endif
-  for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
-    for (const SolverPhase& phase : ws.phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-      for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-        sweep_group(g, ws, bodies, options.alpha, options.relaxation);
-    }
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-    {
-#if defined(_OPENMP)
-      report.threads = omp_get_num_threads();
-#endif
-      sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation);
-      std::size_t converged = 0, carrying = 0;
-      double sum_change = 0.0, sum_force = 0.0;
-      for (const SweepTally& t : ws.group_tallies) {
-        converged += t.converged;
-        carrying += t.carrying;
-        sum_change += t.sum_change;
-        sum_force += t.sum_force;
-      }
-      report.sweeps = sweep;
-      report.converged_fraction =
-          carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
-      if (sum_force > 0.0) {
-        const double ratio = sum_change / sum_force;
-        report.residual = ratio * ratio;
-      } else {
-        report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-      }
-      const double change = std::sqrt(report.residual);
-      std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
-      recent_change.back() = change;
-      report.error_bound = remaining_error_bound(recent_change, sweep);
-      // alpha bounds the square of the tested quantity (the residual is the change squared).
-      const double tested2 = options.criterion == ConvergenceCriterion::kError
-                                 ? report.error_bound * report.error_bound
-                                 : report.residual;
-      done = report.converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
-      if (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps) {
-        const std::size_t woken = wake_closing_rows(ws, bodies);
-        report.woken_contacts += woken;
-        done = done && woken == 0;
-      }
-      if (!done && sweep == options.max_sweeps) report.hit_cap = true;
-      // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
-      mix_now = accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps;
-    }
-    if (mix_now) {
-      // The Anderson mix of the last images, every pass shared among the threads.
-      gather_mixed_impulses(ws.anderson_g);
-      ws.anderson.mix(ws.anderson_x, ws.anderson_g);
+  // The sweeps, run by every thread of the team: the work-sharing constructs inside (omp for,
+  // omp single, and those of AndersonMixer::mix) bind to whatever team calls this. One thread
+  // calls it outside any parallel region: a team of one (`if (false)`) would still end every
+  // construct with a barrier that makes a system call (futex wake), two to seven per sweep.
+  const auto run_sweeps = [&] {
+    for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
-        for (std::size_t g = phase.first_group; g < phase.last_group; ++g) apply_mixed_impulses(g);
+        for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+          sweep_group(g, ws, bodies, options.alpha, options.relaxation);
       }
 #if defined(_OPENMP)
 #pragma omp single
 #endif
-      apply_mixed_impulses(groups - 1);
+      {
+#if defined(_OPENMP)
+        report.threads = omp_get_num_threads();
+#endif
+        sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation);
+        std::size_t converged = 0, carrying = 0;
+        double sum_change = 0.0, sum_force = 0.0;
+        for (const SweepTally& t : ws.group_tallies) {
+          converged += t.converged;
+          carrying += t.carrying;
+          sum_change += t.sum_change;
+          sum_force += t.sum_force;
+        }
+        report.sweeps = sweep;
+        report.converged_fraction =
+            carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
+        if (sum_force > 0.0) {
+          const double ratio = sum_change / sum_force;
+          report.residual = ratio * ratio;
+        } else {
+          report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+        }
+        const double change = std::sqrt(report.residual);
+        std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
+        recent_change.back() = change;
+        report.error_bound = remaining_error_bound(recent_change, sweep);
+        // alpha bounds the square of the tested quantity (the residual is the change squared).
+        const double tested2 = options.criterion == ConvergenceCriterion::kError
+                                   ? report.error_bound * report.error_bound
+                                   : report.residual;
+        done = report.converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
+        if (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps) {
+          const std::size_t woken = wake_closing_rows(ws, bodies);
+          report.woken_contacts += woken;
+          done = done && woken == 0;
+        }
+        if (!done && sweep == options.max_sweeps) report.hit_cap = true;
+        // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
+        mix_now = accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps;
+      }
+      if (mix_now) {
+        // The Anderson mix of the last images, every pass shared among the threads.
+        gather_mixed_impulses(ws.anderson_g);
+        ws.anderson.mix(ws.anderson_x, ws.anderson_g);
+        for (const SolverPhase& phase : ws.phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+          for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+            apply_mixed_impulses(g);
+        }
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+        apply_mixed_impulses(groups - 1);
+      }
+      if (done) break;
     }
-    if (done) break;
+  };
+#if defined(_OPENMP)
+  if (threads > 1) {
+#pragma omp parallel num_threads(threads)
+    run_sweeps();
+  } else {
+    run_sweeps();
   }
+#else
+  run_sweeps();
+#endif
 
   for (std::size_t i = 0; i < nc; ++i) {
     Contact& c = contacts[ws.order[i]];
