@@ -15,18 +15,23 @@
 namespace cdshear {
 namespace {
 
-/// Jacobi iteration x <- G(x) = D^-1 (b - (A - D) x) of the 1D Laplacian A = tridiag(-1, 2, -1),
-/// whose solution with b = 1 is x_i = (i + 1) (n - i) / 2. Jacobi alone contracts the error by
-/// cos(pi / (n + 1)) per map: about 0.99 for n = 20.
-std::vector<double> jacobi(const std::vector<double>& x) {
+/// G(x)_i = constant + weight (x_{i-1} + x_{i+1}), with x_{-1} = x_n = 0: the maps below.
+std::vector<double> neighbour_map(const std::vector<double>& x, double constant, double weight) {
   const std::size_t n = x.size();
   std::vector<double> g(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double left = i > 0 ? x[i - 1] : 0.0;
     const double right = i + 1 < n ? x[i + 1] : 0.0;
-    g[i] = (1.0 + left + right) / 2.0;
+    g[i] = constant + weight * (left + right);
   }
   return g;
+}
+
+/// Jacobi iteration x <- G(x) = D^-1 (b - (A - D) x) of the 1D Laplacian A = tridiag(-1, 2, -1),
+/// whose solution with b = 1 is x_i = (i + 1) (n - i) / 2. Jacobi alone contracts the error by
+/// cos(pi / (n + 1)) per map: about 0.99 for n = 20.
+std::vector<double> jacobi(const std::vector<double>& x) {
+  return neighbour_map(x, 0.5, 0.5);
 }
 
 double error(const std::vector<double>& x) {
@@ -104,14 +109,7 @@ TEST(Anderson, AGrowingResidualDropsTheHistory) {
 
 /// G(x)_i = 1 + 0.49 (x_{i-1} + x_{i+1}): a contraction (factor up to 0.98) of any length.
 std::vector<double> damped_neighbours(const std::vector<double>& x) {
-  const std::size_t n = x.size();
-  std::vector<double> g(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double left = i > 0 ? x[i - 1] : 0.0;
-    const double right = i + 1 < n ? x[i + 1] : 0.0;
-    g[i] = 1.0 + 0.49 * (left + right);
-  }
-  return g;
+  return neighbour_map(x, 1.0, 0.49);
 }
 
 /// max_i |G(x)_i - x_i|.

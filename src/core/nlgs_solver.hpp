@@ -174,11 +174,10 @@ struct SolverWorkspace {
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
   AndersonMixer anderson;                 ///< options.anderson_depth > 0
-  std::vector<std::uint32_t> anderson_rows;  ///< the rows it mixes: those awake at the start
-  std::vector<std::size_t>
-      anderson_group_start;                    ///< group g's: anderson_rows[start[g], start[g+1])
-  std::vector<double> anderson_x, anderson_g;  ///< their (R_n, R_t) before and after a period
-  std::vector<std::vector<std::uint32_t>> awake;                 ///< rows each group's sweeps visit
+  std::vector<std::uint32_t> anderson_rows;       ///< the rows it mixes: those awake at the start
+  std::vector<std::size_t> anderson_group_start;  ///< group g's: [start[g], start[g + 1])
+  std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
+  std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
   std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
   std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
   std::vector<std::size_t> next;                                 ///< scratch of the group sort
