@@ -197,6 +197,49 @@ TEST(ContactDetection, NeighbourListFindsEveryPairThatClosesIn) {
   EXPECT_LT(kept.neighbour_builds(), static_cast<std::uint64_t>(kSteps / 2));
 }
 
+TEST(ContactDetection, GivesTheSameCandidatesAndWarmStartOnAnyNumberOfThreads) {
+  // 2600 disks, so that two and three threads each get at least kMinDisksPerThread of them. The
+  // previous step's contacts carry impulses made from their keys; after the disks move, every
+  // thread count must give the one-thread list bit for bit, warm start included (each thread's
+  // run of disks is warm-started from the middle of the previous list).
+  std::mt19937_64 rng(21);
+  World world = build_world(random_scene(rng, true, 40.0, 60.0, 2600));
+  ASSERT_GE(world.disks.size(), 2 * ContactDetector::kMinDisksPerThread);
+  std::vector<Contact> previous;
+  ContactDetector().detect(world, 0.05, previous);
+  for (Contact& c : previous) {
+    c.impulse_n = 1.0 + c.key.body_a + 1e-4 * c.key.body_b;
+    c.impulse_t = 0.5 * c.key.image_b - 1e-3 * c.key.body_a;
+  }
+  std::uniform_real_distribution<double> u(-0.01, 0.01);
+  for (Vec2& p : world.disks.position) p = p + Vec2{u(rng), u(rng)};
+  const double lx = world.domain.length_x;
+  for (Vec2& p : world.disks.position) p.x -= lx * std::floor(p.x / lx);
+
+  std::vector<Contact> one = previous;
+  ContactDetector().detect(world, 0.05, one, 1);
+  std::size_t carried = 0;
+  for (const Contact& c : one) carried += c.impulse_n != 0.0;
+  EXPECT_GT(carried, one.size() / 2);  // most contacts persist and are warm-started
+  for (const int threads : {2, 3}) {
+    std::vector<Contact> many = previous;
+    ContactDetector().detect(world, 0.05, many, threads);
+    ASSERT_EQ(many.size(), one.size()) << threads << " threads";
+    for (std::size_t k = 0; k < one.size(); ++k) {
+      const std::string what = std::to_string(threads) + " threads, entry " + std::to_string(k);
+      ASSERT_EQ(many[k].key, one[k].key) << what;
+      ASSERT_EQ(many[k].gap, one[k].gap) << what;
+      ASSERT_EQ(many[k].normal.x, one[k].normal.x) << what;
+      ASSERT_EQ(many[k].normal.y, one[k].normal.y) << what;
+      ASSERT_EQ(many[k].lever_a, one[k].lever_a) << what;
+      ASSERT_EQ(many[k].lever_b, one[k].lever_b) << what;
+      ASSERT_EQ(many[k].impulse_n, one[k].impulse_n) << what;
+      ASSERT_EQ(many[k].impulse_t, one[k].impulse_t) << what;
+    }
+  }
+  compare_with_brute_force(world, 0.05, "2600 disks");
+}
+
 TEST(ContactDetection, NeighbourListIsBuiltAgainForAJumpAWiderMarginOrANewRadius) {
   std::mt19937_64 rng(11);
   World world = build_world(random_scene(rng, true, 7.3, 8.0, 40));

@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
 namespace cdshear {
 
 double wall_gap(const World& world, std::size_t i, const Wall& w) {
@@ -58,14 +62,12 @@ void ContactDetector::build_neighbours(const World& world, double margin) {
   ++builds_;
 }
 
-void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts) {
+void ContactDetector::list_candidates(const World& world, double margin, std::size_t first,
+                                      std::size_t last, std::vector<Contact>& out) const {
   const Disks& d = world.disks;
   const std::size_t n = d.size();
-  if (!neighbours_cover(world, margin)) build_neighbours(world, margin);
-  fresh_.clear();
-
   const double lx = world.domain.length_x;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = first; i < last; ++i) {
     // Disk-disk candidates with j > i, in ascending j (the nearest image of each).
     const Vec2 pi = d.position[i];
     for (std::size_t k = start_[i]; k < start_[i + 1]; ++k) {
@@ -91,7 +93,7 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
       c.lever_a = -(d.radius[i] + half_gap);
       c.lever_b = -(d.radius[j] + half_gap);
       c.friction = world.friction_disk_disk;
-      fresh_.push_back(c);
+      out.push_back(c);
     }
     // Disk-wall candidates, walls numbered after the disks.
     for (std::size_t w = 0; w < world.walls.size(); ++w) {
@@ -107,20 +109,72 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
       c.lever_b = 0.0;
       c.gap = gap;
       c.friction = wall.friction;
-      fresh_.push_back(c);
+      out.push_back(c);
     }
   }
+}
 
-  // Warm start: both lists are sorted by key; carry impulses over.
-  std::size_t p = 0;
-  for (Contact& c : fresh_) {
-    while (p < contacts.size() && contacts[p].key < c.key) ++p;
-    if (p < contacts.size() && contacts[p].key == c.key) {
-      c.impulse_n = contacts[p].impulse_n;
-      c.impulse_t = contacts[p].impulse_t;
+void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& fresh) {
+  if (fresh.empty()) return;
+  // Both are sorted by key: start at the first previous key not below the run's first.
+  const auto by_key = [](const Contact& c, const ContactKey& key) { return c.key < key; };
+  auto p = std::lower_bound(previous.begin(), previous.end(), fresh.front().key, by_key);
+  for (Contact& c : fresh) {
+    while (p != previous.end() && p->key < c.key) ++p;
+    if (p != previous.end() && p->key == c.key) {
+      c.impulse_n = p->impulse_n;
+      c.impulse_t = p->impulse_t;
     }
+  }
+}
+
+void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts,
+                             int threads) {
+  const std::size_t n = world.disks.size();
+  if (!neighbours_cover(world, margin)) build_neighbours(world, margin);
+  fresh_.clear();
+  int team = 1;
+#if defined(_OPENMP)
+  if (threads > 1)
+    team = static_cast<int>(
+        std::clamp<std::size_t>(n / kMinDisksPerThread, 1,
+                                static_cast<std::size_t>(std::min(threads, omp_get_num_procs()))));
+#else
+  (void)threads;
+#endif
+  if (team == 1) {
+    list_candidates(world, margin, 0, n, fresh_);
+    carry_impulses(contacts, fresh_);
+    contacts.swap(fresh_);
+    return;
+  }
+#if defined(_OPENMP)
+  // Each thread lists the candidates of a run of consecutive disks (their keys start with the
+  // disk, so each run is a run of keys) and warm-starts them; the runs are then copied side by
+  // side in disk order: the same list as one thread's.
+  parts_.resize(static_cast<std::size_t>(team));
+  part_offset_.resize(static_cast<std::size_t>(team) + 1);
+#pragma omp parallel num_threads(team)
+  {
+    const auto size = static_cast<std::size_t>(omp_get_num_threads());
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    std::vector<Contact>& part = parts_[t];
+    part.clear();
+    list_candidates(world, margin, n * t / size, n * (t + 1) / size, part);
+    carry_impulses(contacts, part);
+#pragma omp barrier
+#pragma omp single
+    {
+      part_offset_[0] = 0;
+      for (std::size_t k = 0; k < size; ++k)
+        part_offset_[k + 1] = part_offset_[k] + parts_[k].size();
+      fresh_.resize(part_offset_[size]);
+    }
+    std::copy(part.begin(), part.end(),
+              fresh_.begin() + static_cast<std::ptrdiff_t>(part_offset_[t]));
   }
   contacts.swap(fresh_);
+#endif
 }
 
 }  // namespace cdshear

@@ -375,47 +375,6 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   }
   std::vector<SolverBody>& bodies = renumbered ? ws.local_bodies : all_bodies;
 
-  // Prepare: the rows in visit order (the sweeps then read them front to back), their Delassus
-  // entries, then the warm start (apply the carried-over impulses).
-  auto& rows = ws.rows;
-  rows.resize(nc);
-  ws.delassus.resize(nc);
-  const double inv_dt = 1.0 / dt;
-  for (std::size_t i = 0; i < nc; ++i) {
-    const Contact& c = contacts[ws.order[i]];
-    SolverRow& row = rows[i];
-    const auto global_a = static_cast<std::size_t>(c.key.body_a);
-    const auto global_b = static_cast<std::size_t>(c.key.body_b);
-    const std::size_t ia = renumbered ? ws.local_of[global_a] : global_a;
-    const std::size_t ib = renumbered ? ws.local_of[global_b] : global_b;
-    SolverBody& a = bodies[ia];
-    SolverBody& b = bodies[ib];
-    fill_row(row, ws.delassus[i], c, a, b, inv_dt);
-    row.body_a = static_cast<std::uint32_t>(ia);
-    row.body_b = static_cast<std::uint32_t>(ib);
-    apply_impulse(row, a, b, row.impulse_n, row.impulse_t);
-  }
-  const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
-  ws.group_tallies.resize(groups);
-
-  // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is applied.
-  // The sweeps leave them out; every kDormantCheckInterval sweeps, and before the sweeps stop,
-  // those that would now close are woken (nlgs_solver.hpp).
-  ws.awake.resize(groups);
-  ws.dormant.clear();
-  for (std::size_t g = 0; g < groups; ++g) {
-    ws.awake[g].clear();
-    for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
-      const SolverRow& r = rows[i];
-      const bool open = r.impulse_n == 0.0 && r.impulse_t == 0.0;
-      if (options.skip_dormant && open && biased_normal_velocity(r, bodies) > 0.0)
-        ws.dormant.push_back({static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(g)});
-      else
-        ws.awake[g].push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-  report.dormant_contacts = ws.dormant.size();
-
   // Threads: only for the coloured order (the others are one serial group), and only with
   // enough rows to share. Their number does not change the result (order_rows).
   // More threads than processors would only wait for each other at every phase.
@@ -425,6 +384,73 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         nc / std::max<std::size_t>(options.min_rows_per_thread, 1), 1,
         static_cast<std::size_t>(std::min(options.threads, solver_threads_available()))));
   report.colours = ws.phases.size();
+  const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
+  ws.group_tallies.resize(groups);
+  auto& rows = ws.rows;
+  rows.resize(nc);
+  ws.delassus.resize(nc);
+  ws.awake.resize(groups);
+  ws.dormant_of_group.resize(groups);
+  const double inv_dt = 1.0 / dt;
+
+  // Runs `for_group(g)` over every group, phase by phase, then the serial group: groups of a
+  // phase share no body, so each body meets the groups' changes in group order, as one thread
+  // going through the rows in order would. Called by every thread of the team.
+  const auto each_group_by_phase = [&](const auto& for_group) {
+    for (const SolverPhase& phase : ws.phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+      for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
+    }
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    for_group(groups - 1);
+  };
+
+  // Prepare, on every thread of the team: the rows in visit order (the sweeps then read them
+  // front to back) and their Delassus entries, then the warm start (apply the carried-over
+  // impulses), then the dormant rows.
+  const auto prepare_rows = [&] {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t i = 0; i < nc; ++i) {
+      const Contact& c = contacts[ws.order[i]];
+      const auto global_a = static_cast<std::size_t>(c.key.body_a);
+      const auto global_b = static_cast<std::size_t>(c.key.body_b);
+      const std::size_t ia = renumbered ? ws.local_of[global_a] : global_a;
+      const std::size_t ib = renumbered ? ws.local_of[global_b] : global_b;
+      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt);
+      rows[i].body_a = static_cast<std::uint32_t>(ia);
+      rows[i].body_b = static_cast<std::uint32_t>(ib);
+    }
+    each_group_by_phase([&](std::size_t g) {
+      for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+        const SolverRow& r = rows[i];
+        apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r.impulse_n, r.impulse_t);
+      }
+    });
+    // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is
+    // applied. The sweeps leave them out; every kDormantCheckInterval sweeps, and before the
+    // sweeps stop, those that would now close are woken (nlgs_solver.hpp).
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t g = 0; g < groups; ++g) {
+      ws.awake[g].clear();
+      ws.dormant_of_group[g].clear();
+      for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+        const SolverRow& r = rows[i];
+        const bool open = r.impulse_n == 0.0 && r.impulse_t == 0.0;
+        if (options.skip_dormant && open && biased_normal_velocity(r, bodies) > 0.0)
+          ws.dormant_of_group[g].push_back(static_cast<std::uint32_t>(i));
+        else
+          ws.awake[g].push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+  };
 
   // Anderson acceleration mixes the rows awake at the start (the others are open and
   // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
@@ -442,9 +468,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     }
   };
   // The mixed impulses of group g's rows, projected on the Signorini-Coulomb set; the bodies
-  // follow through the change of each impulse. Groups of one phase share no body, so they are
-  // applied at once, phase after phase, then the serial group: each body receives its changes
-  // in group order, as one thread going through the rows would give them, bit for bit.
+  // follow through the change of each impulse (applied by each_group_by_phase: bit for bit what
+  // one thread going through the rows would give).
   const auto apply_mixed_impulses = [&](std::size_t g) {
     for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
       SolverRow& r = rows[ws.anderson_rows[k]];
@@ -458,7 +483,15 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       ws.anderson_x[2 * k + 1] = r_t;
     }
   };
-  if (accelerate) {
+  // On one thread of the team, once the rows are prepared: the dormant rows in row order, and
+  // the rows the mix works on.
+  const auto list_dormant_and_mixed_rows = [&] {
+    ws.dormant.clear();
+    for (std::size_t g = 0; g < groups; ++g)
+      for (const std::uint32_t i : ws.dormant_of_group[g])
+        ws.dormant.push_back({i, static_cast<std::uint32_t>(g)});
+    report.dormant_contacts = ws.dormant.size();
+    if (!accelerate) return;
     ws.anderson_rows.clear();
     ws.anderson_group_start.assign(1, 0);
     for (std::size_t g = 0; g < groups; ++g) {
@@ -468,17 +501,23 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     ws.anderson.reset(2 * ws.anderson_rows.size(), options.anderson_depth);
     ws.anderson_x.resize(2 * ws.anderson_rows.size());
     ws.anderson_g.resize(2 * ws.anderson_rows.size());
-    gather_mixed_impulses(ws.anderson_x);
-  }
+  };
 
   bool done = false;
   bool mix_now = false;  // set on one thread, read by all after the barrier
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
-  // The sweeps, run by every thread of the team: the work-sharing constructs inside (omp for,
+  // Preparation, sweeps and the impulses back to the contacts, run by every thread of the team
+  // (one parallel region per step): the work-sharing constructs inside (omp for,
   // omp single, and those of AndersonMixer::mix) bind to whatever team calls this. One thread
   // calls it outside any parallel region: a team of one (`if (false)`) would still end every
   // construct with a barrier that makes a system call (futex wake), two to seven per sweep.
-  const auto run_sweeps = [&] {
+  const auto solve_rows = [&] {
+    prepare_rows();
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    list_dormant_and_mixed_rows();
+    if (accelerate) gather_mixed_impulses(ws.anderson_x);
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
@@ -534,38 +573,32 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         // The Anderson mix of the last images, every pass shared among the threads.
         gather_mixed_impulses(ws.anderson_g);
         ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-        for (const SolverPhase& phase : ws.phases) {
+        each_group_by_phase(apply_mixed_impulses);
+      }
+      if (done) break;
+    }
+    // The impulses back to the contacts (each row has its own contact).
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
-          for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-            apply_mixed_impulses(g);
-        }
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-        apply_mixed_impulses(groups - 1);
-      }
-      if (done) break;
+    for (std::size_t i = 0; i < nc; ++i) {
+      Contact& c = contacts[ws.order[i]];
+      c.impulse_n = rows[i].impulse_n;
+      c.impulse_t = rows[i].impulse_t;
     }
   };
 #if defined(_OPENMP)
   if (threads > 1) {
 #pragma omp parallel num_threads(threads)
-    run_sweeps();
+    solve_rows();
   } else {
-    run_sweeps();
+    solve_rows();
   }
 #else
-  run_sweeps();
+  solve_rows();
 #endif
 
-  for (std::size_t i = 0; i < nc; ++i) {
-    Contact& c = contacts[ws.order[i]];
-    c.impulse_n = rows[i].impulse_n;
-    c.impulse_t = rows[i].impulse_t;
-    report.active_contacts += c.impulse_n > 0.0;
-  }
+  for (const SolverRow& r : rows) report.active_contacts += r.impulse_n > 0.0;
   if (renumbered)
     for (std::size_t k = 0; k < ws.global_of.size(); ++k)
       all_bodies[ws.global_of[k]] = ws.local_bodies[k];

@@ -179,6 +179,7 @@ struct SolverWorkspace {
   std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
   std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
   std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
+  std::vector<std::vector<std::uint32_t>> dormant_of_group;      ///< rows, while preparing
   std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
   std::vector<std::size_t> next;                                 ///< scratch of the group sort
   std::vector<std::uint32_t> sorted;                             ///< scratch of the group sort
