@@ -34,25 +34,58 @@ bool ContactDetector::neighbours_cover(const World& world, double margin) const 
   return true;
 }
 
-void ContactDetector::build_neighbours(const World& world, double margin) {
+void ContactDetector::list_neighbours(const World& world, double reach, std::size_t first,
+                                      std::size_t last, std::vector<std::int32_t>& around,
+                                      std::vector<std::int32_t>& out) {
+  const Disks& d = world.disks;
+  for (std::size_t i = first; i < last; ++i) {
+    around.clear();
+    cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t, Vec2 delta) {
+      const double cutoff = d.radius[i] + d.radius[j] + reach;
+      if (length_squared(delta) < cutoff * cutoff) around.push_back(j);
+    });
+    // A disk is visited once per i (one image: the nearest), so sorting by j gives the
+    // (j, image) order of the keys.
+    std::sort(around.begin(), around.end());
+    out.insert(out.end(), around.begin(), around.end());
+    start_[i + 1] = around.size();  // a count for now; the caller adds them up
+  }
+}
+
+void ContactDetector::build_neighbours(const World& world, double margin, int team) {
   const Disks& d = world.disks;
   const std::size_t n = d.size();
   const double largest_diameter = 2.0 * max_radius(world);
   const double reach = margin + kSkinPerDiameter * largest_diameter;
   cells_.build(world, std::max(largest_diameter + reach, 1e-12));
-  neighbours_.clear();
   start_.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    around_.clear();
-    cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t, Vec2 delta) {
-      const double cutoff = d.radius[i] + d.radius[j] + reach;
-      if (length_squared(delta) < cutoff * cutoff) around_.push_back(j);
-    });
-    // A disk is visited once per i (one image: the nearest), so sorting by j gives the
-    // (j, image) order of the keys.
-    std::sort(around_.begin(), around_.end());
-    neighbours_.insert(neighbours_.end(), around_.begin(), around_.end());
-    start_[i + 1] = neighbours_.size();
+  around_.resize(static_cast<std::size_t>(team));
+  if (team == 1) {
+    neighbours_.clear();
+    list_neighbours(world, reach, 0, n, around_[0], neighbours_);
+    for (std::size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
+  } else {
+#if defined(_OPENMP)
+    // Each thread lists the neighbours of a run of consecutive disks; the runs are then copied
+    // side by side in disk order, as in detect: the same list as one thread's.
+    parts_neighbours_.resize(static_cast<std::size_t>(team));
+#pragma omp parallel num_threads(team)
+    {
+      const auto size = static_cast<std::size_t>(omp_get_num_threads());
+      const auto t = static_cast<std::size_t>(omp_get_thread_num());
+      std::vector<std::int32_t>& part = parts_neighbours_[t];
+      part.clear();
+      list_neighbours(world, reach, n * t / size, n * (t + 1) / size, around_[t], part);
+#pragma omp barrier
+#pragma omp single
+      {
+        for (std::size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
+        neighbours_.resize(start_[n]);
+      }
+      std::copy(part.begin(), part.end(),
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(start_[n * t / size]));
+    }
+#endif
   }
   built_position_ = d.position;
   built_radius_ = d.radius;
@@ -131,8 +164,6 @@ void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& 
 void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts,
                              int threads) {
   const std::size_t n = world.disks.size();
-  if (!neighbours_cover(world, margin)) build_neighbours(world, margin);
-  fresh_.clear();
   int team = 1;
 #if defined(_OPENMP)
   if (threads > 1)
@@ -142,6 +173,8 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
 #else
   (void)threads;
 #endif
+  if (!neighbours_cover(world, margin)) build_neighbours(world, margin, team);
+  fresh_.clear();
   if (team == 1) {
     list_candidates(world, margin, 0, n, fresh_);
     carry_impulses(contacts, fresh_);

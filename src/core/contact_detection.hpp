@@ -44,7 +44,12 @@ class ContactDetector {
  private:
   /// True when the neighbour list holds every pair with gap < margin in `world` (see above).
   bool neighbours_cover(const World& world, double margin) const;
-  void build_neighbours(const World& world, double margin);
+  /// Builds the list on `team` threads (the same list on any number).
+  void build_neighbours(const World& world, double margin, int team);
+  /// Appends the neighbours j > i of disks [first, last) within `reach` to `out` (ascending for
+  /// each i) and stores each disk's count in start_[i + 1]; `around` is scratch.
+  void list_neighbours(const World& world, double reach, std::size_t first, std::size_t last,
+                       std::vector<std::int32_t>& around, std::vector<std::int32_t>& out);
   /// Appends the candidates of disks [first, last) to `out`, in key order.
   void list_candidates(const World& world, double margin, std::size_t first, std::size_t last,
                        std::vector<Contact>& out) const;
@@ -57,7 +62,8 @@ class ContactDetector {
   // ascending.
   std::vector<std::int32_t> neighbours_;
   std::vector<std::size_t> start_;
-  std::vector<std::int32_t> around_;  // scratch of the build
+  std::vector<std::vector<std::int32_t>> around_;            // scratch of the build, per thread
+  std::vector<std::vector<std::int32_t>> parts_neighbours_;  // one per thread: its disks' list
   // What the list was built for: positions and radii of the disks, margin + skin, the domain.
   std::vector<Vec2> built_position_;
   std::vector<double> built_radius_;
