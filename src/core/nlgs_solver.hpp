@@ -22,7 +22,8 @@
 // results, projected on the Signorini-Coulomb set; never after the last sweep. Same fixed points.
 // The mix's passes are shared among the threads (its sums are added in chunks fixed by the
 // vector's length, anderson.hpp), and the mixed impulses are applied phase by phase like a
-// sweep: the result is the same on any number of threads.
+// sweep: the result is the same on any number of threads. So are the rows' set-up, the warm start
+// (applied phase by phase too) and the copy-back of the impulses.
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
 // free velocity is its current relative velocity minus W times its current impulse: a contact
 // update costs O(1).
