@@ -137,6 +137,22 @@ TEST(ContactDetection, MatchesBruteForceAfterWrapping) {
   EXPECT_GT(crossings, 0);
 }
 
+/// Two candidate lists, field by field and bit for bit, warm-start impulses included.
+void expect_same_contacts(const std::vector<Contact>& got, const std::vector<Contact>& expected,
+                          const std::string& what) {
+  ASSERT_EQ(got.size(), expected.size()) << what;
+  for (std::size_t k = 0; k < got.size(); ++k) {
+    ASSERT_EQ(got[k].key, expected[k].key) << what << " entry " << k;
+    ASSERT_EQ(got[k].gap, expected[k].gap) << what << " entry " << k;
+    ASSERT_EQ(got[k].normal.x, expected[k].normal.x) << what << " entry " << k;
+    ASSERT_EQ(got[k].normal.y, expected[k].normal.y) << what << " entry " << k;
+    ASSERT_EQ(got[k].lever_a, expected[k].lever_a) << what << " entry " << k;
+    ASSERT_EQ(got[k].lever_b, expected[k].lever_b) << what << " entry " << k;
+    ASSERT_EQ(got[k].impulse_n, expected[k].impulse_n) << what << " entry " << k;
+    ASSERT_EQ(got[k].impulse_t, expected[k].impulse_t) << what << " entry " << k;
+  }
+}
+
 /// Candidates of `kept` (a detector that has seen earlier configurations, so may reuse its
 /// neighbour list) against a fresh detector's, field by field and bit for bit, and against the
 /// brute-force search.
@@ -145,14 +161,7 @@ void compare_kept_with_fresh(ContactDetector& kept, const World& world, double m
   std::vector<Contact> reused, fresh;
   kept.detect(world, margin, reused);
   ContactDetector().detect(world, margin, fresh);
-  ASSERT_EQ(reused.size(), fresh.size()) << what;
-  for (std::size_t k = 0; k < reused.size(); ++k) {
-    ASSERT_EQ(reused[k].key, fresh[k].key) << what << " entry " << k;
-    ASSERT_EQ(reused[k].gap, fresh[k].gap) << what << " entry " << k;
-    ASSERT_EQ(reused[k].normal.x, fresh[k].normal.x) << what << " entry " << k;
-    ASSERT_EQ(reused[k].normal.y, fresh[k].normal.y) << what << " entry " << k;
-    ASSERT_EQ(reused[k].lever_b, fresh[k].lever_b) << what << " entry " << k;
-  }
+  expect_same_contacts(reused, fresh, what);
   compare_with_brute_force(world, margin, what);
 }
 
@@ -224,18 +233,7 @@ TEST(ContactDetection, GivesTheSameCandidatesAndWarmStartOnAnyNumberOfThreads) {
   for (const int threads : {2, 3}) {
     std::vector<Contact> many = previous;
     ContactDetector().detect(world, 0.05, many, threads);
-    ASSERT_EQ(many.size(), one.size()) << threads << " threads";
-    for (std::size_t k = 0; k < one.size(); ++k) {
-      const std::string what = std::to_string(threads) + " threads, entry " + std::to_string(k);
-      ASSERT_EQ(many[k].key, one[k].key) << what;
-      ASSERT_EQ(many[k].gap, one[k].gap) << what;
-      ASSERT_EQ(many[k].normal.x, one[k].normal.x) << what;
-      ASSERT_EQ(many[k].normal.y, one[k].normal.y) << what;
-      ASSERT_EQ(many[k].lever_a, one[k].lever_a) << what;
-      ASSERT_EQ(many[k].lever_b, one[k].lever_b) << what;
-      ASSERT_EQ(many[k].impulse_n, one[k].impulse_n) << what;
-      ASSERT_EQ(many[k].impulse_t, one[k].impulse_t) << what;
-    }
+    expect_same_contacts(many, one, std::to_string(threads) + " threads");
   }
   compare_with_brute_force(world, 0.05, "2600 disks");
 }

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "threads.hpp"
+
 #if defined(_OPENMP)
 #include <omp.h>
 #endif
@@ -12,6 +14,47 @@ namespace cdshear {
 double wall_gap(const World& world, std::size_t i, const Wall& w) {
   return dot(world.disks.position[i] - w.point, w.normal) - world.disks.radius[i];
 }
+
+namespace {
+
+/// Fills `out` with what `list_run(first, last, part)` appends for runs of consecutive disks
+/// [first, last) covering [0, n), one run per thread of a team of `team`, joined in run order:
+/// whatever list_run lists in disk order comes out as one thread listing [0, n) would give it.
+/// `parts` and `offsets` are scratch kept between calls.
+template <typename T, typename ListRun>
+void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
+                  std::vector<std::size_t>& offsets, std::vector<T>& out, const ListRun& list_run) {
+  out.clear();
+  if (team == 1) {
+    list_run(0, n, out);
+    return;
+  }
+#if defined(_OPENMP)
+  parts.resize(static_cast<std::size_t>(team));
+  offsets.resize(static_cast<std::size_t>(team) + 1);
+#pragma omp parallel num_threads(team)
+  {
+    const auto size = static_cast<std::size_t>(omp_get_num_threads());
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    std::vector<T>& part = parts[t];
+    part.clear();
+    list_run(n * t / size, n * (t + 1) / size, part);
+#pragma omp barrier
+#pragma omp single
+    {
+      offsets[0] = 0;
+      for (std::size_t k = 0; k < size; ++k) offsets[k + 1] = offsets[k] + parts[k].size();
+      out.resize(offsets[size]);
+    }
+    std::copy(part.begin(), part.end(), out.begin() + static_cast<std::ptrdiff_t>(offsets[t]));
+  }
+#else
+  (void)parts;  // team is 1 without OpenMP
+  (void)offsets;
+#endif
+}
+
+}  // namespace
 
 bool ContactDetector::neighbours_cover(const World& world, double margin) const {
   const Disks& d = world.disks;
@@ -35,9 +78,9 @@ bool ContactDetector::neighbours_cover(const World& world, double margin) const 
 }
 
 void ContactDetector::list_neighbours(const World& world, double reach, std::size_t first,
-                                      std::size_t last, std::vector<std::int32_t>& around,
-                                      std::vector<std::int32_t>& out) {
+                                      std::size_t last, std::vector<std::int32_t>& out) {
   const Disks& d = world.disks;
+  std::vector<std::int32_t> around;  // the partners of one disk, before sorting
   for (std::size_t i = first; i < last; ++i) {
     around.clear();
     cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t, Vec2 delta) {
@@ -59,34 +102,11 @@ void ContactDetector::build_neighbours(const World& world, double margin, int te
   const double reach = margin + kSkinPerDiameter * largest_diameter;
   cells_.build(world, std::max(largest_diameter + reach, 1e-12));
   start_.assign(n + 1, 0);
-  around_.resize(static_cast<std::size_t>(team));
-  if (team == 1) {
-    neighbours_.clear();
-    list_neighbours(world, reach, 0, n, around_[0], neighbours_);
-    for (std::size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
-  } else {
-#if defined(_OPENMP)
-    // Each thread lists the neighbours of a run of consecutive disks; the runs are then copied
-    // side by side in disk order, as in detect: the same list as one thread's.
-    parts_neighbours_.resize(static_cast<std::size_t>(team));
-#pragma omp parallel num_threads(team)
-    {
-      const auto size = static_cast<std::size_t>(omp_get_num_threads());
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
-      std::vector<std::int32_t>& part = parts_neighbours_[t];
-      part.clear();
-      list_neighbours(world, reach, n * t / size, n * (t + 1) / size, around_[t], part);
-#pragma omp barrier
-#pragma omp single
-      {
-        for (std::size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];
-        neighbours_.resize(start_[n]);
-      }
-      std::copy(part.begin(), part.end(),
-                neighbours_.begin() + static_cast<std::ptrdiff_t>(start_[n * t / size]));
-    }
-#endif
-  }
+  list_in_runs(team, n, parts_neighbours_, part_offset_, neighbours_,
+               [&](std::size_t first, std::size_t last, std::vector<std::int32_t>& out) {
+                 list_neighbours(world, reach, first, last, out);
+               });
+  for (std::size_t i = 0; i < n; ++i) start_[i + 1] += start_[i];  // counts -> offsets
   built_position_ = d.position;
   built_radius_ = d.radius;
   built_reach_ = reach;
@@ -164,50 +184,16 @@ void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& 
 void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts,
                              int threads) {
   const std::size_t n = world.disks.size();
-  int team = 1;
-#if defined(_OPENMP)
-  if (threads > 1)
-    team = static_cast<int>(
-        std::clamp<std::size_t>(n / kMinDisksPerThread, 1,
-                                static_cast<std::size_t>(std::min(threads, omp_get_num_procs()))));
-#else
-  (void)threads;
-#endif
+  const int team = threads_for(n, kMinDisksPerThread, threads);
   if (!neighbours_cover(world, margin)) build_neighbours(world, margin, team);
-  fresh_.clear();
-  if (team == 1) {
-    list_candidates(world, margin, 0, n, fresh_);
-    carry_impulses(contacts, fresh_);
-    contacts.swap(fresh_);
-    return;
-  }
-#if defined(_OPENMP)
-  // Each thread lists the candidates of a run of consecutive disks (their keys start with the
-  // disk, so each run is a run of keys) and warm-starts them; the runs are then copied side by
-  // side in disk order: the same list as one thread's.
-  parts_.resize(static_cast<std::size_t>(team));
-  part_offset_.resize(static_cast<std::size_t>(team) + 1);
-#pragma omp parallel num_threads(team)
-  {
-    const auto size = static_cast<std::size_t>(omp_get_num_threads());
-    const auto t = static_cast<std::size_t>(omp_get_thread_num());
-    std::vector<Contact>& part = parts_[t];
-    part.clear();
-    list_candidates(world, margin, n * t / size, n * (t + 1) / size, part);
-    carry_impulses(contacts, part);
-#pragma omp barrier
-#pragma omp single
-    {
-      part_offset_[0] = 0;
-      for (std::size_t k = 0; k < size; ++k)
-        part_offset_[k + 1] = part_offset_[k] + parts_[k].size();
-      fresh_.resize(part_offset_[size]);
-    }
-    std::copy(part.begin(), part.end(),
-              fresh_.begin() + static_cast<std::ptrdiff_t>(part_offset_[t]));
-  }
+  // A candidate's key starts with its disk, so each run of disks is a run of keys: each thread
+  // warm-starts its own run.
+  list_in_runs(team, n, parts_, part_offset_, fresh_,
+               [&](std::size_t first, std::size_t last, std::vector<Contact>& out) {
+                 list_candidates(world, margin, first, last, out);
+                 carry_impulses(contacts, out);
+               });
   contacts.swap(fresh_);
-#endif
 }
 
 }  // namespace cdshear

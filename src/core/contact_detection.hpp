@@ -47,9 +47,9 @@ class ContactDetector {
   /// Builds the list on `team` threads (the same list on any number).
   void build_neighbours(const World& world, double margin, int team);
   /// Appends the neighbours j > i of disks [first, last) within `reach` to `out` (ascending for
-  /// each i) and stores each disk's count in start_[i + 1]; `around` is scratch.
+  /// each i) and stores each disk's count in start_[i + 1].
   void list_neighbours(const World& world, double reach, std::size_t first, std::size_t last,
-                       std::vector<std::int32_t>& around, std::vector<std::int32_t>& out);
+                       std::vector<std::int32_t>& out);
   /// Appends the candidates of disks [first, last) to `out`, in key order.
   void list_candidates(const World& world, double margin, std::size_t first, std::size_t last,
                        std::vector<Contact>& out) const;
@@ -57,12 +57,11 @@ class ContactDetector {
   CellList cells_;
   std::vector<Contact> fresh_;
   std::vector<std::vector<Contact>> parts_;  // one per thread: the candidates of its disks
-  std::vector<std::size_t> part_offset_;     // where each part goes in fresh_
+  std::vector<std::size_t> part_offset_;     // where each thread's part goes in the joined list
   // Neighbour list, CSR: the partners j > i of disk i are neighbours_[start_[i]..start_[i+1]),
   // ascending.
   std::vector<std::int32_t> neighbours_;
   std::vector<std::size_t> start_;
-  std::vector<std::vector<std::int32_t>> around_;            // scratch of the build, per thread
   std::vector<std::vector<std::int32_t>> parts_neighbours_;  // one per thread: its disks' list
   // What the list was built for: positions and radii of the disks, margin + skin, the domain.
   std::vector<Vec2> built_position_;

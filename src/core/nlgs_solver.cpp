@@ -10,6 +10,7 @@
 
 #include "local_solve.hpp"
 #include "random.hpp"
+#include "threads.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -335,11 +336,7 @@ bool contact_order_from_name(std::string_view name, ContactOrder& order) {
 }
 
 int solver_threads_available() {
-#if defined(_OPENMP)
-  return omp_get_num_procs();
-#else
-  return 1;
-#endif
+  return processors_available();
 }
 
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
@@ -378,11 +375,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // Threads: only for the coloured order (the others are one serial group), and only with
   // enough rows to share. Their number does not change the result (order_rows).
   // More threads than processors would only wait for each other at every phase.
-  int threads = 1;
-  if (options.order == ContactOrder::kColoured && options.threads > 1)
-    threads = static_cast<int>(std::clamp<std::size_t>(
-        nc / std::max<std::size_t>(options.min_rows_per_thread, 1), 1,
-        static_cast<std::size_t>(std::min(options.threads, solver_threads_available()))));
+  const int threads = options.order == ContactOrder::kColoured
+                          ? threads_for(nc, options.min_rows_per_thread, options.threads)
+                          : 1;
   report.colours = ws.phases.size();
   const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
   ws.group_tallies.resize(groups);
