@@ -64,7 +64,6 @@ struct Settings {
   int threads = 1;
   bool skip_dormant = false;
   int anderson_depth = 0, anderson_period = 1;
-  cdshear::SolverMethod method = cdshear::SolverMethod::kGaussSeidel;
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
@@ -100,7 +99,6 @@ void usage() {
   --threads N         solver threads (default 1; used by the coloured order only)
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
   --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth)
-  --method M          gauss-seidel (default) or projected-gradient (solver.method)
   --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
   --reference-anderson M  Anderson depth of --step-error's reference (default 0: plain)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
@@ -180,16 +178,6 @@ Settings parse(int argc, char** argv) {
       s.anderson_depth = std::stoi(value());
       if (s.anderson_depth < 0 || s.anderson_depth > cdshear::kMaxAndersonDepth)
         throw std::invalid_argument("--anderson must be in 0..16");
-    } else if (a == "--method") {
-      const std::string m = value();
-      if (m == "gauss-seidel")
-        s.method = cdshear::SolverMethod::kGaussSeidel;
-      else if (m == "accelerated-gradient")
-        s.method = cdshear::SolverMethod::kAcceleratedGradient;
-      else if (m == "projected-gradient")
-        s.method = cdshear::SolverMethod::kProjectedGradient;
-      else
-        throw std::invalid_argument("--method must be gauss-seidel or projected-gradient");
     } else if (a == "--anderson-period") {
       s.anderson_period = std::stoi(value());
       if (s.anderson_period < 1) throw std::invalid_argument("--anderson-period must be >= 1");
@@ -421,7 +409,6 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.relaxation = reference_relaxation;
   tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
-  tight.solver.method = cdshear::SolverMethod::kGaussSeidel;
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -535,7 +522,6 @@ int run(const Settings& s) {
     options.solver.threads = s.threads;
     options.solver.skip_dormant = s.skip_dormant;
     options.solver.anderson_depth = s.anderson_depth;
-    options.solver.method = s.method;
     options.solver.anderson_period = s.anderson_period;
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;

@@ -9,7 +9,6 @@
 #include <numeric>
 
 #include "local_solve.hpp"
-#include "projected_gradient.hpp"
 #include "random.hpp"
 #include "threads.hpp"
 
@@ -376,8 +375,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // Threads: only for the coloured order (the others are one serial group), and only with
   // enough rows to share. Their number does not change the result (order_rows).
   // More threads than processors would only wait for each other at every phase.
-  const int threads = options.order == ContactOrder::kColoured &&
-                                  options.method == SolverMethod::kGaussSeidel
+  const int threads = options.order == ContactOrder::kColoured
                           ? threads_for(nc, options.min_rows_per_thread, options.threads)
                           : 1;
   report.colours = ws.phases.size();
@@ -515,15 +513,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     list_dormant_and_mixed_rows();
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
-    if (options.method == SolverMethod::kProjectedGradient) {
-      solve_by_projected_gradient(rows, ws.delassus, bodies, options, ws.gradient, report);
-      done = true;
-    }
-    if (options.method == SolverMethod::kAcceleratedGradient) {
-      solve_by_accelerated_gradient(rows, ws.delassus, bodies, options, ws.gradient, report);
-      done = true;
-    }
-    for (int sweep = 1; !done && sweep <= options.max_sweeps; ++sweep) {
+    for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)

@@ -78,10 +78,6 @@ struct alignas(64) SolverBody {
 
 enum class ContactOrder { kRandom, kSequential, kColoured };
 
-/// How a step is solved: Gauss-Seidel sweeps, or the conjugate projected gradient
-/// (projected_gradient.hpp; one thread).
-enum class SolverMethod { kGaussSeidel, kProjectedGradient, kAcceleratedGradient };
-
 /// What the tolerance alpha bounds (see above): the relative change of the last sweep (SPEC 3.5),
 /// or the estimated relative error left after it.
 enum class ConvergenceCriterion { kChange, kError };
@@ -113,7 +109,6 @@ struct SolverOptions {
   /// the last images, projected on the Signorini-Coulomb set (docs/performance.md).
   int anderson_depth = 0;
   int anderson_period = 1;
-  SolverMethod method = SolverMethod::kGaussSeidel;
 };
 
 /// Largest SolverOptions::anderson_depth.
@@ -171,15 +166,6 @@ struct SweepTally {
   double sum_change = 0.0, sum_force = 0.0;  ///< sums of |dR| and |R|
 };
 
-/// Per-row and per-body scratch of the conjugate projected gradient.
-struct ProjectedGradientScratch {
-  std::vector<double> descent;    ///< w: 2 per row (n, t)
-  std::vector<double> direction;  ///< p
-  std::vector<double> w_times_p;  ///< W p
-  std::vector<double> body_change;  ///< M^-1 H^T p: 3 per body (x, y, rotation)
-  std::vector<unsigned char> held;  ///< per component: held at a bound (w = 0)
-};
-
 /// Reusable scratch memory, so that a step allocates nothing once warmed up.
 struct SolverWorkspace {
   std::vector<std::uint32_t> order;  ///< row i solves contacts[order[i]]
@@ -189,7 +175,6 @@ struct SolverWorkspace {
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
   std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
   AndersonMixer anderson;                 ///< options.anderson_depth > 0
-  ProjectedGradientScratch gradient;      ///< options.method = kProjectedGradient
   std::vector<std::uint32_t> anderson_rows;       ///< the rows it mixes: those awake at the start
   std::vector<std::size_t> anderson_group_start;  ///< group g's: [start[g], start[g + 1])
   std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
