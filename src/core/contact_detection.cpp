@@ -80,18 +80,16 @@ bool ContactDetector::neighbours_cover(const World& world, double margin) const 
 void ContactDetector::list_neighbours(const World& world, double reach, std::size_t first,
                                       std::size_t last, std::vector<std::int32_t>& out) {
   const Disks& d = world.disks;
-  std::vector<std::int32_t> around;  // the partners of one disk, before sorting
   for (std::size_t i = first; i < last; ++i) {
-    around.clear();
+    const std::size_t begin = out.size();  // the partners of disk i: out[begin, end)
     cells_.for_each_neighbour_above(world, i, [&](std::int32_t j, std::int32_t, Vec2 delta) {
       const double cutoff = d.radius[i] + d.radius[j] + reach;
-      if (length_squared(delta) < cutoff * cutoff) around.push_back(j);
+      if (length_squared(delta) < cutoff * cutoff) out.push_back(j);
     });
     // A disk is visited once per i (one image: the nearest), so sorting by j gives the
     // (j, image) order of the keys.
-    std::sort(around.begin(), around.end());
-    out.insert(out.end(), around.begin(), around.end());
-    start_[i + 1] = around.size();  // a count for now; the caller adds them up
+    std::sort(out.begin() + static_cast<std::ptrdiff_t>(begin), out.end());
+    start_[i + 1] = out.size() - begin;  // a count for now; the caller adds them up
   }
 }
 

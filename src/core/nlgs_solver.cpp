@@ -499,6 +499,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   };
 
   bool done = false;
+  int active_contacts = 0;  // rows with R_n > 0 at the end, counted by the copy-back
   bool mix_now = false;  // set on one thread, read by all after the barrier
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
   // Preparation, sweeps and the impulses back to the contacts, run by every thread of the team
@@ -572,14 +573,16 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       }
       if (done) break;
     }
-    // The impulses back to the contacts (each row has its own contact).
+    // The impulses back to the contacts (each row has its own contact), counting the active
+    // ones on the way (an integer sum: the same in any order).
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) reduction(+ : active_contacts)
 #endif
     for (std::size_t i = 0; i < nc; ++i) {
       Contact& c = contacts[ws.order[i]];
       c.impulse_n = rows[i].impulse_n;
       c.impulse_t = rows[i].impulse_t;
+      active_contacts += rows[i].impulse_n > 0.0;
     }
   };
 #if defined(_OPENMP)
@@ -593,7 +596,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   solve_rows();
 #endif
 
-  for (const SolverRow& r : rows) report.active_contacts += r.impulse_n > 0.0;
+  report.active_contacts = active_contacts;
   if (renumbered)
     for (std::size_t k = 0; k < ws.global_of.size(); ++k)
       all_bodies[ws.global_of[k]] = ws.local_bodies[k];
