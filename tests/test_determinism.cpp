@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "test_support.hpp"
 
@@ -86,7 +87,9 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
   // The Anderson mix shares its passes among the threads in chunks fixed by the vector's length,
   // and adds its sums chunk by chunk in order; the mixed impulses are applied phase by phase.
   // 400 disks: the mixed vector spans several chunks (AndersonMixer::kChunk elements each).
-  const auto hash = [](int threads) {
+  // Also the active contacts each step reports, which every thread counts over its own rows.
+  std::vector<int> active_one, active;
+  const auto hash = [&active](int threads) {
     StepOptions o = options(1, ContactOrder::kColoured);
     o.solver.threads = threads;
     o.solver.min_rows_per_thread = 1;
@@ -97,13 +100,18 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
     sim.run(4 * kSteps);  // settled: about 700 contacts carry a force
     EXPECT_FALSE(sim.last().blown_up);
     std::size_t most_contacts = 0;
-    for (const StepReport& r : sim.reports)
+    active.clear();
+    for (const StepReport& r : sim.reports) {
       most_contacts = std::max<std::size_t>(most_contacts, r.solver.active_contacts);
+      active.push_back(r.solver.active_contacts);
+    }
     EXPECT_GT(2 * most_contacts, 2 * AndersonMixer::kChunk);  // measured: 630 contacts
     return state_hash(sim.world);
   };
   const std::uint64_t one = hash(1);
+  active_one = active;
   EXPECT_EQ(hash(2), one);
+  EXPECT_EQ(active, active_one);
   EXPECT_EQ(hash(1), one);
   EXPECT_NE(one, run_hash(1, ContactOrder::kColoured));  // the mix changes the trajectory
 }

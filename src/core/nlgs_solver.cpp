@@ -574,16 +574,23 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       if (done) break;
     }
     // The impulses back to the contacts (each row has its own contact), counting the active
-    // ones on the way (an integer sum: the same in any order).
+    // ones on the way: each thread its own rows, then one atomic add (an integer sum: the same
+    // in any order). Not a `reduction` clause: the counter is a lambda capture, which some
+    // compilers do not accept as a shared reduction variable in an orphaned loop.
+    int active_here = 0;
 #if defined(_OPENMP)
-#pragma omp for schedule(static) reduction(+ : active_contacts)
+#pragma omp for schedule(static)
 #endif
     for (std::size_t i = 0; i < nc; ++i) {
       Contact& c = contacts[ws.order[i]];
       c.impulse_n = rows[i].impulse_n;
       c.impulse_t = rows[i].impulse_t;
-      active_contacts += rows[i].impulse_n > 0.0;
+      active_here += rows[i].impulse_n > 0.0;
     }
+#if defined(_OPENMP)
+#pragma omp atomic
+#endif
+    active_contacts += active_here;
   };
 #if defined(_OPENMP)
   if (threads > 1) {
