@@ -500,7 +500,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 
   bool done = false;
   int active_contacts = 0;  // rows with R_n > 0 at the end, counted by the copy-back
-  bool mix_now = false;  // set on one thread, read by all after the barrier
+  bool mix_now = false;     // set on one thread, read by all after the barrier
   std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
   // Preparation, sweeps and the impulses back to the contacts, run by every thread of the team
   // (one parallel region per step): the work-sharing constructs inside (omp for,
