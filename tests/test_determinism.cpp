@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "test_support.hpp"
+#include "threads.hpp"
 
 namespace cdshear {
 namespace {
@@ -73,7 +74,7 @@ TEST(Determinism, ColouredOrderGivesTheSameStateOnAnyNumberOfThreads) {
     }
     EXPECT_GE(most_phases, 2);  // slabs and slab boundaries, not one serial group
 #if defined(_OPENMP)
-    EXPECT_EQ(most_threads, std::min(threads, solver_threads_available()));
+    EXPECT_EQ(most_threads, std::min(threads, processors_available()));
 #endif
     return state_hash(sim.world);
   };
@@ -88,7 +89,7 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
   // and adds its sums chunk by chunk in order; the mixed impulses are applied phase by phase.
   // 400 disks: the mixed vector spans several chunks (AndersonMixer::kChunk elements each).
   // Also the active contacts each step reports, which every thread counts over its own rows.
-  std::vector<int> active_one, active;
+  std::vector<int> active;
   const auto hash = [&active](int threads) {
     StepOptions o = options(1, ContactOrder::kColoured);
     o.solver.threads = threads;
@@ -109,7 +110,7 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
     return state_hash(sim.world);
   };
   const std::uint64_t one = hash(1);
-  active_one = active;
+  const std::vector<int> active_one = active;
   EXPECT_EQ(hash(2), one);
   EXPECT_EQ(active, active_one);
   EXPECT_EQ(hash(1), one);

@@ -24,7 +24,7 @@ struct SceneArgs {
   std::string out_dir;
   bool quiet = false;
   bool force = false;
-  int threads = solver_threads_available();
+  int threads = processors_available();
 };
 
 int run_scene(const SceneArgs& args) {

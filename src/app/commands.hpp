@@ -5,7 +5,7 @@
 #include <string>
 
 #include "config_error.hpp"
-#include "nlgs_solver.hpp"
+#include "threads.hpp"
 
 namespace cdshear {
 
@@ -34,7 +34,7 @@ inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
 inline void add_threads_option(CLI::App* cmd, int& threads) {
   add_count_option(cmd, "--threads", threads,
                    "solver threads (coloured contact order; default: all " +
-                       std::to_string(solver_threads_available()) + " processors)");
+                       std::to_string(processors_available()) + " processors)");
 }
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`

@@ -34,7 +34,7 @@ struct CaseArgs {
   bool has_velocity = false;
   std::vector<std::string> overrides;
   bool quiet = false;
-  int threads = solver_threads_available();
+  int threads = processors_available();
 };
 
 CaseSource to_source(const CaseArgs& a) {

@@ -335,10 +335,6 @@ bool contact_order_from_name(std::string_view name, ContactOrder& order) {
   return false;
 }
 
-int solver_threads_available() {
-  return processors_available();
-}
-
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
                             std::size_t first_wall, double dt, const SolverOptions& options,
                             std::uint64_t step, SolverWorkspace& workspace) {

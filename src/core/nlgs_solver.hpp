@@ -192,9 +192,6 @@ struct SolverWorkspace {
   std::vector<std::uint32_t> global_of;  ///< local index -> body
 };
 
-/// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.
-int solver_threads_available();
-
 /// Solves the contact problem of one step. Bodies from `first_wall` on are walls (shared by many
 /// contacts). `step` keys the random order (with options.seed).
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,

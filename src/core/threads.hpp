@@ -5,7 +5,7 @@
 
 namespace cdshear {
 
-/// Processors OpenMP may use (1 in a build without OpenMP).
+/// Processors OpenMP may use (1 in a build without OpenMP): the default of `--threads`.
 int processors_available();
 
 /// Threads to share `items` among: at most `requested` and the processors available, and fewer
