@@ -29,12 +29,14 @@ inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
       ->type_name("N");
 }
 
-/// `--threads N`: solver threads of the coloured contact order (default: every processor). Not
-/// part of the case: the results are the same for any N (docs/performance.md).
+/// `--threads N`: threads of contact detection and of the coloured contact order's sweeps
+/// (default: every processor). Not part of the case: the results are the same for any N
+/// (docs/performance.md).
 inline void add_threads_option(CLI::App* cmd, int& threads) {
-  add_count_option(cmd, "--threads", threads,
-                   "solver threads (coloured contact order; default: all " +
-                       std::to_string(processors_available()) + " processors)");
+  add_count_option(
+      cmd, "--threads", threads,
+      "threads of contact detection and of the coloured order's sweeps (default: all " +
+          std::to_string(processors_available()) + " processors)");
 }
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`

@@ -93,7 +93,7 @@ struct SolverOptions {
   double converged_fraction = 0.9;  ///< share of contacts that must meet the tolerance
   int max_sweeps = 200;             ///< cap on sweeps per step
   ContactOrder order = ContactOrder::kRandom;
-  std::uint64_t seed = 1;     ///< keys the random contact order
+  std::uint64_t seed = 1;     ///< keys the shuffle of the random and coloured orders
   int threads = 1;            ///< threads for the coloured order (the others use one); >= 1
   bool skip_dormant = false;  ///< leave dormant contacts out of the sweeps (see above)
   ConvergenceCriterion criterion = ConvergenceCriterion::kChange;
