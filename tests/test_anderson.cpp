@@ -107,31 +107,6 @@ TEST(Anderson, AGrowingResidualDropsTheHistory) {
   EXPECT_EQ(g, (std::vector<double>{2.0, 0.0}));
 }
 
-TEST(Anderson, PrepareThenMixedGivesWhatMixWrites) {
-  // The solver forms the mix row by row (prepare() then mixed(k, g[k])) instead of letting
-  // mix() write it: two mixers fed the same maps must give the same iterates bit for bit, on a
-  // length of several chunks with a tail, through the first (unmixed) map and a full history.
-  constexpr std::size_t kN = 2 * AndersonMixer::kChunk + 37;
-  AndersonMixer writes, reads;
-  writes.reset(kN, 5);
-  reads.reset(kN, 5);
-  std::vector<double> x(kN, 0.0), y(kN, 0.0);
-  int mixes = 0;
-  for (int k = 0; k < 12; ++k) {
-    std::vector<double> g = neighbour_map(x, 1.0, 0.45);
-    const std::vector<double> h = neighbour_map(y, 1.0, 0.45);
-    writes.mix(x, g);
-    const bool mixing = reads.prepare(y, h);
-    EXPECT_EQ(mixing, reads.mixing());
-    mixes += mixing;
-    for (std::size_t i = 0; i < kN; ++i) y[i] = mixing ? reads.mixed(i, h[i]) : h[i];
-    x = g;
-    ASSERT_EQ(x, y) << "map " << k;
-  }
-  EXPECT_EQ(mixes, 11);  // every map but the first
-  EXPECT_EQ(reads.kept(), 5);
-}
-
 /// G(x)_i = 1 + 0.49 (x_{i-1} + x_{i+1}): a contraction (factor up to 0.98) of any length.
 std::vector<double> damped_neighbours(const std::vector<double>& x) {
   return neighbour_map(x, 1.0, 0.49);

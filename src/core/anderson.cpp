@@ -95,28 +95,6 @@ void AndersonMixer::reset(std::size_t n, int depth) {
 }
 
 void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
-  if (!prepare(x, g)) return;
-  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ... (as
-  // mixed() does): chunk by chunk (a chunk of g stays in L1 while the m columns go by), the
-  // inner loop over the elements of a chunk (independent, so it vectorises).
-  const std::size_t n = n_;
-  const std::size_t chunks = chunk_f2_.size();
-  const int m = kept_;
-  double* __restrict gw = g.data();
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-    for (int j = 0; j < m; ++j) {
-      const double* __restrict dgj = column(delta_g_, j);
-      const double gamma = gamma_[j];
-      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
-    }
-  }
-}
-
-bool AndersonMixer::prepare(const std::vector<double>& x, const std::vector<double>& g) {
   const std::size_t n = n_;
   const std::size_t chunks = chunk_f2_.size();
   // Pass 1, chunk by chunk: f = g - x, each chunk's share of |f|^2, and the new differences
@@ -211,7 +189,24 @@ bool AndersonMixer::prepare(const std::vector<double>& x, const std::vector<doub
       update_pending_ = solve_for_gamma();
     }
   }
-  return update_pending_;
+  if (!update_pending_) return;
+
+  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: chunk
+  // by chunk (a chunk of g stays in L1 while the m columns go by), the inner loop over the
+  // elements of a chunk (independent, so it vectorises).
+  const int m = kept_;
+  double* __restrict gw = g.data();
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
+    for (int j = 0; j < m; ++j) {
+      const double* __restrict dgj = column(delta_g_, j);
+      const double gamma = gamma_[j];
+      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
+    }
+  }
 }
 
 bool AndersonMixer::solve_for_gamma() {

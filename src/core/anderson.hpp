@@ -35,27 +35,7 @@ class AndersonMixer {
   /// x: the iterate G was applied to; g: G(x). On return g holds the accelerated iterate (equal
   /// to G(x) on the first call after a reset). Either every thread of a team calls it with the
   /// same vectors, or one thread outside any parallel region (see above).
-  /// Same as `if (prepare(x, g)) for every k: g[k] = mixed(k, g[k])`.
   void mix(const std::vector<double>& x, std::vector<double>& g);
-
-  /// mix() without writing g: updates the history from (x, g) and finds the mixing
-  /// coefficients. True when the accelerated iterate differs from g; its elements are then
-  /// mixed(k, g[k]), bit for bit what mix() would write. Lets a caller use the mixed values as it
-  /// reads them, without a pass that writes them first (the solver projects and applies them
-  /// row by row). Called like mix().
-  bool prepare(const std::vector<double>& x, const std::vector<double>& g);
-
-  /// What the last prepare() returned (read by every thread after it; set on one).
-  bool mixing() const { return update_pending_; }
-
-  /// After prepare() returned true: element k of the accelerated iterate, given g_k = g[k],
-  /// g_k - sum_j gamma_j delta_g_j[k], the terms subtracted in order j = 0, 1, ... . Reads only;
-  /// any thread may call it.
-  double mixed(std::size_t k, double g_k) const {
-    const double* column = delta_g_.data() + k;
-    for (int j = 0; j < kept_; ++j) g_k -= gamma_[j] * column[static_cast<std::size_t>(j) * n_];
-    return g_k;
-  }
 
   /// Differences currently kept.
   int kept() const { return kept_; }

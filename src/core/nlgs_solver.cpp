@@ -460,21 +460,13 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   };
   // The mixed impulses of group g's rows, projected on the Signorini-Coulomb set; the bodies
   // follow through the change of each impulse (applied by each_group_by_phase: bit for bit what
-  // one thread going through the rows would give). The mix is formed here, as each row reads
-  // it (AndersonMixer::mixed), rather than written into anderson_g by a pass of its own; when
-  // there is nothing to mix (prepare() returned false) the rows get anderson_g as gathered.
+  // one thread going through the rows would give).
   const auto apply_mixed_impulses = [&](std::size_t g) {
-    const bool mixing = ws.anderson.mixing();
     for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
       SolverRow& r = rows[ws.anderson_rows[k]];
-      double g_n = ws.anderson_g[2 * k], g_t = ws.anderson_g[2 * k + 1];
-      if (mixing) {
-        g_n = ws.anderson.mixed(2 * k, g_n);
-        g_t = ws.anderson.mixed(2 * k + 1, g_t);
-      }
-      const double r_n = std::max(0.0, g_n);
+      const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
       const double limit = r.friction * r_n;
-      const double r_t = std::clamp(g_t, -limit, limit);
+      const double r_t = std::clamp(ws.anderson_g[2 * k + 1], -limit, limit);
       apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n, r_t - r.impulse_t);
       r.impulse_n = r_n;
       r.impulse_t = r_t;
@@ -572,7 +564,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       if (mix_now) {
         // The Anderson mix of the last images, every pass shared among the threads.
         gather_mixed_impulses(ws.anderson_g);
-        ws.anderson.prepare(ws.anderson_x, ws.anderson_g);
+        ws.anderson.mix(ws.anderson_x, ws.anderson_g);
         each_group_by_phase(apply_mixed_impulses);
       }
       if (done) break;
