@@ -49,7 +49,7 @@ struct PreparationOptions {
   double window_time = 5.0;          ///< the criteria must hold over this long [t]
   double max_time_per_phase = 2000;  ///< give up (error) after this long [t]
   /// dt (phase 1), margin, solver options of the protocol. The solver tolerance is alpha = 1e-4
-  /// here, not the 1e-6 of shear runs: preparation needs an equilibrium packing, not accurate
+  /// here, not the 1e-5 of shear runs: preparation needs an equilibrium packing, not accurate
   /// force histories, and is then about 3 times faster (measured: 91 s against more than 4 min for
   /// system 1; L_x 19.56 against 19.67, solid fraction 0.829 against 0.824).
   /// The coloured contact order (since 2026-11-23; random before), so that `--threads` share the
