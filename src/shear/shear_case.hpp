@@ -28,7 +28,8 @@ namespace cdshear {
 /// 2026-11-24; SPEC 3.5's reference value 1e-6 before): with the mix it gave the averages of
 /// 1e-6 at V = 0.5 (two seeds each), at V = 0.05 (three seeds against five) and on system 7
 /// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
-/// pass). The engine's own defaults (scenes, preparation) stay plain.
+/// pass). Scene files keep the engine's plain defaults; the preparation has its own
+/// (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
   o.solver.order = ContactOrder::kColoured;
