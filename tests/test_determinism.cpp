@@ -2,10 +2,12 @@
 // and the hash is sensitive enough to tell runs apart.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
+#include "scene_presets.hpp"
 #include "test_support.hpp"
 #include "threads.hpp"
 
@@ -115,6 +117,59 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
   EXPECT_EQ(active, active_one);
   EXPECT_EQ(hash(1), one);
   EXPECT_NE(one, run_hash(1, ContactOrder::kColoured));  // the mix changes the trajectory
+}
+
+TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
+  // A dense box periodic in x, sheared by its top wall, like the shear cell: each wall touches
+  // one band only and goes with that slab, so the serial group is empty and no thread waits for
+  // a single one to test convergence (every thread adds the tallies itself). The solver
+  // settings are the shear phase's: dormant rows left out and woken group by group on the
+  // team, over-relaxation, Anderson mixing, alpha 1e-5.
+  CompressedBoxParams p;
+  p.count = 600;
+  p.width = 12.0;
+  p.periodic_x = true;
+  const DenseBox box = make_dense_box(p);
+  ASSERT_TRUE(box.report.dense);
+  std::vector<std::size_t> woken;
+  const auto hash = [&](int threads) {
+    World world = box.world;
+    ContactDynamics dynamics = box.dynamics;
+    Wall& top = world.walls[kBoxTopWall];
+    top.mode_x = AxisMode::kImposed;
+    top.velocity.x = 0.5;
+    StepOptions o = options(3, ContactOrder::kColoured);
+    o.solver.threads = threads;
+    o.solver.min_rows_per_thread = 1;
+    o.solver.skip_dormant = true;
+    o.solver.relaxation = 1.6;
+    o.solver.anderson_depth = 5;
+    o.solver.anderson_period = 4;
+    o.solver.alpha = 1e-5;
+    int most_threads = 0, most_phases = 0;
+    std::size_t most_contacts = 0;
+    woken.clear();
+    for (int k = 0; k < 200; ++k) {
+      const StepReport r = dynamics.step(world, o);
+      EXPECT_FALSE(r.blown_up);
+      most_threads = std::max(most_threads, r.solver.threads);
+      most_phases = std::max(most_phases, static_cast<int>(r.solver.colours));
+      most_contacts = std::max<std::size_t>(most_contacts, r.solver.active_contacts);
+      woken.push_back(r.solver.woken_contacts);
+    }
+    EXPECT_GE(most_phases, 3);          // slabs, even and odd boundaries
+    EXPECT_GT(most_contacts, p.count);  // dense: more force-carrying contacts than disks
+#if defined(_OPENMP)
+    EXPECT_EQ(most_threads, std::min(threads, processors_available()));
+#endif
+    return state_hash(world);
+  };
+  const std::uint64_t one = hash(1);
+  const std::vector<std::size_t> woken_one = woken;
+  EXPECT_GT(*std::max_element(woken_one.begin(), woken_one.end()), 0u);  // rows did wake
+  EXPECT_EQ(hash(2), one);
+  EXPECT_EQ(woken, woken_one);
+  EXPECT_EQ(hash(3), one);
 }
 
 TEST(Determinism, InterleavedRunsDoNotInfluenceEachOther) {

@@ -192,10 +192,23 @@ double remaining_error_bound(const std::array<double, kRateSweeps + 1>& changes,
 constexpr std::uint32_t kNoBand = 0xffffffffu;
 constexpr std::uint32_t kManyBands = 0xfffffffeu;
 
-/// Builds the rows' visit order, its groups and the parallel phases of a sweep (nlgs_solver.hpp).
-///
-/// Coloured order: every disk has a band (SolverBody::band: slabs of height, fixed by the
-/// geometry, not by the thread count). A contact goes to
+/// Random and sequential orders: the rows' visit order, in one serial group (no phases).
+void order_rows_serially(std::size_t nc, const SolverOptions& options, std::uint64_t step,
+                         SolverWorkspace& ws) {
+  auto& order = ws.order;
+  order.resize(nc);
+  std::iota(order.begin(), order.end(), 0u);
+  if (options.order != ContactOrder::kSequential) {
+    CounterRandom rng(options.seed, RandomStream::kContactOrder, step);
+    shuffle(order, rng);
+  }
+  ws.phases.clear();
+  ws.group_start.assign({0, nc});
+}
+
+/// The coloured order's groups and phases (nlgs_solver.hpp). Every disk has a band
+/// (SolverBody::band: slabs of height, fixed by the geometry, not by the thread count). A
+/// contact goes to
 ///   - the slab of its band when both disks are in the same band: slabs share no disk, so all
 ///     slabs are solved at once (phase 1);
 ///   - the boundary between bands s and s + 1 when its disks are in neighbouring bands: the
@@ -205,33 +218,27 @@ constexpr std::uint32_t kManyBands = 0xfffffffeu;
 ///     that one band (a wall is shared by all its contacts);
 ///   - the serial group otherwise (a wall touching several bands, or a contact spanning more
 ///     than two bands), solved last by one thread.
-/// Inside every group the seeded shuffle of the contacts is kept. Every row then sees the same
-/// velocities whatever the thread count, and the convergence sums are added group by group in
-/// group order: the result does not depend on the thread count.
-void order_rows(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
-                std::size_t first_wall, const SolverOptions& options, std::uint64_t step,
-                SolverWorkspace& ws) {
-  const std::size_t nc = contacts.size();
-  auto& order = ws.order;
-  order.resize(nc);
-  std::iota(order.begin(), order.end(), 0u);
-  if (options.order != ContactOrder::kSequential) {
-    CounterRandom rng(options.seed, RandomStream::kContactOrder, step);
-    shuffle(order, rng);
-  }
-  ws.phases.clear();
-  if (options.order != ContactOrder::kColoured) {
-    ws.group_start.assign({0, nc});  // one serial group
-    return;
-  }
+/// Each group's contacts are then shuffled on their own (shuffle_group), so that every row sees
+/// the same velocities whatever the thread count, and the convergence sums are added group by
+/// group in group order: the result does not depend on the thread count.
+///
+/// Built in three passes so that the team shares the work: coloured_groups_begin (one thread:
+/// the bands and the walls' bands), coloured_group_of (each contact's group, any thread), and
+/// coloured_groups_end (one thread: a stable counting sort by group and the phases).
+struct ColouredGroups {
+  std::size_t bands = 1, even = 0, boundaries = 0, serial = 0;
+};
 
-  std::size_t bands = 1;
+ColouredGroups coloured_groups_begin(const std::vector<Contact>& contacts,
+                                     const std::vector<SolverBody>& bodies, std::size_t first_wall,
+                                     SolverWorkspace& ws) {
+  ColouredGroups cg;
   for (std::size_t i = 0; i < first_wall && i < bodies.size(); ++i)
-    bands = std::max<std::size_t>(bands, bodies[i].band + 1);
+    cg.bands = std::max<std::size_t>(cg.bands, bodies[i].band + 1);
   // Group ids: slabs [0, bands), even boundaries, odd boundaries, then the serial group.
-  const std::size_t boundaries = bands - 1;
-  const std::size_t even = (boundaries + 1) / 2;
-  const std::size_t serial = bands + boundaries;
+  cg.boundaries = cg.bands - 1;
+  cg.even = (cg.boundaries + 1) / 2;
+  cg.serial = cg.bands + cg.boundaries;
   // A wall whose contacts all have their disk in one band belongs to that band's slab (the
   // bottom wall to the lowest slab, the top wall to the highest, in a shear cell): no other
   // group touches it. A wall touching disks of several bands goes to the serial group.
@@ -244,41 +251,60 @@ void order_rows(const std::vector<Contact>& contacts, const std::vector<SolverBo
     std::uint32_t& wb = ws.wall_band[b - first_wall];
     wb = wb == kNoBand || wb == band ? band : kManyBands;
   }
-  const auto group_of = [&](const Contact& c) -> std::size_t {
-    const auto b = static_cast<std::size_t>(c.key.body_b);
-    if (b >= first_wall) {
-      const std::uint32_t band = ws.wall_band[b - first_wall];
-      return band < bands ? band : serial;
-    }
-    const std::size_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
-    const std::size_t band_b = bodies[b].band;
-    if (band_a == band_b) return band_a;
-    const std::size_t low = std::min(band_a, band_b);
-    if (std::max(band_a, band_b) != low + 1) return serial;
-    return bands + (low % 2 == 0 ? low / 2 : even + low / 2);
-  };
-  // Stable counting sort by group.
-  auto& start = ws.group_start;
-  start.assign(serial + 2, 0);
-  ws.group_of.resize(nc);
-  for (std::size_t i = 0; i < nc; ++i) {
-    const auto g = static_cast<std::uint32_t>(group_of(contacts[order[i]]));
-    ws.group_of[i] = g;
-    ++start[g + 1];
-  }
-  for (std::size_t g = 1; g < start.size(); ++g) start[g] += start[g - 1];
-  ws.next.assign(start.begin(), start.end() - 1);
-  ws.sorted.resize(nc);
-  for (std::size_t i = 0; i < nc; ++i) ws.sorted[ws.next[ws.group_of[i]]++] = order[i];
-  order.swap(ws.sorted);
-  ws.phases.push_back({0, bands});
-  if (even > 0) ws.phases.push_back({bands, bands + even});
-  if (boundaries > even) ws.phases.push_back({bands + even, serial});
+  ws.group_of.resize(contacts.size());
+  return cg;
 }
 
-/// Updates the awake rows of group g and stores its tally.
+std::uint32_t coloured_group_of(const Contact& c, const std::vector<SolverBody>& bodies,
+                                std::size_t first_wall, const ColouredGroups& cg,
+                                const SolverWorkspace& ws) {
+  const auto b = static_cast<std::size_t>(c.key.body_b);
+  std::size_t g;
+  if (b >= first_wall) {
+    const std::uint32_t band = ws.wall_band[b - first_wall];
+    g = band < cg.bands ? band : cg.serial;
+  } else {
+    const std::size_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
+    const std::size_t band_b = bodies[b].band;
+    const std::size_t low = std::min(band_a, band_b);
+    if (band_a == band_b)
+      g = band_a;
+    else if (std::max(band_a, band_b) != low + 1)
+      g = cg.serial;
+    else
+      g = cg.bands + (low % 2 == 0 ? low / 2 : cg.even + low / 2);
+  }
+  return static_cast<std::uint32_t>(g);
+}
+
+void coloured_groups_end(const ColouredGroups& cg, SolverWorkspace& ws) {
+  // Stable counting sort of the contacts by group: inside a group, in contact order.
+  const std::size_t nc = ws.group_of.size();
+  auto& start = ws.group_start;
+  start.assign(cg.serial + 2, 0);
+  for (std::size_t i = 0; i < nc; ++i) ++start[ws.group_of[i] + 1];
+  for (std::size_t g = 1; g < start.size(); ++g) start[g] += start[g - 1];
+  ws.next.assign(start.begin(), start.end() - 1);
+  ws.order.resize(nc);
+  for (std::size_t i = 0; i < nc; ++i)
+    ws.order[ws.next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
+  ws.phases.clear();
+  ws.phases.push_back({0, cg.bands});
+  if (cg.even > 0) ws.phases.push_back({cg.bands, cg.bands + cg.even});
+  if (cg.boundaries > cg.even) ws.phases.push_back({cg.bands + cg.even, cg.serial});
+}
+
+/// Shuffles group g's contacts, with a generator of its own keyed on (seed, step, g + 1): the
+/// same draw whichever thread does it (counter 0 is the random order's shuffle of all contacts).
+void shuffle_group(std::size_t g, const SolverOptions& options, std::uint64_t step,
+                   SolverWorkspace& ws) {
+  CounterRandom rng(options.seed, RandomStream::kContactOrder, step, g + 1);
+  shuffle(ws.order.data() + ws.group_start[g], ws.group_start[g + 1] - ws.group_start[g], rng);
+}
+
+/// Updates the awake rows of group g and stores its tally in tallies[g].
 void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
-                 double omega) {
+                 double omega, SweepTally* tallies) {
   TallyAccumulator tally;
   if (omega == 1.0) {
     for (const std::uint32_t i : ws.awake[g])
@@ -287,7 +313,7 @@ void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bo
     for (const std::uint32_t i : ws.awake[g])
       update_row<true>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally);
   }
-  ws.group_tallies[g] = tally.tally();
+  tallies[g] = tally.tally();
 }
 
 /// u_n + gap/dt of a row in the current velocities: >= 0 means it stays open at R = 0.
@@ -301,16 +327,19 @@ inline double biased_normal_velocity(const SolverRow& r, const std::vector<Solve
 /// Sweeps between two looks at the dormant rows (nlgs_solver.hpp).
 constexpr int kDormantCheckInterval = 8;
 
-/// Wakes every dormant row that would now close (its update would give R > 0): it joins the end
-/// of its group's awake rows. Returns how many woke.
-std::size_t wake_closing_rows(SolverWorkspace& ws, const std::vector<SolverBody>& bodies) {
+/// Wakes every dormant row of group g that would now close (its update would give R > 0): it
+/// joins the end of the group's awake rows, and the last dormant row takes its place in the
+/// list. Returns how many woke.
+std::size_t wake_closing_rows(std::size_t g, SolverWorkspace& ws,
+                              const std::vector<SolverBody>& bodies) {
+  auto& dormant = ws.dormant_of_group[g];
   std::size_t woken = 0;
-  for (std::size_t k = 0; k < ws.dormant.size();) {
-    const auto [row, group] = ws.dormant[k];
+  for (std::size_t k = 0; k < dormant.size();) {
+    const std::uint32_t row = dormant[k];
     if (biased_normal_velocity(ws.rows[row], bodies) < 0.0) {
-      ws.awake[group].push_back(row);
-      ws.dormant[k] = ws.dormant.back();
-      ws.dormant.pop_back();
+      ws.awake[g].push_back(row);
+      dormant[k] = dormant.back();
+      dormant.pop_back();
       ++woken;
     } else {
       ++k;
@@ -342,47 +371,83 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   const std::size_t nc = contacts.size();
   if (nc == 0) return report;
   SolverWorkspace& ws = workspace;
-  order_rows(contacts, all_bodies, first_wall, options, step, ws);
+  const bool coloured = options.order == ContactOrder::kColoured;
 
   // Coloured order: the sweeps work on a copy of the bodies the rows touch, numbered in the
   // order the rows first use them. A slab's rows are contiguous, so its bodies are too, and two
   // threads solving two slabs write to different cache lines (with the bodies in their own
   // numbering, neighbours in space are scattered in memory and the threads' writes to shared
   // cache lines serialise them). The arithmetic is the same, so are the results.
-  const bool renumbered = options.order == ContactOrder::kColoured;
-  if (renumbered) {
-    constexpr std::uint32_t kNotLocal = 0xffffffffu;
-    ws.local_of.assign(all_bodies.size(), kNotLocal);
-    ws.local_bodies.clear();
-    ws.global_of.clear();
-    for (std::size_t i = 0; i < nc; ++i) {
-      const Contact& c = contacts[ws.order[i]];
-      for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
-        const auto body = static_cast<std::size_t>(key);
-        if (ws.local_of[body] != kNotLocal) continue;
-        ws.local_of[body] = static_cast<std::uint32_t>(ws.local_bodies.size());
-        ws.local_bodies.push_back(all_bodies[body]);
-        ws.global_of.push_back(static_cast<std::uint32_t>(body));
-      }
-    }
-  }
-  std::vector<SolverBody>& bodies = renumbered ? ws.local_bodies : all_bodies;
+  std::vector<SolverBody>& bodies = coloured ? ws.local_bodies : all_bodies;
 
   // Threads: only for the coloured order (the others are one serial group), and only with
-  // enough rows to share. Their number does not change the result (order_rows).
+  // enough rows to share. Their number does not change the result (coloured_groups_begin).
   // More threads than processors would only wait for each other at every phase.
-  const int threads = options.order == ContactOrder::kColoured
-                          ? threads_for(nc, options.min_rows_per_thread, options.threads)
-                          : 1;
-  report.colours = ws.phases.size();
-  const std::size_t groups = ws.group_start.size() - 1;  // the last one is the serial group
-  ws.group_tallies.resize(groups);
+  const int threads = coloured ? threads_for(nc, options.min_rows_per_thread, options.threads) : 1;
   auto& rows = ws.rows;
   rows.resize(nc);
   ws.delassus.resize(nc);
-  ws.awake.resize(groups);
-  ws.dormant_of_group.resize(groups);
   const double inv_dt = 1.0 / dt;
+  std::size_t groups = 1;  // the last one is the serial group; set before any thread reads it
+
+  // Sizes the per-group scratch once the groups are known (on one thread).
+  const auto size_group_scratch = [&] {
+    groups = ws.group_start.size() - 1;
+    report.colours = ws.phases.size();
+    ws.group_tallies.resize(2 * groups);  // two sweeps' worth: see solve_rows
+    ws.woken_of_group.resize(groups);
+    ws.awake.resize(groups);
+    ws.dormant_of_group.resize(groups);
+  };
+  if (!coloured) {
+    order_rows_serially(nc, options, step, ws);
+    size_group_scratch();
+  }
+
+  // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
+  // every thread of the team: the passes over single contacts or single groups are shared.
+  ColouredGroups cg;
+  const auto arrange_coloured_rows = [&] {
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    cg = coloured_groups_begin(contacts, all_bodies, first_wall, ws);
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t i = 0; i < nc; ++i)
+      ws.group_of[i] = coloured_group_of(contacts[i], all_bodies, first_wall, cg, ws);
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+      coloured_groups_end(cg, ws);
+      size_group_scratch();
+    }
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t g = 0; g < groups; ++g) shuffle_group(g, options, step, ws);
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+      constexpr std::uint32_t kNotLocal = 0xffffffffu;
+      ws.local_of.assign(all_bodies.size(), kNotLocal);
+      ws.local_bodies.clear();
+      ws.global_of.clear();
+      for (std::size_t i = 0; i < nc; ++i) {
+        const Contact& c = contacts[ws.order[i]];
+        for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
+          const auto body = static_cast<std::size_t>(key);
+          if (ws.local_of[body] != kNotLocal) continue;
+          ws.local_of[body] = static_cast<std::uint32_t>(ws.local_bodies.size());
+          ws.local_bodies.push_back(all_bodies[body]);
+          ws.global_of.push_back(static_cast<std::uint32_t>(body));
+        }
+      }
+    }
+  };
 
   // Runs `for_group(g)` over every group, phase by phase, then the serial group: groups of a
   // phase share no body, so each body meets the groups' changes in group order, as one thread
@@ -411,8 +476,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       const Contact& c = contacts[ws.order[i]];
       const auto global_a = static_cast<std::size_t>(c.key.body_a);
       const auto global_b = static_cast<std::size_t>(c.key.body_b);
-      const std::size_t ia = renumbered ? ws.local_of[global_a] : global_a;
-      const std::size_t ib = renumbered ? ws.local_of[global_b] : global_b;
+      const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
+      const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
       fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt);
       rows[i].body_a = static_cast<std::uint32_t>(ia);
       rows[i].body_b = static_cast<std::uint32_t>(ib);
@@ -474,14 +539,12 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       ws.anderson_x[2 * k + 1] = r_t;
     }
   };
-  // On one thread of the team, once the rows are prepared: the dormant rows in row order, and
-  // the rows the mix works on.
-  const auto list_dormant_and_mixed_rows = [&] {
-    ws.dormant.clear();
-    for (std::size_t g = 0; g < groups; ++g)
-      for (const std::uint32_t i : ws.dormant_of_group[g])
-        ws.dormant.push_back({i, static_cast<std::uint32_t>(g)});
-    report.dormant_contacts = ws.dormant.size();
+  // On one thread of the team, once the rows are prepared: how many rows are dormant, and the
+  // rows the mix works on.
+  const auto count_dormant_and_list_mixed_rows = [&] {
+    std::size_t dormant = 0;
+    for (std::size_t g = 0; g < groups; ++g) dormant += ws.dormant_of_group[g].size();
+    report.dormant_contacts = dormant;
     if (!accelerate) return;
     ws.anderson_rows.clear();
     ws.anderson_group_start.assign(1, 0);
@@ -494,80 +557,107 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     ws.anderson_g.resize(2 * ws.anderson_rows.size());
   };
 
-  bool done = false;
   int active_contacts = 0;  // rows with R_n > 0 at the end, counted by the copy-back
-  bool mix_now = false;     // set on one thread, read by all after the barrier
-  std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
   // Preparation, sweeps and the impulses back to the contacts, run by every thread of the team
   // (one parallel region per step): the work-sharing constructs inside (omp for,
   // omp single, and those of AndersonMixer::mix) bind to whatever team calls this. One thread
   // calls it outside any parallel region: a team of one (`if (false)`) would still end every
   // construct with a barrier that makes a system call (futex wake), two to seven per sweep.
+  //
+  // After a sweep every thread adds the groups' tallies itself (the same sums in the same
+  // order: the same decision on every thread), so that no thread waits for another to decide
+  // whether to stop; only the first thread writes the report. A thread may then start the next
+  // sweep while another is still adding, so the tallies of consecutive sweeps go to the two
+  // halves of group_tallies in turn (a thread can be at most one barrier ahead of another).
   const auto solve_rows = [&] {
+#if defined(_OPENMP)
+    const bool first_thread = omp_get_thread_num() == 0;
+#else
+    const bool first_thread = true;
+#endif
+    if (coloured) arrange_coloured_rows();
     prepare_rows();
 #if defined(_OPENMP)
 #pragma omp single
 #endif
-    list_dormant_and_mixed_rows();
+    count_dormant_and_list_mixed_rows();
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
+    const bool serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
+    const bool any_dormant = report.dormant_contacts > 0;
+    std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
+    if (first_thread) {
+#if defined(_OPENMP)
+      report.threads = omp_get_num_threads();
+#endif
+    }
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
+      SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
         for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-          sweep_group(g, ws, bodies, options.alpha, options.relaxation);
+          sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies);
       }
+      if (serial_rows) {
 #if defined(_OPENMP)
 #pragma omp single
 #endif
-      {
-#if defined(_OPENMP)
-        report.threads = omp_get_num_threads();
-#endif
-        sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation);
-        std::size_t converged = 0, carrying = 0;
-        double sum_change = 0.0, sum_force = 0.0;
-        for (const SweepTally& t : ws.group_tallies) {
-          converged += t.converged;
-          carrying += t.carrying;
-          sum_change += t.sum_change;
-          sum_force += t.sum_force;
-        }
-        report.sweeps = sweep;
-        report.converged_fraction =
-            carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
-        if (sum_force > 0.0) {
-          const double ratio = sum_change / sum_force;
-          report.residual = ratio * ratio;
-        } else {
-          report.residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-        }
-        const double change = std::sqrt(report.residual);
-        std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
-        recent_change.back() = change;
-        report.error_bound = remaining_error_bound(recent_change, sweep);
-        // alpha bounds the square of the tested quantity (the residual is the change squared).
-        const double tested2 = options.criterion == ConvergenceCriterion::kError
-                                   ? report.error_bound * report.error_bound
-                                   : report.residual;
-        done = report.converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
-        if (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps) {
-          const std::size_t woken = wake_closing_rows(ws, bodies);
-          report.woken_contacts += woken;
-          done = done && woken == 0;
-        }
-        if (!done && sweep == options.max_sweeps) report.hit_cap = true;
-        // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
-        mix_now = accelerate && !done && sweep % period == 0 && sweep < options.max_sweeps;
+        sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
+      } else {
+        tallies[groups - 1] = SweepTally{};
       }
-      if (mix_now) {
+      std::size_t converged = 0, carrying = 0;
+      double sum_change = 0.0, sum_force = 0.0;
+      for (std::size_t g = 0; g < groups; ++g) {
+        converged += tallies[g].converged;
+        carrying += tallies[g].carrying;
+        sum_change += tallies[g].sum_change;
+        sum_force += tallies[g].sum_force;
+      }
+      const double converged_fraction =
+          carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
+      double residual;
+      if (sum_force > 0.0) {
+        const double ratio = sum_change / sum_force;
+        residual = ratio * ratio;
+      } else {
+        residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+      }
+      std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
+      recent_change.back() = std::sqrt(residual);
+      const double error_bound = remaining_error_bound(recent_change, sweep);
+      // alpha bounds the square of the tested quantity (the residual is the change squared).
+      const double tested2 =
+          options.criterion == ConvergenceCriterion::kError ? error_bound * error_bound : residual;
+      bool done = converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
+      std::size_t woken = 0;
+      if (any_dormant &&
+          (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+        for (std::size_t g = 0; g < groups; ++g)
+          ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
+        for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
+        done = done && woken == 0;
+      }
+      if (first_thread) {
+        report.sweeps = sweep;
+        report.converged_fraction = converged_fraction;
+        report.residual = residual;
+        report.error_bound = error_bound;
+        report.woken_contacts += woken;
+        if (!done && sweep == options.max_sweeps) report.hit_cap = true;
+      }
+      if (done) break;
+      // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
+      if (accelerate && sweep % period == 0 && sweep < options.max_sweeps) {
         // The Anderson mix of the last images, every pass shared among the threads.
         gather_mixed_impulses(ws.anderson_g);
         ws.anderson.mix(ws.anderson_x, ws.anderson_g);
         each_group_by_phase(apply_mixed_impulses);
       }
-      if (done) break;
     }
     // The impulses back to the contacts (each row has its own contact), counting the active
     // ones on the way: each thread its own rows, then one atomic add (an integer sum: the same
@@ -575,7 +665,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     // compilers do not accept as a shared reduction variable in an orphaned loop.
     int active_here = 0;
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
     for (std::size_t i = 0; i < nc; ++i) {
       Contact& c = contacts[ws.order[i]];
@@ -587,6 +677,14 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #pragma omp atomic
 #endif
     active_contacts += active_here;
+    // The velocities back to the bodies (coloured order: each local body has its own body).
+    if (coloured) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+      for (std::size_t k = 0; k < ws.global_of.size(); ++k)
+        all_bodies[ws.global_of[k]] = ws.local_bodies[k];
+    }
   };
 #if defined(_OPENMP)
   if (threads > 1) {
@@ -600,9 +698,6 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
 
   report.active_contacts = active_contacts;
-  if (renumbered)
-    for (std::size_t k = 0; k < ws.global_of.size(); ++k)
-      all_bodies[ws.global_of[k]] = ws.local_bodies[k];
   return report;
 }
 

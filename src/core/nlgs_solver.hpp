@@ -9,14 +9,16 @@
 // the other impulses held fixed. Orders (SPEC 3.4, "random or colour-ordered"):
 //   - random:     a shuffle of the contacts, seeded by (seed, step), the same in every sweep;
 //   - sequential: key order (disk a, then b, then image);
-//   - coloured:   the same shuffle, grouped by where the contacts are: the packing is cut into
-//                 slabs of height (bands); first the contacts inside each slab, all slabs at
-//                 once (no two share a disk; a wall whose contacts are all in one slab goes with
-//                 it), then those across every second slab boundary, then across the others,
-//                 then what is left (a wall touching several slabs) on one thread. The shuffled
-//                 order is kept inside a group. Groups of one phase are independent, so several
-//                 threads solve them at once, and the result is the same whatever the number of
-//                 threads (the convergence sums are added group by group, in order).
+//   - coloured:   the contacts grouped by where they are: the packing is cut into slabs of
+//                 height (bands); first the contacts inside each slab, all slabs at once (no two
+//                 share a disk; a wall whose contacts are all in one slab goes with it), then
+//                 those across every second slab boundary, then across the others, then what is
+//                 left (a wall touching several slabs) on one thread. Each group is shuffled on
+//                 its own, seeded by (seed, step, group): a uniformly random order inside every
+//                 group, as a shuffle of all contacts would give. Groups of one phase are
+//                 independent, so several threads solve them at once, and the result is the same
+//                 whatever the number of threads (the convergence sums are added group by group,
+//                 in order, by every thread, each of which then takes the same decision).
 // Anderson acceleration (options.anderson_depth > 0, anderson.hpp): every anderson_period sweeps
 // the impulses of the rows awake at the start become the Anderson mix of the last sweeps'
 // results, projected on the Signorini-Coulomb set; never after the last sweep. Same fixed points.
@@ -173,18 +175,19 @@ struct SolverWorkspace {
   std::vector<DelassusEntries> delassus;  ///< of rows[i], read by coupled rows only
   std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
   std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
-  std::vector<SweepTally> group_tallies;  ///< one per group, added in group order
-  AndersonMixer anderson;                 ///< options.anderson_depth > 0
+  /// One per group and sweep, added in group order; consecutive sweeps use the two halves in
+  /// turn (solve_contacts).
+  std::vector<SweepTally> group_tallies;
+  AndersonMixer anderson;                         ///< options.anderson_depth > 0
   std::vector<std::uint32_t> anderson_rows;       ///< the rows it mixes: those awake at the start
   std::vector<std::size_t> anderson_group_start;  ///< group g's: [start[g], start[g + 1])
   std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
   std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> dormant;  ///< (row, group) left out
-  std::vector<std::vector<std::uint32_t>> dormant_of_group;      ///< rows, while preparing
-  std::vector<std::uint32_t> group_of;                           ///< scratch of the group sort
-  std::vector<std::size_t> next;                                 ///< scratch of the group sort
-  std::vector<std::uint32_t> sorted;                             ///< scratch of the group sort
-  std::vector<std::uint32_t> wall_band;  ///< band of every contact of each wall, if only one
+  std::vector<std::vector<std::uint32_t>> dormant_of_group;  ///< rows left out of the sweeps
+  std::vector<std::size_t> woken_of_group;  ///< rows each group woke at the last look
+  std::vector<std::uint32_t> group_of;      ///< group of each contact (coloured order)
+  std::vector<std::size_t> next;            ///< scratch of the group sort
+  std::vector<std::uint32_t> wall_band;     ///< band of every contact of each wall, if only one
   /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
   /// (each slab's bodies side by side in memory), and the map back to `bodies`.
   std::vector<SolverBody> local_bodies;

@@ -62,13 +62,19 @@ class CounterRandom {
   int used_ = 4;
 };
 
-/// Fisher-Yates shuffle of `items` driven by `rng`.
+/// Fisher-Yates shuffle of items[0, count) driven by `rng`.
 template <class T>
-void shuffle(std::vector<T>& items, CounterRandom& rng) {
-  for (std::size_t k = items.size(); k > 1; --k) {
+void shuffle(T* items, std::size_t count, CounterRandom& rng) {
+  for (std::size_t k = count; k > 1; --k) {
     const std::size_t pick = rng.below(static_cast<std::uint32_t>(k));
     std::swap(items[k - 1], items[pick]);
   }
+}
+
+/// Fisher-Yates shuffle of `items` driven by `rng`.
+template <class T>
+void shuffle(std::vector<T>& items, CounterRandom& rng) {
+  shuffle(items.data(), items.size(), rng);
 }
 
 }  // namespace cdshear
