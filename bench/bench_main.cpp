@@ -70,6 +70,8 @@ struct Settings {
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   double alpha = 1e-6;                // convergence tolerance (solver.alpha); 0: always the cap
+  double converged_fraction =
+      0.9;  // share of contacts that must meet it (solver.converged_fraction)
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -109,6 +111,8 @@ void usage() {
                       every relaxation has the same fixed point)
   --alpha A           convergence tolerance (solver.alpha, default 1e-6; 0: every step sweeps
                       max-sweeps times, to compare settings at equal sweeps)
+  --converged-fraction F  share of the force-carrying contacts that must meet alpha
+                      (solver.converged_fraction, default 0.9, SPEC 3.5's reference)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the force errors (stderr)
   --no-static         skip the static cases
@@ -157,6 +161,10 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--max-sweeps") {
       s.max_sweeps = std::stoi(value());
       if (s.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
+    } else if (a == "--converged-fraction") {
+      s.converged_fraction = std::stod(value());
+      if (!(s.converged_fraction >= 0.0 && s.converged_fraction <= 1.0))
+        throw std::invalid_argument("--converged-fraction must be in [0, 1]");
     } else if (a == "--alpha") {
       s.alpha = std::stod(value());
       if (!(s.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
@@ -527,6 +535,7 @@ int run(const Settings& s) {
     options.solver.max_sweeps = s.max_sweeps;
     options.solver.relaxation = s.relaxation;
     options.solver.alpha = s.alpha;
+    options.solver.converged_fraction = s.converged_fraction;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);
