@@ -70,8 +70,7 @@ struct Settings {
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   double alpha = 1e-6;                // convergence tolerance (solver.alpha); 0: always the cap
-  double converged_fraction =
-      0.9;  // share of contacts that must meet it (solver.converged_fraction)
+  double converged_fraction = 0.9;    // solver.converged_fraction: share that must meet it
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
