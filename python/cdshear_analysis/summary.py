@@ -302,7 +302,8 @@ def sweep_cap_warning(solver):
     if share >= CAPPED_SHARE_WARNING:
         lines.append("  with so many steps at the cap the contact forces are not converged: the "
                      "count of force-carrying contacts (Z) moves first (docs/accuracy.md, sixth "
-                     "pass); check it with a larger solver.max_sweeps")
+                     "pass); a stretch rerun with a tighter solver.alpha and a larger "
+                     "solver.max_sweeps tells how far")
     return lines
 
 
