@@ -582,7 +582,10 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     count_dormant_and_list_mixed_rows();
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
+    // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
+    // left out of them: no thread writes its entry, which every thread would otherwise zero.
     const bool serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
+    const std::size_t tallied_groups = serial_rows ? groups : groups - 1;
     const bool any_dormant = report.dormant_contacts > 0;
     std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
     if (first_thread) {
@@ -604,12 +607,10 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #pragma omp single
 #endif
         sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
-      } else {
-        tallies[groups - 1] = SweepTally{};
       }
       std::size_t converged = 0, carrying = 0;
       double sum_change = 0.0, sum_force = 0.0;
-      for (std::size_t g = 0; g < groups; ++g) {
+      for (std::size_t g = 0; g < tallied_groups; ++g) {
         converged += tallies[g].converged;
         carrying += tallies[g].carrying;
         sum_change += tallies[g].sum_change;
