@@ -22,14 +22,16 @@ namespace cdshear {
 /// cost at V = 0.5 and 4% less at V = 0.05, per-step errors 2 to 5 times smaller, and at
 /// V = 0.05 the solid fraction and Z of the converged reference where over-relaxation alone
 /// was 3 to 14 combined errors off; docs/accuracy.md, fourth pass). The coloured contact order
-/// (since 2026-11-24; random before), so that `--threads` share the sweeps of large systems (1.7
-/// times on two threads for system 7): the same averages as the random order at V = 0.5 and,
+/// (since 2026-11-24; random before), so that `--threads` share the sweeps of large systems (1.5
+/// to 1.7 times on two threads for system 7): the same averages as the random order at V = 0.5 and,
 /// over five seeds each, at V = 0.05 (docs/accuracy.md). The tolerance alpha = 1e-5 (since
 /// 2026-11-24; SPEC 3.5's reference value 1e-6 before): with the mix it gave the averages of
 /// 1e-6 at V = 0.5 (two seeds each), at V = 0.05 (three seeds against five) and on system 7
 /// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
-/// pass). Scene files keep the engine's plain defaults; the preparation has its own
-/// (preparation.hpp).
+/// pass). Not enough for Z in system 7's slow phase, where these settings and SPEC 3.5's
+/// reference values alike leave about 3% of the force-carrying contacts open (alpha 1e-6 with
+/// max_sweeps 500 or more closes most of the gap; docs/accuracy.md, sixth pass). Scene files keep
+/// the engine's plain defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
   o.solver.order = ContactOrder::kColoured;
