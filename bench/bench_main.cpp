@@ -64,6 +64,7 @@ struct Settings {
   int threads = 1;
   bool skip_dormant = false;
   int anderson_depth = 0, anderson_period = 1;
+  int slab_correction_period = 0;  // solver.slab_correction_period (0: off)
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
@@ -101,6 +102,8 @@ void usage() {
   --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
   --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth)
   --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
+  --slab-correction P the slab correction every P sweeps, coloured order only
+                      (solver.slab_correction_period, default 0: off; 8 in the shear phase)
   --reference-anderson M  Anderson depth of --step-error's reference (default 0: plain)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
@@ -185,6 +188,10 @@ Settings parse(int argc, char** argv) {
       s.anderson_depth = std::stoi(value());
       if (s.anderson_depth < 0 || s.anderson_depth > cdshear::kMaxAndersonDepth)
         throw std::invalid_argument("--anderson must be in 0..16");
+    } else if (a == "--slab-correction") {
+      s.slab_correction_period = std::stoi(value());
+      if (s.slab_correction_period < 0)
+        throw std::invalid_argument("--slab-correction must be >= 0");
     } else if (a == "--anderson-period") {
       s.anderson_period = std::stoi(value());
       if (s.anderson_period < 1) throw std::invalid_argument("--anderson-period must be >= 1");
@@ -401,8 +408,10 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
 /// the sweeps of both solves. The reference relaxes its updates by `reference_relaxation`
 /// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
-/// `options` does (every relaxation and mix has Gauss-Seidel's fixed points, so a converged
-/// reference is the same solution where the solution is unique). A reference that stops at its cap
+/// `options` does, without the slab correction (every relaxation, mix and correction has
+/// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
+/// is unique; where it is not, a corrected solve may end on another one: docs/accuracy.md,
+/// seventh pass). A reference that stops at its cap
 /// is flagged: in the 200 d tall cell most do, whatever the relaxation (docs/accuracy.md, "Tall
 /// cells"). The world goes on with `options`.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
@@ -416,6 +425,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.relaxation = reference_relaxation;
   tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
+  tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -530,6 +540,7 @@ int run(const Settings& s) {
     options.solver.skip_dormant = s.skip_dormant;
     options.solver.anderson_depth = s.anderson_depth;
     options.solver.anderson_period = s.anderson_period;
+    options.solver.slab_correction_period = s.slab_correction_period;
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;
     options.solver.relaxation = s.relaxation;

@@ -124,7 +124,8 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   // one band only and goes with that slab, so the serial group is empty and no thread waits for
   // a single one to test convergence (every thread adds the tallies itself). The solver
   // settings are the shear phase's: dormant rows left out and woken group by group on the
-  // team, over-relaxation, Anderson mixing, alpha 1e-5.
+  // team, over-relaxation, Anderson mixing, alpha 1e-5, and the slab correction (every 4
+  // sweeps here, twice as often as in the shear phase, to exercise it more).
   CompressedBoxParams p;
   p.count = 600;
   p.width = 12.0;
@@ -146,6 +147,7 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     o.solver.anderson_depth = 5;
     o.solver.anderson_period = 4;
     o.solver.alpha = 1e-5;
+    o.solver.slab_correction_period = 4;
     int most_threads = 0, most_phases = 0;
     std::size_t most_contacts = 0;
     woken.clear();

@@ -52,19 +52,6 @@ void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const Solver
   row.inv_w_tt = w.w_nt == 0.0 ? 1.0 / w.w_tt : kCoupledRow;
 }
 
-/// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
-/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
-inline void apply_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn, double dt) {
-  const double px = dn * r.normal.x - dt * r.normal.y;
-  const double py = dn * r.normal.y + dt * r.normal.x;
-  a.velocity.x += a.inv_mass.x * px;
-  a.velocity.y += a.inv_mass.y * py;
-  b.velocity.x -= b.inv_mass.x * px;
-  b.velocity.y -= b.inv_mass.y * py;
-  a.omega += a.inv_inertia * r.lever_a * dt;
-  b.omega += b.inv_inertia * r.lever_b * dt;
-}
-
 /// Adds up a chunk's convergence figures (SPEC 3.5): counts, and the sums of |dR| and |R|. The
 /// two square roots of an update are taken together in one packed instruction where the machine
 /// has one (SSE2, every x86-64). Square roots are correctly rounded either way: same sums.
@@ -154,7 +141,7 @@ inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<Solve
     r_t = std::clamp(r.impulse_t + omega * (r_t - r.impulse_t), -limit, limit);
   }
   const double dn = r_n - r.impulse_n, dt = r_t - r.impulse_t;
-  apply_impulse(r, a, b, dn, dt);
+  apply_row_impulse(r, a, b, dn, dt);
   r.impulse_n = r_n;
   r.impulse_t = r_t;
 
@@ -404,6 +391,10 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     size_group_scratch();
   }
 
+  // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
+  const int slab_period = coloured ? options.slab_correction_period : 0;
+  const bool correct_slabs = slab_period > 0;
+
   // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
   // every thread of the team: the passes over single contacts or single groups are shared.
   ColouredGroups cg;
@@ -446,6 +437,17 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
           ws.global_of.push_back(static_cast<std::uint32_t>(body));
         }
       }
+      if (correct_slabs) {
+        // The slab correction's band of each local body: a disk's own, a wall's that of its
+        // disks if they are all in one band (then its rows are in that slab's group).
+        ws.node_of_body.resize(ws.global_of.size());
+        for (std::size_t k = 0; k < ws.global_of.size(); ++k) {
+          const std::size_t body = ws.global_of[k];
+          const std::uint32_t band =
+              body < first_wall ? all_bodies[body].band : ws.wall_band[body - first_wall];
+          ws.node_of_body[k] = band < cg.bands ? band : SlabCorrection::kNoNode;
+        }
+      }
     }
   };
 
@@ -485,7 +487,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     each_group_by_phase([&](std::size_t g) {
       for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
         const SolverRow& r = rows[i];
-        apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r.impulse_n, r.impulse_t);
+        apply_row_impulse(r, bodies[r.body_a], bodies[r.body_b], r.impulse_n, r.impulse_t);
       }
     });
     // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is
@@ -532,7 +534,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
       const double limit = r.friction * r_n;
       const double r_t = std::clamp(ws.anderson_g[2 * k + 1], -limit, limit);
-      apply_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n, r_t - r.impulse_t);
+      apply_row_impulse(r, bodies[r.body_a], bodies[r.body_b], r_n - r.impulse_n,
+                        r_t - r.impulse_t);
       r.impulse_n = r_n;
       r.impulse_t = r_t;
       ws.anderson_x[2 * k] = r_n;
@@ -580,7 +583,13 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #if defined(_OPENMP)
 #pragma omp single
 #endif
-    count_dormant_and_list_mixed_rows();
+    {
+      count_dormant_and_list_mixed_rows();
+      if (correct_slabs && cg.bands > 1)
+        ws.slab_correction.reset(
+            bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
+    }
+    const bool slab_corrections = correct_slabs && cg.bands > 1;
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.
@@ -652,7 +661,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         if (!done && sweep == options.max_sweeps) report.hit_cap = true;
       }
       if (done) break;
-      // Never after the last sweep: a step ends on a sweep's result, not on an extrapolation.
+      // Neither correction nor mix after the last sweep: a step ends on a sweep's result.
+      if (slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps)
+        ws.slab_correction.apply(rows, bodies);
       if (accelerate && sweep % period == 0 && sweep < options.max_sweeps) {
         // The Anderson mix of the last images, every pass shared among the threads.
         gather_mixed_impulses(ws.anderson_g);

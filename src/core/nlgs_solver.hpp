@@ -59,6 +59,7 @@
 
 #include "anderson.hpp"
 #include "contact.hpp"
+#include "slab_correction.hpp"
 #include "vec2.hpp"
 
 namespace cdshear {
@@ -111,6 +112,10 @@ struct SolverOptions {
   /// the last images, projected on the Signorini-Coulomb set (docs/performance.md).
   int anderson_depth = 0;
   int anderson_period = 1;
+  /// Slab correction (slab_correction.hpp), coloured order only: every this many sweeps, the
+  /// impulses of each band are rescaled so that the bands' mean normal velocity errors vanish
+  /// together. 0 = off. Same fixed points (docs/performance.md, "Slab correction").
+  int slab_correction_period = 0;
 };
 
 /// Largest SolverOptions::anderson_depth.
@@ -150,6 +155,20 @@ static_assert(sizeof(SolverRow) == 88);
 
 /// inv_w_tt of a coupled row (w_nt != 0): it goes through the general local solve.
 inline constexpr double kCoupledRow = -1.0;
+
+/// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
+/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
+inline void apply_row_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
+                              double dt) {
+  const double px = dn * r.normal.x - dt * r.normal.y;
+  const double py = dn * r.normal.y + dt * r.normal.x;
+  a.velocity.x += a.inv_mass.x * px;
+  a.velocity.y += a.inv_mass.y * py;
+  b.velocity.x -= b.inv_mass.x * px;
+  b.velocity.y -= b.inv_mass.y * py;
+  a.omega += a.inv_inertia * r.lever_a * dt;
+  b.omega += b.inv_inertia * r.lever_b * dt;
+}
 
 /// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
 struct DelassusEntries {
@@ -193,6 +212,10 @@ struct SolverWorkspace {
   std::vector<SolverBody> local_bodies;
   std::vector<std::uint32_t> local_of;   ///< body -> its local index (kNotLocal: untouched)
   std::vector<std::uint32_t> global_of;  ///< local index -> body
+  /// Slab correction (options.slab_correction_period > 0): its scratch, and the band of each
+  /// local body (a wall: its disks' band, or SlabCorrection::kNoNode if they are in several).
+  SlabCorrection slab_correction;
+  std::vector<std::uint32_t> node_of_body;
 };
 
 /// Solves the contact problem of one step. Bodies from `first_wall` on are walls (shared by many

@@ -185,13 +185,11 @@ toml::table case_to_toml(const ShearCase& c) {
       {"skip_dormant", s.skip_dormant},
       {"relaxation", s.relaxation},
       {"criterion", s.criterion == ConvergenceCriterion::kError ? "error" : "change"},
-      {"seed", static_cast<std::int64_t>(s.seed)}};
-  // Written only when on, so that the resolved cases (and fingerprints) of runs without it stay
-  // those of before the option existed; absent means off.
-  if (s.anderson_depth > 0) {
-    solver.insert("anderson_depth", s.anderson_depth);
-    solver.insert("anderson_period", s.anderson_period);
-  }
+      {"seed", static_cast<std::int64_t>(s.seed)},
+      // Always written: an absent key reads back as the shear default, not as off.
+      {"anderson_depth", s.anderson_depth},
+      {"anderson_period", s.anderson_period},
+      {"slab_correction_period", s.slab_correction_period}};
   return toml::table{
       {"system", toml::table{{"n", static_cast<std::int64_t>(c.n)},
                              {"height", c.height},

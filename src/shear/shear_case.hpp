@@ -28,10 +28,12 @@ namespace cdshear {
 /// 2026-11-24; SPEC 3.5's reference value 1e-6 before): with the mix it gave the averages of
 /// 1e-6 at V = 0.5 (two seeds each), at V = 0.05 (three seeds against five) and on system 7
 /// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
-/// pass). Not enough for Z in system 7's slow phase, where these settings and SPEC 3.5's
-/// reference values alike leave about 3% of the force-carrying contacts open (alpha 1e-6 with
-/// max_sweeps 500 or more closes most of the gap; docs/accuracy.md, sixth pass). Scene files keep
-/// the engine's plain defaults; the preparation has its own (preparation.hpp).
+/// pass). The slab correction every 8 sweeps (since 2026-11-24, slab_correction.hpp): without
+/// it, in system 7's slow phase, these settings and SPEC 3.5's reference values alike left 3 to
+/// 7% of the force-carrying contacts open against a solve run to convergence; with it, Z is
+/// that of the converged solve within its error, for a quarter fewer sweeps there, and system 1
+/// keeps its averages (docs/accuracy.md, seventh pass). Scene files keep the engine's plain
+/// defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
   o.solver.order = ContactOrder::kColoured;
@@ -40,6 +42,7 @@ inline StepOptions shear_step_defaults() {
   o.solver.relaxation = 1.6;
   o.solver.anderson_depth = 5;
   o.solver.anderson_period = 4;
+  o.solver.slab_correction_period = 8;
   return o;
 }
 

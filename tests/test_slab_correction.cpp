@@ -1,0 +1,227 @@
+// The slab correction (slab_correction.hpp): its Petrov-Galerkin condition holds after it, the
+// bodies follow the scaled impulses, a solved step is left as it is, and a tall column reaches
+// its statics in far fewer sweeps with it than without.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "nlgs_solver.hpp"
+#include "random.hpp"
+#include "slab_correction.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+/// A zig-zag chain of `count` disks, two per band, each touching the next: rows with random
+/// impulses inside their cones, bodies with random velocities, one row per group, all groups in
+/// one phase (one thread: a phase's groups need not be independent here).
+struct Chain {
+  std::vector<SolverBody> bodies;
+  std::vector<SolverRow> rows;
+  std::vector<std::size_t> group_start;
+  std::vector<std::vector<std::uint32_t>> awake;
+  std::vector<SolverPhase> phases;
+  std::vector<std::uint32_t> node_of_body;
+  std::size_t bands = 0;
+
+  explicit Chain(std::size_t count) {
+    CounterRandom rng(7, RandomStream::kPlacement, 0);
+    const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * rng.uniform(); };
+    std::vector<Vec2> position(count);
+    for (std::size_t k = 0; k < count; ++k) {
+      position[k] = {k % 2 == 0 ? 0.0 : 0.3, 0.95 * static_cast<double>(k)};
+      SolverBody b;
+      b.velocity = {uniform(-0.1, 0.1), uniform(-0.1, 0.1)};
+      b.omega = uniform(-0.1, 0.1);
+      const double inv_mass = uniform(0.8, 1.2);
+      b.inv_mass = {inv_mass, inv_mass};
+      b.inv_inertia = 8.0 * inv_mass;
+      b.band = static_cast<std::uint32_t>(k / 2);
+      bodies.push_back(b);
+      node_of_body.push_back(b.band);
+    }
+    bands = (count + 1) / 2;
+    for (std::size_t k = 0; k + 1 < count; ++k) {
+      SolverRow r;
+      r.body_a = static_cast<std::uint32_t>(k + 1);  // the upper disk; normal from b to a
+      r.body_b = static_cast<std::uint32_t>(k);
+      const Vec2 d = position[k + 1] - position[k];
+      r.normal = d * (1.0 / length(d));
+      r.lever_a = -0.5;
+      r.lever_b = -0.5;
+      r.bias_n = uniform(-0.01, 0.01);
+      r.friction = 0.5;
+      // Every third row open: the correction must leave it so.
+      r.impulse_n = k % 3 == 2 ? 0.0 : uniform(0.5, 1.5);
+      r.impulse_t = uniform(-0.4, 0.4) * r.impulse_n;
+      rows.push_back(r);
+      group_start.push_back(k);
+      awake.push_back({static_cast<std::uint32_t>(k)});
+    }
+    group_start.push_back(rows.size());
+    group_start.push_back(rows.size());  // an empty serial group
+    awake.emplace_back();
+    phases.push_back({0, rows.size()});
+  }
+
+  SlabLayout layout() const { return {&group_start, &awake, &phases, bands, &node_of_body}; }
+
+  /// r_j = sum over the rows of band j (weight 1/2 to each body's band) of R_n (u_n + bias),
+  /// R_n from `weights` (the impulses before a correction), u_n from the current velocities.
+  std::vector<double> band_residuals(const std::vector<SolverRow>& weights) const {
+    std::vector<double> r(bands, 0.0);
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      const SolverRow& row = rows[k];
+      const SolverBody& a = bodies[row.body_a];
+      const SolverBody& b = bodies[row.body_b];
+      const double u_n = dot(a.velocity - b.velocity, row.normal) + row.bias_n;
+      r[a.band] += 0.5 * weights[k].impulse_n * u_n;
+      r[b.band] += 0.5 * weights[k].impulse_n * u_n;
+    }
+    return r;
+  }
+};
+
+TEST(SlabCorrection, CancelsEveryBandsMeanNormalVelocityError) {
+  Chain chain(40);
+  const std::vector<SolverRow> before = chain.rows;
+  const std::vector<SolverBody> bodies_before = chain.bodies;
+  const std::vector<double> r0 = chain.band_residuals(before);
+  SlabCorrection correction;
+  correction.reset(chain.bodies.size(), chain.layout());
+  ASSERT_TRUE(correction.apply(chain.rows, chain.bodies));
+
+  // The scales stay inside their bounds here (no clamping), so the condition holds exactly: every
+  // band's residual, weighted by the impulses before the correction, vanishes to round-off.
+  double largest_r0 = 0.0, largest_scale = 0.0;
+  for (const double v : r0) largest_r0 = std::max(largest_r0, std::abs(v));
+  for (const double s : correction.scales()) {
+    largest_scale = std::max(largest_scale, std::abs(s));
+    EXPECT_GT(s, SlabCorrection::kLowestScale);
+    EXPECT_LT(s, SlabCorrection::kHighestScale);
+  }
+  EXPECT_GT(largest_scale, 1e-3);  // it did correct something
+  const std::vector<double> r1 = chain.band_residuals(before);
+  for (std::size_t j = 0; j < chain.bands; ++j) EXPECT_LT(std::abs(r1[j]), 1e-12 * largest_r0);
+
+  // Each row is scaled by 1 + (s_a + s_b) / 2 (open rows stay open), and the bodies moved as if
+  // each row's change had been applied to them.
+  std::vector<SolverBody> expected = bodies_before;
+  for (std::size_t k = 0; k < chain.rows.size(); ++k) {
+    const SolverRow& r = before[k];
+    const double s = 0.5 * (correction.scales()[chain.node_of_body[r.body_a]] +
+                            correction.scales()[chain.node_of_body[r.body_b]]);
+    EXPECT_NEAR(chain.rows[k].impulse_n, (1.0 + s) * r.impulse_n, 1e-14);
+    EXPECT_NEAR(chain.rows[k].impulse_t, (1.0 + s) * r.impulse_t, 1e-14);
+    apply_row_impulse(r, expected[r.body_a], expected[r.body_b], s * r.impulse_n, s * r.impulse_t);
+  }
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    EXPECT_NEAR(chain.bodies[k].velocity.x, expected[k].velocity.x, 1e-13);
+    EXPECT_NEAR(chain.bodies[k].velocity.y, expected[k].velocity.y, 1e-13);
+    EXPECT_NEAR(chain.bodies[k].omega, expected[k].omega, 1e-13);
+  }
+}
+
+TEST(SlabCorrection, ChangesNothingWithoutForce) {
+  Chain chain(12);
+  for (SolverRow& r : chain.rows) r.impulse_n = r.impulse_t = 0.0;
+  const std::vector<SolverBody> before = chain.bodies;
+  SlabCorrection correction;
+  correction.reset(chain.bodies.size(), chain.layout());
+  correction.apply(chain.rows, chain.bodies);
+  for (const double s : correction.scales()) EXPECT_EQ(s, 0.0);
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    EXPECT_EQ(chain.bodies[k].velocity, before[k].velocity);
+    EXPECT_EQ(chain.bodies[k].omega, before[k].omega);
+  }
+  for (const SolverRow& r : chain.rows) EXPECT_EQ(r.impulse_n, 0.0);
+}
+
+// A column of equal disks stacked on a floor under gravity (as in test_column.cpp): the contact
+// below disk k carries the weight of disks k..N-1, and the step from rest has that solution
+// only.
+constexpr double kR = 0.5, kG = 1.0, kDt = 1e-3;
+
+testing::Simulation column(int n, const SolverOptions& solver) {
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  s.walls.push_back(testing::fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  for (int k = 0; k < n; ++k) s.disks.push_back(testing::disk({0.0, kR + 2.0 * kR * k}, kR));
+  StepOptions o;
+  o.dt = kDt;
+  o.solver = solver;
+  return testing::Simulation(s, o);
+}
+
+/// Worst relative error of the disk-disk contact forces against the statics under gravity g.
+double worst_force_error(const testing::Simulation& sim, int n, double g = kG) {
+  const double m = testing::disk_mass(kR);
+  double worst = 0.0;
+  for (int k = 0; k + 1 < n; ++k) {
+    const auto c = sim.contact(k, k + 1);
+    if (!c) return INFINITY;
+    const double expected = (n - 1 - k) * m * g;
+    worst = std::max(worst, std::abs(c->impulse_n / kDt - expected) / expected);
+  }
+  return worst;
+}
+
+SolverOptions fixed_sweeps(int sweeps, int slab_period) {
+  SolverOptions o;
+  o.order = ContactOrder::kColoured;
+  o.alpha = 0.0;  // never met: exactly `sweeps` sweeps
+  o.max_sweeps = sweeps;
+  o.slab_correction_period = slab_period;
+  return o;
+}
+
+/// A column of n solved to round-off under gravity g, then one step of `sweeps` sweeps (the
+/// slab correction every `slab_period`; 0: none) under gravity 1.5 g, warm-started from the
+/// first step's forces, which are now two thirds of the statics all along the column: the
+/// worst relative force error of that step.
+double error_after_load_change(int n, int sweeps, int slab_period) {
+  SolverOptions tight = fixed_sweeps(200000, 0);
+  tight.alpha = 1e-30;
+  tight.converged_fraction = 1.0;
+  testing::Simulation sim = column(n, tight);
+  sim.run(1);
+  sim.world.body_force = {0.0, -1.5 * kG};
+  sim.options.solver = fixed_sweeps(sweeps, slab_period);
+  sim.run(1);
+  return worst_force_error(sim, n, 1.5 * kG);
+}
+
+TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
+  // 200 disks, 50 bands of four. Gauss-Seidel carries a change of load along the chain by about
+  // one contact per sweep; a correction every 8 sweeps rescales each band's forces at once.
+  const int n = 200;
+  const double plain = error_after_load_change(n, 100, 0);
+  const double corrected = error_after_load_change(n, 100, 8);
+  std::printf(
+      "column of %d, load x 1.5, one step of 100 sweeps: worst force error %.3g plain, "
+      "%.3g with the slab correction every 8 sweeps\n",
+      n, plain, corrected);
+  EXPECT_GT(plain, 0.1);
+  EXPECT_LT(corrected, 0.01);
+}
+
+TEST(SlabCorrection, LeavesASolvedStepUnchanged) {
+  // Step 1 solved to round-off; step 2 starts from that solution (warm start) in the same state,
+  // and a correction after every sweep must keep it: at a solution r = 0, so s = 0.
+  const int n = 32;
+  SolverOptions tight = fixed_sweeps(20000, 0);
+  tight.alpha = 1e-30;
+  tight.converged_fraction = 1.0;
+  testing::Simulation sim = column(n, tight);
+  sim.run(1);
+  ASSERT_LT(worst_force_error(sim, n), 1e-10);
+  sim.options.solver = fixed_sweeps(12, 1);
+  sim.run(1);
+  EXPECT_LT(worst_force_error(sim, n), 1e-10);
+}
+
+}  // namespace
+}  // namespace cdshear
