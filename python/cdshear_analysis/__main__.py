@@ -5,7 +5,9 @@ KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... report
 [-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
 CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
-of bench/peers/side_by_side.sh (cdshear_analysis/peers.py). A run too short for any averaging
+of bench/peers/side_by_side.sh (cdshear_analysis/peers.py); `... series-means RUN_DIR --after T
+[--key KEY ...]` prints means of run.h5 series after time T (cdshear_analysis/series_means.py).
+A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
@@ -39,6 +41,11 @@ def main(argv=None):
     p_side.add_argument("--cdshear-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--lammps-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--json", help="also write the figures to this JSON file")
+    p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
+    p_means.add_argument("run_dir")
+    p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
+    p_means.add_argument("--key", action="append", help="series name (repeatable; default "
+                         "force_carrying, sweeps_mean, capped_steps)")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
@@ -52,6 +59,20 @@ def main(argv=None):
                 print(f"left out {name}: no summary.json yet")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        return 0
+
+    if args.command == "series-means":
+        from .rundata import RunDataError, load_run
+        from .series_means import SeriesError, format_series_means, series_means
+        keys = args.key or ["force_carrying", "sweeps_mean", "capped_steps"]
+        try:
+            print(format_series_means(series_means(load_run(args.run_dir), args.after, keys)))
+        except RunDataError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+        except SeriesError as e:
+            print(f"error: {os.path.join(args.run_dir, 'run.h5')}: {e.problem}", file=sys.stderr)
             return 2
         return 0
 

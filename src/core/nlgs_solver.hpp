@@ -26,6 +26,12 @@
 // vector's length, anderson.hpp), and the mixed impulses are applied phase by phase like a
 // sweep: the result is the same on any number of threads. So are the rows' set-up, the warm start
 // (applied phase by phase too) and the copy-back of the impulses.
+// Slab correction (options.slab_correction_period > 0, coloured order, slab_correction.hpp):
+// every slab_correction_period sweeps, before any mix of that sweep and never after the last,
+// the force-carrying rows of each band are rescaled so that the bands' force-weighted mean
+// normal-velocity errors vanish together: the force profile over the height, which the sweeps
+// relax over thousands of sweeps in a tall packing, in one banded solve. Same fixed points, same
+// result on any number of threads.
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
 // free velocity is its current relative velocity minus W times its current impulse: a contact
 // update costs O(1).

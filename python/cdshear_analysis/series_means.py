@@ -1,0 +1,39 @@
+"""Means of a run's time series after a given time: what a short solver check reads.
+
+`series_means(run_data, after, keys)` averages `series/KEY` of run.h5 over the samples with
+time > `after` (docs/run-data.md), with the standard error of the mean computed as if the samples
+were independent: neighbouring samples are correlated, so that error is a lower bound. It serves
+scripts/solver_check.sh (docs/accuracy.md, "checkpoint copies"), which resumes copies of a run's
+checkpoint with other solver settings and compares, for example, the force-carrying contacts.
+"""
+import numpy as np
+
+
+class SeriesError(Exception):
+    def __init__(self, problem):
+        super().__init__(problem)
+        self.problem = problem
+
+
+def series_means(run_data, after, keys):
+    """{key: (mean, standard error, samples)} over the samples with time > after."""
+    series = run_data["series"]
+    time = np.asarray(series["time"], dtype=float)
+    chosen = time > after
+    count = int(chosen.sum())
+    if count == 0:
+        raise SeriesError(f"no sample after t = {after:g} (last at t = {time.max():g})"
+                          if time.size else "the run has no samples")
+    out = {}
+    for key in keys:
+        if key not in series:
+            raise SeriesError(f"no series '{key}' (have: {', '.join(sorted(series))})")
+        values = np.asarray(series[key], dtype=float)[chosen]
+        error = values.std(ddof=1) / np.sqrt(count) if count > 1 else float("nan")
+        out[key] = (float(values.mean()), float(error), count)
+    return out
+
+
+def format_series_means(means):
+    return "\n".join(f"{key:<16} {mean:.6g} +- {error:.2g} ({count} samples)"
+                     for key, (mean, error, count) in means.items())

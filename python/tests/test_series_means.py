@@ -1,0 +1,66 @@
+"""series_means: means of run.h5 series after a time, and the command's errors."""
+import io
+import os
+import tempfile
+import unittest
+from contextlib import redirect_stderr, redirect_stdout
+
+import numpy as np
+
+from cdshear_analysis import load_run
+from cdshear_analysis.__main__ import main
+from cdshear_analysis.series_means import SeriesError, series_means
+from cdshear_analysis.synthetic import write_synthetic_run
+
+
+class SeriesMeans(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.run_dir = os.path.join(cls.tmp.name, "run")
+        write_synthetic_run(cls.run_dir, kind="A", duration=100.0)
+        cls.run_data = load_run(cls.run_dir)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_mean_error_and_count_of_the_samples_after_the_time(self):
+        series = self.run_data["series"]
+        time = np.asarray(series["time"])
+        after = float(time[len(time) // 2])
+        chosen = np.asarray(series["height"])[time > after]
+        means = series_means(self.run_data, after, ["height"])
+        mean, error, count = means["height"]
+        self.assertEqual(count, int((time > after).sum()))
+        self.assertGreater(count, 1)
+        self.assertAlmostEqual(mean, chosen.mean(), places=12)
+        self.assertAlmostEqual(error, chosen.std(ddof=1) / np.sqrt(count), places=12)
+        # A later start leaves fewer samples out of the same series.
+        later = series_means(self.run_data, float(time[-3]), ["height"])["height"]
+        self.assertEqual(later[2], 2)
+
+    def test_no_sample_after_the_time_and_unknown_series_are_errors(self):
+        last = float(np.asarray(self.run_data["series"]["time"])[-1])
+        with self.assertRaises(SeriesError) as e:
+            series_means(self.run_data, last, ["height"])
+        self.assertIn("no sample after", e.exception.problem)
+        with self.assertRaises(SeriesError) as e:
+            series_means(self.run_data, 0.0, ["no_such_series"])
+        self.assertIn("no series 'no_such_series'", e.exception.problem)
+
+    def test_command_prints_the_means_and_names_the_file_on_error(self):
+        out = io.StringIO()
+        with redirect_stdout(out):
+            status = main(["series-means", self.run_dir, "--after", "10", "--key", "height"])
+        self.assertEqual(status, 0)
+        self.assertRegex(out.getvalue(), r"^height\s+\S+ \+- \S+ \(\d+ samples\)")
+        err = io.StringIO()
+        with redirect_stderr(err):
+            status = main(["series-means", self.run_dir, "--after", "1e9"])
+        self.assertEqual(status, 2)
+        self.assertIn(os.path.join(self.run_dir, "run.h5"), err.getvalue())
+
+
+if __name__ == "__main__":
+    unittest.main()
