@@ -31,7 +31,8 @@ void each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& f
 void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   layout_ = layout;
   const std::size_t groups = layout.group_start->size() - 1;
-  // Slots and chunk matrices are left zero by every apply(): cleared here only when they grow.
+  // Slots and chunk matrices are left zero by every apply(): cleared here only when their size
+  // changes.
   if (slots_.size() != bodies) slots_.assign(bodies, BodySlots{});
   bodies_ = bodies;
   chunks_ = (bodies + kChunk - 1) / kChunk;

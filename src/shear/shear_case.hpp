@@ -30,8 +30,8 @@ namespace cdshear {
 /// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
 /// pass). The slab correction every 8 sweeps (since 2026-11-24, slab_correction.hpp): without
 /// it, in system 7's slow phase, these settings and SPEC 3.5's reference values alike left 3 to
-/// 7% of the force-carrying contacts open against a solve run to convergence; with it, Z is
-/// that of the converged solve within its error, for a quarter fewer sweeps there, and system 1
+/// 7% of the force-carrying contacts open against a solve run to convergence; with it, 0.3 to
+/// 1.1%, for a quarter fewer sweeps there, and system 1
 /// keeps its averages (docs/accuracy.md, seventh pass). Scene files keep the engine's plain
 /// defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
