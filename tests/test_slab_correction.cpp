@@ -181,8 +181,9 @@ SolverOptions fixed_sweeps(int sweeps, int slab_period) {
 /// A column of n solved to round-off under gravity g, then one step of `sweeps` sweeps (the
 /// slab correction every `slab_period`; 0: none) under gravity 1.5 g, warm-started from the
 /// first step's forces, which are now two thirds of the statics all along the column: the
-/// worst relative force error of that step.
-double error_after_load_change(int n, int sweeps, int slab_period) {
+/// worst relative force error of that step (the correction only with at least `min_bands`
+/// bands).
+double error_after_load_change(int n, int sweeps, int slab_period, int min_bands = 2) {
   SolverOptions tight = fixed_sweeps(200000, 0);
   tight.alpha = 1e-30;
   tight.converged_fraction = 1.0;
@@ -190,6 +191,7 @@ double error_after_load_change(int n, int sweeps, int slab_period) {
   sim.run(1);
   sim.world.body_force = {0.0, -1.5 * kG};
   sim.options.solver = fixed_sweeps(sweeps, slab_period);
+  sim.options.solver.slab_correction_min_bands = min_bands;
   sim.run(1);
   return worst_force_error(sim, n, 1.5 * kG);
 }
@@ -206,6 +208,9 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
       n, plain, corrected);
   EXPECT_GT(plain, 0.1);
   EXPECT_LT(corrected, 0.01);
+  // The column has 50 bands: asking for 51 leaves the solve plain, bit for bit.
+  EXPECT_EQ(error_after_load_change(n, 100, 8, 51), plain);
+  EXPECT_EQ(error_after_load_change(n, 100, 8, 50), corrected);
 }
 
 TEST(SlabCorrection, LeavesASolvedStepUnchanged) {

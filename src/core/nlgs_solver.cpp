@@ -394,6 +394,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
   const int slab_period = coloured ? options.slab_correction_period : 0;
   const bool correct_slabs = slab_period > 0;
+  const std::size_t min_bands =
+      static_cast<std::size_t>(std::max(options.slab_correction_min_bands, 2));
 
   // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
   // every thread of the team: the passes over single contacts or single groups are shared.
@@ -585,11 +587,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     {
       count_dormant_and_list_mixed_rows();
-      if (correct_slabs && cg.bands > 1)
+      if (correct_slabs && cg.bands >= min_bands)
         ws.slab_correction.reset(
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
-    const bool slab_corrections = correct_slabs && cg.bands > 1;
+    const bool slab_corrections = correct_slabs && cg.bands >= min_bands;
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.

@@ -122,6 +122,9 @@ struct SolverOptions {
   /// impulses of each band are rescaled so that the bands' mean normal velocity errors vanish
   /// together. 0 = off. Same fixed points (docs/performance.md, "Slab correction").
   int slab_correction_period = 0;
+  /// ... and only in packings of at least this many bands (the correction is for profiles over
+  /// the height of a tall packing; docs/accuracy.md, seventh pass). >= 2.
+  int slab_correction_min_bands = 2;
 };
 
 /// Largest SolverOptions::anderson_depth.

@@ -189,7 +189,8 @@ toml::table case_to_toml(const ShearCase& c) {
       // Always written: an absent key reads back as the shear default, not as off.
       {"anderson_depth", s.anderson_depth},
       {"anderson_period", s.anderson_period},
-      {"slab_correction_period", s.slab_correction_period}};
+      {"slab_correction_period", s.slab_correction_period},
+      {"slab_correction_min_bands", s.slab_correction_min_bands}};
   return toml::table{
       {"system", toml::table{{"n", static_cast<std::int64_t>(c.n)},
                              {"height", c.height},

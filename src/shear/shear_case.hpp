@@ -28,11 +28,13 @@ namespace cdshear {
 /// 2026-11-24; SPEC 3.5's reference value 1e-6 before): with the mix it gave the averages of
 /// 1e-6 at V = 0.5 (two seeds each), at V = 0.05 (three seeds against five) and on system 7
 /// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
-/// pass). The slab correction every 8 sweeps (since 2026-11-24, slab_correction.hpp): without
-/// it, in system 7's slow phase, these settings and SPEC 3.5's reference values alike left 3 to
-/// 7% of the force-carrying contacts open against a solve run to convergence; with it, 0.3 to
-/// 1.1%, for a quarter fewer sweeps there, and system 1
-/// keeps its averages (docs/accuracy.md, seventh pass). Scene files keep the engine's plain
+/// pass). The slab correction every 8 sweeps in packings of 20 bands or more (L_y >= 80 d:
+/// systems 5 to 7; since 2026-11-24, slab_correction.hpp): without it, in system 7's slow
+/// phase, these settings and SPEC 3.5's reference values alike left 3 to 7% of the
+/// force-carrying contacts open against a solve run to convergence; with it, 0.3 to 1.1%, for a
+/// quarter fewer sweeps there. Not in system 1 (5 bands), which has nothing to correct and where
+/// it lowered mu_eff by 2 combined errors over three seeds at V = 0.5 (docs/accuracy.md, seventh
+/// pass). Scene files keep the engine's plain
 /// defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
@@ -43,6 +45,7 @@ inline StepOptions shear_step_defaults() {
   o.solver.anderson_depth = 5;
   o.solver.anderson_period = 4;
   o.solver.slab_correction_period = 8;
+  o.solver.slab_correction_min_bands = 20;
   return o;
 }
 
