@@ -32,9 +32,9 @@ namespace cdshear {
 /// systems 5 to 7; since 2026-11-24, slab_correction.hpp): without it, in system 7's slow
 /// phase, these settings and SPEC 3.5's reference values alike left 3 to 7% of the
 /// force-carrying contacts open against a solve run to convergence; with it, 0.3 to 1.1%, for a
-/// quarter fewer sweeps there. Not in system 1 (5 bands), which has nothing to correct and where
-/// it lowered mu_eff by 2 combined errors over three seeds at V = 0.5 (docs/accuracy.md, seventh
-/// pass). Scene files keep the engine's plain
+/// quarter fewer sweeps there. Not in system 1 (5 bands), which has nothing to correct: the
+/// same averages with it over four seeds at V = 0.5, but no sweep saved (docs/accuracy.md,
+/// seventh pass). Scene files keep the engine's plain
 /// defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
