@@ -392,14 +392,15 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   }
 
   // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
+  // Known once the groups are (coloured_groups_begin sets cg.bands); read after a barrier.
   const int slab_period = coloured ? options.slab_correction_period : 0;
-  const bool correct_slabs = slab_period > 0;
   const std::size_t min_bands =
       static_cast<std::size_t>(std::max(options.slab_correction_min_bands, 2));
+  ColouredGroups cg;
+  const auto corrects_slabs = [&] { return slab_period > 0 && cg.bands >= min_bands; };
 
   // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
   // every thread of the team: the passes over single contacts or single groups are shared.
-  ColouredGroups cg;
   const auto arrange_coloured_rows = [&] {
 #if defined(_OPENMP)
 #pragma omp single
@@ -439,7 +440,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
           ws.global_of.push_back(static_cast<std::uint32_t>(body));
         }
       }
-      if (correct_slabs) {
+      if (corrects_slabs()) {
         // The slab correction's band of each local body: a disk's own, a wall's that of its
         // disks if they are all in one band (then its rows are in that slab's group).
         ws.node_of_body.resize(ws.global_of.size());
@@ -457,12 +458,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // phase share no body, so each body meets the groups' changes in group order, as one thread
   // going through the rows in order would. Called by every thread of the team.
   const auto each_group_by_phase = [&](const auto& for_group) {
-    for (const SolverPhase& phase : ws.phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-      for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
-    }
+    for_each_phased_group(ws.phases, for_group);
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -587,11 +583,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     {
       count_dormant_and_list_mixed_rows();
-      if (correct_slabs && cg.bands >= min_bands)
+      if (corrects_slabs())
         ws.slab_correction.reset(
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
-    const bool slab_corrections = correct_slabs && cg.bands >= min_bands;
+    const bool slab_corrections = corrects_slabs();
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.

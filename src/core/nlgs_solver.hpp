@@ -190,6 +190,20 @@ struct SolverPhase {
   std::size_t first_group = 0, last_group = 0;
 };
 
+/// Runs `for_group(g)` over the groups of every phase, phase by phase, each phase's groups
+/// shared among the calling OpenMP team (an orphaned `omp for`, with its barrier; one thread
+/// outside a parallel region runs them all). The serial group, in no phase, is left out.
+/// Groups of a phase share no body, so each body meets the groups' changes in group order.
+template <class ForGroup>
+void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& for_group) {
+  for (const SolverPhase& phase : phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
+  }
+}
+
 /// What one group of rows adds to the convergence test.
 struct SweepTally {
   std::size_t converged = 0, carrying = 0;

@@ -12,22 +12,6 @@ namespace cdshear {
 
 static_assert(std::is_same_v<lapack_int, std::int32_t>, "SlabCorrection::pivots_ is 32-bit");
 
-namespace {
-
-/// Runs `for_group(g)` over every group of every phase, phase by phase (the serial group is in
-/// no phase and is left out). Groups of a phase share no body.
-template <class ForGroup>
-void each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& for_group) {
-  for (const SolverPhase& phase : phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
-  }
-}
-
-}  // namespace
-
 void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   layout_ = layout;
   const std::size_t groups = layout.group_start->size() - 1;
@@ -49,7 +33,7 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
 
   // 1. The rows: each body's impulse, torque and test vector per neighbouring band, and each
   //    group's share of r (for its lowest band and the one above), group by group.
-  each_phased_group(*layout_.phases, [&](std::size_t g) {
+  for_each_phased_group(*layout_.phases, [&](std::size_t g) {
     double rhs_low = 0.0, rhs_high = 0.0;
     std::uint32_t low = kNoNode;
     for (const std::uint32_t i : (*layout_.awake)[g]) {
