@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <utility>
 #include <vector>
 
 #include "test_support.hpp"
@@ -275,6 +276,73 @@ TEST(Column, ColouredOrderOnTwoThreadsGivesTheSameStatics) {
   EXPECT_LT(r.contact_force_error, 0.15);
   EXPECT_LT(r.drift, 1e-6);
   EXPECT_LT(r.largest_overlap, 1e-6);
+}
+
+/// The relative change of the last sweep of a step, (sum |dR| / sum |R|)^2 over the contacts,
+/// from the same step stopped one sweep earlier (`before`) and at `sweeps` (`after`): what
+/// SolverReport::residual must say. The solver adds the square roots of the rows' squared
+/// lengths only in the sweeps whose decision needs them (nlgs_solver.cpp, sum_group_lengths).
+double last_sweep_change(const std::vector<Contact>& before, const std::vector<Contact>& after) {
+  double change = 0.0, force = 0.0;
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    change += std::hypot(after[k].impulse_n - before[k].impulse_n,
+                         after[k].impulse_t - before[k].impulse_t);
+    force += std::hypot(after[k].impulse_n, after[k].impulse_t);
+  }
+  return (change / force) * (change / force);
+}
+
+/// Solves the first step of a column of 10 (from no impulse: many sweeps) with a cap of `sweeps`
+/// and of `sweeps - 1`, and returns (the report at `sweeps`, the change of its last
+/// sweep measured from the two).
+std::pair<SolverReport, double> report_and_last_change(const SolverOptions& solver, int sweeps) {
+  StepOptions o;
+  o.dt = kDt;
+  o.solver = solver;
+  testing::Simulation before(column_scene(10), o), after(column_scene(10), o);
+  before.options.solver.max_sweeps = sweeps - 1;
+  after.options.solver.max_sweeps = sweeps;
+  before.run(1);
+  after.run(1);
+  EXPECT_EQ(before.last().solver.sweeps, sweeps - 1);
+  return {after.last().solver,
+          last_sweep_change(before.dynamics.contacts(), after.dynamics.contacts())};
+}
+
+TEST(ConvergenceCriterion, ReportsTheLastSweepsChange) {
+  // Plain Gauss-Seidel (no mix, every contact swept), so that the state before a sweep is the
+  // step stopped one sweep earlier. Random order on one thread, and coloured on two.
+  for (const bool coloured : {false, true}) {
+    SolverOptions solver;
+    solver.skip_dormant = false;
+    if (coloured) {
+      solver.order = ContactOrder::kColoured;
+      solver.threads = 2;
+      solver.min_rows_per_thread = 1;
+    }
+    // Stopped by the cap after 4 sweeps, short of the criterion: the sums are taken in the last
+    // sweep allowed.
+    const auto [capped, capped_change] = report_and_last_change(solver, 4);
+    EXPECT_TRUE(capped.hit_cap);
+    EXPECT_GT(capped_change, solver.alpha);
+    EXPECT_NEAR(capped.residual, capped_change, 1e-12 * capped_change);
+    // Stopped by the criterion: the sums are taken once 90% of the contacts meet it.
+    StepOptions o;
+    o.dt = kDt;
+    o.solver = solver;
+    testing::Simulation probe(column_scene(10), o);
+    probe.run(1);
+    const int sweeps = probe.last().solver.sweeps;
+    ASSERT_FALSE(probe.last().solver.hit_cap);
+    ASSERT_GT(sweeps, 2);
+    const auto [stopped, stopped_change] = report_and_last_change(solver, sweeps);
+    EXPECT_FALSE(stopped.hit_cap);
+    EXPECT_GT(stopped_change, 0.0);
+    EXPECT_LE(stopped_change, solver.alpha);
+    EXPECT_NEAR(stopped.residual, stopped_change, 1e-12 * stopped_change);
+    // NaN: the estimate of the error left is kept under criterion "error" only.
+    EXPECT_TRUE(std::isnan(stopped.error_bound));
+  }
 }
 
 TEST(ConvergenceCriterion, CountsOnlyForceCarryingContacts) {

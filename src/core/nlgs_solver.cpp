@@ -52,9 +52,11 @@ void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const Solver
   row.inv_w_tt = w.w_nt == 0.0 ? 1.0 / w.w_tt : kCoupledRow;
 }
 
-/// Adds up a chunk's convergence figures (SPEC 3.5): counts, and the sums of |dR| and |R|. The
-/// two square roots of an update are taken together in one packed instruction where the machine
-/// has one (SSE2, every x86-64). Square roots are correctly rounded either way: same sums.
+/// Adds up a group's convergence figures (SPEC 3.5): the counts during a sweep, and the sums of
+/// |dR| and |R| afterwards from the stored squares (sum_group_lengths), in the order of the
+/// updates. The two square roots of a row are taken together in one packed instruction where
+/// the machine has one (SSE2, every x86-64). Square roots are correctly rounded either way: same
+/// sums.
 class TallyAccumulator {
  public:
   void count(bool carries, bool converged) {
@@ -88,7 +90,9 @@ class TallyAccumulator {
 };
 
 /// One Gauss-Seidel update of row r: solve its local problem with every other impulse fixed,
-/// apply the change to the two bodies and count it in the tally.
+/// apply the change to the two bodies, count it in the tally and store the squares of |dR| and
+/// |R| in `lengths2` ((0, 0) for a row that stays open: adding sqrt(0) to a sum changes nothing,
+/// so a sum over every visited row is the sum over the updated ones).
 ///
 /// Common case, w_nt = 0 (every disk-disk contact, and a wall contact whenever the wall's
 /// inverse mass is isotropic or aligned with the contact, as for the flat walls of the shear
@@ -106,7 +110,8 @@ class TallyAccumulator {
 /// its own arithmetic: R + 1 (R_GS - R) is not always R_GS in floating point.
 template <bool kRelaxed>
 inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<SolverBody>& bodies,
-                       double alpha, double omega, TallyAccumulator& tally) {
+                       double alpha, double omega, TallyAccumulator& tally,
+                       std::array<double, 2>& lengths2) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];
   const double dvx = a.velocity.x - b.velocity.x;
@@ -117,7 +122,10 @@ inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<Solve
   // An open contact that stays open: R = 0 and the biased normal velocity is separating. The
   // update below would give R = 0 again, change nothing and count nothing; skip it. Half of the
   // candidates or more are in this case in a dense packing (gap below the margin, not touching).
-  if (r.impulse_n == 0.0 && r.impulse_t == 0.0 && u_n + r.bias_n >= 0.0) return;
+  if (r.impulse_n == 0.0 && r.impulse_t == 0.0 && u_n + r.bias_n >= 0.0) {
+    lengths2 = {0.0, 0.0};
+    return;
+  }
   double r_n, r_t;
   if (r.inv_w_tt != kCoupledRow) [[likely]] {
     r_n = std::max(0.0, r.impulse_n - (u_n + r.bias_n) * r.inv_w_nn);
@@ -151,7 +159,7 @@ inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<Solve
   const double change2 = dn * dn + dt * dt;
   const double force2 = r_n * r_n + r_t * r_t;
   tally.count(r_n > 0.0 || dn != 0.0, change2 <= alpha * force2);
-  tally.add_lengths(change2, force2);
+  lengths2 = {change2, force2};
 }
 
 /// Sweeps over which the contraction rate of the error is measured (criterion "error").
@@ -289,18 +297,34 @@ void shuffle_group(std::size_t g, const SolverOptions& options, std::uint64_t st
   shuffle(ws.order.data() + ws.group_start[g], ws.group_start[g + 1] - ws.group_start[g], rng);
 }
 
-/// Updates the awake rows of group g and stores its tally in tallies[g].
+/// Updates the awake rows of group g and stores its counts in tallies[g] (the sums stay 0 until
+/// sum_group_lengths).
 void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
                  double omega, SweepTally* tallies) {
   TallyAccumulator tally;
   if (omega == 1.0) {
     for (const std::uint32_t i : ws.awake[g])
-      update_row<false>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally);
+      update_row<false>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally,
+                        ws.row_lengths2[i]);
   } else {
     for (const std::uint32_t i : ws.awake[g])
-      update_row<true>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally);
+      update_row<true>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally, ws.row_lengths2[i]);
   }
   tallies[g] = tally.tally();
+}
+
+/// The sums of |dR| and |R| of group g's last sweep, into tallies[g]: the square roots of the
+/// stored squares, added in the order the sweep updated the rows, so the same sums as adding
+/// them during the sweep. Taken only in the sweeps whose decision needs them: a square root per
+/// update was about 6% of a sweep (cdshear_bench, 500 disks), and most sweeps of a step are
+/// decided by the count of converged contacts alone.
+void sum_group_lengths(std::size_t g, const SolverWorkspace& ws, SweepTally* tallies) {
+  TallyAccumulator sums;
+  for (const std::uint32_t i : ws.awake[g])
+    sums.add_lengths(ws.row_lengths2[i][0], ws.row_lengths2[i][1]);
+  const SweepTally t = sums.tally();
+  tallies[g].sum_change = t.sum_change;
+  tallies[g].sum_force = t.sum_force;
 }
 
 /// u_n + gap/dt of a row in the current velocities: >= 0 means it stays open at R = 0.
@@ -374,6 +398,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   auto& rows = ws.rows;
   rows.resize(nc);
   ws.delassus.resize(nc);
+  ws.row_lengths2.resize(nc);
   const double inv_dt = 1.0 / dt;
   std::size_t groups = 1;  // the last one is the serial group; set before any thread reads it
 
@@ -595,6 +620,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     const std::size_t tallied_groups = serial_rows ? groups : groups - 1;
     const bool any_dormant = report.dormant_contacts > 0;
     std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
+    const bool error_criterion = options.criterion == ConvergenceCriterion::kError;
+    double residual = 0.0;  // of the last sweep whose sums were taken
+    double error_bound = std::numeric_limits<double>::quiet_NaN();  // criterion "error" only
     if (first_thread) {
 #if defined(_OPENMP)
       report.threads = omp_get_num_threads();
@@ -616,29 +644,42 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
       }
       std::size_t converged = 0, carrying = 0;
-      double sum_change = 0.0, sum_force = 0.0;
       for (std::size_t g = 0; g < tallied_groups; ++g) {
         converged += tallies[g].converged;
         carrying += tallies[g].carrying;
-        sum_change += tallies[g].sum_change;
-        sum_force += tallies[g].sum_force;
       }
       const double converged_fraction =
           carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
-      double residual;
-      if (sum_force > 0.0) {
-        const double ratio = sum_change / sum_force;
-        residual = ratio * ratio;
-      } else {
-        residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+      // The sums of |dR| and |R| (square roots) only where the decision or the report needs
+      // them: the count half of the criterion met, criterion "error" (its rate needs every
+      // sweep's change), or the last sweep allowed. Every thread decides the same.
+      const bool fraction_met = converged_fraction >= options.converged_fraction;
+      bool done = false;
+      if (fraction_met || error_criterion || sweep == options.max_sweeps) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+        for (std::size_t g = 0; g < tallied_groups; ++g) sum_group_lengths(g, ws, tallies);
+        double sum_change = 0.0, sum_force = 0.0;
+        for (std::size_t g = 0; g < tallied_groups; ++g) {
+          sum_change += tallies[g].sum_change;
+          sum_force += tallies[g].sum_force;
+        }
+        if (sum_force > 0.0) {
+          const double ratio = sum_change / sum_force;
+          residual = ratio * ratio;
+        } else {
+          residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+        }
+        double tested2 = residual;  // alpha bounds the square (the residual is the change squared)
+        if (error_criterion) {
+          std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
+          recent_change.back() = std::sqrt(residual);
+          error_bound = remaining_error_bound(recent_change, sweep);
+          tested2 = error_bound * error_bound;
+        }
+        done = fraction_met && tested2 <= options.alpha;
       }
-      std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
-      recent_change.back() = std::sqrt(residual);
-      const double error_bound = remaining_error_bound(recent_change, sweep);
-      // alpha bounds the square of the tested quantity (the residual is the change squared).
-      const double tested2 =
-          options.criterion == ConvergenceCriterion::kError ? error_bound * error_bound : residual;
-      bool done = converged_fraction >= options.converged_fraction && tested2 <= options.alpha;
       std::size_t woken = 0;
       if (any_dormant &&
           (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {

@@ -58,6 +58,7 @@
 // error, not the change.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string_view>
 #include <utility>
@@ -133,11 +134,13 @@ inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;
 struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
-  double residual = 0.0;             ///< (sum |dR| / sum |R|)^2 of the last sweep
-  double converged_fraction = 1.0;   ///< share of force-carrying contacts meeting it, last sweep
-  int active_contacts = 0;           ///< contacts with R_n > 0 at the end
-  std::size_t colours = 0;           ///< parallel phases of a coloured sweep (0 for the others)
-  double error_bound = 0.0;          ///< estimated relative error left after the last sweep
+  double residual = 0.0;            ///< (sum |dR| / sum |R|)^2 of the last sweep
+  double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
+  int active_contacts = 0;          ///< contacts with R_n > 0 at the end
+  std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
+  /// Estimated relative error left after the last sweep; criterion "error" only (its history
+  /// of changes is kept under that criterion alone), NaN under "change".
+  double error_bound = 0.0;
   std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
   int threads = 1;                   ///< threads used
@@ -204,7 +207,8 @@ void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGrou
   }
 }
 
-/// What one group of rows adds to the convergence test.
+/// What one group of rows adds to the convergence test. The sums are filled only in the sweeps
+/// whose decision needs them (solve_contacts: they cost a square root per update).
 struct SweepTally {
   std::size_t converged = 0, carrying = 0;
   double sum_change = 0.0, sum_force = 0.0;  ///< sums of |dR| and |R|
@@ -220,6 +224,9 @@ struct SolverWorkspace {
   /// One per group and sweep, added in group order; consecutive sweeps use the two halves in
   /// turn (solve_contacts).
   std::vector<SweepTally> group_tallies;
+  /// (|dR|^2, |R|^2) of each row's update in the last sweep, by row (0, 0 for a row that stayed
+  /// open): their square roots are summed only when the convergence test needs the sums.
+  std::vector<std::array<double, 2>> row_lengths2;
   AndersonMixer anderson;                         ///< options.anderson_depth > 0
   std::vector<std::uint32_t> anderson_rows;       ///< the rows it mixes: those awake at the start
   std::vector<std::size_t> anderson_group_start;  ///< group g's: [start[g], start[g + 1])
