@@ -64,7 +64,8 @@ struct Settings {
   int threads = 1;
   bool skip_dormant = false;
   int anderson_depth = 0, anderson_period = 1;
-  int slab_correction_period = 0;  // solver.slab_correction_period (0: off)
+  int slab_correction_period = 0;                // solver.slab_correction_period (0: off)
+  int anderson_period_with_slab_correction = 0;  // solver.anderson_period_with_slab_correction
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
@@ -104,6 +105,9 @@ void usage() {
   --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
   --slab-correction P the slab correction every P sweeps, coloured order only
                       (solver.slab_correction_period, default 0: off; 8 in the shear phase)
+  --anderson-period-with-slab-correction P  mix every P sweeps in the steps the correction
+                      runs in (solver.anderson_period_with_slab_correction, default 0: the
+                      --anderson-period)
   --reference-anderson M  Anderson depth of --step-error's reference (default 0: plain)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
@@ -192,6 +196,10 @@ Settings parse(int argc, char** argv) {
       s.slab_correction_period = std::stoi(value());
       if (s.slab_correction_period < 0)
         throw std::invalid_argument("--slab-correction must be >= 0");
+    } else if (a == "--anderson-period-with-slab-correction") {
+      s.anderson_period_with_slab_correction = std::stoi(value());
+      if (s.anderson_period_with_slab_correction < 0)
+        throw std::invalid_argument("--anderson-period-with-slab-correction must be >= 0");
     } else if (a == "--anderson-period") {
       s.anderson_period = std::stoi(value());
       if (s.anderson_period < 1) throw std::invalid_argument("--anderson-period must be >= 1");
@@ -541,6 +549,7 @@ int run(const Settings& s) {
     options.solver.anderson_depth = s.anderson_depth;
     options.solver.anderson_period = s.anderson_period;
     options.solver.slab_correction_period = s.slab_correction_period;
+    options.solver.anderson_period_with_slab_correction = s.anderson_period_with_slab_correction;
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;
     options.solver.relaxation = s.relaxation;

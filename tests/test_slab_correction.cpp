@@ -178,22 +178,27 @@ SolverOptions fixed_sweeps(int sweeps, int slab_period) {
   return o;
 }
 
-/// A column of n solved to round-off under gravity g, then one step of `sweeps` sweeps (the
-/// slab correction every `slab_period`; 0: none) under gravity 1.5 g, warm-started from the
-/// first step's forces, which are now two thirds of the statics all along the column: the
-/// worst relative force error of that step (the correction only with at least `min_bands`
-/// bands).
-double error_after_load_change(int n, int sweeps, int slab_period, int min_bands = 2) {
+/// A column of n solved to round-off under gravity g, then one step solved with `second`
+/// under gravity 1.5 g, warm-started from the first step's forces, which are now two thirds of
+/// the statics all along the column: the worst relative force error of that step.
+double error_after_load_change(int n, const SolverOptions& second) {
   SolverOptions tight = fixed_sweeps(200000, 0);
   tight.alpha = 1e-30;
   tight.converged_fraction = 1.0;
   testing::Simulation sim = column(n, tight);
   sim.run(1);
   sim.world.body_force = {0.0, -1.5 * kG};
-  sim.options.solver = fixed_sweeps(sweeps, slab_period);
-  sim.options.solver.slab_correction_min_bands = min_bands;
+  sim.options.solver = second;
   sim.run(1);
   return worst_force_error(sim, n, 1.5 * kG);
+}
+
+/// The same with `sweeps` sweeps and the slab correction every `slab_period` (0: none), only
+/// with at least `min_bands` bands.
+double error_after_load_change(int n, int sweeps, int slab_period, int min_bands = 2) {
+  SolverOptions second = fixed_sweeps(sweeps, slab_period);
+  second.slab_correction_min_bands = min_bands;
+  return error_after_load_change(n, second);
 }
 
 TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
@@ -211,6 +216,29 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
   // The column has 50 bands: asking for 51 leaves the solve plain, bit for bit.
   EXPECT_EQ(error_after_load_change(n, 100, 8, 51), plain);
   EXPECT_EQ(error_after_load_change(n, 100, 8, 50), corrected);
+}
+
+TEST(SlabCorrection, MixPeriodWithTheCorrectionAppliesWhereItRuns) {
+  // solver.anderson_period_with_slab_correction replaces anderson_period in the steps where the
+  // correction runs, and only there. The column of 200 has 50 bands.
+  const auto with = [](int period, int period_with_correction, int min_bands) {
+    SolverOptions o = fixed_sweeps(60, 8);
+    o.relaxation = 1.6;
+    o.anderson_depth = 5;
+    o.anderson_period = period;
+    o.anderson_period_with_slab_correction = period_with_correction;
+    o.slab_correction_min_bands = min_bands;
+    return error_after_load_change(200, o);
+  };
+  const double mixed_every_8 = with(4, 8, 50);
+  std::printf(
+      "column of 200, 60 sweeps with the correction: error %.3g mixing every 4, %.3g every 8\n",
+      with(4, 0, 50), mixed_every_8);
+  EXPECT_EQ(mixed_every_8, with(8, 0, 50));  // the same solve, bit for bit
+  EXPECT_NE(mixed_every_8, with(4, 0, 50));  // and not the one mixing every 4
+  // Without the correction (51 bands asked for), the plain period applies.
+  EXPECT_EQ(with(4, 8, 51), with(4, 0, 51));
+  EXPECT_NE(with(4, 8, 51), with(8, 0, 51));
 }
 
 TEST(SlabCorrection, LeavesASolvedStepUnchanged) {

@@ -536,7 +536,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // Anderson acceleration mixes the rows awake at the start (the others are open and
   // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
   const bool accelerate = options.anderson_depth > 0;
-  const int period = std::max(options.anderson_period, 1);
+  const int plain_period = std::max(options.anderson_period, 1);
   // Called by every thread of the team (the loop is shared; v has its size already).
   const auto gather_mixed_impulses = [&](std::vector<double>& v) {
     const std::size_t mixed = ws.anderson_rows.size();
@@ -613,6 +613,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
     const bool slab_corrections = corrects_slabs();
+    const int period = slab_corrections && options.anderson_period_with_slab_correction > 0
+                           ? options.anderson_period_with_slab_correction
+                           : plain_period;
     if (accelerate) gather_mixed_impulses(ws.anderson_x);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.

@@ -126,6 +126,10 @@ struct SolverOptions {
   /// ... and only in packings of at least this many bands (the correction is for profiles over
   /// the height of a tall packing; docs/accuracy.md, seventh pass). >= 2.
   int slab_correction_min_bands = 2;
+  /// The mix's period in the steps where the slab correction runs (0: anderson_period). With the
+  /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
+  /// (docs/accuracy.md, eighth pass). >= 0.
+  int anderson_period_with_slab_correction = 0;
 };
 
 /// Largest SolverOptions::anderson_depth.
