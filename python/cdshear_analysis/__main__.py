@@ -44,6 +44,8 @@ def main(argv=None):
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
+    p_means.add_argument("--before", type=float, default=float("inf"),
+                         help="and time <= BEFORE (default: to the end)")
     p_means.add_argument("--key", action="append", help="series name (repeatable; default "
                          "force_carrying, sweeps_mean, capped_steps)")
     args = parser.parse_args(argv)
@@ -67,7 +69,8 @@ def main(argv=None):
         from .series_means import SeriesError, format_series_means, series_means
         keys = args.key or ["force_carrying", "sweeps_mean", "capped_steps"]
         try:
-            print(format_series_means(series_means(load_run(args.run_dir), args.after, keys)))
+            print(format_series_means(series_means(load_run(args.run_dir), args.after, keys,
+                                                   args.before)))
         except RunDataError as e:
             print(f"error: {e}", file=sys.stderr)
             return 2

@@ -1,7 +1,8 @@
 """Means of a run's time series after a given time: what a short solver check reads.
 
-`series_means(run_data, after, keys)` averages `series/KEY` of run.h5 over the samples with
-time > `after` (docs/run-data.md), with the standard error of the mean computed as if the samples
+`series_means(run_data, after, keys, before)` averages `series/KEY` of run.h5 over the samples
+with after < time <= before (docs/run-data.md; `before` defaults to the end), so that runs of
+different lengths, or whose analysis chose different averaging windows, compare over one window, with the standard error of the mean computed as if the samples
 were independent: neighbouring samples are correlated, so that error is a lower bound. It serves
 scripts/solver_check.sh (docs/accuracy.md, "checkpoint copies"), which resumes copies of a run's
 checkpoint with other solver settings and compares, for example, the force-carrying contacts.
@@ -15,14 +16,15 @@ class SeriesError(Exception):
         self.problem = problem
 
 
-def series_means(run_data, after, keys):
-    """{key: (mean, standard error, samples)} over the samples with time > after."""
+def series_means(run_data, after, keys, before=float("inf")):
+    """{key: (mean, standard error, samples)} over the samples with after < time <= before."""
     series = run_data["series"]
     time = np.asarray(series["time"], dtype=float)
-    chosen = time > after
+    chosen = (time > after) & (time <= before)
     count = int(chosen.sum())
     if count == 0:
-        raise SeriesError(f"no sample after t = {after:g} (last at t = {time.max():g})"
+        window = f"after t = {after:g}" + ("" if np.isinf(before) else f" up to t = {before:g}")
+        raise SeriesError(f"no sample {window} (samples from t = {time.min():g} to {time.max():g})"
                           if time.size else "the run has no samples")
     out = {}
     for key in keys:

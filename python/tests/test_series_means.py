@@ -40,6 +40,24 @@ class SeriesMeans(unittest.TestCase):
         later = series_means(self.run_data, float(time[-3]), ["height"])["height"]
         self.assertEqual(later[2], 2)
 
+    def test_a_window_keeps_the_samples_between_its_two_times(self):
+        series = self.run_data["series"]
+        time = np.asarray(series["time"])
+        after, before = float(time[len(time) // 4]), float(time[len(time) // 2])
+        chosen = np.asarray(series["height"])[(time > after) & (time <= before)]
+        mean, _, count = series_means(self.run_data, after, ["height"], before)["height"]
+        self.assertEqual(count, len(time) // 2 - len(time) // 4)
+        self.assertAlmostEqual(mean, chosen.mean(), places=12)
+        out = io.StringIO()
+        with redirect_stdout(out):
+            status = main(["series-means", self.run_dir, "--after", str(after), "--before",
+                           str(before), "--key", "height"])
+        self.assertEqual(status, 0)
+        self.assertIn(f"({count} samples)", out.getvalue())
+        with self.assertRaises(SeriesError) as e:
+            series_means(self.run_data, before, ["height"], after)
+        self.assertIn("up to t =", e.exception.problem)
+
     def test_no_sample_after_the_time_and_unknown_series_are_errors(self):
         last = float(np.asarray(self.run_data["series"]["time"])[-1])
         with self.assertRaises(SeriesError) as e:
