@@ -230,12 +230,12 @@ TEST(SlabCorrection, MixPeriodWithTheCorrectionAppliesWhereItRuns) {
     o.slab_correction_min_bands = min_bands;
     return error_after_load_change(200, o);
   };
-  const double mixed_every_8 = with(4, 8, 50);
+  const double mixed_every_8 = with(4, 8, 50), mixed_every_4 = with(4, 0, 50);
   std::printf(
       "column of 200, 60 sweeps with the correction: error %.3g mixing every 4, %.3g every 8\n",
-      with(4, 0, 50), mixed_every_8);
+      mixed_every_4, mixed_every_8);
   EXPECT_EQ(mixed_every_8, with(8, 0, 50));  // the same solve, bit for bit
-  EXPECT_NE(mixed_every_8, with(4, 0, 50));  // and not the one mixing every 4
+  EXPECT_NE(mixed_every_8, mixed_every_4);   // and not the one mixing every 4
   // Without the correction (51 bands asked for), the plain period applies.
   EXPECT_EQ(with(4, 8, 51), with(4, 0, 51));
   EXPECT_NE(with(4, 8, 51), with(8, 0, 51));

@@ -2,8 +2,9 @@
 
 `series_means(run_data, after, keys, before)` averages `series/KEY` of run.h5 over the samples
 with after < time <= before (docs/run-data.md; `before` defaults to the end), so that runs of
-different lengths, or whose analysis chose different averaging windows, compare over one window, with the standard error of the mean computed as if the samples
-were independent: neighbouring samples are correlated, so that error is a lower bound. It serves
+different lengths, or whose analyses chose different averaging windows, compare over one
+window. The standard error of the mean is computed as if the samples were independent:
+neighbouring samples are correlated, so that error is a lower bound. It serves
 scripts/solver_check.sh (docs/accuracy.md, "checkpoint copies"), which resumes copies of a run's
 checkpoint with other solver settings and compares, for example, the force-carrying contacts.
 """
