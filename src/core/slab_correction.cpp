@@ -17,7 +17,10 @@ void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   const std::size_t groups = layout.group_start->size() - 1;
   // Slots and chunk matrices are left zero by every apply(): cleared here only when their size
   // changes.
-  if (slots_.size() != bodies) slots_.assign(bodies, BodySlots{});
+  if (slots_.size() != bodies) {
+    slots_.assign(bodies, BodySlots{});
+    used_slots_.assign(bodies, 0);
+  }
   bodies_ = bodies;
   chunks_ = (bodies + kChunk - 1) / kChunk;
   const std::size_t matrix = chunks_ * layout.bands * kDiagonals;
@@ -63,6 +66,8 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
         sb.force[slot_b] -= weight * force;
         sb.test[slot_b] -= weight * test;
         sb.torque[slot_b] += weight * torque_b;
+        used_slots_[r.body_a] |= static_cast<std::uint8_t>(1u << slot_a);
+        used_slots_[r.body_b] |= static_cast<std::uint8_t>(1u << slot_b);
         (node == low ? rhs_low : rhs_high) += weight * power;
         if (na == nb) break;
       }
@@ -81,23 +86,27 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
     double* m = &chunk_matrix_[chunk * bands * kDiagonals];
     const std::size_t begin = chunk * kChunk, end = std::min(bodies_, begin + kChunk);
     for (std::size_t k = begin; k < end; ++k) {
+      const unsigned used = used_slots_[k];
+      if (used == 0) continue;  // no row: every slot is zero (so is the body's band's term)
       const std::uint32_t band = node_of[k];
-      if (band == kNoNode) continue;
       const BodySlots& s = slots_[k];
       const Vec2 inv_mass = bodies[k].inv_mass;
-      const std::array<Vec2, 3> moved = {hadamard(inv_mass, s.force[0]),
-                                         hadamard(inv_mass, s.force[1]),
-                                         hadamard(inv_mass, s.force[2])};
-      // Slots whose band exists, p from first to last, and of those the ones with a row: a
-      // term with an empty test or force vector is a zero, and adding a zero changes no sum
-      // (A's zero entries are skipped whatever their sign). Most disks have rows in one or two
-      // slots (near one boundary of their slab at most): 1 or 4 products instead of 9.
-      const std::size_t first = band == 0 ? 1 : 0, last = band + 1 < bands ? 2 : 1;
+      // The slots a row added to, p from first to last (a slot no row reached is zero, and so
+      // is its band's term), and of those the ones whose sums are not zero: a term with an
+      // empty test or force vector is a zero, and adding a zero changes no sum (A's zero
+      // entries are skipped whatever their sign). Most disks have rows in one or two slots
+      // (near one boundary of their slab at most): 1 or 4 products instead of 9. A slot's
+      // band exists: a row joins bodies of the same or neighbouring bands.
       std::array<std::size_t, 3> tests{}, forces{};
+      std::array<Vec2, 3> moved{};
       std::size_t n_tests = 0, n_forces = 0;
-      for (std::size_t p = first; p <= last; ++p) {
+      for (std::size_t p = 0; p < 3; ++p) {
+        if ((used >> p & 1u) == 0) continue;
         if (s.test[p].x != 0.0 || s.test[p].y != 0.0) tests[n_tests++] = p;
-        if (s.force[p].x != 0.0 || s.force[p].y != 0.0) forces[n_forces++] = p;
+        if (s.force[p].x != 0.0 || s.force[p].y != 0.0) {
+          moved[p] = hadamard(inv_mass, s.force[p]);
+          forces[n_forces++] = p;
+        }
       }
       for (std::size_t i = 0; i < n_tests; ++i) {
         const std::size_t p = tests[i];
@@ -122,15 +131,16 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
 #pragma omp for schedule(static)
 #endif
   for (std::size_t k = 0; k < bodies_; ++k) {
+    const unsigned used = used_slots_[k];
+    if (used == 0) continue;  // no row: nothing to move, nothing to clear
     const std::uint32_t band = node_of[k];
-    if (band == kNoNode) continue;
     BodySlots& s = slots_[k];
     if (solved_) {
       Vec2 impulse{};
       double torque = 0.0;
       for (std::size_t p = 0; p < 3; ++p) {
-        if (band + p < 1 || band + p > bands) continue;
-        // An empty slot adds zeros (the same sums without them, as in pass 2).
+        // A slot no row reached, or whose sums are zero, adds zeros (as in pass 2).
+        if ((used >> p & 1u) == 0) continue;
         if (s.force[p].x == 0.0 && s.force[p].y == 0.0 && s.torque[p] == 0.0) continue;
         const double scale = scale_[band + p - 1];
         impulse += scale * s.force[p];
@@ -140,7 +150,13 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       body.velocity += hadamard(body.inv_mass, impulse);
       body.omega += body.inv_inertia * torque;
     }
-    s = BodySlots{};
+    for (std::size_t p = 0; p < 3; ++p) {
+      if ((used >> p & 1u) == 0) continue;
+      s.force[p] = Vec2{};
+      s.test[p] = Vec2{};
+      s.torque[p] = 0.0;
+    }
+    used_slots_[k] = 0;
   }
   if (!solved_) return false;
 
