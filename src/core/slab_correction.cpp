@@ -15,8 +15,8 @@ static_assert(std::is_same_v<lapack_int, std::int32_t>, "SlabCorrection::pivots_
 void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   layout_ = layout;
   const std::size_t groups = layout.group_start->size() - 1;
-  // Slots and chunk matrices are left zero by every apply(): cleared here only when their size
-  // changes.
+  // Every apply() leaves the slots' marks and the chunk matrices zero (a slot is started from
+  // zero by its first row): cleared here only when their size changes.
   if (slots_.size() != bodies) {
     slots_.assign(bodies, BodySlots{});
     used_slots_.assign(bodies, 0);
@@ -60,14 +60,27 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       for (const std::uint32_t node : {na, nb}) {
         // node - band + 1 is 0, 1 or 2: a row joins bodies of the same or neighbouring bands.
         const std::size_t slot_a = node + 1 - na, slot_b = node + 1 - nb;
+        // A slot's first row this correction starts it from zero (pass 4 leaves the slots as
+        // they are and clears the marks only: clearing 120 bytes per body there cost more than
+        // this test, most on two threads).
+        std::uint8_t& used_a = used_slots_[r.body_a];
+        std::uint8_t& used_b = used_slots_[r.body_b];
+        if ((used_a >> slot_a & 1u) == 0) {
+          sa.force[slot_a] = sa.test[slot_a] = Vec2{};
+          sa.torque[slot_a] = 0.0;
+          used_a |= static_cast<std::uint8_t>(1u << slot_a);
+        }
+        if ((used_b >> slot_b & 1u) == 0) {
+          sb.force[slot_b] = sb.test[slot_b] = Vec2{};
+          sb.torque[slot_b] = 0.0;
+          used_b |= static_cast<std::uint8_t>(1u << slot_b);
+        }
         sa.force[slot_a] += weight * force;
         sa.test[slot_a] += weight * test;
         sa.torque[slot_a] += weight * torque_a;
         sb.force[slot_b] -= weight * force;
         sb.test[slot_b] -= weight * test;
         sb.torque[slot_b] += weight * torque_b;
-        used_slots_[r.body_a] |= static_cast<std::uint8_t>(1u << slot_a);
-        used_slots_[r.body_b] |= static_cast<std::uint8_t>(1u << slot_b);
         (node == low ? rhs_low : rhs_high) += weight * power;
         if (na == nb) break;
       }
@@ -126,15 +139,16 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
   solved_ = solve();
 
   // 4. The bodies follow the scaled impulses (sum over slots of s_band M^-1 impulse; the same
-  //    as applying each row's change), and their slots are cleared for the next correction.
+  //    as applying each row's change), and their slots' marks are cleared for the next
+  //    correction.
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
   for (std::size_t k = 0; k < bodies_; ++k) {
     const unsigned used = used_slots_[k];
-    if (used == 0) continue;  // no row: nothing to move, nothing to clear
+    if (used == 0) continue;  // no row: nothing to move
     const std::uint32_t band = node_of[k];
-    BodySlots& s = slots_[k];
+    const BodySlots& s = slots_[k];
     if (solved_) {
       Vec2 impulse{};
       double torque = 0.0;
@@ -150,13 +164,7 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       body.velocity += hadamard(body.inv_mass, impulse);
       body.omega += body.inv_inertia * torque;
     }
-    for (std::size_t p = 0; p < 3; ++p) {
-      if ((used >> p & 1u) == 0) continue;
-      s.force[p] = Vec2{};
-      s.test[p] = Vec2{};
-      s.torque[p] = 0.0;
-    }
-    used_slots_[k] = 0;
+    used_slots_[k] = 0;  // the slots themselves are reset by their next first row (pass 1)
   }
   if (!solved_) return false;
 

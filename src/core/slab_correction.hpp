@@ -98,9 +98,10 @@ class SlabCorrection {
   SlabLayout layout_;
   std::size_t bodies_ = 0, chunks_ = 0;
   std::vector<BodySlots> slots_;
-  /// Per body: bit p set when a row added to slot p since the last clear (pass 1 sets, pass 4
-  /// clears). Passes 2 and 4 read only those slots: most bodies use one or two of the three,
-  /// and the slots (120 bytes a body) are most of those passes' memory traffic.
+  /// Per body: bit p set when a row added to slot p in this correction (pass 1 sets it and
+  /// starts the slot from zero, pass 4 clears it). Only marked slots hold this correction's
+  /// sums: passes 2 and 4 read only those (most bodies use one or two of the three, and the
+  /// slots, 120 bytes a body, are most of those passes' memory traffic).
   std::vector<std::uint8_t> used_slots_;
   std::vector<double> group_rhs_;         // per group: its share of r for its low and high band
   std::vector<std::uint32_t> group_low_;  // per group: its lowest band (kNoNode: no share)
