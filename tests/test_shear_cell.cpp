@@ -299,6 +299,12 @@ TEST(ShearCase, PreparationSolverKeysEnterThePackingCacheName) {
   EXPECT_NE(a, name);
   EXPECT_NE(b, name);
   EXPECT_NE(a, b);
+  EXPECT_EQ(base.preparation.step.solver.slab_correction_period, 0);
+  const ShearCase corrected = load_case(with({"preparation.slab_correction_period=8"}));
+  EXPECT_EQ(corrected.preparation.step.solver.slab_correction_period, 8);
+  EXPECT_NE(packing_cache_name(corrected.preparation), name);
+  expect_case_error(with({"preparation.slab_correction_period=-1"}),
+                    "preparation.slab_correction_period", "between");
   // The random order's name is the one of the packing committed before the change.
   EXPECT_EQ(a, "n511_h20_d0.8-1_seed1_s0.25_ecd48f39.json");
   expect_case_error(with({"preparation.order=diagonal"}), "preparation.order", "coloured");
