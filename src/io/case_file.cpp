@@ -89,8 +89,8 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
     prep.fail("relaxation", "must be < 2 (projected SOR diverges)");
   p.step.solver.order = read_contact_order(prep, p.step.solver.order);
   p.step.solver.skip_dormant = prep.boolean("skip_dormant", p.step.solver.skip_dormant);
-  p.step.solver.slab_correction_period = static_cast<int>(prep.integer_in(
-      "slab_correction_period", 0, 1000, p.step.solver.slab_correction_period));
+  p.step.solver.slab_correction_period = static_cast<int>(
+      prep.integer_in("slab_correction_period", 0, 1000, p.step.solver.slab_correction_period));
   c.packing_file = prep.string("packing", c.packing_file);
   prep.finish();
 

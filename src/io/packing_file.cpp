@@ -93,9 +93,9 @@ std::string packing_cache_name(const PreparationOptions& o) {
                   o.max_time_per_phase, o.step.dt, o.compression_dt, o.step.contact_margin,
                   o.step.abort_overlap, s.alpha, s.converged_fraction, s.max_sweeps, s.seed);
   // Added only when they differ from the values they were introduced with (relaxation 1, random
-  // order, every contact swept, no slab correction), so that the names of packings made before them hold: a packing
-  // prepared in the random order (the default until 2026-11-23) keeps its name, and today's
-  // default, the coloured order, carries " ocoloured".
+  // order, every contact swept, no slab correction), so that the names of packings made before them
+  // hold: a packing prepared in the random order (the default until 2026-11-23) keeps its name, and
+  // today's default, the coloured order, carries " ocoloured".
   std::string added = s.relaxation != 1.0 ? fmt::format(" r{}", s.relaxation) : "";
   if (s.order != ContactOrder::kRandom) added += fmt::format(" o{}", contact_order_name(s.order));
   if (s.skip_dormant) added += " sd";
