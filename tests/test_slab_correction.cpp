@@ -125,6 +125,34 @@ TEST(SlabCorrection, CancelsEveryBandsMeanNormalVelocityError) {
   }
 }
 
+TEST(SlabCorrection, ReusedGivesTheSameAsNew) {
+  // The solver keeps one SlabCorrection for all the corrections of a run: each apply() must
+  // leave its scratch as it found it (the slots' marks cleared), so that a reused object gives
+  // bit for bit what a new one gives. A first use on another state leaves marks and sums that a
+  // faulty clean-up would carry into the next use.
+  const Chain original(40);
+  Chain other(40);
+  for (SolverRow& r : other.rows) r.impulse_n *= 1.7;  // another state of the same chain
+  SlabCorrection reused, fresh;
+  reused.reset(other.bodies.size(), other.layout());
+  ASSERT_TRUE(reused.apply(other.rows, other.bodies));
+
+  Chain a = original, b = original;
+  reused.reset(a.bodies.size(), a.layout());
+  fresh.reset(b.bodies.size(), b.layout());
+  ASSERT_TRUE(reused.apply(a.rows, a.bodies));
+  ASSERT_TRUE(fresh.apply(b.rows, b.bodies));
+  EXPECT_EQ(reused.scales(), fresh.scales());
+  for (std::size_t k = 0; k < a.bodies.size(); ++k) {
+    EXPECT_EQ(a.bodies[k].velocity, b.bodies[k].velocity) << "body " << k;
+    EXPECT_EQ(a.bodies[k].omega, b.bodies[k].omega) << "body " << k;
+  }
+  for (std::size_t k = 0; k < a.rows.size(); ++k) {
+    EXPECT_EQ(a.rows[k].impulse_n, b.rows[k].impulse_n) << "row " << k;
+    EXPECT_EQ(a.rows[k].impulse_t, b.rows[k].impulse_t) << "row " << k;
+  }
+}
+
 TEST(SlabCorrection, ChangesNothingWithoutForce) {
   Chain chain(12);
   for (SolverRow& r : chain.rows) r.impulse_n = r.impulse_t = 0.0;
@@ -212,7 +240,9 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
       "%.3g with the slab correction every 8 sweeps\n",
       n, plain, corrected);
   EXPECT_GT(plain, 0.1);
-  EXPECT_LT(corrected, 0.01);
+  // 6.9e-6 measured (2026-11-24); a correction whose scratch leaks from one correction into the
+  // next of the same step gave 5e-3, and one that corrects nothing gives the plain error.
+  EXPECT_LT(corrected, 1e-4);
   // The column has 50 bands: asking for 51 leaves the solve plain, bit for bit.
   EXPECT_EQ(error_after_load_change(n, 100, 8, 51), plain);
   EXPECT_EQ(error_after_load_change(n, 100, 8, 50), corrected);
