@@ -20,11 +20,9 @@ run=$1 duration=$2 repeats=$3
 shift 3
 counts=("$@")
 repo=$(cd "$(dirname "$0")/.." && pwd)
-cdshear=${CDSHEAR:-$repo/build/cdshear}
-[[ -x "$cdshear" ]] || { echo "error: $cdshear: not built (scripts/setup.sh)" >&2; exit 2; }
-for f in case.toml checkpoint.cbor run.h5; do
-  [[ -f "$run/$f" ]] || { echo "error: $run/$f: missing (not a run folder with a checkpoint)" >&2; exit 2; }
-done
+source "$repo/scripts/checkpoint_copy.sh"
+cdshear=$(checkpoint_cdshear)
+require_checkpoint_run "$run"
 [[ "$repeats" =~ ^[1-9][0-9]*$ ]] || { echo "error: REPEATS '$repeats': expected a positive integer" >&2; exit 2; }
 for t in "${counts[@]}"; do
   [[ "$t" =~ ^[1-9][0-9]*$ ]] || { echo "error: THREADS '$t': expected a positive integer" >&2; exit 2; }
@@ -35,14 +33,10 @@ trap 'rm -rf "$scratch"' EXIT
 copy() {
   rm -rf "$scratch/copy"
   mkdir "$scratch/copy"
-  cp "$run/case.toml" "$run/checkpoint.cbor" "$run/run.h5" "$scratch/copy/"
+  copy_checkpoint "$run" "$scratch/copy"
 }
-# The checkpoint's time (as scripts/solver_check.sh reads it).
 copy
-start=$("$cdshear" run --resume "$scratch/copy" --no-analyze --stop-at 1e-300 2>&1 |
-        sed -n -e "s/.*not later than the run's time \([0-9.e+-]*\).*/\1/p" \
-               -e "s/.*the run already reached t = \([0-9.e+-]*\) .*/\1/p" | head -1 || true)
-[[ -n "$start" ]] || { echo "error: $run: could not read the checkpoint's time" >&2; exit 2; }
+start=$(checkpoint_time "$cdshear" "$scratch/copy" "$run")
 stop=$(/usr/bin/python3 -c "print($start + $duration)")
 
 echo "# $run from t = $start to $stop; $(nproc) processors; $cdshear"

@@ -21,14 +21,12 @@ fi
 run=$1 out=$2 duration=$3
 shift 3
 repo=$(cd "$(dirname "$0")/.." && pwd)
-cdshear=${CDSHEAR:-$repo/build/cdshear}
-[[ -x "$cdshear" ]] || { echo "error: $cdshear: not built (scripts/setup.sh)" >&2; exit 2; }
-for f in case.toml checkpoint.cbor run.h5; do
-  [[ -f "$run/$f" ]] || { echo "error: $run/$f: missing (not a run folder with a checkpoint)" >&2; exit 2; }
-done
+source "$repo/scripts/checkpoint_copy.sh"
+cdshear=$(checkpoint_cdshear)
+require_checkpoint_run "$run"
 [[ -e "$out" ]] && { echo "error: $out: exists (give a new folder)" >&2; exit 2; }
 mkdir -p "$out"
-cp "$run/case.toml" "$run/checkpoint.cbor" "$run/run.h5" "$out/"
+copy_checkpoint "$run" "$out"
 
 sets=()
 for kv in "$@"; do
@@ -36,12 +34,7 @@ for kv in "$@"; do
   sets+=(--set "solver.$kv")
 done
 
-# The checkpoint's time: a resume asked to stop before it says it and does nothing (a finished
-# run says how far it went instead).
-start=$("$cdshear" run --resume "$out" --no-analyze --stop-at 1e-300 2>&1 |
-        sed -n -e "s/.*not later than the run's time \([0-9.e+-]*\).*/\1/p" \
-               -e "s/.*the run already reached t = \([0-9.e+-]*\) .*/\1/p" | head -1 || true)
-[[ -n "$start" ]] || { echo "error: $out: could not read the checkpoint's time" >&2; exit 2; }
+start=$(checkpoint_time "$cdshear" "$out")
 stop=$(/usr/bin/python3 -c "print($start + $duration)")
 "$cdshear" run --resume "$out" --threads "${THREADS:-1}" --no-analyze -q \
   --set shear.duration="$stop" --stop-at "$stop" "${sets[@]}" > "$out/solver_check.log" 2>&1

@@ -34,6 +34,18 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
   const std::vector<std::uint32_t>& node_of = *layout_.node_of_body;
   const std::size_t bands = layout_.bands;
 
+  // A slot's first row in this correction starts it from zero and marks it (pass 4 leaves the
+  // slots as they are and clears the marks only: clearing 120 bytes per body there cost more
+  // than this test, most on two threads).
+  const auto start_slot = [&](std::uint32_t body, std::size_t slot) {
+    std::uint8_t& used = used_slots_[body];
+    if ((used >> slot & 1u) != 0) return;
+    BodySlots& s = slots_[body];
+    s.force[slot] = s.test[slot] = Vec2{};
+    s.torque[slot] = 0.0;
+    used |= static_cast<std::uint8_t>(1u << slot);
+  };
+
   // 1. The rows: each body's impulse, torque and test vector per neighbouring band, and each
   //    group's share of r (for its lowest band and the one above), group by group.
   for_each_phased_group(*layout_.phases, [&](std::size_t g) {
@@ -60,21 +72,8 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       for (const std::uint32_t node : {na, nb}) {
         // node - band + 1 is 0, 1 or 2: a row joins bodies of the same or neighbouring bands.
         const std::size_t slot_a = node + 1 - na, slot_b = node + 1 - nb;
-        // A slot's first row this correction starts it from zero (pass 4 leaves the slots as
-        // they are and clears the marks only: clearing 120 bytes per body there cost more than
-        // this test, most on two threads).
-        std::uint8_t& used_a = used_slots_[r.body_a];
-        std::uint8_t& used_b = used_slots_[r.body_b];
-        if ((used_a >> slot_a & 1u) == 0) {
-          sa.force[slot_a] = sa.test[slot_a] = Vec2{};
-          sa.torque[slot_a] = 0.0;
-          used_a |= static_cast<std::uint8_t>(1u << slot_a);
-        }
-        if ((used_b >> slot_b & 1u) == 0) {
-          sb.force[slot_b] = sb.test[slot_b] = Vec2{};
-          sb.torque[slot_b] = 0.0;
-          used_b |= static_cast<std::uint8_t>(1u << slot_b);
-        }
+        start_slot(r.body_a, slot_a);
+        start_slot(r.body_b, slot_b);
         sa.force[slot_a] += weight * force;
         sa.test[slot_a] += weight * test;
         sa.torque[slot_a] += weight * torque_a;
