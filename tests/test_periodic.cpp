@@ -198,6 +198,37 @@ TEST(Periodic, OverlapAcrossTheBoundaryIsMeasuredAndBlowsUp) {
   EXPECT_NE(sim.last().problem.find("abort_overlap"), std::string::npos) << sim.last().problem;
 }
 
+TEST(Periodic, LargestOverlapIsTheLargestOfEveryContactsOverlap) {
+  // largest_overlap passes over the pairs too far apart to raise the running maximum without a
+  // square root (contact_dynamics.cpp); it must return exactly what taking current_overlap of
+  // every contact gives, for any running maximum, in a periodic cell with pairs across x = 0.
+  SceneDefinition s = shifted_scene(0.0);
+  World world = build_world(s);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> jiggle(-0.15, 0.15);
+  for (Vec2& p : world.disks.position)
+    p += Vec2{jiggle(rng), jiggle(rng)};  // overlaps of all sizes
+  wrap_positions(world);
+  ContactDetector detector;
+  std::vector<Contact> contacts;
+  detector.detect(world, 0.3, contacts);
+  int overlapping = 0, across = 0;
+  double largest = 0.0;
+  for (const Contact& c : contacts) {
+    const double overlap = current_overlap(world, c);
+    overlapping += overlap > 0.0;
+    across += c.key.image_b != 0;
+    largest = std::max(largest, overlap);
+  }
+  ASSERT_GT(overlapping, 3);  // the case is not trivial: several overlaps, pairs across x = 0
+  ASSERT_GT(across, 0);
+  for (const double running : {0.0, 0.5 * largest, largest, 2.0 * largest, -1.0}) {
+    double expected = running;
+    for (const Contact& c : contacts) expected = std::max(expected, current_overlap(world, c));
+    EXPECT_EQ(largest_overlap(world, contacts, running), expected) << "running maximum " << running;
+  }
+}
+
 TEST(Periodic, KnownOverlapAcrossTheBoundaryIsRemovedInOneStep) {
   // Two disks at rest overlapping by 0.01 across x = 0 (placed apart, then moved: the scene
   // builder refuses overlaps). Inelastic Signorini: one step ends with gap + dt u_n = 0, so the

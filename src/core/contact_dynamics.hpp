@@ -71,4 +71,8 @@ class ContactDynamics {
 /// Overlap (positive) of contact c in the current positions of `world`; <= 0 when apart.
 double current_overlap(const World& world, const Contact& c);
 
+/// The largest of `largest` and current_overlap(world, c) over `contacts`, with a square root only
+/// for the pairs that may exceed the running maximum (bit for bit the same maximum).
+double largest_overlap(const World& world, const std::vector<Contact>& contacts, double largest);
+
 }  // namespace cdshear

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <iterator>
@@ -201,6 +202,37 @@ void order_rows_serially(std::size_t nc, const SolverOptions& options, std::uint
   ws.group_start.assign({0, nc});
 }
 
+/// This thread's place in the team running solve_contacts' passes (thread 0 of 1 outside a
+/// parallel region).
+struct TeamPlace {
+  std::size_t thread = 0, size = 1;
+};
+
+TeamPlace team_place() {
+#if defined(_OPENMP)
+  return {static_cast<std::size_t>(omp_get_thread_num()),
+          static_cast<std::size_t>(omp_get_num_threads())};
+#else
+  return {};
+#endif
+}
+
+/// The share [first, last) of `count` items that thread p takes in the passes that split their
+/// items themselves (the same split in every such pass, unlike `omp for`, whose static split the
+/// standard leaves to the implementation).
+struct Share {
+  std::size_t first, last;
+};
+Share share_of(std::size_t count, TeamPlace p) {
+  return {count * p.thread / p.size, count * (p.thread + 1) / p.size};
+}
+
+void team_barrier() {
+#if defined(_OPENMP)
+#pragma omp barrier
+#endif
+}
+
 /// The coloured order's groups and phases (nlgs_solver.hpp). Every disk has a band
 /// (SolverBody::band: slabs of height, fixed by the geometry, not by the thread count). A
 /// contact goes to
@@ -217,36 +249,61 @@ void order_rows_serially(std::size_t nc, const SolverOptions& options, std::uint
 /// the same velocities whatever the thread count, and the convergence sums are added group by
 /// group in group order: the result does not depend on the thread count.
 ///
-/// Built in three passes so that the team shares the work: coloured_groups_begin (one thread:
-/// the bands and the walls' bands), coloured_group_of (each contact's group, any thread), and
-/// coloured_groups_end (one thread: a stable counting sort by group and the phases).
+/// Every pass is shared by the team (solve_contacts, arrange_coloured_rows), each thread taking
+/// its share (share_of) of the bodies or contacts, with the threads' findings merged in thread
+/// order on one thread: the bands and the walls' bands (coloured_groups_share, then
+/// coloured_groups_merge), each contact's group counted per thread (coloured_group_of), and a
+/// stable counting sort by group whose offsets give each thread's contacts their places after
+/// those of the threads before it (coloured_groups_end), as one thread would place them.
 struct ColouredGroups {
   std::size_t bands = 1, even = 0, boundaries = 0, serial = 0;
 };
 
-ColouredGroups coloured_groups_begin(const std::vector<Contact>& contacts,
-                                     const std::vector<SolverBody>& bodies, std::size_t first_wall,
-                                     SolverWorkspace& ws) {
+/// A wall's band as its contacts are seen: kNoBand, then its contacts' one band, or kManyBands.
+std::uint32_t merge_wall_band(std::uint32_t seen, std::uint32_t band) {
+  return seen == kNoBand || seen == band ? band : band == kNoBand ? seen : kManyBands;
+}
+
+/// Thread p's share of the bands and the walls' bands: its bodies' largest band into
+/// ws.team_max_band[p.thread], its contacts' walls' bands into its row of ws.team_wall_band.
+void coloured_groups_share(const std::vector<Contact>& contacts,
+                           const std::vector<SolverBody>& bodies, std::size_t first_wall,
+                           TeamPlace p, SolverWorkspace& ws) {
+  const std::size_t disks = std::min(first_wall, bodies.size());
+  const std::size_t walls = bodies.size() - disks;
+  const Share my_disks = share_of(disks, p);
+  std::uint32_t max_band = 0;
+  for (std::size_t i = my_disks.first; i < my_disks.last; ++i)
+    max_band = std::max(max_band, bodies[i].band);
+  ws.team_max_band[p.thread] = max_band;
+  std::uint32_t* wall_band = ws.team_wall_band.data() + p.thread * walls;
+  std::fill_n(wall_band, walls, kNoBand);
+  const Share my_contacts = share_of(contacts.size(), p);
+  for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
+    const Contact& c = contacts[i];
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    if (b < first_wall) continue;
+    std::uint32_t& wb = wall_band[b - first_wall];
+    wb = merge_wall_band(wb, bodies[static_cast<std::size_t>(c.key.body_a)].band);
+  }
+}
+
+/// On one thread, after every coloured_groups_share: the groups, and each wall's band. A wall
+/// whose contacts all have their disk in one band belongs to that band's slab (the bottom wall
+/// to the lowest slab, the top wall to the highest, in a shear cell): no other group touches
+/// it. A wall touching disks of several bands goes to the serial group.
+ColouredGroups coloured_groups_merge(std::size_t walls, std::size_t team, SolverWorkspace& ws) {
   ColouredGroups cg;
-  for (std::size_t i = 0; i < first_wall && i < bodies.size(); ++i)
-    cg.bands = std::max<std::size_t>(cg.bands, bodies[i].band + 1);
+  for (std::size_t t = 0; t < team; ++t)
+    cg.bands = std::max<std::size_t>(cg.bands, ws.team_max_band[t] + std::size_t{1});
   // Group ids: slabs [0, bands), even boundaries, odd boundaries, then the serial group.
   cg.boundaries = cg.bands - 1;
   cg.even = (cg.boundaries + 1) / 2;
   cg.serial = cg.bands + cg.boundaries;
-  // A wall whose contacts all have their disk in one band belongs to that band's slab (the
-  // bottom wall to the lowest slab, the top wall to the highest, in a shear cell): no other
-  // group touches it. A wall touching disks of several bands goes to the serial group.
-  const std::size_t walls = bodies.size() > first_wall ? bodies.size() - first_wall : 0;
   ws.wall_band.assign(walls, kNoBand);
-  for (const Contact& c : contacts) {
-    const auto b = static_cast<std::size_t>(c.key.body_b);
-    if (b < first_wall) continue;
-    const std::uint32_t band = bodies[static_cast<std::size_t>(c.key.body_a)].band;
-    std::uint32_t& wb = ws.wall_band[b - first_wall];
-    wb = wb == kNoBand || wb == band ? band : kManyBands;
-  }
-  ws.group_of.resize(contacts.size());
+  for (std::size_t t = 0; t < team; ++t)
+    for (std::size_t w = 0; w < walls; ++w)
+      ws.wall_band[w] = merge_wall_band(ws.wall_band[w], ws.team_wall_band[t * walls + w]);
   return cg;
 }
 
@@ -272,17 +329,24 @@ std::uint32_t coloured_group_of(const Contact& c, const std::vector<SolverBody>&
   return static_cast<std::uint32_t>(g);
 }
 
-void coloured_groups_end(const ColouredGroups& cg, SolverWorkspace& ws) {
-  // Stable counting sort of the contacts by group: inside a group, in contact order.
-  const std::size_t nc = ws.group_of.size();
+/// On one thread, once every thread has counted its contacts of each group (ws.team_count, team
+/// rows of serial + 1 groups): the groups' starts, each thread's count turned into the place of
+/// its first contact of that group (after the group's contacts of the threads before it: a
+/// stable sort, as one thread counting all contacts would give), and the phases.
+void coloured_groups_end(const ColouredGroups& cg, std::size_t team, SolverWorkspace& ws) {
+  const std::size_t groups = cg.serial + 1;
   auto& start = ws.group_start;
-  start.assign(cg.serial + 2, 0);
-  for (std::size_t i = 0; i < nc; ++i) ++start[ws.group_of[i] + 1];
-  for (std::size_t g = 1; g < start.size(); ++g) start[g] += start[g - 1];
-  ws.next.assign(start.begin(), start.end() - 1);
-  ws.order.resize(nc);
-  for (std::size_t i = 0; i < nc; ++i)
-    ws.order[ws.next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
+  start.assign(groups + 1, 0);
+  for (std::size_t g = 0; g < groups; ++g) {
+    std::size_t next = start[g];
+    for (std::size_t t = 0; t < team; ++t) {
+      const std::size_t count = ws.team_count[t * groups + g];
+      ws.team_count[t * groups + g] = next;
+      next += count;
+    }
+    start[g + 1] = next;
+  }
+  ws.order.resize(start[groups]);
   ws.phases.clear();
   ws.phases.push_back({0, cg.bands});
   if (cg.even > 0) ws.phases.push_back({cg.bands, cg.bands + cg.even});
@@ -425,58 +489,127 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   const auto corrects_slabs = [&] { return slab_period > 0 && cg.bands >= min_bands; };
 
   // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
-  // every thread of the team: the passes over single contacts or single groups are shared.
+  // every thread of the team: each pass over bodies, contacts or groups is shared, and what one
+  // thread must do between them (merging the threads' findings in thread order) is over groups,
+  // walls or threads only.
+  const std::size_t walls = all_bodies.size() - std::min(first_wall, all_bodies.size());
+  if (coloured) {  // per-thread scratch, sized for the team before it starts
+    const auto team = static_cast<std::size_t>(threads);
+    ws.team_max_band.resize(team);
+    ws.team_wall_band.resize(team * walls);
+    ws.team_new_bodies.resize(team);
+    ws.team_body_offset.resize(team + 1);
+    ws.local_of.resize(all_bodies.size());
+  }
   const auto arrange_coloured_rows = [&] {
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-    cg = coloured_groups_begin(contacts, all_bodies, first_wall, ws);
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t i = 0; i < nc; ++i)
-      ws.group_of[i] = coloured_group_of(contacts[i], all_bodies, first_wall, cg, ws);
+    const TeamPlace place = team_place();
+    const Share my_contacts = share_of(nc, place);
+    coloured_groups_share(contacts, all_bodies, first_wall, place, ws);
+    team_barrier();
 #if defined(_OPENMP)
 #pragma omp single
 #endif
     {
-      coloured_groups_end(cg, ws);
+      cg = coloured_groups_merge(walls, place.size, ws);
+      ws.group_of.resize(nc);
+      ws.team_count.assign(place.size * (cg.serial + 1), 0);
+    }
+    // Each contact's group, counted by the thread that finds it.
+    {
+      std::size_t* count = ws.team_count.data() + place.thread * (cg.serial + 1);
+      for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
+        const std::uint32_t g = coloured_group_of(contacts[i], all_bodies, first_wall, cg, ws);
+        ws.group_of[i] = g;
+        ++count[g];
+      }
+    }
+    team_barrier();
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+    {
+      coloured_groups_end(cg, place.size, ws);
       size_group_scratch();
     }
+    // Each thread places its contacts, in contact order, from its offsets in each group.
+    {
+      std::size_t* next = ws.team_count.data() + place.thread * (cg.serial + 1);
+      for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i)
+        ws.order[next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
+    }
+    team_barrier();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
     for (std::size_t g = 0; g < groups; ++g) shuffle_group(g, options, step, ws);
+    // The bodies the rows touch, numbered in the order the rows first use them (row i's body a
+    // before its body b). Use number 2 i + (0 for a, 1 for b) marks each use; a body's first use
+    // is the least of its marks, taken by atomic minima over every thread's rows (the same least
+    // in any order), held in local_of until the local numbers replace it. Each thread lists the
+    // bodies first used in its rows, in row order; the lists joined in thread order are the
+    // order of first use.
+    constexpr std::uint32_t kNotLocal = 0xffffffffu;
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t k = 0; k < all_bodies.size(); ++k) ws.local_of[k] = kNotLocal;
+    const auto first_use = [&](std::size_t body) {
+      return std::atomic_ref<std::uint32_t>(ws.local_of[body]);
+    };
+    for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
+      const Contact& c = contacts[ws.order[i]];
+      const std::array<std::int32_t, 2> pair{c.key.body_a, c.key.body_b};
+      for (std::size_t side = 0; side < 2; ++side) {
+        const auto use = static_cast<std::uint32_t>(2 * i + side);
+        std::atomic_ref<std::uint32_t> least = first_use(static_cast<std::size_t>(pair[side]));
+        std::uint32_t seen = least.load(std::memory_order_relaxed);
+        while (use < seen && !least.compare_exchange_weak(seen, use, std::memory_order_relaxed)) {
+        }
+      }
+    }
+    team_barrier();
+    {
+      auto& mine = ws.team_new_bodies[place.thread];
+      mine.clear();
+      for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
+        const Contact& c = contacts[ws.order[i]];
+        const auto a = static_cast<std::size_t>(c.key.body_a);
+        const auto b = static_cast<std::size_t>(c.key.body_b);
+        if (ws.local_of[a] == 2 * i) mine.push_back(static_cast<std::uint32_t>(a));
+        if (ws.local_of[b] == 2 * i + 1) mine.push_back(static_cast<std::uint32_t>(b));
+      }
+    }
+    team_barrier();
 #if defined(_OPENMP)
 #pragma omp single
 #endif
     {
-      constexpr std::uint32_t kNotLocal = 0xffffffffu;
-      ws.local_of.assign(all_bodies.size(), kNotLocal);
-      ws.local_bodies.clear();
-      ws.global_of.clear();
-      for (std::size_t i = 0; i < nc; ++i) {
-        const Contact& c = contacts[ws.order[i]];
-        for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
-          const auto body = static_cast<std::size_t>(key);
-          if (ws.local_of[body] != kNotLocal) continue;
-          ws.local_of[body] = static_cast<std::uint32_t>(ws.local_bodies.size());
-          ws.local_bodies.push_back(all_bodies[body]);
-          ws.global_of.push_back(static_cast<std::uint32_t>(body));
-        }
-      }
-      if (corrects_slabs()) {
-        // The slab correction's band of each local body: a disk's own, a wall's that of its
-        // disks if they are all in one band (then its rows are in that slab's group).
-        ws.node_of_body.resize(ws.global_of.size());
-        for (std::size_t k = 0; k < ws.global_of.size(); ++k) {
-          const std::size_t body = ws.global_of[k];
+      ws.team_body_offset[0] = 0;
+      for (std::size_t t = 0; t < place.size; ++t)
+        ws.team_body_offset[t + 1] = ws.team_body_offset[t] + ws.team_new_bodies[t].size();
+      const std::size_t touched = ws.team_body_offset[place.size];
+      ws.local_bodies.resize(touched);
+      ws.global_of.resize(touched);
+      if (corrects_slabs()) ws.node_of_body.resize(touched);
+    }
+    {
+      const auto& mine = ws.team_new_bodies[place.thread];
+      std::size_t k = ws.team_body_offset[place.thread];
+      for (const std::uint32_t body : mine) {
+        ws.local_of[body] = static_cast<std::uint32_t>(k);
+        ws.local_bodies[k] = all_bodies[body];
+        ws.global_of[k] = body;
+        if (corrects_slabs()) {
+          // The slab correction's band of each local body: a disk's own, a wall's that of its
+          // disks if they are all in one band (then its rows are in that slab's group).
           const std::uint32_t band =
               body < first_wall ? all_bodies[body].band : ws.wall_band[body - first_wall];
           ws.node_of_body[k] = band < cg.bands ? band : SlabCorrection::kNoNode;
         }
+        ++k;
       }
     }
+    team_barrier();  // prepare_rows reads any body's local number
   };
 
   // Runs `for_group(g)` over every group, phase by phase, then the serial group: groups of a

@@ -239,13 +239,21 @@ struct SolverWorkspace {
   std::vector<std::vector<std::uint32_t>> dormant_of_group;  ///< rows left out of the sweeps
   std::vector<std::size_t> woken_of_group;  ///< rows each group woke at the last look
   std::vector<std::uint32_t> group_of;      ///< group of each contact (coloured order)
-  std::vector<std::size_t> next;            ///< scratch of the group sort
   std::vector<std::uint32_t> wall_band;     ///< band of every contact of each wall, if only one
   /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
   /// (each slab's bodies side by side in memory), and the map back to `bodies`.
   std::vector<SolverBody> local_bodies;
   std::vector<std::uint32_t> local_of;   ///< body -> its local index (kNotLocal: untouched)
   std::vector<std::uint32_t> global_of;  ///< local index -> body
+  /// Per thread of the team, for the shared passes of the coloured order's set-up: the largest
+  /// band of its disks, its contacts' walls' bands (walls per thread), its contacts' count per
+  /// group then their first places (groups per thread), the bodies first used in its rows and
+  /// where their local numbers start.
+  std::vector<std::uint32_t> team_max_band;
+  std::vector<std::uint32_t> team_wall_band;
+  std::vector<std::size_t> team_count;
+  std::vector<std::vector<std::uint32_t>> team_new_bodies;
+  std::vector<std::size_t> team_body_offset;
   /// Slab correction (options.slab_correction_period > 0): its scratch, and the band of each
   /// local body (a wall: its disks' band, or SlabCorrection::kNoNode if they are in several).
   SlabCorrection slab_correction;
