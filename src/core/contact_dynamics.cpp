@@ -1,5 +1,7 @@
 #include "contact_dynamics.hpp"
 
+#include "threads.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -45,7 +47,7 @@ double current_overlap(const World& world, const Contact& c) {
   return d.radius[a] + d.radius[b] - length(delta);
 }
 
-double largest_overlap(const World& world, const std::vector<Contact>& contacts, double largest) {
+double largest_overlap(const World& world, std::span<const Contact> contacts, double largest) {
   // current_overlap takes a square root (std::hypot) per disk pair, a few per cent of a step on
   // one thread for thousands of contacts. A pair overlaps by more than `largest` only if its
   // distance is below reach = r_a + r_b - largest, which the square of the distance tells without
@@ -110,32 +112,48 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.contacts = contacts_.size();
   report.seconds.detect = seconds_since(t0);
 
-  // 2. prepare free velocities
+  // 2. prepare free velocities (per disk: shared by the threads, each its share of the disks)
+  const int team = threads_for(n, ContactDetector::kMinDisksPerThread, options.solver.threads);
+  const auto team_size = static_cast<std::size_t>(team);
   bodies_.resize(n + world.walls.size());
   // Bands of height for the coloured order (nlgs_solver.hpp): four of the largest diameters, so
-  // that a contact spans at most two bands. A property of the packing, not of the thread count.
-  // The other orders do not read them.
-  if (options.solver.order == ContactOrder::kColoured) {
+  // that a contact spans at most two bands. A property of the packing, not of the thread count
+  // (a minimum and a maximum are exact in any order). The other orders do not read them.
+  const bool bands = options.solver.order == ContactOrder::kColoured;
+  double y_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
+  if (bands) {
+    thread_low_.assign(team_size, y_min);
+    thread_high_.assign(team_size, 0.0);
+    for_shares(team, n, [&](std::size_t first, std::size_t last, std::size_t t) {
+      double low = thread_low_[t], high = thread_high_[t];
+      for (std::size_t i = first; i < last; ++i) {
+        low = std::min(low, d.position[i].y);
+        high = std::max(high, d.radius[i]);
+      }
+      thread_low_[t] = low;
+      thread_high_[t] = high;
+    });
+    for (std::size_t t = 0; t < team_size; ++t) {
+      y_min = std::min(y_min, thread_low_[t]);
+      r_max = std::max(r_max, thread_high_[t]);
+    }
+  }
+  const double band_height = 8.0 * r_max;
+  for_shares(team, n, [&](std::size_t first, std::size_t last, std::size_t) {
     constexpr double kMaxBand = 4095.0;
-    double y_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      y_min = std::min(y_min, d.position[i].y);
-      r_max = std::max(r_max, d.radius[i]);
+    for (std::size_t i = first; i < last; ++i) {
+      SolverBody& b = bodies_[i];
+      if (bands) {
+        const double band = (d.position[i].y - y_min) / band_height;
+        b.band = band >= 0.0 ? static_cast<std::uint32_t>(std::min(band, kMaxBand)) : 0;
+      }
+      b.velocity = d.velocity[i] + dt * world.body_force;
+      b.omega = d.omega[i];
+      const double im = 1.0 / d.mass[i];
+      b.inv_mass = {im, im};
+      b.inv_inertia = 1.0 / d.inertia[i];
     }
-    const double band_height = 8.0 * r_max;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double band = (d.position[i].y - y_min) / band_height;
-      bodies_[i].band = band >= 0.0 ? static_cast<std::uint32_t>(std::min(band, kMaxBand)) : 0;
-    }
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    SolverBody& b = bodies_[i];
-    b.velocity = d.velocity[i] + dt * world.body_force;
-    b.omega = d.omega[i];
-    const double im = 1.0 / d.mass[i];
-    b.inv_mass = {im, im};
-    b.inv_inertia = 1.0 / d.inertia[i];
-  }
+  });
   for (std::size_t w = 0; w < world.walls.size(); ++w) {
     const Wall& wall = world.walls[w];
     SolverBody& b = bodies_[n + w];
@@ -152,18 +170,32 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.solver = solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
   report.seconds.solve = seconds_since(t0);
 
-  // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities)
+  // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities), each
+  // thread its share of the disks; the largest displacement and the finiteness merged after (a
+  // maximum and a logical and: the same in any order).
+  thread_high_.assign(team_size, 0.0);
+  thread_finite_.assign(team_size, 1);
+  for_shares(team, n, [&](std::size_t first, std::size_t last, std::size_t t) {
+    double max_disp2 = 0.0;
+    bool finite = true;
+    for (std::size_t i = first; i < last; ++i) {
+      const SolverBody& b = bodies_[i];
+      d.velocity[i] = b.velocity;
+      d.omega[i] = b.omega;
+      const Vec2 step = dt * b.velocity;
+      d.position[i] += step;
+      d.angle[i] += dt * b.omega;
+      max_disp2 = std::max(max_disp2, length_squared(step));
+      finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
+    }
+    thread_high_[t] = max_disp2;
+    thread_finite_[t] = finite ? 1 : 0;
+  });
   double max_disp2 = 0.0;
   bool finite = true;
-  for (std::size_t i = 0; i < n; ++i) {
-    const SolverBody& b = bodies_[i];
-    d.velocity[i] = b.velocity;
-    d.omega[i] = b.omega;
-    const Vec2 step = dt * b.velocity;
-    d.position[i] += step;
-    d.angle[i] += dt * b.omega;
-    max_disp2 = std::max(max_disp2, length_squared(step));
-    finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
+  for (std::size_t t = 0; t < team_size; ++t) {
+    max_disp2 = std::max(max_disp2, thread_high_[t]);
+    finite = finite && thread_finite_[t] != 0;
   }
   double max_wall_disp = 0.0;
   const Wall* broken_wall = nullptr;
@@ -195,7 +227,15 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
           (1.0 / dt) * (c.impulse_n * c.normal + c.impulse_t * c.tangent);
     }
   }
-  if (finite) report.max_overlap = largest_overlap(world, contacts_, report.max_overlap);
+  if (finite) {  // each thread the largest of its share of the contacts, then the largest of those
+    thread_high_.assign(team_size, report.max_overlap);
+    for_shares(team, contacts_.size(), [&](std::size_t first, std::size_t last, std::size_t t) {
+      thread_high_[t] = largest_overlap(
+          world, std::span<const Contact>(contacts_).subspan(first, last - first), thread_high_[t]);
+    });
+    for (const double largest : thread_high_)
+      report.max_overlap = std::max(report.max_overlap, largest);
+  }
   for (Wall& wall : world.walls) wall.contact_impulse += dt * wall.contact_force;
   report.max_displacement = std::sqrt(max_disp2);
   // The candidates had gap < margin at the start of the step. Another pair can overlap now only

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,9 @@ class ContactDynamics {
   std::vector<Contact> overlap_scratch_;  ///< every touching pair, when candidates may miss some
   std::vector<std::int64_t> image_before_wrap_;
   std::vector<Contact> renamed_;
+  /// Per thread of the step's passes over the disks: a lowest and a highest value, and a flag.
+  std::vector<double> thread_low_, thread_high_;
+  std::vector<std::uint8_t> thread_finite_;
 
   /// Renames the contacts of disks that were just wrapped across x = 0 (see the .cpp).
   void follow_wrapped_disks(const World& world);
@@ -73,6 +77,6 @@ double current_overlap(const World& world, const Contact& c);
 
 /// The largest of `largest` and current_overlap(world, c) over `contacts`, with a square root only
 /// for the pairs that may exceed the running maximum (bit for bit the same maximum).
-double largest_overlap(const World& world, const std::vector<Contact>& contacts, double largest);
+double largest_overlap(const World& world, std::span<const Contact> contacts, double largest);
 
 }  // namespace cdshear
