@@ -19,11 +19,13 @@ namespace {
 
 /// Fills `out` with what `list_run(first, last, part)` appends for runs of consecutive disks
 /// [first, last) covering [0, n), one run per thread of a team of `team`, joined in run order:
-/// whatever list_run lists in disk order comes out as one thread listing [0, n) would give it.
-/// `parts` and `offsets` are scratch kept between calls.
-template <typename T, typename ListRun>
+/// whatever list_run lists in disk order comes out as one thread listing [0, n) would give it,
+/// wherever the runs are cut. Run t starts at disk run_start(t, size) (0 for t = 0, n for
+/// t = size, never decreasing). `parts` and `offsets` are scratch kept between calls.
+template <typename T, typename RunStart, typename ListRun>
 void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
-                  std::vector<std::size_t>& offsets, std::vector<T>& out, const ListRun& list_run) {
+                  std::vector<std::size_t>& offsets, std::vector<T>& out, const RunStart& run_start,
+                  const ListRun& list_run) {
   out.clear();
   if (team == 1) {
     list_run(0, n, out);
@@ -38,7 +40,7 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
     const auto t = static_cast<std::size_t>(omp_get_thread_num());
     std::vector<T>& part = parts[t];
     part.clear();
-    list_run(n * t / size, n * (t + 1) / size, part);
+    list_run(run_start(t, size), run_start(t + 1, size), part);
 #pragma omp barrier
 #pragma omp single
     {
@@ -51,6 +53,7 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
 #else
   (void)parts;  // team is 1 without OpenMP
   (void)offsets;
+  (void)run_start;
 #endif
 }
 
@@ -100,7 +103,8 @@ void ContactDetector::build_neighbours(const World& world, double margin, int te
   const double reach = margin + kSkinPerDiameter * largest_diameter;
   cells_.build(world, std::max(largest_diameter + reach, 1e-12));
   start_.assign(n + 1, 0);
-  list_in_runs(team, n, parts_neighbours_, part_offset_, neighbours_,
+  const auto equal_runs = [n](std::size_t t, std::size_t size) { return n * t / size; };
+  list_in_runs(team, n, parts_neighbours_, part_offset_, neighbours_, equal_runs,
                [&](std::size_t first, std::size_t last, std::vector<std::int32_t>& out) {
                  list_neighbours(world, reach, first, last, out);
                });
@@ -186,7 +190,17 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
   if (!neighbours_cover(world, margin)) build_neighbours(world, margin, team);
   // A candidate's key starts with its disk, so each run of disks is a run of keys: each thread
   // warm-starts its own run.
-  list_in_runs(team, n, parts_, part_offset_, fresh_,
+  // Each pair is listed by its lower disk, so disk i has about (n - i) / n of its neighbours to
+  // test when the numbers are scattered in space: runs of equal disk counts gave the first
+  // thread three times the second's pairs. The runs are cut at equal shares of the neighbour
+  // list instead (start_ is its prefix sum by disk).
+  const auto equal_pairs = [&](std::size_t t, std::size_t size) {
+    if (t >= size) return n;
+    const std::size_t target = start_[n] * t / size;
+    return static_cast<std::size_t>(std::lower_bound(start_.begin(), start_.begin() + n, target) -
+                                    start_.begin());
+  };
+  list_in_runs(team, n, parts_, part_offset_, fresh_, equal_pairs,
                [&](std::size_t first, std::size_t last, std::vector<Contact>& out) {
                  list_candidates(world, margin, first, last, out);
                  carry_impulses(contacts, out);

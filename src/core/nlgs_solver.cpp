@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <bit>
 #include <cmath>
 #include <iterator>
@@ -500,6 +499,13 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     ws.team_new_bodies.resize(team);
     ws.team_body_offset.resize(team + 1);
     ws.local_of.resize(all_bodies.size());
+    // A new stamp per call marks this call's uses (renumbering); the stamps restart from zero
+    // when the bodies or the team change, or after 2^32 - 1 calls.
+    if (ws.team_seen.size() != team * all_bodies.size() || ws.seen_stamp == 0xffffffffu) {
+      ws.team_seen.assign(team * all_bodies.size(), 0);
+      ws.seen_stamp = 0;
+    }
+    ++ws.seen_stamp;
   }
   const auto arrange_coloured_rows = [&] {
     const TeamPlace place = team_place();
@@ -543,43 +549,37 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     for (std::size_t g = 0; g < groups; ++g) shuffle_group(g, options, step, ws);
     // The bodies the rows touch, numbered in the order the rows first use them (row i's body a
-    // before its body b). Use number 2 i + (0 for a, 1 for b) marks each use; a body's first use
-    // is the least of its marks, taken by atomic minima over every thread's rows (the same least
-    // in any order), held in local_of until the local numbers replace it. Each thread lists the
-    // bodies first used in its rows, in row order; the lists joined in thread order are the
-    // order of first use.
-    constexpr std::uint32_t kNotLocal = 0xffffffffu;
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t k = 0; k < all_bodies.size(); ++k) ws.local_of[k] = kNotLocal;
-    const auto first_use = [&](std::size_t body) {
-      return std::atomic_ref<std::uint32_t>(ws.local_of[body]);
-    };
-    for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
-      const Contact& c = contacts[ws.order[i]];
-      const std::array<std::int32_t, 2> pair{c.key.body_a, c.key.body_b};
-      for (std::size_t side = 0; side < 2; ++side) {
-        const auto use = static_cast<std::uint32_t>(2 * i + side);
-        std::atomic_ref<std::uint32_t> least = first_use(static_cast<std::size_t>(pair[side]));
-        std::uint32_t seen = least.load(std::memory_order_relaxed);
-        while (use < seen && !least.compare_exchange_weak(seen, use, std::memory_order_relaxed)) {
-        }
-      }
-    }
-    team_barrier();
+    // before its body b). Each thread lists the bodies its share of the rows uses, in the order of
+    // their first use there (its own stamps mark those seen), then drops those that a thread
+    // before it uses too (read in that thread's stamps): the lists joined in thread order are the
+    // order of first use over all rows. No thread writes where another reads or writes (atomic
+    // minima of a shared array, tried first, cost more than the serial loop: the bodies' global
+    // numbers are scattered in space, so both threads wrote to the same cache lines).
     {
+      const std::uint32_t stamp = ws.seen_stamp;
+      const std::size_t body_count = all_bodies.size();
+      std::uint32_t* seen = ws.team_seen.data() + place.thread * body_count;
       auto& mine = ws.team_new_bodies[place.thread];
       mine.clear();
       for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
         const Contact& c = contacts[ws.order[i]];
-        const auto a = static_cast<std::size_t>(c.key.body_a);
-        const auto b = static_cast<std::size_t>(c.key.body_b);
-        if (ws.local_of[a] == 2 * i) mine.push_back(static_cast<std::uint32_t>(a));
-        if (ws.local_of[b] == 2 * i + 1) mine.push_back(static_cast<std::uint32_t>(b));
+        for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
+          const auto body = static_cast<std::size_t>(key);
+          if (seen[body] == stamp) continue;
+          seen[body] = stamp;
+          mine.push_back(static_cast<std::uint32_t>(body));
+        }
       }
+      team_barrier();
+      if (place.thread > 0) {
+        std::erase_if(mine, [&](std::uint32_t body) {
+          for (std::size_t t = 0; t < place.thread; ++t)
+            if (ws.team_seen[t * body_count + body] == stamp) return true;
+          return false;
+        });
+      }
+      team_barrier();
     }
-    team_barrier();
 #if defined(_OPENMP)
 #pragma omp single
 #endif

@@ -243,7 +243,7 @@ struct SolverWorkspace {
   /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
   /// (each slab's bodies side by side in memory), and the map back to `bodies`.
   std::vector<SolverBody> local_bodies;
-  std::vector<std::uint32_t> local_of;   ///< body -> its local index (kNotLocal: untouched)
+  std::vector<std::uint32_t> local_of;   ///< body -> its local index (touched bodies only)
   std::vector<std::uint32_t> global_of;  ///< local index -> body
   /// Per thread of the team, for the shared passes of the coloured order's set-up: the largest
   /// band of its disks, its contacts' walls' bands (walls per thread), its contacts' count per
@@ -254,6 +254,9 @@ struct SolverWorkspace {
   std::vector<std::size_t> team_count;
   std::vector<std::vector<std::uint32_t>> team_new_bodies;
   std::vector<std::size_t> team_body_offset;
+  /// Per thread and body, the last call's stamp in which the thread's rows used the body.
+  std::vector<std::uint32_t> team_seen;
+  std::uint32_t seen_stamp = 0;
   /// Slab correction (options.slab_correction_period > 0): its scratch, and the band of each
   /// local body (a wall: its disks' band, or SlabCorrection::kNoNode if they are in several).
   SlabCorrection slab_correction;
