@@ -195,10 +195,7 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
   // thread three times the second's pairs. The runs are cut at equal shares of the neighbour
   // list instead (start_ is its prefix sum by disk).
   const auto equal_pairs = [&](std::size_t t, std::size_t size) {
-    if (t >= size) return n;
-    const std::size_t target = start_[n] * t / size;
-    return static_cast<std::size_t>(std::lower_bound(start_.begin(), start_.begin() + n, target) -
-                                    start_.begin());
+    return weighted_share_of(start_, {t, size}).first;
   };
   list_in_runs(team, n, parts_, part_offset_, fresh_, equal_pairs,
                [&](std::size_t first, std::size_t last, std::vector<Contact>& out) {

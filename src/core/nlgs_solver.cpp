@@ -201,37 +201,6 @@ void order_rows_serially(std::size_t nc, const SolverOptions& options, std::uint
   ws.group_start.assign({0, nc});
 }
 
-/// This thread's place in the team running solve_contacts' passes (thread 0 of 1 outside a
-/// parallel region).
-struct TeamPlace {
-  std::size_t thread = 0, size = 1;
-};
-
-TeamPlace team_place() {
-#if defined(_OPENMP)
-  return {static_cast<std::size_t>(omp_get_thread_num()),
-          static_cast<std::size_t>(omp_get_num_threads())};
-#else
-  return {};
-#endif
-}
-
-/// The share [first, last) of `count` items that thread p takes in the passes that split their
-/// items themselves (the same split in every such pass, unlike `omp for`, whose static split the
-/// standard leaves to the implementation).
-struct Share {
-  std::size_t first, last;
-};
-Share share_of(std::size_t count, TeamPlace p) {
-  return {count * p.thread / p.size, count * (p.thread + 1) / p.size};
-}
-
-void team_barrier() {
-#if defined(_OPENMP)
-#pragma omp barrier
-#endif
-}
-
 /// The coloured order's groups and phases (nlgs_solver.hpp). Every disk has a band
 /// (SolverBody::band: slabs of height, fixed by the geometry, not by the thread count). A
 /// contact goes to
@@ -544,10 +513,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         ws.order[next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
     }
     team_barrier();
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t g = 0; g < groups; ++g) shuffle_group(g, options, step, ws);
+    {
+      const Share mine = groups_share(ws.group_start, place);
+      for (std::size_t g = mine.first; g < mine.last; ++g) shuffle_group(g, options, step, ws);
+      team_barrier();
+    }
     // The bodies the rows touch, numbered in the order the rows first use them (row i's body a
     // before its body b). Each thread lists the bodies its share of the rows uses, in the order of
     // their first use there (its own stamps mark those seen), then drops those that a thread
@@ -649,10 +619,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is
     // applied. The sweeps leave them out; every kDormantCheckInterval sweeps, and before the
     // sweeps stop, those that would now close are woken (nlgs_solver.hpp).
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t g = 0; g < groups; ++g) {
+    const Share my_groups = groups_share(ws.group_start, team_place());
+    for (std::size_t g = my_groups.first; g < my_groups.last; ++g) {
       ws.awake[g].clear();
       ws.dormant_of_group[g].clear();
       for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
@@ -664,6 +632,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
           ws.awake[g].push_back(static_cast<std::uint32_t>(i));
       }
     }
+    team_barrier();
   };
 
   // Anderson acceleration mixes the rows awake at the start (the others are open and
@@ -736,6 +705,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #endif
     if (coloured) arrange_coloured_rows();
     prepare_rows();
+    // This thread's groups in the passes over every group at once (sums, wake-ups).
+    const Share my_groups = groups_share(ws.group_start, team_place());
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -792,10 +763,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       const bool fraction_met = converged_fraction >= options.converged_fraction;
       bool done = false;
       if (fraction_met || error_criterion || sweep == options.max_sweeps) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-        for (std::size_t g = 0; g < tallied_groups; ++g) sum_group_lengths(g, ws, tallies);
+        for (std::size_t g = my_groups.first; g < std::min(my_groups.last, tallied_groups); ++g)
+          sum_group_lengths(g, ws, tallies);
+        team_barrier();
         double sum_change = 0.0, sum_force = 0.0;
         for (std::size_t g = 0; g < tallied_groups; ++g) {
           sum_change += tallies[g].sum_change;
@@ -819,11 +789,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       std::size_t woken = 0;
       if (any_dormant &&
           (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-        for (std::size_t g = 0; g < groups; ++g)
+        for (std::size_t g = my_groups.first; g < my_groups.last; ++g)
           ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
+        team_barrier();
         for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
         done = done && woken == 0;
       }

@@ -67,6 +67,7 @@
 #include "anderson.hpp"
 #include "contact.hpp"
 #include "slab_correction.hpp"
+#include "threads.hpp"
 #include "vec2.hpp"
 
 namespace cdshear {
@@ -209,6 +210,13 @@ void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGrou
 #endif
     for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
   }
+}
+
+/// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive
+/// groups with about an equal share of the rows. The slabs, most of the rows, come first: an
+/// `omp for` over the groups gave nearly all of them to the first thread.
+inline Share groups_share(const std::vector<std::size_t>& group_start, TeamPlace p) {
+  return weighted_share_of(group_start, p);
 }
 
 /// What one group of rows adds to the convergence test. The sums are filled only in the sweeps

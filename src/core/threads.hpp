@@ -1,7 +1,9 @@
 // How many OpenMP threads to give a piece of work: shared by the solver and contact detection.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
+#include <vector>
 
 #if defined(_OPENMP)
 #include <omp.h>
@@ -16,6 +18,54 @@ int processors_available();
 /// when each would get less than `min_items_per_thread` items (a parallel region and its
 /// barriers then cost more than the work they share); at least 1.
 int threads_for(std::size_t items, std::size_t min_items_per_thread, int requested);
+
+/// This thread's place in the team running a pass (thread 0 of 1 outside a parallel region).
+struct TeamPlace {
+  std::size_t thread = 0, size = 1;
+};
+
+inline TeamPlace team_place() {
+#if defined(_OPENMP)
+  return {static_cast<std::size_t>(omp_get_thread_num()),
+          static_cast<std::size_t>(omp_get_num_threads())};
+#else
+  return {};
+#endif
+}
+
+/// The share [first, last) of `count` items that thread p takes in the passes that split their
+/// items themselves (the same split in every such pass, unlike `omp for`, whose static split the
+/// standard leaves to the implementation).
+struct Share {
+  std::size_t first, last;
+};
+inline Share share_of(std::size_t count, TeamPlace p) {
+  return {count * p.thread / p.size, count * (p.thread + 1) / p.size};
+}
+
+/// The share of thread p of items [0, start.size() - 1) of unequal weights, item k weighing
+/// start[k + 1] - start[k] (start: non-decreasing offsets from 0): consecutive items holding
+/// about an equal share of the total weight. Items as heavy as a share or heavier are not cut.
+inline Share weighted_share_of(const std::vector<std::size_t>& start, TeamPlace p) {
+  const std::size_t items = start.size() - 1;
+  const auto first_at = [&](std::size_t t) -> std::size_t {
+    if (t == 0) return 0;
+    if (t >= p.size) return items;
+    const std::size_t target = start.back() * t / p.size;
+    return static_cast<std::size_t>(
+        std::lower_bound(start.begin(), start.begin() + static_cast<std::ptrdiff_t>(items),
+                         target) -
+        start.begin());
+  };
+  return {first_at(p.thread), first_at(p.thread + 1)};
+}
+
+/// A barrier of the team running the caller (nothing outside a parallel region).
+inline void team_barrier() {
+#if defined(_OPENMP)
+#pragma omp barrier
+#endif
+}
 
 /// Calls part(first, last, thread) on each thread of a new team of `team` (on the calling thread
 /// alone when team is 1), thread t taking the t-th of its consecutive shares of [0, count): the
