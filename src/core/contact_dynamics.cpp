@@ -1,11 +1,11 @@
 #include "contact_dynamics.hpp"
 
-#include "threads.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
+
+#include "threads.hpp"
 
 namespace cdshear {
 namespace {
