@@ -222,5 +222,36 @@ TEST(Determinism, StateHashSeesOneBitOfAnyField) {
   EXPECT_EQ(state_hash(World(w)), h);  // a copy hashes equal
 }
 
+TEST(Determinism, WeightedSharesCoverTheItemsInOrderAndBalanceTheWeight) {
+  // weighted_share_of splits the passes over every group (groups_share) and detection's runs of
+  // disks: the shares must be consecutive, cover every item once, and carry about equal weight.
+  // Weights shaped like the coloured order's groups: heavy slabs first, light boundaries after,
+  // and a few empty groups.
+  std::vector<std::size_t> weights;
+  for (std::size_t g = 0; g < 50; ++g) weights.push_back(140 + (g * 37) % 23);
+  for (std::size_t g = 0; g < 49; ++g) weights.push_back(g % 7 == 0 ? 0 : 20 + g % 5);
+  weights.push_back(0);  // an empty serial group
+  std::vector<std::size_t> start{0};
+  for (const std::size_t w : weights) start.push_back(start.back() + w);
+  const std::size_t total = start.back();
+  const std::size_t heaviest = *std::max_element(weights.begin(), weights.end());
+  for (std::size_t size = 1; size <= 5; ++size) {
+    std::size_t expected_first = 0;
+    for (std::size_t t = 0; t < size; ++t) {
+      const Share s = weighted_share_of(start, {t, size});
+      EXPECT_EQ(s.first, expected_first) << size << " threads, thread " << t;
+      EXPECT_LE(s.first, s.last);
+      const std::size_t weight = start[s.last] - start[s.first];
+      EXPECT_LE(weight, total / size + heaviest) << size << " threads, thread " << t;
+      EXPECT_GE(weight + heaviest, total / size) << size << " threads, thread " << t;
+      expected_first = s.last;
+    }
+    EXPECT_EQ(expected_first, weights.size()) << size << " threads";
+  }
+  // Splitting by count instead (what an omp for over the groups does) would give the first of
+  // two threads nearly all the weight: the case this split exists for.
+  EXPECT_GT(start[weights.size() / 2], 0.8 * static_cast<double>(total));
+}
+
 }  // namespace
 }  // namespace cdshear
