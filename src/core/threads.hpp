@@ -1,4 +1,5 @@
-// How many OpenMP threads to give a piece of work: shared by the solver and contact detection.
+// OpenMP teams: how many threads a piece of work gets, and fixed splits of a pass among a team
+// (shared by the solver, contact detection and the step's per-disk passes).
 #pragma once
 
 #include <algorithm>
