@@ -5,10 +5,6 @@
 
 #include "threads.hpp"
 
-#if defined(_OPENMP)
-#include <omp.h>
-#endif
-
 namespace cdshear {
 
 double wall_gap(const World& world, std::size_t i, const Wall& w) {
@@ -39,8 +35,7 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
   offsets.resize(static_cast<std::size_t>(team) + 1);
 #pragma omp parallel num_threads(team)
   {
-    const auto size = static_cast<std::size_t>(omp_get_num_threads());
-    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    const auto [t, size] = team_place();
     std::vector<T>& part = parts[t];
     part.clear();
     list_run(run_start(t, size), run_start(t + 1, size), part);
@@ -106,7 +101,9 @@ void ContactDetector::build_neighbours(const World& world, double margin, int te
   const double reach = margin + kSkinPerDiameter * largest_diameter;
   cells_.build(world, std::max(largest_diameter + reach, 1e-12));
   start_.assign(n + 1, 0);
-  const auto equal_runs = [n](std::size_t t, std::size_t size) { return n * t / size; };
+  const auto equal_runs = [n](std::size_t t, std::size_t size) {
+    return share_of(n, {t, size}).first;
+  };
   list_in_runs(team, n, parts_neighbours_, part_offset_, neighbours_, equal_runs,
                [&](std::size_t first, std::size_t last, std::vector<std::int32_t>& out) {
                  list_neighbours(world, reach, first, last, out);

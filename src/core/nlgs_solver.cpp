@@ -15,9 +15,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(_OPENMP)
-#include <omp.h>
-#endif
 
 namespace cdshear {
 
@@ -698,15 +695,12 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // sweep while another is still adding, so the tallies of consecutive sweeps go to the two
   // halves of group_tallies in turn (a thread can be at most one barrier ahead of another).
   const auto solve_rows = [&] {
-#if defined(_OPENMP)
-    const bool first_thread = omp_get_thread_num() == 0;
-#else
-    const bool first_thread = true;
-#endif
+    const TeamPlace place = team_place();
+    const bool first_thread = place.thread == 0;
     if (coloured) arrange_coloured_rows();
     prepare_rows();
     // This thread's groups in the passes over every group at once (sums, wake-ups).
-    const Share my_groups = groups_share(ws.group_start, team_place());
+    const Share my_groups = groups_share(ws.group_start, place);
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -730,11 +724,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     const bool error_criterion = options.criterion == ConvergenceCriterion::kError;
     double residual = 0.0;  // of the last sweep whose sums were taken
     double error_bound = std::numeric_limits<double>::quiet_NaN();  // criterion "error" only
-    if (first_thread) {
-#if defined(_OPENMP)
-      report.threads = omp_get_num_threads();
-#endif
-    }
+    if (first_thread) report.threads = static_cast<int>(place.size);
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
       for (const SolverPhase& phase : ws.phases) {

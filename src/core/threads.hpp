@@ -79,9 +79,9 @@ void for_shares(int team, std::size_t count, const Part& part) {
   if (team > 1) {
 #pragma omp parallel num_threads(team)
     {
-      const auto size = static_cast<std::size_t>(omp_get_num_threads());
-      const auto t = static_cast<std::size_t>(omp_get_thread_num());
-      part(count * t / size, count * (t + 1) / size, t);
+      const TeamPlace place = team_place();
+      const Share mine = share_of(count, place);
+      part(mine.first, mine.last, place.thread);
     }
     return;
   }
