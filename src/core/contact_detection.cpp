@@ -35,7 +35,9 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
   offsets.resize(static_cast<std::size_t>(team) + 1);
 #pragma omp parallel num_threads(team)
   {
-    const auto [t, size] = team_place();
+    // Plain variables, not a structured binding: clang 14 rejects one used inside `omp single`.
+    const TeamPlace place = team_place();
+    const std::size_t t = place.thread, size = place.size;
     std::vector<T>& part = parts[t];
     part.clear();
     list_run(run_start(t, size), run_start(t + 1, size), part);
