@@ -1,22 +1,27 @@
 #!/usr/bin/env bash
 # Side by side with soft-contact DEM (issue 7): the same sheared packing with cdshear (Contact
 # Dynamics, rigid disks) and with LAMMPS (gran/hooke/history, bench/peers/lammps/in.shear),
-# one after the other on one core each, then one table: wall seconds per simulated time unit of
+# one after the other on the same cores, then one table: wall seconds per simulated time unit of
 # each and their ratio, mu_eff (ratio of the time-averaged tangential and normal wall forces)
 # and solid fraction over the second half of the run with block-averaging errors (the same
 # estimator for both, python/cdshear_analysis/peers.py), LAMMPS' largest overlap in d.
 #
 #   bench/peers/side_by_side.sh [-T DURATION] [-V VELOCITY] [--kappa K] [--packing FILE] [-o DIR]
-#                               [--cdshear-set KEY=VALUE]...
+#                               [--system N] [--threads N] [--cdshear-set KEY=VALUE]...
 #
 # -T: simulated time of each run (default 400; about 3 minutes on one core in all);
 # --cdshear-set: a case setting of the cdshear run (repeatable), e.g. the coarser time step
 # `step.displacement_per_step=0.005` (docs/accuracy.md);
 # -V: wall speed (default 0.5); --kappa: LAMMPS' stiffness level k_n / sigma_yy (default 1e4,
 # the issue's; dt = t_c / 50 follows it, so the cost grows as sqrt(kappa));
-# --packing: a system-1 packing of `cdshear prepare` (default: the one `cdshear run --system 1`
-# caches in packings/, prepared first if absent, 1.5-2 min);
-# -o: output folder (default runs/peers/V<V>_T<T>, refused if it exists and is not empty).
+# --system: the SPEC 6 system whose shear cell both run (default 1, n = 511; 7 is n = 5119);
+# --threads: cores given to each code (default 1): cdshear's --threads, and LAMMPS as that many
+# MPI processes (`mpirun -np N lmp`, domain decomposition; Debian's lammps is built with
+# Open MPI);
+# --packing: a packing of `cdshear prepare` for that system (default: the one `cdshear run
+# --system N` caches in packings/, prepared first if absent: 1.5-2 min for system 1, about
+# 10 min on two threads for system 7);
+# -o: output folder (default runs/peers/V<V>_T<T>[_s<system>][_j<threads>], refused if it exists and is not empty).
 # Environment: CDSHEAR (the executable, default build/cdshear, built by scripts/setup.sh if
 # absent), LMP (default lmp; Debian's lammps package is installed if missing).
 # Outputs in DIR: cdshear/ (a cdshear run folder), lammps/ (series.txt, dump.txt, log.lammps),
@@ -31,6 +36,8 @@ die() { echo "side_by_side.sh: error: $*" >&2; exit 2; }
 T=400
 V=0.5
 kappa=1e4
+system=1
+threads=1
 packing=""
 out=""
 cd_sets=()
@@ -39,6 +46,8 @@ while [ $# -gt 0 ]; do
     -T|--duration) [ $# -ge 2 ] || die "$1 needs a value"; T="$2"; shift 2 ;;
     -V|--velocity) [ $# -ge 2 ] || die "$1 needs a value"; V="$2"; shift 2 ;;
     --kappa) [ $# -ge 2 ] || die "$1 needs a value"; kappa="$2"; shift 2 ;;
+    --system) [ $# -ge 2 ] || die "$1 needs a value"; system="$2"; shift 2 ;;
+    --threads) [ $# -ge 2 ] || die "$1 needs a value"; threads="$2"; shift 2 ;;
     --packing) [ $# -ge 2 ] || die "$1 needs a value"; packing="$2"; shift 2 ;;
     -o|--output) [ $# -ge 2 ] || die "$1 needs a value"; out="$2"; shift 2 ;;
     --cdshear-set) [ $# -ge 2 ] || die "$1 needs KEY=VALUE"; cd_sets+=(--set "$2"); shift 2 ;;
@@ -53,8 +62,11 @@ positive='^[0-9]+([.][0-9]+)?([eE][-+]?[0-9]+)?$'
   || die "-V must be a positive number, got '$V'"
 [[ "$kappa" =~ $positive ]] && awk -v k="$kappa" 'BEGIN{exit !(k >= 100)}' \
   || die "--kappa must be a number of at least 100, got '$kappa'"
+[[ "$system" =~ ^[1-9][0-9]*$ ]] || die "--system must be a system number of SPEC 6, got '$system'"
+[[ "$threads" =~ ^[1-9][0-9]*$ ]] || die "--threads must be a positive whole number, got '$threads'"
 [ -z "$packing" ] || [ -f "$packing" ] || die "packing file '$packing' not found"
-out="${out:-runs/peers/V${V}_T${T}}"
+suffix=""; [ "$system" = 1 ] || suffix="_s$system"; [ "$threads" = 1 ] || suffix="${suffix}_j$threads"
+out="${out:-runs/peers/V${V}_T${T}${suffix}}"
 if [ -d "$out" ] && [ -n "$(ls -A "$out")" ]; then
   die "output folder '$out' is not empty; give another -o"
 fi
@@ -80,11 +92,12 @@ if ! command -v "$lmp" >/dev/null; then
   command -v "$lmp" >/dev/null || die "lammps installed but '$lmp' not on PATH"
 fi
 
-# The packing: the one cdshear caches for system 1 (a 1-time-unit probe run prepares it if
+# The packing: the one cdshear caches for the system (a 1-time-unit probe run prepares it if
 # needed and names it in its case.toml), unless given.
 if [ -z "$packing" ]; then
-  echo "side_by_side.sh: finding (or preparing) the system-1 packing" >&2
-  "$cdshear" run --system 1 -V "$V" --set shear.duration=1 --no-analyze -q --threads 1 \
+  echo "side_by_side.sh: finding (or preparing) the system-$system packing" >&2
+  "$cdshear" run --system "$system" -V "$V" --set shear.duration=1 --no-analyze -q \
+    --threads "$threads" \
     -o "$out/probe" >/dev/null || die "cdshear probe run failed"
   packing="$(sed -n "s/^packing = '\(.*\)'$/\1/p" "$out/probe/case.toml")"
   [ -f "$packing" ] || die "cannot find the packing named in $out/probe/case.toml"
@@ -96,19 +109,26 @@ PYTHONPATH="$root/python" "$python" -m cdshear_analysis lammps-data "$packing" \
   -o "$out/packing.data" >&2 || die "converting $packing to a LAMMPS data file failed"
 
 now() { date +%s.%N; }
-cd_cmd=("$cdshear" run --system 1 -V "$V" --packing "$packing" --set "shear.duration=$T"
-        --threads 1 -q --no-analyze -o "$out/cdshear" "${cd_sets[@]}")
-lmp_cmd=("$lmp" -in "$root/bench/peers/lammps/in.shear" -screen none -log none
+cd_cmd=("$cdshear" run --system "$system" -V "$V" --packing "$packing" --set "shear.duration=$T"
+        --threads "$threads" -q --no-analyze -o "$out/cdshear" "${cd_sets[@]}")
+# LAMMPS on several cores: MPI processes (its OpenMP styles do not cover fix rigid).
+mpi=()
+if [ "$threads" -gt 1 ]; then
+  command -v mpirun >/dev/null || die "--threads $threads needs mpirun (Debian's openmpi-bin)"
+  mpi=(mpirun -np "$threads" --bind-to none)
+  [ "$(id -u)" -ne 0 ] || mpi+=(--allow-run-as-root)
+fi
+lmp_cmd=("${mpi[@]}" "$lmp" -in "$root/bench/peers/lammps/in.shear" -screen none -log none
          -var data "$out/packing.data" -var vars "$out/packing.data.vars"
          -var V "$V" -var T "$T" -var kappa "$kappa" -var out "$out/lammps")
 printf '%q ' "${cd_cmd[@]}" >"$out/command.txt"; echo >>"$out/command.txt"
 printf '%q ' "${lmp_cmd[@]}" >>"$out/command.txt"; echo >>"$out/command.txt"
 
-echo "side_by_side.sh: cdshear, T = $T, V = $V" >&2
+echo "side_by_side.sh: cdshear, system $system, T = $T, V = $V, $threads thread(s)" >&2
 t0=$(now)
 "${cd_cmd[@]}" || die "cdshear run failed (see above)"
 t1=$(now)
-echo "side_by_side.sh: LAMMPS, T = $T, V = $V, kappa = $kappa" >&2
+echo "side_by_side.sh: LAMMPS, system $system, T = $T, V = $V, kappa = $kappa, $threads process(es)" >&2
 "${lmp_cmd[@]}" || die "LAMMPS failed: see $out/lammps/log.lammps"
 t2=$(now)
 cd_s=$(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.3f", b - a}')

@@ -134,6 +134,22 @@ class Estimates(unittest.TestCase):
         rows[1, 2] = 8.0
         self.assertAlmostEqual(max_overlap(rows, 10.0), 0.002, places=12)
 
+    def test_overlap_taken_in_chunks_is_the_overlap_of_all_pairs(self):
+        # 40 random grains; the largest overlap is between grains 3 and 37, in different chunks
+        # of 8, across the periodic boundary; chunks of 1, 8 and all give the same number
+        rng = np.random.default_rng(5)
+        n = 40
+        rows = np.column_stack([np.arange(1, n + 1), np.ones(n), rng.uniform(0, 10, n),
+                                rng.uniform(1, 50, n), np.full(n, 0.05)])
+        rows[3, 2:4] = [0.01, 25.0]
+        rows[37, 2:4] = [9.95, 25.0]  # centres 0.06 apart through x = 0: overlap 0.04
+        walls = np.array([[41, 2, 5.0, -0.5, 0.5], [42, 3, 5.0, 52.0, 0.5]])
+        rows = np.vstack([rows, walls])
+        whole = max_overlap(rows, 10.0, chunk=n)
+        self.assertAlmostEqual(whole, 0.04, places=12)
+        self.assertEqual(max_overlap(rows, 10.0, chunk=8), whole)
+        self.assertEqual(max_overlap(rows, 10.0, chunk=1), whole)
+
     def test_second_half_estimator(self):
         rng = np.random.default_rng(3)
         t = np.arange(1, 2001) * 0.1
