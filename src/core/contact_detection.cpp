@@ -133,8 +133,9 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       const double shift = world.domain.periods_in(delta.x);
       delta.x -= shift * lx;
       const double cutoff = d.radius[i] + d.radius[j] + margin;
-      if (!(length_squared(delta) < cutoff * cutoff)) continue;
-      const double dist = length(delta);
+      const double dist2 = length_squared(delta);
+      if (!(dist2 < cutoff * cutoff)) continue;
+      const double dist = centre_distance(dist2);
       Contact c;
       c.key = {static_cast<std::int32_t>(i), j, -static_cast<std::int32_t>(shift)};
       // Normal from b (= j) to a (= i): -delta / |delta|.

@@ -44,11 +44,11 @@ double current_overlap(const World& world, const Contact& c) {
   if (b >= n) return -wall_gap(world, a, world.walls[b - n]);
   // Minimum image: the periodic image of b may have changed when either disk was wrapped.
   const Vec2 delta = world.domain.minimum_image(d.position[b] - d.position[a]);
-  return d.radius[a] + d.radius[b] - length(delta);
+  return d.radius[a] + d.radius[b] - centre_distance(length_squared(delta));
 }
 
 double largest_overlap(const World& world, std::span<const Contact> contacts, double largest) {
-  // current_overlap takes a square root (std::hypot) per disk pair, a few per cent of a step on
+  // current_overlap takes a square root per disk pair, a few per cent of a step on
   // one thread for thousands of contacts. A pair overlaps by more than `largest` only if its
   // distance is below reach = r_a + r_b - largest, which the square of the distance tells without
   // a root: pairs at least (1 + 1e-9) reach^2 away (a margin far above the rounding of either
