@@ -68,7 +68,21 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       const double power = r.impulse_n * (u_n + r.bias_n);
       BodySlots& sa = slots_[r.body_a];
       BodySlots& sb = slots_[r.body_b];
-      const double weight = na == nb ? 1.0 : 0.5;
+      if (na == nb) {
+        // Both bodies in one band (most rows): slot 1 of each, weight 1 (the loop below with
+        // its weight 1.0 gives the same sums: 1.0 x is x).
+        start_slot(r.body_a, 1);
+        start_slot(r.body_b, 1);
+        sa.force[1] += force;
+        sa.test[1] += test;
+        sa.torque[1] += torque_a;
+        sb.force[1] -= force;
+        sb.test[1] -= test;
+        sb.torque[1] += torque_b;
+        (na == low ? rhs_low : rhs_high) += power;
+        continue;
+      }
+      const double weight = 0.5;
       for (const std::uint32_t node : {na, nb}) {
         // node - band + 1 is 0, 1 or 2: a row joins bodies of the same or neighbouring bands.
         const std::size_t slot_a = node + 1 - na, slot_b = node + 1 - nb;
@@ -81,7 +95,6 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
         sb.test[slot_b] -= weight * test;
         sb.torque[slot_b] += weight * torque_b;
         (node == low ? rhs_low : rhs_high) += weight * power;
-        if (na == nb) break;
       }
     }
     group_rhs_[2 * g] = rhs_low;
