@@ -21,7 +21,8 @@
 # --packing: a packing of `cdshear prepare` for that system (default: the one `cdshear run
 # --system N` caches in packings/, prepared first if absent: 1.5-2 min for system 1, about
 # 10 min on two threads for system 7);
-# -o: output folder (default runs/peers/V<V>_T<T>[_s<system>][_j<threads>], refused if it exists and is not empty).
+# -o: output folder (default runs/peers/V<V>_T<T>[_s<system>][_j<threads>], refused if it
+# exists and is not empty).
 # Environment: CDSHEAR (the executable, default build/cdshear, built by scripts/setup.sh if
 # absent), LMP (default lmp; Debian's lammps package is installed if missing).
 # Outputs in DIR: cdshear/ (a cdshear run folder), lammps/ (series.txt, dump.txt, log.lammps),
