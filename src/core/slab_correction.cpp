@@ -68,34 +68,32 @@ bool SlabCorrection::apply(std::vector<SolverRow>& rows, std::vector<SolverBody>
       const double power = r.impulse_n * (u_n + r.bias_n);
       BodySlots& sa = slots_[r.body_a];
       BodySlots& sb = slots_[r.body_b];
-      if (na == nb) {
-        // Both bodies in one band (most rows): slot 1 of each, weight 1. The same sums as the
-        // two-node loop below would add with a weight of 1.0 (1.0 x is x), for less work.
-        start_slot(r.body_a, 1);
-        start_slot(r.body_b, 1);
-        sa.force[1] += force;
-        sa.test[1] += test;
-        sa.torque[1] += torque_a;
-        sb.force[1] -= force;
-        sb.test[1] -= test;
-        sb.torque[1] += torque_b;
-        (na == low ? rhs_low : rhs_high) += power;
-        continue;
-      }
-      const double weight = 0.5;
-      for (const std::uint32_t node : {na, nb}) {
-        // node - band + 1 is 0, 1 or 2: a row joins bodies of the same or neighbouring bands.
+      // The row's share (f, t, torques, power) added to the slots of band `node` of both bodies:
+      // node - band + 1 is 0, 1 or 2, since a row joins bodies of the same or neighbouring bands.
+      // Forced inline: g++ 12 called it out of line, and this pass ran 5% of a step slower
+      // (farm-bench, 5 pairs, system 7 at t = 820, one thread).
+      const auto add = [&](std::uint32_t node, Vec2 f, Vec2 t, double ta, double tb, double p)
+          __attribute__((always_inline)) {
         const std::size_t slot_a = node + 1 - na, slot_b = node + 1 - nb;
         start_slot(r.body_a, slot_a);
         start_slot(r.body_b, slot_b);
-        sa.force[slot_a] += weight * force;
-        sa.test[slot_a] += weight * test;
-        sa.torque[slot_a] += weight * torque_a;
-        sb.force[slot_b] -= weight * force;
-        sb.test[slot_b] -= weight * test;
-        sb.torque[slot_b] += weight * torque_b;
-        (node == low ? rhs_low : rhs_high) += weight * power;
+        sa.force[slot_a] += f;
+        sa.test[slot_a] += t;
+        sa.torque[slot_a] += ta;
+        sb.force[slot_b] -= f;
+        sb.test[slot_b] -= t;
+        sb.torque[slot_b] += tb;
+        (node == low ? rhs_low : rhs_high) += p;
+      };
+      if (na == nb) {  // most rows: the whole row to its one band (weight 1, nothing to scale)
+        add(na, force, test, torque_a, torque_b, power);
+        continue;
       }
+      // A row across a boundary: half to each band.
+      const Vec2 half_force = 0.5 * force, half_test = 0.5 * test;
+      const double half_ta = 0.5 * torque_a, half_tb = 0.5 * torque_b, half_power = 0.5 * power;
+      add(na, half_force, half_test, half_ta, half_tb, half_power);
+      add(nb, half_force, half_test, half_ta, half_tb, half_power);
     }
     group_rhs_[2 * g] = rhs_low;
     group_rhs_[2 * g + 1] = rhs_high;
