@@ -248,9 +248,12 @@ TEST(Determinism, WeightedSharesCoverTheItemsInOrderAndBalanceTheWeight) {
     }
     EXPECT_EQ(expected_first, weights.size()) << size << " threads";
   }
-  // Splitting by count instead (what an omp for over the groups does) would give the first of
+  // Splitting by count instead (share_of, as an omp for over the groups does) gives the first of
   // two threads nearly all the weight: the case this split exists for.
-  EXPECT_GT(start[weights.size() / 2], 0.8 * static_cast<double>(total));
+  const Share by_count = share_of(weights.size(), {0, 2});
+  const Share by_weight = weighted_share_of(start, {0, 2});
+  EXPECT_GT(start[by_count.last] - start[by_count.first], 0.8 * static_cast<double>(total));
+  EXPECT_LT(start[by_weight.last] - start[by_weight.first], 0.6 * static_cast<double>(total));
 }
 
 }  // namespace
