@@ -1,7 +1,8 @@
 """Command line: `python3 -m cdshear_analysis analyze RUN_DIR [--quiet]` writes
 RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
 (default RUN_DIR/figures); `... study STUDY_DIR` tabulates and plots a parameter study (runs in
-KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... report CAMPAIGN_DIR
+KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... study-compare DIR_A
+DIR_B` compares two folders of realizations in combined errors; `... report CAMPAIGN_DIR
 [-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
 CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
@@ -41,6 +42,10 @@ def main(argv=None):
     p_side.add_argument("--cdshear-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--lammps-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--json", help="also write the figures to this JSON file")
+    p_compare = commands.add_parser(
+        "study-compare", help="two folders of realizations (reference, reference_seedK) compared")
+    p_compare.add_argument("dir_a")
+    p_compare.add_argument("dir_b")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
@@ -59,6 +64,16 @@ def main(argv=None):
                 print(path)
             for name in skipped:
                 print(f"left out {name}: no summary.json yet")
+        except StudyError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        return 0
+
+    if args.command == "study-compare":
+        from .study import StudyError, compare_references, format_comparison
+        try:
+            print(format_comparison(args.dir_a, args.dir_b,
+                                    *compare_references(args.dir_a, args.dir_b)), end="")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2

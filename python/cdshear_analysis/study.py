@@ -167,6 +167,39 @@ def collect(study_dir, skipped=None):
     return [combine(references)] + rows
 
 
+def compare_references(dir_a, dir_b):
+    """Two builds or settings, each a study folder of realizations (`reference`,
+    `reference_seed2`, ...: the same case with other solver seeds), compared as the ninth pass
+    of docs/accuracy.md does: each folder's runs combined (`combine`), then for every quantity
+    the two means, their errors and the difference b - a in combined errors,
+    (b - a) / sqrt(err_a^2 + err_b^2). Returns (combined row a, combined row b, lines), each line
+    (quantity, a, err_a, b, err_b, difference in combined errors or NaN)."""
+    a, b = collect(dir_a)[0], collect(dir_b)[0]
+    lines = []
+    for name, _ in QUANTITIES:
+        ea, eb = a[name + "_err"], b[name + "_err"]
+        scale = math.hypot(ea, eb)
+        diff = (b[name] - a[name]) / scale if scale > 0 else math.nan
+        lines.append((name, a[name], ea, b[name], eb, diff))
+    return a, b, lines
+
+
+def format_comparison(dir_a, dir_b, a, b, lines):
+    """The comparison as a Markdown table, the solver figures (sweeps, capped steps, wall time
+    per time unit: means over the realizations) after the quantities."""
+    na, nb = a.get("realizations", 1), b.get("realizations", 1)
+    out = [f"| quantity | {dir_a} ({na} runs) | {dir_b} ({nb} runs) | "
+           "difference / combined error |", "|---|---|---|---|"]
+    for name, xa, ea, xb, eb, diff in lines:
+        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {diff:+.2f} |")
+    for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
+                      ("wall_s_per_time", "{:.4f}")):
+        out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | |")
+    steady = lambda r: "all steady" if r["steady"] else "not all steady"  # noqa: E731
+    out.append(f"| steady | {steady(a)} | {steady(b)} | |")
+    return "\n".join(out) + "\n"
+
+
 def agrees(row, ref, name):
     """True when the row's value is within two combined standard errors of the reference's."""
     x, e, xr, er = row[name], row[name + "_err"], ref[name], ref[name + "_err"]

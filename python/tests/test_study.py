@@ -1,8 +1,10 @@
 """The parameter-study collector: rows from analysed runs, agreement with the reference."""
+import io
 import json
 import os
 import tempfile
 import unittest
+from contextlib import redirect_stderr, redirect_stdout
 
 from cdshear_analysis import study
 from cdshear_analysis.__main__ import main
@@ -88,6 +90,34 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(main(["study", d]), 0)
             with open(os.path.join(d, "study.md")) as f:
                 self.assertIn("| reference (2 runs combined) | yes |", f.read())
+
+    def test_two_folders_of_realizations_compared_in_combined_errors(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # a: two seeds at 0.25 +- 0.004 (combined 0.25 +- 0.004 / sqrt 2); b: one at 0.27.
+            fake_run(os.path.join(a, "reference"), 0.25, 0.004, 60.0, 10.0)
+            fake_run(os.path.join(a, "reference_seed2"), 0.25, 0.004, 40.0, 10.0)
+            fake_run(os.path.join(b, "reference"), 0.27, 0.003, 30.0, 5.0)
+            ra, rb, lines = study.compare_references(a, b)
+            self.assertEqual(ra["realizations"], 2)
+            self.assertAlmostEqual(ra["mean_sweeps"], 50.0)
+            by_name = {line[0]: line for line in lines}
+            _, xa, ea, xb, eb, diff = by_name["mu_eff_wall"]
+            self.assertAlmostEqual(xa, 0.25)
+            self.assertAlmostEqual(ea, 0.004 / 2 ** 0.5)
+            self.assertAlmostEqual(diff, 0.02 / (0.004 ** 2 / 2 + 0.003 ** 2) ** 0.5)
+            self.assertAlmostEqual(by_name["solid_fraction"][5], 0.0)   # same value in both
+            out = io.StringIO()
+            with redirect_stdout(out):
+                self.assertEqual(main(["study-compare", a, b]), 0)
+            self.assertIn(f"| mu_eff_wall | 0.25 ± 0.0028 | 0.27 ± 0.003 | {diff:+.2f} |",
+                          out.getvalue())
+            self.assertIn("| mean_sweeps | 50.0 | 30.0 | |", out.getvalue())
+            # A folder without an analysed reference is an error naming it.
+            err = io.StringIO()
+            with redirect_stderr(err):
+                self.assertEqual(main(["study-compare", a, os.path.join(d, "none")]), 2)
+            self.assertIn("none", err.getvalue())
 
     def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
         with tempfile.TemporaryDirectory() as d:
