@@ -3,12 +3,17 @@
 `series_means(run_data, after, keys, before)` averages `series/KEY` of run.h5 over the samples
 with after < time <= before (docs/run-data.md; `before` defaults to the end), so that runs of
 different lengths, or whose analyses chose different averaging windows, compare over one
-window. The standard error of the mean is computed as if the samples were independent:
-neighbouring samples are correlated, so that error is a lower bound. It serves
+window. The standard error of the mean comes from block averaging (statistics.block_average,
+the analysis' own method), since neighbouring samples are correlated: as if they were
+independent it was 2 to 5 times too small on the solver checks of docs/accuracy.md. When the
+blocks find no plateau (a short window) the largest error over the levels is given and the
+output says so: then it is still a lower bound. It serves
 scripts/solver_check.sh (docs/accuracy.md, "checkpoint copies"), which resumes copies of a run's
 checkpoint with other solver settings and compares, for example, the force-carrying contacts.
 """
 import numpy as np
+
+from .statistics import block_average
 
 
 class SeriesError(Exception):
@@ -18,7 +23,8 @@ class SeriesError(Exception):
 
 
 def series_means(run_data, after, keys, before=float("inf")):
-    """{key: (mean, standard error, samples)} over the samples with after < time <= before."""
+    """{key: (mean, standard error, samples, samples per block, plateau found)} over the samples
+    with after < time <= before; the error by block averaging."""
     series = run_data["series"]
     time = np.asarray(series["time"], dtype=float)
     chosen = (time > after) & (time <= before)
@@ -32,11 +38,13 @@ def series_means(run_data, after, keys, before=float("inf")):
         if key not in series:
             raise SeriesError(f"no series '{key}' (have: {', '.join(sorted(series))})")
         values = np.asarray(series[key], dtype=float)[chosen]
-        error = values.std(ddof=1) / np.sqrt(count) if count > 1 else float("nan")
-        out[key] = (float(values.mean()), float(error), count)
+        b = block_average(values)
+        out[key] = (float(values.mean()), float(b["err"]), count, b["block_size"], b["converged"])
     return out
 
 
 def format_series_means(means):
-    return "\n".join(f"{key:<16} {mean:.6g} +- {error:.2g} ({count} samples)"
-                     for key, (mean, error, count) in means.items())
+    return "\n".join(
+        f"{key:<16} {mean:.6g} +- {error:.2g} ({count} samples; error by blocks of {block}"
+        + ("" if converged else ", no plateau: a lower bound") + ")"
+        for key, (mean, error, count, block, converged) in means.items())

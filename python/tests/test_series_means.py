@@ -10,6 +10,7 @@ import numpy as np
 from cdshear_analysis import load_run
 from cdshear_analysis.__main__ import main
 from cdshear_analysis.series_means import SeriesError, series_means
+from cdshear_analysis.statistics import block_average
 from cdshear_analysis.synthetic import write_synthetic_run
 
 
@@ -31,11 +32,17 @@ class SeriesMeans(unittest.TestCase):
         after = float(time[len(time) // 2])
         chosen = np.asarray(series["height"])[time > after]
         means = series_means(self.run_data, after, ["height"])
-        mean, error, count = means["height"]
+        mean, error, count, block, _ = means["height"]
         self.assertEqual(count, int((time > after).sum()))
         self.assertGreater(count, 1)
         self.assertAlmostEqual(mean, chosen.mean(), places=12)
-        self.assertAlmostEqual(error, chosen.std(ddof=1) / np.sqrt(count), places=12)
+        # The error is the blocking one: the synthetic height is an AR(1) series with
+        # correlation 0.95 per sample, so blocks of several samples and an error well above the
+        # one of independent samples (about sqrt((1 + 0.95) / (1 - 0.95)) = 6 times, once the
+        # blocks are long enough).
+        self.assertEqual(error, block_average(chosen)["err"])
+        self.assertGreater(block, 1)
+        self.assertGreater(error, 2.0 * chosen.std(ddof=1) / np.sqrt(count))
         # A later start leaves fewer samples out of the same series.
         later = series_means(self.run_data, float(time[-3]), ["height"])["height"]
         self.assertEqual(later[2], 2)
@@ -45,7 +52,7 @@ class SeriesMeans(unittest.TestCase):
         time = np.asarray(series["time"])
         after, before = float(time[len(time) // 4]), float(time[len(time) // 2])
         chosen = np.asarray(series["height"])[(time > after) & (time <= before)]
-        mean, _, count = series_means(self.run_data, after, ["height"], before)["height"]
+        mean, _, count, _, _ = series_means(self.run_data, after, ["height"], before)["height"]
         self.assertEqual(count, len(time) // 2 - len(time) // 4)
         self.assertAlmostEqual(mean, chosen.mean(), places=12)
         out = io.StringIO()
@@ -53,7 +60,7 @@ class SeriesMeans(unittest.TestCase):
             status = main(["series-means", self.run_dir, "--after", str(after), "--before",
                            str(before), "--key", "height"])
         self.assertEqual(status, 0)
-        self.assertIn(f"({count} samples)", out.getvalue())
+        self.assertIn(f"({count} samples; error by blocks of", out.getvalue())
         with self.assertRaises(SeriesError) as e:
             series_means(self.run_data, before, ["height"], after)
         self.assertIn("up to t =", e.exception.problem)
@@ -72,7 +79,7 @@ class SeriesMeans(unittest.TestCase):
         with redirect_stdout(out):
             status = main(["series-means", self.run_dir, "--after", "10", "--key", "height"])
         self.assertEqual(status, 0)
-        self.assertRegex(out.getvalue(), r"^height\s+\S+ \+- \S+ \(\d+ samples\)")
+        self.assertRegex(out.getvalue(), r"^height\s+\S+ \+- \S+ \(\d+ samples; error by blocks of \d+")
         err = io.StringIO()
         with redirect_stderr(err):
             status = main(["series-means", self.run_dir, "--after", "1e9"])
