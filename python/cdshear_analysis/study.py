@@ -185,13 +185,15 @@ def compare_references(dir_a, dir_b):
 
 
 def format_comparison(dir_a, dir_b, a, b, lines):
-    """The comparison as a Markdown table, the solver figures (sweeps, capped steps, wall time
-    per time unit: means over the realizations) after the quantities."""
+    """The comparison as a Markdown table, a difference of more than two combined errors marked
+    "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
+    unit: means over the realizations) after the quantities."""
     na, nb = a.get("realizations", 1), b.get("realizations", 1)
     out = [f"| quantity | {dir_a} ({na} runs) | {dir_b} ({nb} runs) | "
            "difference / combined error |", "|---|---|---|---|"]
     for name, xa, ea, xb, eb, diff in lines:
-        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {diff:+.2f} |")
+        mark = " (differs)" if abs(diff) > 2.0 else ""   # the study's rule (agrees())
+        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {diff:+.2f}{mark} |")
     for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
                       ("wall_s_per_time", "{:.4f}")):
         out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | |")

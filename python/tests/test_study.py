@@ -110,8 +110,10 @@ class StudyTest(unittest.TestCase):
             out = io.StringIO()
             with redirect_stdout(out):
                 self.assertEqual(main(["study-compare", a, b]), 0)
-            self.assertIn(f"| mu_eff_wall | 0.25 ± 0.0028 | 0.27 ± 0.003 | {diff:+.2f} |",
+            # 0.02 / 0.0041 = 4.9 combined errors: more than the study's 2.
+            self.assertIn(f"| mu_eff_wall | 0.25 ± 0.0028 | 0.27 ± 0.003 | {diff:+.2f} (differs) |",
                           out.getvalue())
+            self.assertIn("| solid_fraction | 0.8 ± 0.00071 | 0.8 ± 0.001 | +0.00 |", out.getvalue())
             self.assertIn("| mean_sweeps | 50.0 | 30.0 | |", out.getvalue())
             # A folder without an analysed reference is an error naming it.
             err = io.StringIO()
