@@ -72,8 +72,8 @@ def main(argv=None):
     if args.command == "study-compare":
         from .study import StudyError, compare_references, format_comparison
         try:
-            print(format_comparison(args.dir_a, args.dir_b,
-                                    *compare_references(args.dir_a, args.dir_b)), end="")
+            a, b, lines, skipped = compare_references(args.dir_a, args.dir_b)
+            print(format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped), end="")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2

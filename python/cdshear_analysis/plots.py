@@ -69,15 +69,16 @@ def _mark_transient(ax, summary):
 
 
 def _envelope(x, y, bins=SERIES_BINS):
-    """The points of a time series line that a figure can show: the series cut into `bins` runs of
-    consecutive samples, each run replaced by its lowest and highest sample, in time order.
+    """The points of a time series line that a figure can show: the series cut into `bins` bins of
+    consecutive samples, each bin replaced by its lowest and highest sample, in time order.
 
     A figure is about 1000 pixels wide, so a 20000-t run's 200 000 samples put about 200 in each
     pixel column, and the line drawn there spans their lowest to their highest value: keeping the
-    two extremes of every run of samples (at least two runs per pixel column) draws the same
-    band, while matplotlib no longer builds paths of every sample (the series figures of that run
-    took 55 MB of the plot's 182 MB peak). Series of at most 2 * bins samples are returned as
-    they are. NaN samples are kept out of the extremes; a run of NaN only gives NaN (a gap)."""
+    two extremes of every bin (at least two bins per pixel column) draws the same band, while
+    matplotlib no longer builds paths of every sample (the series figures of that run took 55 MB
+    of the plot's 182 MB peak). Series of at most 2 * bins samples are returned as they are. NaN
+    samples are kept out of the extremes; only a bin of NaN alone gives NaN (a gap), so gaps
+    shorter than a bin are not drawn."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     n = len(y)
     if n <= 2 * bins:

@@ -38,8 +38,8 @@ def series_means(run_data, after, keys, before=float("inf")):
         if key not in series:
             raise SeriesError(f"no series '{key}' (have: {', '.join(sorted(series))})")
         values = np.asarray(series[key], dtype=float)[chosen]
-        b = block_average(values)
-        out[key] = (float(values.mean()), float(b["err"]), count, b["block_size"], b["converged"])
+        b = block_average(values)   # its mean, error and count leave out non-finite samples
+        out[key] = (float(b["mean"]), float(b["err"]), int(b["n"]), b["block_size"], b["converged"])
     return out
 
 

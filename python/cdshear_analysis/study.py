@@ -172,19 +172,22 @@ def compare_references(dir_a, dir_b):
     `reference_seed2`, ...: the same case with other solver seeds), compared as the ninth pass
     of docs/accuracy.md does: each folder's runs combined (`combine`), then for every quantity
     the two means, their errors and the difference b - a in combined errors,
-    (b - a) / sqrt(err_a^2 + err_b^2). Returns (combined row a, combined row b, lines), each line
-    (quantity, a, err_a, b, err_b, difference in combined errors or NaN)."""
-    a, b = collect(dir_a)[0], collect(dir_b)[0]
+    (b - a) / sqrt(err_a^2 + err_b^2). Returns (combined row a, combined row b, lines, skipped),
+    each line (quantity, a, err_a, b, err_b, difference in combined errors, NaN when both errors
+    are 0 or missing), skipped the run folders left out (no summary.json yet) as paths."""
+    skipped_a, skipped_b = [], []
+    a, b = collect(dir_a, skipped_a)[0], collect(dir_b, skipped_b)[0]
+    skipped = [os.path.join(dir_a, n) for n in skipped_a] + [os.path.join(dir_b, n) for n in skipped_b]
     lines = []
     for name, _ in QUANTITIES:
         ea, eb = a[name + "_err"], b[name + "_err"]
         scale = math.hypot(ea, eb)
         diff = (b[name] - a[name]) / scale if scale > 0 else math.nan
         lines.append((name, a[name], ea, b[name], eb, diff))
-    return a, b, lines
+    return a, b, lines, skipped
 
 
-def format_comparison(dir_a, dir_b, a, b, lines):
+def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     """The comparison as a Markdown table, a difference of more than two combined errors marked
     "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
     unit: means over the realizations) after the quantities."""
@@ -192,13 +195,17 @@ def format_comparison(dir_a, dir_b, a, b, lines):
     out = [f"| quantity | {dir_a} ({na} runs) | {dir_b} ({nb} runs) | "
            "difference / combined error |", "|---|---|---|---|"]
     for name, xa, ea, xb, eb, diff in lines:
-        mark = " (differs)" if abs(diff) > 2.0 else ""   # the study's rule (agrees())
-        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {diff:+.2f}{mark} |")
+        if math.isnan(diff):
+            text = "n/a (no error)"
+        else:
+            text = f"{diff:+.2f}" + (" (differs)" if abs(diff) > 2.0 else "")  # agrees()'s rule
+        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {text} |")
     for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
                       ("wall_s_per_time", "{:.4f}")):
         out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | |")
     steady = lambda r: "all steady" if r["steady"] else "not all steady"  # noqa: E731
     out.append(f"| steady | {steady(a)} | {steady(b)} | |")
+    out += [f"left out {path}: no summary.json yet" for path in skipped]
     return "\n".join(out) + "\n"
 
 

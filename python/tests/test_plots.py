@@ -26,6 +26,9 @@ class SeriesEnvelope(unittest.TestCase):
         for b in range(bins):
             seg = y[edges[b]:edges[b + 1]]
             self.assertEqual(sorted(ey[2 * b:2 * b + 2]), [seg.min(), seg.max()])
+        # The series' own extremes are kept, whatever the binning.
+        self.assertEqual(ey.min(), y.min())
+        self.assertEqual(ey.max(), y.max())
         # Every point kept is a sample of the series (its time and its value).
         for t, v in zip(ex, ey):
             i = np.searchsorted(x, t)

@@ -9,7 +9,7 @@ import numpy as np
 
 from cdshear_analysis import load_run
 from cdshear_analysis.__main__ import main
-from cdshear_analysis.series_means import SeriesError, series_means
+from cdshear_analysis.series_means import SeriesError, format_series_means, series_means
 from cdshear_analysis.statistics import block_average
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -46,6 +46,11 @@ class SeriesMeans(unittest.TestCase):
         # A later start leaves fewer samples out of the same series.
         later = series_means(self.run_data, float(time[-3]), ["height"])["height"]
         self.assertEqual(later[2], 2)
+        # Two samples cannot be blocked: the error is flagged as a lower bound.
+        self.assertFalse(later[4])
+        self.assertIn("no plateau: a lower bound",
+                      format_series_means(series_means(self.run_data, float(time[-3]),
+                                                       ["height"])))
 
     def test_a_window_keeps_the_samples_between_its_two_times(self):
         series = self.run_data["series"]

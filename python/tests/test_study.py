@@ -98,7 +98,9 @@ class StudyTest(unittest.TestCase):
             fake_run(os.path.join(a, "reference"), 0.25, 0.004, 60.0, 10.0)
             fake_run(os.path.join(a, "reference_seed2"), 0.25, 0.004, 40.0, 10.0)
             fake_run(os.path.join(b, "reference"), 0.27, 0.003, 30.0, 5.0)
-            ra, rb, lines = study.compare_references(a, b)
+            os.makedirs(os.path.join(b, "reference_seed2"))    # still running: no summary.json
+            ra, rb, lines, skipped = study.compare_references(a, b)
+            self.assertEqual(skipped, [os.path.join(b, "reference_seed2")])
             self.assertEqual(ra["realizations"], 2)
             self.assertAlmostEqual(ra["mean_sweeps"], 50.0)
             by_name = {line[0]: line for line in lines}
@@ -115,6 +117,8 @@ class StudyTest(unittest.TestCase):
                           out.getvalue())
             self.assertIn("| solid_fraction | 0.8 ± 0.00071 | 0.8 ± 0.001 | +0.00 |", out.getvalue())
             self.assertIn("| mean_sweeps | 50.0 | 30.0 | |", out.getvalue())
+            self.assertIn(f"left out {os.path.join(b, 'reference_seed2')}: no summary.json yet",
+                          out.getvalue())
             # A folder without an analysed reference is an error naming it.
             err = io.StringIO()
             with redirect_stderr(err):
