@@ -25,7 +25,7 @@ MAX_PROFILES = 10          # velocity profiles drawn at most
 FORCE_LINE_WIDTH = 2.5     # points, for the FORCE_PERCENTILE-th percentile of the normal forces
 FORCE_PERCENTILE = 95      # (widths proportional to the force ...
 FORCE_LINE_WIDTH_MAX = 6.0  # ... capped here: rigid contacts have rare huge instantaneous forces)
-SERIES_BINS = 2000         # a series line keeps each bin's lowest and highest sample (see _envelope)
+SERIES_BINS = 2000         # a series line keeps each bin's lowest and highest sample (_envelope)
 
 
 def _title(run, summary, what):

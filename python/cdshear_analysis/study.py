@@ -177,7 +177,8 @@ def compare_references(dir_a, dir_b):
     are 0 or missing), skipped the run folders left out (no summary.json yet) as paths."""
     skipped_a, skipped_b = [], []
     a, b = collect(dir_a, skipped_a)[0], collect(dir_b, skipped_b)[0]
-    skipped = [os.path.join(dir_a, n) for n in skipped_a] + [os.path.join(dir_b, n) for n in skipped_b]
+    skipped = ([os.path.join(dir_a, n) for n in skipped_a] +
+               [os.path.join(dir_b, n) for n in skipped_b])
     lines = []
     for name, _ in QUANTITIES:
         ea, eb = a[name + "_err"], b[name + "_err"]
@@ -188,8 +189,8 @@ def compare_references(dir_a, dir_b):
 
 
 def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
-    """The comparison as a Markdown table, a difference of more than two combined errors marked
-    "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
+    """The comparison as a Markdown table, a quantity that `agrees` finds apart (more than two
+    combined errors) marked "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
     unit: means over the realizations) after the quantities."""
     na, nb = a.get("realizations", 1), b.get("realizations", 1)
     out = [f"| quantity | {dir_a} ({na} runs) | {dir_b} ({nb} runs) | "
@@ -198,7 +199,7 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
         if math.isnan(diff):
             text = "n/a (no error)"
         else:
-            text = f"{diff:+.2f}" + (" (differs)" if abs(diff) > 2.0 else "")  # agrees()'s rule
+            text = f"{diff:+.2f}" + (" (differs)" if agrees(b, a, name) is False else "")
         out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {text} |")
     for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
                       ("wall_s_per_time", "{:.4f}")):

@@ -14,7 +14,7 @@ class SeriesEnvelope(unittest.TestCase):
         np.testing.assert_array_equal(ex, x)
         np.testing.assert_array_equal(ey, y)
 
-    def test_each_run_of_samples_keeps_its_lowest_and_highest_in_time_order(self):
+    def test_each_bin_keeps_its_lowest_and_highest_sample_in_time_order(self):
         rng = np.random.default_rng(3)
         x = np.linspace(0.0, 1000.0, 10_007)
         y = np.cumsum(rng.normal(size=x.size))
@@ -34,11 +34,11 @@ class SeriesEnvelope(unittest.TestCase):
             i = np.searchsorted(x, t)
             self.assertEqual(y[i], v)
 
-    def test_nan_samples_stay_out_of_the_extremes_and_a_run_of_nan_is_a_gap(self):
+    def test_nan_samples_stay_out_of_the_extremes_and_a_bin_of_nan_is_a_gap(self):
         x = np.arange(1000.0)
         y = np.cos(x / 50.0)
-        y[100:110] = np.nan           # inside the first run of samples (0..499)
-        y[500:] = np.nan              # the whole second run
+        y[100:110] = np.nan           # inside the first bin (samples 0..499)
+        y[500:] = np.nan              # the whole second bin
         ex, ey = _envelope(x, y, bins=2)
         self.assertEqual(sorted(ey[:2]), [np.nanmin(y[:500]), np.nanmax(y[:500])])
         self.assertTrue(np.all(np.isnan(ey[2:])))

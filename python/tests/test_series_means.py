@@ -84,7 +84,8 @@ class SeriesMeans(unittest.TestCase):
         with redirect_stdout(out):
             status = main(["series-means", self.run_dir, "--after", "10", "--key", "height"])
         self.assertEqual(status, 0)
-        self.assertRegex(out.getvalue(), r"^height\s+\S+ \+- \S+ \(\d+ samples; error by blocks of \d+")
+        self.assertRegex(out.getvalue(),
+                         r"^height\s+\S+ \+- \S+ \(\d+ samples; error by blocks of \d+")
         err = io.StringIO()
         with redirect_stderr(err):
             status = main(["series-means", self.run_dir, "--after", "1e9"])
