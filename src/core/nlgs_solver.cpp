@@ -105,10 +105,13 @@ class TallyAccumulator {
 ///   R_n <- max(0, R_n + omega (R_n,GS - R_n)),  R_t <- clamp(R_t + omega (R_t,GS - R_t), +-mu R_n)
 /// (projected SOR; omega = 1 gives R_GS). A template parameter, so that plain Gauss-Seidel keeps
 /// its own arithmetic: R + 1 (R_GS - R) is not always R_GS in floating point.
+/// Forced inline: with four sweep loops (relaxed or not, gathering or not) g++ 12 called it out
+/// of line, and a step of system 7 took 8% longer.
 template <bool kRelaxed>
-inline void update_row(SolverRow& r, const DelassusEntries& w, std::vector<SolverBody>& bodies,
-                       double alpha, double omega, TallyAccumulator& tally,
-                       std::array<double, 2>& lengths2) {
+[[gnu::always_inline]] inline void update_row(SolverRow& r, const DelassusEntries& w,
+                                              std::vector<SolverBody>& bodies, double alpha,
+                                              double omega, TallyAccumulator& tally,
+                                              std::array<double, 2>& lengths2) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];
   const double dvx = a.velocity.x - b.velocity.x;
@@ -326,18 +329,37 @@ void shuffle_group(std::size_t g, const SolverOptions& options, std::uint64_t st
   shuffle(ws.order.data() + ws.group_start[g], ws.group_start[g + 1] - ws.group_start[g], rng);
 }
 
+/// Updates the awake rows of group g. kGather: the sweep before a slab correction, which gathers
+/// each row once updated (its impulse is then final for the correction: SlabCorrection::
+/// gather_row), so that the correction makes no pass of its own over the rows to gather them.
+template <bool kRelaxed, bool kGather>
+void sweep_rows(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
+                double omega, TallyAccumulator& tally) {
+  SlabCorrection::GroupGather gathered;
+  for (const std::uint32_t i : ws.awake[g]) {
+    update_row<kRelaxed>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally,
+                         ws.row_lengths2[i]);
+    if constexpr (kGather) ws.slab_correction.gather_row(ws.rows[i], gathered);
+  }
+  if constexpr (kGather) ws.slab_correction.finish_group(g, gathered);
+}
+
 /// Updates the awake rows of group g and stores its counts in tallies[g] (the sums stay 0 until
-/// sum_group_lengths).
+/// sum_group_lengths); `gather`: for the slab correction that follows the sweep (a slab or
+/// boundary group only, never the serial one).
 void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
-                 double omega, SweepTally* tallies) {
+                 double omega, SweepTally* tallies, bool gather = false) {
   TallyAccumulator tally;
   if (omega == 1.0) {
-    for (const std::uint32_t i : ws.awake[g])
-      update_row<false>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally,
-                        ws.row_lengths2[i]);
+    if (gather)
+      sweep_rows<false, true>(g, ws, bodies, alpha, omega, tally);
+    else
+      sweep_rows<false, false>(g, ws, bodies, alpha, omega, tally);
   } else {
-    for (const std::uint32_t i : ws.awake[g])
-      update_row<true>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally, ws.row_lengths2[i]);
+    if (gather)
+      sweep_rows<true, true>(g, ws, bodies, alpha, omega, tally);
+    else
+      sweep_rows<true, false>(g, ws, bodies, alpha, omega, tally);
   }
   tallies[g] = tally.tally();
 }
@@ -637,14 +659,27 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   const bool accelerate = options.anderson_depth > 0;
   const int plain_period = std::max(options.anderson_period, 1);
   // Called by every thread of the team (the loop is shared; v has its size already).
-  const auto gather_mixed_impulses = [&](std::vector<double>& v) {
+  // scale_rows: right after a slab correction that left its pass 5 to this gather, every awake
+  // row is scaled first (SlabCorrection::scale_row): the mixed ones here, the ones woken since
+  // the start (not mixed) by their group's thread.
+  const auto gather_mixed_impulses = [&](std::vector<double>& v, bool scale_rows) {
+    if (scale_rows) {
+      const Share mine = groups_share(ws.group_start, team_place());
+      for (std::size_t g = mine.first; g < mine.last; ++g) {
+        const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
+        for (std::size_t k = mixed_here; k < ws.awake[g].size(); ++k)
+          ws.slab_correction.scale_row(rows[ws.awake[g][k]]);
+      }
+    }
     const std::size_t mixed = ws.anderson_rows.size();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
     for (std::size_t k = 0; k < mixed; ++k) {
-      v[2 * k] = rows[ws.anderson_rows[k]].impulse_n;
-      v[2 * k + 1] = rows[ws.anderson_rows[k]].impulse_t;
+      SolverRow& r = rows[ws.anderson_rows[k]];
+      if (scale_rows) ws.slab_correction.scale_row(r);
+      v[2 * k] = r.impulse_n;
+      v[2 * k + 1] = r.impulse_t;
     }
   };
   // The mixed impulses of group g's rows, projected on the Signorini-Coulomb set; the bodies
@@ -714,7 +749,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     const int period = slab_corrections && options.anderson_period_with_slab_correction > 0
                            ? options.anderson_period_with_slab_correction
                            : plain_period;
-    if (accelerate) gather_mixed_impulses(ws.anderson_x);
+    if (accelerate) gather_mixed_impulses(ws.anderson_x, false);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.
     const bool serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
@@ -725,14 +760,21 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     double residual = 0.0;  // of the last sweep whose sums were taken
     double error_bound = std::numeric_limits<double>::quiet_NaN();  // criterion "error" only
     if (first_thread) report.threads = static_cast<int>(place.size);
+    double last_fraction = 0.0;  // converged share of the last sweep (0 before the first)
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
+      // Neither correction nor mix after the last sweep: a step ends on a sweep's result.
+      // Past options.slab_correction_stop_fraction, plain sweeps only (nlgs_solver.hpp).
+      const bool late = slab_corrections && options.slab_correction_stop_fraction > 0.0 &&
+                        last_fraction >= options.slab_correction_stop_fraction;
+      const bool corrects =
+          slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps && !late;
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
         for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-          sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies);
+          sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
       }
       if (serial_rows) {
 #if defined(_OPENMP)
@@ -751,6 +793,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       // them: the count half of the criterion met, criterion "error" (its rate needs every
       // sweep's change), or the last sweep allowed. Every thread decides the same.
       const bool fraction_met = converged_fraction >= options.converged_fraction;
+      last_fraction = converged_fraction;
       bool done = false;
       if (fraction_met || error_criterion || sweep == options.max_sweeps) {
         for (std::size_t g = my_groups.first; g < std::min(my_groups.last, tallied_groups); ++g)
@@ -793,13 +836,15 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         report.woken_contacts += woken;
         if (!done && sweep == options.max_sweeps) report.hit_cap = true;
       }
-      if (done) break;
-      // Neither correction nor mix after the last sweep: a step ends on a sweep's result.
-      if (slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps)
-        ws.slab_correction.apply(rows, bodies);
-      if (accelerate && sweep % period == 0 && sweep < options.max_sweeps) {
+      if (done) break;  // a gathering for a correction is dropped (the next reset clears it)
+      const bool mixes = accelerate && sweep % period == 0 && sweep < options.max_sweeps && !late;
+      // A correction followed by a mix leaves the scaling of the rows to the mix's gather.
+      const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
+      if (corrected && first_thread) ++report.slab_corrections;
+      const bool scale_in_gather = corrected && mixes;
+      if (mixes) {
         // The Anderson mix of the last images, every pass shared among the threads.
-        gather_mixed_impulses(ws.anderson_g);
+        gather_mixed_impulses(ws.anderson_g, scale_in_gather);
         ws.anderson.mix(ws.anderson_x, ws.anderson_g);
         each_group_by_phase(apply_mixed_impulses);
       }

@@ -67,25 +67,11 @@
 #include "anderson.hpp"
 #include "contact.hpp"
 #include "slab_correction.hpp"
+#include "solver_rows.hpp"
 #include "threads.hpp"
 #include "vec2.hpp"
 
 namespace cdshear {
-
-/// What the solver needs of a body. Walls have inverse inertia 0 and a per-axis inverse mass that
-/// is 0 on fixed or imposed axes: no special case in the hot loop.
-///
-/// One cache line each: two threads updating two different bodies never write the same line.
-struct alignas(64) SolverBody {
-  Vec2 velocity;
-  double omega = 0.0;
-  Vec2 inv_mass;             ///< (1/m_x, 1/m_y); equal for disks [1/mass]
-  double inv_inertia = 0.0;  ///< [1/(mass length^2)]
-  /// Where the body is, coarsely (a band of heights): the coloured order keeps the contacts of a
-  /// colour sorted by it, so that each thread works on its own part of the packing and the
-  /// bodies it updates stay in its cache. Any value gives the same results.
-  std::uint32_t band = 0;
-};
 
 enum class ContactOrder { kRandom, kSequential, kColoured };
 
@@ -131,6 +117,15 @@ struct SolverOptions {
   /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
   /// (docs/accuracy.md, eighth pass). >= 0.
   int anderson_period_with_slab_correction = 0;
+  /// In the steps where the slab correction runs: after a sweep that leaves at least this share
+  /// of the force-carrying contacts converged (the count half of the criterion), the next
+  /// sweep is followed by neither the correction nor the mix (nor are those after it, while
+  /// each sweep leaves that share): plain sweeps finish the step. Each correction
+  /// or mix kicks the iterate, and the next sweep's changes fail the count for a tenth of the
+  /// contacts that had met it, which the following sweeps win back; near the end of a step
+  /// that costs more sweeps than the kick saves (docs/accuracy.md, eleventh pass). 0: off
+  /// (they run to the end). In [0, 1].
+  double slab_correction_stop_fraction = 0.0;
 };
 
 /// Largest SolverOptions::anderson_depth.
@@ -148,69 +143,9 @@ struct SolverReport {
   double error_bound = 0.0;
   std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
+  int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
   int threads = 1;                   ///< threads used
 };
-
-/// One contact as the sweeps see it: what an update reads and writes, compact (88 bytes) and
-/// stored in visit order, so that a sweep streams through memory front to back. The tangent is
-/// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
-/// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
-/// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt = 1 / w_tt > 0).
-/// On system 7's shape the rows of a step (about 11000) are 1.2 MB at 112 bytes, more than this
-/// machine's 1 MB L2 per core: each sweep streams them from L3, so their size is time.
-struct SolverRow {
-  std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
-  Vec2 normal;                           ///< unit, from b to a
-  double lever_a = 0.0, lever_b = 0.0;   ///< as in Contact [length]
-  double bias_n = 0.0;                   ///< gap / dt [length/time]
-  double friction = 0.0;                 ///< Coulomb coefficient
-  double impulse_n = 0.0, impulse_t = 0.0;
-  double inv_w_nn = 0.0;  ///< 1/w_nn [mass]
-  double inv_w_tt = 0.0;  ///< 1/w_tt [mass]; kCoupledRow for a coupled row
-};
-static_assert(sizeof(SolverRow) == 88);
-
-/// inv_w_tt of a coupled row (w_nt != 0): it goes through the general local solve.
-inline constexpr double kCoupledRow = -1.0;
-
-/// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
-/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
-inline void apply_row_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
-                              double dt) {
-  const double px = dn * r.normal.x - dt * r.normal.y;
-  const double py = dn * r.normal.y + dt * r.normal.x;
-  a.velocity.x += a.inv_mass.x * px;
-  a.velocity.y += a.inv_mass.y * py;
-  b.velocity.x -= b.inv_mass.x * px;
-  b.velocity.y -= b.inv_mass.y * py;
-  a.omega += a.inv_inertia * r.lever_a * dt;
-  b.omega += b.inv_inertia * r.lever_b * dt;
-}
-
-/// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
-struct DelassusEntries {
-  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
-};
-
-/// Groups [first_group, last_group) of rows that share no body: a sweep solves them at once,
-/// on as many threads as it has.
-struct SolverPhase {
-  std::size_t first_group = 0, last_group = 0;
-};
-
-/// Runs `for_group(g)` over the groups of every phase, phase by phase, each phase's groups
-/// shared among the calling OpenMP team (an orphaned `omp for`, with its barrier; one thread
-/// outside a parallel region runs them all). The serial group, in no phase, is left out.
-/// Groups of a phase share no body, so each body meets the groups' changes in group order.
-template <class ForGroup>
-void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& for_group) {
-  for (const SolverPhase& phase : phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
-  }
-}
 
 /// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive
 /// groups with about an equal share of the rows. The slabs, most of the rows, come first: an

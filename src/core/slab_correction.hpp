@@ -28,6 +28,16 @@
 // on another one than plain Gauss-Seidel: docs/accuracy.md compares run averages, not step
 // solutions.
 //
+// Passes (slab_correction.cpp): (1) gather: each force-carrying row adds its impulse, torque and
+// normal ("test") vector to its bodies' slots (one per neighbouring band) and w R_n gap/dt to
+// its group's share of r; (2) the bodies, chunk by chunk, add test . M^-1 force to A and test . v
+// to r (the velocity part of r: summed over the bodies it is the sum over the rows of
+// w R_n u_n); (3) one thread solves; (4) the bodies move by M^-1 times their slots weighted by
+// s; (5) the rows are scaled. The solver runs pass 1 inside the sweep before the correction
+// (gather_row after each row's update: the same calls in the same order as gather_rows) and,
+// when the Anderson mix follows, pass 5 inside the mix's gather (scale_row): two passes over
+// the rows fewer per correction.
+//
 // Threads. apply() is called by every thread of the solver's team at once (or by one thread
 // outside any parallel region), like AndersonMixer::mix: passes over rows go group by group,
 // phase by phase (groups of a phase share no body), passes over bodies in chunks of kChunk
@@ -35,18 +45,16 @@
 // any number of threads.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "solver_rows.hpp"
 #include "vec2.hpp"
 
 namespace cdshear {
-
-struct SolverBody;
-struct SolverRow;
-struct SolverPhase;
 
 /// Where the slab correction finds the solver's rows, groups and bands.
 struct SlabLayout {
@@ -71,10 +79,80 @@ class SlabCorrection {
   /// per step, before any apply() of that step.
   void reset(std::size_t bodies, const SlabLayout& layout);
 
-  /// Scales the rows' impulses as above and moves their bodies accordingly. Called by every
-  /// thread of a team (or one thread alone, see above). Returns false, changing nothing, when
-  /// the system is singular or has no solution in floating point.
-  bool apply(std::vector<SolverRow>& rows, std::vector<SolverBody>& bodies);
+  /// Scales the rows' impulses as above and moves their bodies accordingly: gather_rows, then
+  /// apply_gathered. Called by every thread of a team (or one thread alone, see above). Returns
+  /// false, changing nothing, when the system is singular or has no solution in floating point.
+  bool apply(std::vector<SolverRow>& rows, std::vector<SolverBody>& bodies) {
+    gather_rows(rows);
+    return apply_gathered(rows, bodies);
+  }
+
+  /// One group's share of r while its rows are gathered (pass 1).
+  struct GroupGather {
+    double rhs_low = 0.0, rhs_high = 0.0;  ///< for its lowest band and the one above
+    std::uint32_t low = kNoNode;           ///< its lowest band (kNoNode: no force-carrying row)
+  };
+
+  /// Pass 1 for one row whose impulse is final for this correction: its impulse, torque and
+  /// normal ("test") vector into its bodies' slots, and w R_n gap/dt into the group's share of
+  /// r (the velocity part of r, sum of w R_n u_n, is taken from the slots by the bodies, pass 2).
+  /// A row without normal impulse, or with a body outside the correction, adds nothing. The
+  /// solver calls it from the sweep before a correction, right after each row's update (the
+  /// row's impulse is final once the sweep has visited it): the same calls in the same order as
+  /// gather_rows, so the same sums, without a pass of its own over the rows. Inline: it runs in
+  /// the solver's hot loop.
+  [[gnu::always_inline]] void gather_row(const SolverRow& r, GroupGather& group) {
+    if (r.impulse_n == 0.0) return;
+    const std::uint32_t na = node_of_[r.body_a], nb = node_of_[r.body_b];
+    if (na == kNoNode || nb == kNoNode) return;
+    if (group.low == kNoNode) group.low = std::min(na, nb);
+    const Vec2 n = r.normal;
+    const Vec2 force{r.impulse_n * n.x - r.impulse_t * n.y, r.impulse_n * n.y + r.impulse_t * n.x};
+    const Vec2 test{r.impulse_n * n.x, r.impulse_n * n.y};
+    const double torque_a = r.lever_a * r.impulse_t, torque_b = r.lever_b * r.impulse_t;
+    const double power = r.impulse_n * r.bias_n;
+    if (na == nb) {  // most rows: the whole row to its one band (weight 1, nothing to scale)
+      add_share(r, na, na, nb, force, test, torque_a, torque_b, power, group);
+      return;
+    }
+    // A row across a boundary: half to each band.
+    const Vec2 half_force = 0.5 * force, half_test = 0.5 * test;
+    const double half_ta = 0.5 * torque_a, half_tb = 0.5 * torque_b, half_power = 0.5 * power;
+    add_share(r, na, na, nb, half_force, half_test, half_ta, half_tb, half_power, group);
+    add_share(r, nb, na, nb, half_force, half_test, half_ta, half_tb, half_power, group);
+  }
+
+  /// Stores group g's share once gather_row has seen all its awake rows (the thread that
+  /// gathered them).
+  void finish_group(std::size_t g, const GroupGather& group) {
+    group_rhs_[2 * g] = group.rhs_low;
+    group_rhs_[2 * g + 1] = group.rhs_high;
+    group_low_[g] = group.low;
+  }
+
+  /// Pass 1 on its own: gather_row over every awake row of the slab and boundary groups, group
+  /// by group, phase by phase. Called by every thread of a team (or one thread alone).
+  void gather_rows(const std::vector<SolverRow>& rows);
+
+  /// Passes 2 to 5, once every group's rows are gathered (gather_rows, or the solver's sweep).
+  /// Called by every thread of a team (or one thread alone). False as apply(). With
+  /// `scale_rows` false it stops before pass 5 and the caller scales the same rows, each with
+  /// scale_row, before anything reads them (the solver, in its gather of the impulses for the
+  /// Anderson mix that follows the correction: one pass over the rows fewer).
+  bool apply_gathered(std::vector<SolverRow>& rows, std::vector<SolverBody>& bodies,
+                      bool scale_rows = true);
+
+  /// Pass 5 for one awake row of a slab or boundary group, after a successful apply_gathered:
+  /// R <- (1 + (s_a + s_b) / 2) R; a row without normal impulse, or with a body outside the
+  /// correction, stays as it is.
+  void scale_row(SolverRow& r) const {
+    if (r.impulse_n == 0.0) return;
+    const std::uint32_t na = node_of_[r.body_a], nb = node_of_[r.body_b];
+    if (na == kNoNode || nb == kNoNode) return;
+    const double scale = 1.0 + 0.5 * (scale_[na] + scale_[nb]);
+    r.impulse_n *= scale;
+    r.impulse_t *= scale;
+  }
 
   /// The scales of the last apply(), one per band (for tests).
   const std::vector<double>& scales() const { return scale_; }
@@ -92,10 +170,44 @@ class SlabCorrection {
     std::array<Vec2, 3> force{}, test{};
     std::array<double, 3> torque{};
   };
+
+  /// A row's share (force, test, torques, power) added to the slots of band `node` of both its
+  /// bodies (na, nb their bands): node - band + 1 is 0, 1 or 2, since a row joins bodies of the
+  /// same or neighbouring bands. A slot's first row in this correction starts it from zero and
+  /// marks it (pass 4 leaves the slots as they are and clears the marks only: clearing 120 bytes
+  /// per body there cost more than this test, most on two threads).
+  [[gnu::always_inline]] void add_share(const SolverRow& r, std::uint32_t node, std::uint32_t na,
+                                        std::uint32_t nb, Vec2 force, Vec2 test, double torque_a,
+                                        double torque_b, double power, GroupGather& group) {
+    const std::size_t slot_a = node + 1 - na, slot_b = node + 1 - nb;
+    BodySlots& sa = start_slot(r.body_a, slot_a);
+    BodySlots& sb = start_slot(r.body_b, slot_b);
+    sa.force[slot_a] += force;
+    sa.test[slot_a] += test;
+    sa.torque[slot_a] += torque_a;
+    sb.force[slot_b] -= force;
+    sb.test[slot_b] -= test;
+    sb.torque[slot_b] += torque_b;
+    (node == group.low ? group.rhs_low : group.rhs_high) += power;
+  }
+  [[gnu::always_inline]] BodySlots& start_slot(std::uint32_t body, std::size_t slot) {
+    std::uint8_t& used = used_slots_[body];
+    BodySlots& s = slots_[body];
+    if ((used >> slot & 1u) == 0) {
+      s.force[slot] = s.test[slot] = Vec2{};
+      s.torque[slot] = 0.0;
+      used |= static_cast<std::uint8_t>(1u << slot);
+    }
+    return s;
+  }
   /// Diagonals of the banded matrix A kept per row j: A(j, j + d - 2), d = 0..4.
   static constexpr int kDiagonals = 5;
+  /// Per chunk and band in chunk_matrix_: A's five diagonals, then the share of r from the
+  /// bodies' velocities (test . v).
+  static constexpr int kChunkEntries = kDiagonals + 1;
 
   SlabLayout layout_;
+  const std::uint32_t* node_of_ = nullptr;  // layout_.node_of_body's data
   std::size_t bodies_ = 0, chunks_ = 0;
   std::vector<BodySlots> slots_;
   /// Per body: bit p set when a row added to slot p in this correction (pass 1 sets it and
@@ -105,7 +217,7 @@ class SlabCorrection {
   std::vector<std::uint8_t> used_slots_;
   std::vector<double> group_rhs_;         // per group: its share of r for its low and high band
   std::vector<std::uint32_t> group_low_;  // per group: its lowest band (kNoNode: no share)
-  std::vector<double> chunk_matrix_;      // per chunk: bands x kDiagonals shares of A
+  std::vector<double> chunk_matrix_;      // per chunk: bands x kChunkEntries shares of A and r
   std::vector<double> band_matrix_;       // A in LAPACK's band storage (ldab = 7)
   std::vector<std::int32_t> pivots_;      // dgbsv's row swaps (lapack_int, 32 bits)
   std::vector<double> scale_;             // s per band (the solution)

@@ -1,0 +1,89 @@
+// The solver's compact view of bodies and contacts (nlgs_solver.hpp): what a sweep reads and
+// writes, and the phases of groups that share no body. Shared by the sweeps (nlgs_solver.cpp)
+// and the slab correction (slab_correction.hpp), which gathers its sums in the sweep before it.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "vec2.hpp"
+
+namespace cdshear {
+
+/// What the solver needs of a body. Walls have inverse inertia 0 and a per-axis inverse mass that
+/// is 0 on fixed or imposed axes: no special case in the hot loop.
+///
+/// One cache line each: two threads updating two different bodies never write the same line.
+struct alignas(64) SolverBody {
+  Vec2 velocity;
+  double omega = 0.0;
+  Vec2 inv_mass;             ///< (1/m_x, 1/m_y); equal for disks [1/mass]
+  double inv_inertia = 0.0;  ///< [1/(mass length^2)]
+  /// Where the body is, coarsely (a band of heights): the coloured order keeps the contacts of a
+  /// colour sorted by it, so that each thread works on its own part of the packing and the
+  /// bodies it updates stay in its cache. Any value gives the same results.
+  std::uint32_t band = 0;
+};
+
+/// One contact as the sweeps see it: what an update reads and writes, compact (88 bytes) and
+/// stored in visit order, so that a sweep streams through memory front to back. The tangent is
+/// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
+/// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
+/// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt = 1 / w_tt > 0).
+/// On system 7's shape the rows of a step (about 11000) are 1.2 MB at 112 bytes, more than this
+/// machine's 1 MB L2 per core: each sweep streams them from L3, so their size is time.
+struct SolverRow {
+  std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
+  Vec2 normal;                           ///< unit, from b to a
+  double lever_a = 0.0, lever_b = 0.0;   ///< as in Contact [length]
+  double bias_n = 0.0;                   ///< gap / dt [length/time]
+  double friction = 0.0;                 ///< Coulomb coefficient
+  double impulse_n = 0.0, impulse_t = 0.0;
+  double inv_w_nn = 0.0;  ///< 1/w_nn [mass]
+  double inv_w_tt = 0.0;  ///< 1/w_tt [mass]; kCoupledRow for a coupled row
+};
+static_assert(sizeof(SolverRow) == 88);
+
+/// inv_w_tt of a coupled row (w_nt != 0): it goes through the general local solve.
+inline constexpr double kCoupledRow = -1.0;
+
+/// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
+/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
+inline void apply_row_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
+                              double dt) {
+  const double px = dn * r.normal.x - dt * r.normal.y;
+  const double py = dn * r.normal.y + dt * r.normal.x;
+  a.velocity.x += a.inv_mass.x * px;
+  a.velocity.y += a.inv_mass.y * py;
+  b.velocity.x -= b.inv_mass.x * px;
+  b.velocity.y -= b.inv_mass.y * py;
+  a.omega += a.inv_inertia * r.lever_a * dt;
+  b.omega += b.inv_inertia * r.lever_b * dt;
+}
+
+/// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
+struct DelassusEntries {
+  double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
+};
+
+/// Groups [first_group, last_group) of rows that share no body: a sweep solves them at once,
+/// on as many threads as it has.
+struct SolverPhase {
+  std::size_t first_group = 0, last_group = 0;
+};
+
+/// Runs `for_group(g)` over the groups of every phase, phase by phase, each phase's groups
+/// shared among the calling OpenMP team (an orphaned `omp for`, with its barrier; one thread
+/// outside a parallel region runs them all). The serial group, in no phase, is left out.
+/// Groups of a phase share no body, so each body meets the groups' changes in group order.
+template <class ForGroup>
+void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& for_group) {
+  for (const SolverPhase& phase : phases) {
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+    for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
+  }
+}
+
+}  // namespace cdshear
