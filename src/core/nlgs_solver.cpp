@@ -660,24 +660,27 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   const int plain_period = std::max(options.anderson_period, 1);
   // Called by every thread of the team (the loop is shared; v has its size already).
   // scale_rows: right after a slab correction that left its pass 5 to this gather, every awake
-  // row is scaled first (SlabCorrection::scale_row): the mixed ones here, the ones woken since
-  // the start (not mixed) by their group's thread.
+  // row of the slab and boundary groups is scaled first (SlabCorrection::scale_row): the mixed
+  // ones here, the ones woken since the start (not mixed) by their group's thread. The serial
+  // group's rows are not scaled (pass 5 leaves them: the correction moved no body for them).
   const auto gather_mixed_impulses = [&](std::vector<double>& v, bool scale_rows) {
+    const std::size_t phased_groups = groups - 1;  // all but the serial group
     if (scale_rows) {
       const Share mine = groups_share(ws.group_start, team_place());
-      for (std::size_t g = mine.first; g < mine.last; ++g) {
+      for (std::size_t g = mine.first; g < std::min(mine.last, phased_groups); ++g) {
         const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
         for (std::size_t k = mixed_here; k < ws.awake[g].size(); ++k)
           ws.slab_correction.scale_row(rows[ws.awake[g][k]]);
       }
     }
     const std::size_t mixed = ws.anderson_rows.size();
+    const std::size_t phased_mixed = ws.anderson_group_start[phased_groups];
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
     for (std::size_t k = 0; k < mixed; ++k) {
       SolverRow& r = rows[ws.anderson_rows[k]];
-      if (scale_rows) ws.slab_correction.scale_row(r);
+      if (scale_rows && k < phased_mixed) ws.slab_correction.scale_row(r);
       v[2 * k] = r.impulse_n;
       v[2 * k + 1] = r.impulse_t;
     }
@@ -760,15 +763,13 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     double residual = 0.0;  // of the last sweep whose sums were taken
     double error_bound = std::numeric_limits<double>::quiet_NaN();  // criterion "error" only
     if (first_thread) report.threads = static_cast<int>(place.size);
-    double last_fraction = 0.0;  // converged share of the last sweep (0 before the first)
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
       SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
-      // Neither correction nor mix after the last sweep: a step ends on a sweep's result.
-      // Past options.slab_correction_stop_fraction, plain sweeps only (nlgs_solver.hpp).
-      const bool late = slab_corrections && options.slab_correction_stop_fraction > 0.0 &&
-                        last_fraction >= options.slab_correction_stop_fraction;
+      // Neither correction nor mix after the last sweep: a step ends on a sweep's result. The
+      // sweep before a correction gathers its rows for it (dropped if the sweep ends the step:
+      // the next step's reset clears it).
       const bool corrects =
-          slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps && !late;
+          slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps;
       for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
@@ -793,7 +794,6 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       // them: the count half of the criterion met, criterion "error" (its rate needs every
       // sweep's change), or the last sweep allowed. Every thread decides the same.
       const bool fraction_met = converged_fraction >= options.converged_fraction;
-      last_fraction = converged_fraction;
       bool done = false;
       if (fraction_met || error_criterion || sweep == options.max_sweeps) {
         for (std::size_t g = my_groups.first; g < std::min(my_groups.last, tallied_groups); ++g)
@@ -837,7 +837,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         if (!done && sweep == options.max_sweeps) report.hit_cap = true;
       }
       if (done) break;  // a gathering for a correction is dropped (the next reset clears it)
-      const bool mixes = accelerate && sweep % period == 0 && sweep < options.max_sweeps && !late;
+      const bool mixes = accelerate && sweep % period == 0 && sweep < options.max_sweeps;
       // A correction followed by a mix leaves the scaling of the rows to the mix's gather.
       const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
       if (corrected && first_thread) ++report.slab_corrections;

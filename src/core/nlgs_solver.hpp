@@ -117,15 +117,6 @@ struct SolverOptions {
   /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
   /// (docs/accuracy.md, eighth pass). >= 0.
   int anderson_period_with_slab_correction = 0;
-  /// In the steps where the slab correction runs: after a sweep that leaves at least this share
-  /// of the force-carrying contacts converged (the count half of the criterion), the next
-  /// sweep is followed by neither the correction nor the mix (nor are those after it, while
-  /// each sweep leaves that share): plain sweeps finish the step. Each correction
-  /// or mix kicks the iterate, and the next sweep's changes fail the count for a tenth of the
-  /// contacts that had met it, which the following sweeps win back; near the end of a step
-  /// that costs more sweeps than the kick saves (docs/accuracy.md, eleventh pass). 0: off
-  /// (they run to the end). In [0, 1].
-  double slab_correction_stop_fraction = 0.0;
 };
 
 /// Largest SolverOptions::anderson_depth.

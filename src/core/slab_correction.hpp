@@ -38,11 +38,15 @@
 // when the Anderson mix follows, pass 5 inside the mix's gather (scale_row): two passes over
 // the rows fewer per correction.
 //
-// Threads. apply() is called by every thread of the solver's team at once (or by one thread
-// outside any parallel region), like AndersonMixer::mix: passes over rows go group by group,
-// phase by phase (groups of a phase share no body), passes over bodies in chunks of kChunk
-// bodies whatever the thread count, each chunk's sums added in chunk order: the same result on
-// any number of threads.
+// Threads. apply(), gather_rows and apply_gathered are called by every thread of the solver's
+// team at once (or by one thread outside any parallel region), like AndersonMixer::mix, and
+// gather_row by the solver's parallel sweep: passes over rows go group by group, phase by phase
+// (groups of a phase share no body, so no two threads write one body's slots), passes over
+// bodies in chunks of kChunk bodies whatever the thread count, each chunk's sums added in chunk
+// order: the same result on any number of threads. r's velocity part is summed from absolute
+// velocities (test . v per body), its rows' part from relative ones: the same r, but at a
+// solution it cancels to a round-off some H/d times larger than the rows' sum of R_n (u_n +
+// gap/dt) gave, still far below any tolerance.
 #pragma once
 
 #include <algorithm>
@@ -76,7 +80,7 @@ class SlabCorrection {
   static constexpr double kLowestScale = -0.5, kHighestScale = 1.0;
 
   /// Sizes the scratch for `bodies` bodies and the layout's groups and bands. One thread, once
-  /// per step, before any apply() of that step.
+  /// per step, before any gathering or apply() of that step.
   void reset(std::size_t bodies, const SlabLayout& layout);
 
   /// Scales the rows' impulses as above and moves their bodies accordingly: gather_rows, then
@@ -154,12 +158,13 @@ class SlabCorrection {
     r.impulse_t *= scale;
   }
 
-  /// The scales of the last apply(), one per band (for tests).
+  /// The scales of the last apply() or apply_gathered(), one per band (for tests).
   const std::vector<double>& scales() const { return scale_; }
 
  private:
-  /// Step 3 of apply(), on one thread: r from the groups' shares, A from the chunks' shares
-  /// (clearing them), then s. False when dgbsv finds A singular or s is not finite.
+  /// Step 3 of apply_gathered(), on one thread: r from the groups' and then the chunks' shares,
+  /// A from the chunks' shares (clearing them), then s. False when dgbsv finds A singular or s is
+  /// not finite.
   bool solve();
 
   /// What the rows of one body add to the correction, for the bands next to its own (slot 0:

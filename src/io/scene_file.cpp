@@ -42,10 +42,6 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       solver.integer_in("slab_correction_min_bands", 2, 4096, s.slab_correction_min_bands));
   s.anderson_period_with_slab_correction = static_cast<int>(solver.integer_in(
       "anderson_period_with_slab_correction", 0, 1000, s.anderson_period_with_slab_correction));
-  s.slab_correction_stop_fraction =
-      solver.non_negative("slab_correction_stop_fraction", s.slab_correction_stop_fraction);
-  if (s.slab_correction_stop_fraction > 1.0)
-    solver.fail("slab_correction_stop_fraction", "must be <= 1 (0: off)");
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();
