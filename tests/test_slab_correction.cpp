@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <vector>
 
 #include "nlgs_solver.hpp"
@@ -85,6 +86,39 @@ struct Chain {
   }
 };
 
+/// Expects two chains' bodies (velocities) and rows (impulses) to be equal, bit for bit.
+void expect_same_state(const Chain& a, const Chain& b) {
+  for (std::size_t k = 0; k < a.bodies.size(); ++k) {
+    EXPECT_EQ(a.bodies[k].velocity, b.bodies[k].velocity) << "body " << k;
+    EXPECT_EQ(a.bodies[k].omega, b.bodies[k].omega) << "body " << k;
+  }
+  for (std::size_t k = 0; k < a.rows.size(); ++k) {
+    EXPECT_EQ(a.rows[k].impulse_n, b.rows[k].impulse_n) << "row " << k;
+    EXPECT_EQ(a.rows[k].impulse_t, b.rows[k].impulse_t) << "row " << k;
+  }
+}
+
+/// The solver keeps one SlabCorrection for a whole run: after `first_use` on another state of
+/// the chain (which may leave marks and sums behind), a reset and a correction must give bit for
+/// bit what a new object gives.
+void expect_reused_gives_what_new_gives(
+    const std::function<void(SlabCorrection&, Chain&)>& first_use) {
+  const Chain original(40);
+  Chain other(40);
+  for (SolverRow& r : other.rows) r.impulse_n *= 1.7;  // another state of the same chain
+  SlabCorrection reused, fresh;
+  reused.reset(other.bodies.size(), other.layout());
+  first_use(reused, other);
+
+  Chain a = original, b = original;
+  reused.reset(a.bodies.size(), a.layout());
+  fresh.reset(b.bodies.size(), b.layout());
+  ASSERT_TRUE(reused.apply(a.rows, a.bodies));
+  ASSERT_TRUE(fresh.apply(b.rows, b.bodies));
+  EXPECT_EQ(reused.scales(), fresh.scales());
+  expect_same_state(a, b);
+}
+
 TEST(SlabCorrection, CancelsEveryBandsMeanNormalVelocityError) {
   Chain chain(40);
   const std::vector<SolverRow> before = chain.rows;
@@ -126,31 +160,9 @@ TEST(SlabCorrection, CancelsEveryBandsMeanNormalVelocityError) {
 }
 
 TEST(SlabCorrection, ReusedGivesTheSameAsNew) {
-  // The solver keeps one SlabCorrection for all the corrections of a run: each apply() must
-  // leave its scratch as it found it (the slots' marks cleared), so that a reused object gives
-  // bit for bit what a new one gives. A first use on another state leaves marks and sums that a
-  // faulty clean-up would carry into the next use.
-  const Chain original(40);
-  Chain other(40);
-  for (SolverRow& r : other.rows) r.impulse_n *= 1.7;  // another state of the same chain
-  SlabCorrection reused, fresh;
-  reused.reset(other.bodies.size(), other.layout());
-  ASSERT_TRUE(reused.apply(other.rows, other.bodies));
-
-  Chain a = original, b = original;
-  reused.reset(a.bodies.size(), a.layout());
-  fresh.reset(b.bodies.size(), b.layout());
-  ASSERT_TRUE(reused.apply(a.rows, a.bodies));
-  ASSERT_TRUE(fresh.apply(b.rows, b.bodies));
-  EXPECT_EQ(reused.scales(), fresh.scales());
-  for (std::size_t k = 0; k < a.bodies.size(); ++k) {
-    EXPECT_EQ(a.bodies[k].velocity, b.bodies[k].velocity) << "body " << k;
-    EXPECT_EQ(a.bodies[k].omega, b.bodies[k].omega) << "body " << k;
-  }
-  for (std::size_t k = 0; k < a.rows.size(); ++k) {
-    EXPECT_EQ(a.rows[k].impulse_n, b.rows[k].impulse_n) << "row " << k;
-    EXPECT_EQ(a.rows[k].impulse_t, b.rows[k].impulse_t) << "row " << k;
-  }
+  // Each apply() must leave its scratch as it found it (the slots' marks cleared).
+  expect_reused_gives_what_new_gives(
+      [](SlabCorrection& c, Chain& other) { ASSERT_TRUE(c.apply(other.rows, other.bodies)); });
 }
 
 TEST(SlabCorrection, ChangesNothingWithoutForce) {
@@ -294,34 +306,16 @@ TEST(SlabCorrection, ScalingLeftToTheCallerGivesTheSameAsApply) {
   for (std::size_t k = 0; k < split.rows.size(); ++k) {
     EXPECT_EQ(split.rows[k].impulse_n, original.rows[k].impulse_n);  // not scaled yet
     b.scale_row(split.rows[k]);
-    EXPECT_EQ(split.rows[k].impulse_n, whole.rows[k].impulse_n) << "row " << k;
-    EXPECT_EQ(split.rows[k].impulse_t, whole.rows[k].impulse_t) << "row " << k;
   }
   EXPECT_EQ(a.scales(), b.scales());
-  for (std::size_t k = 0; k < whole.bodies.size(); ++k) {
-    EXPECT_EQ(split.bodies[k].velocity, whole.bodies[k].velocity) << "body " << k;
-    EXPECT_EQ(split.bodies[k].omega, whole.bodies[k].omega) << "body " << k;
-  }
+  expect_same_state(split, whole);
 }
 
 TEST(SlabCorrection, GatheringThatNoCorrectionFollowsLeavesNothingBehind) {
   // The sweep before a correction gathers; when that sweep ends the step, nothing applies the
-  // gathering, and the next step's reset must drop it: a correction after it gives what a fresh
-  // object gives.
-  const Chain original(40);
-  Chain other(40);
-  for (SolverRow& r : other.rows) r.impulse_n *= 1.7;
-  SlabCorrection reused, fresh;
-  reused.reset(other.bodies.size(), other.layout());
-  reused.gather_rows(other.rows);  // and no apply_gathered
-  Chain a = original, b = original;
-  reused.reset(a.bodies.size(), a.layout());
-  fresh.reset(b.bodies.size(), b.layout());
-  ASSERT_TRUE(reused.apply(a.rows, a.bodies));
-  ASSERT_TRUE(fresh.apply(b.rows, b.bodies));
-  EXPECT_EQ(reused.scales(), fresh.scales());
-  for (std::size_t k = 0; k < a.bodies.size(); ++k)
-    EXPECT_EQ(a.bodies[k].velocity, b.bodies[k].velocity) << "body " << k;
+  // gathering, and the next step's reset must drop it.
+  expect_reused_gives_what_new_gives(
+      [](SlabCorrection& c, Chain& other) { c.gather_rows(other.rows); });  // no apply_gathered
 }
 
 TEST(SlabCorrection, LeavesASolvedStepUnchanged) {

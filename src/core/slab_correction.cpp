@@ -42,7 +42,6 @@ void SlabCorrection::gather_rows(const std::vector<SolverRow>& rows) {
 
 bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<SolverBody>& bodies,
                                     bool scale_rows) {
-  const std::vector<std::uint32_t>& node_of = *layout_.node_of_body;
   const std::size_t bands = layout_.bands;
 
   // 2. A and r's velocity part, chunk by chunk of bodies: body k adds test_p . M^-1 force_q to
@@ -58,7 +57,7 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     for (std::size_t k = begin; k < end; ++k) {
       const unsigned used = used_slots_[k];
       if (used == 0) continue;  // no row: every slot is zero (so is the body's band's term)
-      const std::uint32_t band = node_of[k];
+      const std::uint32_t band = node_of_[k];
       const BodySlots& s = slots_[k];
       const Vec2 inv_mass = bodies[k].inv_mass;
       const Vec2 velocity = bodies[k].velocity;
@@ -106,7 +105,7 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
   for (std::size_t k = 0; k < bodies_; ++k) {
     const unsigned used = used_slots_[k];
     if (used == 0) continue;  // no row: nothing to move
-    const std::uint32_t band = node_of[k];
+    const std::uint32_t band = node_of_[k];
     const BodySlots& s = slots_[k];
     if (solved_) {
       Vec2 impulse{};
