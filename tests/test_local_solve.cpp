@@ -227,5 +227,73 @@ TEST(LocalSolve, PropertyEverySolutionSatisfiesAllConditionsCoupled) {
   EXPECT_GT(beyond, 0);  // the generator also reaches the large-mu, strongly coupled range
 }
 
+// The decoupled update (w_nt = 0) as the solver writes it, a correction of the old impulse R
+// from the current velocity u (R's own share included): b = u - W R. At omega = 1 it is the
+// exact solution, solve_local's.
+TEST(DecoupledUpdate, IsTheExactLocalSolution) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.1, 3.0), friction(0.0, 1.0);
+  for (int i = 0; i < 20000; ++i) {
+    const double w_nn = positive(rng), w_tt = positive(rng), mu = friction(rng);
+    const double r_n = std::max(0.0, unit(rng)), r_t = mu * r_n * unit(rng);
+    const double u_n = unit(rng), u_t = unit(rng);
+    LocalProblem p;
+    p.w_nn = w_nn;
+    p.w_tt = w_tt;
+    p.mu = mu;
+    p.b_n = u_n - w_nn * r_n;
+    p.b_t = u_t - w_tt * r_t;
+    const LocalSolution exact = solve_local(p);
+    const LocalImpulse update = decoupled_update({r_n, r_t}, u_n, u_t, 1.0 / w_nn, 1.0 / w_tt, mu);
+    const double scale = 1.0 + std::abs(r_n) + std::abs(u_n) / w_nn + std::abs(u_t) / w_tt;
+    ASSERT_NEAR(update.n, exact.r_n, 1e-13 * scale) << "case " << i;
+    ASSERT_NEAR(update.t, exact.r_t, 1e-13 * scale) << "case " << i;
+  }
+}
+
+// Over-relaxation in one stage (the solver's update for omega > 1) against the definition,
+// the exact update relaxed and projected on the cone: the same impulse up to rounding whenever
+// the old impulse is in the cone (local_solve.hpp derives it), in every regime (opening,
+// sticking, sliding either way, before and after relaxing). Not for omega < 1, which is why
+// under-relaxation keeps the two stages.
+TEST(DecoupledUpdate, OverRelaxedInOneStageIsTheRelaxedExactUpdate) {
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.1, 3.0), friction(0.0, 1.0),
+      over(1.0, 2.0), under(0.05, 1.0);
+  int opened = 0, slid = 0, inside = 0, on_edge = 0, differ_under = 0;
+  const int cases = 50000;
+  for (int i = 0; i < cases; ++i) {
+    const double inv_w_nn = positive(rng), inv_w_tt = positive(rng), mu = friction(rng);
+    const double r_n = i % 7 == 0 ? 0.0 : std::max(0.0, unit(rng));
+    // Old impulses inside the cone and on its edges (sliding contacts).
+    const double r_t = i % 5 == 0 ? (i % 2 == 0 ? 1.0 : -1.0) * mu * r_n : mu * r_n * unit(rng);
+    const double u_n = unit(rng), u_t = unit(rng);
+    const LocalImpulse old{r_n, r_t};
+    const LocalImpulse exact = decoupled_update(old, u_n, u_t, inv_w_nn, inv_w_tt, mu);
+    const double scale = 1.0 + r_n + std::abs(u_n) * inv_w_nn + std::abs(u_t) * inv_w_tt;
+    const double omega = over(rng);
+    const LocalImpulse two_stage = relax_and_project(old, exact, omega, mu);
+    const LocalImpulse one_stage = decoupled_update(old, u_n, u_t, inv_w_nn, inv_w_tt, mu, omega);
+    ASSERT_NEAR(one_stage.n, two_stage.n, 1e-13 * scale) << "case " << i << " omega " << omega;
+    ASSERT_NEAR(one_stage.t, two_stage.t, 1e-13 * scale) << "case " << i << " omega " << omega;
+    ASSERT_LE(std::abs(one_stage.t), mu * one_stage.n);
+    opened += one_stage.n == 0.0;
+    slid += one_stage.n > 0.0 && std::abs(one_stage.t) == mu * one_stage.n;
+    inside += std::abs(one_stage.t) < mu * one_stage.n;
+    on_edge += std::abs(exact.t) == mu * exact.n && exact.n > 0.0;
+    const double omega_under = under(rng);
+    const LocalImpulse relaxed = relax_and_project(old, exact, omega_under, mu);
+    const LocalImpulse scaled =
+        decoupled_update(old, u_n, u_t, inv_w_nn, inv_w_tt, mu, omega_under);
+    differ_under += std::abs(relaxed.n - scaled.n) + std::abs(relaxed.t - scaled.t) > 1e-6 * scale;
+  }
+  // Every regime is reached by a good share of the cases.
+  EXPECT_GT(opened, cases / 20);
+  EXPECT_GT(slid, cases / 20);
+  EXPECT_GT(inside, cases / 20);
+  EXPECT_GT(on_edge, cases / 20);
+  EXPECT_GT(differ_under, cases / 20);
+}
+
 }  // namespace
 }  // namespace cdshear
