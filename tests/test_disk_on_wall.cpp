@@ -224,5 +224,40 @@ TEST(MovableIncline, DiskRollsDownAWedgeThatSlidesAway) {
   EXPECT_NEAR(sim.world.disks.omega[0], -s_d / kR, 1e-6 * s_d / kR);
 }
 
+// Relaxation acts on the exact local solution (local_solve.hpp, relax_and_project): a disk
+// resting on the wall (impulse R = m g dt from an exactly solved step) is pulled away by a
+// reversed gravity, so the exact update opens the contact (R_exact = 0). One sweep of the
+// projected relaxed update gives max(0, R + omega (0 - R)): (1 - omega) R under-relaxed
+// (omega = 0.8: 0.2 R), 0 for omega >= 1. The solver's one-stage over-relaxed form,
+// max(0, R - omega x), would give 0 at omega = 0.8 too: this catches an under-relaxed row
+// sent down that path.
+TEST(DiskOnWall, RelaxationActsOnTheExactUpdate) {
+  const auto after_pull = [](double relaxation) {
+    SceneDefinition s;
+    s.gravity = {0.0, -kG};
+    s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}, 0.5));
+    s.disks.push_back(disk({0.0, kR}, kR));
+    StepOptions o;
+    o.dt = kDt;
+    testing::Simulation sim(s, o);
+    sim.run(1);
+    const auto resting = sim.contact(0, 1);
+    EXPECT_TRUE(resting.has_value());
+    const double r_rest = resting ? resting->impulse_n : 0.0;
+    EXPECT_NEAR(r_rest, testing::disk_mass(kR) * kG * kDt, 1e-15);
+    sim.world.body_force = {0.0, kG};
+    sim.options.solver.relaxation = relaxation;
+    sim.options.solver.max_sweeps = 1;
+    sim.run(1);
+    const auto pulled = sim.contact(0, 1);
+    EXPECT_TRUE(pulled.has_value());
+    return pulled ? pulled->impulse_n / r_rest : -1.0;
+  };
+  EXPECT_NEAR(after_pull(0.8), 0.2, 1e-12);
+  EXPECT_NEAR(after_pull(0.5), 0.5, 1e-12);
+  EXPECT_EQ(after_pull(1.0), 0.0);
+  EXPECT_EQ(after_pull(1.6), 0.0);
+}
+
 }  // namespace
 }  // namespace cdshear

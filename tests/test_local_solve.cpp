@@ -1,5 +1,6 @@
 // Unit and property tests of solve_local (local_solve.hpp), the exact 2x2 frictional contact
-// solution used by every Gauss-Seidel update.
+// solution used by every Gauss-Seidel update, and of the decoupled update forms the solver
+// computes instead (decoupled_update, over-relaxed in one stage, and relax_and_project).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -276,7 +277,6 @@ TEST(DecoupledUpdate, OverRelaxedInOneStageIsTheRelaxedExactUpdate) {
     const LocalImpulse one_stage = decoupled_update(old, u_n, u_t, inv_w_nn, inv_w_tt, mu, omega);
     ASSERT_NEAR(one_stage.n, two_stage.n, 1e-13 * scale) << "case " << i << " omega " << omega;
     ASSERT_NEAR(one_stage.t, two_stage.t, 1e-13 * scale) << "case " << i << " omega " << omega;
-    ASSERT_LE(std::abs(one_stage.t), mu * one_stage.n);
     opened += one_stage.n == 0.0;
     slid += one_stage.n > 0.0 && std::abs(one_stage.t) == mu * one_stage.n;
     inside += std::abs(one_stage.t) < mu * one_stage.n;

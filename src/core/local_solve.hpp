@@ -54,8 +54,9 @@ struct LocalImpulse {
 /// With omega > 1, the same formula with the steps scaled by omega is the projected
 /// over-relaxation of the exact update, proj_C(R + omega (R_GS - R)) with C the Coulomb cone
 /// (relax_and_project below), in one stage, provided the old R is in C (|R_t| <= mu R_n: every
-/// impulse the solver holds is, being a projection or a positive multiple of one). Derivation,
-/// x = u_n / w_nn, y = u_t / w_tt, c = 1 - omega < 0:
+/// impulse the solver computes is, being a projection or a positive multiple of one; only a
+/// hand-edited checkpoint could start a row outside, and then only its first update differs).
+/// Derivation, x = u_n / w_nn, y = u_t / w_tt, c = 1 - omega < 0:
 ///   normal: if R_n - x >= 0, R_n + omega (R_n - x - R_n) = R_n - omega x. Otherwise x > R_n >= 0,
 ///     so R_n + omega (0 - R_n) = c R_n <= 0 and R_n - omega x < R_n - x < 0: both give 0.
 ///   tangential, R_GS unclamped: R_t + omega (R_t - y - R_t) = R_t - omega y, clamped alike.

@@ -108,9 +108,9 @@ class TallyAccumulator {
 ///     R_GS in floating point).
 ///   kOver (omega > 1): decoupled rows in one stage, the steps scaled by omega
 ///     (local_solve.hpp, decoupled_update: the same impulse as relaxing the exact update and
-///     projecting, in exact arithmetic, and a third shorter a chain of dependent operations
-///     between one row's velocities and the next's: 9 to 13% less time per sweep). Coupled rows:
-///     the exact solution, then relaxed and projected.
+///     projecting, in exact arithmetic, with a chain of dependent operations from a row's
+///     two velocities to their new values a third shorter: 9 to 13% less time per sweep). Coupled
+///     rows: the exact solution, then relaxed and projected.
 ///   kUnder (omega < 1): the exact solution, then relaxed and projected (relax_and_project).
 /// Forced inline: with several sweep loops (relaxation, gathering or not) g++ 12 called it out
 /// of line, and a step of system 7 took 8% longer.
