@@ -11,7 +11,30 @@
 #include "config_error.hpp"
 #include "run_loop.hpp"
 
+namespace {
+
+/// Whether this processor runs what the build was compiled for (CMakeLists.txt, CDSHEAR_ARCH): a
+/// build for x86-64-v3 would otherwise die of an illegal instruction somewhere in a run.
+bool processor_runs_this_build() {
+#if defined(__x86_64__) && defined(__AVX2__) && defined(__FMA__)
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+         __builtin_cpu_supports("bmi2");
+#else
+  return true;
+#endif
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  if (!processor_runs_this_build()) {
+    std::fprintf(stderr,
+                 "error: this cdshear was built for the instruction set " CDSHEAR_INSTRUCTION_SET
+                 " (AVX2, FMA), which this processor lacks; rebuild it here (scripts/setup.sh "
+                 "does), or with cmake -DCDSHEAR_ARCH=none for any x86-64 processor\n");
+    return 2;
+  }
   CLI::App app{"cdshear " CDSHEAR_VERSION
                ": Contact Dynamics simulation of dense granular flow sheared between walls"};
   app.set_version_flag("--version", CDSHEAR_VERSION);

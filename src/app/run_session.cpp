@@ -84,6 +84,9 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   nlohmann::json info = end.info;
   info["program"] = "cdshear";
   info["version"] = CDSHEAR_VERSION;
+  // The build's instruction set changes the rounding, so which run repeats which bit for bit
+  // (CMakeLists.txt, CDSHEAR_ARCH).
+  info["instruction_set"] = CDSHEAR_INSTRUCTION_SET;
   info["step"] = world.step;
   info["time"] = world.time;
   info["state_hash"] = fmt::format("{:016x}", state_hash(world));
