@@ -259,5 +259,30 @@ TEST(DiskOnWall, RelaxationActsOnTheExactUpdate) {
   EXPECT_EQ(after_pull(1.6), 0.0);
 }
 
+// A capped step in which every force vanishes (the resting disk pulled away, its one contact
+// opened in the step's only sweep) reports a relative change of 1, the whole force, and is no
+// blow-up. The residual was infinity (sum |dR| / sum |R| with sum |R| = 0), which the step took
+// for a blow-up: a packing whose last contacts all opened in a capped step stopped there (the
+// benchmark's densification of a loose system 7 did).
+TEST(DiskOnWall, EveryForceVanishingInACappedStepIsNoBlowUp) {
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}, 0.5));
+  s.disks.push_back(disk({0.0, kR}, kR));
+  StepOptions o;
+  o.dt = kDt;
+  testing::Simulation sim(s, o);
+  sim.run(1);
+  ASSERT_GT(sim.last().solver.active_contacts, 0);
+  sim.world.body_force = {0.0, kG};
+  sim.options.solver.max_sweeps = 1;
+  sim.run(1);
+  const StepReport& pulled = sim.last();
+  EXPECT_FALSE(pulled.blown_up) << pulled.problem;
+  EXPECT_TRUE(pulled.solver.hit_cap);
+  EXPECT_EQ(pulled.solver.active_contacts, 0);
+  EXPECT_EQ(pulled.solver.residual, 1.0);
+}
+
 }  // namespace
 }  // namespace cdshear

@@ -259,7 +259,9 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     report.problem = "a disk velocity became NaN or infinite";
   } else if (!std::isfinite(report.solver.residual)) {
     report.blown_up = true;
-    report.problem = "the solver residual is NaN or infinite";
+    report.problem = "the solver residual is " + std::to_string(report.solver.residual) +
+                     " after " + std::to_string(report.solver.sweeps) + " sweeps" +
+                     (report.solver.hit_cap ? " (at the cap)" : "");
   } else if (report.max_overlap > options.abort_overlap) {
     report.blown_up = true;
     report.problem = "overlap " + std::to_string(report.max_overlap) + " exceeds abort_overlap " +

@@ -819,7 +819,10 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
           const double ratio = sum_change / sum_force;
           residual = ratio * ratio;
         } else {
-          residual = sum_change > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+          // Every force vanished in this sweep: each |dR| is the |R| it had, a relative change
+          // of 1 measured against the forces before. (It was infinity, which the step took for
+          // a blow-up: a packing whose last contacts all opened in a capped step stopped there.)
+          residual = sum_change > 0.0 ? 1.0 : 0.0;
         }
         double tested2 = residual;  // alpha bounds the square (the residual is the change squared)
         if (error_criterion) {

@@ -125,7 +125,9 @@ inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;
 struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
-  double residual = 0.0;            ///< (sum |dR| / sum |R|)^2 of the last sweep
+  /// (sum |dR| / sum |R|)^2 of the last sweep; 1 when every force vanished in it (sum |R| = 0
+  /// after a change: the whole force changed)
+  double residual = 0.0;
   double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
   int active_contacts = 0;          ///< contacts with R_n > 0 at the end
   std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
