@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
                  "error: this cdshear was built for the instruction set " CDSHEAR_INSTRUCTION_SET
                  " (AVX2, FMA), which this processor lacks; rebuild it here (scripts/setup.sh "
                  "does), or with cmake -DCDSHEAR_ARCH=none for any x86-64 processor\n");
-    return 2;
+    return 1;  // not the input's fault (docs/reliability.md)
   }
   CLI::App app{"cdshear " CDSHEAR_VERSION
                ": Contact Dynamics simulation of dense granular flow sheared between walls"};
