@@ -231,21 +231,28 @@ TEST(MovableIncline, DiskRollsDownAWedgeThatSlidesAway) {
 // (omega = 0.8: 0.2 R), 0 for omega >= 1. The solver's one-stage over-relaxed form,
 // max(0, R - omega x), would give 0 at omega = 0.8 too: this catches an under-relaxed row
 // sent down that path.
+/// A disk resting on a fixed floor after one step of gravity (its contact solved exactly), and
+/// gravity then reversed: the next step pulls it away.
+testing::Simulation disk_pulled_off_the_floor() {
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}, 0.5));
+  s.disks.push_back(disk({0.0, kR}, kR));
+  StepOptions o;
+  o.dt = kDt;
+  testing::Simulation sim(s, o);
+  sim.run(1);
+  sim.world.body_force = {0.0, kG};
+  return sim;
+}
+
 TEST(DiskOnWall, RelaxationActsOnTheExactUpdate) {
   const auto after_pull = [](double relaxation) {
-    SceneDefinition s;
-    s.gravity = {0.0, -kG};
-    s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}, 0.5));
-    s.disks.push_back(disk({0.0, kR}, kR));
-    StepOptions o;
-    o.dt = kDt;
-    testing::Simulation sim(s, o);
-    sim.run(1);
+    testing::Simulation sim = disk_pulled_off_the_floor();
     const auto resting = sim.contact(0, 1);
     EXPECT_TRUE(resting.has_value());
     const double r_rest = resting ? resting->impulse_n : 0.0;
     EXPECT_NEAR(r_rest, testing::disk_mass(kR) * kG * kDt, 1e-15);
-    sim.world.body_force = {0.0, kG};
     sim.options.solver.relaxation = relaxation;
     sim.options.solver.max_sweeps = 1;
     sim.run(1);
@@ -265,16 +272,8 @@ TEST(DiskOnWall, RelaxationActsOnTheExactUpdate) {
 // for a blow-up: a packing whose last contacts all opened in a capped step stopped there (the
 // benchmark's densification of a loose system 7 did).
 TEST(DiskOnWall, EveryForceVanishingInACappedStepIsNoBlowUp) {
-  SceneDefinition s;
-  s.gravity = {0.0, -kG};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}, 0.5));
-  s.disks.push_back(disk({0.0, kR}, kR));
-  StepOptions o;
-  o.dt = kDt;
-  testing::Simulation sim(s, o);
-  sim.run(1);
+  testing::Simulation sim = disk_pulled_off_the_floor();
   ASSERT_GT(sim.last().solver.active_contacts, 0);
-  sim.world.body_force = {0.0, kG};
   sim.options.solver.max_sweeps = 1;
   sim.run(1);
   const StepReport& pulled = sim.last();
