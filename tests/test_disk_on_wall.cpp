@@ -224,13 +224,6 @@ TEST(MovableIncline, DiskRollsDownAWedgeThatSlidesAway) {
   EXPECT_NEAR(sim.world.disks.omega[0], -s_d / kR, 1e-6 * s_d / kR);
 }
 
-// Relaxation acts on the exact local solution (local_solve.hpp, relax_and_project): a disk
-// resting on the wall (impulse R = m g dt from an exactly solved step) is pulled away by a
-// reversed gravity, so the exact update opens the contact (R_exact = 0). One sweep of the
-// projected relaxed update gives max(0, R + omega (0 - R)): (1 - omega) R under-relaxed
-// (omega = 0.8: 0.2 R), 0 for omega >= 1. The solver's one-stage over-relaxed form,
-// max(0, R - omega x), would give 0 at omega = 0.8 too: this catches an under-relaxed row
-// sent down that path.
 /// A disk resting on a fixed floor after one step of gravity (its contact solved exactly), and
 /// gravity then reversed: the next step pulls it away.
 testing::Simulation disk_pulled_off_the_floor() {
@@ -246,6 +239,13 @@ testing::Simulation disk_pulled_off_the_floor() {
   return sim;
 }
 
+// Relaxation acts on the exact local solution (local_solve.hpp, relax_and_project): a disk
+// resting on the wall (impulse R = m g dt from an exactly solved step) is pulled away by a
+// reversed gravity, so the exact update opens the contact (R_exact = 0). One sweep of the
+// projected relaxed update gives max(0, R + omega (0 - R)): (1 - omega) R under-relaxed
+// (omega = 0.8: 0.2 R), 0 for omega >= 1. The solver's one-stage over-relaxed form,
+// max(0, R - omega x), would give 0 at omega = 0.8 too: this catches an under-relaxed row
+// sent down that path.
 TEST(DiskOnWall, RelaxationActsOnTheExactUpdate) {
   const auto after_pull = [](double relaxation) {
     testing::Simulation sim = disk_pulled_off_the_floor();
