@@ -3,12 +3,33 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 
 namespace cdshear {
 
 namespace {
 
 constexpr int kMaxDepth = AndersonMixer::kMaxDepth;
+
+/// Two doubles as one value (a GNU vector type, which g++ and clang both have; SSE2, in every
+/// x86-64). The loops below keep four running sums (element i in sum i mod 4) as two pairs,
+/// (s0, s1) and (s2, s3): each lane does what the scalar sum did, the same operations in the same
+/// order, so the results are the same bit for bit, in half the instructions. At -O2 g++ 12
+/// vectorised none of the mix's loops, whose three passes were about 11% of a system-1 step.
+/// (Four doubles as one value compiled, for the x86-64 baseline, to running sums kept on the
+/// stack, slower than the scalar loops.)
+using Pair = double __attribute__((vector_size(16)));
+
+inline Pair load_pair(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
+
+/// (s0 + s1) + (s2 + s3) of the pairs (s0, s1) and (s2, s3): the scalar loops' order.
+inline double sum_of_pairs(Pair low, Pair high) { return (low[0] + low[1]) + (high[0] + high[1]); }
 
 /// The dot products, over one chunk of `len` elements, of `u` and of `v` with m columns read
 /// from element `offset` on: uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four
@@ -20,24 +41,20 @@ void dot_columns(const double* u, const double* v, const double* const* columns,
   const std::size_t body = len - len % 4;
   for (int j = 0; j < m; ++j) {
     const double* c = columns[j] + offset;
-    double u0 = 0.0, u1 = 0.0, u2 = 0.0, u3 = 0.0;
-    double v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
+    Pair u01{}, u23{}, v01{}, v23{};  // running sums i mod 4, in pairs
     for (std::size_t i = 0; i < body; i += 4) {
-      u0 += u[i] * c[i];
-      u1 += u[i + 1] * c[i + 1];
-      u2 += u[i + 2] * c[i + 2];
-      u3 += u[i + 3] * c[i + 3];
-      v0 += v[i] * c[i];
-      v1 += v[i + 1] * c[i + 1];
-      v2 += v[i + 2] * c[i + 2];
-      v3 += v[i + 3] * c[i + 3];
+      const Pair c01 = load_pair(c + i), c23 = load_pair(c + i + 2);
+      u01 += load_pair(u + i) * c01;
+      u23 += load_pair(u + i + 2) * c23;
+      v01 += load_pair(v + i) * c01;
+      v23 += load_pair(v + i + 2) * c23;
     }
     for (std::size_t i = body; i < len; ++i) {
-      u0 += u[i] * c[i];
-      v0 += v[i] * c[i];
+      u01[0] += u[i] * c[i];
+      v01[0] += v[i] * c[i];
     }
-    uc[j] = (u0 + u1) + (u2 + u3);
-    vc[j] = (v0 + v1) + (v2 + v3);
+    uc[j] = sum_of_pairs(u01, u23);
+    vc[j] = sum_of_pairs(v01, v23);
   }
 }
 
@@ -117,27 +134,32 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-    std::array<double, 4> f2_sums{};
+    Pair f2_01{}, f2_23{};  // running sums i mod 4, in pairs
+    // Differences and new last values of the pair at `at`; returns f there.
+    const auto differences = [&](std::size_t at) {
+      const Pair g_at = load_pair(gs + at);
+      const Pair f = g_at - load_pair(xs + at);
+      store_pair(df + at, f - load_pair(last_f + at));
+      store_pair(dg + at, g_at - load_pair(last_g + at));
+      store_pair(last_f + at, f);
+      store_pair(last_g + at, g_at);
+      return f;
+    };
     std::size_t i = begin;
     for (; i + 4 <= end; i += 4) {
-      for (std::size_t k = 0; k < 4; ++k) {
-        const double f = gs[i + k] - xs[i + k];
-        f2_sums[k] += f * f;
-        df[i + k] = f - last_f[i + k];
-        dg[i + k] = gs[i + k] - last_g[i + k];
-        last_f[i + k] = f;
-        last_g[i + k] = gs[i + k];
-      }
+      const Pair f01 = differences(i), f23 = differences(i + 2);
+      f2_01 += f01 * f01;
+      f2_23 += f23 * f23;
     }
     for (; i < end; ++i) {
       const double f = gs[i] - xs[i];
-      f2_sums[0] += f * f;
+      f2_01[0] += f * f;
       df[i] = f - last_f[i];
       dg[i] = gs[i] - last_g[i];
       last_f[i] = f;
       last_g[i] = gs[i];
     }
-    chunk_f2_[chunk] = (f2_sums[0] + f2_sums[1]) + (f2_sums[2] + f2_sums[3]);
+    chunk_f2_[chunk] = sum_of_pairs(f2_01, f2_23);
   }
 
 #if defined(_OPENMP)
@@ -208,7 +230,11 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     for (int j = 0; j < m; ++j) {
       const double* __restrict dgj = column(delta_g_, j);
       const double gamma = gamma_[j];
-      for (std::size_t k = begin; k < end; ++k) gw[k] -= gamma * dgj[k];
+      const Pair gammas = {gamma, gamma};
+      std::size_t k = begin;
+      for (; k + 2 <= end; k += 2)
+        store_pair(gw + k, load_pair(gw + k) - gammas * load_pair(dgj + k));
+      for (; k < end; ++k) gw[k] -= gamma * dgj[k];
     }
   }
 }
