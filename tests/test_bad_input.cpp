@@ -374,6 +374,29 @@ TEST(CheckpointValidation, EveryFieldComesBackExactly) {
   EXPECT_EQ(back.contacts[0].impulse_t, cp.contacts[0].impulse_t);
   EXPECT_EQ(back.observers, nlohmann::json({{"x", 1}}));
   EXPECT_EQ(back.case_identity, nlohmann::json({{"n", 2}}));
+  EXPECT_EQ(back.instruction_set, CDSHEAR_INSTRUCTION_SET);
+}
+
+// A resume by a build for another instruction set rounds differently from there on: it is
+// warned of, naming the file and both sets; a resume by the same build, or of a checkpoint
+// written before checkpoints named their build, is not.
+TEST(CheckpointValidation, AResumeByABuildForAnotherInstructionSetIsWarnedOf) {
+  const TempDir dir("checkpoint_instruction_set");
+  const Checkpoint cp = sample_checkpoint();
+  const auto same = dir.path() / "same.cbor", other = dir.path() / "other.cbor";
+  write_checkpoint(same, cp.world, cp.contacts);
+  write_checkpoint(other, cp.world, cp.contacts, nullptr, nullptr, "another-set");
+  EXPECT_EQ(instruction_set_warning(read_checkpoint(same), same.string()), "");
+  const Checkpoint back = read_checkpoint(other);
+  EXPECT_EQ(back.instruction_set, "another-set");
+  const std::string warning =
+      instruction_set_warning(back, other.string(), "this-build's-set");
+  EXPECT_NE(warning.find(other.string()), std::string::npos) << warning;
+  EXPECT_NE(warning.find("another-set"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("this-build's-set"), std::string::npos) << warning;
+  Checkpoint unnamed = back;
+  unnamed.instruction_set.clear();
+  EXPECT_EQ(instruction_set_warning(unnamed, other.string(), "this-build's-set"), "");
 }
 
 TEST(CheckpointValidation, AChangedByteFailsTheChecksum) {

@@ -288,6 +288,8 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   if (cp.world.disks.size() != s.c.n)
     throw ConfigError(checkpoint_file, "disks",
                       fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));
+  if (const std::string warning = instruction_set_warning(cp, checkpoint_file); !warning.empty())
+    std::fprintf(stderr, "%s\n", warning.c_str());
   s.world = std::move(cp.world);
   s.dynamics.set_contacts(std::move(cp.contacts));
   s.observer_state = std::move(cp.observers);

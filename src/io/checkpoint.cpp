@@ -101,7 +101,7 @@ void validate(const Checkpoint& cp, const std::string& file) {
 
 void write_checkpoint(const std::filesystem::path& path, const World& w,
                       const std::vector<Contact>& contacts, const json& observers,
-                      const json& case_identity) {
+                      const json& case_identity, const std::string& instruction_set) {
   const Disks& d = w.disks;
   json walls = json::array();
   for (const Wall& wall : w.walls)
@@ -128,6 +128,7 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
   json j = {{"format", "cdshear-checkpoint"},
             {"version", 1},
             {"program_version", CDSHEAR_VERSION},
+            {"instruction_set", instruction_set},
             {"time", w.time},
             {"step", w.step},
             {"periodic_x", w.domain.periodic_x},
@@ -217,6 +218,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     }
     if (j.contains("observers")) cp.observers = j.at("observers");
     if (j.contains("case")) cp.case_identity = j.at("case");
+    if (j.contains("instruction_set")) {
+      if (!j.at("instruction_set").is_string())
+        throw ConfigError(file, "instruction_set", "must be a string");
+      cp.instruction_set = j.at("instruction_set").get<std::string>();
+    }
     const json& c = j.at("contacts");
     const auto a = c.at("a").get<std::vector<std::int32_t>>();
     const auto b = c.at("b").get<std::vector<std::int32_t>>();
@@ -242,6 +248,16 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     throw ConfigError(file, "", std::string("corrupt checkpoint: ") + e.what());
   }
   return cp;
+}
+
+std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
+                                    const std::string& this_build) {
+  if (cp.instruction_set.empty() || cp.instruction_set == this_build) return {};
+  return "warning: " + file + " was written by a cdshear built for the instruction set " +
+         cp.instruction_set + ", this one is built for " + this_build +
+         ": the run goes on, but it rounds differently from here, so it is another realisation " +
+         "of the flow, not the one the first build would have continued bit for bit " +
+         "(docs/performance.md, \"Fused multiply-add\")";
 }
 
 }  // namespace cdshear

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -21,12 +22,24 @@ struct Checkpoint {
   std::vector<Contact> contacts;  ///< keys and impulses (the rest is recomputed at detection)
   nlohmann::json observers;       ///< observers' running state (null when none was stored)
   nlohmann::json case_identity;   ///< the physics of the case it belongs to (null: not stored)
+  /// The instruction set of the cdshear that wrote it (CMakeLists.txt, CDSHEAR_ARCH); empty when
+  /// written before checkpoints named it.
+  std::string instruction_set;
 };
 
+/// `instruction_set`: the writer's, this build's unless a test says otherwise.
 void write_checkpoint(const std::filesystem::path& path, const World& world,
                       const std::vector<Contact>& contacts,
                       const nlohmann::json& observers = nullptr,
-                      const nlohmann::json& case_identity = nullptr);
+                      const nlohmann::json& case_identity = nullptr,
+                      const std::string& instruction_set = CDSHEAR_INSTRUCTION_SET);
+
+/// A warning for a resume of `cp` by this build (empty when there is none to give): a build for
+/// another instruction set rounds differently (docs/performance.md, "Fused multiply-add"), so
+/// the resumed run is another realisation of the flow from that point on, not the one the
+/// first build would have continued bit for bit.
+std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
+                                    const std::string& this_build = CDSHEAR_INSTRUCTION_SET);
 /// Throws ConfigError naming the file and the field when it is missing, not a cdshear
 /// checkpoint, fails its checksum, or holds a value no run can have (NaN, radius <= 0, L_x <= 0,
 /// an unknown wall mode, a contact index out of range).
