@@ -389,8 +389,7 @@ TEST(CheckpointValidation, AResumeByABuildForAnotherInstructionSetIsWarnedOf) {
   EXPECT_EQ(instruction_set_warning(read_checkpoint(same), same.string()), "");
   const Checkpoint back = read_checkpoint(other);
   EXPECT_EQ(back.instruction_set, "another-set");
-  const std::string warning =
-      instruction_set_warning(back, other.string(), "this-build's-set");
+  const std::string warning = instruction_set_warning(back, other.string(), "this-build's-set");
   EXPECT_NE(warning.find(other.string()), std::string::npos) << warning;
   EXPECT_NE(warning.find("another-set"), std::string::npos) << warning;
   EXPECT_NE(warning.find("this-build's-set"), std::string::npos) << warning;

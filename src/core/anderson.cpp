@@ -26,10 +26,14 @@ inline Pair load_pair(const double* p) {
   return v;
 }
 
-inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
+inline void store_pair(double* p, Pair v) {
+  std::memcpy(p, &v, sizeof v);
+}
 
 /// (s0 + s1) + (s2 + s3) of the pairs (s0, s1) and (s2, s3): the scalar loops' order.
-inline double sum_of_pairs(Pair low, Pair high) { return (low[0] + low[1]) + (high[0] + high[1]); }
+inline double sum_of_pairs(Pair low, Pair high) {
+  return (low[0] + low[1]) + (high[0] + high[1]);
+}
 
 /// The dot products, over one chunk of `len` elements, of `u` and of `v` with m columns read
 /// from element `offset` on: uc[j] = u . c_j and vc[j] = v . c_j. Each product keeps four
