@@ -253,8 +253,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
 std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
                                     const std::string& this_build) {
   if (cp.instruction_set.empty() || cp.instruction_set == this_build) return {};
-  return "warning: " + file + " was written by a cdshear built for the instruction set " +
-         cp.instruction_set + ", this one is built for " + this_build +
+  // "default" is CMakeLists.txt's name for the compiler's default (the x86-64 baseline).
+  const auto named = [](const std::string& set) {
+    return set == "default" ? std::string("the compiler's default instruction set")
+                            : "the instruction set " + set;
+  };
+  return "warning: " + file + " was written by a cdshear built for " + named(cp.instruction_set) +
+         ", this one is built for " + named(this_build) +
          ": the run goes on, but it rounds differently from here, so it is another realisation " +
          "of the flow, not the one the first build would have continued bit for bit " +
          "(docs/performance.md, \"Fused multiply-add\")";
