@@ -34,15 +34,16 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
                       const nlohmann::json& case_identity = nullptr,
                       const std::string& instruction_set = CDSHEAR_INSTRUCTION_SET);
 
+/// Throws ConfigError naming the file and the field when it is missing, not a cdshear
+/// checkpoint, fails its checksum, or holds a value no run can have (NaN, radius <= 0, L_x <= 0,
+/// an unknown wall mode, a contact index out of range).
+Checkpoint read_checkpoint(const std::filesystem::path& path);
+
 /// A warning for a resume of `cp` by this build (empty when there is none to give): a build for
 /// another instruction set rounds differently (docs/performance.md, "Fused multiply-add"), so
 /// the resumed run is another realisation of the flow from that point on, not the one the
 /// first build would have continued bit for bit.
 std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
                                     const std::string& this_build = CDSHEAR_INSTRUCTION_SET);
-/// Throws ConfigError naming the file and the field when it is missing, not a cdshear
-/// checkpoint, fails its checksum, or holds a value no run can have (NaN, radius <= 0, L_x <= 0,
-/// an unknown wall mode, a contact index out of range).
-Checkpoint read_checkpoint(const std::filesystem::path& path);
 
 }  // namespace cdshear
