@@ -2,7 +2,8 @@
 RUN_DIR/summary.json and prints a report; `... plot RUN_DIR [-o OUT_DIR]` writes PNG figures
 (default RUN_DIR/figures); `... study STUDY_DIR` tabulates and plots a parameter study (runs in
 KEY=VALUE folders and a `reference` one: cdshear_analysis/study.py); `... study-compare DIR_A
-DIR_B` compares two folders of realizations in combined errors; `... report CAMPAIGN_DIR
+DIR_B [--windows N]` compares two folders of realizations in combined errors (and, with
+--windows, their solid fraction and mu_eff over time in N windows); `... report CAMPAIGN_DIR
 [-o OUT_DIR]` writes a campaign's runs table, fitted laws, figures and index.html (default
 CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
@@ -46,6 +47,9 @@ def main(argv=None):
         "study-compare", help="two folders of realizations (reference, reference_seedK) compared")
     p_compare.add_argument("dir_a")
     p_compare.add_argument("dir_b")
+    p_compare.add_argument("--windows", type=int, default=0,
+                           help="also the solid fraction and mu_eff over time, in this many "
+                           "windows (each folder's realizations averaged per window)")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
@@ -70,10 +74,15 @@ def main(argv=None):
         return 0
 
     if args.command == "study-compare":
-        from .study import StudyError, compare_references, format_comparison
+        from .study import (StudyError, compare_references, format_comparison, format_windows,
+                            windowed_means)
         try:
             a, b, lines, skipped = compare_references(args.dir_a, args.dir_b)
             print(format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped), end="")
+            if args.windows:
+                print(format_windows(args.dir_a, args.dir_b,
+                                     windowed_means(args.dir_a, args.windows),
+                                     windowed_means(args.dir_b, args.windows)), end="")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2

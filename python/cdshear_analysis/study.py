@@ -210,6 +210,90 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     return "\n".join(out) + "\n"
 
 
+WINDOW_QUANTITIES = ("solid_fraction", "mu_eff_wall")
+
+
+def _realization_series(run_dir):
+    """(time, {quantity: per-sample values}) of one realization's run.h5: the solid fraction and
+    mu_eff from the wall forces, (|bottom_fx| + |top_fx|) / (|bottom_fy| + |top_fy|) as
+    `cdshear analyze` computes it."""
+    import h5py
+    import numpy as np
+
+    from .summary import wall_friction_series
+    path = os.path.join(run_dir, "run.h5")
+    try:
+        with h5py.File(path, "r") as f:
+            series = {key: np.asarray(f["series"][key], dtype=float) for key in
+                      ("time", "solid_fraction", "bottom_fx", "top_fx", "bottom_fy", "top_fy")}
+    except FileNotFoundError:
+        raise StudyError(path, "missing") from None
+    except (OSError, KeyError) as e:
+        raise StudyError(path, f"cannot read its series: {e}") from None
+    return series["time"], {"solid_fraction": series["solid_fraction"],
+                            "mu_eff_wall": wall_friction_series(series)}
+
+
+def windowed_means(study_dir, windows):
+    """How the realizations of a study folder (`reference`, `reference_<anything>` with
+    summary.json, as `collect` takes them) move over time: [0, t_end] (t_end the end of the
+    shortest one) cut into `windows` equal windows, and for each quantity of WINDOW_QUANTITIES
+    and each window the mean over the realizations of their window means, with its error from
+    their scatter, std / sqrt(k) (NaN for one realization). Shows whether a flow is still
+    drifting, and whether two builds differ by a constant or by a rate (docs/accuracy.md,
+    fifteenth pass). Returns (edges, k, {quantity: [(mean, err) per window]})."""
+    import numpy as np
+    if windows < 1:
+        raise StudyError(study_dir, f"--windows must be at least 1, not {windows}")
+    names = [n for n in sorted(os.listdir(study_dir)) if
+             (n == "reference" or n.startswith("reference_")) and
+             os.path.exists(os.path.join(study_dir, n, "summary.json"))]
+    if not names:
+        raise StudyError(study_dir, "no analysed `reference` run folder")
+    runs = [_realization_series(os.path.join(study_dir, n)) for n in names]
+    t_end = min(float(t[-1]) if t.size else 0.0 for t, _ in runs)
+    if t_end <= 0.0:
+        raise StudyError(study_dir, "a realization has no samples")
+    edges = np.linspace(0.0, t_end, windows + 1)
+    out = {}
+    for quantity in WINDOW_QUANTITIES:
+        per_run = []
+        for time, values in runs:
+            v = values[quantity]
+            per_run.append([float(np.nanmean(v[(time > lo) & (time <= hi)]))
+                            if np.any((time > lo) & (time <= hi)) else math.nan
+                            for lo, hi in zip(edges[:-1], edges[1:])])
+        per_run = np.array(per_run)
+        k = len(runs)
+        with np.errstate(invalid="ignore"):
+            means = np.nanmean(per_run, axis=0)
+            errs = (np.std(per_run, axis=0, ddof=1) / math.sqrt(k) if k > 1 else
+                    np.full(windows, math.nan))
+        out[quantity] = [(float(m), float(e)) for m, e in zip(means, errs)]
+    return edges, len(runs), out
+
+
+def format_windows(dir_a, dir_b, a, b):
+    """Both folders' windowed means side by side (Markdown), each window's difference b - a in
+    combined errors, and each folder's drift, last window minus first in combined errors."""
+    edges, ka, qa = a
+    _, kb, qb = b
+    diff = lambda x, ex, y, ey: ((y - x) / math.hypot(ex, ey)  # noqa: E731
+                                 if math.hypot(ex, ey) > 0 else math.nan)
+    out = []
+    for quantity in WINDOW_QUANTITIES:
+        out += ["", f"| {quantity}, time window | {dir_a} ({ka} runs) | {dir_b} ({kb} runs) | "
+                "difference / combined error |", "|---|---|---|---|"]
+        for i, ((xa, ea), (xb, eb)) in enumerate(zip(qa[quantity], qb[quantity])):
+            out.append(f"| {edges[i]:.6g} to {edges[i + 1]:.6g} | {xa:.5g} ± {ea:.2g} | "
+                       f"{xb:.5g} ± {eb:.2g} | {diff(xa, ea, xb, eb):+.2f} |")
+        for name, series in ((dir_a, qa[quantity]), (dir_b, qb[quantity])):
+            (x0, e0), (x1, e1) = series[0], series[-1]
+            out.append(f"drift of {quantity} in {name}, last window - first: {x1 - x0:+.4g} "
+                       f"({diff(x0, e0, x1, e1):+.2f} combined errors)")
+    return "\n".join(out) + "\n"
+
+
 def agrees(row, ref, name):
     """True when the row's value is within two combined standard errors of the reference's."""
     x, e, xr, er = row[name], row[name + "_err"], ref[name], ref[name + "_err"]

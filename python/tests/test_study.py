@@ -125,6 +125,63 @@ class StudyTest(unittest.TestCase):
                 self.assertEqual(main(["study-compare", a, os.path.join(d, "none")]), 2)
             self.assertIn("none", err.getvalue())
 
+    def test_windows_show_a_drift_and_where_two_folders_part(self):
+        import h5py
+        import numpy as np
+
+        def series_run(folder, slope, offset, mu, end=100.0):
+            """A realization whose solid fraction rises linearly, offset + slope t, and whose
+            walls carry |f_x| / |f_y| = mu (bottom and top alike), sampled every 0.5."""
+            fake_run(folder, mu, 0.004, 50.0, 10.0)
+            t = np.arange(0.5, end + 0.25, 0.5)
+            with h5py.File(os.path.join(folder, "run.h5"), "w") as f:
+                g = f.create_group("series")
+                g["time"] = t
+                g["solid_fraction"] = offset + slope * t
+                g["bottom_fx"], g["top_fx"] = -mu * np.ones_like(t), mu * np.ones_like(t)
+                g["bottom_fy"], g["top_fy"] = np.ones_like(t), -np.ones_like(t)
+
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # a: flat, 0.80 and 0.81; b: both rise by 1e-4 per time unit from 0.80 and 0.81.
+            series_run(os.path.join(a, "reference"), 0.0, 0.80, 0.2)
+            series_run(os.path.join(a, "reference_seed2"), 0.0, 0.81, 0.3)
+            series_run(os.path.join(b, "reference"), 1e-4, 0.80, 0.2)
+            series_run(os.path.join(b, "reference_seed2"), 1e-4, 0.81, 0.2, end=50.0)
+            edges, k, means = study.windowed_means(a, 2)
+            self.assertEqual(k, 2)
+            self.assertEqual(list(edges), [0.0, 50.0, 100.0])
+            # Mean of the two realizations, error std / sqrt 2 = 0.005 (ddof 1).
+            for mean, err in means["solid_fraction"]:
+                self.assertAlmostEqual(mean, 0.805)
+                self.assertAlmostEqual(err, 0.005)
+            self.assertAlmostEqual(means["mu_eff_wall"][0][0], 0.25)
+            # b's windows end where its shortest realization ends (t = 50): samples 0.5 to 25
+            # average t = 12.75, samples 25.5 to 50 average t = 37.75.
+            edges_b, _, means_b = study.windowed_means(b, 2)
+            self.assertEqual(list(edges_b), [0.0, 25.0, 50.0])
+            self.assertAlmostEqual(means_b["solid_fraction"][0][0], 0.805 + 1e-4 * 12.75)
+            self.assertAlmostEqual(means_b["solid_fraction"][1][0], 0.805 + 1e-4 * 37.75)
+            out = io.StringIO()
+            with redirect_stdout(out):
+                self.assertEqual(main(["study-compare", a, b, "--windows", "2"]), 0)
+            text = out.getvalue()
+            self.assertIn(f"| solid_fraction, time window | {a} (2 runs) | {b} (2 runs) |", text)
+            # b's drift: 1e-4 x 25 = 0.0025 over errors of 0.005 each: 0.0025 / 0.00707.
+            self.assertIn(f"drift of solid_fraction in {b}, last window - first: +0.0025 "
+                          "(+0.35 combined errors)", text)
+            self.assertIn(f"drift of solid_fraction in {a}, last window - first: +0 ", text)
+            with redirect_stderr(io.StringIO()) as err:
+                with redirect_stdout(io.StringIO()) as plain:
+                    self.assertEqual(main(["study-compare", a, b, "--windows", "0"]), 0)
+                    self.assertNotIn("time window", plain.getvalue())
+                    self.assertEqual(main(["study-compare", a, b, "--windows", "-1"]), 2)
+                os.remove(os.path.join(b, "reference_seed2", "run.h5"))
+                with redirect_stdout(io.StringIO()):
+                    self.assertEqual(main(["study-compare", a, b, "--windows", "2"]), 2)
+            self.assertIn(os.path.join(b, "reference_seed2", "run.h5") + ": missing",
+                          err.getvalue())
+
     def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "step.dt=0.002"), 0.26, 0.004, 100.0, 10.0)
