@@ -57,6 +57,9 @@ expect_status2 "empty/run.h5" "$exe" plot empty
 head -c 3000 done/run.h5 > truncated/run.h5
 expect_status2 "truncated/run.h5" "$exe" analyze truncated
 expect_status2 "truncated/run.h5" "$exe" plot truncated
+# A cdshear whose analysis package is not where it was built (source tree moved or removed).
+expect_error "/nowhere/cdshear_analysis: the analysis package is not there (from CDSHEAR_ANALYSIS_DIR)" \
+  env CDSHEAR_ANALYSIS_DIR=/nowhere "$exe" analyze done
 # report: not a campaign folder, an unreadable summary.json or campaign.toml
 expect_status2 "nowhere: not a folder" "$exe" report nowhere
 expect_status2 "notarun/runs: no run folders" "$exe" report notarun

@@ -6,7 +6,9 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
+#include <system_error>
 
 namespace cdshear {
 
@@ -22,6 +24,23 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  python.c_str(), verb.c_str());
     return 1;
   }
+  // The analysis package: the source tree's python/ folder, whose path is built in;
+  // CDSHEAR_ANALYSIS_DIR overrides it (a cdshear whose source tree has moved or is gone).
+  const char* env_dir = std::getenv("CDSHEAR_ANALYSIS_DIR");
+  const std::string package_dir =
+      env_dir != nullptr && *env_dir != '\0' ? env_dir : CDSHEAR_PYTHON_DIR;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(
+          std::filesystem::path(package_dir) / "cdshear_analysis" / "__main__.py", ec)) {
+    std::fprintf(stderr,
+                 "error: %s/cdshear_analysis: the analysis package is not there (%s); set "
+                 "CDSHEAR_ANALYSIS_DIR to the `python` folder of a cdshear source tree\n",
+                 package_dir.c_str(),
+                 env_dir != nullptr && *env_dir != '\0'
+                     ? "from CDSHEAR_ANALYSIS_DIR"
+                     : "this cdshear was built from a source tree that has since moved or gone");
+    return 1;
+  }
   std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, run_dir.string()};
   args.insert(args.end(), extra.begin(), extra.end());
   std::fflush(stdout);
@@ -33,7 +52,7 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
   }
   if (pid == 0) {
     const char* old_path = std::getenv("PYTHONPATH");
-    std::string path = CDSHEAR_PYTHON_DIR;
+    std::string path = package_dir;
     if (old_path != nullptr && *old_path != '\0') path += std::string(":") + old_path;
     setenv("PYTHONPATH", path.c_str(), 1);
     std::vector<char*> argv;
