@@ -275,5 +275,64 @@ TEST(ContactDetection, WarmStartKeepsImpulsesOfPersistingContacts) {
   EXPECT_EQ(contacts[0].impulse_t, -0.125);
 }
 
+TEST(ContactDetection, WarmStartSmoothedOverStepsIsAnExponentialAverageInTheCone) {
+  SceneDefinition s;
+  s.disks = {disk({1.0, 1.0}, 0.5), disk({2.0, 1.0}, 0.5)};
+  s.friction_disk_disk = 0.5;
+  const World world = build_world(s);
+  // Last step: started from S = (0.2, -0.1), ended at R = (0.4, 0.1).
+  std::vector<Contact> contacts(1);
+  contacts[0].key = {0, 1, 0};
+  contacts[0].impulse_n = 0.4;
+  contacts[0].impulse_t = 0.1;
+  contacts[0].warm_start_n = 0.2;
+  contacts[0].warm_start_t = -0.1;
+  std::vector<Contact> plain = contacts;
+  ContactDetector detector, plain_detector;
+  detector.detect(world, 0.05, contacts, 1, 0.25);
+  plain_detector.detect(world, 0.05, plain, 1, 0.0);
+  ASSERT_EQ(contacts.size(), 1u);
+  // R - gamma (R - S): 0.4 - 0.25 x 0.2 and 0.1 - 0.25 x 0.2, and the start is remembered.
+  EXPECT_DOUBLE_EQ(contacts[0].impulse_n, 0.35);
+  EXPECT_DOUBLE_EQ(contacts[0].impulse_t, 0.05);
+  EXPECT_EQ(contacts[0].warm_start_n, contacts[0].impulse_n);
+  EXPECT_EQ(contacts[0].warm_start_t, contacts[0].impulse_t);
+  // gamma = 0: the last impulse itself.
+  EXPECT_EQ(plain[0].impulse_n, 0.4);
+  EXPECT_EQ(plain[0].impulse_t, 0.1);
+  EXPECT_EQ(plain[0].warm_start_n, 0.4);
+
+  // Steps that all end at the same R from a first start of 0: the start after k steps is
+  // R (1 - gamma^k), the exponential average of k impulses R and the initial 0.
+  const double gamma = 0.5, r_n = 1.0, r_t = -0.25;
+  std::vector<Contact> previous(1);
+  previous[0].key = {0, 1, 0};
+  previous[0].friction = 0.5;
+  for (int k = 1; k <= 6; ++k) {
+    previous[0].impulse_n = r_n;  // the solve of step k - 1 ended at R
+    previous[0].impulse_t = r_t;
+    std::vector<Contact> fresh(1);
+    fresh[0].key = previous[0].key;
+    fresh[0].friction = 0.5;
+    carry_impulses(previous, fresh, gamma);
+    EXPECT_DOUBLE_EQ(fresh[0].impulse_n, r_n * (1.0 - std::pow(gamma, k))) << "step " << k;
+    EXPECT_DOUBLE_EQ(fresh[0].impulse_t, r_t * (1.0 - std::pow(gamma, k))) << "step " << k;
+    previous = fresh;
+  }
+
+  // The start stays in the Coulomb cone: a contact whose friction is now lower (a case file's
+  // mu changed on resume) has its tangential start clamped to mu R_n.
+  std::vector<Contact> fresh(1);
+  fresh[0].key = previous[0].key;
+  fresh[0].friction = 0.1;
+  previous[0].impulse_n = 1.0;
+  previous[0].impulse_t = 0.5;
+  previous[0].warm_start_n = 1.0;
+  previous[0].warm_start_t = 0.5;
+  carry_impulses(previous, fresh, gamma);
+  EXPECT_EQ(fresh[0].impulse_n, 1.0);
+  EXPECT_DOUBLE_EQ(fresh[0].impulse_t, 0.1);
+}
+
 }  // namespace
 }  // namespace cdshear
