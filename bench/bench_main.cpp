@@ -69,7 +69,6 @@ struct Settings {
   cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
   int max_sweeps = 200;
   double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
-  double warm_start_smoothing = 0.0;  // solver.warm_start_smoothing (0.5 in the shear phase)
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   double alpha = 1e-6;                // convergence tolerance (solver.alpha); 0: always the cap
@@ -113,8 +112,6 @@ void usage() {
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
   --max-sweeps N      sweep cap (default 200)
   --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
-  --warm-start-smoothing G  the warm start smoothed over the steps, 0 <= G < 1
-                      (solver.warm_start_smoothing, default 0; 0.5 in the shear phase)
   --reference-relaxation W
                       relaxation of --step-error's reference solve (default 1: Gauss-Seidel;
                       every relaxation has the same fixed point)
@@ -181,10 +178,6 @@ Settings parse(int argc, char** argv) {
       s.reference_relaxation = std::stod(value());
       if (!(s.reference_relaxation > 0.0 && s.reference_relaxation < 2.0))
         throw std::invalid_argument("--reference-relaxation must be in (0, 2)");
-    } else if (a == "--warm-start-smoothing") {
-      s.warm_start_smoothing = std::stod(value());
-      if (!(s.warm_start_smoothing >= 0.0 && s.warm_start_smoothing < 1.0))
-        throw std::invalid_argument("--warm-start-smoothing must be in [0, 1)");
     } else if (a == "--relaxation") {
       s.relaxation = std::stod(value());
       if (!(s.relaxation > 0.0 && s.relaxation < 2.0))
@@ -560,7 +553,6 @@ int run(const Settings& s) {
     options.solver.criterion = s.criterion;
     options.solver.max_sweeps = s.max_sweeps;
     options.solver.relaxation = s.relaxation;
-    options.solver.warm_start_smoothing = s.warm_start_smoothing;
     options.solver.alpha = s.alpha;
     options.solver.converged_fraction = s.converged_fraction;
     if (s.run_static) report("static", 0.0, options);
