@@ -86,9 +86,6 @@ expect_error "key 'solver.max_sweeps': must be between 1 and 1000000, got 429496
   "$exe" run -q --set solver.max_sweeps=4294967296
 expect_error "exceed the limit of 1e+07" "$exe" run -q --set measure.sample_interval=1e-5 \
   --set shear.duration=1000
-expect_error "key 'solver.warm_start_smoothing': must be < 1" "$exe" run -q \
-  --set solver.warm_start_smoothing=1
-expect_error "key 'solver.warm_start_smoothing'" "$exe" run -q --set solver.warm_start_smoothing=-0.5
 expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
 expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
 expect_error "--threads: must be a whole number from 1 to 1024, got 0" "$exe" run -q --threads 0

@@ -41,9 +41,6 @@ struct Contact {
   double friction = 0.0;   ///< Coulomb coefficient of this pair
   double impulse_n = 0.0;  ///< R_n over the step [force time]
   double impulse_t = 0.0;  ///< R_t over the step [force time]
-  /// The impulse this step's solve started from (the warm start, carry_impulses), kept so that
-  /// the next step's warm start can be smoothed over the steps [force time].
-  double warm_start_n = 0.0, warm_start_t = 0.0;
 };
 
 }  // namespace cdshear

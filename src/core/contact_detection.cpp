@@ -172,8 +172,7 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
   }
 }
 
-void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& fresh,
-                    double smoothing) {
+void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& fresh) {
   if (fresh.empty()) return;
   // Both are sorted by key: start at the first previous key not below the run's first.
   const auto by_key = [](const Contact& c, const ContactKey& key) { return c.key < key; };
@@ -181,23 +180,14 @@ void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& 
   for (Contact& c : fresh) {
     while (p != previous.end() && p->key < c.key) ++p;
     if (p != previous.end() && p->key == c.key) {
-      if (smoothing == 0.0) {
-        c.impulse_n = p->impulse_n;
-        c.impulse_t = p->impulse_t;
-      } else {
-        c.impulse_n = std::max(0.0, p->impulse_n - smoothing * (p->impulse_n - p->warm_start_n));
-        const double limit = c.friction * c.impulse_n;
-        c.impulse_t =
-            std::clamp(p->impulse_t - smoothing * (p->impulse_t - p->warm_start_t), -limit, limit);
-      }
-      c.warm_start_n = c.impulse_n;
-      c.warm_start_t = c.impulse_t;
+      c.impulse_n = p->impulse_n;
+      c.impulse_t = p->impulse_t;
     }
   }
 }
 
 void ContactDetector::detect(const World& world, double margin, std::vector<Contact>& contacts,
-                             int threads, double warm_start_smoothing) {
+                             int threads) {
   const std::size_t n = world.disks.size();
   const int team = threads_for(n, kMinDisksPerThread, threads);
   if (!neighbours_cover(world, margin)) build_neighbours(world, margin, team);
@@ -213,7 +203,7 @@ void ContactDetector::detect(const World& world, double margin, std::vector<Cont
   list_in_runs(team, n, parts_, part_offset_, fresh_, equal_pairs,
                [&](std::size_t first, std::size_t last, std::vector<Contact>& out) {
                  list_candidates(world, margin, first, last, out);
-                 carry_impulses(contacts, out, warm_start_smoothing);
+                 carry_impulses(contacts, out);
                });
   contacts.swap(fresh_);
 }

@@ -27,9 +27,7 @@ class ContactDetector {
   /// threads share the disks (at least kMinDisksPerThread each): each lists the candidates of a
   /// run of consecutive disks, and the runs are joined in disk order, so the list is the same,
   /// bit for bit, on any number of threads.
-  /// `warm_start_smoothing`: see carry_impulses.
-  void detect(const World& world, double margin, std::vector<Contact>& contacts, int threads = 1,
-              double warm_start_smoothing = 0.0);
+  void detect(const World& world, double margin, std::vector<Contact>& contacts, int threads = 1);
 
   /// Disks per thread below which detection uses fewer threads: a parallel region costs a few
   /// microseconds, listing the candidates of a disk about 0.1.
@@ -74,19 +72,9 @@ class ContactDetector {
   std::uint64_t builds_ = 0;
 };
 
-/// The warm start: each contact of `fresh` (a run of keys in ascending order) that is also in
-/// `previous` (sorted by key) starts from the impulse it ended the last step with, R, smoothed
-/// with gamma = `smoothing` in [0, 1) against the start S of that step:
-///     start = proj_C(R - gamma (R - S)),
-/// an exponential average of the steps' impulses with weight (1 - gamma) gamma^k on the k-th
-/// step back (proj_C: R_n >= 0, |R_t| <= mu R_n; a convex combination of two impulses of the
-/// cone is in it, the projection only absorbs rounding). gamma = 0 copies R, bit for bit.
-/// Why (docs/performance.md, "Smoothed warm start"): a step solved to the tolerance ends some
-/// 0.1% to 3% away from its exact impulses, and that error changes from step to step more than
-/// the impulses do; the average starts the next solve nearer, and the sweeps fall by 5 to 18%
-/// at the same per-step error. Each contact's start is stored in its warm_start_n/t.
-void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& fresh,
-                    double smoothing = 0.0);
+/// Copies the impulses of the contacts of `previous` (sorted by key) onto those of `fresh` (a
+/// run of keys in ascending order) that have the same key: the warm start.
+void carry_impulses(const std::vector<Contact>& previous, std::vector<Contact>& fresh);
 
 /// Signed gap between disk i and wall w (negative when overlapping).
 double wall_gap(const World& world, std::size_t i, const Wall& w);

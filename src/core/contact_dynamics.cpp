@@ -108,8 +108,7 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   const std::size_t n = d.size();
 
   // 1. detect (on the solver's threads: the list is the same on any number)
-  detector_.detect(world, options.contact_margin, contacts_, options.solver.threads,
-                   options.solver.warm_start_smoothing);
+  detector_.detect(world, options.contact_margin, contacts_, options.solver.threads);
   report.contacts = contacts_.size();
   report.seconds.detect = seconds_since(t0);
 

@@ -117,11 +117,6 @@ struct SolverOptions {
   /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
   /// (docs/accuracy.md, eighth pass). >= 0.
   int anderson_period_with_slab_correction = 0;
-  /// Smoothing of the warm start over the steps, gamma in [0, 1): each persisting contact starts
-  /// from its last impulse moved a share gamma back towards the last step's start (carry_impulses,
-  /// contact_detection.hpp). 0 = the last impulse (the classic warm start). Applied by the
-  /// detection, which carries the impulses; the solver itself takes whatever start it is given.
-  double warm_start_smoothing = 0.0;
 };
 
 /// Largest SolverOptions::anderson_depth.

@@ -92,8 +92,7 @@ void validate(const Checkpoint& cp, const std::string& file) {
     if (c.key.body_a < 0 || c.key.body_a >= n || c.key.body_b < 0 || c.key.body_b >= bodies ||
         c.key.body_a == c.key.body_b)
       fail("contacts[" + std::to_string(k) + "]", "body index out of range");
-    if (!std::isfinite(c.impulse_n) || !std::isfinite(c.impulse_t) || c.impulse_n < 0 ||
-        !std::isfinite(c.warm_start_n) || !std::isfinite(c.warm_start_t) || c.warm_start_n < 0)
+    if (!std::isfinite(c.impulse_n) || !std::isfinite(c.impulse_t) || c.impulse_n < 0)
       fail("contacts[" + std::to_string(k) + "]", "impulses must be finite, normal >= 0");
   }
 }
@@ -118,15 +117,13 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
                      {"contact_force", to_json(wall.contact_force)},
                      {"contact_impulse", to_json(wall.contact_impulse)}});
   std::vector<std::int32_t> a, b, image;
-  std::vector<double> rn, rt, sn, st;
+  std::vector<double> rn, rt;
   for (const Contact& c : contacts) {
     a.push_back(c.key.body_a);
     b.push_back(c.key.body_b);
     image.push_back(c.key.image_b);
     rn.push_back(c.impulse_n);
     rt.push_back(c.impulse_t);
-    sn.push_back(c.warm_start_n);
-    st.push_back(c.warm_start_t);
   }
   json j = {{"format", "cdshear-checkpoint"},
             {"version", 1},
@@ -151,8 +148,6 @@ void write_checkpoint(const std::filesystem::path& path, const World& w,
               {"inertia", d.inertia}}},
             {"walls", walls},
             {"contacts", {{"a", a}, {"b", b}, {"image", image}, {"rn", rn}, {"rt", rt}}}};
-  j["contacts"]["sn"] = sn;  // the warm starts (Contact::warm_start_n, _t)
-  j["contacts"]["st"] = st;
   if (!observers.is_null()) j["observers"] = observers;
   if (!case_identity.is_null()) j["case"] = case_identity;
   const std::vector<std::uint8_t> body = json::to_cbor(j);
@@ -234,17 +229,11 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     const auto image = c.at("image").get<std::vector<std::int32_t>>();
     const auto rn = c.at("rn").get<std::vector<double>>();
     const auto rt = c.at("rt").get<std::vector<double>>();
-    // The warm starts (sn, st), written since 2026-11-27: a checkpoint without them is of a run
-    // whose start was the last impulse (no smoothing), and reads so.
-    const auto sn = c.contains("sn") ? c.at("sn").get<std::vector<double>>() : rn;
-    const auto st = c.contains("st") ? c.at("st").get<std::vector<double>>() : rt;
     for (std::size_t k = 0; k < a.size(); ++k) {
       Contact con;
       con.key = {a[k], b.at(k), image.at(k)};
       con.impulse_n = rn.at(k);
       con.impulse_t = rt.at(k);
-      con.warm_start_n = sn.at(k);
-      con.warm_start_t = st.at(k);
       cp.contacts.push_back(con);
     }
     const std::size_t n = w.disks.position.size();

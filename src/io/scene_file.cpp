@@ -42,9 +42,6 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       solver.integer_in("slab_correction_min_bands", 2, 4096, s.slab_correction_min_bands));
   s.anderson_period_with_slab_correction = static_cast<int>(solver.integer_in(
       "anderson_period_with_slab_correction", 0, 1000, s.anderson_period_with_slab_correction));
-  s.warm_start_smoothing = solver.non_negative("warm_start_smoothing", s.warm_start_smoothing);
-  if (!(s.warm_start_smoothing < 1.0))
-    solver.fail("warm_start_smoothing", "must be < 1 (1 would never let the start change)");
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();

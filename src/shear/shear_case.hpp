@@ -37,10 +37,7 @@ namespace cdshear {
 /// seventh pass). Where the correction runs, the mix every 8 sweeps instead of 4
 /// (anderson_period_with_slab_correction = 8, since 2026-11-24): 6 to 10% fewer sweeps and half
 /// the mixes, the same averages over five seeds of system 5 (docs/accuracy.md, eighth pass).
-/// The warm start smoothed over the steps with gamma = 0.5 (warm_start_smoothing, since
-/// 2026-11-27; carry_impulses in contact_detection.hpp): 18% fewer sweeps on system 1 at V = 0.5,
-/// 5 to 7% at V = 0.05 and on system 7, at the same per-step error (docs/performance.md,
-/// docs/accuracy.md, fifteenth pass). Scene files keep the engine's plain
+/// Scene files keep the engine's plain
 /// defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
@@ -53,7 +50,6 @@ inline StepOptions shear_step_defaults() {
   o.solver.slab_correction_period = 8;
   o.solver.slab_correction_min_bands = 20;
   o.solver.anderson_period_with_slab_correction = 8;
-  o.solver.warm_start_smoothing = 0.5;
   return o;
 }
 
