@@ -138,6 +138,11 @@ def combine(rows):
     return out
 
 
+def _is_reference(name):
+    """A realization of the reference: `reference` or `reference_<anything>`."""
+    return name == "reference" or name.startswith("reference_")
+
+
 def collect(study_dir, skipped=None):
     """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder. A run
     folder without summary.json (still running, or not analysed) is left out and named in
@@ -150,7 +155,7 @@ def collect(study_dir, skipped=None):
         path = os.path.join(study_dir, name)
         if not os.path.isdir(path) or name == "figures":
             continue
-        is_reference = name == "reference" or name.startswith("reference_")
+        is_reference = _is_reference(name)
         if (is_reference or "=" in name) and \
                 not os.path.exists(os.path.join(path, "summary.json")):
             if skipped is not None:
@@ -246,8 +251,7 @@ def windowed_means(study_dir, windows):
     if windows < 1:
         raise StudyError(study_dir, f"--windows must be at least 1, not {windows}")
     names = [n for n in sorted(os.listdir(study_dir)) if
-             (n == "reference" or n.startswith("reference_")) and
-             os.path.exists(os.path.join(study_dir, n, "summary.json"))]
+             _is_reference(n) and os.path.exists(os.path.join(study_dir, n, "summary.json"))]
     if not names:
         raise StudyError(study_dir, "no analysed `reference` run folder")
     runs = [_realization_series(os.path.join(study_dir, n)) for n in names]
@@ -259,10 +263,9 @@ def windowed_means(study_dir, windows):
     for quantity in WINDOW_QUANTITIES:
         per_run = []
         for time, values in runs:
-            v = values[quantity]
-            per_run.append([float(np.nanmean(v[(time > lo) & (time <= hi)]))
-                            if np.any((time > lo) & (time <= hi)) else math.nan
-                            for lo, hi in zip(edges[:-1], edges[1:])])
+            inside = [(time > lo) & (time <= hi) for lo, hi in zip(edges[:-1], edges[1:])]
+            per_run.append([float(np.nanmean(values[quantity][m])) if m.any() else math.nan
+                            for m in inside])
         per_run = np.array(per_run)
         k = len(runs)
         with np.errstate(invalid="ignore"):

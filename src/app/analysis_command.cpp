@@ -27,8 +27,8 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
   // The analysis package: the source tree's python/ folder, whose path is built in;
   // CDSHEAR_ANALYSIS_DIR overrides it (a cdshear whose source tree has moved or is gone).
   const char* env_dir = std::getenv("CDSHEAR_ANALYSIS_DIR");
-  const std::string package_dir =
-      env_dir != nullptr && *env_dir != '\0' ? env_dir : CDSHEAR_PYTHON_DIR;
+  const bool from_env = env_dir != nullptr && *env_dir != '\0';
+  const std::string package_dir = from_env ? env_dir : CDSHEAR_PYTHON_DIR;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(
           std::filesystem::path(package_dir) / "cdshear_analysis" / "__main__.py", ec)) {
@@ -36,7 +36,7 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  "error: %s/cdshear_analysis: the analysis package is not there (%s); set "
                  "CDSHEAR_ANALYSIS_DIR to the `python` folder of a cdshear source tree\n",
                  package_dir.c_str(),
-                 env_dir != nullptr && *env_dir != '\0'
+                 from_env
                      ? "from CDSHEAR_ANALYSIS_DIR"
                      : "this cdshear was built from a source tree that has since moved or gone");
     return 1;
