@@ -193,12 +193,17 @@ def compare_references(dir_a, dir_b):
     return a, b, lines, skipped
 
 
+def _runs(k):
+    """"1 run", "3 runs"."""
+    return f"{k} run" if k == 1 else f"{k} runs"
+
+
 def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     """The comparison as a Markdown table, a quantity that `agrees` finds apart (more than two
     combined errors) marked "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
     unit: means over the realizations) after the quantities."""
     na, nb = a.get("realizations", 1), b.get("realizations", 1)
-    out = [f"| quantity | {dir_a} ({na} runs) | {dir_b} ({nb} runs) | "
+    out = [f"| quantity | {dir_a} ({_runs(na)}) | {dir_b} ({_runs(nb)}) | "
            "difference / combined error |", "|---|---|---|---|"]
     for name, xa, ea, xb, eb, diff in lines:
         if math.isnan(diff):
@@ -285,7 +290,7 @@ def format_windows(dir_a, dir_b, a, b):
                                  if math.hypot(ex, ey) > 0 else math.nan)
     out = []
     for quantity in WINDOW_QUANTITIES:
-        out += ["", f"| {quantity}, time window | {dir_a} ({ka} runs) | {dir_b} ({kb} runs) | "
+        out += ["", f"| {quantity}, time window | {dir_a} ({_runs(ka)}) | {dir_b} ({_runs(kb)}) | "
                 "difference / combined error |", "|---|---|---|---|"]
         for i, ((xa, ea), (xb, eb)) in enumerate(zip(qa[quantity], qb[quantity])):
             out.append(f"| {edges[i]:.6g} to {edges[i + 1]:.6g} | {xa:.5g} ± {ea:.2g} | "
