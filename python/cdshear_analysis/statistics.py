@@ -14,6 +14,9 @@ Uncertainty everywhere is the standard error of the mean.
 - `weighted_mean(values, errs)`: the inverse-variance weighted mean of independent estimates
   (the seeds or realizations of one setting), with its propagated error and the error from
   their scatter about it; the callers (fitting.combine, study.combine) take the larger.
+- `time_weighted_mean(values, errs, times)`: the same for time averages of one flow, weighted
+  by the time each covers instead of by its error bar (study.combine, when the runs say what
+  time they cover).
 """
 import math
 import warnings
@@ -102,4 +105,26 @@ def weighted_mean(values, errs):
         return mean, propagated, math.nan
     scatter = math.sqrt(sum(w * (y - mean) ** 2 for w, (y, _) in zip(weights, pairs))
                         / ((k - 1) * total))
+    return mean, propagated, scatter
+
+
+def time_weighted_mean(values, errs, times):
+    """Mean of independent time averages values[i] +- errs[i] over lengths times[i] (> 0),
+    weighted by length: w = t / sum t, mean = sum(w y). The variance of a time average is
+    c / t for one flow (c: twice the integrated autocorrelation of the quantity), so these are
+    the weights of least variance, known without the estimates' errors. Returns (mean,
+    err_propagated, err_scatter): err_propagated = sqrt(sum(w^2 err^2)) from the estimates' own
+    errors, and err_scatter = sqrt(sum(t (y - mean)^2) / ((k - 1) sum t)), the error of the
+    mean with c estimated from the scatter (std(ddof=1) / sqrt(k) for equal lengths; NaN for
+    k < 2)."""
+    triples = [(float(y), float(e), float(t)) for y, e, t in zip(values, errs, times)]
+    if not triples:
+        return math.nan, math.nan, math.nan
+    total = sum(t for _, _, t in triples)
+    mean = sum(t * y for y, _, t in triples) / total
+    propagated = math.sqrt(sum((t / total) ** 2 * e ** 2 for _, e, t in triples))
+    k = len(triples)
+    if k < 2:
+        return mean, propagated, math.nan
+    scatter = math.sqrt(sum(t * (y - mean) ** 2 for y, _, t in triples) / ((k - 1) * total))
     return mean, propagated, scatter

@@ -18,7 +18,7 @@ import json
 import math
 import os
 
-from .statistics import weighted_mean
+from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
 QUANTITIES = [
@@ -80,6 +80,10 @@ def read_run(run_dir, key, value):
     row["largest_overlap"] = cost["largest_overlap"]
     simulated = float(summary.get("case", {}).get("time", math.nan))
     row["wall_s_per_time"] = cost["wall_seconds"] / simulated if simulated > 0 else math.nan
+    # The time its averages cover (from the end of the transient to the end of the run): a
+    # realization's weight when realizations are combined (combine).
+    start = summary.get("averaging_start_time")
+    row["averaged_time"] = simulated - float(start) if start is not None else math.nan
     return row
 
 
@@ -107,11 +111,18 @@ def run_cost(run_dir, info=None):
 
 
 def combine(rows):
-    """One row from independent realizations of the same setting: each quantity is the
-    inverse-variance weighted mean (statistics.weighted_mean); its error is 1/sqrt(sum of
-    weights) or, when larger, the error of that mean from the realizations' scatter about it;
-    steady only when every realization is; the solver figures are weighted by each
-    realization's share."""
+    """One row from independent realizations of the same setting: steady only when every
+    realization is; the solver figures are weighted by each realization's share. Each quantity
+    is a weighted mean of the realizations' averages, its error the larger of the error the
+    realizations' own error bars give it and the error of that mean from their scatter about it.
+    The weights are the times the averages cover (`averaged_time`), the variance of a time
+    average being inversely proportional to its length: equal weights for realizations of one
+    length, whatever their error bars. Those error bars are estimates themselves (14 to 20%
+    apart between ten 3000-t seeds of system 1) and follow the value (correlation -0.75 to
+    +0.61 for the bulk inertial number and the slip, where the error grows with the value), so
+    weighting by them (1/err^2) moved an ensemble's mean by up to one of its standard errors,
+    one way or the other (docs/accuracy.md, sixteenth pass). Where a realization does not say
+    what time it covers, the weights are 1/err^2 (statistics.weighted_mean)."""
     if len(rows) == 1:
         return rows[0]
     out = dict(rows[0])
@@ -119,14 +130,19 @@ def combine(rows):
     out["steady"] = all(r["steady"] for r in rows)
     out["realizations"] = len(rows)
     for name, _ in QUANTITIES:
-        pairs = [(r[name], r[name + "_err"]) for r in rows
-                 if math.isfinite(r[name]) and math.isfinite(r[name + "_err"]) and
-                 r[name + "_err"] > 0]
-        if not pairs:
+        kept = [r for r in rows if math.isfinite(r[name]) and math.isfinite(r[name + "_err"]) and
+                r[name + "_err"] > 0]
+        if not kept:
             out[name] = out[name + "_err"] = math.nan
             continue
-        mean, err, scatter = weighted_mean([x for x, _ in pairs], [e for _, e in pairs])
-        if len(pairs) > 1:
+        values = [r[name] for r in kept]
+        errs = [r[name + "_err"] for r in kept]
+        times = [r.get("averaged_time", math.nan) for r in kept]
+        if all(math.isfinite(t) and t > 0 for t in times):
+            mean, err, scatter = time_weighted_mean(values, errs, times)
+        else:
+            mean, err, scatter = weighted_mean(values, errs)
+        if len(kept) > 1:
             # Short runs underestimate their own errors; the realizations' scatter about the
             # weighted mean is a floor that does not depend on the blocking.
             err = max(err, scatter)

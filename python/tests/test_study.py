@@ -10,7 +10,7 @@ from cdshear_analysis import study
 from cdshear_analysis.__main__ import main
 
 
-def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0):
+def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0, averaging_start=None):
     """A run folder with the parts of summary.json and run_info.json that a study reads."""
     os.makedirs(folder)
     entry = lambda m, e: {"mean": m, "err": e}  # noqa: E731
@@ -23,6 +23,8 @@ def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0):
         "slip": {"bottom": entry(0.05, 0.005), "top": entry(0.05, 0.005)},
         "com_vx": {"std": 0.02},
     }
+    if averaging_start is not None:
+        summary["averaging_start_time"] = averaging_start
     info = {"summary": {"steps": 1000, "mean_sweeps": sweeps, "capped_steps": 250,
                         "largest_overlap": 1e-5, "wall_seconds": wall_seconds}}
     with open(os.path.join(folder, "summary.json"), "w") as f:
@@ -90,6 +92,27 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(main(["study", d]), 0)
             with open(os.path.join(d, "study.md")) as f:
                 self.assertIn("| reference (2 runs combined) | yes |", f.read())
+
+    def test_realizations_that_say_their_averaged_time_are_weighted_by_it(self):
+        with tempfile.TemporaryDirectory() as d:
+            # Averages over 300 and 100 time units (weights 3:1), whatever their error bars:
+            # the smaller error bar goes with the shorter run here.
+            fake_run(os.path.join(d, "reference"), 0.24, 0.004, 900.0, 500.0, time=400.0,
+                     averaging_start=100.0)
+            fake_run(os.path.join(d, "reference_seed2"), 0.28, 0.002, 900.0, 500.0, time=200.0,
+                     averaging_start=100.0)
+            ref = study.collect(d)[0]
+            self.assertEqual(ref["realizations"], 2)
+            self.assertAlmostEqual(ref["mu_eff_wall"], (3 * 0.24 + 0.28) / 4)
+            # Scatter: sqrt((300 * 0.01^2 + 100 * 0.03^2) / (1 * 400)) = 0.01732, more than the
+            # propagated sqrt(0.75^2 0.004^2 + 0.25^2 0.002^2) = 0.00304.
+            self.assertAlmostEqual(ref["mu_eff_wall_err"], (0.12 / 400) ** 0.5)
+            # Equal values: the propagated error sets it, sqrt(0.75^2 + 0.25^2) * 0.001.
+            self.assertAlmostEqual(ref["solid_fraction_err"], 0.001 * (0.625 ** 0.5))
+            # One realization without the time: back to the weights 1/err^2 for all.
+            fake_run(os.path.join(d, "reference_seed3"), 0.26, 0.004, 900.0, 500.0)
+            ref = study.collect(d)[0]
+            self.assertAlmostEqual(ref["mu_eff_wall"], (0.24 + 4 * 0.28 + 0.26) / 6)
 
     def test_two_folders_of_realizations_compared_in_combined_errors(self):
         with tempfile.TemporaryDirectory() as d:
