@@ -554,7 +554,8 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     sw = report.get("software") or {}
     out.append("<h2>Software and configuration</h2><p>Campaign resolved by "
                f"{html.escape(sw.get('sweep') or 'unknown')}; runs made by "
-               + (", ".join(f"{html.escape(v)} ({n} run{'' if n == 1 else 's'})" for v, n in sw.get("runs", {}).items())
+               + (", ".join(f"{html.escape(v)} ({n} run{'' if n == 1 else 's'})"
+                            for v, n in sw.get("runs", {}).items())
                   or "none") + "; report by cdshear_analysis (this folder's Python package).</p>")
     if report.get("campaign_toml"):
         out.append("<details><summary>The resolved campaign file (campaign.toml)</summary><pre>"

@@ -82,8 +82,8 @@ def read_run(run_dir, key, value):
     row["wall_s_per_time"] = cost["wall_seconds"] / simulated if simulated > 0 else math.nan
     # The time its averages cover (from the end of the transient to the end of the run): a
     # realization's weight when realizations are combined (combine).
-    start = summary.get("averaging_start_time")
-    row["averaged_time"] = simulated - float(start) if start is not None else math.nan
+    start = _number(str(summary.get("averaging_start_time")))
+    row["averaged_time"] = simulated - start if start is not None else math.nan
     return row
 
 
@@ -118,10 +118,10 @@ def combine(rows):
     The weights are the times the averages cover (`averaged_time`), the variance of a time
     average being inversely proportional to its length: equal weights for realizations of one
     length, whatever their error bars. Those error bars are estimates themselves (14 to 20%
-    apart between ten 3000-t seeds of system 1) and follow the value (correlation -0.75 to
-    +0.61 for the bulk inertial number and the slip, where the error grows with the value), so
-    weighting by them (1/err^2) moved an ensemble's mean by up to one of its standard errors,
-    one way or the other (docs/accuracy.md, sixteenth pass). Where a realization does not say
+    apart between ten 3000-t seeds of system 1) and correlated with the value (-0.75 to +0.61
+    between a seed's bulk inertial number or slip and its error bar), so weighting by them
+    (1/err^2) moved an ensemble's mean by up to one of its standard errors, one way or the
+    other (docs/accuracy.md, sixteenth pass). Where a realization does not say
     what time it covers, the weights are 1/err^2 (statistics.weighted_mean)."""
     if len(rows) == 1:
         return rows[0]
