@@ -86,6 +86,22 @@ def mean_err(mean, err):
     return {"mean": mean, "err": err}
 
 
+def _weighted_mean_and_scatter(values, weights):
+    """(mean, sum of weights, err_scatter) of values with weights > 0: mean = sum(w y) / sum(w),
+    err_scatter = sqrt(sum(w (y - mean)^2) / ((k - 1) sum w)), the standard error of that mean
+    from the values' scatter about it when each value's variance is proportional to 1 / w
+    (std(ddof=1) / sqrt(k) for equal weights; NaN for k < 2). The shared core of weighted_mean
+    and time_weighted_mean."""
+    total = sum(weights)
+    mean = sum(w * y for w, y in zip(weights, values)) / total
+    k = len(values)
+    if k < 2:
+        return mean, total, math.nan
+    scatter = math.sqrt(sum(w * (y - mean) ** 2 for w, y in zip(weights, values))
+                        / ((k - 1) * total))
+    return mean, total, scatter
+
+
 def weighted_mean(values, errs):
     """Inverse-variance weighted mean of independent estimates values[i] +- errs[i] (finite,
     errs > 0). Returns (mean, err_propagated, err_scatter): weights w = 1 / err^2, mean =
@@ -93,19 +109,12 @@ def weighted_mean(values, errs):
     err_scatter = sqrt(sum(w (y - mean)^2) / ((k - 1) sum w)), the standard error of the weighted
     mean from the estimates' scatter about it (std(ddof=1) / sqrt(k) for equal errors; NaN for
     k < 2, and only a rough figure for k = 2 or 3: one or two degrees of freedom)."""
-    pairs = [(float(y), float(e)) for y, e in zip(values, errs)]
-    if not pairs:
+    ys = [float(y) for y in values]
+    if not ys:
         return math.nan, math.nan, math.nan
-    weights = [1.0 / e ** 2 for _, e in pairs]
-    total = sum(weights)
-    mean = sum(w * y for w, (y, _) in zip(weights, pairs)) / total
-    propagated = 1.0 / math.sqrt(total)
-    k = len(pairs)
-    if k < 2:
-        return mean, propagated, math.nan
-    scatter = math.sqrt(sum(w * (y - mean) ** 2 for w, (y, _) in zip(weights, pairs))
-                        / ((k - 1) * total))
-    return mean, propagated, scatter
+    weights = [1.0 / float(e) ** 2 for e in errs]
+    mean, total, scatter = _weighted_mean_and_scatter(ys, weights)
+    return mean, 1.0 / math.sqrt(total), scatter
 
 
 def time_weighted_mean(values, errs, times):
@@ -117,14 +126,10 @@ def time_weighted_mean(values, errs, times):
     errors, and err_scatter = sqrt(sum(t (y - mean)^2) / ((k - 1) sum t)), the error of the
     mean with c estimated from the scatter (std(ddof=1) / sqrt(k) for equal lengths; NaN for
     k < 2)."""
-    triples = [(float(y), float(e), float(t)) for y, e, t in zip(values, errs, times)]
-    if not triples:
+    ys = [float(y) for y in values]
+    if not ys:
         return math.nan, math.nan, math.nan
-    total = sum(t for _, _, t in triples)
-    mean = sum(t * y for y, _, t in triples) / total
-    propagated = math.sqrt(sum((t / total) ** 2 * e ** 2 for _, e, t in triples))
-    k = len(triples)
-    if k < 2:
-        return mean, propagated, math.nan
-    scatter = math.sqrt(sum(t * (y - mean) ** 2 for y, _, t in triples) / ((k - 1) * total))
+    ts = [float(t) for t in times]
+    mean, total, scatter = _weighted_mean_and_scatter(ys, ts)
+    propagated = math.sqrt(sum((t / total) ** 2 * float(e) ** 2 for e, t in zip(errs, ts)))
     return mean, propagated, scatter
