@@ -24,6 +24,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
+from .study import counted
 from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
@@ -509,7 +510,8 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
            "font-size:85%}td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
            "img{max-width:48%}</style></head><body>",
            f"<h1>Campaign {name}</h1>",
-           f"<p>{len(rows)} analysed runs ({sum(1 for r in rows if r['steady'])} steady); "
+           f"<p>{counted(len(rows), 'analysed run')} "
+           f"({sum(1 for r in rows if r['steady'])} steady); "
            f"{len(report['skipped'])} left out. Every value: mean ± standard error. "
            "All columns: <a href='runs.csv'>runs.csv</a>; fits: "
            "<a href='fits.json'>fits.json</a>.</p>",
@@ -554,7 +556,7 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     sw = report.get("software") or {}
     out.append("<h2>Software and configuration</h2><p>Campaign resolved by "
                f"{html.escape(sw.get('sweep') or 'unknown')}; runs made by "
-               + (", ".join(f"{html.escape(v)} ({n} run{'' if n == 1 else 's'})"
+               + (", ".join(f"{html.escape(v)} ({counted(n, 'run')})"
                             for v, n in sw.get("runs", {}).items())
                   or "none") + "; report by cdshear_analysis (this folder's Python package).</p>")
     if report.get("campaign_toml"):

@@ -209,9 +209,10 @@ def compare_references(dir_a, dir_b):
     return a, b, lines, skipped
 
 
-def _runs(k):
-    """"1 run", "3 runs"."""
-    return f"{k} run" if k == 1 else f"{k} runs"
+def counted(k, noun):
+    """k and the noun, plural unless k is 1: counted(1, "run") is "1 run", counted(3, "run")
+    "3 runs" (the tables of this module and report.py)."""
+    return f"{k} {noun}" if k == 1 else f"{k} {noun}s"
 
 
 def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
@@ -219,7 +220,7 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     combined errors) marked "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
     unit: means over the realizations) after the quantities."""
     na, nb = a.get("realizations", 1), b.get("realizations", 1)
-    out = [f"| quantity | {dir_a} ({_runs(na)}) | {dir_b} ({_runs(nb)}) | "
+    out = [f"| quantity | {dir_a} ({counted(na, 'run')}) | {dir_b} ({counted(nb, 'run')}) | "
            "difference / combined error |", "|---|---|---|---|"]
     for name, xa, ea, xb, eb, diff in lines:
         if math.isnan(diff):
@@ -306,7 +307,8 @@ def format_windows(dir_a, dir_b, a, b):
                                  if math.hypot(ex, ey) > 0 else math.nan)
     out = []
     for quantity in WINDOW_QUANTITIES:
-        out += ["", f"| {quantity}, time window | {dir_a} ({_runs(ka)}) | {dir_b} ({_runs(kb)}) | "
+        out += ["", f"| {quantity}, time window | {dir_a} ({counted(ka, 'run')}) | "
+                f"{dir_b} ({counted(kb, 'run')}) | "
                 "difference / combined error |", "|---|---|---|---|"]
         for i, ((xa, ea), (xb, eb)) in enumerate(zip(qa[quantity], qb[quantity])):
             out.append(f"| {edges[i]:.6g} to {edges[i + 1]:.6g} | {xa:.5g} ± {ea:.2g} | "

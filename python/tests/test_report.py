@@ -231,6 +231,7 @@ class ReportTest(unittest.TestCase):
         self.assertIn("The resolved campaign file (campaign.toml)", text)
         self.assertIn("name = &#x27;test_campaign&#x27;", text)
         self.assertIn("unknown (no readable run_info.json) (16 runs)", text)
+        self.assertIn("<p>16 analysed runs (", text)
         self.assertIn("Campaign resolved by cdshear 0.1.0", text)
         refs = re.findall(r"(?:src|href)='([^']+)'", text)
         images = [r for r in refs if r.endswith(".png")]

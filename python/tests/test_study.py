@@ -141,6 +141,8 @@ class StudyTest(unittest.TestCase):
             self.assertIn("| solid_fraction | 0.8 ± 0.00071 | 0.8 ± 0.001 | +0.00 |", out.getvalue())
             self.assertIn("| mean_sweeps | 50.0 | 30.0 | |", out.getvalue())
             self.assertIn(f"| quantity | {a} (2 runs) | {b} (1 run) |", out.getvalue())
+            self.assertEqual(study.counted(1, "analysed run"), "1 analysed run")
+            self.assertEqual(study.counted(0, "run"), "0 runs")
             self.assertIn(f"left out {os.path.join(b, 'reference_seed2')}: no summary.json yet",
                           out.getvalue())
             # A folder without an analysed reference is an error naming it.
