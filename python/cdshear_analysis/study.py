@@ -390,7 +390,9 @@ def write_study(rows, study_dir):
     for name, _ in QUANTITIES:
         if not keys:
             break
-        fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.0), squeeze=False)
+        # At least 4.5 inches wide: one panel of 3.2 cut the title off on both sides.
+        fig, axes = plt.subplots(1, len(keys), figsize=(max(4.5, 3.2 * len(keys)), 3.2),
+                                 squeeze=False)
         for ax, key in zip(axes[0], keys):
             sel = sorted((r for r in rows if r["key"] == key and math.isfinite(r[name])),
                          key=_sort_key)
@@ -411,7 +413,7 @@ def write_study(rows, study_dir):
             if not numeric:
                 ax.set_xticks(xs, [str(r["value"]) for r in sel], rotation=20, fontsize=7,
                               ha="right")
-        fig.suptitle(f"{name} (mean ± standard error); grey: reference ± its error", fontsize=9)
+        fig.suptitle(f"{name} (mean ± standard error)\ngrey: reference ± its error", fontsize=9)
         fig.tight_layout()
         path = os.path.join(fig_dir, f"{name}.png")
         fig.savefig(path, dpi=100)
