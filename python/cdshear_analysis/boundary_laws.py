@@ -97,7 +97,8 @@ def layer_points(rows, h):
             p = {"run": r["run"], "system": r.get("system"), "V": r.get("V"),
                  "regime": r.get("regime"), "side": side, "h": h, "I": I,
                  "I_err": r.get(c + "I_err"), "hI": h * I,
-                 "velocity_jump": r.get(c + "velocity_jump")}
+                 "velocity_jump": r.get(c + "velocity_jump"),
+                 "averaged_time": r.get("_averaged_time")}
             for q, col in (("mu", "mu_eff"), ("nu", "nu"), ("Z", "Z")):
                 p[q], p[q + "_err"] = r.get(c + col), r.get(c + col + "_err")
             p["nu_ratio"], p["nu_ratio_err"] = _ratio(
@@ -107,14 +108,16 @@ def layer_points(rows, h):
 
 
 def _points(points, x, y):
-    """fitting.fit points (x, y, err, "run:side", group): the seeds of one (system, V), h,
-    regime and layer are one point (the sheared layer of C runs, whichever wall it is at)."""
+    """fitting.fit points (x, y, err, "run:side", group, averaged_time): the seeds of one
+    (system, V), h, regime and layer are one point (the sheared layer of C runs, whichever wall
+    it is at), weighted by averaged_time (fitting.combine)."""
     out = []
     for p in points:
         key = fitting.group_key(p)
         if key is not None:
             key += (p["h"], p["regime"], "sheared" if p["regime"] == "C" else p["side"])
-        out.append((p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}", key))
+        out.append((p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}", key,
+                    p.get("averaged_time")))
     return out
 
 

@@ -1,14 +1,15 @@
 """Weighted least-squares fits of the SPEC 8 laws, shared by the bulk and the boundary laws.
 
 A law (LAWS) is a model y(x; parameters) with its starting points and bounds; `fit(law, points)`
-fits it to points (x, y, err, label[, group]) with scipy.optimize.curve_fit weighted by the error
-bars (sigma = the standard error of y, absolute_sigma=True; the error of x is not used). Points
-without a finite positive error are left out (counted in `points_without_error`); the points of
-one group (the seeds of a (system, V), `group_key`) are combined into one first (`combine`:
-inverse-variance weighted mean, its error at least that of the seeds' scatter about it); a fit
-with fewer points than parameters + 1 is skipped with its reason. Several starting points are
-tried and the smallest chi2 kept, so a power law is found whether its exponent is below or
-above 1.
+fits it to points (x, y, err, label[, group[, averaged_time]]) with scipy.optimize.curve_fit
+weighted by the error bars (sigma = the standard error of y, absolute_sigma=True; the error of x
+is not used). Points without a finite positive error are left out (counted in
+`points_without_error`); the points of one group (the seeds of a (system, V), `group_key`) are
+combined into one first (`combine`: the mean weighted by the time each seed's averages cover,
+or by 1/err^2 where a seed does not say it, its error at least that of the seeds' scatter about
+it); a fit with fewer points than parameters + 1 is skipped with its reason. Several starting
+points are tried and the smallest chi2 kept, so a power law is found whether its exponent is
+below or above 1.
 
 The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
 range, status ("ok" | "skipped"), reason, n_points (after combining), points_without_error,
@@ -23,7 +24,7 @@ import warnings
 
 import numpy as np
 
-from .statistics import weighted_mean
+from .statistics import time_weighted_mean, weighted_mean
 
 
 def finite(x):
@@ -101,40 +102,53 @@ def group_key(row):
 
 
 def combine(points):
-    """One point per group of seeds: points (x, y, err, label, group) with a usable error ->
-    (x, y, err, [labels], detail), in the order of each group's first point. A point whose group
-    is None stands alone. statistics.weighted_mean, weights w = 1 / err^2: y and x are the
-    weighted means; the error is the propagated 1 / sqrt(sum w), or with 2 seeds or more the
-    error of the weighted mean from the seeds' scatter, sqrt(sum w (y - y_w)^2 / ((k - 1) sum w))
-    (std / sqrt(k) for equal errors), when that is larger: the seeds scatter more than their
-    error bars say. detail (None for a point of one run): runs, x, y, err, err_propagated,
-    err_seeds and the seeds' own y and err, for fits.json `combined`."""
+    """One point per group of seeds: points (x, y, err, label, group, averaged_time) with a
+    usable error -> (x, y, err, [labels], detail), in the order of each group's first point. A
+    point whose group is None stands alone. The weights are the times the seeds' averages cover
+    (averaged_time, statistics.time_weighted_mean: equal weights for seeds of one length), as in
+    study.combine and for the same reason: a seed's own error bar is itself an estimate that
+    scatters by 14 to 20% between seeds and correlates with its value, so 1/err^2 weights move
+    the mean by up to one standard error (docs/accuracy.md, sixteenth pass). Where a seed of the
+    group does not say its averaged time (None or not positive), the weights are w = 1 / err^2
+    (statistics.weighted_mean). y and x are the weighted means; the error is the propagated
+    one, or with 2 seeds or more the error of the weighted mean from the seeds' scatter,
+    sqrt(sum w (y - y_w)^2 / ((k - 1) sum w)) (std / sqrt(k) for equal weights), when that is
+    larger: the seeds scatter more than their error bars say. detail (None for a point of one
+    run): runs, weights ("time" or "error"), x, y, err, err_propagated, err_seeds and the
+    seeds' own y, err and averaged time, for fits.json `combined`."""
     groups = {}
-    for k, (x, y, e, label, group) in enumerate(points):
+    for k, (x, y, e, label, group, averaged) in enumerate(points):
         groups.setdefault(("alone", k) if group is None else ("group", group), []).append(
-            (x, y, e, label))
+            (x, y, e, label, averaged))
     out = []
     for members in groups.values():
         if len(members) == 1:
-            x, y, e, label = members[0]
+            x, y, e, label, _ = members[0]
             out.append((x, y, e, [label], None))
             continue
         xs, ys, es = ([float(m[i]) for m in members] for i in range(3))
-        y, e_prop, e_seeds = weighted_mean(ys, es)
-        x = weighted_mean(xs, es)[0]   # x with the weights of y
+        times = [finite(m[4]) for m in members]
+        by_time = all(t is not None and t > 0 for t in times)
+        if by_time:
+            y, e_prop, e_seeds = time_weighted_mean(ys, es, times)
+            x = time_weighted_mean(xs, es, times)[0]   # x with the weights of y
+        else:
+            y, e_prop, e_seeds = weighted_mean(ys, es)
+            x = weighted_mean(xs, es)[0]
         labels = [m[3] for m in members]
         out.append((x, y, max(e_prop, e_seeds), labels, {
-            "runs": labels, "x": x, "y": y, "err": max(e_prop, e_seeds),
-            "err_propagated": e_prop, "err_seeds": e_seeds,
-            "y_runs": ys, "err_runs": es}))
+            "runs": labels, "weights": "time" if by_time else "error", "x": x, "y": y,
+            "err": max(e_prop, e_seeds), "err_propagated": e_prop, "err_seeds": e_seeds,
+            "y_runs": ys, "err_runs": es, "averaged_time_runs": times}))
     return out
 
 
 def select(points, x_range=None):
     """(points kept, count without a usable error): x > 0, finite y and a finite positive error,
     the seeds of one (system, V) combined (`combine`), then the combined x inside x_range.
-    points: iterable of (x, y, err, label) or (x, y, err, label, group); a point without a
-    usable error is counted when its own x lies inside x_range."""
+    points: iterable of (x, y, err, label), (x, y, err, label, group) or (x, y, err, label, group,
+    averaged_time); a point without a usable error is counted when its own x lies inside
+    x_range."""
     usable, no_err = [], 0
     for p in points:
         x, y, e = finite(p[0]), finite(p[1]), finite(p[2])
@@ -144,15 +158,17 @@ def select(points, x_range=None):
             if not x_range or x_range[0] < x < x_range[1]:
                 no_err += 1
             continue
-        usable.append((x, y, e, p[3], p[4] if len(p) > 4 else None))
+        usable.append((x, y, e, p[3], p[4] if len(p) > 4 else None,
+                       p[5] if len(p) > 5 else None))
     kept = [p for p in combine(usable) if not x_range or x_range[0] < p[0] < x_range[1]]
     return kept, no_err
 
 
 def fit(spec, points):
-    """Fit a law (see `law`) to points (x, y, err, label) or (x, y, err, label, group), group
-    the key of the seeds to combine into one point (`group_key`; None or absent: the point stands
-    alone, see `select` and `combine`); the fits.json dict."""
+    """Fit a law (see `law`) to points (x, y, err, label[, group[, averaged_time]]), group the
+    key of the seeds to combine into one point (`group_key`; None or absent: the point stands
+    alone, see `select` and `combine`), averaged_time the time its averages cover (its weight
+    there); the fits.json dict."""
     from scipy.optimize import OptimizeWarning, curve_fit
     family = MODELS[spec["model"]]
     k = len(spec["params"])
@@ -228,7 +244,8 @@ def fit_columns(spec, rows, x=None, y=None):
     x, y = x or spec["x"], y or spec["y"]
     regimes = spec.get("regimes")
     spec = dict(law(spec["model"], spec["params"], y, x, spec["range"], regimes))
-    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"], group_key(r))
+    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"], group_key(r),
+                       r.get("_averaged_time"))
                       for r in rows if r.get("steady") is True
                       and (not regimes or r.get("regime") in regimes)])
 

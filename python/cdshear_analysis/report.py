@@ -131,6 +131,11 @@ def read_run(run_dir):
         row[col], row[col + "_err"] = _pair(s, *keys)
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
+    # the time the run's averages cover, its weight among the seeds of one point of a fit
+    # (fitting.combine); None when the summary does not say where the averaging starts
+    start, reached = _finite(s.get("averaging_start_time")), row["time_reached"]
+    row["_averaged_time"] = (reached - start if start is not None and reached is not None
+                             else None)
     row["_switches"] = switches if isinstance(switches, list) else []
     row["_profiles"] = _profiles(s.get("profiles"))
     regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}

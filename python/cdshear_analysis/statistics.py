@@ -15,8 +15,8 @@ Uncertainty everywhere is the standard error of the mean.
   (the seeds or realizations of one setting), with its propagated error and the error from
   their scatter about it; the callers (fitting.combine, study.combine) take the larger.
 - `time_weighted_mean(values, errs, times)`: the same for time averages of one flow, weighted
-  by the time each covers instead of by its error bar (study.combine, when the runs say what
-  time they cover).
+  by the time each covers instead of by its error bar (study.combine and fitting.combine, when
+  the runs say what time they cover).
 """
 import math
 import warnings

@@ -103,6 +103,47 @@ class SeedsCombinedTest(unittest.TestCase):
         self.assertEqual(separate["n_points"], 12)
         self.assertGreater(abs(separate["chi2"] - fit["chi2"]), 1e-3)
 
+    def test_seeds_that_say_their_averaged_time_are_weighted_by_it(self):
+        # the same two seeds, but their summaries say where the averaging starts: seed 1's
+        # averages cover 900 t, seed 2's 300 t (time 1000). Their error bars (seed 1 half of
+        # seed 2's) no longer weigh: the weights are the times, 3 to 1.
+        self.two_seed_campaign()
+        starts = {1: 100.0, 2: 700.0}
+        for run in os.listdir(os.path.join(self.d, "runs")):
+            path = os.path.join(self.d, "runs", run, "summary.json")
+            with open(path) as f:
+                s = json.load(f)
+            s["averaging_start_time"] = starts[int(run.split("_seed")[1].split("_")[0])]
+            with open(path, "w") as f:
+                json.dump(s, f)
+        rows = report.collect(self.d)["rows"]
+        fit = report.fit_law("mu_power", rows)
+        self.assertEqual(fit["status"], "ok", fit["reason"])
+        self.assertEqual((fit["n_points"], fit["n_runs"], len(fit["combined"])), (6, 12, 6))
+        for V, gap, c in zip(self.velocities, self.gaps, fit["combined"]):
+            I, mu = 0.05 * V, mu_law(0.05 * V, 0.25, 0.5, 0.6)
+            y1, y2 = mu - gap / 2, mu + gap / 2
+            self.assertEqual(c["weights"], "time")
+            self.assertEqual(c["averaged_time_runs"], [900.0, 300.0])
+            self.assertAlmostEqual(c["y"], 0.75 * y1 + 0.25 * y2, places=12)
+            self.assertAlmostEqual(c["x"], 0.75 * I + 0.25 * 1.1 * I, places=12)
+            # propagated: sqrt(sum (w_i e_i)^2) with w = 0.75, 0.25 and e = 0.003, 0.006
+            self.assertAlmostEqual(c["err_propagated"], math.hypot(0.75 * 0.003, 0.25 * 0.006),
+                                   places=12)
+            # seeds' scatter about that mean, time-weighted, k - 1 = 1: sqrt(3/16) |y2 - y1|
+            self.assertAlmostEqual(c["err_seeds"], math.sqrt(3 / 16) * gap, places=12)
+        # the boundary layers' points (per h, and pooled over h) are weighted the same way
+        boundary = bl.fit_boundary(rows, report.FITS)
+        for f in (boundary[bl.h_label(boundary["thicknesses"][0])]["mu_power"],
+                  boundary["all_h"]["mu_hI_A"]):
+            self.assertTrue(f["combined"])
+            self.assertEqual({p["weights"] for p in f["combined"]}, {"time"})
+        # without the averaging start (the test above) the same seeds are weighted by 1/err^2
+        for r in rows:
+            r["_averaged_time"] = None
+        self.assertEqual({c["weights"] for c in report.fit_law("mu_power", rows)["combined"]},
+                         {"error"})
+
     def test_one_seed_per_v_is_not_changed(self):
         # single runs: each run its own point, no `combined` entries, and the fit is a plain
         # weighted least-squares fit of the raw points (scipy's curve_fit called here directly,
