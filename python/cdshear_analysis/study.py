@@ -159,45 +159,82 @@ def _is_reference(name):
     return name == "reference" or name.startswith("reference_")
 
 
+def _references(study_dir, skipped):
+    """The rows of a study folder's realizations of the reference (`reference`,
+    `reference_<anything>` with summary.json), one each, not combined; the folders without
+    summary.json are named in `skipped` (a list, or None)."""
+    rows = []
+    for name in sorted(os.listdir(study_dir)):
+        path = os.path.join(study_dir, name)
+        if not os.path.isdir(path) or not _is_reference(name):
+            continue
+        if not os.path.exists(os.path.join(path, "summary.json")):
+            if skipped is not None:
+                skipped.append(name)
+            continue
+        rows.append(read_run(path, None, None))
+    return rows
+
+
 def collect(study_dir, skipped=None):
     """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder. A run
     folder without summary.json (still running, or not analysed) is left out and named in
     `skipped` (a list, when given), so that a study can be tabulated while it runs."""
     if not os.path.isdir(study_dir):
         raise StudyError(study_dir, "not a folder")
+    references = _references(study_dir, skipped)
     rows = []
-    references = []
     for name in sorted(os.listdir(study_dir)):
         path = os.path.join(study_dir, name)
-        if not os.path.isdir(path) or name == "figures":
+        if not os.path.isdir(path) or name == "figures" or _is_reference(name) or \
+                "=" not in name:
             continue
-        is_reference = _is_reference(name)
-        if (is_reference or "=" in name) and \
-                not os.path.exists(os.path.join(path, "summary.json")):
+        if not os.path.exists(os.path.join(path, "summary.json")):
             if skipped is not None:
                 skipped.append(name)
             continue
-        if is_reference:
-            references.append(read_run(path, None, None))
-        elif "=" in name:
-            key, text = name.split("=", 1)
-            value = _number(text)
-            rows.append(read_run(path, key, value if value is not None else text))
+        key, text = name.split("=", 1)
+        value = _number(text)
+        rows.append(read_run(path, key, value if value is not None else text))
     if not references:
         raise StudyError(study_dir, "no analysed `reference` run folder")
     return [combine(references)] + rows
+
+
+def welch_p(values_a, values_b):
+    """Two-sided p-value of Welch's t-test (unequal variances) that two sets of realizations
+    have the same mean, from their values alone (scipy.stats.ttest_ind, equal_var=False): the
+    chance that identical physics gives a difference at least this large. Unweighted: where the
+    realizations' averages cover different times it tests their plain means, not the
+    time-weighted ones of the table (`combine`), so the two columns can disagree a little. NaN
+    when a set has fewer than 2 finite values or neither scatters."""
+    from scipy import stats
+    a = [v for v in values_a if math.isfinite(v)]
+    b = [v for v in values_b if math.isfinite(v)]
+    if len(a) < 2 or len(b) < 2 or (max(a) == min(a) and max(b) == min(b)):
+        return math.nan
+    return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
 
 
 def compare_references(dir_a, dir_b):
     """Two builds or settings, each a study folder of realizations (`reference`,
     `reference_seed2`, ...: the same case with other solver seeds), compared as the ninth pass
     of docs/accuracy.md does: each folder's runs combined (`combine`), then for every quantity
-    the two means, their errors and the difference b - a in combined errors,
-    (b - a) / sqrt(err_a^2 + err_b^2). Returns (combined row a, combined row b, lines, skipped),
-    each line (quantity, a, err_a, b, err_b, difference in combined errors, NaN when both errors
-    are 0 or missing), skipped the run folders left out (no summary.json yet) as paths."""
+    the two means, their errors, the difference b - a in combined errors,
+    (b - a) / sqrt(err_a^2 + err_b^2), and Welch's p-value from the realizations' values
+    (`welch_p`). Returns (combined row a, combined row b, lines, skipped), each line (quantity,
+    a, err_a, b, err_b, difference in combined errors (NaN when both errors are 0 or missing),
+    p (NaN with fewer than two realizations on a side)), skipped the run folders left out (no
+    summary.json yet) as paths."""
     skipped_a, skipped_b = [], []
-    a, b = collect(dir_a, skipped_a)[0], collect(dir_b, skipped_b)[0]
+    for d in (dir_a, dir_b):
+        if not os.path.isdir(d):
+            raise StudyError(d, "not a folder")
+    runs_a, runs_b = _references(dir_a, skipped_a), _references(dir_b, skipped_b)
+    for d, runs in ((dir_a, runs_a), (dir_b, runs_b)):
+        if not runs:
+            raise StudyError(d, "no analysed `reference` run folder")
+    a, b = combine(runs_a), combine(runs_b)
     skipped = ([os.path.join(dir_a, n) for n in skipped_a] +
                [os.path.join(dir_b, n) for n in skipped_b])
     lines = []
@@ -205,7 +242,8 @@ def compare_references(dir_a, dir_b):
         ea, eb = a[name + "_err"], b[name + "_err"]
         scale = math.hypot(ea, eb)
         diff = (b[name] - a[name]) / scale if scale > 0 else math.nan
-        lines.append((name, a[name], ea, b[name], eb, diff))
+        p = welch_p([r[name] for r in runs_a], [r[name] for r in runs_b])
+        lines.append((name, a[name], ea, b[name], eb, diff, p))
     return a, b, lines, skipped
 
 
@@ -217,22 +255,31 @@ def counted(k, noun):
 
 def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     """The comparison as a Markdown table, a quantity that `agrees` finds apart (more than two
-    combined errors) marked "(differs)" as in study.md, the solver figures (sweeps, capped steps, wall time per time
-    unit: means over the realizations) after the quantities."""
+    combined errors) marked "(differs)" as in study.md, Welch's p-value of each quantity, the
+    solver figures (sweeps, capped steps, wall time per time unit: means over the realizations)
+    after the quantities, and how to read the p-values of several quantities at once."""
     na, nb = a.get("realizations", 1), b.get("realizations", 1)
     out = [f"| quantity | {dir_a} ({counted(na, 'run')}) | {dir_b} ({counted(nb, 'run')}) | "
-           "difference / combined error |", "|---|---|---|---|"]
-    for name, xa, ea, xb, eb, diff in lines:
+           "difference / combined error | Welch p |", "|---|---|---|---|---|"]
+    for name, xa, ea, xb, eb, diff, p in lines:
         if math.isnan(diff):
             text = "n/a (no error)"
         else:
             text = f"{diff:+.2f}" + (" (differs)" if agrees(b, a, name) is False else "")
-        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {text} |")
+        p_text = "n/a" if math.isnan(p) else f"{p:.2g}"
+        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {text} | {p_text} |")
     for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
                       ("wall_s_per_time", "{:.4f}")):
-        out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | |")
+        out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | | |")
     steady = lambda r: "all steady" if r["steady"] else "not all steady"  # noqa: E731
-    out.append(f"| steady | {steady(a)} | {steady(b)} | |")
+    out.append(f"| steady | {steady(a)} | {steady(b)} | | |")
+    if any(not math.isnan(line[6]) for line in lines):
+        n = len(lines)
+        out.append(f"\nWelch p: the chance that identical physics gives a difference this large "
+                   f"(Welch's t-test on the realizations' values). Over {n} quantities, "
+                   f"identical physics puts one or more below 0.05 up to "
+                   f"{1 - 0.95 ** n:.0%} of the time; below {0.05 / n:.2g} "
+                   f"(0.05 / {n}, Bonferroni), at most 5% of the time.")
     out += [f"left out {path}: no summary.json yet" for path in skipped]
     return "\n".join(out) + "\n"
 

@@ -1,6 +1,7 @@
 """The parameter-study collector: rows from analysed runs, agreement with the reference."""
 import io
 import json
+import math
 import os
 import tempfile
 import unittest
@@ -127,7 +128,8 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(ra["realizations"], 2)
             self.assertAlmostEqual(ra["mean_sweeps"], 50.0)
             by_name = {line[0]: line for line in lines}
-            _, xa, ea, xb, eb, diff = by_name["mu_eff_wall"]
+            _, xa, ea, xb, eb, diff, p = by_name["mu_eff_wall"]
+            self.assertTrue(math.isnan(p))   # one realization in b: no Welch test
             self.assertAlmostEqual(xa, 0.25)
             self.assertAlmostEqual(ea, 0.004 / 2 ** 0.5)
             self.assertAlmostEqual(diff, 0.02 / (0.004 ** 2 / 2 + 0.003 ** 2) ** 0.5)
@@ -136,10 +138,12 @@ class StudyTest(unittest.TestCase):
             with redirect_stdout(out):
                 self.assertEqual(main(["study-compare", a, b]), 0)
             # 0.02 / 0.0041 = 4.9 combined errors: more than the study's 2.
-            self.assertIn(f"| mu_eff_wall | 0.25 ± 0.0028 | 0.27 ± 0.003 | {diff:+.2f} (differs) |",
+            self.assertIn(f"| mu_eff_wall | 0.25 ± 0.0028 | 0.27 ± 0.003 | {diff:+.2f} (differs) "
+                          "| n/a |", out.getvalue())
+            self.assertIn("| solid_fraction | 0.8 ± 0.00071 | 0.8 ± 0.001 | +0.00 | n/a |",
                           out.getvalue())
-            self.assertIn("| solid_fraction | 0.8 ± 0.00071 | 0.8 ± 0.001 | +0.00 |", out.getvalue())
-            self.assertIn("| mean_sweeps | 50.0 | 30.0 | |", out.getvalue())
+            self.assertIn("| mean_sweeps | 50.0 | 30.0 | | |", out.getvalue())
+            self.assertNotIn("Bonferroni", out.getvalue())   # no p-value to read
             self.assertIn(f"| quantity | {a} (2 runs) | {b} (1 run) |", out.getvalue())
             self.assertEqual(study.counted(1, "analysed run"), "1 analysed run")
             self.assertEqual(study.counted(0, "run"), "0 runs")
@@ -150,6 +154,33 @@ class StudyTest(unittest.TestCase):
             with redirect_stderr(err):
                 self.assertEqual(main(["study-compare", a, os.path.join(d, "none")]), 2)
             self.assertIn("none", err.getvalue())
+
+    def test_welch_p_value_against_its_closed_form(self):
+        # a = (0, 2), b = (1, 3): means 1 and 2, variances 2, t = -1 / sqrt(2), Welch's degrees
+        # of freedom (1 + 1)^2 / (1 + 1) = 2, where the two-sided p is 1 - |t| / sqrt(t^2 + 2).
+        t = 1 / math.sqrt(2)
+        self.assertAlmostEqual(study.welch_p([0.0, 2.0], [1.0, 3.0]), 1 - t / math.sqrt(t * t + 2),
+                               places=12)
+        self.assertLess(study.welch_p([0.0, 0.1, 0.2], [5.0, 5.1, 5.2]), 1e-4)
+        self.assertTrue(math.isnan(study.welch_p([1.0], [1.0, 2.0])))        # one value
+        self.assertTrue(math.isnan(study.welch_p([1.0, 1.0], [2.0, 2.0])))   # no scatter
+        self.assertTrue(math.isnan(study.welch_p([1.0, math.nan], [1.0, 2.0])))
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            for folder, values in ((a, (0.24, 0.26)), (b, (0.25, 0.27))):
+                for k, mu in enumerate(values):
+                    fake_run(os.path.join(folder, f"reference_seed{k + 1}"), mu, 0.004, 50.0,
+                             10.0)
+            *_, lines, _ = study.compare_references(a, b)
+            p = {line[0]: line[6] for line in lines}
+            # (0.24, 0.26) against (0.25, 0.27): a = (0, 2), b = (1, 3) scaled by 0.01
+            self.assertAlmostEqual(p["mu_eff_wall"], 1 - t / math.sqrt(t * t + 2), places=9)
+            out = io.StringIO()
+            with redirect_stdout(out):
+                self.assertEqual(main(["study-compare", a, b]), 0)
+            self.assertIn(f"| {1 - t / math.sqrt(t * t + 2):.2g} |", out.getvalue())
+            self.assertIn("up to 37% of the time; below 0.0056 (0.05 / 9, Bonferroni)",
+                          out.getvalue())
 
     def test_windows_show_a_drift_and_where_two_folders_part(self):
         import h5py
