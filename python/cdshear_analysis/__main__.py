@@ -8,7 +8,8 @@ DIR_B [--windows N]` compares two folders of realizations in combined errors (an
 CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json -o DATA`
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
 of bench/peers/side_by_side.sh (cdshear_analysis/peers.py); `... series-means RUN_DIR --after T
-[--key KEY ...]` prints means of run.h5 series after time T (cdshear_analysis/series_means.py).
+[--key KEY ...]` prints means of run.h5 series after time T (cdshear_analysis/series_means.py);
+`... series-pairs CHECK_DIR` the pairs of scripts/paired_check.sh.
 A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
@@ -57,6 +58,10 @@ def main(argv=None):
                          help="and time <= BEFORE (default: to the end)")
     p_means.add_argument("--key", action="append", help="series name (repeatable; default "
                          "force_carrying, sweeps_mean, capped_steps)")
+    p_pairs = commands.add_parser(
+        "series-pairs", help="series of two executables resumed from the same checkpoints, "
+        "compared pair by pair (scripts/paired_check.sh)")
+    p_pairs.add_argument("check_dir")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
@@ -100,6 +105,16 @@ def main(argv=None):
             return 2
         except SeriesError as e:
             print(f"error: {os.path.join(args.run_dir, 'run.h5')}: {e.problem}", file=sys.stderr)
+            return 2
+        return 0
+
+    if args.command == "series-pairs":
+        from .rundata import RunDataError
+        from .series_means import SeriesError, format_paired_differences, paired_differences
+        try:
+            print(format_paired_differences(paired_differences(args.check_dir)))
+        except (RunDataError, SeriesError, OSError, ValueError) as e:
+            print(f"error: {e}", file=sys.stderr)
             return 2
         return 0
 

@@ -10,7 +10,13 @@ blocks find no plateau (a short window) the largest error over the levels is giv
 output says so: then it is still a lower bound. It serves
 scripts/solver_check.sh (docs/accuracy.md, "checkpoint copies"), which resumes copies of a run's
 checkpoint with other solver settings and compares, for example, the force-carrying contacts.
+
+`paired_differences(check_dir, keys)` serves scripts/paired_check.sh: copies of several runs'
+checkpoints, each resumed by two executables (a/ and b/), compared pair by pair.
 """
+import math
+import os
+
 import numpy as np
 
 from .statistics import block_average
@@ -48,3 +54,49 @@ def format_series_means(means):
         f"{key:<16} {mean:.6g} +- {error:.2g} ({count} samples; error by blocks of {block}"
         + ("" if converged else ", no plateau: a lower bound") + ")"
         for key, (mean, error, count, block, converged) in means.items())
+
+
+PAIRED_KEYS = ("sweeps_mean", "force_carrying", "capped_steps", "solid_fraction", "bottom_mu",
+               "top_mu")
+
+
+def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
+    """The pairs of a scripts/paired_check.sh folder: every subfolder with a/ and b/ both done
+    (paired_check.done), each side resumed from one checkpoint at the time in
+    paired_check.start. Per pair and key, the difference b - a of the series' means after that
+    time; over the pairs, {key: (mean of a's means, mean difference, its standard error from
+    the pairs' scatter, std(ddof 1) / sqrt(k), NaN for one pair)} and the pair count. Raises
+    SeriesError when no pair is done."""
+    if load is None:
+        from .rundata import load_run as load
+    diffs, bases, pairs = {key: [] for key in keys}, {key: [] for key in keys}, 0
+    names = sorted(os.listdir(check_dir)) if os.path.isdir(check_dir) else []
+    for name in names:
+        sides = [os.path.join(check_dir, name, side) for side in ("a", "b")]
+        if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):
+            continue
+        with open(os.path.join(sides[0], "paired_check.start")) as f:
+            start = float(f.read())
+        a, b = (series_means(load(d), start, keys) for d in sides)
+        for key in keys:
+            diffs[key].append(b[key][0] - a[key][0])
+            bases[key].append(a[key][0])
+        pairs += 1
+    if pairs == 0:
+        raise SeriesError(f"{check_dir}: no pair with both sides done (a/ and b/)")
+    out = {}
+    for key in keys:
+        d = np.asarray(diffs[key])
+        err = float(np.std(d, ddof=1) / math.sqrt(pairs)) if pairs > 1 else math.nan
+        out[key] = (float(np.mean(bases[key])), float(np.mean(d)), err)
+    return out, pairs
+
+
+def format_paired_differences(result):
+    out, pairs = result
+    lines = [f"{pairs} pairs (b - a, each pair from one checkpoint; error from the pairs' "
+             "scatter):"]
+    for key, (base, diff, err) in out.items():
+        rel = f" ({100 * diff / base:+.2f}% +- {100 * err / abs(base):.2f}%)" if base else ""
+        lines.append(f"{key:<16} a {base:.6g}  b - a {diff:+.4g} +- {err:.2g}{rel}")
+    return "\n".join(lines)

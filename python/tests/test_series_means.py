@@ -9,7 +9,9 @@ import numpy as np
 
 from cdshear_analysis import load_run
 from cdshear_analysis.__main__ import main
-from cdshear_analysis.series_means import SeriesError, format_series_means, series_means
+from cdshear_analysis.series_means import (SeriesError, format_paired_differences,
+                                           format_series_means, paired_differences,
+                                           series_means)
 from cdshear_analysis.statistics import block_average
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -91,6 +93,48 @@ class SeriesMeans(unittest.TestCase):
             status = main(["series-means", self.run_dir, "--after", "1e9"])
         self.assertEqual(status, 2)
         self.assertIn(os.path.join(self.run_dir, "run.h5"), err.getvalue())
+
+
+class PairedDifferences(unittest.TestCase):
+    """scripts/paired_check.sh's folders: pairs a/ b/ resumed from one checkpoint each."""
+
+    def test_differences_after_each_checkpoint_with_the_pairs_scatter(self):
+        # three pairs from checkpoints at t = 10, 20, 30; each side's series is 100 before its
+        # checkpoint (left out) and a constant after it: a = 50 + k, b = a + offset_k with
+        # offsets 1, 2, 6 (mean 3, std 2.646, error 2.646 / sqrt 3)
+        offsets = (1.0, 2.0, 6.0)
+        runs = {}
+        with tempfile.TemporaryDirectory() as d:
+            for k, offset in enumerate(offsets):
+                start = 10.0 * (k + 1)
+                for side, value in (("a", 50.0 + k), ("b", 50.0 + k + offset)):
+                    folder = os.path.join(d, f"{k + 1}_seed{k}", side)
+                    os.makedirs(folder)
+                    with open(os.path.join(folder, "paired_check.start"), "w") as f:
+                        f.write(f"{start!r}\n")
+                    open(os.path.join(folder, "paired_check.done"), "w").close()
+                    t = np.arange(0.5, start + 20.0, 0.5)
+                    runs[folder] = {"series": {"time": t, "x": np.where(t > start, value, 100.0)}}
+            # an unfinished pair (b not done) is left out
+            os.makedirs(os.path.join(d, "4_seed9", "a"))
+            out, pairs = paired_differences(d, ("x",), load=lambda folder: runs[folder])
+            self.assertEqual(pairs, 3)
+            base, diff, err = out["x"]
+            self.assertAlmostEqual(base, 51.0)
+            self.assertAlmostEqual(diff, 3.0)
+            self.assertAlmostEqual(err, np.std(offsets, ddof=1) / np.sqrt(3))
+            text = format_paired_differences((out, pairs))
+            self.assertIn("3 pairs", text)
+            self.assertIn("b - a +3 +- 1.5 (+5.88% +- 3.00%)", text)
+
+    def test_no_pair_done_is_an_error_naming_the_folder(self):
+        with tempfile.TemporaryDirectory() as d:
+            with self.assertRaises(SeriesError):
+                paired_differences(d)
+            err = io.StringIO()
+            with redirect_stderr(err):
+                self.assertEqual(main(["series-pairs", d]), 2)
+            self.assertIn(d, err.getvalue())
 
 
 if __name__ == "__main__":

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Paired check of two executables from the same states (docs/accuracy.md, seventeenth pass):
+# for each run folder given, copies its checkpoint twice, resumes one copy with $CDSHEAR_A and
+# the other with $CDSHEAR_B for DURATION time units, and prints, over all the runs, the mean
+# difference B - A of each series' mean after the checkpoint, with its standard error from the
+# runs' scatter. Both copies start from one state, so the difference is the executables' own
+# (a build, an instruction set, a code change), free of the state-to-state scatter that
+# dominates ensembles of whole runs; the flows diverge after a few time units, which the
+# pairing over many runs averages out.
+#
+#   CDSHEAR_A=old/cdshear CDSHEAR_B=new/cdshear scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
+#
+# OUT_DIR/<k>_<run>/{a,b}: the resumed copies (a folder already done is kept: rerun to finish
+# an interrupted check). Environment: THREADS [1].
+set -euo pipefail
+
+if [[ $# -lt 3 || "$1" == -h || "$1" == --help ]]; then
+  sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'
+  exit 2
+fi
+out=$1 duration=$2
+shift 2
+repo=$(cd "$(dirname "$0")/.." && pwd)
+source "$repo/scripts/checkpoint_copy.sh"
+declare -A bin
+for side in A B; do
+  var=CDSHEAR_$side
+  [[ -n "${!var:-}" ]] ||
+    { echo "error: $var: not set (the executable of side $side)" >&2; exit 2; }
+  [[ -x "${!var}" ]] || { echo "error: $var=${!var}: not an executable" >&2; exit 2; }
+  bin[$side]=${!var}
+done
+for run in "$@"; do require_checkpoint_run "$run"; done
+mkdir -p "$out"
+
+k=0
+for run in "$@"; do
+  k=$((k + 1))
+  pair="$out/${k}_$(basename "$(cd "$run" && pwd)")"
+  for side in A B; do
+    dir="$pair/${side,,}"
+    [[ -f "$dir/paired_check.done" ]] && continue
+    rm -rf "$dir" && mkdir -p "$dir"
+    copy_checkpoint "$run" "$dir"
+    start=$(checkpoint_time "${bin[$side]}" "$dir" "$run")
+    stop=$(/usr/bin/python3 -c "print($start + $duration)")
+    "${bin[$side]}" run --resume "$dir" --threads "${THREADS:-1}" --no-analyze -q \
+      --set shear.duration="$stop" --stop-at "$stop" > "$dir/paired_check.log" 2>&1 ||
+      { echo "error: $dir: the resume failed (see $dir/paired_check.log)" >&2; exit 1; }
+    echo "$start" > "$dir/paired_check.start"
+    touch "$dir/paired_check.done"
+  done
+  echo "$pair: done"
+done
+PYTHONPATH="$repo/python" /usr/bin/python3 -m cdshear_analysis series-pairs "$out"
