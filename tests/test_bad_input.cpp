@@ -378,8 +378,9 @@ TEST(CheckpointValidation, EveryFieldComesBackExactly) {
 }
 
 // A resume by a build for another instruction set rounds differently from there on: it is
-// warned of, naming the file and both sets; a resume by the same build, or of a checkpoint
-// written before checkpoints named their build, is not.
+// warned of, naming the file and both sets; a resume by the same build, by a build that rounds
+// alike (both without fused multiply-adds), or of a checkpoint written before checkpoints named
+// their build, is not.
 TEST(CheckpointValidation, AResumeByABuildForAnotherInstructionSetIsWarnedOf) {
   const TempDir dir("checkpoint_instruction_set");
   const Checkpoint cp = sample_checkpoint();
@@ -396,6 +397,16 @@ TEST(CheckpointValidation, AResumeByABuildForAnotherInstructionSetIsWarnedOf) {
   Checkpoint unnamed = back;
   unnamed.instruction_set.clear();
   EXPECT_EQ(instruction_set_warning(unnamed, other.string(), "this-build's-set"), "");
+  // The builds without fused multiply-adds round alike: no warning between them, either way;
+  // a build with them is warned of against both.
+  Checkpoint baseline = back, nofma = back;
+  baseline.instruction_set = "default";
+  nofma.instruction_set = "x86-64-v3-solver-nofma";
+  EXPECT_EQ(instruction_set_warning(baseline, other.string(), "x86-64-v3-solver-nofma"), "");
+  EXPECT_EQ(instruction_set_warning(nofma, other.string(), "default"), "");
+  EXPECT_NE(instruction_set_warning(nofma, other.string(), "x86-64-v3-solver"), "");
+  EXPECT_NE(instruction_set_warning(baseline, other.string(), "x86-64-v3"), "");
+  EXPECT_FALSE(same_rounding("x86-64-v3-solver", "x86-64-v3-solver-nofma"));
 }
 
 TEST(CheckpointValidation, AChangedByteFailsTheChecksum) {

@@ -19,7 +19,8 @@ namespace {
 /// file itself is built for the x86-64 baseline, so the check runs on any x86-64 processor.
 bool processor_runs_this_build() {
 #if defined(__x86_64__)
-  // "x86-64-v3", or "x86-64-v3-solver" (only the solver's files: CDSHEAR_ARCH=solver).
+  // "x86-64-v3", "x86-64-v3-solver" or "x86-64-v3-solver-nofma" (only the solver's files:
+  // CDSHEAR_ARCH=solver, solver-nofma).
   if (!std::string_view(CDSHEAR_INSTRUCTION_SET).starts_with("x86-64-v3")) return true;
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&

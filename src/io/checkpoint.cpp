@@ -250,9 +250,16 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   return cp;
 }
 
+bool same_rounding(const std::string& a, const std::string& b) {
+  const auto without_fma = [](const std::string& set) {
+    return set == "default" || set == "x86-64-v3-solver-nofma";
+  };
+  return a == b || (without_fma(a) && without_fma(b));
+}
+
 std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
                                     const std::string& this_build) {
-  if (cp.instruction_set.empty() || cp.instruction_set == this_build) return {};
+  if (cp.instruction_set.empty() || same_rounding(cp.instruction_set, this_build)) return {};
   // "default" is CMakeLists.txt's name for the compiler's default (the x86-64 baseline).
   const auto named = [](const std::string& set) {
     return set == "default" ? std::string("the compiler's default instruction set")
