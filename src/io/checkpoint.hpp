@@ -39,16 +39,16 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
 /// an unknown wall mode, a contact index out of range).
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 
-/// A warning for a resume of `cp` by this build (empty when there is none to give): a build for
-/// another instruction set may round differently (docs/performance.md, "Fused multiply-add"), so
-/// the resumed run is another realisation of the flow from that point on, not the one the
-/// first build would have continued bit for bit. Builds without fused multiply-adds ("default"
-/// and "x86-64-v3-solver-nofma") round alike: no warning between them (same_rounding).
 /// Whether builds for instruction sets `a` and `b` (CDSHEAR_INSTRUCTION_SET) give the same
 /// results bit for bit: the same set, or two without fused multiply-adds (the baseline
 /// "default", and "x86-64-v3-solver-nofma", whose every operation rounds as the source writes).
 bool same_rounding(const std::string& a, const std::string& b);
 
+/// A warning for a resume of `cp` by this build (empty when there is none to give): a build for
+/// another instruction set may round differently (docs/performance.md, "Fused multiply-add"), so
+/// the resumed run is another realisation of the flow from that point on, not the one the
+/// first build would have continued bit for bit. Builds that round alike (same_rounding) are
+/// not warned of.
 std::string instruction_set_warning(const Checkpoint& cp, const std::string& file,
                                     const std::string& this_build = CDSHEAR_INSTRUCTION_SET);
 
