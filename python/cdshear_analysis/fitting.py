@@ -129,12 +129,10 @@ def combine(points):
         xs, ys, es = ([float(m[i]) for m in members] for i in range(3))
         times = [finite(m[4]) for m in members]
         by_time = all(t is not None and t > 0 for t in times)
-        if by_time:
-            y, e_prop, e_seeds = time_weighted_mean(ys, es, times)
-            x = time_weighted_mean(xs, es, times)[0]   # x with the weights of y
-        else:
-            y, e_prop, e_seeds = weighted_mean(ys, es)
-            x = weighted_mean(xs, es)[0]
+        def mean(values):
+            return time_weighted_mean(values, es, times) if by_time else weighted_mean(values, es)
+        y, e_prop, e_seeds = mean(ys)
+        x = mean(xs)[0]   # x with the weights of y
         labels = [m[3] for m in members]
         out.append((x, y, max(e_prop, e_seeds), labels, {
             "runs": labels, "weights": "time" if by_time else "error", "x": x, "y": y,

@@ -24,7 +24,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
-from .study import counted
+from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
@@ -132,10 +132,8 @@ def read_run(run_dir):
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     # the time the run's averages cover, its weight among the seeds of one point of a fit
-    # (fitting.combine); None when the summary does not say where the averaging starts
-    start, reached = _finite(s.get("averaging_start_time")), row["time_reached"]
-    row["_averaged_time"] = (reached - start if start is not None and reached is not None
-                             else None)
+    # (fitting.combine; NaN when the summary does not say where the averaging starts)
+    row["_averaged_time"] = averaged_time(s)
     row["_switches"] = switches if isinstance(switches, list) else []
     row["_profiles"] = _profiles(s.get("profiles"))
     regions = s.get("regions") if isinstance(s.get("regions"), dict) else {}

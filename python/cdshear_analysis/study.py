@@ -58,6 +58,17 @@ def _number(text):
         return None
 
 
+def averaged_time(summary):
+    """The time a run's averages cover, from its summary.json: the time it reached minus
+    `averaging_start_time` (NaN when either is missing). A realization's weight when
+    realizations are combined (`combine`), and a seed's in a campaign's fits
+    (fitting.combine, through report.read_run)."""
+    case = summary.get("case") if isinstance(summary.get("case"), dict) else {}
+    start = _number(str(summary.get("averaging_start_time")))
+    reached = _number(str(case.get("time")))
+    return reached - start if start is not None and reached is not None else math.nan
+
+
 def read_run(run_dir, key, value):
     """One row: the setting, each quantity's mean and error, the solver figures and the cost."""
     summary = _read_json(os.path.join(run_dir, "summary.json"))
@@ -80,10 +91,7 @@ def read_run(run_dir, key, value):
     row["largest_overlap"] = cost["largest_overlap"]
     simulated = float(summary.get("case", {}).get("time", math.nan))
     row["wall_s_per_time"] = cost["wall_seconds"] / simulated if simulated > 0 else math.nan
-    # The time its averages cover (from the end of the transient to the end of the run): a
-    # realization's weight when realizations are combined (combine).
-    start = _number(str(summary.get("averaging_start_time")))
-    row["averaged_time"] = simulated - start if start is not None else math.nan
+    row["averaged_time"] = averaged_time(summary)   # its weight in `combine`
     return row
 
 
@@ -162,7 +170,10 @@ def _is_reference(name):
 def _references(study_dir, skipped):
     """The rows of a study folder's realizations of the reference (`reference`,
     `reference_<anything>` with summary.json), one each, not combined; the folders without
-    summary.json are named in `skipped` (a list, or None)."""
+    summary.json are named in `skipped` (a list, or None). StudyError when the folder is not
+    one or holds no analysed realization."""
+    if not os.path.isdir(study_dir):
+        raise StudyError(study_dir, "not a folder")
     rows = []
     for name in sorted(os.listdir(study_dir)):
         path = os.path.join(study_dir, name)
@@ -173,6 +184,8 @@ def _references(study_dir, skipped):
                 skipped.append(name)
             continue
         rows.append(read_run(path, None, None))
+    if not rows:
+        raise StudyError(study_dir, "no analysed `reference` run folder")
     return rows
 
 
@@ -180,14 +193,11 @@ def collect(study_dir, skipped=None):
     """Rows of every `KEY=VALUE` run and the `reference` run (key None) of a study folder. A run
     folder without summary.json (still running, or not analysed) is left out and named in
     `skipped` (a list, when given), so that a study can be tabulated while it runs."""
-    if not os.path.isdir(study_dir):
-        raise StudyError(study_dir, "not a folder")
     references = _references(study_dir, skipped)
     rows = []
     for name in sorted(os.listdir(study_dir)):
         path = os.path.join(study_dir, name)
-        if not os.path.isdir(path) or name == "figures" or _is_reference(name) or \
-                "=" not in name:
+        if not os.path.isdir(path) or _is_reference(name) or "=" not in name:
             continue
         if not os.path.exists(os.path.join(path, "summary.json")):
             if skipped is not None:
@@ -196,8 +206,6 @@ def collect(study_dir, skipped=None):
         key, text = name.split("=", 1)
         value = _number(text)
         rows.append(read_run(path, key, value if value is not None else text))
-    if not references:
-        raise StudyError(study_dir, "no analysed `reference` run folder")
     return [combine(references)] + rows
 
 
@@ -227,13 +235,7 @@ def compare_references(dir_a, dir_b):
     p (NaN with fewer than two realizations on a side)), skipped the run folders left out (no
     summary.json yet) as paths."""
     skipped_a, skipped_b = [], []
-    for d in (dir_a, dir_b):
-        if not os.path.isdir(d):
-            raise StudyError(d, "not a folder")
     runs_a, runs_b = _references(dir_a, skipped_a), _references(dir_b, skipped_b)
-    for d, runs in ((dir_a, runs_a), (dir_b, runs_b)):
-        if not runs:
-            raise StudyError(d, "no analysed `reference` run folder")
     a, b = combine(runs_a), combine(runs_b)
     skipped = ([os.path.join(dir_a, n) for n in skipped_a] +
                [os.path.join(dir_b, n) for n in skipped_b])
