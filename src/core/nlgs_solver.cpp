@@ -118,7 +118,7 @@ enum class Relaxation { kNone, kOver, kUnder };
 
 template <Relaxation kRelax>
 [[gnu::always_inline]] inline void update_row(SolverRow& r, const DelassusEntries& w,
-                                              std::vector<SolverBody>& bodies, double alpha,
+                                              SolverBody* bodies, double alpha,
                                               double omega, TallyAccumulator& tally,
                                               std::array<double, 2>& lengths2) {
   SolverBody& a = bodies[r.body_a];
@@ -347,9 +347,15 @@ template <Relaxation kRelax, bool kGather>
 void sweep_rows(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bodies, double alpha,
                 double omega, TallyAccumulator& tally) {
   SlabCorrection::GroupGather gathered;
+  // The arrays' addresses in locals: read through the vectors, g++ 12 loaded them again for
+  // every row (a store to a body or a row might, for all it knew, move a vector).
+  SolverRow* const rows = ws.rows.data();
+  const DelassusEntries* const delassus = ws.delassus.data();
+  SolverBody* const body = bodies.data();
+  std::array<double, 2>* const lengths2 = ws.row_lengths2.data();
   for (const std::uint32_t i : ws.awake[g]) {
-    update_row<kRelax>(ws.rows[i], ws.delassus[i], bodies, alpha, omega, tally, ws.row_lengths2[i]);
-    if constexpr (kGather) ws.slab_correction.gather_row(ws.rows[i], gathered);
+    update_row<kRelax>(rows[i], delassus[i], body, alpha, omega, tally, lengths2[i]);
+    if constexpr (kGather) ws.slab_correction.gather_row(rows[i], gathered);
   }
   if constexpr (kGather) ws.slab_correction.finish_group(g, gathered);
 }
