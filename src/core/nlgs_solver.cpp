@@ -395,8 +395,10 @@ void sum_group_lengths(std::size_t g, const SolverWorkspace& ws, SweepTally* tal
   tallies[g].sum_force = t.sum_force;
 }
 
-/// u_n + gap/dt of a row in the current velocities: >= 0 means it stays open at R = 0.
-inline double biased_normal_velocity(const SolverRow& r, const std::vector<SolverBody>& bodies) {
+/// u_n + gap/dt of a row (a SolverRow or a DormantRow) in the current velocities: >= 0 means it
+/// stays open at R = 0.
+template <class Row>
+inline double biased_normal_velocity(const Row& r, const std::vector<SolverBody>& bodies) {
   const SolverBody& a = bodies[r.body_a];
   const SolverBody& b = bodies[r.body_b];
   return (a.velocity.x - b.velocity.x) * r.normal.x + (a.velocity.y - b.velocity.y) * r.normal.y +
@@ -414,9 +416,8 @@ std::size_t wake_closing_rows(std::size_t g, SolverWorkspace& ws,
   auto& dormant = ws.dormant_of_group[g];
   std::size_t woken = 0;
   for (std::size_t k = 0; k < dormant.size();) {
-    const std::uint32_t row = dormant[k];
-    if (biased_normal_velocity(ws.rows[row], bodies) < 0.0) {
-      ws.awake[g].push_back(row);
+    if (biased_normal_velocity(dormant[k], bodies) < 0.0) {
+      ws.awake[g].push_back(dormant[k].row);
       dormant[k] = dormant.back();
       dormant.pop_back();
       ++woken;
@@ -663,7 +664,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         const SolverRow& r = rows[i];
         const bool open = r.impulse_n == 0.0 && r.impulse_t == 0.0;
         if (options.skip_dormant && open && biased_normal_velocity(r, bodies) > 0.0)
-          ws.dormant_of_group[g].push_back(static_cast<std::uint32_t>(i));
+          ws.dormant_of_group[g].push_back(
+              {static_cast<std::uint32_t>(i), r.body_a, r.body_b, r.normal, r.bias_n});
         else
           ws.awake[g].push_back(static_cast<std::uint32_t>(i));
       }
