@@ -118,8 +118,8 @@ enum class Relaxation { kNone, kOver, kUnder };
 
 template <Relaxation kRelax>
 [[gnu::always_inline]] inline void update_row(SolverRow& r, const DelassusEntries& w,
-                                              SolverBody* bodies, double alpha,
-                                              double omega, TallyAccumulator& tally,
+                                              SolverBody* bodies, double alpha, double omega,
+                                              TallyAccumulator& tally,
                                               std::array<double, 2>& lengths2) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];

@@ -184,9 +184,9 @@ struct SolverWorkspace {
   std::vector<double> anderson_x, anderson_g;     ///< their (R_n, R_t) before and after a period
   std::vector<std::vector<std::uint32_t>> awake;  ///< rows each group's sweeps visit
   std::vector<std::vector<DormantRow>> dormant_of_group;  ///< rows left out of the sweeps
-  std::vector<std::size_t> woken_of_group;  ///< rows each group woke at the last look
-  std::vector<std::uint32_t> group_of;      ///< group of each contact (coloured order)
-  std::vector<std::uint32_t> wall_band;     ///< band of every contact of each wall, if only one
+  std::vector<std::size_t> woken_of_group;                ///< rows each group woke at the last look
+  std::vector<std::uint32_t> group_of;   ///< group of each contact (coloured order)
+  std::vector<std::uint32_t> wall_band;  ///< band of every contact of each wall, if only one
   /// Coloured order: the bodies the rows touch, renumbered in the order the rows first use them
   /// (each slab's bodies side by side in memory), and the map back to `bodies`.
   std::vector<SolverBody> local_bodies;
