@@ -28,8 +28,14 @@ namespace {
 /// so w_nt is exactly 0 whenever m_x = m_y (any two disks) or n is along an axis (a flat wall),
 /// and such rows take the decoupled update. (Computed as n.(M^-1 t), it was a rounding residue
 /// of order 1e-17 instead of 0, which sent most rows to the general local solve.)
+///
+/// `step_scale` is the over-relaxation factor omega when omega > 1, else 1: the decoupled rows
+/// store omega / w_nn and omega / w_tt, the factors of their one-stage over-relaxed update
+/// (update_row), computed here once per step instead of in every update. omega x (1 / w) is
+/// the product the update formed before, so the update is the same bit for bit; with omega = 1
+/// the product is 1 / w itself.
 void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const SolverBody& a,
-              const SolverBody& b, double inv_dt) {
+              const SolverBody& b, double inv_dt, double step_scale) {
   const Vec2 n = c.normal;
   const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
   row.body_a = static_cast<std::uint32_t>(c.key.body_a);
@@ -45,8 +51,8 @@ void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const Solver
   w.w_nt = (m_y - m_x) * n.x * n.y;
   w.w_tt = m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
            c.lever_b * c.lever_b * b.inv_inertia;
-  row.inv_w_nn = 1.0 / w.w_nn;
-  row.inv_w_tt = w.w_nt == 0.0 ? 1.0 / w.w_tt : kCoupledRow;
+  row.inv_w_nn = step_scale * (1.0 / w.w_nn);
+  row.inv_w_tt = w.w_nt == 0.0 ? step_scale * (1.0 / w.w_tt) : kCoupledRow;
 }
 
 /// Adds up a group's convergence figures (SPEC 3.5): the counts during a sweep, and the sums of
@@ -139,7 +145,9 @@ template <Relaxation kRelax>
   LocalImpulse next;
   if (r.inv_w_tt != kCoupledRow) [[likely]] {
     if constexpr (kRelax == Relaxation::kOver) {
-      next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction, omega);
+      // The row's inverses are scaled by omega already (fill_row): decoupled_update's own
+      // factor is 1, and 1 x (omega / w) is omega / w exactly.
+      next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
     } else {
       next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
       if constexpr (kRelax == Relaxation::kUnder)
@@ -469,6 +477,8 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   ws.delassus.resize(nc);
   ws.row_lengths2.resize(nc);
   const double inv_dt = 1.0 / dt;
+  // The decoupled rows' step factors carry the over-relaxation (fill_row, update_row).
+  const double step_scale = options.relaxation > 1.0 ? options.relaxation : 1.0;
   std::size_t groups = 1;  // the last one is the serial group; set before any thread reads it
 
   // Sizes the per-group scratch once the groups are known (on one thread).
@@ -643,7 +653,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       const auto global_b = static_cast<std::size_t>(c.key.body_b);
       const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
       const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
-      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt);
+      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt, step_scale);
       rows[i].body_a = static_cast<std::uint32_t>(ia);
       rows[i].body_b = static_cast<std::uint32_t>(ib);
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <utility>
 
 #include <lapacke.h>
 
@@ -11,6 +12,49 @@
 namespace cdshear {
 
 static_assert(std::is_same_v<lapack_int, std::int32_t>, "SlabCorrection::pivots_ is 32-bit");
+
+namespace {
+
+/// Calls f(std::integral_constant<std::size_t, p>) for the slots p = 0, 1, 2: each call sees
+/// its slot as a constant, so arrays indexed by slots stay in registers.
+template <class F>
+[[gnu::always_inline]] inline void each_slot(F&& f) {
+  [&]<std::size_t... P>(std::index_sequence<P...>) {
+    (f(std::integral_constant<std::size_t, P>{}), ...);
+  }
+  (std::make_index_sequence<3>{});
+}
+
+/// Pass 2's sums of the chunk matrix's rows B - 1, B and B + 1 (the bands of a band-B body's
+/// slots p = 0, 1, 2), held while consecutive bodies share B: a[p][q] is A(B + p - 1,
+/// B + q - 1), at entry q + 2 - p of row B + p - 1 (its diagonals), r[p] that row's share of r.
+/// Rows outside [0, bands) are neither loaded nor stored: no slot of a band-B body reaches them,
+/// so their sums here only ever add zeros.
+struct BandWindow {
+  std::array<std::array<double, 3>, 3> a{};
+  std::array<double, 3> r{};
+
+  [[gnu::always_inline]] void load(const double* m, std::uint32_t band, std::size_t bands) {
+    each_slot([&](auto p) {
+      const std::size_t row = band + p;  // row band + p - 1, offset by one
+      if (row < 1 || row > bands) return;
+      const double* entries = m + (row - 1) * SlabCorrection::kChunkEntries;
+      r[p] = entries[SlabCorrection::kDiagonals];
+      each_slot([&](auto q) { a[p][q] = entries[q + 2 - p]; });
+    });
+  }
+  [[gnu::always_inline]] void store(double* m, std::uint32_t band, std::size_t bands) const {
+    each_slot([&](auto p) {
+      const std::size_t row = band + p;
+      if (row < 1 || row > bands) return;
+      double* entries = m + (row - 1) * SlabCorrection::kChunkEntries;
+      entries[SlabCorrection::kDiagonals] = r[p];
+      each_slot([&](auto q) { entries[q + 2 - p] = a[p][q]; });
+    });
+  }
+};
+
+}  // namespace
 
 void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   layout_ = layout;
@@ -54,40 +98,44 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
   for (std::size_t chunk = 0; chunk < chunks_; ++chunk) {
     double* m = &chunk_matrix_[chunk * bands * kChunkEntries];
     const std::size_t begin = chunk * kChunk, end = std::min(bodies_, begin + kChunk);
+    // The sums of the three rows around one band B, in registers while the bodies have band B
+    // (runs of bodies share a band: they are numbered slab by slab). Added in memory, each
+    // body's term waited for the last body's store of the same entry to be read back; in
+    // registers the chain is one addition per body. Loaded from and stored back to the chunk's
+    // matrix when B changes: the same additions in the same order, so the same sums.
+    BandWindow window;
+    std::uint32_t window_band = kNoNode;
     for (std::size_t k = begin; k < end; ++k) {
       const unsigned used = used_slots_[k];
       if (used == 0) continue;  // no row: every slot is zero (so is the body's band's term)
       const std::uint32_t band = node_of_[k];
+      if (band != window_band) {
+        if (window_band != kNoNode) window.store(m, window_band, bands);
+        window.load(m, band, bands);
+        window_band = band;
+      }
       const BodySlots& s = slots_[k];
       const Vec2 inv_mass = bodies[k].inv_mass;
       const Vec2 velocity = bodies[k].velocity;
-      // The slots a row added to, p from first to last (a slot no row reached is zero, and so
-      // is its band's term), and of those the ones whose sums are not zero: a term with an
-      // empty test or force vector is a zero, and adding a zero changes no sum (A's zero
-      // entries are skipped whatever their sign). Most disks have rows in one or two slots
-      // (near one boundary of their slab at most): 1 or 4 products instead of 9. A slot's
-      // band exists: a row joins bodies of the same or neighbouring bands.
-      std::array<std::size_t, 3> tests{}, forces{};
-      std::array<Vec2, 3> moved{};
-      std::size_t n_tests = 0, n_forces = 0;
-      for (std::size_t p = 0; p < 3; ++p) {
-        if ((used >> p & 1u) == 0) continue;
-        if (s.test[p].x != 0.0 || s.test[p].y != 0.0) tests[n_tests++] = p;
-        if (s.force[p].x != 0.0 || s.force[p].y != 0.0) {
-          moved[p] = hadamard(inv_mass, s.force[p]);
-          forces[n_forces++] = p;
-        }
-      }
-      for (std::size_t i = 0; i < n_tests; ++i) {
-        const std::size_t p = tests[i];
-        double* row = m + (band + p - 1) * kChunkEntries;
-        row[kDiagonals] += dot(s.test[p], velocity);
-        for (std::size_t j = 0; j < n_forces; ++j) {
-          const std::size_t q = forces[j];
-          row[q + 2 - p] += dot(s.test[p], moved[q]);
-        }
-      }
+      // Every slot a row added to, each test against every force, a slot no row reached
+      // taken as zero. A term with an empty test or force vector is a zero (of either sign),
+      // and adding a zero to a sum that is not -0 changes nothing: a sum starts at +0 and a
+      // sum of finite numbers in round-to-nearest is -0 only when every term is, so these
+      // sums are those of the zero-skipping loops they replaced (1 to 4 products for most
+      // disks, which use one or two of their three slots; here 3 or 6, without the memory).
+      // A slot's band exists: a row joins bodies of the same or neighbouring bands.
+      std::array<Vec2, 3> moved;
+      each_slot([&](auto q) {
+        moved[q] = (used >> q & 1u) != 0 ? hadamard(inv_mass, s.force[q]) : Vec2{};
+      });
+      each_slot([&](auto p) {
+        if ((used >> p & 1u) == 0) return;
+        const Vec2 test = s.test[p];
+        window.r[p] += dot(test, velocity);
+        each_slot([&](auto q) { window.a[p][q] += dot(test, moved[q]); });
+      });
     }
+    if (window_band != kNoNode) window.store(m, window_band, bands);
   }
 
   // 3. On one thread: add the shares in order, solve A s = -r, bound s.
@@ -106,18 +154,22 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     const unsigned used = used_slots_[k];
     if (used == 0) continue;  // no row: nothing to move
     const std::uint32_t band = node_of_[k];
-    const BodySlots& s = slots_[k];
     if (solved_) {
+      // Every slot, a slot no row reached taken as zero (its stale sums masked, its band's
+      // scale read from the padding when the band does not exist): adding the zero of an
+      // empty slot changes neither sum (pass 2's argument: they start at +0), so these are
+      // the sums of the slot-skipping loop they replaced, without its branches.
+      const BodySlots& s = slots_[k];
+      const double* scale = scale_padded_.data() + band;  // scale[p]: band + p - 1's
       Vec2 impulse{};
       double torque = 0.0;
-      for (std::size_t p = 0; p < 3; ++p) {
-        // A slot no row reached, or whose sums are zero, adds zeros (as in pass 2).
-        if ((used >> p & 1u) == 0) continue;
-        if (s.force[p].x == 0.0 && s.force[p].y == 0.0 && s.torque[p] == 0.0) continue;
-        const double scale = scale_[band + p - 1];
-        impulse += scale * s.force[p];
-        torque += scale * s.torque[p];
-      }
+      each_slot([&](auto p) {
+        const bool reached = (used >> p & 1u) != 0;
+        const Vec2 force = reached ? s.force[p] : Vec2{};
+        const double turn = reached ? s.torque[p] : 0.0;
+        impulse += scale[p] * force;
+        torque += scale[p] * turn;
+      });
       SolverBody& body = bodies[k];
       body.velocity += hadamard(body.inv_mass, impulse);
       body.omega += body.inv_inertia * torque;
@@ -194,6 +246,8 @@ bool SlabCorrection::solve() {
     return false;
   }
   for (double& v : x) v = std::clamp(v, kLowestScale, kHighestScale);
+  scale_padded_.assign(bands + 2, 0.0);
+  std::copy(x.begin(), x.end(), scale_padded_.begin() + 1);
   return true;
 }
 

@@ -78,6 +78,11 @@ class SlabCorrection {
   static constexpr std::size_t kChunk = 256;
   /// Bounds of a scale s_c: an impulse is at most doubled, at least halved, by one correction.
   static constexpr double kLowestScale = -0.5, kHighestScale = 1.0;
+  /// Diagonals of the banded matrix A kept per row j: A(j, j + d - 2), d = 0..4.
+  static constexpr int kDiagonals = 5;
+  /// Per chunk and band in chunk_matrix_: A's five diagonals, then the share of r from the
+  /// bodies' velocities (test . v).
+  static constexpr int kChunkEntries = kDiagonals + 1;
 
   /// Sizes the scratch for `bodies` bodies and the layout's groups and bands. One thread, once
   /// per step, before any gathering or apply() of that step.
@@ -205,11 +210,6 @@ class SlabCorrection {
     }
     return s;
   }
-  /// Diagonals of the banded matrix A kept per row j: A(j, j + d - 2), d = 0..4.
-  static constexpr int kDiagonals = 5;
-  /// Per chunk and band in chunk_matrix_: A's five diagonals, then the share of r from the
-  /// bodies' velocities (test . v).
-  static constexpr int kChunkEntries = kDiagonals + 1;
 
   SlabLayout layout_;
   const std::uint32_t* node_of_ = nullptr;  // layout_.node_of_body's data
@@ -226,6 +226,7 @@ class SlabCorrection {
   std::vector<double> band_matrix_;       // A in LAPACK's band storage (ldab = 7)
   std::vector<std::int32_t> pivots_;      // dgbsv's row swaps (lapack_int, 32 bits)
   std::vector<double> scale_;             // s per band (the solution)
+  std::vector<double> scale_padded_;      // 0, then s per band, then 0 (pass 4's reads)
   bool solved_ = false;                   // decision of the one-thread step, read by every thread
 };
 

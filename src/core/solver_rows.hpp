@@ -29,7 +29,7 @@ struct alignas(64) SolverBody {
 /// stored in visit order, so that a sweep streams through memory front to back. The tangent is
 /// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
 /// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
-/// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt = 1 / w_tt > 0).
+/// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt > 0).
 /// On system 7's shape the rows of a step (about 11000) are 1.2 MB at 112 bytes, more than this
 /// machine's 1 MB L2 per core: each sweep streams them from L3, so their size is time.
 struct SolverRow {
@@ -39,8 +39,10 @@ struct SolverRow {
   double bias_n = 0.0;                   ///< gap / dt [length/time]
   double friction = 0.0;                 ///< Coulomb coefficient
   double impulse_n = 0.0, impulse_t = 0.0;
-  double inv_w_nn = 0.0;  ///< 1/w_nn [mass]
-  double inv_w_tt = 0.0;  ///< 1/w_tt [mass]; kCoupledRow for a coupled row
+  /// 1/w_nn [mass], times omega when the solve over-relaxes (omega > 1: the factor of its
+  /// one-stage update, formed once per step by fill_row instead of in every update)
+  double inv_w_nn = 0.0;
+  double inv_w_tt = 0.0;  ///< 1/w_tt [mass], times omega likewise; kCoupledRow for a coupled row
 };
 static_assert(sizeof(SolverRow) == 88);
 
