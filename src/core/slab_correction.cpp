@@ -25,32 +25,39 @@ template <class F>
   (std::make_index_sequence<3>{});
 }
 
-/// Pass 2's sums of the chunk matrix's rows B - 1, B and B + 1 (the bands of a band-B body's
-/// slots p = 0, 1, 2), held while consecutive bodies share B: a[p][q] is A(B + p - 1,
-/// B + q - 1), at entry q + 2 - p of row B + p - 1 (its diagonals), r[p] that row's share of r.
-/// Rows outside [0, bands) are neither loaded nor stored: no slot of a band-B body reaches them,
-/// so their sums here only ever add zeros.
-struct BandWindow {
-  std::array<std::array<double, 3>, 3> a{};
-  std::array<double, 3> r{};
+/// One row of pass 2's window: the sums of the chunk matrix's row B + p - 1 that the slot p of
+/// a band-B body adds to, held in registers while consecutive bodies share B: A(B + p - 1,
+/// B + q - 1) for q = 0, 1, 2 (at entry q + 2 - p of the row: its diagonals) and the row's
+/// share of r. Separate scalars, not an array, so that the compiler keeps them in registers.
+struct WindowRow {
+  double a0 = 0.0, a1 = 0.0, a2 = 0.0, r = 0.0;
 
-  [[gnu::always_inline]] void load(const double* m, std::uint32_t band, std::size_t bands) {
-    each_slot([&](auto p) {
-      const std::size_t row = band + p;  // row band + p - 1, offset by one
-      if (row < 1 || row > bands) return;
-      const double* entries = m + (row - 1) * SlabCorrection::kChunkEntries;
-      r[p] = entries[SlabCorrection::kDiagonals];
-      each_slot([&](auto q) { a[p][q] = entries[q + 2 - p]; });
-    });
+  /// Loads row B + p - 1 (`row` is B + p, offset by one); a row outside [0, bands) is not
+  /// loaded: no slot of a band-B body reaches it, so its sums here only ever add zeros.
+  [[gnu::always_inline]] void load(const double* m, std::size_t row, std::size_t p,
+                                   std::size_t bands) {
+    if (row < 1 || row > bands) return;
+    const double* e = m + (row - 1) * SlabCorrection::kChunkEntries + 2 - p;
+    a0 = e[0];
+    a1 = e[1];
+    a2 = e[2];
+    r = m[(row - 1) * SlabCorrection::kChunkEntries + SlabCorrection::kDiagonals];
   }
-  [[gnu::always_inline]] void store(double* m, std::uint32_t band, std::size_t bands) const {
-    each_slot([&](auto p) {
-      const std::size_t row = band + p;
-      if (row < 1 || row > bands) return;
-      double* entries = m + (row - 1) * SlabCorrection::kChunkEntries;
-      entries[SlabCorrection::kDiagonals] = r[p];
-      each_slot([&](auto q) { entries[q + 2 - p] = a[p][q]; });
-    });
+  [[gnu::always_inline]] void store(double* m, std::size_t row, std::size_t p,
+                                    std::size_t bands) const {
+    if (row < 1 || row > bands) return;
+    double* e = m + (row - 1) * SlabCorrection::kChunkEntries + 2 - p;
+    e[0] = a0;
+    e[1] = a1;
+    e[2] = a2;
+    m[(row - 1) * SlabCorrection::kChunkEntries + SlabCorrection::kDiagonals] = r;
+  }
+  /// A slot's terms: its test vector against the body's velocity and its three moved forces.
+  [[gnu::always_inline]] void add(Vec2 test, Vec2 velocity, Vec2 moved0, Vec2 moved1, Vec2 moved2) {
+    r += dot(test, velocity);
+    a0 += dot(test, moved0);
+    a1 += dot(test, moved1);
+    a2 += dot(test, moved2);
   }
 };
 
@@ -103,16 +110,23 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     // body's term waited for the last body's store of the same entry to be read back; in
     // registers the chain is one addition per body. Loaded from and stored back to the chunk's
     // matrix when B changes: the same additions in the same order, so the same sums.
-    BandWindow window;
-    std::uint32_t window_band = kNoNode;
+    WindowRow below, own, above;  // rows B - 1, B and B + 1
+    std::size_t window_band = kNoNode;
+    const auto store_window = [&] {
+      below.store(m, window_band, 0, bands);
+      own.store(m, window_band + 1, 1, bands);
+      above.store(m, window_band + 2, 2, bands);
+    };
     for (std::size_t k = begin; k < end; ++k) {
       const unsigned used = used_slots_[k];
       if (used == 0) continue;  // no row: every slot is zero (so is the body's band's term)
-      const std::uint32_t band = node_of_[k];
+      const std::size_t band = node_of_[k];
       if (band != window_band) {
-        if (window_band != kNoNode) window.store(m, window_band, bands);
-        window.load(m, band, bands);
+        if (window_band != kNoNode) store_window();
         window_band = band;
+        below.load(m, band, 0, bands);
+        own.load(m, band + 1, 1, bands);
+        above.load(m, band + 2, 2, bands);
       }
       const BodySlots& s = slots_[k];
       const Vec2 inv_mass = bodies[k].inv_mass;
@@ -124,21 +138,17 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
       // sums are those of the zero-skipping loops they replaced (1 to 4 products for most
       // disks, which use one or two of their three slots; here 3 or 6, without the memory).
       // A slot's band exists: a row joins bodies of the same or neighbouring bands.
-      std::array<Vec2, 3> moved;
-      each_slot([&](auto q) {
-        moved[q] = (used >> q & 1u) != 0 ? hadamard(inv_mass, s.force[q]) : Vec2{};
-      });
-      each_slot([&](auto p) {
-        if ((used >> p & 1u) == 0) return;
-        const Vec2 test = s.test[p];
-        window.r[p] += dot(test, velocity);
-        each_slot([&](auto q) { window.a[p][q] += dot(test, moved[q]); });
-      });
+      const Vec2 moved0 = (used & 1u) != 0 ? hadamard(inv_mass, s.force[0]) : Vec2{};
+      const Vec2 moved1 = (used & 2u) != 0 ? hadamard(inv_mass, s.force[1]) : Vec2{};
+      const Vec2 moved2 = (used & 4u) != 0 ? hadamard(inv_mass, s.force[2]) : Vec2{};
+      if ((used & 1u) != 0) below.add(s.test[0], velocity, moved0, moved1, moved2);
+      if ((used & 2u) != 0) own.add(s.test[1], velocity, moved0, moved1, moved2);
+      if ((used & 4u) != 0) above.add(s.test[2], velocity, moved0, moved1, moved2);
     }
-    if (window_band != kNoNode) window.store(m, window_band, bands);
+    if (window_band != kNoNode) store_window();
   }
 
-  // 3. On one thread: add the shares in order, solve A s = -r, bound s.
+// 3. On one thread: add the shares in order, solve A s = -r, bound s.
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -147,34 +157,44 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
   // 4. The bodies follow the scaled impulses (sum over slots of s_band M^-1 impulse; the same
   //    as applying each row's change), and their slots' marks are cleared for the next
   //    correction.
+  {
+    // The addresses and the decision in locals: the marks are bytes, which may alias anything
+    // for the compiler, so read through the members they were loaded again after each mark.
+    const bool solved = solved_;
+    const std::size_t body_count = bodies_;
+    std::uint8_t* const marks = used_slots_.data();
+    const std::uint32_t* const node_of = node_of_;
+    const BodySlots* const slots = slots_.data();
+    const double* const scales = scale_padded_.data();
+    SolverBody* const body_data = bodies.data();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
-  for (std::size_t k = 0; k < bodies_; ++k) {
-    const unsigned used = used_slots_[k];
-    if (used == 0) continue;  // no row: nothing to move
-    const std::uint32_t band = node_of_[k];
-    if (solved_) {
-      // Every slot, a slot no row reached taken as zero (its stale sums masked, its band's
-      // scale read from the padding when the band does not exist): adding the zero of an
-      // empty slot changes neither sum (pass 2's argument: they start at +0), so these are
-      // the sums of the slot-skipping loop they replaced, without its branches.
-      const BodySlots& s = slots_[k];
-      const double* scale = scale_padded_.data() + band;  // scale[p]: band + p - 1's
-      Vec2 impulse{};
-      double torque = 0.0;
-      each_slot([&](auto p) {
-        const bool reached = (used >> p & 1u) != 0;
-        const Vec2 force = reached ? s.force[p] : Vec2{};
-        const double turn = reached ? s.torque[p] : 0.0;
-        impulse += scale[p] * force;
-        torque += scale[p] * turn;
-      });
-      SolverBody& body = bodies[k];
-      body.velocity += hadamard(body.inv_mass, impulse);
-      body.omega += body.inv_inertia * torque;
+    for (std::size_t k = 0; k < body_count; ++k) {
+      const unsigned used = marks[k];
+      if (used == 0) continue;  // no row: nothing to move
+      if (solved) {
+        // Every slot, a slot no row reached taken as zero (its stale sums masked, its band's
+        // scale read from the padding when the band does not exist): adding the zero of an
+        // empty slot changes neither sum (pass 2's argument: they start at +0), so these are
+        // the sums of the slot-skipping loop they replaced, without its branches.
+        const BodySlots& s = slots[k];
+        const double* scale = scales + node_of[k];  // scale[p]: band + p - 1's
+        Vec2 impulse{};
+        double torque = 0.0;
+        each_slot([&](auto p) {
+          const bool reached = (used >> p & 1u) != 0;
+          const Vec2 force = reached ? s.force[p] : Vec2{};
+          const double turn = reached ? s.torque[p] : 0.0;
+          impulse += scale[p] * force;
+          torque += scale[p] * turn;
+        });
+        SolverBody& body = body_data[k];
+        body.velocity += hadamard(body.inv_mass, impulse);
+        body.omega += body.inv_inertia * torque;
+      }
+      marks[k] = 0;  // the slots themselves are reset by their next first row (pass 1)
     }
-    used_slots_[k] = 0;  // the slots themselves are reset by their next first row (pass 1)
   }
   if (!solved_) return false;
 
