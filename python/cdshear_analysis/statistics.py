@@ -9,6 +9,9 @@ Uncertainty everywhere is the standard error of the mean.
   with B^3 > 2 N (err_k / err_0)^4 (Lee, Kent, Needs, Rios, Phys. Rev. B 84, 245117, 2011,
   the rule of pyblock). If no level with at least `BLOCKING_MIN_BLOCKS` blocks meets it, the
   largest error over those levels is taken and `converged` is False.
+- `ratio_of_means(num, den)`: mean(num) / mean(den) of two series sampled together (the ratio
+  of two time averages), its error by the delta method: the blocked standard error of the
+  mean of num - r den, divided by mean(den).
 - `window_mean(values)`: mean over averaging windows (axis 0) and standard error
   std(ddof=1) / sqrt(n) over the finite entries; NaN error with fewer than 2.
 - `weighted_mean(values, errs)`: the inverse-variance weighted mean of independent estimates
@@ -64,6 +67,21 @@ def block_average(x):
     if out["err"] > 0:
         out["n_independent"] = float((out["std"] / out["err"]) ** 2)
     return out
+
+
+def ratio_of_means(num, den):
+    """r = mean(num) / mean(den) of two series sampled at the same times, and its standard
+    error: num - r den has mean 0 and, to first order in the fluctuations of the two means,
+    r's error is that of its mean (block_average, so correlations count) over |mean(den)|.
+    Samples where either series is not finite are dropped. Returns a dict (mean, err); both NaN
+    without samples or with mean(den) = 0."""
+    num, den = np.asarray(num, dtype=float), np.asarray(den, dtype=float)
+    keep = np.isfinite(num) & np.isfinite(den)
+    num, den = num[keep], den[keep]
+    if len(num) == 0 or den.mean() == 0:
+        return dict(mean=np.nan, err=np.nan)
+    r = float(num.mean() / den.mean())
+    return dict(mean=r, err=float(block_average(num - r * den)["err"] / abs(den.mean())))
 
 
 def window_mean(values):

@@ -291,8 +291,11 @@ WINDOW_QUANTITIES = ("solid_fraction", "mu_eff_wall")
 
 def _realization_series(run_dir):
     """(time, {quantity: per-sample values}) of one realization's run.h5: the solid fraction and
-    mu_eff from the wall forces, (|bottom_fx| + |top_fx|) / (|bottom_fy| + |top_fy|) as
-    `cdshear analyze` computes it."""
+    the walls' friction per sample, (|bottom_fx| + |top_fx|) / (|bottom_fy| + |top_fy|)
+    (summary.wall_friction_series, the steady-state signal). Its window means are what
+    docs/accuracy.md compares between builds; they sit a little below the ratio of the
+    time-averaged forces that `cdshear analyze` reports as mu_eff_wall (the mean of a ratio of
+    fluctuating forces is biased), the same way for every build."""
     import h5py
     import numpy as np
 

@@ -63,10 +63,14 @@ class Classifier(unittest.TestCase):
         for sw in s["switches"]:
             self.assertAlmostEqual(sw["delta_mu"], expected, delta=0.05 * expected)
         self.assertAlmostEqual(s["switch_delta_mu"]["mean"], expected, delta=0.05 * expected)
-        # each wall's friction: 0.30 at the top; the synthetic puts the switches' force on the
-        # bottom wall only (3 ramps of 20 t in 2000 t, at delta_mu ~ 3)
+        # each wall's friction, the ratio of its time-averaged forces: 0.30 at the top; the
+        # synthetic puts the switches' force on the bottom wall only, and over the averaging
+        # span the three switches (+V to -V, back, and again) leave the net force of one, a
+        # delta_mu over 20 t: 0.30 + expected 20 / span
+        span = 2000.0 - s["averaging_start_time"]
         self.assertAlmostEqual(s["mu_eff_wall_top"]["mean"], 0.30, delta=0.01)
-        self.assertGreater(s["mu_eff_wall_bottom"]["mean"], 0.30 + 0.5 * 0.03 * expected)
+        self.assertAlmostEqual(s["mu_eff_wall_bottom"]["mean"], 0.30 + expected * 20.0 / span,
+                               delta=0.005)
         self.assertTrue(np.isnan(self.summaries["A"]["switch_delta_mu"]["mean"]))  # no switch
         # without the forces of the block, the same switches need no friction difference
         self.assertLess(self.summaries["C"]["switch_delta_mu"]["mean"], 0.05 * expected)

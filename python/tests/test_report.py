@@ -34,7 +34,7 @@ def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=Tru
              "coordination": entry(Z - 0.2, e_z), "velocity_jump": entry(0.3 * V, 0.01 * V),
              "inertial_number": entry(3 * I, 0.1 * I)}
     s = {
-        "format": "cdshear-summary", "version": 1, "run_dir": run_dir,
+        "format": "cdshear-summary", "version": 2, "run_dir": run_dir,
         "case": {"n": 511, "velocity": V, "normal_stress": 0.25, "length_x": 20.0,
                  "height": 20.0, "duration": 1000.0, "time": 1000.0, "finished": True,
                  "window": 80.0, "boundary_thickness": list(layers)},

@@ -4,7 +4,9 @@ import unittest
 import numpy as np
 
 from cdshear_analysis.profiles import regions_for_h
-from cdshear_analysis.statistics import block_average, weighted_mean, window_mean
+from cdshear_analysis.statistics import (block_average, ratio_of_means, weighted_mean,
+                                         window_mean)
+from cdshear_analysis.summary import wall_force_ratio
 from cdshear_analysis.steady_state import detect_steady_state, mser_truncation
 from cdshear_analysis.synthetic import ar1
 
@@ -24,6 +26,40 @@ class BlockAveraging(unittest.TestCase):
             self.assertTrue(b["converged"], (phi, b))
             self.assertLess(abs(b["err"] / expected - 1), 0.3, (phi, b["err"], expected))
             self.assertLess(abs(b["n_independent"] / (2.0 / expected) ** 2 - 1), 0.6)
+
+    def test_ratio_of_means_error_matches_the_scatter_of_realizations(self):
+        # r = <mu F + noise> / <F>, F and the noise correlated in time: the delta-method error of
+        # each realization against the scatter of r over independent realizations
+        rng = np.random.default_rng(7)
+        ratios, errors = [], []
+        for _ in range(200):
+            den = 5.0 * (1 + ar1(2 ** 12, 0.8, 0.3, rng))
+            num = 0.25 * den + ar1(2 ** 12, 0.9, 0.4, rng)
+            r = ratio_of_means(num, den)
+            ratios.append(r["mean"])
+            errors.append(r["err"])
+        self.assertLess(abs(np.mean(ratios) - 0.25), 3 * np.std(ratios) / np.sqrt(200))
+        self.assertLess(abs(np.median(errors) / np.std(ratios) - 1), 0.25)
+        # a constant denominator: the error is the numerator's over it
+        num = ar1(2 ** 12, 0.9, 1.0, rng)
+        r = ratio_of_means(num, np.full_like(num, 4.0))
+        self.assertAlmostEqual(r["mean"], num.mean() / 4.0, places=14)
+        self.assertAlmostEqual(r["err"], block_average(num)["err"] / 4.0, places=14)
+        self.assertTrue(np.isnan(ratio_of_means([1.0], [0.0])["mean"]))
+
+    def test_wall_friction_is_the_ratio_of_time_averaged_forces(self):
+        # SPEC 7: |<f_x>| / |<f_y>|, not <|f_x| / |f_y|>: a normal force alternating 10 and 30
+        # under a constant tangential 3 gives 3 / 20 = 0.15 (the mean of the ratios is 0.2)
+        fy = np.tile([10.0, 30.0], 500)
+        series = {"bottom_fx": np.full_like(fy, 3.0), "bottom_fy": -fy,
+                  "top_fx": np.full_like(fy, -1.5), "top_fy": fy}
+        keep = np.ones_like(fy, dtype=bool)
+        self.assertAlmostEqual(wall_force_ratio(series, ("bottom",), keep)["mean"], 0.15)
+        self.assertAlmostEqual(wall_force_ratio(series, ("top",), keep)["mean"], 0.075)
+        self.assertAlmostEqual(wall_force_ratio(series, ("bottom", "top"), keep)["mean"],
+                               4.5 / 40.0)
+        keep[1::2] = False  # only the samples at 10: 0.3 and 0.15, as the ratio of those
+        self.assertAlmostEqual(wall_force_ratio(series, ("bottom",), keep)["mean"], 0.3)
 
     def test_short_and_nan_input(self):
         self.assertTrue(np.isnan(block_average([])["mean"]))
