@@ -15,8 +15,8 @@ static_assert(std::is_same_v<lapack_int, std::int32_t>, "SlabCorrection::pivots_
 
 namespace {
 
-/// Calls f(std::integral_constant<std::size_t, p>) for the slots p = 0, 1, 2: each call sees
-/// its slot as a constant, so arrays indexed by slots stay in registers.
+/// Calls f(std::integral_constant<std::size_t, p>) for the slots p = 0, 1, 2: the loop over a
+/// body's slots unrolled, each call seeing its slot as a compile-time constant.
 template <class F>
 [[gnu::always_inline]] inline void each_slot(F&& f) {
   [&]<std::size_t... P>(std::index_sequence<P...>) {
@@ -148,7 +148,7 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     if (window_band != kNoNode) store_window();
   }
 
-// 3. On one thread: add the shares in order, solve A s = -r, bound s.
+  // 3. On one thread: add the shares in order, solve A s = -r, bound s.
 #if defined(_OPENMP)
 #pragma omp single
 #endif
