@@ -72,6 +72,29 @@ Divergence compare_shifted(double shift, const SolverOptions& solver, int steps)
   return d;
 }
 
+TEST(Periodic, PeriodsInAreTheNearestIntegerOfTheSeparationInPeriods) {
+  // Domain::periods_in skips the division for separations under half a period: it must give
+  // nearbyint(dx / L_x) bit for bit, the sign of a zero included (it reaches the contacts'
+  // geometry), at the half period and its neighbours too, and 0 when not periodic.
+  const Domain domain{true, kLx};
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uniform(-3.0 * kLx, 3.0 * kLx);
+  std::vector<double> separations = {0.0, -0.0, 0.5 * kLx, -0.5 * kLx, 1.5 * kLx, kLx, 1e-300};
+  for (const double half : {0.5 * kLx, -0.5 * kLx})
+    for (const double toward : {0.0, 2.0 * half}) {
+      double x = half;
+      for (int k = 0; k < 4; ++k) separations.push_back(x = std::nextafter(x, toward));
+    }
+  for (int k = 0; k < 20000; ++k) separations.push_back(uniform(rng));
+  for (const double dx : separations) {
+    const double expected = std::nearbyint(dx / kLx);
+    const double got = domain.periods_in(dx);
+    EXPECT_EQ(got, expected) << dx;
+    EXPECT_EQ(std::signbit(got), std::signbit(expected)) << dx;
+  }
+  EXPECT_EQ(Domain{}.periods_in(3.0 * kLx), 0.0);
+}
+
 TEST(Periodic, ShiftedConfigurationFollowsTheSameTrajectory) {
   // With the solver iterated almost to round-off (relative change per sweep below 1e-11), the
   // only differences between a configuration and its shifted copy are the rounding of x + shift
