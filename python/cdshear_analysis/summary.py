@@ -43,12 +43,14 @@ def wall_force_ratio(series, sides, keep):
     -0.007 on system 7, 0.2404 against 0.2471, while the bulk gave 0.2478)."""
     num = np.zeros(int(np.sum(keep)))
     den = np.zeros_like(num)
+    if len(num) == 0:
+        return mean_err(np.nan, np.nan)
     for side in sides:
         fx = np.asarray(series[f"{side}_fx"], dtype=float)[keep]
         fy = np.asarray(series[f"{side}_fy"], dtype=float)[keep]
         # each force's sign over the samples, so that the sums' means are |<f_x>| and |<f_y>|
-        num += np.sign(np.nanmean(fx)) * fx if len(fx) else fx
-        den += np.sign(np.nanmean(fy)) * fy if len(fy) else fy
+        num += np.sign(np.nanmean(fx)) * fx
+        den += np.sign(np.nanmean(fy)) * fy
     r = ratio_of_means(num, den)
     return mean_err(r["mean"], r["err"])
 

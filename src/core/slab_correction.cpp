@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <type_traits>
 #include <utility>
 
@@ -78,7 +79,7 @@ void SlabCorrection::reset(std::size_t bodies, const SlabLayout& layout) {
   if (chunk_matrix_.size() != matrix) chunk_matrix_.assign(matrix, 0.0);
   group_rhs_.assign(2 * groups, 0.0);
   group_low_.assign(groups, kNoNode);  // the serial group keeps it: no phase writes it
-  scale_.assign(layout.bands, 0.0);
+  scale_.assign(layout.bands + 2, 0.0);
 }
 
 void SlabCorrection::gather_rows(const std::vector<SolverRow>& rows) {
@@ -165,7 +166,7 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     std::uint8_t* const marks = used_slots_.data();
     const std::uint32_t* const node_of = node_of_;
     const BodySlots* const slots = slots_.data();
-    const double* const scales = scale_padded_.data();
+    const double* const scales = scale_.data();
     SolverBody* const body_data = bodies.data();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
@@ -216,7 +217,7 @@ bool SlabCorrection::solve() {
   const std::size_t bands = layout_.bands;
   // r: its gap part summed group by group in group order, then its velocity part chunk by chunk
   // (below); the right-hand side -r, overwritten by s.
-  std::vector<double>& x = scale_;
+  const std::span<double> x(scale_.data() + 1, bands);  // between scale_'s two zeros
   std::fill(x.begin(), x.end(), 0.0);
   for (std::size_t g = 0; g < group_low_.size(); ++g) {
     const std::uint32_t low = group_low_[g];
@@ -266,8 +267,6 @@ bool SlabCorrection::solve() {
     return false;
   }
   for (double& v : x) v = std::clamp(v, kLowestScale, kHighestScale);
-  scale_padded_.assign(bands + 2, 0.0);
-  std::copy(x.begin(), x.end(), scale_padded_.begin() + 1);
   return true;
 }
 

@@ -158,13 +158,13 @@ class SlabCorrection {
     if (r.impulse_n == 0.0) return;
     const std::uint32_t na = node_of_[r.body_a], nb = node_of_[r.body_b];
     if (na == kNoNode || nb == kNoNode) return;
-    const double scale = 1.0 + 0.5 * (scale_[na] + scale_[nb]);
+    const double scale = 1.0 + 0.5 * (scale_[na + 1] + scale_[nb + 1]);
     r.impulse_n *= scale;
     r.impulse_t *= scale;
   }
 
   /// The scales of the last apply() or apply_gathered(), one per band (for tests).
-  const std::vector<double>& scales() const { return scale_; }
+  std::vector<double> scales() const { return {scale_.begin() + 1, scale_.end() - 1}; }
 
  private:
   /// Step 3 of apply_gathered(), on one thread: r from the groups' and then the chunks' shares,
@@ -225,9 +225,10 @@ class SlabCorrection {
   std::vector<double> chunk_matrix_;      // per chunk: bands x kChunkEntries shares of A and r
   std::vector<double> band_matrix_;       // A in LAPACK's band storage (ldab = 7)
   std::vector<std::int32_t> pivots_;      // dgbsv's row swaps (lapack_int, 32 bits)
-  std::vector<double> scale_;             // s per band (the solution)
-  std::vector<double> scale_padded_;      // 0, then s per band, then 0 (pass 4's reads)
-  bool solved_ = false;                   // decision of the one-thread step, read by every thread
+  /// 0, then s per band (the solution), then 0: band b's at b + 1, and pass 4 reads a slot's
+  /// band b + p - 1 at b + p without a test for the bands that do not exist.
+  std::vector<double> scale_;
+  bool solved_ = false;  // decision of the one-thread step, read by every thread
 };
 
 }  // namespace cdshear
