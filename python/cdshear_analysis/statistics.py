@@ -73,15 +73,15 @@ def ratio_of_means(num, den):
     """r = mean(num) / mean(den) of two series sampled at the same times, and its standard
     error: num - r den has mean 0 and, to first order in the fluctuations of the two means,
     r's error is that of its mean (block_average, so correlations count) over |mean(den)|.
-    Samples where either series is not finite are dropped. Returns a dict (mean, err); both NaN
-    without samples or with mean(den) = 0."""
+    Samples where either series is not finite are dropped. Returns {"mean", "err"}, as
+    mean_err; both NaN without samples or with mean(den) = 0."""
     num, den = np.asarray(num, dtype=float), np.asarray(den, dtype=float)
     keep = np.isfinite(num) & np.isfinite(den)
     num, den = num[keep], den[keep]
     if len(num) == 0 or den.mean() == 0:
-        return dict(mean=np.nan, err=np.nan)
+        return mean_err(np.nan, np.nan)
     r = float(num.mean() / den.mean())
-    return dict(mean=r, err=float(block_average(num - r * den)["err"] / abs(den.mean())))
+    return mean_err(r, float(block_average(num - r * den)["err"] / abs(den.mean())))
 
 
 def window_mean(values):

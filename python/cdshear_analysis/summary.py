@@ -40,7 +40,7 @@ def wall_force_ratio(series, sides, keep):
     time-averaged tangential and normal forces, (|<f_x>| summed over `sides`) / (|<f_y>| summed
     likewise), over the samples `keep`, with its standard error (statistics.ratio_of_means).
     Not the mean of each sample's ratio: where the forces fluctuate, that mean is biased (by
-    -0.007 on system 7, 0.2404 against 0.2471, while the bulk gave 0.2478)."""
+    -0.007 on system 7, 0.2404 against 0.2472, while the bulk gave 0.2478)."""
     num = np.zeros(int(np.sum(keep)))
     den = np.zeros_like(num)
     if len(num) == 0:
@@ -51,8 +51,7 @@ def wall_force_ratio(series, sides, keep):
         # each force's sign over the samples, so that the sums' means are |<f_x>| and |<f_y>|
         num += np.sign(np.nanmean(fx)) * fx
         den += np.sign(np.nanmean(fy)) * fy
-    r = ratio_of_means(num, den)
-    return mean_err(r["mean"], r["err"])
+    return ratio_of_means(num, den)
 
 
 def switch_friction_difference(series, time, switch):
