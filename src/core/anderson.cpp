@@ -40,25 +40,62 @@ inline double sum_of_pairs(Pair low, Pair high) {
 /// running sums (i mod 4, the tail in sum 0) that are added at the end, (s0 + s1) + (s2 + s3):
 /// four independent chains of additions instead of one, in a fixed order. The chunk of u and v
 /// stays in L1 while the m columns go by, and each column is read once for both products.
+///
+/// The columns go two at a time (a lone last one after them): each column's sums are the same
+/// operations in the same order as with one column at a time, so the same bits, but the two
+/// columns' eight chains of additions run side by side. One column's four chains kept the loop
+/// waiting on the adder's latency (four cycles per four elements), two columns' eight fill it.
+struct ColumnSums {
+  Pair u01{}, u23{}, v01{}, v23{};  // running sums i mod 4, in pairs
+
+  void add_four(const Pair* uv, const double* c) {
+    const Pair c01 = load_pair(c), c23 = load_pair(c + 2);
+    u01 += uv[0] * c01;
+    u23 += uv[1] * c23;
+    v01 += uv[2] * c01;
+    v23 += uv[3] * c23;
+  }
+  void add_one(double u, double v, double c) {
+    u01[0] += u * c;
+    v01[0] += v * c;
+  }
+};
+
 void dot_columns(const double* u, const double* v, const double* const* columns, std::size_t offset,
                  int m, std::size_t len, double* uc, double* vc) {
   const std::size_t body = len - len % 4;
-  for (int j = 0; j < m; ++j) {
+  const auto finish = [&](int j, const ColumnSums& s) {
+    uc[j] = sum_of_pairs(s.u01, s.u23);
+    vc[j] = sum_of_pairs(s.v01, s.v23);
+  };
+  int j = 0;
+  for (; j + 2 <= m; j += 2) {
     const double* c = columns[j] + offset;
-    Pair u01{}, u23{}, v01{}, v23{};  // running sums i mod 4, in pairs
+    const double* d = columns[j + 1] + offset;
+    ColumnSums sc, sd;
     for (std::size_t i = 0; i < body; i += 4) {
-      const Pair c01 = load_pair(c + i), c23 = load_pair(c + i + 2);
-      u01 += load_pair(u + i) * c01;
-      u23 += load_pair(u + i + 2) * c23;
-      v01 += load_pair(v + i) * c01;
-      v23 += load_pair(v + i + 2) * c23;
+      const Pair uv[4] = {load_pair(u + i), load_pair(u + i + 2), load_pair(v + i),
+                          load_pair(v + i + 2)};
+      sc.add_four(uv, c + i);
+      sd.add_four(uv, d + i);
     }
     for (std::size_t i = body; i < len; ++i) {
-      u01[0] += u[i] * c[i];
-      v01[0] += v[i] * c[i];
+      sc.add_one(u[i], v[i], c[i]);
+      sd.add_one(u[i], v[i], d[i]);
     }
-    uc[j] = sum_of_pairs(u01, u23);
-    vc[j] = sum_of_pairs(v01, v23);
+    finish(j, sc);
+    finish(j + 1, sd);
+  }
+  if (j < m) {
+    const double* c = columns[j] + offset;
+    ColumnSums sc;
+    for (std::size_t i = 0; i < body; i += 4) {
+      const Pair uv[4] = {load_pair(u + i), load_pair(u + i + 2), load_pair(v + i),
+                          load_pair(v + i + 2)};
+      sc.add_four(uv, c + i);
+    }
+    for (std::size_t i = body; i < len; ++i) sc.add_one(u[i], v[i], c[i]);
+    finish(j, sc);
   }
 }
 
@@ -221,25 +258,31 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   }
   if (!update_pending_) return;
 
-  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: chunk
-  // by chunk (a chunk of g stays in L1 while the m columns go by), the inner loop over the
-  // elements of a chunk (independent, so it vectorises).
+  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: two
+  // elements at a time, all m terms while they stay in registers (column by column, g went
+  // through memory m times, a load and a store per term; the same subtractions in the same
+  // order, so the same bits).
   const int m = kept_;
   double* __restrict gw = g.data();
+  std::array<const double*, kMaxDepth> dg_columns{};
+  std::array<Pair, kMaxDepth> gammas{};
+  for (int j = 0; j < m; ++j) {
+    dg_columns[j] = column(delta_g_, j);
+    gammas[j] = Pair{gamma_[j], gamma_[j]};
+  }
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-    for (int j = 0; j < m; ++j) {
-      const double* __restrict dgj = column(delta_g_, j);
-      const double gamma = gamma_[j];
-      const Pair gammas = {gamma, gamma};
-      std::size_t k = begin;
-      for (; k + 2 <= end; k += 2)
-        store_pair(gw + k, load_pair(gw + k) - gammas * load_pair(dgj + k));
-      for (; k < end; ++k) gw[k] -= gamma * dgj[k];
+    std::size_t k = begin;
+    for (; k + 2 <= end; k += 2) {
+      Pair gk = load_pair(gw + k);
+      for (int j = 0; j < m; ++j) gk -= gammas[j] * load_pair(dg_columns[j] + k);
+      store_pair(gw + k, gk);
     }
+    for (; k < end; ++k)
+      for (int j = 0; j < m; ++j) gw[k] -= gamma_[j] * dg_columns[j][k];
   }
 }
 

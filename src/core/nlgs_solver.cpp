@@ -577,16 +577,22 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       const std::size_t body_count = all_bodies.size();
       std::uint32_t* seen = ws.team_seen.data() + place.thread * body_count;
       auto& mine = ws.team_new_bodies[place.thread];
-      mine.clear();
+      // Without a branch: each body is written at the list's end, which moves on only if the
+      // body was new. Whether it is new is a coin toss in a shuffled order (a disk has about four
+      // contacts), and the mispredicted branch cost about 2% of a system-1 step.
+      mine.resize(2 * (my_contacts.last - my_contacts.first));
+      std::size_t listed = 0;
       for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
         const Contact& c = contacts[ws.order[i]];
         for (const std::int32_t key : {c.key.body_a, c.key.body_b}) {
           const auto body = static_cast<std::size_t>(key);
-          if (seen[body] == stamp) continue;
+          const bool fresh = seen[body] != stamp;
           seen[body] = stamp;
-          mine.push_back(static_cast<std::uint32_t>(body));
+          mine[listed] = static_cast<std::uint32_t>(body);
+          listed += fresh;
         }
       }
+      mine.resize(listed);
       team_barrier();
       if (place.thread > 0) {
         std::erase_if(mine, [&](std::uint32_t body) {
