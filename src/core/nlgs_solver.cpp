@@ -673,18 +673,29 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     // applied. The sweeps leave them out; every kDormantCheckInterval sweeps, and before the
     // sweeps stop, those that would now close are woken (nlgs_solver.hpp).
     const Share my_groups = groups_share(ws.group_start, team_place());
+    // Without a branch: each row is written at the end of both lists, and the list it belongs
+    // to moves on. About half of the rows are dormant, in no pattern a predictor can learn, and
+    // the mispredicted branch cost about 1% of a system-1 step.
     for (std::size_t g = my_groups.first; g < my_groups.last; ++g) {
-      ws.awake[g].clear();
-      ws.dormant_of_group[g].clear();
-      for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+      const std::size_t first = ws.group_start[g], last = ws.group_start[g + 1];
+      auto& awake = ws.awake[g];
+      auto& dormant = ws.dormant_of_group[g];
+      awake.resize(last - first);
+      dormant.resize(last - first);
+      std::size_t awake_count = 0, dormant_count = 0;
+      for (std::size_t i = first; i < last; ++i) {
         const SolverRow& r = rows[i];
-        const bool open = r.impulse_n == 0.0 && r.impulse_t == 0.0;
-        if (options.skip_dormant && open && biased_normal_velocity(r, bodies) > 0.0)
-          ws.dormant_of_group[g].push_back(
-              {static_cast<std::uint32_t>(i), r.body_a, r.body_b, r.normal, r.bias_n});
-        else
-          ws.awake[g].push_back(static_cast<std::uint32_t>(i));
+        const bool open = (r.impulse_n == 0.0) & (r.impulse_t == 0.0);
+        const bool sleeps =
+            options.skip_dormant & open & (biased_normal_velocity(r, bodies) > 0.0);
+        awake[awake_count] = static_cast<std::uint32_t>(i);
+        dormant[dormant_count] = {static_cast<std::uint32_t>(i), r.body_a, r.body_b, r.normal,
+                                  r.bias_n};
+        awake_count += !sleeps;
+        dormant_count += sleeps;
       }
+      awake.resize(awake_count);
+      dormant.resize(dormant_count);
     }
     team_barrier();
   };
