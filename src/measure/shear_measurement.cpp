@@ -97,8 +97,18 @@ void ShearMeasurement::after_step(const World& world, const std::vector<Contact>
 }
 
 void ShearMeasurement::add_contact_moments(std::size_t n, const std::vector<Contact>& contacts) {
-  for (const Contact& c : contacts) {
-    if (c.impulse_n == 0.0 && c.impulse_t == 0.0) continue;
+  // First the contacts that carry an impulse, listed without a branch (each index written at the
+  // list's end, which moves on only for a loaded contact): about half of the candidates carry
+  // none, in no order a branch predictor can learn, and testing them in the loop below cost
+  // about 1% of a system-1 step. Then their moments, in contact order as before.
+  loaded_.resize(contacts.size());
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    loaded_[count] = static_cast<std::uint32_t>(k);
+    count += (contacts[k].impulse_n != 0.0) | (contacts[k].impulse_t != 0.0);
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const Contact& c = contacts[loaded_[k]];
     // Impulse R on a, -R on b; a's arm is lever_a n, b's is -lever_b n (contact.hpp), so both
     // moments are R (x) (lever n).
     const Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent;

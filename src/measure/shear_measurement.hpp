@@ -161,6 +161,7 @@ class ShearMeasurement {
   std::vector<WindowProfile> windows_;
   std::vector<int> carrying_count_;   ///< scratch: force-carrying contacts per grain
   std::vector<signed char> touches_;  ///< scratch: bit 1 bottom wall, bit 2 top wall
+  std::vector<std::uint32_t> loaded_;  ///< scratch: contacts carrying an impulse, this step
 };
 
 /// Force threshold of a contact list: force_threshold times the mean R_n of contacts with R_n > 0.
