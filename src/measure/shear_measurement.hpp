@@ -159,8 +159,8 @@ class ShearMeasurement {
   MeasurementState state_;
   std::vector<SeriesRow> series_;
   std::vector<WindowProfile> windows_;
-  std::vector<int> carrying_count_;   ///< scratch: force-carrying contacts per grain
-  std::vector<signed char> touches_;  ///< scratch: bit 1 bottom wall, bit 2 top wall
+  std::vector<int> carrying_count_;    ///< scratch: force-carrying contacts per grain
+  std::vector<signed char> touches_;   ///< scratch: bit 1 bottom wall, bit 2 top wall
   std::vector<std::uint32_t> loaded_;  ///< scratch: contacts carrying an impulse, this step
 };
 
