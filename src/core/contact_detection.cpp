@@ -136,7 +136,7 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       const double dist2 = length_squared(delta);
       if (!(dist2 < cutoff * cutoff)) continue;
       const double dist = centre_distance(dist2);
-      Contact c;
+      Contact& c = out.emplace_back();  // filled in place (a local copied in was 112 bytes more)
       c.key = {static_cast<std::int32_t>(i), j, -static_cast<std::int32_t>(shift)};
       // Normal from b (= j) to a (= i): -delta / |delta|.
       c.normal = dist > 0.0 ? (-1.0 / dist) * delta : Vec2{0.0, 1.0};
@@ -151,14 +151,13 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       c.lever_a = -(d.radius[i] + half_gap);
       c.lever_b = -(d.radius[j] + half_gap);
       c.friction = world.friction_disk_disk;
-      out.push_back(c);
     }
     // Disk-wall candidates, walls numbered after the disks.
     for (std::size_t w = 0; w < world.walls.size(); ++w) {
       const Wall& wall = world.walls[w];
       const double gap = wall_gap(world, i, wall);
       if (gap >= margin) continue;
-      Contact c;
+      Contact& c = out.emplace_back();
       c.key = {static_cast<std::int32_t>(i), static_cast<std::int32_t>(n + w), 0};
       c.normal = wall.normal;
       c.tangent = perp(wall.normal);
@@ -167,7 +166,6 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       c.lever_b = 0.0;
       c.gap = gap;
       c.friction = wall.friction;
-      out.push_back(c);
     }
   }
 }
