@@ -20,13 +20,17 @@ constexpr int kMaxDepth = AndersonMixer::kMaxDepth;
 /// stack, slower than the scalar loops.)
 using Pair = double __attribute__((vector_size(16)));
 
-inline Pair load_pair(const double* p) {
-  Pair v;
+/// A vector of doubles (Pair, or Quad below) from memory at p, and back: memcpy, so no alignment
+/// is assumed (g++ makes it one unaligned load or store).
+template <class Vector>
+inline Vector load(const double* p) {
+  Vector v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
 
-inline void store_pair(double* p, Pair v) {
+template <class Vector>
+inline void store(double* p, Vector v) {
   std::memcpy(p, &v, sizeof v);
 }
 
@@ -53,19 +57,9 @@ inline double sum_of_pairs(Pair low, Pair high) {
 #if defined(__AVX__)
 using Quad = double __attribute__((vector_size(32)));
 
-inline Quad load_quad(const double* p) {
-  Quad v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-
-inline void store_quad(double* p, Quad v) {
-  std::memcpy(p, &v, sizeof v);
-}
-
 struct FourSums {
   Quad s{};
-  void add_products(const double* a, const double* b) { s += load_quad(a) * load_quad(b); }
+  void add_products(const double* a, const double* b) { s += load<Quad>(a) * load<Quad>(b); }
   void add_product(double a, double b) { s[0] += a * b; }
   double total() const { return (s[0] + s[1]) + (s[2] + s[3]); }
 };
@@ -73,8 +67,8 @@ struct FourSums {
 struct FourSums {
   Pair s01{}, s23{};
   void add_products(const double* a, const double* b) {
-    s01 += load_pair(a) * load_pair(b);
-    s23 += load_pair(a + 2) * load_pair(b + 2);
+    s01 += load<Pair>(a) * load<Pair>(b);
+    s23 += load<Pair>(a + 2) * load<Pair>(b + 2);
   }
   void add_product(double a, double b) { s01[0] += a * b; }
   double total() const { return sum_of_pairs(s01, s23); }
@@ -199,34 +193,31 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
     Pair f2_01{}, f2_23{};  // running sums i mod 4, in pairs
+    // Differences and new last values of the vector (a Pair or a Quad, the type of `like`) at
+    // `at`; returns f there.
+    const auto differences = [&](std::size_t at, auto like) {
+      using Vector = decltype(like);
+      const Vector g_at = load<Vector>(gs + at);
+      const Vector f = g_at - load<Vector>(xs + at);
+      store(df + at, f - load<Vector>(last_f + at));
+      store(dg + at, g_at - load<Vector>(last_g + at));
+      store(last_f + at, f);
+      store(last_g + at, g_at);
+      return f;
+    };
     std::size_t i = begin;
 #if defined(__AVX__)
     // Four elements as one value: f2's four sums i mod 4 in one (the pairs' lanes, same bits).
     Quad f2_0123{};
     for (; i + 4 <= end; i += 4) {
-      const Quad g_at = load_quad(gs + i);
-      const Quad f = g_at - load_quad(xs + i);
-      store_quad(df + i, f - load_quad(last_f + i));
-      store_quad(dg + i, g_at - load_quad(last_g + i));
-      store_quad(last_f + i, f);
-      store_quad(last_g + i, g_at);
+      const Quad f = differences(i, Quad{});
       f2_0123 += f * f;
     }
     f2_01 = Pair{f2_0123[0], f2_0123[1]};
     f2_23 = Pair{f2_0123[2], f2_0123[3]};
 #else
-    // Differences and new last values of the pair at `at`; returns f there.
-    const auto differences = [&](std::size_t at) {
-      const Pair g_at = load_pair(gs + at);
-      const Pair f = g_at - load_pair(xs + at);
-      store_pair(df + at, f - load_pair(last_f + at));
-      store_pair(dg + at, g_at - load_pair(last_g + at));
-      store_pair(last_f + at, f);
-      store_pair(last_g + at, g_at);
-      return f;
-    };
     for (; i + 4 <= end; i += 4) {
-      const Pair f01 = differences(i), f23 = differences(i + 2);
+      const Pair f01 = differences(i, Pair{}), f23 = differences(i + 2, Pair{});
       f2_01 += f01 * f01;
       f2_23 += f23 * f23;
     }
@@ -318,41 +309,41 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     std::size_t k = begin;
 #if defined(__AVX__)
     for (; k + 16 <= end; k += 16) {  // four values of four: four independent chains
-      Quad g0 = load_quad(gw + k), g1 = load_quad(gw + k + 4), g2 = load_quad(gw + k + 8),
-           g3 = load_quad(gw + k + 12);
+      Quad g0 = load<Quad>(gw + k), g1 = load<Quad>(gw + k + 4), g2 = load<Quad>(gw + k + 8),
+           g3 = load<Quad>(gw + k + 12);
       for (int j = 0; j < m; ++j) {
         const double* d = dg_columns[j] + k;
         const Quad gamma4 = {gamma_[j], gamma_[j], gamma_[j], gamma_[j]};
-        g0 -= gamma4 * load_quad(d);
-        g1 -= gamma4 * load_quad(d + 4);
-        g2 -= gamma4 * load_quad(d + 8);
-        g3 -= gamma4 * load_quad(d + 12);
+        g0 -= gamma4 * load<Quad>(d);
+        g1 -= gamma4 * load<Quad>(d + 4);
+        g2 -= gamma4 * load<Quad>(d + 8);
+        g3 -= gamma4 * load<Quad>(d + 12);
       }
-      store_quad(gw + k, g0);
-      store_quad(gw + k + 4, g1);
-      store_quad(gw + k + 8, g2);
-      store_quad(gw + k + 12, g3);
+      store(gw + k, g0);
+      store(gw + k + 4, g1);
+      store(gw + k + 8, g2);
+      store(gw + k + 12, g3);
     }
 #endif
     for (; k + 8 <= end; k += 8) {  // four pairs: four independent chains of subtractions
-      Pair g0 = load_pair(gw + k), g1 = load_pair(gw + k + 2), g2 = load_pair(gw + k + 4),
-           g3 = load_pair(gw + k + 6);
+      Pair g0 = load<Pair>(gw + k), g1 = load<Pair>(gw + k + 2), g2 = load<Pair>(gw + k + 4),
+           g3 = load<Pair>(gw + k + 6);
       for (int j = 0; j < m; ++j) {
         const double* d = dg_columns[j] + k;
-        g0 -= gammas[j] * load_pair(d);
-        g1 -= gammas[j] * load_pair(d + 2);
-        g2 -= gammas[j] * load_pair(d + 4);
-        g3 -= gammas[j] * load_pair(d + 6);
+        g0 -= gammas[j] * load<Pair>(d);
+        g1 -= gammas[j] * load<Pair>(d + 2);
+        g2 -= gammas[j] * load<Pair>(d + 4);
+        g3 -= gammas[j] * load<Pair>(d + 6);
       }
-      store_pair(gw + k, g0);
-      store_pair(gw + k + 2, g1);
-      store_pair(gw + k + 4, g2);
-      store_pair(gw + k + 6, g3);
+      store(gw + k, g0);
+      store(gw + k + 2, g1);
+      store(gw + k + 4, g2);
+      store(gw + k + 6, g3);
     }
     for (; k + 2 <= end; k += 2) {
-      Pair gk = load_pair(gw + k);
-      for (int j = 0; j < m; ++j) gk -= gammas[j] * load_pair(dg_columns[j] + k);
-      store_pair(gw + k, gk);
+      Pair gk = load<Pair>(gw + k);
+      for (int j = 0; j < m; ++j) gk -= gammas[j] * load<Pair>(dg_columns[j] + k);
+      store(gw + k, gk);
     }
     for (; k < end; ++k)
       for (int j = 0; j < m; ++j) gw[k] -= gamma_[j] * dg_columns[j][k];
