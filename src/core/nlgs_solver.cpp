@@ -144,15 +144,12 @@ template <Relaxation kRelax>
   const LocalImpulse old{r.impulse_n, r.impulse_t};
   LocalImpulse next;
   if (r.inv_w_tt != kCoupledRow) [[likely]] {
-    if constexpr (kRelax == Relaxation::kOver) {
-      // The row's inverses are scaled by omega already (fill_row): decoupled_update's own
-      // factor is 1, and 1 x (omega / w) is omega / w exactly.
-      next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
-    } else {
-      next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
-      if constexpr (kRelax == Relaxation::kUnder)
-        next = relax_and_project(old, next, omega, r.friction);
-    }
+    // kOver: the row's inverses are scaled by omega already (fill_row), so decoupled_update's
+    // own factor is 1 (1 x (omega / w) is omega / w exactly) and this is the one-stage
+    // over-relaxed update. kNone: plain Gauss-Seidel. kUnder: the exact update, then relaxed.
+    next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
+    if constexpr (kRelax == Relaxation::kUnder)
+      next = relax_and_project(old, next, omega, r.friction);
   } else {
     LocalProblem p;
     p.w_nn = w.w_nn;

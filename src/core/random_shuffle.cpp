@@ -12,13 +12,6 @@ namespace cdshear {
 
 namespace {
 
-// Philox4x32-10 (Salmon et al. 2011, Random123's philox.h): ten rounds of
-//   (x0, x1, x2, x3) <- (hi(M1 x2) ^ x1 ^ k0, lo(M1 x2), hi(M0 x0) ^ x3 ^ k1, lo(M0 x0)),
-// the key (k0, k1) bumped by (W0, W1) between rounds. The same constants as philox.h.
-constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
-constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;
-constexpr int kRounds = 10;
-
 /// The counter of block `block` of CounterRandom(seed, stream, a, b): (a low, a high,
 /// b ^ stream << 24, block), as CounterRandom::refill forms it.
 struct BlockCounter {
@@ -31,6 +24,13 @@ void philox_blocks(const BlockCounter& ctr, std::uint32_t key0, std::uint32_t ke
                    std::uint32_t first, std::size_t blocks, std::uint32_t* out) {
   std::size_t done = 0;
 #if defined(__AVX2__)
+  // Philox4x32-10 (Salmon et al. 2011, Random123's philox.h): ten rounds of
+  //   (x0, x1, x2, x3) <- (hi(M1 x2) ^ x1 ^ k0, lo(M1 x2), hi(M0 x0) ^ x3 ^ k1, lo(M0 x0)),
+  // the key (k0, k1) bumped by (W0, W1) between rounds, with philox.h's constants. Written out
+  // here only for the four-lane version; one block at a time is Random123's own.
+  constexpr std::uint32_t kM0 = PHILOX_M4x32_0, kM1 = PHILOX_M4x32_1;
+  constexpr std::uint32_t kW0 = PHILOX_W32_0, kW1 = PHILOX_W32_1;
+  constexpr int kRounds = PHILOX4x32_DEFAULT_ROUNDS;
   // Four blocks at once, one per 64-bit lane (each word in a lane's low half): _mm256_mul_epu32
   // is the 32 x 32 -> 64 bit product of each lane.
   const __m256i low_half = _mm256_set1_epi64x(0xffffffffll);
@@ -70,28 +70,14 @@ void philox_blocks(const BlockCounter& ctr, std::uint32_t key0, std::uint32_t ke
     }
   }
 #endif
+  // The rest one at a time, by Random123's Philox4x32 as CounterRandom::refill calls it.
+  r123::Philox4x32 philox;
+  const r123::Philox4x32::key_type key = {{key0, key1}};
   for (; done < blocks; ++done) {
-    std::uint32_t x0 = ctr.c0, x1 = ctr.c1, x2 = ctr.c2;
-    std::uint32_t x3 = first + static_cast<std::uint32_t>(done);
-    std::uint32_t k0 = key0, k1 = key1;
-    for (int r = 0; r < kRounds; ++r) {
-      if (r > 0) {
-        k0 += kW0;
-        k1 += kW1;
-      }
-      const std::uint64_t p0 = std::uint64_t{kM0} * x0, p1 = std::uint64_t{kM1} * x2;
-      const auto y0 = static_cast<std::uint32_t>(p1 >> 32) ^ x1 ^ k0;
-      const auto y2 = static_cast<std::uint32_t>(p0 >> 32) ^ x3 ^ k1;
-      x1 = static_cast<std::uint32_t>(p1);
-      x3 = static_cast<std::uint32_t>(p0);
-      x0 = y0;
-      x2 = y2;
-    }
-    std::uint32_t* o = out + 4 * done;
-    o[0] = x0;
-    o[1] = x1;
-    o[2] = x2;
-    o[3] = x3;
+    const r123::Philox4x32::ctr_type counter = {
+        {ctr.c0, ctr.c1, ctr.c2, first + static_cast<std::uint32_t>(done)}};
+    const r123::Philox4x32::ctr_type block = philox(counter, key);
+    std::copy(block.begin(), block.end(), out + 4 * done);
   }
 }
 
