@@ -21,7 +21,8 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-/// Area and first moment of the disk between y0 and y1 by the midpoint rule on `slices` slices.
+/// Area, first and second moments of the disk between y0 and y1 by the midpoint rule on `slices`
+/// slices (a slice of chord c at height dy holds int x^2 dx = c^3 / 12).
 StripePart integrate_numerically(double yc, double r, double y0, double y1, int slices) {
   StripePart p;
   const double lo = std::max(y0, yc - r), hi = std::min(y1, yc + r);
@@ -32,6 +33,8 @@ StripePart integrate_numerically(double yc, double r, double y0, double y1, int 
     const double chord = 2.0 * std::sqrt(std::max(0.0, r * r - dy * dy));
     p.area += chord * h;
     p.first_moment += dy * chord * h;
+    p.second_moment_y += dy * dy * chord * h;
+    p.second_moment_x += chord * chord * chord / 12.0 * h;
   }
   return p;
 }
@@ -46,19 +49,26 @@ TEST(StripeGeometry, AreasSumToTheDiskAndMomentsMatchIntegration) {
       double yc = height(rng);
       if (trial % 4 == 1) yc = std::floor(yc / dy) * dy + r;
       if (trial % 4 == 2) yc = std::ceil(yc / dy) * dy - r;
-      double total_area = 0.0, total_moment = 0.0;
+      double total_area = 0.0, total_moment = 0.0, total_second_y = 0.0, total_second_x = 0.0;
       for (int k = static_cast<int>(std::floor((yc - r) / dy)) - 1;
            k <= static_cast<int>(std::floor((yc + r) / dy)) + 1; ++k) {
         const StripePart exact = disk_in_stripe(yc, r, k * dy, (k + 1) * dy);
         const StripePart numeric = integrate_numerically(yc, r, k * dy, (k + 1) * dy, 20000);
         EXPECT_NEAR(exact.area, numeric.area, 1e-5 * r * r) << "r " << r << " k " << k;
         EXPECT_NEAR(exact.first_moment, numeric.first_moment, 1e-5 * r * r * r);
+        EXPECT_NEAR(exact.second_moment_y, numeric.second_moment_y, 1e-5 * r * r * r * r);
+        EXPECT_NEAR(exact.second_moment_x, numeric.second_moment_x, 1e-5 * r * r * r * r);
         EXPECT_GE(exact.area, 0.0);
         total_area += exact.area;
         total_moment += exact.first_moment;
+        total_second_y += exact.second_moment_y;
+        total_second_x += exact.second_moment_x;
       }
       EXPECT_NEAR(total_area, kPi * r * r, 1e-12 * r * r);
       EXPECT_NEAR(total_moment, 0.0, 1e-12 * r * r * r);  // about the centre
+      // The whole disk's second moment about a diameter: pi r^4 / 4, for either axis.
+      EXPECT_NEAR(total_second_y, 0.25 * kPi * r * r * r * r, 1e-12 * r * r * r * r);
+      EXPECT_NEAR(total_second_x, 0.25 * kPi * r * r * r * r, 1e-12 * r * r * r * r);
     }
 }
 
@@ -227,8 +237,161 @@ TEST(Stress, OneGrainSqueezedBetweenTheWallsCarriesThePressure) {
   // top t = (1, 0) at arm (0, r): sigma_xy = -(1/A) sum F_x r_y = -2 rt r ... / (dt L_x dy).
   EXPECT_NEAR(st.xy, -2.0 * rt * 0.5 * scale, 1e-12);
   EXPECT_NEAR(m.windows()[0].mu_eff[0], rt / rn, 1e-12);
-  // Both contacts carry force: Z = 2 for the only grain.
+  // Both contacts are closed and carry force: Z = 2 for the only grain, by either count.
   EXPECT_DOUBLE_EQ(m.windows()[0].coordination[0], 2.0);
+  EXPECT_DOUBLE_EQ(m.windows()[0].force_carrying_coordination[0], 2.0);
+}
+
+/// Every disk pair and disk-wall pair of `w` with a gap below `margin`, as detection gives them
+/// (walls after the disks), with no impulse.
+std::vector<Contact> candidates_by_brute_force(const World& w, double margin) {
+  std::vector<Contact> out;
+  const std::size_t n = w.disks.size();
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b) {
+      Vec2 delta = w.disks.position[a] - w.disks.position[b];
+      const double images = std::nearbyint(delta.x / w.domain.length_x);
+      delta.x -= images * w.domain.length_x;
+      const double gap = std::sqrt(delta.x * delta.x + delta.y * delta.y) - w.disks.radius[a] -
+                         w.disks.radius[b];
+      if (gap >= margin) continue;
+      Contact c;
+      c.key = {static_cast<std::int32_t>(a), static_cast<std::int32_t>(b),
+               static_cast<std::int32_t>(-images)};
+      c.gap = gap;
+      out.push_back(c);
+    }
+    for (std::size_t k = 0; k < w.walls.size(); ++k) {
+      const double gap = (w.disks.position[a].y - w.walls[k].point.y) * w.walls[k].normal.y -
+                         w.disks.radius[a];
+      if (gap >= margin) continue;
+      Contact c;
+      c.key = {static_cast<std::int32_t>(a), static_cast<std::int32_t>(n + k), 0};
+      c.gap = gap;
+      out.push_back(c);
+    }
+  }
+  return out;
+}
+
+TEST(Coordination, ClosedContactsOfALatticeGiveItsZExactly) {
+  // A triangular lattice of touching disks (spacing = diameter = 1), ten to a row in a period of
+  // 10, the bottom row on the bottom wall, the top wall 0.07 above the top row: an interior disk
+  // has 6 closed contacts, a bottom-row disk 2 + 2 + the wall = 5, a top-row disk 4. Candidates
+  // within 0.05 also include nothing else; a second lattice row pushed up by 0.02 opens its
+  // contacts with the row below (gap 0.02 > contact_gap) but leaves them candidates. Force is
+  // carried by the contacts of even-numbered disks only, so the per-step count differs.
+  World w = lattice_world(10.0, 8.0, 0.5);
+  const std::size_t n = w.disks.size();
+  ASSERT_EQ(n, 90u);  // 9 rows of 10
+  std::vector<int> row(n);
+  for (std::size_t i = 0; i < n; ++i)
+    row[i] = static_cast<int>(std::lround((w.disks.position[i].y - 0.5) / (std::sqrt(3.0) / 2)));
+  for (std::size_t i = 0; i < n; ++i)
+    if (row[i] >= 4) w.disks.position[i].y += 0.02;  // rows 4.. lifted: rows 3-4 open
+  std::vector<Contact> contacts = candidates_by_brute_force(w, 0.05);
+  // Expected closed and force-carrying contacts per disk, from the lattice's structure.
+  std::vector<int> closed(n), carrying(n);
+  for (Contact& c : contacts) {
+    const auto a = static_cast<std::size_t>(c.key.body_a);
+    const auto b = static_cast<std::size_t>(c.key.body_b);
+    c.impulse_n = a % 2 == 0 ? 1e-3 : 0.0;
+    const bool open = b < n && row[a] != row[b] && std::min(row[a], row[b]) == 3;
+    for (const std::size_t body : {a, b}) {
+      if (body >= n) continue;
+      closed[body] += open ? 0 : 1;
+      carrying[body] += a % 2 == 0 ? 1 : 0;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const int expected = row[i] == 0 ? 5 : row[i] == 8 ? 4 : row[i] == 3 || row[i] == 4 ? 4 : 6;
+    ASSERT_EQ(closed[i], expected) << "disk " << i << " row " << row[i];
+  }
+  ShearMeasurement m(quick_options(), {0.01, 0.5, 0.25, 8.0}, w);
+  for (int s = 0; s < 100; ++s) {
+    ++w.step;
+    m.after_step(w, contacts, StepReport{});
+  }
+  const WindowProfile& p = m.windows().at(0);
+  for (std::size_t k = 0; k < m.stripes(); ++k) {
+    double area = 0.0, closed_area = 0.0, carrying_area = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double s = disk_in_stripe(w.disks.position[i].y, 0.5, double(k), double(k + 1)).area;
+      area += s;
+      closed_area += s * closed[i];
+      carrying_area += s * carrying[i];
+    }
+    if (area == 0.0) continue;
+    EXPECT_NEAR(p.coordination[k], closed_area / area, 1e-12) << "stripe " << k;
+    EXPECT_NEAR(p.force_carrying_coordination[k], carrying_area / area, 1e-12) << "stripe " << k;
+  }
+  // The series: every closed contact once (wall contacts included).
+  int closed_sum = 0;
+  for (const int z : closed) closed_sum += z;
+  EXPECT_EQ(m.series().back().closed, static_cast<std::uint64_t>(closed_sum + 10) / 2);
+}
+
+TEST(Stress, RotationOfTheGrainsGivesTheExactMaterialKineticStress) {
+  // One disk spinning at w with its centre moving at v, alone in the cell: the centre velocity
+  // has no fluctuation about the stripe mean, so the whole kinetic stress is the rotational part,
+  // rho (int u (x) u dS - int u dS (x) int u dS / S) / (L_x dy) over the disk's part in each
+  // stripe, u = v + w x (p - c). Here by brute force on a grid. A whole disk gives J w^2 / 2 on
+  // both normal components.
+  World w;
+  w.domain = {true, 4.0};
+  for (int k = 0; k < 2; ++k) {
+    Wall wall;
+    wall.point = {0.0, 3.0 * k};
+    wall.normal = {0.0, k == 0 ? 1.0 : -1.0};
+    w.walls.push_back(wall);
+  }
+  const double r = 0.45, spin = 1.7, yc = 1.3;
+  w.disks.add({2.0, yc}, r);
+  w.disks.velocity[0] = {0.3, -0.2};
+  w.disks.omega[0] = spin;
+  const double rho = w.disks.mass[0] / (kPi * r * r);
+  MeasureOptions o = quick_options();
+  o.boundary_thickness = {1.0};
+  ShearMeasurement m(o, {0.01, 0.5, 0.25, 3.0}, w);
+  feed(m, w, 100);
+  const WindowProfile& p = m.windows().at(0);
+  const int grid = 2000;
+  for (std::size_t k = 0; k < 2; ++k) {  // the disk spans stripes [0,1) and [1,2)
+    double s = 0, ux = 0, uy = 0, uxx = 0, uxy = 0, uyy = 0;
+    const double step = 2.0 * r / grid;
+    for (int i = 0; i < grid; ++i)
+      for (int j = 0; j < grid; ++j) {
+        const double dx = -r + (i + 0.5) * step, dy = -r + (j + 0.5) * step;
+        const double y = yc + dy;
+        if (dx * dx + dy * dy > r * r || y < double(k) || y >= double(k + 1)) continue;
+        const double vx = 0.3 - spin * dy, vy = -0.2 + spin * dx, da = step * step;
+        s += da;
+        ux += vx * da;
+        uy += vy * da;
+        uxx += vx * vx * da;
+        uxy += vx * vy * da;
+        uyy += vy * vy * da;
+      }
+    const double cell = 4.0 * 1.0;
+    const Tensor2& rot = p.rotational_stress.at(k);
+    const double scale = rho / cell, tolerance = 2e-3 * rho * spin * spin * r * r * s / cell;
+    EXPECT_NEAR(rot.xx, scale * (uxx - ux * ux / s), tolerance) << "stripe " << k;
+    EXPECT_NEAR(rot.xy, scale * (uxy - ux * uy / s), tolerance) << "stripe " << k;
+    EXPECT_NEAR(rot.yx, rot.xy, 1e-15);
+    EXPECT_NEAR(rot.yy, scale * (uyy - uy * uy / s), tolerance) << "stripe " << k;
+    EXPECT_NEAR(p.kinetic_stress.at(k).xx, 0.0, 1e-14);
+    EXPECT_NEAR(p.stress.at(k).yy, p.contact_stress.at(k).yy + rot.yy, 1e-15);
+  }
+  // The disk whole inside one stripe: J w^2 / 2 on both normal components, no shear part.
+  World whole = w;
+  whole.disks.position[0].y = 2.5;
+  ShearMeasurement m2(o, {0.01, 0.5, 0.25, 3.0}, whole);
+  feed(m2, whole, 100);
+  const Tensor2& rot = m2.windows().at(0).rotational_stress.at(2);
+  const double j_w2 = 0.5 * w.disks.mass[0] * r * r * spin * spin;
+  EXPECT_NEAR(rot.xx, 0.5 * j_w2 / 4.0, 1e-12);
+  EXPECT_NEAR(rot.yy, 0.5 * j_w2 / 4.0, 1e-12);
+  EXPECT_NEAR(rot.xy, 0.0, 1e-14);
 }
 
 TEST(Regions, BulkAndBoundaryFromAProfileBuiltByHand) {

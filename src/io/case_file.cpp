@@ -110,6 +110,13 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   mo.window = m.positive("window", mo.window);
   mo.stripe_thickness = m.positive("stripe_thickness", mo.stripe_thickness);
   mo.force_threshold = m.non_negative("force_threshold", mo.force_threshold);
+  mo.contact_gap = m.positive("contact_gap", mo.contact_gap);
+  // A closed contact must be a candidate of the sample's step: its gap at the start of the step
+  // was below the margin, and a step moves a pair by far less than half of it.
+  if (mo.contact_gap > 0.5 * c.step.contact_margin)
+    m.fail("contact_gap", "must be at most half of step.contact_margin (" +
+                              format_number(0.5 * c.step.contact_margin) + "), got " +
+                              format_number(mo.contact_gap));
   if (m.has("boundary_thickness")) {
     mo.boundary_thickness = m.number_array("boundary_thickness");
     if (mo.boundary_thickness.empty()) m.fail("boundary_thickness", "must list at least one h");
@@ -236,7 +243,8 @@ toml::table case_to_toml(const ShearCase& c) {
                               {"window", c.measure.window},
                               {"stripe_thickness", c.measure.stripe_thickness},
                               {"boundary_thickness", boundary},
-                              {"force_threshold", c.measure.force_threshold}}}};
+                              {"force_threshold", c.measure.force_threshold},
+                              {"contact_gap", c.measure.contact_gap}}}};
 }
 
 std::vector<std::string> keys_missing_from(const toml::table& table, const toml::table& resolved) {

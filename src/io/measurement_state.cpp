@@ -1,5 +1,7 @@
 #include "measurement_state.hpp"
 
+#include <stdexcept>
+
 namespace cdshear {
 
 using nlohmann::json;
@@ -22,16 +24,24 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(WindowSums, samples, step_start, bottom_impul
                                    top_impulse_start, height_sum, com_vx_sum, slip_bottom_sum,
                                    slip_top_sum, slip_bottom_count, slip_top_count, area,
                                    velocity_area, mass, mass_vx, mass_vy, mass_vxx, mass_vxy,
-                                   mass_vyy, coordination_area, stress_xx, stress_xy, stress_yx,
-                                   stress_yy)
+                                   mass_vyy, material_vx, material_vxx, material_vxy,
+                                   material_vyy, coordination_area, carrying_area, stress_xx,
+                                   stress_xy, stress_yx, stress_yy)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeasurementState, window, grain_moment, interval,
                                    last_sample_step, last_sample_time, bottom_impulse_last,
                                    top_impulse_last)
 
 json measurement_state_to_json(const MeasurementState& state) {
-  return state;
+  json j = state;
+  j["definitions"] = kMeasurementDefinitions;
+  return j;
 }
 MeasurementState measurement_state_from_json(const json& j) {
+  if (!j.is_object() || !j.contains("definitions") || j.at("definitions") != kMeasurementDefinitions)
+    throw std::runtime_error(
+        "written by a cdshear whose measurements differ from this one's (Z from closed "
+        "contacts, the rotational stress): a measured run cannot be resumed across the change; "
+        "start a new run, from this run's final state if needed");
   return j.get<MeasurementState>();
 }
 

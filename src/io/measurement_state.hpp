@@ -9,6 +9,10 @@
 
 namespace cdshear {
 
+/// The version of the measurement definitions a checkpoint's open window was summed with (2: Z
+/// from closed contacts, the rotational stress). A window cannot be continued with other sums.
+inline constexpr int kMeasurementDefinitions = 2;
+
 nlohmann::json measurement_state_to_json(const MeasurementState& state);
 /// Throws std::exception (caught by the checkpoint reader) on a malformed object.
 MeasurementState measurement_state_from_json(const nlohmann::json& j);

@@ -2,6 +2,7 @@
 // plain 1-4D arrays. Columns are described once (name + accessor) and serve writing and reading.
 #include "run_data_file.hpp"
 
+#include <fmt/format.h>
 #include <hdf5.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -237,6 +238,8 @@ const std::vector<SeriesColumn>& series_columns() {
        [](SeriesRow& r, double v) { r.time = v; }},
       {"com_vx", false, [](const SeriesRow& r) { return r.com_vx; },
        [](SeriesRow& r, double v) { r.com_vx = v; }},
+      {"block_vx", false, [](const SeriesRow& r) { return r.block_vx; },
+       [](SeriesRow& r, double v) { r.block_vx = v; }},
       {"height", false, [](const SeriesRow& r) { return r.height; },
        [](SeriesRow& r, double v) { r.height = v; }},
       {"solid_fraction", false, [](const SeriesRow& r) { return r.solid_fraction; },
@@ -248,6 +251,8 @@ const std::vector<SeriesColumn>& series_columns() {
       {"force_carrying", true,
        [](const SeriesRow& r) { return static_cast<double>(r.force_carrying); },
        [](SeriesRow& r, double v) { r.force_carrying = static_cast<std::uint64_t>(v); }},
+      {"closed", true, [](const SeriesRow& r) { return static_cast<double>(r.closed); },
+       [](SeriesRow& r, double v) { r.closed = static_cast<std::uint64_t>(v); }},
       {"bottom_fx", false, [](const SeriesRow& r) { return r.bottom_force.x; },
        [](SeriesRow& r, double v) { r.bottom_force.x = v; }},
       {"bottom_fy", false, [](const SeriesRow& r) { return r.bottom_force.y; },
@@ -296,27 +301,33 @@ const WindowProfileField kWindowProfiles[] = {{"solid_fraction", &WindowProfile:
                                               {"vx", &WindowProfile::vx},
                                               {"mu_eff", &WindowProfile::mu_eff},
                                               {"coordination", &WindowProfile::coordination},
+                                              {"force_carrying_coordination",
+                                               &WindowProfile::force_carrying_coordination},
                                               {"shear_rate", &WindowProfile::shear_rate},
                                               {"inertial_number", &WindowProfile::inertial_number}};
 using WindowTensor = std::pair<const char*, std::vector<Tensor2> WindowProfile::*>;
 const WindowTensor kWindowTensors[] = {{"contact_stress", &WindowProfile::contact_stress},
                                        {"kinetic_stress", &WindowProfile::kinetic_stress},
+                                       {"rotational_stress", &WindowProfile::rotational_stress},
                                        {"stress", &WindowProfile::stress}};
 using RegionField = std::pair<const char*, double RegionValues::*>;
 const RegionField kRegionFields[] = {
     {"bulk_mu_eff", &RegionValues::bulk_mu_eff},
     {"bulk_solid_fraction", &RegionValues::bulk_solid_fraction},
     {"bulk_coordination", &RegionValues::bulk_coordination},
+    {"bulk_force_carrying_coordination", &RegionValues::bulk_force_carrying_coordination},
     {"bulk_shear_rate", &RegionValues::bulk_shear_rate},
     {"bulk_inertial_number", &RegionValues::bulk_inertial_number},
     {"bottom_mu_eff", &RegionValues::bottom_mu_eff},
     {"bottom_solid_fraction", &RegionValues::bottom_solid_fraction},
     {"bottom_coordination", &RegionValues::bottom_coordination},
+    {"bottom_force_carrying_coordination", &RegionValues::bottom_force_carrying_coordination},
     {"bottom_velocity_jump", &RegionValues::bottom_velocity_jump},
     {"bottom_inertial_number", &RegionValues::bottom_inertial_number},
     {"top_mu_eff", &RegionValues::top_mu_eff},
     {"top_solid_fraction", &RegionValues::top_solid_fraction},
     {"top_coordination", &RegionValues::top_coordination},
+    {"top_force_carrying_coordination", &RegionValues::top_force_carrying_coordination},
     {"top_velocity_jump", &RegionValues::top_velocity_jump},
     {"top_inertial_number", &RegionValues::top_inertial_number}};
 
@@ -397,7 +408,7 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
                     const std::vector<Contact>& contacts) {
   const MeasureOptions& o = m.options();
   attr_string(ctx, file, "format", "cdshear-run");
-  attr_int(ctx, file, "format_version", 1);
+  attr_int(ctx, file, "format_version", kRunDataFormatVersion);
   attr_string(ctx, file, "program_version", CDSHEAR_VERSION);
   attr_string(ctx, file, "case_toml", meta.case_toml);
   attr_int(ctx, file, "n", static_cast<std::int64_t>(meta.n));
@@ -417,6 +428,7 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
   attr_double(ctx, file, "stripe_thickness", o.stripe_thickness);
   attr_double(ctx, file, "boundary_thickness", o.boundary_thickness);
   attr_double(ctx, file, "force_threshold", o.force_threshold);
+  attr_double(ctx, file, "contact_gap", o.contact_gap);
   attr_double(ctx, file, "inertial_mass", kInertialMass);
   attr_double(ctx, file, "time", meta.time);
   attr_int(ctx, file, "step", static_cast<std::int64_t>(meta.step));
@@ -521,6 +533,16 @@ RunData read_run_data(const fs::path& path) {
   if (!file.valid()) ctx.fail("", "cannot open as HDF5 (truncated?)");
   if (read_attr_string(ctx, file, "format") != "cdshear-run")
     ctx.fail("format", "not a cdshear run data file");
+  if (const double version = read_attr_double(ctx, file, "format_version");
+      version != kRunDataFormatVersion)
+    ctx.fail("format_version",
+             fmt::format("format version {} where this cdshear reads {}: {}", version,
+                         kRunDataFormatVersion,
+                         version < kRunDataFormatVersion
+                             ? "written before the measurement of Z (closed contacts) and of the "
+                               "rotational stress; `cdshear analyze` still reads it, but a run "
+                               "cannot be resumed across the change (start a new run)"
+                             : "written by a newer cdshear"));
   RunData data;
   RunMetadata& meta = data.meta;
   meta.case_toml = read_attr_string(ctx, file, "case_toml");
@@ -542,6 +564,7 @@ RunData read_run_data(const fs::path& path) {
   o.stripe_thickness = read_attr_double(ctx, file, "stripe_thickness");
   o.boundary_thickness = read_attr_doubles(ctx, file, "boundary_thickness");
   o.force_threshold = read_attr_double(ctx, file, "force_threshold");
+  o.contact_gap = read_attr_double(ctx, file, "contact_gap");
 
   {
     Handle g = open_group(ctx, file, "series");

@@ -14,6 +14,12 @@
 
 namespace cdshear {
 
+/// run.h5's format_version. 2: Z counts closed contacts (measure.contact_gap) and the per-step
+/// count is force_carrying_coordination; the stress includes the rotational part; the series
+/// carry block_vx and closed. Version 1 files are read by the analysis (docs/run-data.md), not
+/// resumed.
+inline constexpr int kRunDataFormatVersion = 2;
+
 struct RunMetadata {
   std::string case_toml;  ///< the resolved case
   std::size_t n = 0;

@@ -37,6 +37,17 @@ double interpolate(const std::vector<double>& centres, const std::vector<double>
 
 }  // namespace
 
+double current_gap(const World& world, const Contact& contact) {
+  const Disks& d = world.disks;
+  const auto a = static_cast<std::size_t>(contact.key.body_a);
+  const auto b = static_cast<std::size_t>(contact.key.body_b);
+  if (b < d.size())
+    return length(world.domain.minimum_image(d.position[a] - d.position[b])) - d.radius[a] -
+           d.radius[b];
+  const Wall& wall = world.walls[b - d.size()];
+  return dot(d.position[a] - wall.point, wall.normal) - d.radius[a];
+}
+
 double force_carrying_threshold(const std::vector<Contact>& contacts, double relative) {
   double sum = 0.0;
   std::size_t count = 0;
@@ -85,7 +96,9 @@ void ShearMeasurement::reset_window(const World& world) {
   w.top_impulse_start = world.walls[kTop].contact_impulse;
   for (std::vector<double>* v :
        {&w.area, &w.velocity_area, &w.mass, &w.mass_vx, &w.mass_vy, &w.mass_vxx, &w.mass_vxy,
-        &w.mass_vyy, &w.coordination_area, &w.stress_xx, &w.stress_xy, &w.stress_yx, &w.stress_yy})
+        &w.mass_vyy, &w.material_vx, &w.material_vxx, &w.material_vxy, &w.material_vyy,
+        &w.coordination_area, &w.carrying_area, &w.stress_xx, &w.stress_xy, &w.stress_yx,
+        &w.stress_yy})
     v->assign(s, 0.0);
 }
 
@@ -131,39 +144,53 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   const double bottom_y = world.walls[kBottom].point.y;
   const double height = world.walls[kTop].point.y - bottom_y;
 
-  // Force-carrying contacts per grain, and which grains touch a wall.
+  // Closed and force-carrying contacts per grain, and which grains touch a wall (closed).
   const double threshold = force_carrying_threshold(contacts, options_.force_threshold);
   carrying_count_.assign(n, 0);
+  closed_count_.assign(n, 0);
   touches_.assign(n, 0);
-  std::uint64_t carrying = 0;
+  std::uint64_t carrying = 0, closed = 0;
   for (const Contact& c : contacts) {
-    if (!(c.impulse_n > threshold)) continue;
-    ++carrying;
     const auto a = static_cast<std::size_t>(c.key.body_a);
     const auto b = static_cast<std::size_t>(c.key.body_b);
-    ++carrying_count_[a];
-    if (b < n)
-      ++carrying_count_[b];
-    else
-      touches_[a] |= static_cast<signed char>(b - n == kBottom ? 1 : 2);
+    if (c.impulse_n > threshold) {
+      ++carrying;
+      ++carrying_count_[a];
+      if (b < n) ++carrying_count_[b];
+    }
+    if (current_gap(world, c) <= options_.contact_gap) {
+      ++closed;
+      ++closed_count_[a];
+      if (b < n)
+        ++closed_count_[b];
+      else
+        touches_[a] |= static_cast<signed char>(b - n == kBottom ? 1 : 2);
+    }
   }
 
   // Global series row.
   SeriesRow row;
   row.step = world.step;
   row.time = world.time;
-  double mass = 0.0, momentum_x = 0.0, area = 0.0;
+  double mass = 0.0, momentum_x = 0.0, area = 0.0, block_mass = 0.0, block_momentum_x = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     mass += d.mass[i];
     momentum_x += d.mass[i] * d.velocity[i].x;
     area += std::numbers::pi * d.radius[i] * d.radius[i];
+    const double y = d.position[i].y - bottom_y;
+    if (y > 0.25 * height && y < 0.75 * height) {
+      block_mass += d.mass[i];
+      block_momentum_x += d.mass[i] * d.velocity[i].x;
+    }
   }
   row.com_vx = mass > 0 ? momentum_x / mass : 0.0;
+  row.block_vx = block_mass > 0 ? block_momentum_x / block_mass : 0.0;
   row.height = height;
   row.solid_fraction = area / (length_x_ * height);
   row.kinetic_energy = kinetic_energy(world);
   row.contacts = contacts.size();
   row.force_carrying = carrying;
+  row.closed = closed;
   const double interval_time = world.time - state_.last_sample_time;
   row.bottom_force =
       mean_force(world.walls[kBottom].contact_impulse, state_.bottom_impulse_last, interval_time);
@@ -200,6 +227,7 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
           disk_in_stripe(yc, r, static_cast<double>(k) * dy, static_cast<double>(k + 1) * dy);
       if (part.area <= 0.0) continue;
       const double ms = density * part.area, share = part.area / grain_area;
+      const double rm1 = density * part.first_moment;
       w.area[s] += part.area;
       w.velocity_area[s] += v.x * part.area - w_i * part.first_moment;
       w.mass[s] += ms;
@@ -208,7 +236,13 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
       w.mass_vxx[s] += ms * v.x * v.x;
       w.mass_vxy[s] += ms * v.x * v.y;
       w.mass_vyy[s] += ms * v.y * v.y;
-      w.coordination_area[s] += part.area * carrying_count_[i];
+      w.material_vx[s] += ms * v.x - w_i * rm1;
+      w.material_vxx[s] +=
+          ms * v.x * v.x - 2.0 * v.x * w_i * rm1 + density * w_i * w_i * part.second_moment_y;
+      w.material_vxy[s] += ms * v.x * v.y - v.y * w_i * rm1;
+      w.material_vyy[s] += ms * v.y * v.y + density * w_i * w_i * part.second_moment_x;
+      w.coordination_area[s] += part.area * closed_count_[i];
+      w.carrying_area[s] += part.area * carrying_count_[i];
       w.stress_xx[s] -= share * m.xx;
       w.stress_xy[s] -= share * m.xy;
       w.stress_yx[s] -= share * m.yx;
@@ -251,28 +285,39 @@ void ShearMeasurement::close_window(const World& world) {
   p.vx.assign(s_count, kNaN);
   p.mu_eff.assign(s_count, kNaN);
   p.coordination.assign(s_count, kNaN);
+  p.force_carrying_coordination.assign(s_count, kNaN);
   p.shear_rate.assign(s_count, kNaN);
   p.inertial_number.assign(s_count, kNaN);
   p.contact_stress.resize(s_count);
   p.kinetic_stress.resize(s_count);
+  p.rotational_stress.resize(s_count);
   p.stress.resize(s_count);
   for (std::size_t k = 0; k < s_count; ++k) {
     p.solid_fraction[k] = w.area[k] / (cell * samples);
     if (w.area[k] <= 0.0) {
-      p.contact_stress[k] = p.kinetic_stress[k] = p.stress[k] = {kNaN, kNaN, kNaN, kNaN};
+      p.contact_stress[k] = p.kinetic_stress[k] = p.rotational_stress[k] = p.stress[k] = {
+          kNaN, kNaN, kNaN, kNaN};
       continue;
     }
     p.vx[k] = w.velocity_area[k] / w.area[k];
     p.coordination[k] = w.coordination_area[k] / w.area[k];
+    p.force_carrying_coordination[k] = w.carrying_area[k] / w.area[k];
     const Tensor2 c{w.stress_xx[k] / (cell * seconds), w.stress_xy[k] / (cell * seconds),
                     w.stress_yx[k] / (cell * seconds), w.stress_yy[k] / (cell * seconds)};
     const double mx = w.mass_vx[k], my = w.mass_vy[k], m = w.mass[k];
     const double kxy = (w.mass_vxy[k] - mx * my / m) / (cell * samples);
     const Tensor2 kin{(w.mass_vxx[k] - mx * mx / m) / (cell * samples), kxy, kxy,
                       (w.mass_vyy[k] - my * my / m) / (cell * samples)};
+    // The material velocity's moments about its own stripe mean, minus the centre velocity's.
+    const double ux = w.material_vx[k];
+    const double mxy = (w.material_vxy[k] - ux * my / m) / (cell * samples);
+    const Tensor2 rot{(w.material_vxx[k] - ux * ux / m) / (cell * samples) - kin.xx, mxy - kxy,
+                      mxy - kxy, (w.material_vyy[k] - my * my / m) / (cell * samples) - kin.yy};
     p.contact_stress[k] = c;
     p.kinetic_stress[k] = kin;
-    p.stress[k] = {c.xx + kin.xx, c.xy + kin.xy, c.yx + kin.yx, c.yy + kin.yy};
+    p.rotational_stress[k] = rot;
+    p.stress[k] = {c.xx + kin.xx + rot.xx, c.xy + kin.xy + rot.xy, c.yx + kin.yx + rot.yx,
+                   c.yy + kin.yy + rot.yy};
     if (p.stress[k].yy > 0) p.mu_eff[k] = std::abs(p.stress[k].xy) / p.stress[k].yy;
   }
   const double inertial_scale = std::sqrt(kInertialMass / context_.normal_stress);
@@ -309,7 +354,7 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   // a stripe cut by the top wall belongs to the top layer.
   const double dy = centres.size() > 1 ? centres[1] - centres[0] : 2.0 * centres[0];
   struct Sums {
-    double sxy = 0, syy = 0, nu = 0, nu_z = 0, inside = 0, count = 0;
+    double sxy = 0, syy = 0, nu = 0, nu_z = 0, nu_zc = 0, inside = 0, count = 0;
     double sy = 0, sv = 0, syy2 = 0, syv = 0;  // least squares of vx against y
   } bulk, bottom, top;
   for (std::size_t k = 0; k < centres.size(); ++k) {
@@ -321,6 +366,9 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
     s.syy += w.stress[k].yy;
     s.nu += w.solid_fraction[k];
     s.nu_z += w.solid_fraction[k] * w.coordination[k];
+    s.nu_zc += w.solid_fraction[k] * (k < w.force_carrying_coordination.size()
+                                          ? w.force_carrying_coordination[k]
+                                          : kNaN);
     s.inside += inside;
     s.count += 1;
     s.sy += y;
@@ -333,9 +381,11 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   };
   const auto nu = [](const Sums& s) { return s.inside > 0 ? s.nu / s.inside : kNaN; };
   const auto z = [](const Sums& s) { return s.nu > 0 ? s.nu_z / s.nu : kNaN; };
+  const auto zc = [](const Sums& s) { return s.nu > 0 ? s.nu_zc / s.nu : kNaN; };
   out.bulk_mu_eff = mu(bulk);
   out.bulk_solid_fraction = nu(bulk);
   out.bulk_coordination = z(bulk);
+  out.bulk_force_carrying_coordination = zc(bulk);
   const double det = bulk.count * bulk.syy2 - bulk.sy * bulk.sy;
   out.bulk_shear_rate =
       bulk.count >= 2 && det > 0 ? (bulk.count * bulk.syv - bulk.sy * bulk.sv) / det : kNaN;
@@ -343,11 +393,13 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   out.bottom_mu_eff = mu(bottom);
   out.bottom_solid_fraction = nu(bottom);
   out.bottom_coordination = z(bottom);
+  out.bottom_force_carrying_coordination = zc(bottom);
   out.bottom_velocity_jump = interpolate(centres, w.vx, h) + velocity;
   out.bottom_inertial_number = scale * out.bottom_velocity_jump / h;
   out.top_mu_eff = mu(top);
   out.top_solid_fraction = nu(top);
   out.top_coordination = z(top);
+  out.top_force_carrying_coordination = zc(top);
   out.top_velocity_jump = velocity - interpolate(centres, w.vx, H - h);
   out.top_inertial_number = scale * out.top_velocity_jump / h;
   return out;

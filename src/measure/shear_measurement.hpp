@@ -7,21 +7,38 @@
 // contact geometry of the step (normal, levers: start of step), so that the contact stress is
 // a time average over every step, not a sample of single spiky steps.
 // Every `sample_every` steps (a sample): one row of the global series, and each grain's share of
-// every stripe (exact circular-segment area S_ik and first moment, stripe_geometry.hpp) added to
-// the running window: area, velocity including rotation, mass-weighted velocity moments (for the
-// kinetic stress), coordination, and the grain's contact moment accumulated since the previous
-// sample, spread with weights S_ik / A_i. Stripes start at the bottom wall's current height.
-// Every `samples_per_window` samples the window closes into a WindowProfile (every window kept):
+// every stripe (exact circular-segment area S_ik, first moment M1_ik and second moments X2_ik,
+// Y2_ik about the centre, stripe_geometry.hpp) added to the running window: area, velocity
+// including rotation, mass-weighted moments of the centre velocity and of the material velocity
+// (for the kinetic stress), coordination, and the grain's contact moment accumulated since the
+// previous sample, spread with weights S_ik / A_i. Stripes start at the bottom wall's current
+// height. Every `samples_per_window` samples the window closes into a WindowProfile (every window
+// kept):
 //   solid fraction   nu_k = sum S_ik / (L_x dy N)                           (N samples)
-//   velocity         v_k  = sum (v_ix S_ik - w_i M1_ik) / sum S_ik          (M1: first moment)
+//   velocity         v_k  = sum (v_ix S_ik - w_i M1_ik) / sum S_ik
 //   contact stress   s_k  = sum_i (S_ik / A_i) (-M_i) / (L_x dy T)          (T window time)
 //   kinetic stress   k_k  = (sum m_ik v v - (sum m_ik v)(sum m_ik v) / sum m_ik) / (L_x dy N),
-//                    m_ik = rho_i S_ik: rho nu <dv (x) dv> about the window's stripe mean
-//   mu_eff = |s_xy| / s_yy of contact + kinetic; Z_k = sum S_ik z_i / sum S_ik;
+//                    m_ik = rho_i S_ik, v the centre velocity: rho nu <dv (x) dv> about the
+//                    window's stripe mean
+//   rotational part  r_k  = the same moments of the material velocity u = v + w x (p - c)
+//                    integrated exactly over each part, minus k_k: with u_x = v_x - w y',
+//                    u_y = v_y + w x', rho int u_x u_x = m v_x v_x - 2 rho v_x w M1 + rho w^2 Y2,
+//                    rho int u_x u_y = m v_x v_y - rho v_y w M1, rho int u_y u_y = m v_y v_y +
+//                    rho w^2 X2 (the odd moments in x' vanish); for a whole disk this adds
+//                    J w^2 / 2 to both normal components
+//   stress           s_k + k_k + r_k;  mu_eff = |stress_xy| / stress_yy
+//   Z_k = sum S_ik z_i / sum S_ik, z_i the grain's closed contacts (below);
 //   shear rate by central differences; I = |gamma_dot| sqrt(m / sigma_yy), m = pi/4.
-// Compression is positive: -M_i is positive in compression. Force-carrying contacts (for Z and for
-// the grains counted in the slip velocity) have R_n > force_threshold times the mean R_n of the
-// contacts with R_n > 0 at the sample step.
+// Compression is positive: -M_i is positive in compression.
+//
+// Coordination. A contact is closed at a sample when its gap, from the positions at the end of the
+// sample's step, is at most `contact_gap` (overlaps included); the coordination number Z counts
+// closed contacts, grain-grain and grain-wall, and the grains counted in the slip velocity are
+// those with a closed contact with the wall. This is a property of the configuration: it
+// converges as dt -> 0, whereas the contacts that carry an impulse at one sampled step grow with
+// dt (a rigid contact may carry an impulse in one step and none in the next). That per-step count
+// is kept, honestly named, as the force-carrying coordination: R_n > force_threshold times the
+// mean R_n of the contacts with R_n > 0 at the sample step.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +58,7 @@ struct MeasureOptions {
   double stripe_thickness = 1.0;                 ///< dy [d]
   std::vector<double> boundary_thickness{10.0};  ///< the h of the boundary layers [d]
   double force_threshold = 0.01;  ///< force-carrying: R_n > this * mean R_n (of R_n > 0)
+  double contact_gap = 1e-4;      ///< closed contact (Z, slip): gap <= this at the sample [d]
 };
 
 /// What the measurement needs to know beyond the state.
@@ -63,10 +81,12 @@ struct SeriesRow {
   std::uint64_t step = 0;
   double time = 0.0;
   double com_vx = 0.0;          ///< centre-of-mass x-velocity of the grains
+  double block_vx = 0.0;        ///< mass-weighted x-velocity of the grains of the central half,
+                                ///< H/4 < y - y_bottom < 3H/4 (the block, without the bands)
   double height = 0.0;          ///< L_y = y_top - y_bottom
   double solid_fraction = 0.0;  ///< disk area / (L_x L_y)
   double kinetic_energy = 0.0;
-  std::uint64_t contacts = 0, force_carrying = 0;
+  std::uint64_t contacts = 0, force_carrying = 0, closed = 0;  ///< candidates, carrying, closed
   Vec2 bottom_force, top_force;  ///< interval mean force of the grains on each wall (impulses)
   double bottom_mu = 0.0, top_mu = 0.0;  ///< interval |f_x| / |f_y|
   IntervalStats solver;
@@ -75,10 +95,12 @@ struct SeriesRow {
 /// Bulk and boundary-layer quantities of one window for one boundary thickness h (NaN: empty).
 struct RegionValues {
   double h = 0.0;
-  double bulk_mu_eff, bulk_solid_fraction, bulk_coordination, bulk_shear_rate, bulk_inertial_number;
-  double bottom_mu_eff, bottom_solid_fraction, bottom_coordination, bottom_velocity_jump,
-      bottom_inertial_number;
-  double top_mu_eff, top_solid_fraction, top_coordination, top_velocity_jump, top_inertial_number;
+  double bulk_mu_eff, bulk_solid_fraction, bulk_coordination, bulk_force_carrying_coordination,
+      bulk_shear_rate, bulk_inertial_number;
+  double bottom_mu_eff, bottom_solid_fraction, bottom_coordination,
+      bottom_force_carrying_coordination, bottom_velocity_jump, bottom_inertial_number;
+  double top_mu_eff, top_solid_fraction, top_coordination, top_force_carrying_coordination,
+      top_velocity_jump, top_inertial_number;
 };
 
 /// One completed averaging window. Profiles have one entry per stripe (NaN where empty).
@@ -86,8 +108,10 @@ struct WindowProfile {
   double t_start = 0.0, t_end = 0.0;
   std::uint64_t samples = 0;
   double height = 0.0, com_vx = 0.0;  ///< window means
-  std::vector<double> solid_fraction, vx, mu_eff, coordination, shear_rate, inertial_number;
-  std::vector<Tensor2> contact_stress, kinetic_stress, stress;
+  std::vector<double> solid_fraction, vx, mu_eff, coordination, force_carrying_coordination,
+      shear_rate, inertial_number;
+  /// stress = contact_stress + kinetic_stress (centre velocities) + rotational_stress
+  std::vector<Tensor2> contact_stress, kinetic_stress, rotational_stress, stress;
   Vec2 bottom_force, top_force;  ///< exact window means from the walls' impulses
   double wall_mu = 0.0;          ///< mean of |f_x| / |f_y| of the two walls
   double slip_bottom = 0.0, slip_top = 0.0;
@@ -108,7 +132,10 @@ struct WindowSums {
   std::vector<double> area;           ///< sum S_ik
   std::vector<double> velocity_area;  ///< sum (v_ix S_ik - w_i M1_ik)
   std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
-  std::vector<double> coordination_area;                                     ///< sum S_ik z_i
+  /// rho int u dS and rho int u u dS of the material velocity u (u_y's integral is mass_vy's)
+  std::vector<double> material_vx, material_vxx, material_vxy, material_vyy;
+  std::vector<double> coordination_area;     ///< sum S_ik z_i, closed contacts
+  std::vector<double> carrying_area;         ///< sum S_ik z_i, force-carrying contacts
   std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
 };
 
@@ -160,9 +187,14 @@ class ShearMeasurement {
   std::vector<SeriesRow> series_;
   std::vector<WindowProfile> windows_;
   std::vector<int> carrying_count_;    ///< scratch: force-carrying contacts per grain
+  std::vector<int> closed_count_;      ///< scratch: closed contacts per grain
   std::vector<signed char> touches_;   ///< scratch: bit 1 bottom wall, bit 2 top wall
   std::vector<std::uint32_t> loaded_;  ///< scratch: contacts carrying an impulse, this step
 };
+
+/// Gap of a candidate contact from the world's current positions (< 0: overlap) [length]: the
+/// nearest periodic image between two disks, the distance to the wall's line minus the radius.
+double current_gap(const World& world, const Contact& contact);
 
 /// Force threshold of a contact list: force_threshold times the mean R_n of contacts with R_n > 0.
 double force_carrying_threshold(const std::vector<Contact>& contacts, double relative);
