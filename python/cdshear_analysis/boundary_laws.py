@@ -1,11 +1,13 @@
 """The boundary-layer laws of SPEC 8 over a campaign, the influence of h on the bulk law, and the
 predictions that need the boundary law (V_AB, stability of the symmetric state).
 
-Points. One point per (steady run, boundary thickness h, wall) from the run's `hK_bottom_*` and
-`hK_top_*` columns (report.read_run), with I_boundary > 0. In regime C only the sheared layer
-counts: the wall whose velocity jump is the larger; the other layer moves with its wall and is
-not sheared (its I_boundary is noise about 0), so it is no point of a flow law. The two walls of
-an A or B run give two points (they share the run's shear stress).
+Points. One point per (steady run in regime A, B or C, boundary thickness h, wall) from the
+run's `hK_bottom_*` and `hK_top_*` columns (report.read_run), with I_boundary > 0. In regime C
+only the sheared layer counts: the wall whose velocity jump is the larger; the other layer moves
+with its wall and is not sheared (its I_boundary is noise about 0), so it is no point of a flow
+law. The two walls of an A or B run give two points (they share the run's shear stress). A run
+with any other regime label (undecided, intermittent, ...) or none gives no point: which of its
+layers is sheared, and how, is not known.
 
 Fits (fitting.py, weighted by the error bars; the seeds of one (system, V) give one point per
 h and layer, fitting.combine), fits.json `boundary`:
@@ -16,7 +18,11 @@ h and layer, fitting.combine), fits.json `boundary`:
   pooled over every h, key "all_h": mu_eff against I_b and against h I_b, for the layers of runs
     in regime B or C and, separately, in regime A (`mu_I_BC`, `mu_hI_BC`, `mu_I_A`, `mu_hI_A`),
     with `collapse`: per group the chi2/dof of the two fits; the variable with the smaller one
-    collapses the thicknesses (SPEC 8 expects h I for B and C, I for A). Needs two h at least.
+    collapses the thicknesses (SPEC 8 expects h I for B and C, I for A). Needs two h at least
+    and both fits fitted (whatever their status: the one that does not collapse is "poor").
+
+The predictions take the laws whose parameters are determined (fitting.usable: status "ok" or
+"poor"); an "undetermined" or skipped law gives a `reason` instead.
 
 Predictions, fits.json `predictions`:
   V_AB: in regime B the bulk is at rest, so each layer takes the whole jump dv = V and
@@ -75,13 +81,17 @@ def _ratio(a, ea, b, eb):
     return q, err
 
 
+LAYER_REGIMES = ("A", "B", "C")   # the regimes whose layers are points of the laws
+
+
 def layer_points(rows, h):
     """The boundary-layer points of thickness h (see the module's doc): dicts with run, system,
     V, regime, side, h, I, hI, mu, nu, Z, nu_ratio (each with _err), velocity_jump."""
     label = h_label(h)
     out = []
     for r in rows:
-        if r.get("steady") is not True or h not in r.get("_layers", []):
+        if r.get("steady") is not True or h not in r.get("_layers", []) \
+                or r.get("regime") not in LAYER_REGIMES:
             continue
         sides = ["bottom", "top"]
         if r.get("regime") == "C":
@@ -154,7 +164,7 @@ def fit_boundary(rows, bulk_fits):
              "note": None}
         if len(out["thicknesses"]) < 2:
             c["note"] = "one boundary thickness only: nothing to collapse"
-        elif fi["status"] != "ok" or fh["status"] != "ok":
+        elif not (fitting.fitted(fi) and fitting.fitted(fh)):
             c["note"] = "a fit was skipped"
         else:
             c["collapses_in"] = "h * I_boundary" if fh["chi2_dof"] < fi["chi2_dof"] \
@@ -176,8 +186,10 @@ def _interval(values):
 def _crossing(law, mu_0_fit, scale):
     """(estimate, 68% interval, fraction of draws with a crossing, reason) of
     x* / scale with law(x*) = mu_0 of the bulk."""
-    if law["status"] != "ok" or mu_0_fit is None or mu_0_fit["status"] != "ok":
-        return None, None, None, "a fit is missing (skipped)"
+    for name, f in (("the boundary law", law), ("the bulk law mu_power", mu_0_fit)):
+        if not fitting.usable(f):
+            return None, None, None, (f"{name} is {(f or {}).get('status', 'missing')}: "
+                                      f"{(f or {}).get('reason')}")
     mu_0 = mu_0_fit["parameters"]["mu_0"]["value"]
     x = fitting.solve_for_x(law, mu_0)
     if x is None:
@@ -198,9 +210,10 @@ def predict_v_ab(rows, bulk_fits, boundary):
     out = {"status": "ok", "reason": None, "method": (
         "bulk mu_0 (mu_power) = boundary law at h I_b* (B: dv = V, so V_AB = h I_b* / "
         "sqrt(m / sigma_yy)); 68% interval of parameter draws"), "systems": {}}
-    if mu_fit is None or mu_fit["status"] != "ok":
-        return {"status": "not available", "reason": "the bulk law mu_power (mu_0) was skipped",
-                "systems": {}}
+    if not fitting.usable(mu_fit):
+        return {"status": "not available", "reason": (
+            f"the bulk law mu_power (mu_0) is {(mu_fit or {}).get('status', 'missing')}: "
+            f"{(mu_fit or {}).get('reason')}"), "systems": {}}
     for system in sorted({r["system"] for r in rows if r.get("system") is not None}):
         sigmas = {r.get("_sigma_yy") for r in rows if r["system"] == system} - {None}
         if len(sigmas) != 1:
@@ -267,9 +280,9 @@ def predict_delta_mu(row, boundary):
     out = {"law": "mu_hI_BC: " + law["law"], "law_note": law.get("note"), "status": "ok",
            "reason": None, "by_h": {}}
     sigma = row.get("_sigma_yy")
-    if law["status"] != "ok":
+    if not fitting.usable(law):
         return dict(out, status="not available",
-                    reason=f"the boundary law mu_hI_BC was skipped: {law['reason']}")
+                    reason=f"the boundary law mu_hI_BC is {law['status']}: {law['reason']}")
     if sigma is None or sigma <= 0:
         return dict(out, status="not available", reason="no positive sigma_yy (normal_stress)")
     scale = math.sqrt(INERTIAL_MASS / sigma)

@@ -5,7 +5,11 @@ boundary laws (boundary_mu_I, boundary_mu_hI, boundary_nu_I, boundary_nu_ratio, 
 and the bulk law for each h (bulk_mu_by_h); switch time / V against L_y (switch_time); and per
 system the steady velocity and mu_eff profiles of every V (profiles_sK). Every point has its
 error bars (standard errors of `analyze`); open markers are runs that are not steady, crosses
-steady runs outside the regimes a law is fitted to (regime B and C runs on the bulk laws).
+steady runs outside the regimes a law is fitted to (regime B and C runs on the bulk laws). Every
+fitted law is drawn (fitting.fitted), its legend saying its status when that is not "ok"
+("poor", "undetermined"); a skipped law is not drawn. In the regime diagram a run whose regime is
+none of A, B, C (undecided, intermittent, ...) is a grey diamond labelled with its regime, a run
+without a regime a grey cross.
 """
 import os
 
@@ -13,6 +17,7 @@ import numpy as np
 
 from . import fitting
 from .boundary_laws import h_label, layer_points
+from .regime import SWITCH_FRACTION
 
 FIGURES = [
     ("mu_eff_I.png", "mu_eff (bulk) against I_bulk", "I_bulk", "mu_eff_bulk",
@@ -75,7 +80,7 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
                 plotted = True
     for j, fname in enumerate(fit_names):
         f = fits.get(fname)
-        if f is None or f["status"] != "ok":
+        if not fitting.fitted(f):
             continue
         _curve(ax, f, _fitted_x(rows, f, xcol) or xs_all, "-" if j == 0 else "--",
                f"{fname}: {f['law']}")
@@ -95,7 +100,7 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
 
 
 REGIME_MARKERS = {"A": ("o", "tab:red"), "B": ("s", "tab:blue"), "C": ("^", "tab:green"),
-                  None: ("x", "0.4")}
+                  "other": ("D", "0.55"), None: ("x", "0.4")}
 
 
 def _plot_regimes(path, rows, transitions):
@@ -107,6 +112,7 @@ def _plot_regimes(path, rows, transitions):
     systems = sorted({r["system"] for r in rows if r["system"] is not None})
     fig, ax = plt.subplots(figsize=(6.0, 1.2 + 0.6 * max(1, len(systems))))
     seen = set()
+    others = set()   # the regime labels other than A, B, C
     vs = []
     for i, system in enumerate(systems):
         sel = [r for r in rows if r["system"] == system and r["V"] is not None and r["V"] > 0]
@@ -114,7 +120,10 @@ def _plot_regimes(path, rows, transitions):
         for r in sel:
             k = seeds.index(r["seed"]) if r["seed"] in seeds else 0
             y = i + 0.12 * (k - (len(seeds) - 1) / 2)
-            g = r["regime"] if r["regime"] in REGIME_MARKERS else None
+            g = r.get("regime")
+            if g is not None and g not in ("A", "B", "C"):
+                others.add(str(g))
+                g = "other"
             marker, colour = REGIME_MARKERS[g]
             seen.add(g)
             ax.plot([r["V"]], [y], marker, color=colour, ms=7,
@@ -134,16 +143,18 @@ def _plot_regimes(path, rows, transitions):
         ax.set_xscale("log")
         ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
         _label_log_axis(ax)
+        names = {None: "no regime", "other": "regime " + ", ".join(sorted(others))}
         handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
-                           label=f"regime {g or 'undetermined'}")[0]
-                   for g in ("A", "B", "C", None) if g in seen]
+                           label=names.get(g, f"regime {g}"))[0]
+                   for g in ("A", "B", "C", "other", None) if g in seen]
         ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     else:
         ax.text(0.5, 0.5, "no runs", ha="center", va="center", transform=ax.transAxes)
     ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
     ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
     ax.set_xlabel(AXIS_LABELS["V"])
-    ax.set_title("regime diagram (open: not steady; bars: V_AB above, V_BC below)", fontsize=8)
+    ax.set_title("regime diagram (open: not steady; open and grey markers do not vote; bars: "
+                 "V_AB above, V_BC below)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -187,10 +198,13 @@ def _fitted_x(rows, fit, xcol):
 
 
 def _curve(ax, fit, xs, style, label):
-    """The fit's curve over the points' x range (inside its own range), if it was fitted."""
+    """The fit's curve over the points' x range (inside its own range), if it was fitted; the
+    label says the status when it is not "ok"."""
     xs = [x for x in xs if x > 0]
-    if fit is None or fit["status"] != "ok" or not xs:
+    if not fitting.fitted(fit) or not xs:
         return
+    if fit["status"] != "ok":
+        label += f" [{fit['status']}]"
     lo, hi = fit["range"] if fit["range"] else (min(xs), max(xs))
     grid = np.geomspace(max(lo, min(xs)), min(hi, max(xs)), 200)
     ax.plot(grid, fitting.curve(fit, grid), style, color="k", lw=1, label=label)
@@ -198,7 +212,7 @@ def _curve(ax, fit, xs, style, label):
 
 def _mu_0_line(ax, fits):
     f = fits.get("mu_power")
-    if f and f["status"] == "ok":
+    if fitting.usable(f):
         mu_0 = f["parameters"]["mu_0"]["value"]
         ax.axhline(mu_0, color="0.5", lw=0.8, ls=":", label=f"bulk mu_0 = {mu_0:.3g}")
 
@@ -284,9 +298,10 @@ def bulk_by_h_figure(path, rows, boundary):
 
 
 def switch_time_figure(path, switch_predictions):
-    """Regime C: switch time / V against L_y. Measured: the switch duration (com_vx from +-0.5 V
-    to -+0.5 V) / (0.5 V), comparable to the predicted T / V = 2 rho nu L_y / (delta_mu
-    sigma_yy), and the mean interval between switches / V."""
+    """Regime C: switch time / V against L_y. Measured: the switch duration (plateau to plateau,
+    the block from +-0.8 V to -+0.8 V: regime.SWITCH_FRACTION of T) / (SWITCH_FRACTION V),
+    comparable to the predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), and the mean
+    interval between switches / V."""
     plt, fig, ax = _figure()
     xs = []
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -295,7 +310,8 @@ def switch_time_figure(path, switch_predictions):
         c = colours[i % len(colours)]
         sel = [e for e in switch_predictions if e["system"] == system and e["L_y"]]
         for key, marker, label, scale in (
-                ("switch_duration", "o", "switch duration / (0.5 V)", 0.5),
+                ("switch_duration", "o", f"switch duration / ({SWITCH_FRACTION:g} V)",
+                 SWITCH_FRACTION),
                 ("predicted_T", "x", "predicted T / V", 1.0),
                 ("mean_interval", "s", "mean interval / V", 1.0)):
             pts = [(e["L_y"], e[key] / (scale * e["V"])) for e in sel if e.get(key)]

@@ -11,13 +11,28 @@ it); a fit with fewer points than parameters + 1 is skipped with its reason. Sev
 points are tried and the smallest chi2 kept, so a power law is found whether its exponent is
 below or above 1.
 
+Every fit has a status (`STATUSES`, rules in `assess`) and a `reason` that names the numbers:
+  "ok"            the parameters are determined and the points agree with the law within
+                  their error bars;
+  "poor"          the parameters are determined but the points scatter far more than their
+                  error bars: the chi2 tail probability P(chi2 >= observed | dof) is below
+                  P_POOR (the form does not describe the points, or their error bars are too
+                  small; err_scaled is the honest error then);
+  "undetermined"  the points do not constrain the form: a parameter's error (err_scaled) is
+                  larger than its value's magnitude, the covariance is infinite or NaN, or a
+                  parameter ends on a bound of its range (an exponent at 0.001 or 10);
+  "skipped"       not fitted: too few points, fewer distinct x than parameters, no convergence.
+Curves are drawn for every fitted law (`fitted`); predictions take the laws whose parameters are
+determined, "ok" and "poor" (`usable`; a poor law's draws with its covariance scaled by
+chi2/dof, `parameter_samples`).
+
 The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
-range, status ("ok" | "skipped"), reason, n_points (after combining), points_without_error,
-runs (every run of the points), n_runs, combined (the points made of 2+ runs), x_span,
-parameters ({name: {value, err, err_scaled}}), covariance (rows and columns in the order of
-parameters), chi2, dof, chi2_dof, note (a parameter at the bound of its range, e.g. an exponent
-at 0.001: the points do not follow the form). err_scaled multiplies err by sqrt(chi2/dof) when
-that exceeds 1 (the scatter is larger than the error bars say).
+range, status, reason, n_points (after combining), points_without_error, runs (every run of the
+points), n_runs, combined (the points made of 2+ runs), x_span, parameters ({name: {value, err,
+err_scaled}}), covariance (rows and columns in the order of parameters), chi2, dof, chi2_dof,
+chi2_p (the chi2 tail probability), note (a parameter at the bound of its range, e.g. an
+exponent at 0.001: the points do not follow the form). err_scaled multiplies err by
+sqrt(chi2/dof) when that exceeds 1 (the scatter is larger than the error bars say).
 """
 import math
 import warnings
@@ -68,6 +83,19 @@ def p0_linear(x, y, sign):
 
 
 EXPONENT_BOUNDS = ([-np.inf, -np.inf, 1e-3], [np.inf, np.inf, 10.0])
+
+STATUSES = ("ok", "poor", "undetermined", "skipped")
+FITTED = ("ok", "poor", "undetermined")   # fitted: parameters and a curve
+USABLE = ("ok", "poor")                   # parameters determined: predictions take these
+# A fit is "poor" when its chi2 tail probability is below P_POOR. With error bars that are
+# right and a law that describes the points, chi2 follows the chi2 law with dof degrees of
+# freedom, so a correct fit is called poor once in 1000: the threshold adapts to dof, unlike a
+# fixed chi2/dof (chi2/dof > 3 happens by chance in 5% of fits with 2 dof, while 1.8 is already
+# far off with 50 dof; the threshold is chi2/dof = 6.9 with 2 dof, 3.0 with 10, 1.73 with 50).
+# The runs' error bars are themselves estimates (they scatter by 14 to 20% between seeds,
+# docs/accuracy.md): error bars 20% too small (chi2/dof 1.56 on average) make a correct fit
+# poor in 4% of fits with 10 dof; poor means far more scatter than that.
+P_POOR = 1e-3
 
 # The model families: formula (with X and Y for the variables), model, parameter names,
 # starting points, bounds
@@ -180,7 +208,8 @@ def fit(spec, points):
            "combined": [p[4] for p in kept if p[4] is not None],
            "x_span": [min(p[0] for p in kept), max(p[0] for p in kept)] if kept else None,
            "parameters": None,
-           "covariance": None, "chi2": None, "dof": None, "chi2_dof": None, "note": None}
+           "covariance": None, "chi2": None, "dof": None, "chi2_dof": None,
+           "chi2_p": None, "note": None}
     if len(kept) < k + 1:
         where = (f" with {spec['range'][0]:g} < {spec['x']} < {spec['range'][1]:g}"
                  if spec["range"] else "")
@@ -212,27 +241,87 @@ def fit(spec, points):
     if best is None:
         out["reason"] = f"no convergence: {last}"
         return out
+    # (a covariance that is infinite or NaN, a parameter on its bound, errors larger than the
+    # values: "undetermined", see assess)
     p, cov, chi2 = best
     dof = len(kept) - k
-    if not np.all(np.isfinite(cov)):
-        # degenerate points (for example every run at the same x): no parameter errors, no fit
-        out["reason"] = "covariance not estimable: the points do not determine the parameters"
-        return out
-    errs = np.sqrt(np.diag(cov))
+    cov = np.asarray(cov, float)
+    finite_cov = bool(np.all(np.isfinite(cov)))
     scale = math.sqrt(max(1.0, chi2 / dof))
+    errs = [finite(math.sqrt(c)) if math.isfinite(c) and c >= 0 else None
+            for c in np.diag(cov)]
     lo, hi = family["bounds"]
-    at_bound = [pn for k_, pn in enumerate(spec["params"])
+    at_bound = [(pn, float(p[k_]), lo[k_], hi[k_]) for k_, pn in enumerate(spec["params"])
                 if np.ndim(lo) and (np.isclose(p[k_], lo[k_]) or np.isclose(p[k_], hi[k_]))]
     if at_bound:
         # e.g. an exponent pushed to 0.001: the points follow another form (a logarithm), and
         # the other parameters then trade off without bound (huge errors)
-        out["note"] = (f"{', '.join(at_bound)} at the bound of its range: the points do not "
-                       "follow this form; read the parameters with care")
-    out.update(status="ok", chi2=chi2, dof=dof, chi2_dof=chi2 / dof,
-               covariance=[[float(c) for c in row] for row in cov], parameters={
-                   pn: {"value": float(v), "err": finite(se), "err_scaled": finite(se * scale)}
-                   for pn, v, se in zip(spec["params"], p, errs)})
+        out["note"] = (f"{', '.join(b[0] for b in at_bound)} at the bound of its range: the "
+                       "points do not follow this form; read the parameters with care")
+    parameters = {pn: {"value": float(v), "err": se,
+                       "err_scaled": finite(se * scale) if se is not None else None}
+                  for pn, v, se in zip(spec["params"], p, errs)}
+    status, reason, chi2_p = assess(parameters, finite_cov, at_bound, chi2, dof)
+    out.update(status=status, reason=reason, chi2=chi2, dof=dof, chi2_dof=chi2 / dof,
+               chi2_p=chi2_p, parameters=parameters,
+               covariance=[[finite(c) for c in row] for row in cov])
     return out
+
+
+def _g(v):
+    return f"{v:.3g}"
+
+
+def assess(parameters, finite_cov, at_bound, chi2, dof):
+    """(status, reason, chi2_p) of a fitted law (the module's doc): "undetermined" when the
+    covariance is not finite, a parameter sits on a bound of its range (at_bound: (name, value,
+    low, high)) or a parameter's error (err_scaled) exceeds its value's magnitude; else "poor"
+    when P(chi2 >= observed | dof) < P_POOR; else "ok". The reason names the numbers."""
+    from scipy.stats import chi2 as chi2_law
+    chi2_p = float(chi2_law.sf(chi2, dof))
+    chi_text = f"chi2/dof = {_g(chi2 / dof)} with {dof} dof, P(chi2 >= {_g(chi2)}) = {chi2_p:.2g}"
+    loose = []
+    if not finite_cov:
+        loose.append("covariance infinite or NaN")
+    for name, value, low, high in at_bound:
+        loose.append(f"{name} = {_g(value)} on the bound of its range [{_g(low)}, {_g(high)}]")
+    if finite_cov and any(v["err_scaled"] is None for v in parameters.values()):
+        loose.append("a parameter without an error (negative variance)")
+    wide = [f"{name} = {_g(v['value'])} ± {_g(v['err_scaled'])}"
+            for name, v in parameters.items()
+            if finite_cov and v["err_scaled"] is not None and v["err_scaled"] > abs(v["value"])]
+    if wide:
+        loose.append(", ".join(wide) + (" (errors larger than the values)" if len(wide) > 1
+                                        else " (error larger than the value)"))
+    poor = chi2_p < P_POOR
+    if loose:
+        reason = "the points do not constrain the form: " + "; ".join(loose)
+        if poor:
+            reason += f"; also {chi_text} < {P_POOR:g}"
+        return "undetermined", reason, chi2_p
+    if poor:
+        return "poor", (f"{chi_text} < {P_POOR:g}: the points scatter far more than their "
+                        "error bars (read err_scaled)"), chi2_p
+    return "ok", f"{chi_text}; every parameter's error below its value", chi2_p
+
+
+def fitted(result):
+    """True for a fit with parameters (status ok, poor or undetermined): it has a curve."""
+    return bool(result) and result.get("status") in FITTED and bool(result.get("parameters"))
+
+
+def usable(result):
+    """True for a fit whose parameters the points determine (status ok or poor): the ones the
+    predictions take."""
+    return bool(result) and result.get("status") in USABLE and bool(result.get("parameters"))
+
+
+def status_text(result):
+    """"status: reason" of a fit, for the printed and HTML reports."""
+    if not result:
+        return "not fitted"
+    return f"{result.get('status')}: {result.get('reason')}" if result.get("reason") \
+        else str(result.get("status"))
 
 
 def fit_columns(spec, rows, x=None, y=None):
@@ -249,8 +338,8 @@ def fit_columns(spec, rows, x=None, y=None):
 
 
 def curve(result, x):
-    """A fit's curve at x (None when the fit was skipped)."""
-    if result is None or result["status"] != "ok":
+    """A fit's curve at x (None when it was skipped: `fitted`)."""
+    if not fitted(result):
         return None
     return MODELS[result["model"]]["model"](
         np.asarray(x, float), *[v["value"] for v in result["parameters"].values()])
@@ -267,10 +356,14 @@ def slope(result, x):
 
 def parameter_samples(result, count, rng):
     """count parameter vectors drawn from the fit's Gaussian (value, covariance), for
-    propagating its uncertainty into a derived quantity; shape (count, k)."""
+    propagating its uncertainty into a derived quantity; shape (count, k). The covariance of a
+    "poor" fit is multiplied by chi2/dof (its error bars are too small for its scatter: the
+    err_scaled of each parameter)."""
     mean = np.array([v["value"] for v in result["parameters"].values()])
-    return rng.multivariate_normal(mean, np.array(result["covariance"]), size=count,
-                                   check_valid="ignore")
+    cov = np.array(result["covariance"], float)
+    if result.get("status") == "poor" and (result.get("chi2_dof") or 0) > 1:
+        cov = cov * result["chi2_dof"]
+    return rng.multivariate_normal(mean, cov, size=count, check_valid="ignore")
 
 
 def solve_for_x(result, target, params=None):

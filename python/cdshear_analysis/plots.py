@@ -2,7 +2,7 @@
 
 snapshot.png              disks (coloured by v_x / V) and force chains (width ~ normal force)
 velocity_profiles.png     v_x / V against y for several windows, coloured by strain
-com_velocity.png          com_vx / V against strain, with its histogram (averaged part)
+com_velocity.png          com_vx / V (and block_vx / V) against strain, com_vx's histogram
 height_solid_fraction.png L_y and global solid fraction against strain, transient end marked
 steady_profiles.png       mu_eff, nu, I, Z profiles averaged over the steady windows
 Strain is 2 V t / L_y with the nominal L_y; lengths in d (largest diameter).
@@ -43,7 +43,9 @@ def _regime_text(summary):
     regime, confidence = summary["regime"], summary["regime_confidence"]
     if regime is None:
         return "regime undetermined"
-    return f"regime {regime} (confidence {confidence:.2f})"
+    if confidence is None or not np.isfinite(confidence):
+        return f"regime {regime}"
+    return f"regime {regime} ({confidence:.0%} of the windows agree)"
 
 
 class SkipFigure(Exception):
@@ -170,7 +172,11 @@ def com_velocity(run, summary):
     fig, (ax, side) = plt.subplots(1, 2, figsize=(9, 4), sharey=True,
                                    gridspec_kw=dict(width_ratios=[4, 1], wspace=0.05))
     ax.plot(*_envelope(np.asarray(s["time"]) * strain, np.asarray(s["com_vx"]) / V), lw=0.5,
-            color="tab:blue")
+            color="tab:blue", label="centre of mass")
+    if "block_vx" in s:     # the block (central half) the regime classifier reads
+        ax.plot(*_envelope(np.asarray(s["time"]) * strain, np.asarray(s["block_vx"]) / V),
+                lw=0.5, color="tab:orange", alpha=0.8, label="block (central half)")
+        ax.legend(loc="upper right", fontsize=7)
     for level in (-0.5, 0.5):
         ax.axhline(level, color="0.5", ls=":", lw=0.8)
     _mark_transient(ax, summary)

@@ -1,85 +1,129 @@
-"""Flow regime A/B/C (SPEC 8), centre-of-mass statistics and shear-band switches.
+"""Flow regimes A, B, C (SPEC 8) by positive criteria, per window and per run; the block
+velocity's statistics; shear-band switches.
 
-Criteria, with r = bulk shear rate / (2 V / L_y) (bulk: see summary.choose_bulk_range) and
-f = fraction of samples with |com_vx| > COM_LEVEL * V:
-  A  if r > SHEAR_RATIO_A                    (the bulk is sheared);
-  C  else if f > COM_FRACTION_C              (the bulk moves with one wall most of the time);
-  B  otherwise                               (still bulk, com_vx fluctuating about 0).
-Confidence in [0, 1] = 0.5 * margin + 0.5 * agreement. margin is how far the deciding
-statistics sit from their thresholds, each scaled to [0, 1]: |r - 0.3| / 0.3, (f - 0.6) / 0.4
-for C, (0.6 - f) / 0.6 for B (the smaller of the two for B and C); agreement is the fraction
-of steady windows classified the same way from their own r and f.
+Block velocity u, the velocity of the bulk between the boundary layers:
+  per sample, the series `block_vx` (mass-weighted x-velocity of the grains whose centre lies in
+  the central half H/4 < y < 3H/4) when the file has it, else `com_vx` (the whole layer: its
+  plateaus in regime C sit below V by the share of the sheared layer); `block_velocity_source`
+  says which;
+  per window, the mean of v_x(y) over the bulk stripes lo < y < hi of the window's profile (the
+  bulk of summary.choose_bulk_range).
 
-Band switches: state +1 while com_vx > COM_LEVEL V (bulk with the top wall, band at the bottom),
--1 while com_vx < -COM_LEVEL V, 0 in between; a switch is a change between +1 and -1, the
-excursions through 0 being part of it: start = first sample after the last one in the old
-state, end = first sample in the new state.
+Window state (each averaged window, from its own profile and its own samples, t0 < t <= t1), with
+r = bulk shear rate / (2 V / H), R^2 of the straight line fitted to v_x(y) over the bulk, and the
+layers' velocity jumps dv_bottom = v_x(lo) + V, dv_top = V - v_x(hi):
+  A   r > SHEAR_RATIO_A and R^2 >= LINEARITY_A (the bulk is sheared, homogeneously);
+  B   r <= SHEAR_RATIO_BLOCK, each layer carries about V (|dv - V| <= JUMP_TOLERANCE V), and
+      |u| <= COM_LEVEL V in at least WINDOW_SAMPLE_SHARE of the samples;
+  C+  r <= SHEAR_RATIO_BLOCK, the bottom layer carries about 2V and the top one about 0 (each
+      within JUMP_TOLERANCE V), u > COM_LEVEL V in at least WINDOW_SAMPLE_SHARE of the samples:
+      the block moves with the top wall, the band is at the bottom (band_wall "bottom");
+  C-  the mirror image (u < -COM_LEVEL V; band_wall "top");
+  undecided otherwise (the window's reason says which criterion failed).
+
+Run regime, from the window states' shares of the averaged time and the averaged samples of u:
+  undecided  fewer than MIN_WINDOWS averaged windows (too short to tell);
+  A          A windows >= DOMINANT_SHARE;
+  B          B windows >= DOMINANT_SHARE, |u| <= COM_LEVEL V in >= SAMPLE_SHARE of the samples,
+             one peak about 0 (histogram mode within COM_LEVEL V of 0, Sarle's bimodality
+             coefficient < BIMODALITY_LEVEL);
+  C          C+ and C- windows >= DOMINANT_SHARE, |u| > COM_LEVEL V in >= SAMPLE_SHARE of the
+             samples, and (if the band switches) the mean time on a plateau at least DWELL_RATIO
+             switch durations;
+  intermittent  windows in a positive state >= DOMINANT_SHARE, at least two of A, B, C with
+             >= INTERMITTENT_SHARE each, the states told apart: at most GAP_SHARE of the samples
+             in the gap GAP_LEVELS between rest and wall;
+  undecided  otherwise, e.g. a block velocity that wanders between rest and the walls, or states
+             switching faster than they can be told apart.
+regime_confidence: the share of the averaged window time whose own state agrees with the run's
+regime (A, B: that state; C: C+ and C-; intermittent: any positive state); NaN when undecided.
+
+Band switches: the block velocity is on the + plateau when |u - P+| <= PLATEAU_LEVEL V, on the -
+plateau likewise (P+- = +-V from block_vx; from com_vx, the median of that side's samples beyond
++-COM_LEVEL V, when it lies beyond +-GAP_LEVELS[1] V). A switch is a change from one plateau to
+the other (excursions that return to the old plateau are none): start = the last sample on the
+old plateau, end = the first sample on the new one, so a switch from +V to -V spans the change
+from (1 - PLATEAU_LEVEL) V to the opposite, the fraction SWITCH_FRACTION of SPEC 8's time T; a
+change that rests at 0 (B) on the way is one switch lasting through the rest (intermittent
+runs). delta_mu is taken over the stretch of the old plateau before the switch, while the block
+still moves at its plateau velocity: the stretch ends at the last sample before the start with u
+at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back, or to the
+previous switch's end if that is nearer (summary.switch_friction_difference).
 """
 import numpy as np
 
-SHEAR_RATIO_A = 0.3     # r above this: regime A
-COM_LEVEL = 0.5         # |com_vx| > COM_LEVEL * V: the bulk moves with a wall
-COM_FRACTION_C = 0.6    # f above this (and not A): regime C
-VISIT_LEVEL = 0.9       # switches are also listed outside C if com_vx passes both +-0.9 V
-HISTOGRAM_RANGE = 1.2   # com_vx histogram over [-1.2 V, 1.2 V] ...
-HISTOGRAM_BINS = 24     # ... in bins of 0.1 V (values outside fall in the end bins)
+SHEAR_RATIO_A = 0.3       # window A: r above this (the bulk takes 30% of the mean shear rate) ...
+LINEARITY_A = 0.8         # ... and R^2 of the line through v_x(y) over the bulk at least this
+SHEAR_RATIO_BLOCK = 0.2   # window B or C: r at most this (a block); between 0.2 and 0.3: neither
+JUMP_TOLERANCE = 0.5      # a layer carries "V" if |dv - V| <= 0.5 V; "2V", "0" alike
+COM_LEVEL = 0.5           # per sample: |u| <= 0.5 V the block rests, beyond it moves with a wall
+WINDOW_SAMPLE_SHARE = 0.8  # a B or C window: at least 80% of its samples on its state's side
+MIN_WINDOWS = 3           # fewer averaged windows (240 t at the default window): too short to tell
+DOMINANT_SHARE = 0.7      # run A, B, C: windows in that state over at least 70% of the time
+SAMPLE_SHARE = 0.8        # run B, C: at least 80% of the averaged samples on that state's side
+BIMODALITY_LEVEL = 5 / 9  # run B: Sarle's coefficient of u below this (one peak)
+INTERMITTENT_SHARE = 0.2  # run intermittent: two regimes with at least 20% of the time each
+GAP_LEVELS = (0.3, 0.7)   # the gap between rest and wall: 0.3 V < |u| < 0.7 V ...
+GAP_SHARE = 0.2           # ... holding at most 20% of the samples: the states are told apart
+DWELL_RATIO = 5.0         # C: mean time on a plateau at least 5 switch durations
+PLATEAU_LEVEL = 0.2       # on a plateau: |u - plateau velocity| <= 0.2 V
+SWITCH_FRACTION = 1 - PLATEAU_LEVEL  # share of SPEC 8's T (from +V to -V) a switch's duration spans
+PRE_SWITCH_TIME = 80.0    # delta_mu over this long a stretch of the old plateau before a switch
+VISIT_LEVEL = 0.9         # com_vx visits both walls: beyond +0.9 V and below -0.9 V
+HISTOGRAM_RANGE = 1.2     # histograms over [-1.2 V, 1.2 V] ...
+HISTOGRAM_BINS = 24       # ... in bins of 0.1 V (values outside fall in the end bins)
+
+STATES = ("A", "B", "C+", "C-", "undecided")
+REGIMES = ("A", "B", "C", "intermittent", "undecided")
+BAND_WALL = {"C+": "bottom", "C-": "top"}   # the wall whose layer is sheared in each C state
 
 
-def classify(r, f):
-    """Regime letter from the shear-rate ratio r and the com fraction f."""
-    if r > SHEAR_RATIO_A:
-        return "A"
-    return "C" if f > COM_FRACTION_C else "B"
+# ---------------------------------------------------------------------------------------------
+# Block velocity per sample
+
+def block_velocity(series):
+    """(u, source): the series block_vx when present with finite values, else com_vx."""
+    b = series.get("block_vx")
+    if b is not None and len(b) == len(series["time"]) and np.isfinite(b).any():
+        return np.asarray(b, dtype=float), "block_vx"
+    return np.asarray(series["com_vx"], dtype=float), "com_vx"
 
 
-def com_fraction(com_vx, velocity):
-    """Fraction of finite samples with |com_vx| > COM_LEVEL * V (NaN without samples)."""
-    com = np.asarray(com_vx, dtype=float)
-    com = com[np.isfinite(com)]
-    return float(np.mean(np.abs(com) > COM_LEVEL * velocity)) if len(com) else np.nan
+def com_fraction(u, velocity):
+    """Fraction of finite samples with |u| > COM_LEVEL * V (NaN without samples)."""
+    u = np.asarray(u, dtype=float)
+    u = u[np.isfinite(u)]
+    return float(np.mean(np.abs(u) > COM_LEVEL * velocity)) if len(u) else np.nan
 
 
-def margin(regime, r, f):
-    """How clearly (r, f) sits on its side of the thresholds, in [0, 1]."""
-    m_r = abs(r - SHEAR_RATIO_A) / SHEAR_RATIO_A
-    if regime == "A":
-        m = m_r
-    elif regime == "C":
-        m = min(m_r, (f - COM_FRACTION_C) / (1 - COM_FRACTION_C))
-    else:
-        m = min(m_r, (COM_FRACTION_C - f) / COM_FRACTION_C)
-    return float(np.clip(m, 0.0, 1.0)) if np.isfinite(m) else 0.0
+def sample_shares(u, velocity):
+    """Shares of the finite samples: rest |u| <= COM_LEVEL V, plus u > COM_LEVEL V, minus
+    u < -COM_LEVEL V, gap GAP_LEVELS[0] V < |u| < GAP_LEVELS[1] V (NaN without samples)."""
+    u = np.asarray(u, dtype=float)
+    u = u[np.isfinite(u)]
+    if not len(u):
+        return dict(rest=np.nan, plus=np.nan, minus=np.nan, gap=np.nan)
+    a, level = np.abs(u), COM_LEVEL * velocity
+    return dict(rest=float(np.mean(a <= level)), plus=float(np.mean(u > level)),
+                minus=float(np.mean(u < -level)),
+                gap=float(np.mean((a > GAP_LEVELS[0] * velocity) & (a < GAP_LEVELS[1] * velocity))))
 
 
-def criterion_text(regime, r, f):
-    """Why (r, f) gives `regime`, e.g. "A: r = 0.85 > 0.3"."""
-    if regime == "A":
-        return f"A: r = {r:.3g} > {SHEAR_RATIO_A:g}"
-    side = ">" if regime == "C" else "<="
-    return (f"{regime}: r = {r:.3g} <= {SHEAR_RATIO_A:g} and f = {f:.3g} {side} "
-            f"{COM_FRACTION_C:g}")
-
-
-def classify_run(r, f, window_r, window_f):
-    """Regime, confidence and the statistics used. window_r/window_f: per steady window."""
-    regime = classify(r, f)
-    votes = [classify(rw, fw) for rw, fw in zip(window_r, window_f) if np.isfinite(rw)]
-    agreement = float(np.mean([v == regime for v in votes])) if votes else np.nan
-    confidence = 0.5 * margin(regime, r, f) + 0.5 * (agreement if votes else 0.0)
-    criteria = dict(shear_rate_ratio=r, shear_rate_ratio_threshold=SHEAR_RATIO_A,
-                    com_fraction=f, com_level=COM_LEVEL, com_fraction_threshold=COM_FRACTION_C,
-                    window_agreement=agreement, windows_classified=len(votes),
-                    window_votes={k: votes.count(k) for k in "ABC"},
-                    reason=criterion_text(regime, r, f))
-    return regime, float(confidence), criteria
-
-
-def com_histogram(com_vx, velocity):
-    """Histogram of com_vx over [-HISTOGRAM_RANGE V, HISTOGRAM_RANGE V]: (edges, counts)."""
+def com_histogram(u, velocity):
+    """Histogram of u over [-HISTOGRAM_RANGE V, HISTOGRAM_RANGE V]: (edges, counts)."""
     edges = np.linspace(-HISTOGRAM_RANGE, HISTOGRAM_RANGE, HISTOGRAM_BINS + 1) * velocity
-    com = np.asarray(com_vx, dtype=float)
-    com = np.clip(com[np.isfinite(com)], edges[0], edges[-1])
-    return edges, np.histogram(com, bins=edges)[0]
+    u = np.asarray(u, dtype=float)
+    u = np.clip(u[np.isfinite(u)], edges[0], edges[-1])
+    return edges, np.histogram(u, bins=edges)[0]
+
+
+def histogram_mode(u, velocity):
+    """Centre of the fullest bin of com_histogram (NaN without samples)."""
+    edges, counts = com_histogram(u, velocity)
+    if not counts.sum():
+        return np.nan
+    k = int(np.argmax(counts))
+    return float(0.5 * (edges[k] + edges[k + 1]))
 
 
 def bimodality_coefficient(x):
@@ -101,30 +145,330 @@ def bimodality_coefficient(x):
 def visits_both_walls(com_vx, velocity):
     """True if com_vx goes above VISIT_LEVEL V and below -VISIT_LEVEL V."""
     com = np.asarray(com_vx, dtype=float)
+    if not np.isfinite(com).any():
+        return False
     level = VISIT_LEVEL * velocity
     return bool(np.nanmax(com) > level and np.nanmin(com) < -level)
 
 
-def band_states(com_vx, velocity):
-    """+1 above COM_LEVEL V, -1 below -COM_LEVEL V, 0 between (and for NaN)."""
-    com = np.nan_to_num(np.asarray(com_vx, dtype=float))
-    return np.where(com > COM_LEVEL * velocity, 1, np.where(com < -COM_LEVEL * velocity, -1, 0))
+# ---------------------------------------------------------------------------------------------
+# Windows
+
+def window_profile(y, vx, lo, hi, height, velocity):
+    """r, R^2, block velocity and the two layers' velocity jumps of one window's profile."""
+    y, vx = np.asarray(y, dtype=float), np.asarray(vx, dtype=float)
+    out = dict(shear_rate_ratio=np.nan, linearity=np.nan, block_velocity=np.nan,
+               velocity_jump_bottom=np.nan, velocity_jump_top=np.nan)
+    ok = np.isfinite(vx)
+    bulk = ok & (y > lo) & (y < hi)
+    if bulk.sum() >= 2:
+        slope, icpt = np.polyfit(y[bulk], vx[bulk], 1)
+        ss_tot = np.sum((vx[bulk] - vx[bulk].mean()) ** 2)
+        ss_res = np.sum((vx[bulk] - slope * y[bulk] - icpt) ** 2)
+        out.update(shear_rate_ratio=float(slope * height / (2 * velocity)),
+                   linearity=float(1 - ss_res / ss_tot) if ss_tot > 0 else np.nan,
+                   block_velocity=float(np.mean(vx[bulk])))
+    if ok.sum() >= 2:
+        out.update(velocity_jump_bottom=float(np.interp(lo, y[ok], vx[ok]) + velocity),
+                   velocity_jump_top=float(velocity - np.interp(hi, y[ok], vx[ok])))
+    return out
 
 
-def band_switches(time, com_vx, velocity):
-    """Every switch of the shear band between the walls, as dicts with start_time, end_time,
-    duration, from_state, to_state and band ("bottom->top" or "top->bottom")."""
-    time = np.asarray(time, dtype=float)
-    states = band_states(com_vx, velocity)
-    nonzero = np.flatnonzero(states)
-    changes = np.flatnonzero(np.diff(states[nonzero]) != 0)
+def _carries(dv, multiple, velocity):
+    return bool(np.isfinite(dv) and abs(dv - multiple * velocity) <= JUMP_TOLERANCE * velocity)
+
+
+def window_state(p, shares, velocity):
+    """(state, reason) of one window from window_profile's p and sample_shares of its samples."""
+    V = velocity
+    r, lin = p["shear_rate_ratio"], p["linearity"]
+    jb, jt = p["velocity_jump_bottom"], p["velocity_jump_top"]
+    if not (np.isfinite(r) and np.isfinite(jb) and np.isfinite(jt)):
+        return "undecided", "no bulk profile (fewer than 2 stripes with a velocity)"
+    if r > SHEAR_RATIO_A:
+        if np.isfinite(lin) and lin >= LINEARITY_A:
+            return "A", f"r = {r:.3g} > {SHEAR_RATIO_A:g}, R^2 = {lin:.2f} >= {LINEARITY_A:g}"
+        return "undecided", (f"r = {r:.3g} > {SHEAR_RATIO_A:g} but the bulk profile is not "
+                             f"linear (R^2 = {lin:.2f} < {LINEARITY_A:g})")
+    if r > SHEAR_RATIO_BLOCK:
+        return "undecided", (f"r = {r:.3g} between {SHEAR_RATIO_BLOCK:g} and "
+                             f"{SHEAR_RATIO_A:g}: neither sheared nor a block")
+    jumps = f"jumps {jb / V:.2f} V (bottom), {jt / V:.2f} V (top)"
+    if _carries(jb, 1, V) and _carries(jt, 1, V):
+        state, share, side = "B", shares["rest"], f"|u| <= {COM_LEVEL:g} V"
+    elif _carries(jb, 2, V) and _carries(jt, 0, V):
+        state, share, side = "C+", shares["plus"], f"u > {COM_LEVEL:g} V"
+    elif _carries(jt, 2, V) and _carries(jb, 0, V):
+        state, share, side = "C-", shares["minus"], f"u < -{COM_LEVEL:g} V"
+    else:
+        return "undecided", (f"r = {r:.3g}, {jumps}: neither both layers about V (B) nor one "
+                             f"about 2V and the other about 0 (C), within {JUMP_TOLERANCE:g} V")
+    text = f"r = {r:.3g} <= {SHEAR_RATIO_BLOCK:g}, {jumps}"
+    if not np.isfinite(share):
+        return "undecided", f"{text} ({state}'s), but no sample of u in the window"
+    if share < WINDOW_SAMPLE_SHARE:
+        return "undecided", (f"{text} ({state}'s), but {side} in only {share:.0%} of the "
+                             f"samples < {WINDOW_SAMPLE_SHARE:.0%} (the block changes state)")
+    return state, f"{text}, {side} in {share:.0%} of the samples"
+
+
+def window_table(windows, indices, lo, hi, time, u, velocity):
+    """The state of each window of `indices`, as columns (lists, one entry per window): index,
+    t_start, t_end, state, band_wall (None outside C), reason, and window_profile's and
+    sample_shares' values (rest_share, plus_share, minus_share)."""
+    keys = ("index", "t_start", "t_end", "state", "band_wall", "reason", "shear_rate_ratio",
+            "linearity", "block_velocity", "velocity_jump_bottom", "velocity_jump_top",
+            "rest_share", "plus_share", "minus_share")
+    table = {k: [] for k in keys}
+    y = np.asarray(windows["y"], dtype=float)
+    time, u = np.asarray(time, dtype=float), np.asarray(u, dtype=float)
+    for i in indices:
+        t0, t1 = float(windows["t_start"][i]), float(windows["t_end"][i])
+        p = window_profile(y, windows["vx"][i], lo[i], hi[i], float(windows["height"][i]),
+                           velocity)
+        shares = sample_shares(u[(time > t0) & (time <= t1)], velocity)
+        state, reason = window_state(p, shares, velocity)
+        row = dict(index=int(i), t_start=t0, t_end=t1, state=state,
+                   band_wall=BAND_WALL.get(state), reason=reason, rest_share=shares["rest"],
+                   plus_share=shares["plus"], minus_share=shares["minus"], **p)
+        for k in keys:
+            table[k].append(row[k])
+    return table
+
+
+def state_shares(table):
+    """{state: share of the windows' time} over STATES (NaN without windows)."""
+    length = np.asarray(table["t_end"], dtype=float) - np.asarray(table["t_start"], dtype=float)
+    total = length.sum()
+    return {s: (float(length[[x == s for x in table["state"]]].sum() / total) if total > 0
+                else np.nan) for s in STATES}
+
+
+# ---------------------------------------------------------------------------------------------
+# Band switches
+
+def plateau_velocities(u, velocity, source):
+    """(P+, P-): +-V from block_vx; from com_vx the median of the samples beyond +-COM_LEVEL V,
+    NaN for a side without any or whose median lies within GAP_LEVELS[1] V of 0 (the tail of a
+    velocity fluctuating about 0 is no plateau)."""
+    if source == "block_vx":
+        return float(velocity), -float(velocity)
+    u = np.asarray(u, dtype=float)
+    level = COM_LEVEL * velocity
+    out = []
+    for side in (u[u > level], -u[u < -level]):
+        m = float(np.median(side)) if len(side) else np.nan
+        out.append(m if m >= GAP_LEVELS[1] * velocity else np.nan)
+    return out[0], -out[1]
+
+
+def band_states(u, velocity, plateaus=None):
+    """+1 on the + plateau, -1 on the - plateau (within PLATEAU_LEVEL V of P+ or P-), else 0."""
+    p_plus, p_minus = plateaus if plateaus is not None else (velocity, -velocity)
+    u = np.asarray(u, dtype=float)
+    level = PLATEAU_LEVEL * velocity
+    with np.errstate(invalid="ignore"):
+        plus = np.abs(u - p_plus) <= level
+        minus = np.abs(u - p_minus) <= level
+    return np.where(plus, 1, np.where(minus, -1, 0))
+
+
+def band_switches(time, u, velocity, plateaus=None):
+    """Every switch of the shear band between the walls, plateau to plateau (module doc), as
+    dicts: start_time (last sample on the old plateau), end_time (first on the new one),
+    duration, from_state, to_state (+1: the block with the top wall), band ("bottom->top" or
+    "top->bottom"), and delta_mu_start_time, delta_mu_end_time: the stretch of the old plateau
+    before the switch over which summary.switch_friction_difference takes delta_mu. The stretch
+    ends at the last sample, at or before the start, where u was at or beyond the median of
+    the old plateau's samples (towards its wall): the block still at its plateau velocity, not
+    yet accelerating; it is PRE_SWITCH_TIME long, or reaches back to the previous switch's end."""
+    time, u = np.asarray(time, dtype=float), np.asarray(u, dtype=float)
+    states = band_states(u, velocity, plateaus)
+    median = {s: float(np.median(u[states == s])) for s in (1, -1) if (states == s).any()}
+    on = np.flatnonzero(states)
+    changes = np.flatnonzero(np.diff(states[on]) != 0)
     switches = []
+    previous_end, previous_index = (float(time[0]) if len(time) else 0.0), 0
     for k in changes:
-        old, new = nonzero[k], nonzero[k + 1]      # last sample in the old state, first in the new
-        start, end = time[old + 1], time[new]
+        old, new = on[k], on[k + 1]      # last sample on the old plateau, first on the new one
+        start, end = float(time[old]), float(time[new])
         from_state = int(states[old])
-        switches.append(dict(start_time=float(start), end_time=float(end),
-                             duration=float(end - start), from_state=from_state,
-                             to_state=-from_state,
-                             band="bottom->top" if from_state > 0 else "top->bottom"))
+        with np.errstate(invalid="ignore"):
+            at_plateau = np.flatnonzero(from_state * (u[previous_index:old + 1] -
+                                                      median[from_state]) >= 0)
+        quiet = float(time[previous_index + at_plateau[-1]]) if len(at_plateau) else start
+        switches.append(dict(start_time=start, end_time=end, duration=end - start,
+                             from_state=from_state, to_state=-from_state,
+                             band="bottom->top" if from_state > 0 else "top->bottom",
+                             delta_mu_start_time=max(quiet - PRE_SWITCH_TIME, previous_end),
+                             delta_mu_end_time=quiet))
+        previous_end, previous_index = end, new
     return switches
+
+
+def switch_statistics(switches, t0, t1):
+    """Switches starting in [t0, t1]: count, mean duration, and mean dwell = (t1 - t0 - their
+    durations) / (count + 1), the mean time on a plateau."""
+    sel = [sw for sw in switches if t0 <= sw["start_time"] <= t1]
+    durations = [sw["duration"] for sw in sel]
+    dwell = (t1 - t0 - sum(durations)) / (len(sel) + 1) if t1 > t0 else np.nan
+    return dict(count=len(sel), mean_duration=float(np.mean(durations)) if sel else np.nan,
+                mean_dwell=float(dwell))
+
+
+# ---------------------------------------------------------------------------------------------
+# Run
+
+def _shares_text(shares, n):
+    return (", ".join(f"{s} {shares[s]:.0%}" for s in STATES) +
+            f" of {n} window{'s' if n != 1 else ''}")
+
+
+def classify_run(table, u, switches, velocity, span, source="block_vx"):
+    """(regime, confidence, criteria) from the averaged windows' table (window_table), the
+    averaged samples u of the block velocity, the band switches, and span = (t0, t1), the
+    averaged time. See the module doc."""
+    V = velocity
+    n = len(table["state"])
+    shares = state_shares(table)
+    c_share = shares["C+"] + shares["C-"] if n else np.nan
+    regime_share = dict(A=shares["A"], B=shares["B"], C=c_share)
+    samples = sample_shares(u, V)
+    mode, bc = histogram_mode(u, V), bimodality_coefficient(u)
+    sw = switch_statistics(switches, *span)
+    window_r = np.asarray(table["shear_rate_ratio"], dtype=float)
+    r = float(np.nanmean(window_r)) if np.isfinite(window_r).any() else np.nan
+    dwell_ok = (sw["count"] == 0 or (np.isfinite(sw["mean_dwell"]) and
+                                     sw["mean_dwell"] >= DWELL_RATIO * sw["mean_duration"]))
+    dwell_text = (f"mean time on a plateau {sw['mean_dwell']:.3g} t "
+                  f"{'>=' if dwell_ok else '<'} {DWELL_RATIO:g} x the mean switch duration "
+                  f"{sw['mean_duration']:.3g} t ({sw['count']} switches)") if sw["count"] \
+        else "no band switch"
+    rest, wall = samples["rest"], samples["plus"] + samples["minus"]
+    su = f"|{source}|"
+    window_text = _shares_text(shares, n) if n else "no window"
+    b_peak = (np.isfinite(mode) and abs(mode) <= COM_LEVEL * V and
+              (not np.isfinite(bc) or bc < BIMODALITY_LEVEL))
+
+    def ge(x, threshold):
+        return ">=" if x >= threshold else "<"
+
+    a_share, b_share = shares["A"], shares["B"]
+    checks = {
+        "A": [(n and a_share >= DOMINANT_SHARE,
+               f"A windows {a_share:.0%} {ge(a_share, DOMINANT_SHARE)} {DOMINANT_SHARE:.0%}")],
+        "B": [(n and b_share >= DOMINANT_SHARE,
+               f"B windows {b_share:.0%} {ge(b_share, DOMINANT_SHARE)} {DOMINANT_SHARE:.0%}"),
+              (rest >= SAMPLE_SHARE, f"{su} <= {COM_LEVEL:g} V in {rest:.0%} of the samples "
+                                     f"{ge(rest, SAMPLE_SHARE)} {SAMPLE_SHARE:.0%}"),
+              (b_peak, f"{'one' if b_peak else 'not one'} peak about 0 (histogram mode "
+                       f"{mode / V:.2f} V, within {COM_LEVEL:g} V wanted; bimodality "
+                       f"{bc:.2f}, < {BIMODALITY_LEVEL:.2f} wanted)")],
+        "C": [(n and c_share >= DOMINANT_SHARE,
+               f"C windows {c_share:.0%} {ge(c_share, DOMINANT_SHARE)} {DOMINANT_SHARE:.0%}"),
+              (wall >= SAMPLE_SHARE, f"{su} > {COM_LEVEL:g} V in {wall:.0%} of the samples "
+                                     f"{ge(wall, SAMPLE_SHARE)} {SAMPLE_SHARE:.0%}"),
+              (dwell_ok, dwell_text)],
+    }
+
+    def met(regime):
+        return all(bool(ok) for ok, _ in checks[regime])
+
+    def text(regime, only_failed=False):
+        return "; ".join(t for ok, t in checks[regime] if not (only_failed and ok))
+
+    decided = 1 - shares["undecided"] if n else np.nan
+    present = [g for g in ("A", "B", "C") if n and regime_share[g] >= INTERMITTENT_SHARE]
+    gap_ok = samples["gap"] <= GAP_SHARE
+    gap_text = (f"{samples['gap']:.0%} of the samples in the gap {GAP_LEVELS[0]:g} V < "
+                f"{su} < {GAP_LEVELS[1]:g} V")
+    intermittent = n and decided >= DOMINANT_SHARE and len(present) >= 2 and gap_ok
+    if n < MIN_WINDOWS:
+        regime = "undecided"
+        reason = (f"undecided: too short to tell, {n} averaged window{'s' if n != 1 else ''} "
+                  f"< {MIN_WINDOWS} ({window_text})")
+    elif met("A"):
+        regime, reason = "A", f"A: {text('A')} ({window_text}); r = {r:.3g}"
+    elif met("B"):
+        regime, reason = "B", f"B: {text('B')} ({window_text}); r = {r:.3g}"
+    elif met("C"):
+        regime = "C"
+        reason = f"C: {text('C')} ({window_text}); r = {r:.3g}"
+    elif intermittent:
+        regime = "intermittent"
+        reason = (f"intermittent: {' and '.join(present)} each over >= "
+                  f"{INTERMITTENT_SHARE:.0%} of the time, windows in a state {decided:.0%} >= "
+                  f"{DOMINANT_SHARE:.0%}, {gap_text} <= {GAP_SHARE:.0%} ({window_text})")
+    else:
+        regime = "undecided"
+        why = []
+        if not gap_ok:
+            why.append(f"the block velocity wanders between rest and the walls: {gap_text} > "
+                       f"{GAP_SHARE:.0%}")
+        if sw["count"] and not dwell_ok:
+            why.append("states switch faster than they can be told apart: " + dwell_text)
+            checks["C"][-1] = (False, "its switches (above)")
+        why += [f"not {g}: {text(g, only_failed=True)}" for g in ("A", "B", "C")]
+        if len(present) >= 2:
+            why.append(f"not intermittent: {' and '.join(present)} present but "
+                       + (f"windows in a state {decided:.0%} < {DOMINANT_SHARE:.0%}"
+                          if decided < DOMINANT_SHARE else "the states are not told apart"))
+        reason = f"undecided: {'; '.join(why)} ({window_text}); r = {r:.3g}"
+    agree = {"A": shares["A"], "B": shares["B"], "C": c_share, "intermittent": decided}
+    confidence = float(agree[regime]) if regime in agree and n else np.nan
+    edges, counts = com_histogram(u, V)
+    u_fin = np.asarray(u, dtype=float)
+    u_fin = u_fin[np.isfinite(u_fin)]
+    criteria = dict(
+        reason=reason, block_velocity_source=source,
+        shear_rate_ratio=r, shear_rate_ratio_threshold=SHEAR_RATIO_A,
+        com_fraction=com_fraction(u, V), com_level=COM_LEVEL,
+        windows_classified=n, state_shares=shares, sample_shares=samples,
+        block_velocity=dict(mean=float(u_fin.mean()) if len(u_fin) else np.nan,
+                            std=float(u_fin.std()) if len(u_fin) else np.nan,
+                            mode=mode, bimodality_coefficient=bc,
+                            histogram=dict(edges=edges, counts=counts)),
+        switch_count=sw["count"], mean_switch_duration=sw["mean_duration"],
+        mean_dwell=sw["mean_dwell"],
+        thresholds=dict(SHEAR_RATIO_A=SHEAR_RATIO_A, LINEARITY_A=LINEARITY_A,
+                        SHEAR_RATIO_BLOCK=SHEAR_RATIO_BLOCK, JUMP_TOLERANCE=JUMP_TOLERANCE,
+                        COM_LEVEL=COM_LEVEL, WINDOW_SAMPLE_SHARE=WINDOW_SAMPLE_SHARE,
+                        MIN_WINDOWS=MIN_WINDOWS, DOMINANT_SHARE=DOMINANT_SHARE,
+                        SAMPLE_SHARE=SAMPLE_SHARE, BIMODALITY_LEVEL=BIMODALITY_LEVEL,
+                        INTERMITTENT_SHARE=INTERMITTENT_SHARE, GAP_LEVELS=list(GAP_LEVELS),
+                        GAP_SHARE=GAP_SHARE, DWELL_RATIO=DWELL_RATIO,
+                        PLATEAU_LEVEL=PLATEAU_LEVEL, PRE_SWITCH_TIME=PRE_SWITCH_TIME),
+        windows=table)
+    return regime, confidence, criteria
+
+
+def band_layers(region, band_wall):
+    """The sheared and the resting boundary layer of each window with a band (band_wall
+    "bottom" or "top"; None: the window is not in regime C): ({quantity: per-window array},
+    {quantity: ...}) from a region group's bottom_* and top_* arrays (already restricted to the
+    windows of band_wall), NaN for the windows without a band."""
+    names = [k[len("bottom_"):] for k in region if k.startswith("bottom_")
+             and "top_" + k[len("bottom_"):] in region]
+    sheared = {q: np.full(len(band_wall), np.nan) for q in names}
+    resting = {q: np.full(len(band_wall), np.nan) for q in names}
+    other = {"bottom": "top", "top": "bottom"}
+    for w, wall in enumerate(band_wall):
+        if wall not in other:
+            continue
+        for q in names:
+            sheared[q][w] = region[f"{wall}_{q}"][w]
+            resting[q][w] = region[f"{other[wall]}_{q}"][w]
+    return sheared, resting
+
+
+def report_line(regime, confidence, criteria, n_switches):
+    """The report's regime line."""
+    source = criteria.get("block_velocity_source", "com_vx")
+    if regime == "undecided":
+        return f"regime {criteria['reason']}; {n_switches} band switch(es)"
+    shares = criteria["state_shares"]
+    n = criteria["windows_classified"]
+    f = criteria["com_fraction"]
+    return (f"regime {regime} ({confidence:.0%} of the window time agrees): "
+            f"{_shares_text(shares, n)}; r = {criteria['shear_rate_ratio']:.3g}, "
+            f"|{source}| > V/2 in {f:.0%} of samples, {n_switches} band switch(es)")

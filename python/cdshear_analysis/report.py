@@ -1,14 +1,21 @@
 """The report of a campaign (`cdshear sweep` folder): `python3 -m cdshear_analysis report DIR`.
 
 `collect(campaign_dir)` reads DIR/campaign.toml (the campaign's name and its list of runs) and
-every DIR/runs/*/summary.json (written by `cdshear analyze`; this module never analyses a run).
-A run folder without summary.json is listed as "not analysed", a run of campaign.toml without a
-folder as "not started"; both are left out. `fit_laws(rows)` fits the bulk laws of SPEC 8 over
-the steady runs of every system (fitting.py; the seeds of one (system, V) are one point),
-`fit_laws_per_system(rows)` the same laws over each system alone; `write_report(report,
-out_dir)` writes runs.csv, fits.json, figures/*.png (campaign_figures.py) and index.html, with
-the boundary-layer laws of boundary_laws.py and the transition velocities and SPEC 8
-predictions of transitions.py (docs/campaigns.md, "Reports", documents every column and key).
+every DIR/runs/*/summary.json (written by `cdshear analyze`). A run folder without summary.json
+is listed as "not analysed", a run of campaign.toml without a folder as "not started"; both are
+left out. Only summaries of this code's format and version (summary.SUMMARY_FORMAT,
+summary.SUMMARY_VERSION) are pooled (`summary_state`): a stale one (an older version, no format
+or version, `{}`, not a JSON object) is re-analysed from the run's run.h5 as `analyze` does
+(`reanalyse`, which rewrites summary.json) or, without run.h5, left out; a summary of another
+format or of a newer version is left out. Every run re-analysed or left out is listed with its
+reason. `fit_laws(rows)` fits the bulk laws of SPEC 8 over the steady runs in regime A of every
+system (fitting.py; the seeds of one (system, V) are one point), `fit_laws_per_system(rows)` the
+same laws over each system alone; `write_report(report, out_dir)` writes runs.csv, fits.json,
+figures/*.png (campaign_figures.py) and index.html, with the boundary-layer laws of
+boundary_laws.py and the transition velocities and SPEC 8 predictions of transitions.py
+(docs/campaigns.md, "Reports", documents every column and key), and adds to report["notes"] the
+lines that `cdshear report` prints after the paths (`printed_lines`: the runs re-analysed, every
+bulk law's status and every boundary or per-system law that is poor or undetermined).
 """
 import csv
 import html
@@ -20,6 +27,7 @@ import shutil
 import tomllib
 
 from . import fitting
+from . import summary as summary_module
 from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
@@ -28,7 +36,7 @@ from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
-REPORT_VERSION = 1
+REPORT_VERSION = 2
 RUN_NAME = re.compile(r"^s(\d+)_seed(\d+)_V(.+)$")  # campaign_run_name() in campaign_file.cpp
 LINEAR_RANGE = (0.03, 0.2)  # SPEC 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
 
@@ -66,6 +74,7 @@ BULK_QUANTITIES = [
     ("mu_eff_bulk", ("bulk", "mu_eff")),
     ("nu_bulk", ("bulk", "solid_fraction")),
     ("Z_bulk", ("bulk", "coordination")),
+    ("Z_force_carrying_bulk", ("bulk", "force_carrying_coordination")),
     ("shear_rate_bulk", ("bulk", "shear_rate")),
     ("slip_bottom", ("slip", "bottom")),
     ("slip_top", ("slip", "top")),
@@ -80,7 +89,8 @@ REGION_PARTS = {"bulk": LAYER_QUANTITIES[:4], "bottom": LAYER_QUANTITIES,
                 "top": LAYER_QUANTITIES}
 HEAD_COLUMNS = ["run", "system", "seed", "V", "n", "duration", "time_reached", "finished",
                 "steady", "steady_reason", "regime", "regime_confidence", "transient_end_time",
-                "transient_end_strain", "band_switches"]
+                "transient_end_strain", "band_switches", "bulk_h", "bulk_h_reference",
+                "bulk_h_note"]
 
 
 def _profiles(profiles):
@@ -94,15 +104,65 @@ def _profiles(profiles):
     return out if len(out["y"]) == len(out["vx"]) == len(out["mu_eff"]) > 0 else None
 
 
-def read_run(run_dir):
-    """One row of runs.csv from RUN_DIR/summary.json: plain values, `X` and `X_err` pairs, and
-    per boundary thickness h the layer quantities `hK_bottom_I`, ... (None where missing)."""
+def read_summary(run_dir):
+    """The parsed RUN_DIR/summary.json (any JSON value); ReportError when it cannot be read or
+    parsed."""
     path = os.path.join(run_dir, "summary.json")
     try:
         with open(path, encoding="utf-8") as f:
-            s = json.load(f)
+            return json.load(f)
     except (OSError, ValueError) as e:
         raise ReportError(path, f"cannot read: {e}") from None
+
+
+def summary_state(s):
+    """None when the parsed summary.json s is of this code's format and version
+    (summary.SUMMARY_FORMAT, summary.SUMMARY_VERSION), else (kind, reason): kind "stale" (not a
+    JSON object, `{}`, no format or version, a version that is no integer or older than this
+    code's: re-analyse it), "other format" or "newer" (leave it out)."""
+    fmt, version = summary_module.SUMMARY_FORMAT, summary_module.SUMMARY_VERSION
+    if not isinstance(s, dict):
+        return "stale", f"summary.json is not a JSON object but {type(s).__name__}"
+    if not s:
+        return "stale", "summary.json is empty ({})"
+    missing = [k for k in ("format", "version") if k not in s]
+    if missing:
+        return "stale", f"summary.json has no {' and no '.join(missing)} key (this code reads " \
+                        f"{fmt} version {version})"
+    if not isinstance(s["format"], str):
+        return "stale", f"summary.json format {s['format']!r} is not a text (this code reads " \
+                        f"{fmt} version {version})"
+    if s["format"] != fmt:
+        return "other format", f"summary.json is of format {s['format']!r}, not {fmt!r}"
+    v = s["version"]
+    if isinstance(v, bool) or not isinstance(v, int):
+        return "stale", f"summary.json version {v!r} is not an integer (this code reads " \
+                        f"version {version})"
+    if v < version:
+        return "stale", f"summary.json version {v} is older than this code's {version}"
+    if v > version:
+        return "newer", (f"summary.json version {v} is newer than this code's {version}: "
+                         "report it with the cdshear_analysis that wrote it, or newer")
+    return None
+
+
+def reanalyse(run_dir):
+    """Analyse RUN_DIR/run.h5 again and rewrite RUN_DIR/summary.json, as `cdshear analyze`
+    does (rundata.load_run, summary.analyze, summary.write_summary); returns the summary
+    written. Raises rundata.RunDataError or OSError."""
+    from .rundata import load_run
+    summary = summary_module.analyze(load_run(run_dir))
+    summary_module.write_summary(summary, run_dir)
+    return read_summary(run_dir)
+
+
+def read_run(run_dir, s=None):
+    """One row of runs.csv from RUN_DIR/summary.json (or its parsed content s): plain values,
+    `X` and `X_err` pairs, and per boundary thickness h the layer quantities `hK_bottom_I`, ...
+    (None where missing)."""
+    path = os.path.join(run_dir, "summary.json")
+    if s is None:
+        s = read_summary(run_dir)
     if not isinstance(s, dict):
         raise ReportError(path, "not a JSON object")
     name = os.path.basename(os.path.normpath(run_dir))
@@ -127,6 +187,11 @@ def read_run(run_dir):
         "transient_end_strain": _finite(s.get("transient_end_strain")),
         "band_switches": len(switches) if isinstance(switches, list) else None,
     }
+    bulk = s.get("bulk") if isinstance(s.get("bulk"), dict) else {}
+    row["bulk_h"] = _finite(bulk.get("h"))
+    row["bulk_h_reference"] = (bulk["h_reference"] if isinstance(bulk.get("h_reference"), bool)
+                               else None)
+    row["bulk_h_note"] = bulk.get("h_note") if isinstance(bulk.get("h_note"), str) else None
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
@@ -184,9 +249,38 @@ def software(campaign_text, run_dirs):
     return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}
 
 
+def usable_summary(run_dir, reanalysed):
+    """(parsed summary.json of RUN_DIR, None) when it can be pooled, re-analysing a stale one
+    from run.h5 (appending (run, reason) to reanalysed), or (None, why it is left out)."""
+    from .rundata import RUN_FILE, RunDataError
+    name = os.path.basename(os.path.normpath(run_dir))
+    s = read_summary(run_dir)
+    state = summary_state(s)
+    if state is None:
+        return s, None
+    kind, why = state
+    if kind == "other format":
+        return None, f"{why}: left alone (`cdshear analyze` the run to replace it)"
+    if kind == "newer":
+        return None, why
+    if not os.path.isfile(os.path.join(run_dir, RUN_FILE)):
+        return None, f"{why} and there is no {RUN_FILE} to analyse it again"
+    try:
+        s = reanalyse(run_dir)
+    except RunDataError as e:
+        return None, f"{why}; analysing {RUN_FILE} again failed: {e.problem}"
+    except OSError as e:
+        return None, f"{why}; writing the new summary.json failed: {e.strerror or e}"
+    if summary_state(s) is not None:   # (analyze writes this code's version: never here)
+        return None, f"{why}; analysed again, still {summary_state(s)[1]}"
+    reanalysed.append((name, f"{why}: analysed again from {RUN_FILE}, summary.json rewritten"))
+    return s, None
+
+
 def collect(campaign_dir):
-    """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)],
-    "notes": [text]} (notes: about the campaign folder, not about a run)."""
+    """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)] (the runs
+    left out), "reanalysed": [(run, reason)] (stale summaries analysed again), "notes": [text]}
+    (notes: about the campaign folder, not about a run)."""
     if not os.path.isdir(campaign_dir):
         raise ReportError(campaign_dir, "not a folder")
     toml_path = os.path.join(campaign_dir, "campaign.toml")
@@ -206,11 +300,16 @@ def collect(campaign_dir):
     if not folders and not listed:
         raise ReportError(runs_dir, "no run folders (has `cdshear sweep` run here?)")
     rows = []
+    reanalysed = []
     for d in folders:
         if not os.path.isfile(os.path.join(runs_dir, d, "summary.json")):
             skipped.append((d, "not analysed: no summary.json (`cdshear analyze` it)"))
             continue
-        rows.append(read_run(os.path.join(runs_dir, d)))
+        s, why = usable_summary(os.path.join(runs_dir, d), reanalysed)
+        if s is None:
+            skipped.append((d, why))
+            continue
+        rows.append(read_run(os.path.join(runs_dir, d), s))
     for r in listed:
         if r not in folders:
             skipped.append((r, "not started: no run folder"))
@@ -218,7 +317,7 @@ def collect(campaign_dir):
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
-            "notes": notes, "campaign_toml": text,
+            "reanalysed": reanalysed, "notes": notes, "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
 
 
@@ -268,8 +367,17 @@ def fit_law(name, rows, x=None, y=None):
     return fitting.fit_columns(FITS[name], rows, x, y)
 
 
+def bulk_rows(rows):
+    """The rows whose bulk is SPEC 7's (h = 10): the bulk laws take no other. A cell too thin for
+    h = 10 (or a run that did not measure it) says so in bulk_h_note and is listed in fits.json
+    `bulk_not_reference`."""
+    return [r for r in rows if r.get("bulk_h_reference") is True]
+
+
 def fit_laws(rows):
-    """fits.json `fits`: every law of FITS over the runs of every system (SPEC 8)."""
+    """fits.json `fits`: every law of FITS over the runs of every system (SPEC 8) whose bulk is
+    at h = 10 (bulk_rows)."""
+    rows = bulk_rows(rows)
     return {name: fit_law(name, rows) for name in FITS}
 
 
@@ -344,11 +452,12 @@ def _html_stability(st):
 
 
 def _html_transitions(transitions, preds):
-    out = ["<h2>Transition velocities</h2><p>Regimes by V (seeds by majority vote, every run "
-           "with a regime, steady or not); brackets [largest B or C, smallest A above] and "
-           "[largest C, smallest B above]; estimate: geometric mean.</p><table><tr>"
-           "<th>system</th><th>regimes by V</th><th>not steady</th><th>V_AB</th><th>V_BC</th>"
-           "<th>flags</th></tr>"]
+    out = ["<h2>Transition velocities</h2><p>Regimes by V (seeds by majority vote; only the "
+           "steady runs classified A, B or C vote: a run not steady, without a regime or with "
+           "another label such as undecided does not); brackets [largest B or C, smallest A "
+           "above] and [largest C, smallest B above]; estimate: geometric mean.</p><table><tr>"
+           "<th>system</th><th>regimes by V</th><th>runs that do not vote</th><th>V_AB</th>"
+           "<th>V_BC</th><th>flags</th></tr>"]
 
     def cell(b):
         lo, hi = b["bracket"]
@@ -359,7 +468,8 @@ def _html_transitions(transitions, preds):
 
     for key, t in transitions.items():
         seq = ", ".join(f"{_fmt(e['V'])}: {e['regime'] or '?'}" for e in t["velocities"])
-        ns = ", ".join(html.escape(n) for e in t["velocities"] for n in e["not_steady"])
+        ns = "<br>".join(f"{html.escape(e['run'])} ({html.escape(e['reason'])})"
+                         for e in t.get("not_voting", []))
         flags = "<br>".join(html.escape(f) for f in t["flags"])
         out.append(f"<tr><td>{html.escape(key)}</td><td style='text-align:left'>{seq}</td>"
                    f"<td style='text-align:left'>{ns or 'none'}</td><td>{cell(t['V_AB'])}</td>"
@@ -387,8 +497,10 @@ def _html_transitions(transitions, preds):
                 _fmt(e["delta_mu"]), pred, _delta_mu_law_text(e["delta_mu_law"]),
                 e["switch_count"], dur, _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
-        out.append("</table><p>Measured duration: com_vx from ±0.5 V to ∓0.5 V (compare with "
-                   "T/2, fits.json <code>predicted_T_levels</code>); delta_mu implied: the "
+        out.append("</table><p>Measured duration: plateau to plateau, the block velocity "
+                   "from ±0.8 V to ∓0.8 V (compare with 0.8 T, fits.json "
+                   "<code>predicted_T_levels</code>); delta_mu: the walls' net friction on the "
+                   "plateau before each switch; delta_mu implied: the "
                    "friction difference that this duration needs. delta_mu from the law: "
                    "|mu(bottom) - mu(top)| of the boundary law of B and C in h I_b at each "
                    "wall's measured velocity jump, per h, 68% interval in brackets, and the T "
@@ -406,7 +518,9 @@ def _html_transitions(transitions, preds):
             pred = _fmt(e["predicted_T_SS"]) if e["predicted_T_SS"] is not None else \
                 f"<small>{html.escape(e['reason'])}</small>"
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
-                html.escape(e["run"]), _fmt(e["V"]), _fmt(e["I_bulk"]), _fmt(e["law"]),
+                html.escape(e["run"]), _fmt(e["V"]), _fmt(e["I_bulk"]),
+                _fmt(e["law"]) + (f" ({html.escape(e['law_status'])})"
+                                  if e.get("law_status") not in (None, "ok") else ""),
                 _fmt(e["dmu_dI"]), _fmt(e["D"]), pred,
                 _fmt(e["measured_transient_end_time"])]) + "</tr>")
         out.append("</table>")
@@ -437,28 +551,43 @@ def _delta_mu_law_text(d):
     return "<br>".join(out)
 
 
+STATUS_COLOURS = {"ok": "#dfd", "poor": "#fed", "undetermined": "#fdd", "skipped": "#eee"}
+STATUS_TEXT = ("Status of a fit (fitting.py): <b>ok</b>, the points follow the law within their "
+               "error bars; <b>poor</b>, they scatter far more than their error bars "
+               f"(chi2 tail probability P(chi2 &ge; observed) &lt; {fitting.P_POOR:g}: the law "
+               "does not describe them, or their error bars are too small; read the scaled "
+               "errors); <b>undetermined</b>, the points do not constrain the form (a "
+               "parameter's error larger than its value, an infinite covariance, or a "
+               "parameter on a bound of its range): its parameters mean nothing; "
+               "<b>skipped</b>, not fitted. The predictions take ok and poor laws only.")
+
+
 def _fit_table(items):
-    """An HTML table of fits: (name, fits.json fit) pairs."""
-    out = ["<table><tr><th>fit</th><th>law</th><th>points</th><th>parameters</th>"
-           "<th>chi2/dof</th></tr>"]
+    """An HTML table of fits: (name, fits.json fit) pairs, with each fit's status and reason."""
+    out = ["<table><tr><th>fit</th><th>law</th><th>points</th><th>status</th>"
+           "<th>parameters</th><th>chi2/dof</th></tr>"]
     for fname, f in items:
-        if f["status"] == "ok":
+        if fitting.fitted(f):
             # with chi2/dof > 1 the scatter exceeds the error bars: the scaled error too
             scaled = f["chi2_dof"] is not None and f["chi2_dof"] > 1
             params = "<br>".join(
-                f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2)}" +
-                (f" (scaled: ± {_fmt(v['err_scaled'], 2)})" if scaled else "")
+                f"{p} = {_fmt(v['value'])} ± {_fmt(v['err'], 2) or '?'}" +
+                (f" (scaled: ± {_fmt(v['err_scaled'], 2)})"
+                 if scaled and v["err_scaled"] is not None else "")
                 for p, v in f["parameters"].items())
             chi = _fmt(f["chi2_dof"], 3)
             if f.get("note"):
                 params += f"<br><small>{html.escape(f['note'])}</small>"
         else:
-            params, chi = "skipped: " + html.escape(f["reason"]), ""
+            params, chi = "", ""
+        status = (f"<b>{html.escape(f['status'])}</b>"
+                  + (f"<br><small>{html.escape(f['reason'])}</small>" if f.get("reason") else ""))
         points = f"{f['n_points']}" + (f" ({f['n_runs']} runs)"
                                         if f.get("n_runs", 0) > f["n_points"] else "")
         out.append(f"<tr><td>{html.escape(fname)}</td><td>{html.escape(f['law'])}</td>"
-                   f"<td>{points}</td><td style='text-align:left'>{params}</td>"
-                   f"<td>{chi}</td></tr>")
+                   f"<td>{points}</td><td style='text-align:left;background:"
+                   f"{STATUS_COLOURS.get(f['status'], '#fff')}'>{status}</td>"
+                   f"<td style='text-align:left'>{params}</td><td>{chi}</td></tr>")
     return out + ["</table>"]
 
 
@@ -515,10 +644,14 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
            f"<h1>Campaign {name}</h1>",
            f"<p>{counted(len(rows), 'analysed run')} "
            f"({sum(1 for r in rows if r['steady'])} steady); "
-           f"{len(report['skipped'])} left out. Every value: mean ± standard error. "
+           f"{len(report['skipped'])} left out"
+           + (f"; {counted(len(report.get('reanalysed', [])), 'run')} re-analysed from run.h5 "
+              "(stale summary.json)" if report.get("reanalysed") else "")
+           + ". Every value: mean ± standard error. "
            "All columns: <a href='runs.csv'>runs.csv</a>; fits: "
            "<a href='fits.json'>fits.json</a>.</p>",
-           "".join(f"<p>Note: {html.escape(n)}</p>" for n in report.get("notes", [])),
+           "".join(f"<p>Note: {html.escape(n)}</p>" for n in report.get("notes", [])
+                   if n not in report.get("printed", [])),
            "<h2>Runs</h2><table><tr>",
            "".join(f"<th>{c}</th>" for c in
                    ["run", "system", "V", "steady", "regime (conf.)", "t reached",
@@ -540,8 +673,11 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     out += _fit_table(fits.items())
     out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
                "scaled by sqrt(chi2/dof) when that exceeds 1. The seeds of one (system, V) are "
-               "one point: their inverse-variance weighted mean, its error the larger of the "
-               "propagated one and the seeds' standard error.</p>")
+               "one point: their mean weighted by the time each seed's averages cover (by "
+               "1/err² only where a seed's summary does not say where its averaging starts; "
+               "fits.json <code>combined</code> says which), its error the larger of the "
+               "propagated one and the error of that mean from the seeds' scatter.</p>"
+               f"<p><small>{STATUS_TEXT}</small></p>")
     if per_system:
         out.append("<h3>The bulk laws per system</h3><p>The same laws fitted on each "
                    "system's runs alone (the laws of SPEC 8 are the ones over all systems, "
@@ -565,7 +701,17 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     if report.get("campaign_toml"):
         out.append("<details><summary>The resolved campaign file (campaign.toml)</summary><pre>"
                    + html.escape(report["campaign_toml"]) + "</pre></details>")
-    out.append("<h2>Runs left out</h2>")
+    out.append("<h2>Runs re-analysed</h2><p>Stale summary.json (an older version than this "
+               f"code's {html.escape(summary_module.SUMMARY_FORMAT)} version "
+               f"{summary_module.SUMMARY_VERSION}, no format or version, empty, not a JSON "
+               "object), analysed again from run.h5 as <code>cdshear analyze</code> does and "
+               "rewritten (fits.json <code>reanalysed_runs</code>):</p>")
+    if report.get("reanalysed"):
+        out.append("<ul>" + "".join(f"<li>{html.escape(n)}: {html.escape(why)}</li>"
+                                    for n, why in report["reanalysed"]) + "</ul>")
+    else:
+        out.append("<p>none</p>")
+    out.append("<h2>Runs left out</h2><p>fits.json <code>excluded_runs</code>:</p>")
     if report["skipped"]:
         out.append("<ul>" + "".join(f"<li>{html.escape(n)}: {html.escape(why)}</li>"
                                     for n, why in report["skipped"]) + "</ul>")
@@ -593,8 +739,48 @@ def copy_run_figures(report, out_dir):
     return out
 
 
+def all_fits(fits, per_system, boundary):
+    """Every fit of a report as (name, fits.json fit) pairs: the bulk laws, per system, per h
+    (the layers and the bulk of that h) and pooled over h."""
+    out = [(name, f) for name, f in fits.items()]
+    out += [(f"system {s} {name}", f) for s, laws in per_system.items()
+            for name, f in laws.items()]
+    for h in boundary["thicknesses"]:
+        label = _h_label(h)
+        out += [(f"boundary {label} {name}", f) for name, f in boundary[label].items()
+                if isinstance(f, dict) and "status" in f]
+        out += [(f"bulk {label} {name}", f) for name, f in boundary[label]["bulk"].items()]
+    out += [(f"boundary all_h {name}", f) for name, f in boundary["all_h"].items()
+            if name != "collapse"]
+    return out
+
+
+def status_counts(fit_items):
+    """{status: number of fits} over fitting.STATUSES."""
+    return {st: sum(1 for _, f in fit_items if f["status"] == st) for st in fitting.STATUSES}
+
+
+def printed_lines(report, fits, per_system, boundary):
+    """What `cdshear report` prints after the paths and the runs left out: the runs re-analysed,
+    each bulk law's status and reason, every other fit that is poor or undetermined, and the
+    count of each status."""
+    lines = [f"re-analysed {name}: {why}" for name, why in report.get("reanalysed", [])]
+    for name, f in fits.items():
+        lines.append(f"fit {name}: {fitting.status_text(f)}")
+    items = all_fits(fits, per_system, boundary)
+    for name, f in items[len(fits):]:
+        if f["status"] in ("poor", "undetermined"):
+            lines.append(f"fit {name}: {fitting.status_text(f)}")
+    counts = status_counts(items)
+    lines.append("fits: " + ", ".join(f"{n} {st}" for st, n in counts.items())
+                 + " (fits.json, index.html)")
+    return lines
+
+
 def write_report(report, out_dir):
-    """runs.csv, fits.json, figures/*.png and index.html in out_dir; returns their paths."""
+    """runs.csv, fits.json, figures/*.png and index.html in out_dir; returns their paths. Adds
+    `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them in
+    report["printed"] (index.html gives them in its own sections, not as notes)."""
     rows = report["rows"]
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
@@ -618,6 +804,14 @@ def write_report(report, out_dir):
         json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
                    "campaign": report["campaign"], "runs_analysed": len(rows),
                    "runs_steady": sum(1 for r in rows if r["steady"]),
+                   "summary_format": summary_module.SUMMARY_FORMAT,
+                   "summary_version": summary_module.SUMMARY_VERSION,
+                   "reanalysed_runs": [{"run": n, "reason": why}
+                                       for n, why in report.get("reanalysed", [])],
+                   "excluded_runs": [{"run": n, "reason": why} for n, why in report["skipped"]],
+                   "fit_status_counts": status_counts(all_fits(fits, per_system, boundary)),
+                   "bulk_not_reference": [{"run": r["run"], "reason": r.get("bulk_h_note")}
+                                          for r in rows if r.get("bulk_h_reference") is not True],
                    "software": report.get("software"), "fits": fits,
                    "fits_per_system": per_system,
                    "boundary": boundary, "transitions": transitions, "predictions": preds},
@@ -633,4 +827,7 @@ def write_report(report, out_dir):
         f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures,
                       per_system))
     paths.append(index)
+    report["printed"] = printed_lines(report, fits, per_system, boundary)
+    notes = report.setdefault("notes", [])
+    notes += [n for n in report["printed"] if n not in notes]
     return paths

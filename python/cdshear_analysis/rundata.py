@@ -13,6 +13,13 @@ The result is a plain dict:
                                          `height` are attributes; datasets are accepted too, as
                                          plain floats), None if absent
 Every problem with the folder or file raises RunDataError(path, problem).
+
+Format versions (attrs["format_version"]). Version 2 (FORMAT_VERSION) counts Z as the closed
+contacts (gap <= contact_gap) and keeps the per-step count as force_carrying_coordination; its
+stress includes the rotational part. A version-1 file is read as version 2 would describe it:
+its coordination (the contacts carrying force at the sampled step) becomes
+force_carrying_coordination, every closed-contact coordination is NaN (not measured), and
+attrs["legacy_note"] says so; its stress lacks the rotational part.
 """
 import os
 import re
@@ -23,6 +30,7 @@ import h5py
 import numpy as np
 
 RUN_FILE = "run.h5"
+FORMAT_VERSION = 2
 REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
                   "time")
 REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
@@ -142,6 +150,14 @@ def _read(f, run_dir, path):
                 raise RunDataError(path, f"/windows/regions/{label}: no attribute h")
             regions[label] = data
     regions = dict(sorted(regions.items(), key=lambda item: item[1]["h"]))
+    version = attrs.get("format_version", 1)
+    if not isinstance(version, (int, float, np.integer, np.floating)) or not np.isfinite(version):
+        raise RunDataError(path, f"format_version {version!r} is not a number")
+    if version > FORMAT_VERSION:
+        raise RunDataError(path, f"format version {version:g} is newer than this analysis "
+                                 f"reads ({FORMAT_VERSION}): update cdshear")
+    if version < 2:
+        _as_version_2(windows, regions, attrs)
     snapshot = None
     if "snapshot" in f:
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
@@ -159,6 +175,21 @@ def _read(f, run_dir, path):
             break
     return dict(run_dir=run_dir, path=path, attrs=attrs, case=case, series=series,
                 windows=windows, regions=regions, snapshot=snapshot)
+
+
+def _as_version_2(windows, regions, attrs):
+    """A version-1 file's windows and regions in version 2's names (see the module doc)."""
+    def move(data, key, new_key):
+        if key in data and new_key not in data:
+            data[new_key] = data[key]
+            data[key] = np.full(np.shape(data[key]), np.nan)
+    move(windows, "coordination", "force_carrying_coordination")
+    for data in regions.values():
+        for part in ("bulk", "bottom", "top"):
+            move(data, f"{part}_coordination", f"{part}_force_carrying_coordination")
+    attrs["legacy_note"] = ("format version 1: Z (closed contacts) was not measured; the "
+                            "per-step count of force-carrying contacts is "
+                            "force_carrying_coordination; the stress lacks the rotational part")
 
 
 def _read_text(path):

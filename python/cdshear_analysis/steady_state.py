@@ -9,17 +9,23 @@ inefficiency N err^2 / std^2 (about twice the correlation time, in samples) of i
 from block averaging, and at least MSER_MIN_BATCH; a per-window signal uses the windows as
 batches.
 
-Signals (see summary.py): the wall friction mu_wall = (|bottom_fx|+|top_fx|)/(|bottom_fy|+|top_fy|)
-and the height L_y from /series, and, with >= MSER_MIN_WINDOWS windows, the bulk mu_eff and
-bulk solid fraction of each window. The transient ends at the latest truncation time. The run
-is steady unless
+Signals (see summary.py): the wall friction mu_wall = (|bottom_fx|+|top_fx|)/(|bottom_fy|+|top_fy|),
+the height L_y and the block's speed |block_vx| (the centre-of-mass statistics) from /series,
+and, with >= MSER_MIN_WINDOWS windows, the bulk mu_eff, bulk solid fraction and bulk shear rate
+(the velocity profile) of each window. The transient ends at the latest truncation time. The
+run is steady unless
   - a signal with >= MSER_MIN_BATCHES batches has its MSER minimum at the search limit (half
     of the data): the transient may last longer than half the run;
   - fewer than STEADY_MIN_WINDOWS complete windows start after the transient;
   - a series holds fewer than STEADY_MIN_INDEPENDENT independent samples (std/err)^2 after it;
   - a series still drifts after it: the means of the two halves of what remains differ by more
     than STEADY_MAX_DRIFT combined standard errors, 2 err with err the block-averaging error of
-    the whole remaining mean (MSER misses slow drifts).
+    the whole remaining mean (MSER misses slow drifts);
+  - the stress is not uniform (`balance`, per window: the interior mu_eff minus the walls'): in
+    steady shear the momentum balance makes the interior friction equal the walls', while
+    momentum still diffuses across the cell it does not. Over the steady windows (at least
+    BALANCE_MIN_WINDOWS), the mean difference must be within STEADY_MAX_IMBALANCE standard
+    errors of zero (the error over windows, each window 80 t long).
 When not steady, averages are taken over the last half of the run (flagged): series samples
 at t >= t_end / 2, windows starting there (or the last window if none does).
 """
@@ -34,6 +40,8 @@ MSER_MIN_WINDOWS = 10         # per-window signals take part only with this many
 STEADY_MIN_WINDOWS = 2        # complete windows needed after the transient
 STEADY_MIN_INDEPENDENT = 20   # independent samples needed after the transient, per series
 STEADY_MAX_DRIFT = 5.0        # largest difference of the two halves' means, in standard errors
+BALANCE_MIN_WINDOWS = 3       # steady windows needed to judge the stress balance
+STEADY_MAX_IMBALANCE = 3.0    # largest interior-minus-wall friction, in standard errors
 
 
 def mser_truncation(z):
@@ -66,13 +74,26 @@ def series_truncation(time, x):
     return float(time[d * b]), at_limit
 
 
-def detect_steady_state(time, series, window_start, window_signals):
+def stress_balance(balance, windows):
+    """(mean, standard error, z) of the per-window interior-minus-wall friction over `windows`;
+    NaNs without BALANCE_MIN_WINDOWS finite values."""
+    x = np.asarray(balance, dtype=float)[np.asarray(windows, dtype=int)]
+    x = x[np.isfinite(x)]
+    if len(x) < BALANCE_MIN_WINDOWS:
+        return np.nan, np.nan, np.nan
+    mean, err = float(np.mean(x)), float(np.std(x, ddof=1) / np.sqrt(len(x)))
+    return mean, err, (abs(mean) / err if err > 0 else (0.0 if mean == 0 else np.inf))
+
+
+def detect_steady_state(time, series, window_start, window_signals, balance=None):
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
-    window_signals: {name: one value per window}. Returns a dict with steady (bool), reason,
+    window_signals: {name: one value per window}; balance: per window, the interior mu_eff minus
+    the walls' (None: not checked). Returns a dict with steady (bool), reason,
     transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
-    truncation_times {name: t}, independent_samples {name: n} and drift_sigmas {name: z}.
+    truncation_times {name: t}, independent_samples {name: n}, drift_sigmas {name: z} and
+    stress_balance {mean, err, sigmas} over the steady windows (NaN if not checked).
     """
     time = np.asarray(time, dtype=float)
     window_start = np.asarray(window_start, dtype=float)
@@ -118,6 +139,13 @@ def detect_steady_state(time, series, window_start, window_signals):
             if z > STEADY_MAX_DRIFT:
                 problems.append(f"{name} still drifting (the two halves after t = "
                                 f"{transient_end:.4g} differ by {z:.2g} standard errors)")
+    imbalance = (stress_balance(balance, steady_windows) if balance is not None
+                 else (np.nan, np.nan, np.nan))
+    if not problems and imbalance[2] > STEADY_MAX_IMBALANCE:
+        problems.append(f"stress not uniform: the interior mu_eff differs from the walls' by "
+                        f"{imbalance[0]:+.3g} ± {imbalance[1]:.2g} ({imbalance[2]:.2g} standard "
+                        f"errors) over the windows after t = {transient_end:.4g}: momentum is "
+                        f"still spreading across the cell")
     steady = not problems
     if steady:
         start, windows = transient_end, steady_windows
@@ -131,4 +159,5 @@ def detect_steady_state(time, series, window_start, window_signals):
     return dict(steady=steady, reason=reason, transient_end_time=transient_end,
                 averaging_start_time=float(start), windows=windows,
                 truncation_times=truncation, independent_samples=independent,
-                drift_sigmas=drift)
+                drift_sigmas=drift,
+                stress_balance=dict(mean=imbalance[0], err=imbalance[1], sigmas=imbalance[2]))

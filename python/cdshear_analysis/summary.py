@@ -20,11 +20,13 @@ from .rundata import RunDataError
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
 
-SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 2
-BULK_MIN_STRIPES = 3   # the classifier's bulk: smallest h leaving this many stripes
-PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination", "inertial_number",
-                  "shear_rate")
+SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 3
+REFERENCE_H = 10.0     # SPEC 7's boundary thickness: the bulk is h < y < L_y - h with h = 10
+BULK_MIN_STRIPES = 3   # a bulk holds at least this many stripes
+PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination",
+                  "force_carrying_coordination", "inertial_number", "shear_rate")
 STRESS_COMPONENTS = {"stress_xx": (0, 0), "stress_xy": (0, 1), "stress_yy": (1, 1)}
+STRESS_PARTS = ("kinetic_stress", "rotational_stress")   # their xy and yy profiles as well
 
 
 def wall_friction_series(series):
@@ -54,12 +56,25 @@ def wall_force_ratio(series, sides, keep):
     return ratio_of_means(num, den)
 
 
+def window_wall_friction(windows):
+    """The walls' friction of each window, (|bottom f_x| + |top f_x|) / (|bottom f_y| + |top
+    f_y|) of the window's exact mean forces (NaN without a normal force)."""
+    fb = np.asarray(windows["bottom_force"], dtype=float).reshape(-1, 2)
+    ft = np.asarray(windows["top_force"], dtype=float).reshape(-1, 2)
+    den = np.abs(fb[:, 1]) + np.abs(ft[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, (np.abs(fb[:, 0]) + np.abs(ft[:, 0])) / den, np.nan)
+
+
 def switch_friction_difference(series, time, switch):
-    """delta_mu of one band switch: |mean over the switch of (bottom_fx + top_fx)| / the mean
-    normal force of a wall over it, the net tangential force of the walls on the grains per
-    unit normal force, which takes the block from one wall's velocity to the other's
-    (SPEC 8: T = 2 rho nu V L_y / (delta_mu sigma_yy)). NaN without samples in the switch."""
-    sel = (time >= switch["start_time"]) & (time <= switch["end_time"])
+    """delta_mu before one band switch: |mean of (bottom_fx + top_fx)| / the mean normal force of
+    a wall, over the samples delta_mu_start_time < t <= delta_mu_end_time (the stretch of the
+    old plateau before the switch, regime.band_switches): the walls' net tangential force on the
+    grains per unit normal force in the quasi-steady state the switch leaves (SPEC 8: T = 2 rho
+    nu V L_y / (delta_mu sigma_yy)). By momentum balance it equals the grains' momentum change
+    over the stretch, so on a plateau it measures how far the block already accelerates there.
+    NaN without samples in the stretch."""
+    sel = (time > switch["delta_mu_start_time"]) & (time <= switch["delta_mu_end_time"])
     if not sel.any():
         return np.nan
     fx = np.asarray(series["bottom_fx"], float)[sel] + np.asarray(series["top_fx"], float)[sel]
@@ -69,16 +84,35 @@ def switch_friction_difference(series, time, switch):
 
 
 def choose_bulk_range(run):
-    """(h, lo, hi): the smallest h of the file whose bulk h < y < H - h holds BULK_MIN_STRIPES
-    stripes (H the mean window height), else h = None and the central half H/4 < y < 3H/4.
-    lo and hi are per window."""
+    """(h, lo, hi): the bulk h < y < H - h (H the mean window height) of the measured h closest
+    to REFERENCE_H among those whose bulk holds BULK_MIN_STRIPES stripes (the smaller on a tie),
+    else h = None and the central half H/4 < y < 3H/4. lo and hi are per window."""
     y, height = run["windows"]["y"], np.asarray(run["windows"]["height"], dtype=float)
     mean_height = np.nanmean(height)
-    for region in run["regions"].values():
-        h = region["h"]
-        if np.sum((y > h) & (y < mean_height - h)) >= BULK_MIN_STRIPES:
-            return h, np.full_like(height, h), height - h
+    usable = [region["h"] for region in run["regions"].values()
+              if np.sum((y > region["h"]) & (y < mean_height - region["h"])) >= BULK_MIN_STRIPES]
+    if usable:
+        h = min(usable, key=lambda h: (abs(h - REFERENCE_H), h))
+        return h, np.full_like(height, h), height - h
     return None, 0.25 * height, 0.75 * height
+
+
+def bulk_h_note(run, h):
+    """None when the bulk is SPEC 7's (h = REFERENCE_H), else why it is not, in words."""
+    height = np.asarray(run["windows"]["height"], dtype=float)
+    if h == REFERENCE_H or not np.isfinite(height).any():   # SPEC's, or no window: no bulk
+        return None
+    y = np.asarray(run["windows"]["y"], dtype=float)
+    mean_height = float(np.nanmean(height))
+    measured = [region["h"] for region in run["regions"].values()]
+    where = f"bulk at h = {h:g}" if h is not None else "bulk taken as the central half"
+    if np.sum((y > REFERENCE_H) & (y < mean_height - REFERENCE_H)) < BULK_MIN_STRIPES:
+        why = (f"the cell (L_y = {mean_height:.3g}) is too thin for h = {REFERENCE_H:g} "
+               f"to leave {BULK_MIN_STRIPES} stripes of bulk")
+    else:
+        why = (f"h = {REFERENCE_H:g} was not measured (measure.boundary_thickness = "
+               f"{[float(m) for m in measured]})")
+    return f"{where}, not SPEC 7's h = {REFERENCE_H:g}: {why}"
 
 
 def no_window_reason(run, time):
@@ -107,9 +141,17 @@ def analyze(run):
     else:
         bulk_h, lo, hi = choose_bulk_range(run)
         bulk_w = region_quantities(w, lo, hi, sigma, mass)
-    st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"]}, w["t_start"],
-                             {"bulk_mu_eff": bulk_w["mu_eff"],
-                              "bulk_solid_fraction": bulk_w["solid_fraction"]})
+    block = np.abs(np.asarray(s["block_vx"] if "block_vx" in s else com, dtype=float))
+    if no_window:
+        window_signals, balance = {}, None
+    else:
+        window_signals = {"bulk_mu_eff": bulk_w["mu_eff"],
+                          "bulk_solid_fraction": bulk_w["solid_fraction"],
+                          "bulk_shear_rate": bulk_w["shear_rate"]}
+        balance = bulk_w["mu_eff"] - window_wall_friction(w)
+    st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
+                                    "abs_block_vx": block},
+                             w["t_start"], window_signals, balance=balance)
     if no_window:
         st.update(steady=False, reason=no_window_reason(run, time),
                   transient_end_time=np.nan)   # no transient end is claimed
@@ -122,24 +164,21 @@ def analyze(run):
     def win(x):
         return mean_err(*window_mean(np.asarray(x, dtype=float)[sel]))
 
-    # regime
-    t_start, t_end = w["t_start"][sel], w["t_end"][sel]
-    window_r = bulk_w["shear_rate"][sel] * w["height"][sel] / (2 * V)
-    r = float(np.nanmean(window_r)) if np.isfinite(window_r).any() else np.nan
-    f = rg.com_fraction(com[after], V)
-    window_f = [rg.com_fraction(com[(time >= t0) & (time < t1)], V)
-                for t0, t1 in zip(t_start, t_end)]
-    regime, confidence, criteria = rg.classify_run(r, f, window_r, window_f)
+    # regime: window states, the block velocity, band switches (regime.py)
+    u, u_source = rg.block_velocity(s)
+    table = rg.window_table(w, sel, lo, hi, time, u, V)
+    switches = rg.band_switches(time, u, V, rg.plateau_velocities(u, V, u_source))
+    for sw in switches:
+        sw["delta_mu"] = switch_friction_difference(s, time, sw)
+    span = (float(st["averaging_start_time"]), float(time[-1]))
+    regime, confidence, criteria = rg.classify_run(table, u[after], switches, V, span, u_source)
     if no_window:
         regime, confidence = None, np.nan
-        criteria["reason"] = (f"undetermined: {st['reason']}; the bulk shear rate r needs a "
+        criteria["reason"] = (f"undetermined: {st['reason']}; the window states need a "
                               f"complete window")
     y_range = [float(np.mean(lo[sel])), float(np.mean(hi[sel]))] if len(sel) else [np.nan] * 2
     criteria.update(bulk_h=bulk_h, bulk_y_range=y_range)
     visits_both = rg.visits_both_walls(com, V)
-    switches = rg.band_switches(time, com, V) if regime == "C" or visits_both else []
-    for sw in switches:
-        sw["delta_mu"] = switch_friction_difference(s, time, sw)
     edges, counts = rg.com_histogram(com[after], V)
     com_block = block_average(com[after])
 
@@ -156,11 +195,22 @@ def analyze(run):
         for part in ("bulk", "bottom", "top"):
             regions[label][part] = {k[len(part) + 1:]: win(v) for k, v in reg.items()
                                     if k.startswith(part + "_")}
+        # regime C: the sheared and the resting layer of each window with a band
+        layers = rg.band_layers({k: np.asarray(v, dtype=float)[sel] for k, v in reg.items()
+                                 if k.startswith(("bottom_", "top_"))}, table["band_wall"])
+        n_band = sum(b is not None for b in table["band_wall"])
+        for name, values in zip(("sheared_layer", "resting_layer"), layers):
+            regions[label][name] = {q: mean_err(*window_mean(v)) for q, v in values.items()}
+            regions[label][name]["windows"] = n_band
     profiles = {"y": np.asarray(w["y"], dtype=float)}
     for field in PROFILE_FIELDS:
         profiles[field] = win(w[field])
     for name, (i, j) in STRESS_COMPONENTS.items():
         profiles[name] = win(w["stress"][..., i, j])
+    for part in STRESS_PARTS:
+        if part in w:
+            for name, (i, j) in (("xy", (0, 1)), ("yy", (1, 1))):
+                profiles[f"{part}_{name}"] = win(np.asarray(w[part])[..., i, j])
     durations = [sw["duration"] for sw in switches]
     delta_mus = [sw["delta_mu"] for sw in switches if np.isfinite(sw["delta_mu"])]
     get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
@@ -179,6 +229,7 @@ def analyze(run):
         "truncation_times": st["truncation_times"],
         "independent_samples": st["independent_samples"],
         "drift_sigmas": st["drift_sigmas"],
+        "stress_balance": st["stress_balance"],
         "steady_windows": len(sel),
         "steady_window_indices": sel,
         "window_errors": (f"standard error over {len(sel)} windows" if len(sel) > 1 else
@@ -195,6 +246,7 @@ def analyze(run):
                        bimodality_coefficient=rg.bimodality_coefficient(com[after]),
                        visits_both_walls=visits_both),
         "bulk": dict(h=bulk_h, y_range=criteria["bulk_y_range"],
+                     h_reference=bulk_h == REFERENCE_H, h_note=bulk_h_note(run, bulk_h),
                      **{q: win(bulk_w[q]) for q in QUANTITIES}),
         "slip": {"bottom": slip("bottom"), "top": slip("top")},
         "regions": regions,
@@ -276,12 +328,12 @@ def format_report(summary, summary_path):
         lines.append(f"  values below are only indicative: series over the last half (t >= "
                      f"{summary['averaging_start_time']:.4g}), windows {idx[0]}-{idx[-1]}")
         lines.append(_continue_hint(summary))
-    lines.append(f"regime {summary['regime']} (confidence {summary['regime_confidence']:.2f}): "
-                 f"bulk shear rate / (2V/L_y) = {crit['shear_rate_ratio']:.3g}, "
-                 f"|com_vx| > V/2 in {crit['com_fraction']:.0%} of samples, "
-                 f"{len(summary['switches'])} band switch(es)")
+    lines.append(rg.report_line(summary["regime"], summary["regime_confidence"], crit,
+                                len(summary["switches"])))
     where = f"h = {b['h']:g}" if b["h"] is not None else "central half"
     lo, hi = b["y_range"]
+    if b.get("h_note"):
+        lines.append(f"note: {b['h_note']}")
     lines += [f"bulk ({where}, {lo:.3g} < y < {hi:.3g}):",
               f"  I_bulk        = {pm(b['inertial_number'])}",
               f"  mu_eff bulk   = {pm(b['mu_eff'])}",
@@ -344,6 +396,7 @@ def _too_short_report(summary):
              f"  mu_eff walls  = {pm(summary['mu_eff_wall'])}",
              f"  L_y           = {pm(summary['height'])}",
              f"  nu (global)   = {pm(summary['solid_fraction'])}",
-             f"  com_vx / V    = {pm(com_v)}, |com_vx| > V/2 in {f} of samples"]
+             f"  com_vx / V    = {pm(com_v)}, "
+             f"|{crit.get('block_velocity_source', 'com_vx')}| > V/2 in {f} of samples"]
     lines += sweep_cap_warning(summary["solver"])
     return lines

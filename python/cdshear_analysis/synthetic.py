@@ -1,16 +1,31 @@
 """Synthetic run folders (run.h5 + case.toml) following docs/run-data.md, for tests and demos.
 
-Kinds:
-  "A"          linear velocity profile with 10% slip at each wall, com_vx AR(1) noise about 0;
-  "B"          shear in two boundary bands of thickness 3, still bulk, com_vx noise about 0;
-  "C"          one band; the bulk moves with one wall: com_vx at +V or -V, switching at
-               `switch_times` (each switch a linear ramp over `switch_duration`; with
-               `switch_forces` the bottom wall's force carries the block's acceleration, as
-               Newton's law for the grains says: a fast synthetic switch makes it large);
-  "noise"      no structure: white-noise profiles and com_vx (std 0.4 V);
+Kinds (u: the block velocity, written as the series block_vx; com_vx = (1 - 3 / L_y) u where the
+profile has the two bands of thickness 3 below, the centre-of-mass velocity of those profiles):
+  "A"          linear velocity profile with 10% slip at each wall, u AR(1) noise about 0;
+  "B"          shear in two boundary bands of thickness 3, still bulk, u AR(1) noise about 0
+               (std 0.2 V, correlation time 10 t);
+  "C"          one band; the bulk moves with one wall: u at +V or -V, switching at
+               `switch_times` (default duration/4, /2, 3/4; each switch a linear ramp over
+               `switch_duration`; with `switch_forces` the bottom wall's force carries the
+               block's acceleration, as Newton's law for the grains says: a fast synthetic
+               switch makes it large);
+  "C_fast"     "C" switching every `switch_interval` (default 40 t);
+  "intermittent"  the block rests (B) and moves with a wall (C) in turn, `dwell` t each:
+               0, +V, 0, -V, 0, ... with ramps over `switch_duration`;
+  "wander"     a B profile whose block velocity wanders: u AR(1) with std 0.5 V and correlation
+               time `wander_time` (default 100 t);
+  "rest"       the grains at rest and both walls sliding over them: v_x = 0 at every height
+               (u noise of 0.01 V), slip V at each wall;
+  "noise"      no structure: white-noise profiles and u (std 0.4 V);
   "transient"  regime A whose wall friction and height relax as exp(-t / transient_tau)
                (mu from 0.55 to 0.30, L_y from 19 to 20).
-Steady values: mu_wall = 0.30, L_y = 20 (nominal), bulk solid fraction 0.80, Z = 3.
+With `pre_switch_delta_mu` the bottom wall also carries a net tangential force pre_switch_delta_mu
+times the normal force over the `pre_switch_time` before each ramp of "C", "C_fast" and
+"intermittent" (a force the block does not follow: a check of the delta_mu measurement).
+`block_column=False` leaves block_vx out (a file from before the column).
+Format version 2 (docs/run-data.md). Steady values: mu_wall = 0.30, L_y = 20 (nominal), bulk solid
+fraction 0.80, Z = 3 (force-carrying coordination 2.55).
 """
 import os
 
@@ -32,30 +47,58 @@ def ar1(n, phi, std, rng):
     return lfilter([1.0], [1.0, -phi], e)
 
 
-def _profile(kind, y, height, velocity, com, rng):
-    """v_x(y) of one window for a given mean centre-of-mass velocity."""
+BANDED = ("B", "C", "C_fast", "intermittent", "wander")   # profiles with two bands
+SWITCHING = ("C", "C_fast", "intermittent")               # u from ramps between levels
+
+
+def _profile(kind, y, height, velocity, block, rng):
+    """v_x(y) of one window for a given mean block velocity."""
     V = velocity
     band_bottom = np.clip(1 - y / BAND, 0, 1)        # 1 at the bottom wall, 0 beyond the band
     band_top = np.clip(1 - (height - y) / BAND, 0, 1)
     if kind in ("A", "transient"):
-        v = -0.9 * V + 1.8 * V * y / height + com
-    elif kind == "B":
-        v = com + (-V - com) * band_bottom + (V - com) * band_top
-    elif kind == "C":
-        p = np.clip((com / V + 1) / 2, 0, 1)         # fraction of time with the bulk at +V
-        plus = V - 2 * V * band_bottom
-        minus = -V + 2 * V * band_top
-        v = p * plus + (1 - p) * minus
+        v = -0.9 * V + 1.8 * V * y / height + block
+    elif kind in BANDED:
+        v = block + (-V - block) * band_bottom + (V - block) * band_top
+    elif kind == "rest":
+        v = np.full_like(y, block)
     else:
         return rng.normal(0, 0.5 * V, len(y))
     return v + rng.normal(0, 0.01 * V, len(y))
+
+
+def _levels(t, start, steps, ramp):
+    """start, then at each (time, level) of steps a linear ramp over `ramp` to that level."""
+    x, previous = np.full_like(t, float(start)), float(start)
+    for ts, level in steps:
+        r = np.clip((t - ts) / ramp, 0, 1)
+        x = np.where(t >= ts, previous + (level - previous) * r, x)
+        previous = level
+    return x
+
+
+def _steps(kind, duration, switch_times, switch_interval, dwell):
+    """(start level, [(time, level)]) of u / V for the SWITCHING kinds."""
+    if kind == "intermittent":
+        times = np.arange(1, int(np.ceil(duration / dwell))) * dwell
+        cycle = (1.0, 0.0, -1.0, 0.0)
+        return 0.0, [(ts, cycle[k % 4]) for k, ts in enumerate(times)]
+    if switch_times is not None:
+        times = np.asarray(switch_times, dtype=float)
+    elif kind == "C_fast":
+        times = np.arange(switch_interval, duration, switch_interval)
+    else:
+        times = np.arange(1, 4) * duration / 4
+    return 1.0, [(ts, -(-1.0) ** k) for k, ts in enumerate(times)]
 
 
 def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_reached=None,
                         sample_interval=0.5, window=80.0, n=511, height=20.0, length_x=20.0,
                         normal_stress=0.25, boundary_thickness=(5.0, 10.0), switch_times=None,
                         switch_duration=20.0, transient_tau=100.0, seed=1,
-                        switch_forces=False):
+                        switch_forces=False, switch_interval=40.0, dwell=400.0,
+                        wander_time=100.0, pre_switch_delta_mu=0.0, pre_switch_time=100.0,
+                        block_column=True):
     """Write RUN_DIR/run.h5 and RUN_DIR/case.toml; returns the run.h5 path.
 
     time_reached < duration makes an interrupted run (attribute finished = 0)."""
@@ -68,39 +111,44 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     relax = np.exp(-t / transient_tau) if kind == "transient" else np.zeros_like(t)
     mu = MU + 0.25 * relax + ar1(n_samples, 0.9, 0.02, rng)
     height_t = height - 1.0 * relax + ar1(n_samples, 0.95, 0.05, rng)
-    if kind == "C":
-        switches = (np.asarray(switch_times, dtype=float) if switch_times is not None
-                    else np.arange(1, 4) * duration / 4)
-        state = np.ones_like(t)                       # +1 then alternating at each switch
-        for k, ts in enumerate(switches):
-            old = (-1.0) ** k
-            ramp = np.clip((t - ts) / switch_duration, 0, 1)
-            state = np.where(t >= ts, old * (1 - 2 * ramp), state)
-        com = V * state + ar1(n_samples, 0.8, 0.05 * V, rng)
+    steps = []
+    if kind in SWITCHING:
+        start, steps = _steps(kind, duration, switch_times, switch_interval, dwell)
+        state = _levels(t, start, steps, switch_duration)
+        u = V * state + ar1(n_samples, 0.8, 0.05 * V, rng)
         # the block's acceleration, without the noise
         accel = V * np.gradient(state, t) if len(t) > 1 else np.zeros_like(t)
     elif kind == "noise":
-        com = rng.normal(0, 0.4 * V, n_samples)
+        u = rng.normal(0, 0.4 * V, n_samples)
+    elif kind == "wander":
+        u = ar1(n_samples, np.exp(-sample_interval / wander_time), 0.5 * V, rng)
     else:
-        com = ar1(n_samples, 0.95, (0.2 if kind == "B" else 0.05) * V, rng)
-    if kind != "C" or not switch_forces:
+        u = ar1(n_samples, 0.95, {"B": 0.2, "rest": 0.01}.get(kind, 0.05) * V, rng)
+    if kind not in SWITCHING or not switch_forces:
         accel = np.zeros_like(t)
+    com = (1 - BAND / height) * u if kind in BANDED else u
     fy = sigma * length_x * (1 + ar1(n_samples, 0.5, 0.02, rng))
     mean_area = np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
     # Newton for the grains (rho = 1): the walls' net tangential force on them, -(bottom_fx +
     # top_fx), is their mass times the block's acceleration (nonzero during a switch only)
     block_force = n * mean_area * accel
+    held = np.zeros_like(t)                       # the force the block does not follow
+    for ts, _ in steps:
+        held[(t >= ts - pre_switch_time) & (t < ts)] = pre_switch_delta_mu
     series = dict(
         step=np.round(t / dt).astype(np.int64), time=t, com_vx=com, height=height_t,
         solid_fraction=n * mean_area / (length_x * height_t),
         kinetic_energy=0.5 * n * 0.6 * (0.1 * V) ** 2 * (1 + 0.1 * rng.random(n_samples)),
         contacts=rng.integers(900, 1100, n_samples),
         force_carrying=rng.integers(500, 700, n_samples),
-        bottom_fx=mu * fy - block_force, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy, bottom_mu=mu,
-        top_mu=mu,
+        bottom_fx=mu * fy - block_force + held * fy, bottom_fy=-fy, top_fx=-mu * fy, top_fy=fy,
+        bottom_mu=mu, top_mu=mu,
         sweeps_mean=40 + 5 * rng.random(n_samples), sweeps_max=rng.integers(60, 201, n_samples),
         capped_steps=(rng.random(n_samples) < 0.001).astype(np.int64),
         residual_max=1e-6 * rng.random(n_samples), overlap_max=1e-3 * rng.random(n_samples))
+    series["closed"] = (0.9 * series["contacts"]).astype(np.int64)
+    if block_column:
+        series["block_vx"] = u
 
     n_windows = int(t_reached // window)
     n_stripes = int(np.ceil(1.25 * height / dy))
@@ -110,6 +158,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     W["samples"] = np.array([s.sum() for s in inside], dtype=np.int64)
     W["height"] = np.array([height_t[s].mean() for s in inside])
     W["com_vx"] = np.array([com[s].mean() for s in inside])
+    block = np.array([u[s].mean() for s in inside])
     shape = (n_windows, n_stripes)
     nu = np.zeros(shape)
     vx, mu_prof, coord = (np.full(shape, np.nan) for _ in range(3))
@@ -120,7 +169,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         yo = y[ok]
         nu[w, ok] = (NU - 0.1 * (np.exp(-yo / 1.5) + np.exp(-(H - yo) / 1.5))
                      + rng.normal(0, 0.005, ok.sum()))
-        vx[w, ok] = _profile(kind, yo, H, V, W["com_vx"][w], rng)
+        vx[w, ok] = _profile(kind, yo, H, V, block[w], rng)
         mu_prof[w, ok] = mu[s].mean() + rng.normal(0, 0.01, ok.sum())
         coord[w, ok] = Z + rng.normal(0, 0.05, ok.sum())
         stress[w, ok] = [[sigma, 0.0], [0.0, sigma]]
@@ -132,25 +181,30 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
             shear_rate[w, ok] = np.gradient(vx[w, ok], y[ok])
     kinetic = np.where(np.isfinite(stress), 0.0, np.nan)
     kinetic[..., 0, 0] = kinetic[..., 1, 1] = np.where(nu > 0, 0.01 * sigma * nu, np.nan)
-    W.update(solid_fraction=nu, vx=vx, stress=stress, contact_stress=stress - kinetic,
-             kinetic_stress=kinetic, mu_eff=mu_prof, coordination=coord, shear_rate=shear_rate,
+    rotational = np.where(np.isfinite(stress), 0.0, np.nan)
+    W.update(solid_fraction=nu, vx=vx, stress=stress,
+             contact_stress=stress - kinetic - rotational, kinetic_stress=kinetic,
+             rotational_stress=rotational, mu_eff=mu_prof, coordination=coord,
+             force_carrying_coordination=0.85 * coord, shear_rate=shear_rate,
              inertial_number=np.abs(shear_rate) * np.sqrt(m / sigma))
     for wall in ("bottom", "top"):
         fx, fyw = series[f"{wall}_fx"], series[f"{wall}_fy"]
         W[f"{wall}_force"] = np.array([[fx[s].mean(), fyw[s].mean()]
                                        for s in inside]).reshape(-1, 2)
-        W[f"slip_{wall}"] = 0.05 * V + rng.normal(0, 0.005 * V, n_windows)
+        slip = V if kind == "rest" else 0.05 * V
+        W[f"slip_{wall}"] = slip + rng.normal(0, 0.005 * V, n_windows)
         W[f"slip_{wall}_count"] = rng.integers(400, 600, n_windows)
     W["wall_mu"] = np.array([mu[s].mean() for s in inside])
 
-    attrs = dict(format="cdshear-run", format_version=1, program_version="synthetic", n=n,
+    attrs = dict(format="cdshear-run", format_version=2, program_version="synthetic", n=n,
                  length_x=length_x, height=height, velocity=V, normal_stress=sigma, dt=dt,
                  seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
                  window=window, sample_steps=max(1, int(round(sample_interval / dt))),
                  window_samples=max(1, int(round(window / sample_interval))),
                  stripe_thickness=dy,
                  boundary_thickness=np.asarray(boundary_thickness, dtype=float),
-                 force_threshold=1.0, inertial_mass=m, time=float(t[-1]) if n_samples else 0.0,
+                 force_threshold=1.0, contact_gap=0.01, inertial_mass=m,
+                 time=float(t[-1]) if n_samples else 0.0,
                  step=int(series["step"][-1]) if n_samples else 0,
                  finished=int(t_reached >= duration))
     attrs["case_toml"] = (

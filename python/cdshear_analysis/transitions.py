@@ -1,8 +1,11 @@
 """Transition velocities of each system and the SPEC 8 predictions, for `cdshear report`.
 
-`find_transitions(rows)` (fits.json `transitions`): per system, the runs' regimes by V (every
-analysed run with a regime, steady or not; the runs that are not steady are named), seeds
-combined by majority vote per V, and the brackets of V_AB and V_BC:
+`find_transitions(rows)` (fits.json `transitions`): per system, the runs' regimes by V, seeds
+combined by majority vote per V, and the brackets of V_AB and V_BC. Only a steady run classified
+"A", "B" or "C" votes (`voter`): a run that is not steady has a regime from an average over a
+flow still changing, and a run without a regime or with any other label (undecided,
+intermittent, ...) says nothing about which side of a transition its V lies on; the runs that do
+not vote are listed with the reason (`not_voting`). Then:
   V_AB in [largest V classified B or C, smallest V classified A above it];
   V_BC in [largest V classified C, smallest V classified B above it];
 the estimate is the geometric mean of the bracket. A sequence whose regimes do not go C -> B -> A
@@ -16,7 +19,7 @@ computed is given with its reason.
 import math
 
 from . import fitting
-from .regime import COM_LEVEL
+from .regime import SWITCH_FRACTION
 
 RHO = 1.0                  # SPEC 1: 2D mass density
 INERTIAL_MASS = math.pi / 4  # SPEC 1/7: m in I = gamma_dot sqrt(m / sigma_yy)
@@ -25,6 +28,18 @@ RANK = {"C": 0, "B": 1, "A": 2}
 
 # ---------------------------------------------------------------------------------------------
 # Transition velocities
+
+def voter(row):
+    """None when the run votes (steady, regime A, B or C), else why it does not."""
+    if row.get("steady") is not True:
+        return "not steady" if row.get("steady") is False else "steady state unknown"
+    regime = row.get("regime")
+    if regime is None:
+        return "no regime"
+    if regime not in RANK:
+        return f"regime {regime!r} (only A, B and C vote)"
+    return None
+
 
 def vote(regimes):
     """(majority regime or None on a tie / no vote, {regime: count})."""
@@ -37,7 +52,8 @@ def vote(regimes):
 
 
 def system_sequence(rows):
-    """Per V (ascending): {"V", "regime", "votes", "runs", "not_steady", "note"}."""
+    """Per V (ascending): {"V", "regime", "votes", "runs", "not_steady", "not_voting",
+    "note"}; not_voting: [{"run", "reason"}] of the runs that do not vote (`voter`)."""
     by_v = {}
     for r in rows:
         if r.get("V") is None:
@@ -46,15 +62,17 @@ def system_sequence(rows):
     out = []
     for V in sorted(by_v):
         runs = by_v[V]
-        regime, votes = vote([r["regime"] for r in runs if r.get("regime") in RANK])
+        not_voting = [{"run": r["run"], "reason": voter(r)} for r in runs if voter(r)]
+        regime, votes = vote([r["regime"] for r in runs if voter(r) is None])
         note = None
         if not votes:
-            note = "no run with a regime"
+            note = "no run votes (" + ", ".join(f"{e['run']}: {e['reason']}"
+                                                for e in not_voting) + ")"
         elif regime is None:
             note = "tie between seeds: " + ", ".join(f"{k} {n}" for k, n in votes.items())
         out.append({"V": V, "regime": regime, "votes": votes, "runs": [r["run"] for r in runs],
                     "not_steady": [r["run"] for r in runs if r.get("steady") is not True],
-                    "note": note})
+                    "not_voting": not_voting, "note": note})
     return out
 
 
@@ -89,7 +107,7 @@ def brackets(sequence):
     v_ab = _bracket("V_AB", lo_ab, hi_ab, "no run classified B or C",
                     "no run classified A above it")
     if not seq:
-        v_ab["note"] = "V_AB: no run with a regime"
+        v_ab["note"] = "V_AB: no run votes (steady, regime A, B or C)"
     # V_BC: the last C, the first B above it
     c = [v for v, g in seq if g == "C"]
     lo_bc = max(c) if c else None
@@ -114,7 +132,9 @@ def find_transitions(rows):
     for s in systems:
         seq = system_sequence([r for r in rows if r["system"] == s])
         out[str(s)] = {"system": s, "velocities": seq,
-                       "sequence": " ".join(e["regime"] or "?" for e in seq), **brackets(seq)}
+                       "sequence": " ".join(e["regime"] or "?" for e in seq),
+                       "not_voting": [e for v in seq for e in v["not_voting"]],
+                       **brackets(seq)}
     return out
 
 
@@ -169,7 +189,8 @@ def switch_predictions(rows, boundary=None):
             e["delta_mu"] = r["switch_delta_mu"]
             e["delta_mu_err"] = r.get("switch_delta_mu_err")
             e["delta_mu_source"] = ("summary.json switch_delta_mu: the net tangential force of "
-                                    "the walls per unit normal force, over each switch")
+                                    "the walls per unit normal force, on the plateau before "
+                                    "each switch")
         missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
         if e["delta_mu"] is None:
             missing.append("delta_mu (no band switch with wall forces: summary.json "
@@ -180,13 +201,13 @@ def switch_predictions(rows, boundary=None):
             e["reason"] = "not computed: delta_mu or sigma_yy is not positive"
         else:
             T = switch_time(e["V"], e["L_y"], e["nu_bulk"], e["delta_mu"], e["sigma_yy"])
-            e["predicted_T"], e["predicted_T_levels"] = T, T * COM_LEVEL
-        # the delta_mu that the measured duration implies (com_vx from +-COM_LEVEL V to the
-        # other sign: a velocity change 2 COM_LEVEL V)
+            e["predicted_T"], e["predicted_T_levels"] = T, T * SWITCH_FRACTION
+        # the delta_mu that the measured duration implies (plateau to plateau, the block from
+        # +-SWITCH_FRACTION V to the other sign: a velocity change 2 SWITCH_FRACTION V)
         d = e["switch_duration"]
         if d and d > 0 and not _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]) \
                 and e["sigma_yy"] > 0:
-            e["delta_mu_implied"] = (2 * COM_LEVEL * RHO * e["nu_bulk"] * e["V"] * e["L_y"]
+            e["delta_mu_implied"] = (2 * SWITCH_FRACTION * RHO * e["nu_bulk"] * e["V"] * e["L_y"]
                                      / (d * e["sigma_yy"]))
         else:
             e["delta_mu_implied"] = None
@@ -223,20 +244,22 @@ def _delta_mu_law(row, e, boundary):
 
 def steady_state_predictions(rows, fits):
     """One entry per regime-A run: T_SS from the fitted mu_eff(I) beside transient_end_time."""
-    law = next((k for k in ("mu_power", "mu_linear")
-                if fits.get(k, {}).get("status") == "ok"), None)
+    law = next((k for k in ("mu_power", "mu_linear") if fitting.usable(fits.get(k))), None)
     out = []
     for r in rows:
         if r.get("regime") != "A":
             continue
         e = {"run": r["run"], "system": r["system"], "V": r["V"], "steady": r.get("steady"),
              "I_bulk": r.get("I_bulk"), "L_y": r.get("L_y"), "nu_bulk": r.get("nu_bulk"),
-             "sigma_yy": r.get("_sigma_yy"), "law": law, "dmu_dI": None, "D": None,
+             "sigma_yy": r.get("_sigma_yy"), "law": law,
+             "law_status": fits[law].get("status") if law else None, "dmu_dI": None, "D": None,
              "predicted_T_SS": None, "measured_transient_end_time": r.get("transient_end_time"),
              "reason": None}
         missing = _missing(e, ["I_bulk", "L_y", "nu_bulk", "sigma_yy"])
         if law is None:
-            e["reason"] = "not computed: no mu_eff(I) fit (mu_power and mu_linear skipped)"
+            e["reason"] = "not computed: no mu_eff(I) law whose parameters are determined (" + \
+                "; ".join(f"{k} {fitting.status_text(fits.get(k))}"
+                          for k in ("mu_power", "mu_linear")) + ")"
         elif missing:
             e["reason"] = "not computed: missing " + ", ".join(missing)
         elif e["I_bulk"] <= 0 or e["sigma_yy"] <= 0 or e["nu_bulk"] <= 0:
@@ -275,7 +298,7 @@ def predictions(rows, fits, boundary=None, transitions=None):
                                   "estimate": measured["estimate"]} if measured else None)
         stability = symmetric_state_stability(rows, boundary)
     return {
-        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "com_level": COM_LEVEL},
+        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "switch_fraction": SWITCH_FRACTION},
         "V_AB": v_ab,
         "symmetric_state_stability": stability,
         "switch_time_C": switch_predictions(rows, boundary),

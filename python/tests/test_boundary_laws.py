@@ -37,6 +37,7 @@ def campaign_rows(seed=5, hs=(3.0, 5.0, 7.0)):
             I_bulk = 0.0 if regime != "A" else 0.05 * V
             row = {"run": f"s{system}_seed1_V{V:.6g}", "system": system, "V": float(V),
                    "regime": regime, "steady": True, "_layers": list(hs), "_sigma_yy": SIGMA,
+                   "bulk_h_reference": True,
                    "I_bulk": I_bulk or None, "I_bulk_err": 0.01 * I_bulk or None,
                    "mu_eff_bulk": BULK["mu_0"] + BULK["A"] * I_bulk ** BULK["B"]
                    + 0.003 * rng.standard_normal(), "mu_eff_bulk_err": 0.003,
@@ -155,12 +156,16 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertEqual({e["predicted"] for e in weak}, {"unstable (C)"})
 
     def test_a_law_of_another_form_is_flagged(self):
-        # Z = 2 - 0.3 ln(I): no power law Z_0 - c I^e fits it but one with e -> 0 (its bound)
+        # Z = 2 - 0.3 ln(I): no power law Z_0 - c I^e fits it but one with e -> 0 (its bound):
+        # the points do not constrain the form, whatever its chi2
         pts = [(x, 2.0 - 0.3 * math.log(x), 0.01, str(k))
                for k, x in enumerate(np.geomspace(1e-4, 0.3, 12))]
         fit = fitting.fit(LAWS_Z, pts)
-        self.assertEqual(fit["status"], "ok")
+        self.assertEqual(fit["status"], "undetermined")
+        self.assertIn("e = 0.001 on the bound of its range [0.001, 10]", fit["reason"])
         self.assertIn("e at the bound of its range", fit["note"])
+        self.assertFalse(fitting.usable(fit))
+        self.assertTrue(fitting.fitted(fit))
         self.assertIsNone(fitting.fit(LAWS_Z, [(x, 3.0 - 2.0 * x ** 0.7, 0.01, "")
                                                for x in np.geomspace(1e-3, 0.3, 12)])["note"])
 

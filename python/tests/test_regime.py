@@ -1,125 +1,273 @@
-"""Regime classifier, com_vx statistics and band switches, on synthetic runs and series."""
+"""Regimes by positive criteria, window states, band layers and band switches, on synthetic runs
+with known answers (synthetic.py) and on hand-made series."""
 import os
 import tempfile
 import unittest
 
 import numpy as np
 
-from cdshear_analysis import analyze, load_run
-from cdshear_analysis.regime import band_switches, bimodality_coefficient, classify_run
+from cdshear_analysis import analyze, format_report, load_run
+from cdshear_analysis import regime as rg
 from cdshear_analysis.synthetic import write_synthetic_run
+
+V = 0.5                                    # synthetic runs' wall velocity
+MASS = 511 * np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)   # synthetic grains' mass (rho = 1)
+SIGMA, LX = 0.25, 20.0
+SWITCH_TIMES = [500.25, 1000.25, 1500.25]  # between samples (every 0.5 t)
+RUNS = {
+    "A": dict(kind="A"), "B": dict(kind="B"), "C": dict(kind="C"), "noise": dict(kind="noise"),
+    "transient": dict(kind="transient"), "rest": dict(kind="rest"),
+    "wander": dict(kind="wander"), "C_fast": dict(kind="C_fast"),
+    "intermittent": dict(kind="intermittent"),
+    "short": dict(kind="B", duration=200.0),
+    "C_com": dict(kind="C", block_column=False),
+    # switches on window boundaries, 2 t ramps: every window sits on one plateau
+    "C_aligned": dict(kind="C", switch_times=[480.0, 960.0, 1440.0], switch_duration=2.0),
+    "C_forces": dict(kind="C", switch_times=SWITCH_TIMES, switch_forces=True),
+    "C_held": dict(kind="C", switch_times=SWITCH_TIMES, pre_switch_delta_mu=0.04),
+}
+
+
+def synthetic_level(kind_args, t):
+    """u / V of a SWITCHING synthetic run at times t, without its noise."""
+    from cdshear_analysis.synthetic import _levels, _steps
+    start, steps = _steps(kind_args["kind"], 2000.0, kind_args.get("switch_times"), 40.0, 400.0)
+    return _levels(np.asarray(t, dtype=float), start, steps, kind_args.get("switch_duration", 20))
 
 
 class Classifier(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.TemporaryDirectory()
-        cls.summaries = {}
-        for kind in ("A", "B", "C", "noise", "transient"):
-            run_dir = os.path.join(cls.tmp.name, kind)
-            write_synthetic_run(run_dir, kind=kind, duration=2000.0, seed=3)
-            cls.summaries[kind] = analyze(load_run(run_dir))
+        cls.runs, cls.summaries = {}, {}
+        for name, args in RUNS.items():
+            run_dir = os.path.join(cls.tmp.name, name)
+            write_synthetic_run(run_dir, **dict(dict(duration=2000.0, seed=3), **args))
+            cls.runs[name] = load_run(run_dir)
+            cls.summaries[name] = analyze(cls.runs[name])
 
     @classmethod
     def tearDownClass(cls):
         cls.tmp.cleanup()
 
-    def test_each_kind_gets_its_regime(self):
-        for kind, expected in (("A", "A"), ("B", "B"), ("C", "C"), ("transient", "A")):
-            s = self.summaries[kind]
-            self.assertEqual(s["regime"], expected, (kind, s["regime_criteria"]))
-            self.assertGreater(s["regime_confidence"], 0.8, kind)
-            self.assertTrue(s["steady"], (kind, s["steady_reason"]))
+    def test_each_kind_meets_its_regime_s_positive_criteria(self):
+        for name, expected in (("A", "A"), ("transient", "A"), ("B", "B"), ("rest", "B"),
+                               ("C", "C"), ("C_com", "C"), ("intermittent", "intermittent")):
+            s = self.summaries[name]
+            crit = s["regime_criteria"]
+            self.assertEqual(s["regime"], expected, (name, crit["reason"]))
+            self.assertTrue(crit["reason"].startswith(expected + ":"), crit["reason"])
+            self.assertGreater(s["regime_confidence"], 0.85, name)
+            if name != "intermittent":   # its block velocity holds few independent samples
+                self.assertTrue(s["steady"], (name, s["steady_reason"]))
+        # the reasons name the statistics and their thresholds
+        self.assertIn("B windows 100% >= 70%", self.summaries["rest"]["regime_criteria"]["reason"])
+        self.assertIn("|block_vx| <= 0.5 V in 100% of the samples >= 80%",
+                      self.summaries["rest"]["regime_criteria"]["reason"])
+        self.assertIn("x the mean switch duration",
+                      self.summaries["C"]["regime_criteria"]["reason"])
+        # the grains at rest with both walls sliding: every window has both layers carrying V
+        table = self.summaries["rest"]["regime_criteria"]["windows"]
+        np.testing.assert_allclose(table["velocity_jump_bottom"], V, atol=0.02)
+        np.testing.assert_allclose(table["velocity_jump_top"], V, atol=0.02)
 
-    def test_noise_is_not_a_confident_regime(self):
-        s = self.summaries["noise"]
-        self.assertNotEqual(s["regime"], "C")
-        self.assertLess(s["regime_confidence"], self.summaries["B"]["regime_confidence"])
-        self.assertLess(s["regime_confidence"], 0.9)
+    def test_undecided_runs_say_why(self):
+        for name, why in (("noise", "wanders between rest and the walls"),
+                          ("wander", "wanders between rest and the walls"),
+                          ("C_fast", "states switch faster than they can be told apart"),
+                          ("short", "too short to tell, 1 averaged window < 3")):
+            s = self.summaries[name]
+            self.assertEqual(s["regime"], "undecided", (name, s["regime_criteria"]["reason"]))
+            self.assertIn(why, s["regime_criteria"]["reason"], name)
+            self.assertTrue(np.isnan(s["regime_confidence"]), name)    # no claim
+        # the wandering block's reason gives its statistics against the thresholds
+        reason = self.summaries["wander"]["regime_criteria"]["reason"]
+        self.assertRegex(reason, r"\d+% of the samples in the gap 0.3 V < \|block_vx\| < 0.7 V "
+                                 r"> 20%")
+        self.assertRegex(reason, r"not B: B windows \d+% < 70%")
+        fast = self.summaries["C_fast"]["regime_criteria"]
+        self.assertLess(fast["mean_dwell"], rg.DWELL_RATIO * fast["mean_switch_duration"])
+        self.assertGreater(fast["switch_count"], 40)           # a switch every 40 t
+        report = format_report(self.summaries["wander"], "summary.json")
+        self.assertIn("regime undecided: the block velocity wanders", report)
+
+    def test_window_states_and_their_shares(self):
+        s, args = self.summaries["C_aligned"], RUNS["C_aligned"]
+        table = s["regime_criteria"]["windows"]
+        self.assertEqual(table["index"], list(s["steady_window_indices"]))
+        level = [synthetic_level(args, [0.5 * (t0 + t1)])[0]
+                 for t0, t1 in zip(table["t_start"], table["t_end"])]
+        self.assertEqual(table["state"], ["C+" if x > 0 else "C-" for x in level])
+        # the block with the top wall (+V): the band at the bottom
+        self.assertEqual(table["band_wall"], ["bottom" if x > 0 else "top" for x in level])
+        shares = s["regime_criteria"]["state_shares"]
+        self.assertAlmostEqual(shares["C+"] + shares["C-"], 1.0)
+        self.assertAlmostEqual(shares["C+"], np.mean(np.array(level) > 0))
+        # the intermittent run: B at rest, C+ and C- with a wall, undecided where it changes
+        s, args = self.summaries["intermittent"], RUNS["intermittent"]
+        table = s["regime_criteria"]["windows"]
+        for t0, t1, state in zip(table["t_start"], table["t_end"], table["state"]):
+            lv = synthetic_level(args, np.arange(t0 + 0.5, t1 + 0.25, 0.5))
+            if np.ptp(lv) == 0:
+                self.assertEqual(state, {0: "B", 1: "C+", -1: "C-"}[lv[0]], (t0, t1))
+        shares = s["regime_criteria"]["state_shares"]
+        self.assertAlmostEqual(sum(shares.values()), 1.0)
+        self.assertGreater(shares["B"], 0.45)
+        self.assertGreater(shares["C+"] + shares["C-"], 0.3)
+        self.assertEqual(self.summaries["B"]["regime_criteria"]["state_shares"]["B"], 1.0)
+
+    def test_block_velocity_from_block_vx_or_com_vx(self):
+        self.assertEqual(self.summaries["C"]["regime_criteria"]["block_velocity_source"],
+                         "block_vx")
+        crit = self.summaries["C_com"]["regime_criteria"]
+        self.assertEqual(crit["block_velocity_source"], "com_vx")
+        self.assertIn("|com_vx| > 0.5 V", crit["reason"])
+        # com_vx = 0.85 u: its plateaus sit at +-0.85 V, found from its samples
+        self.assertEqual([sw["band"] for sw in self.summaries["C_com"]["switches"]],
+                         ["bottom->top", "top->bottom", "bottom->top"])
+        # and the B run read from com_vx finds no switch in its fluctuations
+        run = dict(self.runs["B"], series={k: v for k, v in self.runs["B"]["series"].items()
+                                           if k != "block_vx"})
+        s = analyze(run)
+        self.assertEqual((s["regime"], s["switches"]), ("B", []))
+        self.assertEqual(s["regime_criteria"]["block_velocity_source"], "com_vx")
+
+    def test_sheared_and_resting_layers_of_regime_c(self):
+        s = self.summaries["C_aligned"]
+        n_windows = len(s["steady_window_indices"])
+        scale = np.sqrt(np.pi / 4 / SIGMA)
+        for label, h in (("h5", 5.0), ("h10", 10.0)):
+            reg = s["regions"][label]
+            sheared, resting = reg["sheared_layer"], reg["resting_layer"]
+            self.assertEqual((sheared["windows"], resting["windows"]), (n_windows, n_windows))
+            # the sheared layer takes the jump 2V, the resting one none (bands of 3 < h)
+            self.assertAlmostEqual(sheared["velocity_jump"]["mean"], 2 * V, delta=0.01)
+            self.assertAlmostEqual(resting["velocity_jump"]["mean"], 0.0, delta=0.01)
+            self.assertAlmostEqual(sheared["inertial_number"]["mean"], scale * 2 * V / h,
+                                   delta=0.01 * scale * 2 * V / h)
+            self.assertLess(sheared["velocity_jump"]["err"], 0.005)
+            for q in ("mu_eff", "solid_fraction", "coordination"):
+                self.assertAlmostEqual(sheared[q]["mean"], reg["bottom"][q]["mean"], delta=0.01)
+                self.assertAlmostEqual(resting[q]["mean"], reg["top"][q]["mean"], delta=0.01)
+            self.assertAlmostEqual(sheared["mu_eff"]["mean"], 0.30, delta=0.01)
+            # the plain bottom layer mixes windows where it is sheared and where it rests
+            share = s["regime_criteria"]["state_shares"]["C+"]
+            self.assertAlmostEqual(reg["bottom"]["velocity_jump"]["mean"], share * 2 * V,
+                                   delta=0.01)
+        # outside regime C no window has a band: the layers are null
+        reg = self.summaries["B"]["regions"]["h5"]
+        self.assertEqual(reg["sheared_layer"]["windows"], 0)
+        self.assertTrue(np.isnan(reg["sheared_layer"]["mu_eff"]["mean"]))
 
     def test_regime_c_statistics(self):
         s = self.summaries["C"]
         self.assertGreater(s["com_vx"]["bimodality_coefficient"], 5 / 9)
         self.assertLess(self.summaries["A"]["com_vx"]["bimodality_coefficient"], 5 / 9)
-        self.assertEqual(len(s["switches"]), 3)   # default: switches at duration/4, /2, 3/4
-        self.assertEqual([sw["band"] for sw in s["switches"]],
+        self.assertEqual([sw["band"] for sw in s["switches"]],   # at duration/4, /2, 3/4
                          ["bottom->top", "top->bottom", "bottom->top"])
-        counts = np.asarray(s["com_vx"]["histogram"]["counts"])
+        hist = s["regime_criteria"]["block_velocity"]["histogram"]
+        counts = np.asarray(hist["counts"])
         self.assertGreater(counts[:3].sum() + counts[-3:].sum(), 0.9 * counts.sum())
-        self.assertEqual(self.summaries["A"]["switches"], [])
+        for name in ("A", "B", "rest", "transient"):
+            self.assertEqual(self.summaries[name]["switches"], [], name)
 
-    def test_switch_friction_difference_and_predicted_switch_time(self):
-        # The synthetic block (mass n <area>, rho = 1) goes from +V to -V in a linear ramp of
-        # 20 t, its acceleration carried by the wall forces: delta_mu = mass 2 V / 20 over
-        # sigma_yy L_x. The switch detected between +-0.5 V lasts half the ramp, which is what
-        # SPEC 8's T times 0.5 predicts from that delta_mu.
-        from cdshear_analysis.transitions import COM_LEVEL, switch_time
-        run_dir = os.path.join(self.tmp.name, "C_forces")
-        write_synthetic_run(run_dir, kind="C", duration=2000.0, seed=3, switch_forces=True)
-        s = analyze(load_run(run_dir))
+    def test_switch_durations_and_the_switch_time_they_measure(self):
+        # The synthetic block goes from +V to -V in a linear ramp of 20 t, its acceleration
+        # carried by the wall forces: delta_mu = mass 2 V / 20 over sigma_yy L_x during the ramp,
+        # for which SPEC 8's T is the ramp itself. Plateau to plateau (0.2 V from each wall) a
+        # switch spans 0.8 of it.
+        from cdshear_analysis.transitions import switch_time
+        s = self.summaries["C_forces"]
+        ramp_delta_mu = MASS * 2 * V / 20.0 / (SIGMA * LX)
+        T = switch_time(V, s["height"]["mean"], MASS / (LX * s["height"]["mean"]),
+                        ramp_delta_mu, SIGMA)
+        self.assertAlmostEqual(T, 20.0, delta=0.5)
         self.assertEqual(len(s["switches"]), 3)
-        mass = 511 * np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)
-        expected = mass * 2 * 0.5 / 20.0 / (0.25 * 20.0)
-        for sw in s["switches"]:
-            self.assertAlmostEqual(sw["delta_mu"], expected, delta=0.05 * expected)
-        self.assertAlmostEqual(s["switch_delta_mu"]["mean"], expected, delta=0.05 * expected)
+        for sw, ts in zip(s["switches"], SWITCH_TIMES):
+            self.assertAlmostEqual(sw["duration"], rg.SWITCH_FRACTION * 20.0, delta=1.0)
+            self.assertAlmostEqual(sw["start_time"], ts + 0.1 * 20.0, delta=1.0)
+            self.assertAlmostEqual(sw["end_time"], ts + 0.9 * 20.0, delta=1.0)
+            # delta_mu before the switch: the block still on its plateau, not the ramp's force
+            self.assertLess(sw["delta_mu"], 0.02 * ramp_delta_mu)
+            self.assertLessEqual(sw["delta_mu_end_time"], sw["start_time"])
+        self.assertAlmostEqual(s["switch_duration"]["mean"], rg.SWITCH_FRACTION * T, delta=1.0)
+        self.assertTrue(np.isnan(self.summaries["A"]["switch_delta_mu"]["mean"]))  # no switch
         # each wall's friction, the ratio of its time-averaged forces: 0.30 at the top; the
         # synthetic puts the switches' force on the bottom wall only, and over the averaging
-        # span the three switches (+V to -V, back, and again) leave the net force of one, a
-        # delta_mu over 20 t: 0.30 + expected 20 / span
+        # span the three switches (+V to -V, back, and again) leave the net force of one
         span = 2000.0 - s["averaging_start_time"]
         self.assertAlmostEqual(s["mu_eff_wall_top"]["mean"], 0.30, delta=0.01)
-        self.assertAlmostEqual(s["mu_eff_wall_bottom"]["mean"], 0.30 + expected * 20.0 / span,
-                               delta=0.005)
-        self.assertTrue(np.isnan(self.summaries["A"]["switch_delta_mu"]["mean"]))  # no switch
-        # without the forces of the block, the same switches need no friction difference
-        self.assertLess(self.summaries["C"]["switch_delta_mu"]["mean"], 0.05 * expected)
-        T = switch_time(0.5, s["height"]["mean"], mass / (20.0 * s["height"]["mean"]),
-                        s["switch_delta_mu"]["mean"], 0.25)
-        self.assertAlmostEqual(COM_LEVEL * T, s["switch_duration"]["mean"], delta=1.5)
+        self.assertAlmostEqual(s["mu_eff_wall_bottom"]["mean"],
+                               0.30 + ramp_delta_mu * 20.0 / span, delta=0.005)
+
+    def test_delta_mu_is_taken_before_the_switch(self):
+        # the synthetic holds a net force 0.04 times the normal force over the 100 t before each
+        # ramp, none during it: delta_mu is 0.04 times the share of its stretch's samples there
+        s = self.summaries["C_held"]
+        t = np.asarray(self.runs["C_held"]["series"]["time"])
+        self.assertEqual(len(s["switches"]), 3)
+        for sw, ts in zip(s["switches"], SWITCH_TIMES):
+            t0, t1 = sw["delta_mu_start_time"], sw["delta_mu_end_time"]
+            self.assertAlmostEqual(t1 - t0, rg.PRE_SWITCH_TIME)
+            self.assertTrue(ts - 5.0 <= t1 <= sw["start_time"], (t1, ts))
+            stretch = t[(t > t0) & (t <= t1)]
+            held = np.mean((stretch >= ts - 100.0) & (stretch < ts))
+            self.assertAlmostEqual(sw["delta_mu"], 0.04 * held, delta=0.001)
+            self.assertGreater(sw["delta_mu"], 0.038)
+        self.assertAlmostEqual(s["switch_delta_mu"]["mean"], 0.04, delta=0.002)
 
     def test_transient_end_found_in_run(self):
         self.assertGreater(self.summaries["transient"]["transient_end_time"], 150.0)
         self.assertLess(self.summaries["transient"]["transient_end_time"], 700.0)
 
-    def test_confidence_from_margin_and_windows(self):
-        regime, conf, crit = classify_run(0.31, 0.0, [0.5, 0.1], [0.0, 0.0])
-        self.assertEqual(regime, "A")
-        self.assertAlmostEqual(crit["window_agreement"], 0.5)
-        self.assertAlmostEqual(conf, 0.5 * 0.01 / 0.3 + 0.25)
-        self.assertEqual(crit["reason"], "A: r = 0.31 > 0.3")
-        self.assertEqual(classify_run(0.1, 0.9, [], [])[2]["reason"],
-                         "C: r = 0.1 <= 0.3 and f = 0.9 > 0.6")
-        self.assertEqual(self.summaries["B"]["regime_criteria"]["reason"][:2], "B:")
-
 
 class Switches(unittest.TestCase):
-    def test_counts_durations_and_directions(self):
+    def test_durations_run_plateau_to_plateau(self):
         t = np.arange(0.0, 1000.0, 0.5)
         com = np.ones_like(t)
-        for start, end, sign in ((200.0, 230.0, -1), (500.0, 510.0, 1), (800.0, 860.0, -1)):
-            ramp = np.clip((t - start) / (end - start), 0, 1)
+        ramps = ((200.25, 30.0, -1), (500.25, 10.0, 1), (800.25, 60.0, -1))
+        for start, width, sign in ramps:
+            ramp = np.clip((t - start) / width, 0, 1)
             com = np.where(t >= start, -sign * (1 - ramp) + sign * ramp, com)
-        com[t == 100.0] = 0.0                 # an excursion into the middle band: no switch
+        com[t == 100.0] = 0.0                 # excursions off the plateau and back: no switch
         com[t == 300.0] = -0.3
-        switches = band_switches(t, 0.5 * com, 0.5)
+        com[(t > 600.0) & (t < 620.0)] = -0.7  # beyond -V/2 but short of the - plateau
+        com[(t > 350.0) & (t < 380.0)] = 0.7
+        switches = rg.band_switches(t, 0.5 * com, 0.5)
         self.assertEqual(len(switches), 3)
-        # state +-1 beyond |com| > V/2: the ramp crosses the middle band in its middle half
-        for sw, (width, band) in zip(switches, ((30, "bottom->top"), (10, "top->bottom"),
-                                                (60, "bottom->top"))):
-            self.assertAlmostEqual(sw["duration"], 0.5 * width, delta=1.0)
-            self.assertEqual(sw["band"], band)
+        for sw, (start, width, sign) in zip(switches, ramps):
+            # the last sample within 0.2 V of the old wall's velocity, the first within 0.2 V
+            # of the new one's: 0.1 and 0.9 of the ramp
+            self.assertAlmostEqual(sw["start_time"], start + 0.1 * width, delta=0.5)
+            self.assertAlmostEqual(sw["end_time"], start + 0.9 * width, delta=0.5)
+            self.assertAlmostEqual(sw["duration"], rg.SWITCH_FRACTION * width, delta=0.5)
+            self.assertEqual(sw["band"], "top->bottom" if sign > 0 else "bottom->top")
             self.assertEqual(sw["end_time"] - sw["start_time"], sw["duration"])
 
-    def test_no_switch_without_both_states(self):
+    def test_no_switch_without_both_plateaus(self):
         t = np.arange(100.0)
-        self.assertEqual(band_switches(t, np.full(100, 0.9), 1.0), [])
-        self.assertEqual(band_switches(t, np.sin(t) * 0.4, 1.0), [])
+        self.assertEqual(rg.band_switches(t, np.full(100, 0.9), 1.0), [])
+        self.assertEqual(rg.band_switches(t, np.sin(t) * 0.4, 1.0), [])
+        # between the + plateau and -0.6 V (beyond -V/2, 0.4 V short of -V): no switch
+        self.assertEqual(rg.band_switches(t, np.where(np.sin(t / 5) > 0, 1.0, -0.6), 1.0), [])
+
+    def test_plateaus_of_com_vx(self):
+        rng = np.random.default_rng(1)
+        u = np.concatenate([0.85 + 0.02 * rng.normal(size=500), -0.85 + 0.02 * rng.normal(
+            size=500)])
+        p_plus, p_minus = rg.plateau_velocities(u, 1.0, "com_vx")
+        self.assertAlmostEqual(p_plus, 0.85, delta=0.01)
+        self.assertAlmostEqual(p_minus, -0.85, delta=0.01)
+        self.assertEqual(rg.plateau_velocities(u, 1.0, "block_vx"), (1.0, -1.0))
+        # the tails of a velocity about 0 are no plateau
+        self.assertTrue(np.isnan(rg.plateau_velocities(0.2 * rng.normal(size=5000), 1.0,
+                                                       "com_vx")).all())
 
     def test_bimodality_coefficient(self):
         rng = np.random.default_rng(0)
-        self.assertAlmostEqual(bimodality_coefficient(rng.normal(size=20000)), 1 / 3, delta=0.02)
-        self.assertGreater(bimodality_coefficient(np.sign(rng.normal(size=2000))), 0.95)
+        self.assertAlmostEqual(rg.bimodality_coefficient(rng.normal(size=20000)), 1 / 3,
+                               delta=0.02)
+        self.assertGreater(rg.bimodality_coefficient(np.sign(rng.normal(size=2000))), 0.95)
 
 
 if __name__ == "__main__":

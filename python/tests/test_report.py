@@ -12,6 +12,7 @@ import numpy as np
 
 from cdshear_analysis import report
 from cdshear_analysis.__main__ import main as cli_main
+from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION
 from cdshear_analysis.synthetic import write_synthetic_run
 
 
@@ -26,7 +27,7 @@ def entry(mean, err):
 
 
 def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=True, regime="A",
-                 layers=(5.0, 10.0)):
+                 layers=(5.0, 10.0), bulk_reference=True):
     """A run folder with the parts of summary.json (docs/analysis.md) that a report reads."""
     os.makedirs(run_dir, exist_ok=True)
     e_mu, e_nu, e_z = errs
@@ -34,7 +35,7 @@ def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=Tru
              "coordination": entry(Z - 0.2, e_z), "velocity_jump": entry(0.3 * V, 0.01 * V),
              "inertial_number": entry(3 * I, 0.1 * I)}
     s = {
-        "format": "cdshear-summary", "version": 2, "run_dir": run_dir,
+        "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION, "run_dir": run_dir,
         "case": {"n": 511, "velocity": V, "normal_stress": 0.25, "length_x": 20.0,
                  "height": 20.0, "duration": 1000.0, "time": 1000.0, "finished": True,
                  "window": 80.0, "boundary_thickness": list(layers)},
@@ -43,7 +44,10 @@ def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=Tru
         "regime": regime, "regime_confidence": 0.9,
         "mu_eff_wall": entry(mu, e_mu), "height": entry(20.1, 0.01),
         "solid_fraction": entry(nu, e_nu),
-        "bulk": {"h": layers[0], "y_range": [5, 15], "mu_eff": entry(mu, e_mu),
+        # the bulk of the laws: SPEC 7's h = 10 (bulk_h_reference) unless the test says otherwise
+        "bulk": {"h": 10.0, "h_reference": bulk_reference,
+                 "h_note": None if bulk_reference else "bulk at h = 5, not SPEC 7's h = 10: "
+                 "the cell is too thin", "y_range": [10, 10.1], "mu_eff": entry(mu, e_mu),
                  "solid_fraction": entry(nu, e_nu), "coordination": entry(Z, e_z),
                  "shear_rate": entry(I * 0.5, I * 0.01), "inertial_number": entry(I, 0.01 * I)},
         "slip": {"bottom": entry(0.1 * V, 0.01 * V), "top": entry(0.12 * V, 0.01 * V)},
@@ -192,7 +196,7 @@ class ReportTest(unittest.TestCase):
         self.assertIsNone(fits["mu_power"]["parameters"])
         self.assertEqual(fits["mu_linear"]["status"], "ok")       # 3 points, 2 parameters
         with open(os.path.join(self.d, "report", "index.html")) as f:
-            self.assertIn("skipped: too few points", f.read())
+            self.assertIn("<b>skipped</b><br><small>too few points: 3", f.read())
 
     def test_degenerate_points_skip_the_fit_instead_of_giving_no_errors(self):
         # four runs at the same I: a line through them is not determined
@@ -325,3 +329,24 @@ class ReportTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class BulkThicknessTest(unittest.TestCase):
+    """The bulk laws take only runs whose bulk is SPEC 7's (h = 10); the others are listed."""
+
+    def test_runs_of_a_cell_too_thin_for_h_10_stay_out_of_the_bulk_laws(self):
+        with tempfile.TemporaryDirectory() as d:
+            rows = []
+            for k, I in enumerate((0.04, 0.06, 0.08, 0.12, 0.16, 0.19)):
+                for reference in (True, False):
+                    run = os.path.join(d, f"s{1 if reference else 2}_seed1_V{I:g}")
+                    # the thin cell's points are off the law: they would move the fit
+                    mu = 0.25 + 0.5 * I + (0.0 if reference else 0.1)
+                    fake_summary(run, V=I, I=I, mu=mu, nu=0.8 - 0.2 * I, Z=3 - I,
+                                 bulk_reference=reference)
+                    rows.append(report.read_run(run))
+            fits = report.fit_laws(rows)
+            mu = fits["mu_linear"]
+            self.assertEqual(mu["n_runs"], 6)
+            self.assertAlmostEqual(mu["parameters"]["a"]["value"], 0.25, delta=0.01)
+            self.assertTrue(all(r["bulk_h_note"] for r in rows if not r["bulk_h_reference"]))

@@ -77,13 +77,47 @@ class TransitionTest(unittest.TestCase):
         t = self.system(rows)
         v = {e["V"]: e for e in t["velocities"]}
         self.assertEqual(v[0.1]["regime"], "B")
-        self.assertEqual(v[0.1]["votes"], {"A": 1, "B": 2})
+        # seed 3 at 0.1 is not steady: it does not vote, and is named with the reason
+        self.assertEqual(v[0.1]["votes"], {"B": 2})
         self.assertEqual(v[0.1]["not_steady"], ["s1_seed3_V0.1"])
+        self.assertEqual(v[0.1]["not_voting"], [{"run": "s1_seed3_V0.1",
+                                                 "reason": "not steady"}])
         self.assertEqual(v[0.2]["regime"], "A")
         self.assertIsNone(v[0.5]["regime"])        # tie: no vote
         self.assertIn("tie", v[0.5]["note"])
         self.assertEqual(t["V_AB"]["bracket"], [0.1, 0.2])
         self.assertTrue(any("tie" in f for f in t["flags"]))
+
+    def test_only_steady_runs_classified_a_b_or_c_vote(self):
+        # the truth: C below 0.03, B up to 0.3, A above. A run not steady, one undecided, one
+        # intermittent and one without a regime sit on the wrong side of each transition:
+        # had they voted, V_AB would be [0.1, 0.2] and V_BC [0.05, 0.1]
+        rows = [row(0.01, "C"), row(0.02, "C"), row(0.05, "B"), row(0.1, "B"),
+                row(0.2, "B"), row(0.5, "A"), row(1.0, "A"),
+                row(0.2, "A", seed=2, steady=False), row(0.2, "A", seed=3, steady=None),
+                row(0.1, "C", seed=2, steady=False), row(0.05, "undecided", seed=2),
+                row(0.1, "intermittent", seed=3), row(0.5, None, seed=2)]
+        t = self.system(rows)
+        self.assertEqual(t["V_AB"]["bracket"], [0.2, 0.5])
+        self.assertEqual(t["V_BC"]["bracket"], [0.02, 0.05])
+        self.assertTrue(t["monotonic"])
+        self.assertEqual(t["flags"], [])
+        self.assertEqual(t["sequence"], "C C B B B A A")
+        self.assertEqual({e["run"]: e["reason"] for e in t["not_voting"]}, {
+            "s1_seed2_V0.2": "not steady", "s1_seed3_V0.2": "steady state unknown",
+            "s1_seed2_V0.1": "not steady",
+            "s1_seed2_V0.05": "regime 'undecided' (only A, B and C vote)",
+            "s1_seed3_V0.1": "regime 'intermittent' (only A, B and C vote)",
+            "s1_seed2_V0.5": "no regime"})
+        v = {e["V"]: e for e in t["velocities"]}
+        self.assertEqual(v[0.2]["votes"], {"B": 1})
+        self.assertEqual(v[0.1]["votes"], {"B": 1})
+        # a V where no run votes gives no regime, and says why
+        t = self.system([row(0.1, "B"), row(0.2, "undecided"), row(0.5, "A", steady=False)])
+        v = {e["V"]: e for e in t["velocities"]}
+        self.assertIsNone(v[0.2]["regime"])
+        self.assertIn("no run votes (s1_seed1_V0.2: regime 'undecided'", v[0.2]["note"])
+        self.assertEqual(t["V_AB"]["bracket"], [0.1, None])
 
     def test_runs_without_regime_do_not_crash(self):
         t = self.system([row(0.1, None), row(0.2, None)])
@@ -114,12 +148,12 @@ class PredictionTest(unittest.TestCase):
         (e,) = tr.switch_predictions([self.c_row(), row(1.0, "A")])
         self.assertAlmostEqual(e["delta_mu"], 0.02)
         self.assertAlmostEqual(e["predicted_T"], 64.0)
-        self.assertAlmostEqual(e["predicted_T_levels"], 32.0)
+        self.assertAlmostEqual(e["predicted_T_levels"], 64.0 * 0.8)   # plateau to plateau
         self.assertEqual(e["switch_count"], 3)
         self.assertAlmostEqual(e["mean_interval"], 1500.0)
         self.assertAlmostEqual(e["time_per_switch"], 5000.0 / 3)
-        # 2 * 0.5 * 0.8 * 0.01 * 20 / (30 * 0.25) = 0.16 / 7.5
-        self.assertAlmostEqual(e["delta_mu_implied"], 0.16 / 7.5)
+        # 2 * 0.8 * 0.8 * 0.01 * 20 / (30 * 0.25) = 0.256 / 7.5 (plateau to plateau: 1.6 V)
+        self.assertAlmostEqual(e["delta_mu_implied"], 0.256 / 7.5)
         self.assertIsNone(e["reason"])
 
     def test_switch_time_without_wall_frictions_says_what_is_missing(self):
@@ -165,7 +199,7 @@ class PredictionTest(unittest.TestCase):
     def test_steady_state_time_without_fit_or_values_gives_reasons(self):
         fits = {"mu_power": {"status": "skipped"}, "mu_linear": {"status": "skipped"}}
         (e,) = tr.steady_state_predictions([row(1.0, "A", I_bulk=0.1)], fits)
-        self.assertIn("no mu_eff(I) fit", e["reason"])
+        self.assertIn("no mu_eff(I) law whose parameters are determined", e["reason"])
         fits["mu_linear"] = self.linear_fit()
         (e,) = tr.steady_state_predictions([row(1.0, "A", I_bulk=0.1)], fits)
         self.assertIn("missing L_y, nu_bulk, sigma_yy", e["reason"])
@@ -188,6 +222,49 @@ class ReportTransitionTest(unittest.TestCase):
     def tearDown(self):
         self.tmp.cleanup()
 
+    def test_a_run_that_is_not_steady_does_not_move_a_bracket(self):
+        # summaries as analyze writes them: B up to 0.2, A from 1.0; the one run at 0.5, A but
+        # not steady, would move V_AB down to [0.2, 0.5] if it voted; an undecided run at 0.05
+        # and an intermittent one at 1.5, both steady, do not vote either. The report draws
+        # them in the regime diagram and fits the boundary laws without them.
+        runs = [(0.02, "B", 1, True), (0.05, "B", 1, True), (0.1, "B", 1, True),
+                (0.2, "B", 1, True), (0.5, "A", 1, False), (1.0, "A", 1, True),
+                (1.5, "A", 1, True), (2.0, "A", 1, True), (0.05, "undecided", 2, True),
+                (1.5, "intermittent", 2, True)]
+        for V, g, seed, steady in runs:
+            fake_summary(os.path.join(self.d, "runs", f"s1_seed{seed}_V{V:g}"), V, 0.1 * V,
+                         0.3 + 0.2 * V, 0.8 - 0.05 * V, 3.5, regime=g, steady=steady)
+        self.assertEqual(main(["report", self.d]), 0)
+        out = os.path.join(self.d, "report")
+        with open(os.path.join(out, "fits.json")) as f:
+            fits = json.load(f)
+        t = fits["transitions"]["1"]
+        self.assertEqual(t["V_AB"]["bracket"], [0.2, 1.0])
+        self.assertEqual(t["monotonic"], True)
+        self.assertEqual({e["run"]: e["reason"] for e in t["not_voting"]}, {
+            "s1_seed1_V0.5": "not steady",
+            "s1_seed2_V0.05": "regime 'undecided' (only A, B and C vote)",
+            "s1_seed2_V1.5": "regime 'intermittent' (only A, B and C vote)"})
+        self.assertIn("V = 0.5: no run votes (s1_seed1_V0.5: not steady)", t["flags"])
+        # had it voted (the old rule: every run with a regime), the bracket would move
+        rows = report.collect(self.d)["rows"]
+        for r in rows:
+            if r["run"] == "s1_seed1_V0.5":
+                r["steady"] = True
+        self.assertEqual(tr.find_transitions(rows)["1"]["V_AB"]["bracket"], [0.2, 0.5])
+        with open(os.path.join(out, "index.html")) as f:
+            text = f.read()
+        self.assertIn("s1_seed1_V0.5 (not steady)", text)
+        self.assertIn("s1_seed2_V0.05 (regime &#x27;undecided&#x27; (only A, B and C vote))",
+                      text)
+        self.assertTrue(os.path.isfile(os.path.join(out, "figures", "regimes.png")))
+        # the boundary laws take the layers of A, B and C runs only
+        boundary_runs = {run.split(":")[0] for f in (fits["boundary"]["h5"]["mu_power"],)
+                         for run in f["runs"]}
+        self.assertNotIn("s1_seed2_V0.05", boundary_runs)
+        self.assertNotIn("s1_seed2_V1.5", boundary_runs)
+        self.assertIn("s1_seed1_V1.5", boundary_runs)
+
     def test_report_writes_transitions_predictions_and_the_diagram(self):
         runs = ((0.01, "C"), (0.05, "B"), (0.2, "B"), (1.0, "A"), (1.5, "A"), (2.0, "A"),
                 (3.0, "A"))
@@ -207,8 +284,11 @@ class ReportTransitionTest(unittest.TestCase):
             fits = json.load(f)
         t = fits["transitions"]["1"]
         self.assertEqual(t["V_AB"]["bracket"], [0.2, 1.0])
-        self.assertEqual(t["V_BC"]["bracket"], [0.01, 0.05])
+        # the C run at 0.01 is not steady: it does not vote, so V_BC is below the smallest
+        # V that votes (0.05, B)
+        self.assertEqual(t["V_BC"]["bracket"], [None, 0.05])
         self.assertEqual(t["velocities"][0]["not_steady"], ["s1_seed1_V0.01"])
+        self.assertEqual(t["not_voting"], [{"run": "s1_seed1_V0.01", "reason": "not steady"}])
         (c,) = fits["predictions"]["switch_time_C"]
         self.assertAlmostEqual(c["predicted_T"], tr.RHO
                                * 2 * (0.8 - 0.05 * 0.01) * 0.01 * 20.1 / (0.02 * 0.25))

@@ -1,0 +1,152 @@
+"""summary.json files of another format or version than this code's (summary.SUMMARY_FORMAT,
+summary.SUMMARY_VERSION) are not pooled by `report`: a stale one is analysed again from run.h5
+(as `analyze` does) or, without run.h5, left out; another format and a newer version are left
+out; every one is listed with its reason in the printed output, index.html and fits.json."""
+import contextlib
+import csv
+import io
+import json
+import os
+import tempfile
+import unittest
+
+from cdshear_analysis import report
+from cdshear_analysis.__main__ import main as cli_main
+from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION
+from cdshear_analysis.synthetic import write_synthetic_run
+from tests.test_report import fake_campaign
+
+OLD = SUMMARY_VERSION - 1
+
+
+def run_report(d):
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        rc = cli_main(["report", d])
+    return rc, out.getvalue()
+
+
+class StaleSummaryTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        """Five current runs (system 1) and, beside them: `{}`; an older version with run.h5
+        (a synthetic regime-A run analysed, then its summary's version lowered); an older
+        version without run.h5; another format; a newer version; a JSON list; no format or
+        version; an older version whose run.h5 is empty."""
+        cls.tmp = tempfile.TemporaryDirectory()
+        d = cls.d = cls.tmp.name
+        fake_campaign(d, "stale", {1: [(V, 0.05 * V, 0.3 + 0.1 * V, 0.8, 3.0)
+                                       for V in (0.5, 1.0, 1.5, 2.0, 2.5)]})
+        runs = os.path.join(d, "runs")
+
+        def write(name, content):
+            os.makedirs(os.path.join(runs, name), exist_ok=True)
+            with open(os.path.join(runs, name, "summary.json"), "w") as f:
+                json.dump(content, f)
+
+        def current(name):
+            with open(os.path.join(runs, "s1_seed1_V0.5", "summary.json")) as f:
+                s = json.load(f)
+            return dict(s, run_dir=os.path.join(runs, name))
+
+        write("s2_seed1_V0.1", {})
+        # older, with run.h5: analysed for real, then made stale
+        cls.rerun = os.path.join(runs, "s2_seed1_V0.5")
+        write_synthetic_run(cls.rerun, kind="A", duration=800.0)
+        assert cli_main(["analyze", cls.rerun, "--quiet"]) == 0
+        with open(os.path.join(cls.rerun, "summary.json")) as f:
+            fresh = json.load(f)
+        cls.fresh_I = fresh["bulk"]["inertial_number"]["mean"]
+        write("s2_seed1_V0.5", dict(fresh, version=OLD, bulk={"inertial_number": {
+            "mean": 123.0, "err": 1.0}}))
+        write("s2_seed1_V0.2", dict(current("s2_seed1_V0.2"), version=OLD))
+        cls.other = dict(current("s2_seed1_V0.3"), format="cdshear-packing")
+        write("s2_seed1_V0.3", cls.other)
+        write("s2_seed1_V0.4", dict(current("s2_seed1_V0.4"), version=SUMMARY_VERSION + 1))
+        write("s2_seed1_V0.6", [1, 2, 3])
+        s = current("s2_seed1_V0.7")
+        del s["format"], s["version"]
+        write("s2_seed1_V0.7", s)
+        write("s2_seed1_V0.8", dict(current("s2_seed1_V0.8"), version=OLD))
+        open(os.path.join(runs, "s2_seed1_V0.8", "run.h5"), "w").close()
+        cls.rc, cls.printed = run_report(d)
+        with open(os.path.join(d, "report", "fits.json")) as f:
+            cls.doc = json.load(f)
+        with open(os.path.join(d, "report", "index.html")) as f:
+            cls.html = f.read()
+        with open(os.path.join(d, "report", "runs.csv")) as f:
+            cls.csv = {r["run"]: r for r in csv.DictReader(f)}
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def excluded(self):
+        return {e["run"]: e["reason"] for e in self.doc["excluded_runs"]}
+
+    def test_the_report_runs(self):
+        self.assertEqual(self.rc, 0)
+        self.assertEqual((self.doc["summary_format"], self.doc["summary_version"]),
+                         (SUMMARY_FORMAT, SUMMARY_VERSION))
+
+    def test_an_older_summary_with_run_h5_is_analysed_again(self):
+        self.assertEqual([e["run"] for e in self.doc["reanalysed_runs"]], ["s2_seed1_V0.5"])
+        reason = self.doc["reanalysed_runs"][0]["reason"]
+        self.assertIn(f"version {OLD} is older than this code's {SUMMARY_VERSION}", reason)
+        # summary.json rewritten by analyze, and its new values pooled (not the stale 123)
+        with open(os.path.join(self.rerun, "summary.json")) as f:
+            s = json.load(f)
+        self.assertEqual((s["format"], s["version"]), (SUMMARY_FORMAT, SUMMARY_VERSION))
+        self.assertAlmostEqual(float(self.csv["s2_seed1_V0.5"]["I_bulk"]), self.fresh_I)
+        self.assertIn(f"note: re-analysed s2_seed1_V0.5: {reason}\n", self.printed)
+        self.assertIn(f"<li>s2_seed1_V0.5: {report.html.escape(reason)}</li>", self.html)
+        self.assertIn("1 run re-analysed from run.h5", self.html)
+
+    def test_stale_summaries_without_run_h5_are_left_out_with_the_reason(self):
+        ex = self.excluded()
+        self.assertIn("summary.json is empty ({}) and there is no run.h5", ex["s2_seed1_V0.1"])
+        self.assertIn(f"version {OLD} is older than this code's {SUMMARY_VERSION} and there "
+                      "is no run.h5", ex["s2_seed1_V0.2"])
+        self.assertIn("not a JSON object but list", ex["s2_seed1_V0.6"])
+        self.assertIn("has no format and no version key", ex["s2_seed1_V0.7"])
+        # a run.h5 that cannot be read: left out with what failed
+        self.assertIn("analysing run.h5 again failed: empty file", ex["s2_seed1_V0.8"])
+        for run in ("s2_seed1_V0.1", "s2_seed1_V0.2", "s2_seed1_V0.6", "s2_seed1_V0.7",
+                    "s2_seed1_V0.8"):
+            self.assertNotIn(run, self.csv)
+            self.assertIn(f"left out {run}: {ex[run]}\n", self.printed)
+            self.assertIn(f"<li>{run}: {report.html.escape(ex[run])}</li>", self.html)
+
+    def test_another_format_and_a_newer_version_are_left_out_untouched(self):
+        ex = self.excluded()
+        self.assertIn("format 'cdshear-packing', not 'cdshear-summary'", ex["s2_seed1_V0.3"])
+        self.assertIn(f"version {SUMMARY_VERSION + 1} is newer than this code's "
+                      f"{SUMMARY_VERSION}", ex["s2_seed1_V0.4"])
+        for run in ("s2_seed1_V0.3", "s2_seed1_V0.4"):
+            self.assertNotIn(run, self.csv)
+            self.assertIn(f"left out {run}: ", self.printed)
+        with open(os.path.join(self.d, "runs", "s2_seed1_V0.3", "summary.json")) as f:
+            self.assertEqual(json.load(f), self.other)
+
+    def test_only_current_summaries_are_pooled(self):
+        self.assertEqual(sorted(self.csv), sorted(
+            [f"s1_seed1_V{V:g}" for V in (0.5, 1.0, 1.5, 2.0, 2.5)] + ["s2_seed1_V0.5"]))
+        self.assertEqual(self.doc["runs_analysed"], 6)
+        self.assertEqual(len(self.doc["excluded_runs"]), 7)
+
+    def test_summary_state(self):
+        current = {"format": SUMMARY_FORMAT, "version": SUMMARY_VERSION}
+        self.assertIsNone(report.summary_state(current))
+        for s, kind in (({}, "stale"), ([], "stale"), (None, "stale"), ("x", "stale"),
+                        (dict(current, version=OLD), "stale"),
+                        (dict(current, version=str(SUMMARY_VERSION)), "stale"),
+                        (dict(current, version=True), "stale"),
+                        (dict(current, format=None), "stale"),
+                        ({"format": SUMMARY_FORMAT}, "stale"),
+                        (dict(current, format="other"), "other format"),
+                        (dict(current, version=SUMMARY_VERSION + 1), "newer")):
+            self.assertEqual(report.summary_state(s)[0], kind, s)
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,87 @@
+"""The bulk at SPEC 7's h = 10 (or why not) and the steady-state checks on the flow itself."""
+import os
+import tempfile
+import unittest
+
+import numpy as np
+
+from cdshear_analysis.rundata import load_run
+from cdshear_analysis.steady_state import STEADY_MAX_IMBALANCE, detect_steady_state
+from cdshear_analysis.summary import REFERENCE_H, analyze, choose_bulk_range
+from cdshear_analysis.synthetic import write_synthetic_run
+
+
+class BulkThickness(unittest.TestCase):
+    def run_with(self, height, thicknesses):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=400.0, height=height,
+                                boundary_thickness=thicknesses)
+            run = load_run(d)
+            return run, analyze(run)
+
+    def test_the_reference_h_is_taken_where_the_cell_allows_it(self):
+        # A 40-d cell measured at h = 3 and 10: the bulk is SPEC's (h = 10), not the thinnest
+        # h's, which would include the faster-sheared layers near the walls.
+        run, summary = self.run_with(40.0, (3.0, 10.0))
+        self.assertEqual(choose_bulk_range(run)[0], REFERENCE_H)
+        self.assertEqual(summary["bulk"]["h"], REFERENCE_H)
+        self.assertTrue(summary["bulk"]["h_reference"])
+        self.assertIsNone(summary["bulk"]["h_note"])
+
+    def test_a_thin_cell_says_its_bulk_is_not_the_reference_one(self):
+        # L_y = 20 measured at 3, 5, 7: h = 10 leaves no bulk; the h closest to it (7), flagged.
+        run, summary = self.run_with(20.0, (3.0, 5.0, 7.0))
+        self.assertEqual(summary["bulk"]["h"], 7.0)
+        self.assertFalse(summary["bulk"]["h_reference"])
+        self.assertIn("too thin for h = 10", summary["bulk"]["h_note"])
+
+    def test_an_unmeasured_reference_h_is_named(self):
+        run, summary = self.run_with(40.0, (3.0, 5.0))
+        self.assertEqual(summary["bulk"]["h"], 5.0)
+        self.assertIn("h = 10 was not measured", summary["bulk"]["h_note"])
+
+
+class StressBalance(unittest.TestCase):
+    """A steady run's interior friction equals the walls' (momentum balance)."""
+
+    def verdict(self, offset, seed=3):
+        rng = np.random.default_rng(seed)
+        time = np.arange(0.0, 2000.0, 0.5)
+        series = {"mu_wall": 0.3 + 0.01 * rng.standard_normal(len(time)),
+                  "height": 20 + 0.05 * rng.standard_normal(len(time))}
+        starts = np.arange(0.0, 2000.0, 80.0)[:-1]
+        bulk_mu = 0.3 + offset + 0.004 * rng.standard_normal(len(starts))
+        balance = bulk_mu - (0.3 + 0.004 * rng.standard_normal(len(starts)))
+        return detect_steady_state(time, series, starts, {"bulk_mu_eff": bulk_mu},
+                                   balance=balance)
+
+    def test_balanced_stress_is_steady(self):
+        st = self.verdict(0.0)
+        self.assertTrue(st["steady"], st["reason"])
+        self.assertLess(st["stress_balance"]["sigmas"], STEADY_MAX_IMBALANCE)
+
+    def test_interior_friction_above_the_walls_is_not_steady(self):
+        # As in a tall cell whose momentum still diffuses: the bulk at 0.286, the walls at 0.263
+        # (a run that the other signals alone called steady).
+        st = self.verdict(0.023)
+        self.assertFalse(st["steady"])
+        self.assertIn("stress not uniform", st["reason"])
+        self.assertAlmostEqual(st["stress_balance"]["mean"], 0.023, delta=0.004)
+        # Without a balance to check, none is claimed.
+        rng = np.random.default_rng(1)
+        unchecked = detect_steady_state(np.arange(0.0, 2000.0, 0.5),
+                                        {"height": 20 + 0.05 * rng.standard_normal(4000)},
+                                        np.arange(0.0, 1920.0, 80.0), {})
+        self.assertTrue(np.isnan(unchecked["stress_balance"]["mean"]))
+
+    def test_analyze_checks_the_walls_against_the_interior(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=2000.0)
+            summary = analyze(load_run(d))
+        balance = summary["stress_balance"]
+        self.assertTrue(np.isfinite(balance["mean"]))
+        self.assertLess(balance["sigmas"], STEADY_MAX_IMBALANCE)
+
+
+if __name__ == "__main__":
+    unittest.main()
