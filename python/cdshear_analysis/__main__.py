@@ -9,7 +9,9 @@ CAMPAIGN_DIR/report; cdshear_analysis/report.py); `... lammps-data PACKING.json 
 writes a LAMMPS data file (and DATA.vars) of a packing, `... side-by-side ...` prints the table
 of bench/peers/side_by_side.sh (cdshear_analysis/peers.py); `... series-means RUN_DIR --after T
 [--key KEY ...]` prints means of run.h5 series after time T (cdshear_analysis/series_means.py);
-`... series-pairs CHECK_DIR` the pairs of scripts/paired_check.sh.
+`... series-pairs CHECK_DIR` the pairs of scripts/paired_check.sh; `... stress-balance
+RUN_DIR...` the interior stress against the walls' over each run's steady windows
+(cdshear_analysis/stress_balance.py).
 A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
@@ -51,6 +53,9 @@ def main(argv=None):
     p_compare.add_argument("--windows", type=int, default=0,
                            help="also the solid fraction and mu_eff over time, in this many "
                            "windows (each folder's realizations averaged per window)")
+    p_balance = commands.add_parser(
+        "stress-balance", help="interior stress against the walls' over the steady windows")
+    p_balance.add_argument("run_dirs", nargs="+")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
@@ -106,6 +111,19 @@ def main(argv=None):
         except SeriesError as e:
             print(f"error: {os.path.join(args.run_dir, 'run.h5')}: {e.problem}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command == "stress-balance":
+        from .rundata import RunDataError, load_run
+        from .stress_balance import format_line, stress_balance
+        for run_dir in args.run_dirs:
+            try:
+                balance = stress_balance(load_run(run_dir))
+            except RunDataError as e:
+                print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+                return 2
+            print(format_line(run_dir, balance) if balance else
+                  f"{run_dir}  no complete window: nothing to compare")
         return 0
 
     if args.command == "series-pairs":

@@ -3,9 +3,10 @@ predictions that need the boundary law (V_AB, stability of the symmetric state).
 
 Points. One point per (steady run in regime A, B or C, boundary thickness h, wall) from the
 run's `hK_bottom_*` and `hK_top_*` columns (report.read_run), with I_boundary > 0. In regime C
-only the sheared layer counts: the wall whose velocity jump is the larger; the other layer moves
-with its wall and is not sheared (its I_boundary is noise about 0), so it is no point of a flow
-law. The two walls of an A or B run give two points (they share the run's shear stress). A run
+only the sheared layer counts: the `hK_sheared_layer_*` columns (the layer that carries the
+band in each window; summaries without them: the wall whose mean velocity jump is the larger);
+the other layer moves with its wall and is not sheared (its I_boundary is noise about 0), so it
+is no point of a flow law. The two walls of an A or B run give two points (they share the run's shear stress). A run
 with any other regime label (undecided, intermittent, ...) or none gives no point: which of its
 layers is sheared, and how, is not known.
 
@@ -94,7 +95,12 @@ def layer_points(rows, h):
                 or r.get("regime") not in LAYER_REGIMES:
             continue
         sides = ["bottom", "top"]
-        if r.get("regime") == "C":
+        if r.get("regime") == "C" and r.get(f"{label}_sheared_layer_I") is not None:
+            # the layer that carries the band in each window, whichever wall it is at
+            sides = ["sheared_layer"]
+        elif r.get("regime") == "C":
+            # summaries without it: the wall with the larger mean jump (mixes in the windows
+            # where that layer rests, if the band switched)
             jumps = {s: r.get(f"{label}_{s}_velocity_jump") for s in sides}
             if None in jumps.values():
                 continue

@@ -85,8 +85,9 @@ BULK_QUANTITIES = [
 # boundary layers ("bottom", "top") and the bulk between them ("bulk", for the influence of h)
 LAYER_QUANTITIES = [("I", "inertial_number"), ("mu_eff", "mu_eff"), ("nu", "solid_fraction"),
                     ("Z", "coordination"), ("velocity_jump", "velocity_jump")]
+# "sheared_layer": regime C's layer that carries the band, window by window (summary.py)
 REGION_PARTS = {"bulk": LAYER_QUANTITIES[:4], "bottom": LAYER_QUANTITIES,
-                "top": LAYER_QUANTITIES}
+                "top": LAYER_QUANTITIES, "sheared_layer": LAYER_QUANTITIES}
 HEAD_COLUMNS = ["run", "system", "seed", "V", "n", "duration", "time_reached", "finished",
                 "steady", "steady_reason", "regime", "regime_confidence", "transient_end_time",
                 "transient_end_strain", "band_switches", "bulk_h", "bulk_h_reference",

@@ -115,6 +115,22 @@ def bulk_h_note(run, h):
     return f"{where}, not SPEC 7's h = {REFERENCE_H:g}: {why}"
 
 
+def profile_warnings(run):
+    """Lines on what the profiles miss: a window whose mean height is above the stripes' top
+    (a dilated fast flow: measure.stripe_span too small)."""
+    y = np.asarray(run["windows"]["y"], dtype=float)
+    height = np.asarray(run["windows"]["height"], dtype=float)
+    if len(y) < 2 or not np.isfinite(height).any():
+        return []
+    top = y[-1] + 0.5 * (y[1] - y[0])
+    if np.nanmax(height) <= top:
+        return []
+    above = int(np.sum(height > top))
+    return [f"the stripes stop at y = {top:.4g} below the top wall in {above} window(s) "
+            f"(L_y up to {np.nanmax(height):.4g}): the profiles and the top layer miss the "
+            f"grains above; rerun with a larger measure.stripe_span"]
+
+
 def no_window_reason(run, time):
     """The steady_reason of a run without any complete averaging window."""
     t, window = float(run["attrs"]["time"]), float(run["attrs"]["window"])
@@ -230,6 +246,7 @@ def analyze(run):
         "independent_samples": st["independent_samples"],
         "drift_sigmas": st["drift_sigmas"],
         "stress_balance": st["stress_balance"],
+        "warnings": profile_warnings(run),
         "steady_windows": len(sel),
         "steady_window_indices": sel,
         "window_errors": (f"standard error over {len(sel)} windows" if len(sel) > 1 else
@@ -343,6 +360,7 @@ def format_report(summary, summary_path):
               f"  slip velocity   bottom {pm(summary['slip']['bottom'])}, "
               f"top {pm(summary['slip']['top'])}"]
     lines += sweep_cap_warning(summary["solver"])
+    lines += [f"warning: {text}" for text in summary.get("warnings", [])]
     lines.append(f"summary: {summary_path}")
     return "\n".join(lines)
 

@@ -201,7 +201,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
                  seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
                  window=window, sample_steps=max(1, int(round(sample_interval / dt))),
                  window_samples=max(1, int(round(window / sample_interval))),
-                 stripe_thickness=dy,
+                 stripe_thickness=dy, stripe_span=1.25,
                  boundary_thickness=np.asarray(boundary_thickness, dtype=float),
                  force_threshold=1.0, contact_gap=0.01, inertial_mass=m,
                  time=float(t[-1]) if n_samples else 0.0,

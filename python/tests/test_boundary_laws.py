@@ -78,6 +78,23 @@ class BoundaryLawTest(unittest.TestCase):
         cls.fits = report.fit_laws(cls.rows)
         cls.boundary = bl.fit_boundary(cls.rows, report.FITS)
 
+    def test_regime_c_takes_the_layer_that_carries_the_band_window_by_window(self):
+        # A C run whose band switched: each wall's mean over the windows mixes sheared and
+        # resting windows (jumps 1.1 V and 0.9 V); the summary's sheared_layer (2 V, mu 0.31)
+        # is the point, not the wall with the larger mean jump.
+        V, h = 0.01, 5.0
+        c = bl.h_label(h)
+        r = {"run": "s1_seed1_V0.01", "system": 1, "V": V, "regime": "C", "steady": True,
+             "_layers": [h]}
+        layer(r, h, "bottom", SCALE * 1.1 * V / h, 0.22, 0.80, 2.6, 1.1 * V)
+        layer(r, h, "top", SCALE * 0.9 * V / h, 0.20, 0.81, 2.7, 0.9 * V)
+        layer(r, h, "sheared_layer", SCALE * 2 * V / h, 0.31, 0.78, 2.4, 2 * V)
+        (p,) = bl.layer_points([r], h)
+        self.assertEqual(p["side"], "sheared_layer")
+        self.assertAlmostEqual(p["mu"], 0.31)
+        self.assertAlmostEqual(p["velocity_jump"], 2 * V)
+        self.assertAlmostEqual(p["I"], r[c + "_sheared_layer_I"])
+
     def test_regime_c_keeps_the_sheared_layer_only(self):
         pts = bl.layer_points(self.rows, 5.0)
         c = [p for p in pts if p["regime"] == "C"]

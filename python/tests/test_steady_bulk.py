@@ -85,3 +85,36 @@ class StressBalance(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class ProfileReach(unittest.TestCase):
+    def test_a_cell_taller_than_its_stripes_is_flagged(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=400.0)
+            run = load_run(d)
+            self.assertEqual(analyze(run)["warnings"], [])
+            run["windows"]["height"] = run["windows"]["height"] + 10.0   # above 25 stripes
+            (text,) = analyze(run)["warnings"]
+            self.assertIn("measure.stripe_span", text)
+
+
+class StressBalanceTable(unittest.TestCase):
+    """stress_balance.py: the interior stress against the walls' over the steady windows."""
+
+    def test_a_balanced_run_agrees_and_an_offset_is_measured(self):
+        from cdshear_analysis.stress_balance import format_line, stress_balance
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=2000.0)
+            run = load_run(d)
+        summary = analyze(run)
+        b = stress_balance(run, summary)
+        for name in ("sigma_yy_diff", "sigma_xy_diff", "mu_eff_diff"):
+            mean, err = b[name]
+            self.assertLess(abs(mean), 4 * err + 1e-12, name)
+        # 0.02 more normal stress inside than the walls carry, over the same windows: measured.
+        run["windows"]["stress"] = run["windows"]["stress"].copy()
+        run["windows"]["stress"][..., 1, 1] += 0.02
+        shifted = stress_balance(run, summary)
+        self.assertAlmostEqual(shifted["sigma_yy_diff"][0] - b["sigma_yy_diff"][0], 0.02,
+                               places=9)
+        self.assertIn("sigma_yy", format_line(d, shifted))

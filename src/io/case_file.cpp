@@ -109,6 +109,10 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   mo.sample_interval = m.positive("sample_interval", mo.sample_interval);
   mo.window = m.positive("window", mo.window);
   mo.stripe_thickness = m.positive("stripe_thickness", mo.stripe_thickness);
+  mo.stripe_span = m.positive("stripe_span", mo.stripe_span);
+  if (mo.stripe_span < 1.0 || mo.stripe_span > 10.0)
+    m.fail("stripe_span", "must be between 1 and 10 (times the nominal L_y), got " +
+                              format_number(mo.stripe_span));
   mo.force_threshold = m.non_negative("force_threshold", mo.force_threshold);
   mo.contact_gap = m.positive("contact_gap", mo.contact_gap);
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step
@@ -242,6 +246,7 @@ toml::table case_to_toml(const ShearCase& c) {
                               {"sample_interval", c.measure.sample_interval},
                               {"window", c.measure.window},
                               {"stripe_thickness", c.measure.stripe_thickness},
+                              {"stripe_span", c.measure.stripe_span},
                               {"boundary_thickness", boundary},
                               {"force_threshold", c.measure.force_threshold},
                               {"contact_gap", c.measure.contact_gap}}}};

@@ -426,6 +426,7 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
   attr_int(ctx, file, "sample_steps", static_cast<std::int64_t>(m.sample_every()));
   attr_int(ctx, file, "window_samples", static_cast<std::int64_t>(m.samples_per_window()));
   attr_double(ctx, file, "stripe_thickness", o.stripe_thickness);
+  attr_double(ctx, file, "stripe_span", o.stripe_span);
   attr_double(ctx, file, "boundary_thickness", o.boundary_thickness);
   attr_double(ctx, file, "force_threshold", o.force_threshold);
   attr_double(ctx, file, "contact_gap", o.contact_gap);
@@ -562,6 +563,7 @@ RunData read_run_data(const fs::path& path) {
   o.sample_interval = read_attr_double(ctx, file, "sample_interval");
   o.window = read_attr_double(ctx, file, "window");
   o.stripe_thickness = read_attr_double(ctx, file, "stripe_thickness");
+  o.stripe_span = read_attr_double(ctx, file, "stripe_span");
   o.boundary_thickness = read_attr_doubles(ctx, file, "boundary_thickness");
   o.force_threshold = read_attr_double(ctx, file, "force_threshold");
   o.contact_gap = read_attr_double(ctx, file, "contact_gap");

@@ -56,6 +56,9 @@ struct MeasureOptions {
   double sample_interval = 0.1;                  ///< time between samples (series and profiles) [t]
   double window = 80.0;                          ///< averaging window [t]
   double stripe_thickness = 1.0;                 ///< dy [d]
+  /// Stripes cover this times the nominal L_y: a fast flow dilates (system 1 at V = 5: L_y about
+  /// 28 to 34 after a transient up to 61), and a profile must reach the top wall.
+  double stripe_span = 2.0;
   std::vector<double> boundary_thickness{10.0};  ///< the h of the boundary layers [d]
   double force_threshold = 0.01;  ///< force-carrying: R_n > this * mean R_n (of R_n > 0)
   double contact_gap = 1e-4;      ///< closed contact (Z, slip): gap <= this at the sample [d]

@@ -115,6 +115,12 @@ void sync_preparation(ShearCase& c);
 /// mu_p and mu_w, disks given the linear velocity profile from -V (bottom) to +V (top).
 World build_shear_world(const ShearCase& c, const Packing& packing);
 
+/// The heights L_y / nominal L_y a shear run may reach; beyond them the walls flew apart or went
+/// through each other (a blow-up). Wide, because a fast start is a violent dilation: system 1 at
+/// V = 5, from the linear profile, reaches L_y = 61 (3.05 times) at t = 30 and settles about 28
+/// to 34 by t = 80 (the walls, of mass 50, are launched by the first collisions).
+inline constexpr double kHeightRange[2] = {0.5, 5.0};
+
 /// Indices of the bottom and top walls in the shear world.
 inline constexpr std::size_t kBottomWall = 0, kTopWall = 1;
 
