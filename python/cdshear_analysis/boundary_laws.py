@@ -299,9 +299,17 @@ def predict_delta_mu(row, boundary):
     span = law.get("x_span")
     for h in row.get("_layers", []):
         label = h_label(h)
-        dv = {s: (row.get(f"{label}_{s}_velocity_jump"),
-                  row.get(f"{label}_{s}_velocity_jump_err")) for s in ("bottom", "top")}
-        e = {"h": h, "velocity_jump_bottom": dv["bottom"][0], "velocity_jump_top": dv["top"][0],
+        # the layers window by window when the summary has them (a band that switched walls
+        # makes each wall's mean jump about V), else each wall's mean
+        layers = (("sheared_layer", "resting_layer")
+                  if row.get(f"{label}_sheared_layer_velocity_jump") is not None
+                  and row.get(f"{label}_resting_layer_velocity_jump") is not None
+                  else ("bottom", "top"))
+        dv = {s: (row.get(f"{label}_{layer}_velocity_jump"),
+                  row.get(f"{label}_{layer}_velocity_jump_err"))
+              for s, layer in zip(("bottom", "top"), layers)}
+        e = {"h": h, "layers": list(layers),
+             "velocity_jump_bottom": dv["bottom"][0], "velocity_jump_top": dv["top"][0],
              "hI_bottom": None, "hI_top": None, "mu_bottom": None, "mu_top": None,
              "delta_mu": None, "interval": None, "interval_note": None,
              "extrapolated": False, "mu_negative": False, "note": None, "reason": None}

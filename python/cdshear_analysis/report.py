@@ -85,9 +85,11 @@ BULK_QUANTITIES = [
 # boundary layers ("bottom", "top") and the bulk between them ("bulk", for the influence of h)
 LAYER_QUANTITIES = [("I", "inertial_number"), ("mu_eff", "mu_eff"), ("nu", "solid_fraction"),
                     ("Z", "coordination"), ("velocity_jump", "velocity_jump")]
-# "sheared_layer": regime C's layer that carries the band, window by window (summary.py)
+# "sheared_layer", "resting_layer": regime C's layer that carries the band and the other one,
+# window by window (summary.py)
 REGION_PARTS = {"bulk": LAYER_QUANTITIES[:4], "bottom": LAYER_QUANTITIES,
-                "top": LAYER_QUANTITIES, "sheared_layer": LAYER_QUANTITIES}
+                "top": LAYER_QUANTITIES, "sheared_layer": LAYER_QUANTITIES,
+                "resting_layer": LAYER_QUANTITIES}
 HEAD_COLUMNS = ["run", "system", "seed", "V", "n", "duration", "time_reached", "finished",
                 "steady", "steady_reason", "regime", "regime_confidence", "transient_end_time",
                 "transient_end_strain", "band_switches", "bulk_h", "bulk_h_reference",
@@ -483,8 +485,9 @@ def _html_transitions(transitions, preds):
                "</h3>")
     sw = preds["switch_time_C"]
     if sw:
-        out.append("<table><tr><th>run</th><th>V</th><th>L_y</th><th>nu</th><th>delta_mu</th>"
-                   "<th>predicted T</th><th>delta_mu from the law, T from it</th>"
+        out.append("<table><tr><th>run</th><th>V</th><th>L_y</th><th>nu</th>"
+                   "<th>delta_mu on the plateau</th><th>delta_mu (law, h nearest 10)</th>"
+                   "<th>predicted T</th><th>delta_mu from the law, T from it, per h</th>"
                    "<th>switches</th><th>measured duration</th>"
                    "<th>mean interval</th><th>time / switch</th><th>delta_mu implied</th>"
                    "</tr>")
@@ -495,13 +498,16 @@ def _html_transitions(transitions, preds):
                                                  if e["switch_duration_err"] else "")
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
-                _fmt(e["delta_mu"]), pred, _delta_mu_law_text(e["delta_mu_law"]),
+                _fmt(e.get("delta_mu_plateau")), _fmt(e["delta_mu"]), pred,
+                _delta_mu_law_text(e["delta_mu_law"]),
                 e["switch_count"], dur, _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
         out.append("</table><p>Measured duration: plateau to plateau, the block velocity "
                    "from ±0.8 V to ∓0.8 V (compare with 0.8 T, fits.json "
-                   "<code>predicted_T_levels</code>); delta_mu: the walls' net friction on the "
-                   "plateau before each switch; delta_mu implied: the "
+                   "<code>predicted_T_levels</code>); delta_mu on the plateau: the walls' net "
+                   "friction before each switch, about zero by momentum balance (a check, not "
+                   "a prediction); the prediction takes the boundary law's delta_mu at the "
+                   "layers' jumps (h nearest 10); delta_mu implied: the "
                    "friction difference that this duration needs. delta_mu from the law: "
                    "|mu(bottom) - mu(top)| of the boundary law of B and C in h I_b at each "
                    "wall's measured velocity jump, per h, 68% interval in brackets, and the T "

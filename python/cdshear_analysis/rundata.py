@@ -14,12 +14,13 @@ The result is a plain dict:
                                          plain floats), None if absent
 Every problem with the folder or file raises RunDataError(path, problem).
 
-Format versions (attrs["format_version"]). Version 2 (FORMAT_VERSION) counts Z as the closed
-contacts (gap <= contact_gap) and keeps the per-step count as force_carrying_coordination; its
-stress includes the rotational part. A version-1 file is read as version 2 would describe it:
-its coordination (the contacts carrying force at the sampled step) becomes
-force_carrying_coordination, every closed-contact coordination is NaN (not measured), and
-attrs["legacy_note"] says so; its stress lacks the rotational part.
+Format versions (attrs["format_version"]). Version 3 (FORMAT_VERSION) counts Z as the closed
+contacts (gap <= contact_gap), keeps the per-step count as force_carrying_coordination, and
+stores the rotation's momentum flux as rotational_stress beside a stress of contact and kinetic
+parts. Older files are read as version 3 would describe them, with attrs["legacy_note"]:
+version 2 added rotational_stress into stress: it is taken out again, and mu_eff (profiles and
+regions) recomputed; in a version-1 file, coordination (the contacts carrying force at the
+sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
 import os
 import re
@@ -30,7 +31,7 @@ import h5py
 import numpy as np
 
 RUN_FILE = "run.h5"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
                   "time")
 REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
@@ -158,6 +159,8 @@ def _read(f, run_dir, path):
                                  f"reads ({FORMAT_VERSION}): update cdshear")
     if version < 2:
         _as_version_2(windows, regions, attrs)
+    if version == 2:
+        _as_version_3(windows, regions, attrs)
     snapshot = None
     if "snapshot" in f:
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
@@ -190,6 +193,38 @@ def _as_version_2(windows, regions, attrs):
     attrs["legacy_note"] = ("format version 1: Z (closed contacts) was not measured; the "
                             "per-step count of force-carrying contacts is "
                             "force_carrying_coordination; the stress lacks the rotational part")
+
+
+def _as_version_3(windows, regions, attrs):
+    """A version-2 file's stress without the rotational flux, and the mu_eff that follow (the
+    regions' stripes as src/measure/shear_measurement.cpp assigns them)."""
+    if "rotational_stress" not in windows:
+        return
+    stress = np.asarray(windows["stress"], dtype=float) - np.asarray(
+        windows["rotational_stress"], dtype=float)
+    windows["stress"] = stress
+    with np.errstate(invalid="ignore", divide="ignore"):
+        windows["mu_eff"] = np.where(stress[..., 1, 1] > 0,
+                                     np.abs(stress[..., 0, 1]) / stress[..., 1, 1], np.nan)
+    y = np.asarray(windows["y"], dtype=float)
+    dy = y[1] - y[0] if len(y) > 1 else 2 * y[0] if len(y) else 1.0
+    for data in regions.values():
+        h = data["h"]
+        for w, height in enumerate(np.asarray(windows["height"], dtype=float)):
+            inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
+            ok = (inside > 0) & np.isfinite(np.asarray(windows["vx"], dtype=float)[w])
+            parts = {"bottom": ok & (y < h),
+                     "top": ok & (y >= h) & ((y > height - h) | (inside < 1)),
+                     "bulk": ok & (y >= h) & (y <= height - h) & (inside >= 1)}
+            for part, sel in parts.items():
+                key = f"{part}_mu_eff"
+                if key not in data:
+                    continue
+                syy, sxy = stress[w, sel, 1, 1].sum(), stress[w, sel, 0, 1].sum()
+                data[key] = np.array(data[key], dtype=float)
+                data[key][w] = abs(sxy) / syy if sel.any() and syy > 0 else np.nan
+    attrs["legacy_note"] = ("format version 2: its stress included the rotational flux, taken "
+                            "out again on reading (mu_eff recomputed)")
 
 
 def _read_text(path):

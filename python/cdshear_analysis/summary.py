@@ -246,7 +246,8 @@ def analyze(run):
         "independent_samples": st["independent_samples"],
         "drift_sigmas": st["drift_sigmas"],
         "stress_balance": st["stress_balance"],
-        "warnings": profile_warnings(run),
+        "warnings": profile_warnings(run) + ([a["legacy_note"]] if a.get("legacy_note")
+                                             else []),
         "steady_windows": len(sel),
         "steady_window_indices": sel,
         "window_errors": (f"standard error over {len(sel)} windows" if len(sel) > 1 else

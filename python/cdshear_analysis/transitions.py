@@ -185,23 +185,11 @@ def switch_predictions(rows, boundary=None):
         if not sw:
             e["measured_note"] = (f"no switch in {observed:g} time units" if observed
                                   else "no switch")
-        if r.get("switch_delta_mu") is not None:
-            e["delta_mu"] = r["switch_delta_mu"]
-            e["delta_mu_err"] = r.get("switch_delta_mu_err")
-            e["delta_mu_source"] = ("summary.json switch_delta_mu: the net tangential force of "
-                                    "the walls per unit normal force, on the plateau before "
-                                    "each switch")
-        missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
-        if e["delta_mu"] is None:
-            missing.append("delta_mu (no band switch with wall forces: summary.json "
-                           "switch_delta_mu is null)")
-        if missing:
-            e["reason"] = "not computed: missing " + ", ".join(missing)
-        elif e["delta_mu"] <= 0 or e["sigma_yy"] <= 0:
-            e["reason"] = "not computed: delta_mu or sigma_yy is not positive"
-        else:
-            T = switch_time(e["V"], e["L_y"], e["nu_bulk"], e["delta_mu"], e["sigma_yy"])
-            e["predicted_T"], e["predicted_T_levels"] = T, T * SWITCH_FRACTION
+        # The walls' net friction on the plateau before each switch: by momentum balance about
+        # zero on a true plateau, so a diagnostic and no prediction (the block is accelerated
+        # by a friction difference that appears with the switch itself).
+        e["delta_mu_plateau"] = r.get("switch_delta_mu")
+        e["delta_mu_plateau_err"] = r.get("switch_delta_mu_err")
         # the delta_mu that the measured duration implies (plateau to plateau, the block from
         # +-SWITCH_FRACTION V to the other sign: a velocity change 2 SWITCH_FRACTION V)
         d = e["switch_duration"]
@@ -212,6 +200,23 @@ def switch_predictions(rows, boundary=None):
         else:
             e["delta_mu_implied"] = None
         e["delta_mu_law"] = _delta_mu_law(r, e, boundary)
+        # The prediction: the boundary law's delta_mu at the layers' jumps, at the h closest to
+        # SPEC 7's 10 among those that give a T.
+        by_h = [v for v in e["delta_mu_law"]["by_h"].values() if v.get("predicted_T")]
+        missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
+        if by_h and not missing:
+            best = min(by_h, key=lambda v: (abs(v["h"] - 10.0), v["h"]))
+            T = best["predicted_T"]
+            e.update(delta_mu=best["delta_mu"], predicted_T=T,
+                     predicted_T_levels=T * SWITCH_FRACTION,
+                     delta_mu_source=f"the boundary law mu_hI_BC at the layers' velocity "
+                                     f"jumps, h = {best['h']:g} (delta_mu_law)")
+        elif missing:
+            e["reason"] = "not computed: missing " + ", ".join(missing)
+        else:
+            e["reason"] = ("not computed: no delta_mu from the boundary law ("
+                           + (e["delta_mu_law"].get("reason") or "no h gives a switch time")
+                           + ")")
         out.append(e)
     return out
 

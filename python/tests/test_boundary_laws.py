@@ -95,6 +95,25 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertAlmostEqual(p["velocity_jump"], 2 * V)
         self.assertAlmostEqual(p["I"], r[c + "_sheared_layer_I"])
 
+    def test_delta_mu_of_a_switching_c_run_from_its_layers_window_by_window(self):
+        # Each wall's mean jump is about V (the band switched), the layers window by window are
+        # 2 V and 0: the law's delta_mu is taken at the latter.
+        V, h = 0.01, 5.0
+        r = {"run": "s1_seed1_V0.01", "system": 1, "V": V, "regime": "C", "steady": True,
+             "_layers": [h], "_sigma_yy": SIGMA}
+        layer(r, h, "bottom", SCALE * V / h, 0.22, 0.80, 2.6, V)
+        layer(r, h, "top", SCALE * V / h, 0.22, 0.80, 2.6, V)
+        layer(r, h, "sheared_layer", SCALE * 2 * V / h, 0.31, 0.78, 2.4, 2 * V)
+        layer(r, h, "resting_layer", 1e-5, 0.2, 0.82, 3.0, 1e-4)
+        e = bl.predict_delta_mu(r, self.boundary)["by_h"][bl.h_label(h)]
+        self.assertEqual(e["layers"], ["sheared_layer", "resting_layer"])
+        self.assertAlmostEqual(e["velocity_jump_bottom"], 2 * V)
+        self.assertGreater(e["delta_mu"], 0.0)
+        del r[bl.h_label(h) + "_resting_layer_velocity_jump"]
+        plain = bl.predict_delta_mu(r, self.boundary)["by_h"][bl.h_label(h)]
+        self.assertEqual(plain["layers"], ["bottom", "top"])
+        self.assertAlmostEqual(plain["delta_mu"], 0.0)   # equal mean jumps: no difference
+
     def test_regime_c_keeps_the_sheared_layer_only(self):
         pts = bl.layer_points(self.rows, 5.0)
         c = [p for p in pts if p["regime"] == "C"]

@@ -327,9 +327,6 @@ class ReportTest(unittest.TestCase):
         self.assertTrue(e.exception.path.endswith("summary.json"))
 
 
-if __name__ == "__main__":
-    unittest.main()
-
 
 class BulkThicknessTest(unittest.TestCase):
     """The bulk laws take only runs whose bulk is SPEC 7's (h = 10); the others are listed."""
@@ -350,3 +347,7 @@ class BulkThicknessTest(unittest.TestCase):
             self.assertEqual(mu["n_runs"], 6)
             self.assertAlmostEqual(mu["parameters"]["a"]["value"], 0.25, delta=0.01)
             self.assertTrue(all(r["bulk_h_note"] for r in rows if not r["bulk_h_reference"]))
+
+
+if __name__ == "__main__":
+    unittest.main()

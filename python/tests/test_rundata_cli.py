@@ -170,9 +170,9 @@ class EndToEnd(unittest.TestCase):
             self.assertEqual(summary["steady_windows"], 1)
             self.assertIsNone(summary["bulk"]["mu_eff"]["err"])
             self.assertIsNotNone(summary["bulk"]["mu_eff"]["mean"])
-            # One window of 130 t: a regime, or "undecided" with its reason (too short to tell).
-            self.assertIn(summary["regime"], ("A", "B", "C", "undecided"))
-            self.assertTrue(summary["regime_criteria"]["reason"])
+            # One window of 130 t: too short to tell, and the reason says so.
+            self.assertEqual(summary["regime"], "undecided")
+            self.assertIn("too short", summary["regime_criteria"]["reason"])
             self.assertEqual(run_module("analyze", d, "--quiet").stdout, "")
             written = plot_run(load_run(d), analyze(load_run(d)), os.path.join(d, "figures"))
             self.assertEqual(sorted(map(os.path.basename, written)), sorted(FIGURES))

@@ -83,9 +83,6 @@ class StressBalance(unittest.TestCase):
         self.assertLess(balance["sigmas"], STEADY_MAX_IMBALANCE)
 
 
-if __name__ == "__main__":
-    unittest.main()
-
 
 class ProfileReach(unittest.TestCase):
     def test_a_cell_taller_than_its_stripes_is_flagged(self):
@@ -118,3 +115,57 @@ class StressBalanceTable(unittest.TestCase):
         self.assertAlmostEqual(shifted["sigma_yy_diff"][0] - b["sigma_yy_diff"][0], 0.02,
                                places=9)
         self.assertIn("sigma_yy", format_line(d, shifted))
+
+
+class OlderRunFiles(unittest.TestCase):
+    """Files of earlier format versions are read as the current version describes them."""
+
+    def rewrite(self, d, version, change):
+        import h5py
+        from cdshear_analysis.rundata import seal
+        path = os.path.join(d, "run.h5")
+        with h5py.File(path, "r+") as f:
+            f.attrs["format_version"] = version
+            change(f)
+        seal(path)
+
+    def test_version_2_stress_loses_the_rotational_flux_again(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=400.0)
+            current = load_run(d)
+
+            def add_flux(f):
+                rot = np.where(np.isfinite(f["windows/stress"][()]), 0.0, np.nan)
+                rot[..., 1, 1] = np.where(np.isfinite(rot[..., 1, 1]), 0.01, np.nan)
+                f["windows/rotational_stress"][...] = rot
+                f["windows/stress"][...] = f["windows/stress"][()] + rot
+            self.rewrite(d, 2, add_flux)
+            old = load_run(d)
+        np.testing.assert_allclose(old["windows"]["stress"], current["windows"]["stress"],
+                                   atol=1e-15, equal_nan=True)
+        s = current["windows"]["stress"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mu = np.abs(s[..., 0, 1]) / s[..., 1, 1]
+        np.testing.assert_allclose(old["windows"]["mu_eff"], mu, rtol=1e-12, equal_nan=True)
+        self.assertIn("rotational flux", old["attrs"]["legacy_note"])
+
+    def test_version_1_coordination_is_the_force_carrying_count(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=400.0)
+            current = load_run(d)
+
+            def as_v1(f):
+                del f["windows/force_carrying_coordination"]
+            self.rewrite(d, 1, as_v1)
+            old = load_run(d)
+            self.assertTrue(np.isnan(old["windows"]["coordination"]).all())
+            np.testing.assert_array_equal(old["windows"]["force_carrying_coordination"],
+                                          current["windows"]["coordination"])
+            self.assertIn("format version 1", old["attrs"]["legacy_note"])
+            self.rewrite(d, 4, lambda f: None)
+            with self.assertRaisesRegex(Exception, "newer than this analysis"):
+                load_run(d)
+
+
+if __name__ == "__main__":
+    unittest.main()

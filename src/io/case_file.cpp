@@ -117,7 +117,7 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   mo.contact_gap = m.positive("contact_gap", mo.contact_gap);
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step
   // was below the margin, and a step moves a pair by far less than half of it.
-  if (mo.contact_gap > 0.5 * c.step.contact_margin)
+  if (mo.enabled && mo.contact_gap > 0.5 * c.step.contact_margin)
     m.fail("contact_gap", "must be at most half of step.contact_margin (" +
                               format_number(0.5 * c.step.contact_margin) + "), got " +
                               format_number(mo.contact_gap));

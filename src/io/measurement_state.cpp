@@ -40,7 +40,8 @@ MeasurementState measurement_state_from_json(const json& j) {
   if (!j.is_object() || !j.contains("definitions") || j.at("definitions") != kMeasurementDefinitions)
     throw std::runtime_error(
         "written by a cdshear whose measurements differ from this one's (Z from closed "
-        "contacts, the rotational stress): a measured run cannot be resumed across the change; "
+        "contacts, the stress without the rotational flux): a measured run cannot be resumed "
+        "across the change; "
         "start a new run, from this run's final state if needed");
   return j.get<MeasurementState>();
 }

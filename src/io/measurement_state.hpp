@@ -9,9 +9,10 @@
 
 namespace cdshear {
 
-/// The version of the measurement definitions a checkpoint's open window was summed with (2: Z
-/// from closed contacts, the rotational stress). A window cannot be continued with other sums.
-inline constexpr int kMeasurementDefinitions = 2;
+/// The version of the measurement definitions a checkpoint's open window was summed with (3: Z
+/// from closed contacts, the rotational flux beside the stress). A window cannot be continued
+/// with other definitions.
+inline constexpr int kMeasurementDefinitions = 3;
 
 nlohmann::json measurement_state_to_json(const MeasurementState& state);
 /// Throws std::exception (caught by the checkpoint reader) on a malformed object.

@@ -540,9 +540,9 @@ RunData read_run_data(const fs::path& path) {
              fmt::format("format version {} where this cdshear reads {}: {}", version,
                          kRunDataFormatVersion,
                          version < kRunDataFormatVersion
-                             ? "written before the measurement of Z (closed contacts) and of the "
-                               "rotational stress; `cdshear analyze` still reads it, but a run "
-                               "cannot be resumed across the change (start a new run)"
+                             ? "written with earlier measurement definitions (Z, the stress); "
+                               "`cdshear analyze` still reads it, but a run cannot be resumed "
+                               "across the change (start a new run)"
                              : "written by a newer cdshear"));
   RunData data;
   RunMetadata& meta = data.meta;

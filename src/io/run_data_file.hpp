@@ -14,11 +14,11 @@
 
 namespace cdshear {
 
-/// run.h5's format_version. 2: Z counts closed contacts (measure.contact_gap) and the per-step
-/// count is force_carrying_coordination; the stress includes the rotational part; the series
-/// carry block_vx and closed. Version 1 files are read by the analysis (docs/run-data.md), not
-/// resumed.
-inline constexpr int kRunDataFormatVersion = 2;
+/// run.h5's format_version. 3: Z counts closed contacts (measure.contact_gap) and the per-step
+/// count is force_carrying_coordination; rotational_stress (a diagnostic, not in the stress);
+/// the series carry block_vx and closed; stripe_span. Versions 1 and 2 are read by the analysis
+/// (docs/run-data.md), not resumed.
+inline constexpr int kRunDataFormatVersion = 3;
 
 struct RunMetadata {
   std::string case_toml;  ///< the resolved case

@@ -317,8 +317,9 @@ void ShearMeasurement::close_window(const World& world) {
     p.contact_stress[k] = c;
     p.kinetic_stress[k] = kin;
     p.rotational_stress[k] = rot;
-    p.stress[k] = {c.xx + kin.xx + rot.xx, c.xy + kin.xy + rot.xy, c.yx + kin.yx + rot.yx,
-                   c.yy + kin.yy + rot.yy};
+    // The rotational flux is not added: a spinning grain's centripetal internal stress cancels
+    // it (header), and the contact stress is spread over each grain's area as a whole.
+    p.stress[k] = {c.xx + kin.xx, c.xy + kin.xy, c.yx + kin.yx, c.yy + kin.yy};
     if (p.stress[k].yy > 0) p.mu_eff[k] = std::abs(p.stress[k].xy) / p.stress[k].yy;
   }
   const double inertial_scale = std::sqrt(kInertialMass / context_.normal_stress);

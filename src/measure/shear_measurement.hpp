@@ -20,13 +20,19 @@
 //   kinetic stress   k_k  = (sum m_ik v v - (sum m_ik v)(sum m_ik v) / sum m_ik) / (L_x dy N),
 //                    m_ik = rho_i S_ik, v the centre velocity: rho nu <dv (x) dv> about the
 //                    window's stripe mean
-//   rotational part  r_k  = the same moments of the material velocity u = v + w x (p - c)
+//   rotational flux  r_k  = the same moments of the material velocity u = v + w x (p - c)
 //                    integrated exactly over each part, minus k_k: with u_x = v_x - w y',
 //                    u_y = v_y + w x', rho int u_x u_x = m v_x v_x - 2 rho v_x w M1 + rho w^2 Y2,
 //                    rho int u_x u_y = m v_x v_y - rho v_y w M1, rho int u_y u_y = m v_y v_y +
-//                    rho w^2 X2 (the odd moments in x' vanish); for a whole disk this adds
-//                    J w^2 / 2 to both normal components
-//   stress           s_k + k_k + r_k;  mu_eff = |stress_xy| / stress_yy
+//                    rho w^2 X2 (the odd moments in x' vanish); J w^2 / 2 on both normal
+//                    components for a whole disk. Kept as a diagnostic, not added to the
+//                    stress: a grain's mean internal stress is (1/A)(sum F (x) r - int rho a (x)
+//                    x' dS), and the centripetal acceleration a = -w^2 x' of a spinning rigid
+//                    disk gives + rho w^2 int x' (x) x' = (pi r^4 / 4) rho w^2 I, which cancels
+//                    the rotational flux rho w^2 int (z x x') (x) (z x x') of the whole disk
+//                    exactly; with each grain's stress spread over its area as a whole (SPEC 7),
+//                    neither term enters
+//   stress           s_k + k_k;  mu_eff = |stress_xy| / stress_yy
 //   Z_k = sum S_ik z_i / sum S_ik, z_i the grain's closed contacts (below);
 //   shear rate by central differences; I = |gamma_dot| sqrt(m / sigma_yy), m = pi/4.
 // Compression is positive: -M_i is positive in compression.
@@ -113,7 +119,8 @@ struct WindowProfile {
   double height = 0.0, com_vx = 0.0;  ///< window means
   std::vector<double> solid_fraction, vx, mu_eff, coordination, force_carrying_coordination,
       shear_rate, inertial_number;
-  /// stress = contact_stress + kinetic_stress (centre velocities) + rotational_stress
+  /// stress = contact_stress + kinetic_stress (centre velocities); rotational_stress is the
+  /// rotation's momentum flux, a diagnostic (cancelled by the spinning grains' internal stress)
   std::vector<Tensor2> contact_stress, kinetic_stress, rotational_stress, stress;
   Vec2 bottom_force, top_force;  ///< exact window means from the walls' impulses
   double wall_mu = 0.0;          ///< mean of |f_x| / |f_y| of the two walls
