@@ -153,8 +153,8 @@ def _plot_regimes(path, rows, transitions):
     ax.set_yticks(range(len(systems)), [f"system {s}" for s in systems])
     ax.set_ylim(-0.6, max(1, len(systems)) - 0.4)
     ax.set_xlabel(AXIS_LABELS["V"])
-    ax.set_title("regime diagram (open: not steady; open and grey markers do not vote; bars: "
-                 "V_AB above, V_BC below)", fontsize=8)
+    ax.set_title("regime diagram\n(open: not steady; open and grey markers do not vote;\n"
+                 "bars: V_AB above, V_BC below)", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -89,12 +89,15 @@ def stress_balance(balance, windows):
     return mean, err, (abs(mean) / err if err > 0 else (0.0 if mean == 0 else np.inf))
 
 
-def detect_steady_state(time, series, window_start, window_signals, balance=None):
+def detect_steady_state(time, series, window_start, window_signals, balance=None,
+                        stationarity_only=()):
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
     window_signals: {name: one value per window}; balance: per window, the interior mu_eff minus
-    the walls' (None: not checked). Returns a dict with steady (bool), reason,
+    the walls' (None: not checked); stationarity_only: series that must not drift but need not
+    hold STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is
+    not reported, such as the block's speed). Returns a dict with steady (bool), reason,
     transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
     truncation_times {name: t}, independent_samples {name: n}, drift_sigmas {name: z} and
     stress_balance {mean, err, sigmas} over the steady windows (NaN if not checked).
@@ -136,7 +139,7 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
             problems.append(f"only {len(steady_windows)} complete window(s) after the transient "
                             f"(t = {transient_end:.4g}), need {STEADY_MIN_WINDOWS}")
         for name, n_ind in independent.items():
-            if not n_ind >= STEADY_MIN_INDEPENDENT:
+            if name not in stationarity_only and not n_ind >= STEADY_MIN_INDEPENDENT:
                 problems.append(f"only {n_ind:.3g} independent samples of {name} after the "
                                 f"transient, need {STEADY_MIN_INDEPENDENT}")
         for name, z in drift.items():

@@ -167,7 +167,8 @@ def analyze(run):
         balance = bulk_w["mu_eff"] - window_wall_friction(w)
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
                                     "abs_block_vx": block},
-                             w["t_start"], window_signals, balance=balance)
+                             w["t_start"], window_signals, balance=balance,
+                             stationarity_only=("abs_block_vx",))
     if no_window:
         st.update(steady=False, reason=no_window_reason(run, time),
                   transient_end_time=np.nan)   # no transient end is claimed

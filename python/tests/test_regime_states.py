@@ -27,7 +27,7 @@ def table(states, window=80.0, r=0.0):
 class WindowStates(unittest.TestCase):
     def test_each_state_from_its_profile_and_samples(self):
         cases = [
-            (profile(r=0.8, linearity=0.99), shares(), "A", "r = 0.8 > 0.3, R^2 = 0.99 >= 0.8"),
+            (profile(r=0.8, linearity=0.99), shares(), "A", "r = 0.8 > 0.2, R^2 = 0.99 >= 0.8"),
             (profile(), shares(rest=0.9), "B", "|u| <= 0.5 V in 90% of the samples"),
             (profile(block=V, jump_bottom=2 * V, jump_top=0.0), shares(rest=0.05, plus=0.95),
              "C+", "u > 0.5 V in 95% of the samples"),
@@ -43,7 +43,7 @@ class WindowStates(unittest.TestCase):
     def test_undecided_windows(self):
         cases = [
             (profile(r=0.8, linearity=0.3), shares(), "the bulk profile is not linear"),
-            (profile(r=0.25), shares(), "r = 0.25 between 0.2 and 0.3"),
+            (profile(r=0.15), shares(), "r = 0.15 between 0.1 and 0.2"),
             (profile(jump_bottom=1.3 * V, jump_top=0.2 * V), shares(),
              "neither both layers about V (B) nor one about 2V and the other about 0 (C)"),
             (profile(), shares(rest=0.3, plus=0.35, minus=0.35),

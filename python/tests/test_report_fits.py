@@ -346,8 +346,12 @@ class DeltaMuFromTheLawTest(unittest.TestCase):
                 self.assertIn("extrapolated", x["note"])
                 self.assertIs(x["extrapolated"], True)
                 self.assertIs(x["mu_negative"], False)   # 0.2 + 0.4 sqrt(h I_b) > 0
-            # the measured delta_mu is still the one of summary.json (none here)
-            self.assertIsNone(e["delta_mu"])
+            # the prediction's delta_mu is the law's at the h nearest 10; the plateau's net
+            # friction is summary.json's (none here)
+            best = min(e["delta_mu_law"]["by_h"].values(), key=lambda x: abs(x["h"] - 10.0))
+            self.assertEqual(e["delta_mu"], best["delta_mu"])
+            self.assertEqual(e["predicted_T"], best["predicted_T"])
+            self.assertIsNone(e["delta_mu_plateau"])
 
     def test_a_wrong_law_is_caught(self):
         # the prediction follows the law: a law twice as steep doubles delta_mu
