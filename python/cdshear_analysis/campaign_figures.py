@@ -42,6 +42,9 @@ def _label_log_axis(ax):
         ax.xaxis.set_minor_formatter(NullFormatter())
 
 
+BULK_LAWS = ("mu_power", "mu_linear", "nu_linear", "Z_power")   # report.FITS, fitted on bulk_rows
+
+
 def _plot(path, title, xcol, ycol, fit_names, rows, fits):
     import matplotlib
     matplotlib.use("Agg")
@@ -58,14 +61,25 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
     kinds = [("steady", True, ""), ("not steady", False, " (not steady)")]
     if regimes:
         kinds.insert(1, ("other regime", True, f" (regime not {'/'.join(regimes)}, not fitted)"))
+    # the bulk laws take only runs whose bulk is at h = 10 (report.bulk_rows): others as "+"
+    bulk_law = any(f in BULK_LAWS for f in fit_names)
+    if bulk_law:
+        kinds.insert(1, ("thin", True, " (bulk not at h = 10, not fitted)"))
+
+    def kind_of(r):
+        if not r["steady"]:
+            return "not steady"
+        if regimes and r.get("regime") not in regimes:
+            return "other regime"
+        if bulk_law and r.get("bulk_h_reference") is not True:
+            return "thin"
+        return "steady"
     for i, system in enumerate(systems):
         c = colours[i % len(colours)]
         for col, label, marker in series:
             for kind, steady, suffix in kinds:
                 sel = [r for r in rows if r["system"] == system and r[xcol] is not None and
-                       r[col] is not None and bool(r["steady"]) == steady and
-                       (not regimes or not steady or
-                        (r.get("regime") in regimes) == (kind == "steady"))]
+                       r[col] is not None and kind_of(r) == kind]
                 if not sel:
                     continue
                 x = [r[xcol] for r in sel]
@@ -74,7 +88,7 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
                 xerr = [r.get(xcol + "_err") or 0.0 for r in sel]
                 name = f"system {system}" if system is not None else "other runs"
                 ax.errorbar(x, [r[col] for r in sel], yerr=yerr, xerr=xerr,
-                            fmt="x" if kind == "other regime" else marker, color=c,
+                            fmt={"other regime": "x", "thin": "+"}.get(kind, marker), color=c,
                             mfc=c if kind == "steady" else "none", capsize=2, ms=5,
                             label=f"{name}{label}{suffix}")
                 plotted = True

@@ -417,7 +417,9 @@ def classify_run(table, u, switches, velocity, span, source="block_vx"):
     else:
         regime = "undecided"
         why = []
-        if not gap_ok:
+        if not np.isfinite(samples["gap"]):
+            why.append(f"no finite sample of {source}")
+        elif not gap_ok:
             why.append(f"the block velocity wanders between rest and the walls: {gap_text} > "
                        f"{GAP_SHARE:.0%}")
         if sw["count"] and not dwell_ok:

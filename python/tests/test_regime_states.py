@@ -97,6 +97,13 @@ class RunDecision(unittest.TestCase):
         self.assertEqual(regime, "undecided")
         self.assertIn("not A: A windows 60% < 70%", crit["reason"])
 
+    def test_no_finite_block_velocity_is_said(self):
+        regime, _, crit = rg.classify_run(table(["undecided"] * 5), np.full(100, np.nan), [], V,
+                                          (0.0, 400.0))
+        self.assertEqual(regime, "undecided")
+        self.assertIn("no finite sample of block_vx", crit["reason"])
+        self.assertNotIn("wanders", crit["reason"])
+
     def test_b_needs_one_peak_about_zero(self):
         # B windows throughout, but a tenth of the samples with a wall: two peaks
         u = np.concatenate([self.rest_samples(3600), V + 0.02 * V * self.rng.normal(size=400)])
