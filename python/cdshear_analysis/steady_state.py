@@ -21,11 +21,11 @@ run is steady unless
   - a series still drifts after it: the means of the two halves of what remains differ by more
     than STEADY_MAX_DRIFT combined standard errors, 2 err with err the block-averaging error of
     the whole remaining mean (MSER misses slow drifts);
-  - the stress is not uniform (`balance`, per window: the interior mu_eff minus the walls'): in
-    steady shear the momentum balance makes the interior friction equal the walls', while
-    momentum still diffuses across the cell it does not. Over the steady windows (at least
-    BALANCE_MIN_WINDOWS), the mean difference must be within STEADY_MAX_IMBALANCE standard
-    errors of zero (the error over windows, each window 80 t long) or within IMBALANCE_FLOOR
+  - the stress is not uniform (`balance`: the interior mu_eff minus the walls' friction over the
+    steady windows, with its error): in steady shear the momentum balance makes the interior
+    friction equal the walls', while momentum still diffuses across the cell it does not. With
+    at least BALANCE_MIN_WINDOWS steady windows, the difference must be within
+    STEADY_MAX_IMBALANCE standard errors of zero or within IMBALANCE_FLOOR
     (a floor for the grain-scale scatter of stripe stresses and the correlation of windows,
     which long runs would otherwise turn into a verdict). With fewer windows it is not checked,
     and the reason says so.
@@ -78,14 +78,26 @@ def series_truncation(time, x):
     return float(time[d * b]), at_limit
 
 
-def stress_balance(balance, windows):
-    """(mean, standard error, z) of the per-window interior-minus-wall friction over `windows`;
-    NaNs without BALANCE_MIN_WINDOWS finite values."""
-    x = np.asarray(balance, dtype=float)[np.asarray(windows, dtype=int)]
-    x = x[np.isfinite(x)]
-    if len(x) < BALANCE_MIN_WINDOWS:
+def window_differences(differences):
+    """A `balance` for detect_steady_state from one interior-minus-wall value per window: their
+    mean and standard error over the steady windows."""
+    def balance(windows, start_time):
+        x = np.asarray(differences, dtype=float)[np.asarray(windows, dtype=int)]
+        x = x[np.isfinite(x)]
+        if len(x) < 2:
+            return np.nan, np.nan
+        return float(np.mean(x)), float(np.std(x, ddof=1) / np.sqrt(len(x)))
+    return balance
+
+
+def stress_balance(balance, windows, start_time):
+    """(mean, standard error, z) of balance(windows, start_time); NaNs with fewer than
+    BALANCE_MIN_WINDOWS windows or without a value."""
+    if len(windows) < BALANCE_MIN_WINDOWS:
         return np.nan, np.nan, np.nan
-    mean, err = float(np.mean(x)), float(np.std(x, ddof=1) / np.sqrt(len(x)))
+    mean, err = balance(windows, start_time)
+    if not (np.isfinite(mean) and np.isfinite(err)):
+        return np.nan, np.nan, np.nan
     return mean, err, (abs(mean) / err if err > 0 else (0.0 if mean == 0 else np.inf))
 
 
@@ -94,8 +106,10 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
-    window_signals: {name: one value per window}; balance: per window, the interior mu_eff minus
-    the walls' (None: not checked); stationarity_only: series that must not drift but need not
+    window_signals: {name: one value per window}; balance: balance(windows, start_time) ->
+    (mean, err) of the interior mu_eff minus the walls' friction over those windows and the
+    samples from start_time (None: not checked; window_differences makes one from per-window
+    values); stationarity_only: series that must not drift but need not
     hold STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is
     not reported, such as the block's speed). Returns a dict with steady (bool), reason,
     transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
@@ -146,7 +160,8 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
             if z > STEADY_MAX_DRIFT:
                 problems.append(f"{name} still drifting (the two halves after t = "
                                 f"{transient_end:.4g} differ by {z:.2g} standard errors)")
-    imbalance = (stress_balance(balance, steady_windows) if balance is not None
+    imbalance = (stress_balance(balance, steady_windows, transient_end)
+                 if balance is not None and np.isfinite(transient_end)
                  else (np.nan, np.nan, np.nan))
     if not problems and imbalance[2] > STEADY_MAX_IMBALANCE \
             and abs(imbalance[0]) > IMBALANCE_FLOOR:

@@ -164,7 +164,14 @@ def analyze(run):
         window_signals = {"bulk_mu_eff": bulk_w["mu_eff"],
                           "bulk_solid_fraction": bulk_w["solid_fraction"],
                           "bulk_shear_rate": bulk_w["shear_rate"]}
-        balance = bulk_w["mu_eff"] - window_wall_friction(w)
+        bulk_mu = bulk_w["mu_eff"]
+
+        def balance(windows, start_time):
+            # the bulk's mean over the windows (error over them) against the walls' ratio of
+            # time-averaged forces over the same time (error from its samples), as reported
+            interior = window_mean(np.asarray(bulk_mu, dtype=float)[windows])
+            walls = wall_force_ratio(s, ("bottom", "top"), time >= start_time)
+            return interior[0] - walls["mean"], math.hypot(interior[1], walls["err"])
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
                                     "abs_block_vx": block},
                              w["t_start"], window_signals, balance=balance,

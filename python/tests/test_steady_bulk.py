@@ -6,7 +6,8 @@ import unittest
 import numpy as np
 
 from cdshear_analysis.rundata import load_run
-from cdshear_analysis.steady_state import STEADY_MAX_IMBALANCE, detect_steady_state
+from cdshear_analysis.steady_state import (STEADY_MAX_IMBALANCE, detect_steady_state,
+                                           window_differences)
 from cdshear_analysis.summary import REFERENCE_H, analyze, choose_bulk_range
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -53,7 +54,7 @@ class StressBalance(unittest.TestCase):
         bulk_mu = 0.3 + offset + 0.004 * rng.standard_normal(len(starts))
         balance = bulk_mu - (0.3 + 0.004 * rng.standard_normal(len(starts)))
         return detect_steady_state(time, series, starts, {"bulk_mu_eff": bulk_mu},
-                                   balance=balance)
+                                   balance=window_differences(balance))
 
     def test_balanced_stress_is_steady(self):
         st = self.verdict(0.0)
@@ -73,6 +74,20 @@ class StressBalance(unittest.TestCase):
                                         {"height": 20 + 0.05 * rng.standard_normal(4000)},
                                         np.arange(0.0, 1920.0, 80.0), {})
         self.assertTrue(np.isnan(unchecked["stress_balance"]["mean"]))
+
+    def test_analyze_flags_an_interior_friction_above_the_walls(self):
+        # The interior's shear stress 8% above what the walls carry (as in a tall cell whose
+        # momentum still spreads: system 5 at V = 1, 0.286 inside against 0.263 at the walls).
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=2000.0)
+            run = load_run(d)
+        self.assertTrue(analyze(run)["steady"])
+        run["windows"]["stress"] = run["windows"]["stress"].copy()
+        run["windows"]["stress"][..., 0, 1] *= 1.08
+        summary = analyze(run)
+        self.assertFalse(summary["steady"])
+        self.assertIn("stress not uniform", summary["steady_reason"])
+        self.assertAlmostEqual(summary["stress_balance"]["mean"], 0.08 * 0.30, delta=0.006)
 
     def test_analyze_checks_the_walls_against_the_interior(self):
         with tempfile.TemporaryDirectory() as d:
