@@ -151,11 +151,18 @@ def summary_state(s):
 
 def reanalyse(run_dir):
     """Analyse RUN_DIR/run.h5 again and rewrite RUN_DIR/summary.json, as `cdshear analyze`
-    does (rundata.load_run, summary.analyze, summary.write_summary); returns the summary
-    written. Raises rundata.RunDataError or OSError."""
+    does (rundata.load_run, summary.analyze, summary.write_summary), and redraw the run's
+    figures when it has some (RUN_DIR/figures, as `cdshear plot`), so that the report never
+    copies figures of the old analysis; returns the summary written. Raises
+    rundata.RunDataError or OSError."""
     from .rundata import load_run
-    summary = summary_module.analyze(load_run(run_dir))
+    run = load_run(run_dir)
+    summary = summary_module.analyze(run)
     summary_module.write_summary(summary, run_dir)
+    figures = os.path.join(run_dir, "figures")
+    if os.path.isdir(figures):
+        from .plots import plot_run
+        plot_run(run, summary, figures, [])
     return read_summary(run_dir)
 
 

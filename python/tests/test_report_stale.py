@@ -59,6 +59,10 @@ class StaleSummaryTest(unittest.TestCase):
         cls.fresh_I = fresh["bulk"]["inertial_number"]["mean"]
         write("s2_seed1_V0.5", dict(fresh, version=OLD, bulk={"inertial_number": {
             "mean": 123.0, "err": 1.0}}))
+        # figures of the old analysis, which the report must not copy as they are
+        os.makedirs(os.path.join(cls.rerun, "figures"))
+        with open(os.path.join(cls.rerun, "figures", "snapshot.png"), "wb") as f:
+            f.write(b"stale")
         write("s2_seed1_V0.2", dict(current("s2_seed1_V0.2"), version=OLD))
         cls.other = dict(current("s2_seed1_V0.3"), format="cdshear-packing")
         write("s2_seed1_V0.3", cls.other)
@@ -101,6 +105,13 @@ class StaleSummaryTest(unittest.TestCase):
         self.assertIn(f"note: re-analysed s2_seed1_V0.5: {reason}\n", self.printed)
         self.assertIn(f"<li>s2_seed1_V0.5: {report.html.escape(reason)}</li>", self.html)
         self.assertIn("1 run re-analysed from run.h5", self.html)
+
+    def test_a_reanalysed_run_has_its_figures_redrawn(self):
+        for folder in (os.path.join(self.rerun, "figures"),
+                       os.path.join(self.d, "report", "runs", "s2_seed1_V0.5")):
+            with open(os.path.join(folder, "snapshot.png"), "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n", folder)
+            self.assertIn("steady_profiles.png", os.listdir(folder))
 
     def test_stale_summaries_without_run_h5_are_left_out_with_the_reason(self):
         ex = self.excluded()
