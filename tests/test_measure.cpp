@@ -252,8 +252,8 @@ std::vector<Contact> candidates_by_brute_force(const World& w, double margin) {
       Vec2 delta = w.disks.position[a] - w.disks.position[b];
       const double images = std::nearbyint(delta.x / w.domain.length_x);
       delta.x -= images * w.domain.length_x;
-      const double gap = std::sqrt(delta.x * delta.x + delta.y * delta.y) - w.disks.radius[a] -
-                         w.disks.radius[b];
+      const double gap =
+          std::sqrt(delta.x * delta.x + delta.y * delta.y) - w.disks.radius[a] - w.disks.radius[b];
       if (gap >= margin) continue;
       Contact c;
       c.key = {static_cast<std::int32_t>(a), static_cast<std::int32_t>(b),
@@ -262,8 +262,8 @@ std::vector<Contact> candidates_by_brute_force(const World& w, double margin) {
       out.push_back(c);
     }
     for (std::size_t k = 0; k < w.walls.size(); ++k) {
-      const double gap = (w.disks.position[a].y - w.walls[k].point.y) * w.walls[k].normal.y -
-                         w.disks.radius[a];
+      const double gap =
+          (w.disks.position[a].y - w.walls[k].point.y) * w.walls[k].normal.y - w.disks.radius[a];
       if (gap >= margin) continue;
       Contact c;
       c.key = {static_cast<std::int32_t>(a), static_cast<std::int32_t>(n + k), 0};

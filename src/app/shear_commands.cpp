@@ -368,8 +368,7 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
       o.stripe_span != s.c.measure.stripe_span ||
       o.boundary_thickness != s.c.measure.boundary_thickness ||
       o.force_threshold != s.c.measure.force_threshold ||
-      o.contact_gap != s.c.measure.contact_gap ||
-      data.stripe_centres.size() != m->stripes())
+      o.contact_gap != s.c.measure.contact_gap || data.stripe_centres.size() != m->stripes())
     throw ConfigError(data_file, "measure",
                       "was written with other [measure] settings than "
                       "case.toml's: the files do not belong together");

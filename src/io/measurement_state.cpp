@@ -24,9 +24,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(WindowSums, samples, step_start, bottom_impul
                                    top_impulse_start, height_sum, com_vx_sum, slip_bottom_sum,
                                    slip_top_sum, slip_bottom_count, slip_top_count, area,
                                    velocity_area, mass, mass_vx, mass_vy, mass_vxx, mass_vxy,
-                                   mass_vyy, material_vx, material_vxx, material_vxy,
-                                   material_vyy, coordination_area, carrying_area, stress_xx,
-                                   stress_xy, stress_yx, stress_yy)
+                                   mass_vyy, material_vx, material_vxx, material_vxy, material_vyy,
+                                   coordination_area, carrying_area, stress_xx, stress_xy,
+                                   stress_yx, stress_yy)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeasurementState, window, grain_moment, interval,
                                    last_sample_step, last_sample_time, bottom_impulse_last,
                                    top_impulse_last)
@@ -37,7 +37,8 @@ json measurement_state_to_json(const MeasurementState& state) {
   return j;
 }
 MeasurementState measurement_state_from_json(const json& j) {
-  if (!j.is_object() || !j.contains("definitions") || j.at("definitions") != kMeasurementDefinitions)
+  if (!j.is_object() || !j.contains("definitions") ||
+      j.at("definitions") != kMeasurementDefinitions)
     throw std::runtime_error(
         "written by a cdshear whose measurements differ from this one's (Z from closed "
         "contacts, the stress without the rotational flux): a measured run cannot be resumed "

@@ -297,14 +297,14 @@ using WindowForce = std::pair<const char*, Vec2 WindowProfile::*>;
 const WindowForce kWindowForces[] = {{"bottom_force", &WindowProfile::bottom_force},
                                      {"top_force", &WindowProfile::top_force}};
 using WindowProfileField = std::pair<const char*, std::vector<double> WindowProfile::*>;
-const WindowProfileField kWindowProfiles[] = {{"solid_fraction", &WindowProfile::solid_fraction},
-                                              {"vx", &WindowProfile::vx},
-                                              {"mu_eff", &WindowProfile::mu_eff},
-                                              {"coordination", &WindowProfile::coordination},
-                                              {"force_carrying_coordination",
-                                               &WindowProfile::force_carrying_coordination},
-                                              {"shear_rate", &WindowProfile::shear_rate},
-                                              {"inertial_number", &WindowProfile::inertial_number}};
+const WindowProfileField kWindowProfiles[] = {
+    {"solid_fraction", &WindowProfile::solid_fraction},
+    {"vx", &WindowProfile::vx},
+    {"mu_eff", &WindowProfile::mu_eff},
+    {"coordination", &WindowProfile::coordination},
+    {"force_carrying_coordination", &WindowProfile::force_carrying_coordination},
+    {"shear_rate", &WindowProfile::shear_rate},
+    {"inertial_number", &WindowProfile::inertial_number}};
 using WindowTensor = std::pair<const char*, std::vector<Tensor2> WindowProfile::*>;
 const WindowTensor kWindowTensors[] = {{"contact_stress", &WindowProfile::contact_stress},
                                        {"kinetic_stress", &WindowProfile::kinetic_stress},

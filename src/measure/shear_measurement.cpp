@@ -296,8 +296,8 @@ void ShearMeasurement::close_window(const World& world) {
   for (std::size_t k = 0; k < s_count; ++k) {
     p.solid_fraction[k] = w.area[k] / (cell * samples);
     if (w.area[k] <= 0.0) {
-      p.contact_stress[k] = p.kinetic_stress[k] = p.rotational_stress[k] = p.stress[k] = {
-          kNaN, kNaN, kNaN, kNaN};
+      p.contact_stress[k] = p.kinetic_stress[k] = p.rotational_stress[k] =
+          p.stress[k] = {kNaN, kNaN, kNaN, kNaN};
       continue;
     }
     p.vx[k] = w.velocity_area[k] / w.area[k];
@@ -368,9 +368,8 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
     s.syy += w.stress[k].yy;
     s.nu += w.solid_fraction[k];
     s.nu_z += w.solid_fraction[k] * w.coordination[k];
-    s.nu_zc += w.solid_fraction[k] * (k < w.force_carrying_coordination.size()
-                                          ? w.force_carrying_coordination[k]
-                                          : kNaN);
+    s.nu_zc += w.solid_fraction[k] *
+               (k < w.force_carrying_coordination.size() ? w.force_carrying_coordination[k] : kNaN);
     s.inside += inside;
     s.count += 1;
     s.sy += y;

@@ -59,9 +59,9 @@ namespace cdshear {
 
 struct MeasureOptions {
   bool enabled = true;
-  double sample_interval = 0.1;                  ///< time between samples (series and profiles) [t]
-  double window = 80.0;                          ///< averaging window [t]
-  double stripe_thickness = 1.0;                 ///< dy [d]
+  double sample_interval = 0.1;   ///< time between samples (series and profiles) [t]
+  double window = 80.0;           ///< averaging window [t]
+  double stripe_thickness = 1.0;  ///< dy [d]
   /// Stripes cover this times the nominal L_y: a fast flow dilates (system 1 at V = 5: L_y about
   /// 28 to 34 after a transient up to 61), and a profile must reach the top wall.
   double stripe_span = 2.0;
@@ -144,8 +144,8 @@ struct WindowSums {
   std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
   /// rho int u dS and rho int u u dS of the material velocity u (u_y's integral is mass_vy's)
   std::vector<double> material_vx, material_vxx, material_vxy, material_vyy;
-  std::vector<double> coordination_area;     ///< sum S_ik z_i, closed contacts
-  std::vector<double> carrying_area;         ///< sum S_ik z_i, force-carrying contacts
+  std::vector<double> coordination_area;  ///< sum S_ik z_i, closed contacts
+  std::vector<double> carrying_area;      ///< sum S_ik z_i, force-carrying contacts
   std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
 };
 

@@ -16,8 +16,8 @@ double moment_below(double u) {
   return -(2.0 / 3.0) * c * std::sqrt(c);
 }
 double second_y_below(double u) {
-  return 0.25 * (std::asin(u) - u * std::sqrt(1.0 - u * u) * (1.0 - 2.0 * u * u) +
-                 0.5 * std::numbers::pi);
+  return 0.25 *
+         (std::asin(u) - u * std::sqrt(1.0 - u * u) * (1.0 - 2.0 * u * u) + 0.5 * std::numbers::pi);
 }
 double second_x_below(double u) {
   return (u * std::sqrt(1.0 - u * u) * (5.0 - 2.0 * u * u) + 3.0 * std::asin(u) +

@@ -23,8 +23,8 @@
 namespace cdshear {
 
 struct StripePart {
-  double area = 0.0;           ///< area of the disk between the two heights [length^2]
-  double first_moment = 0.0;   ///< int (y - y_c) dS over that part [length^3]
+  double area = 0.0;             ///< area of the disk between the two heights [length^2]
+  double first_moment = 0.0;     ///< int (y - y_c) dS over that part [length^3]
   double second_moment_y = 0.0;  ///< int (y - y_c)^2 dS over that part [length^4]
   double second_moment_x = 0.0;  ///< int (x - x_c)^2 dS over that part [length^4]
 };
