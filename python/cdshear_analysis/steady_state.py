@@ -78,18 +78,6 @@ def series_truncation(time, x):
     return float(time[d * b]), at_limit
 
 
-def window_differences(differences):
-    """A `balance` for detect_steady_state from one interior-minus-wall value per window: their
-    mean and standard error over the steady windows."""
-    def balance(windows, start_time):
-        x = np.asarray(differences, dtype=float)[np.asarray(windows, dtype=int)]
-        x = x[np.isfinite(x)]
-        if len(x) < 2:
-            return np.nan, np.nan
-        return float(np.mean(x)), float(np.std(x, ddof=1) / np.sqrt(len(x)))
-    return balance
-
-
 def stress_balance(balance, windows, start_time):
     """(mean, standard error, z) of balance(windows, start_time); NaNs with fewer than
     BALANCE_MIN_WINDOWS windows or without a value."""
@@ -108,8 +96,7 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     time: series sample times; series: {name: samples}; window_start: window start times;
     window_signals: {name: one value per window}; balance: balance(windows, start_time) ->
     (mean, err) of the interior mu_eff minus the walls' friction over those windows and the
-    samples from start_time (None: not checked; window_differences makes one from per-window
-    values); stationarity_only: series that must not drift but need not
+    samples from start_time (None: not checked); stationarity_only: series that must not drift but need not
     hold STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is
     not reported, such as the block's speed). Returns a dict with steady (bool), reason,
     transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),

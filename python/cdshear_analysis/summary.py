@@ -83,6 +83,11 @@ def switch_friction_difference(series, time, switch):
     return float(abs(np.mean(fx)) / np.mean(fy)) if np.mean(fy) > 0 else np.nan
 
 
+def holds_a_bulk(y, height, h):
+    """Whether h < y < height - h holds BULK_MIN_STRIPES stripe centres y."""
+    return np.sum((y > h) & (y < height - h)) >= BULK_MIN_STRIPES
+
+
 def choose_bulk_range(run):
     """(h, lo, hi): the bulk h < y < H - h (H the mean window height) of the measured h closest
     to REFERENCE_H among those whose bulk holds BULK_MIN_STRIPES stripes (the smaller on a tie),
@@ -90,7 +95,7 @@ def choose_bulk_range(run):
     y, height = run["windows"]["y"], np.asarray(run["windows"]["height"], dtype=float)
     mean_height = np.nanmean(height)
     usable = [region["h"] for region in run["regions"].values()
-              if np.sum((y > region["h"]) & (y < mean_height - region["h"])) >= BULK_MIN_STRIPES]
+              if holds_a_bulk(y, mean_height, region["h"])]
     if usable:
         h = min(usable, key=lambda h: (abs(h - REFERENCE_H), h))
         return h, np.full_like(height, h), height - h
@@ -106,7 +111,7 @@ def bulk_h_note(run, h):
     mean_height = float(np.nanmean(height))
     measured = [region["h"] for region in run["regions"].values()]
     where = f"bulk at h = {h:g}" if h is not None else "bulk taken as the central half"
-    if np.sum((y > REFERENCE_H) & (y < mean_height - REFERENCE_H)) < BULK_MIN_STRIPES:
+    if not holds_a_bulk(y, mean_height, REFERENCE_H):
         why = (f"the cell (L_y = {mean_height:.3g}) is too thin for h = {REFERENCE_H:g} "
                f"to leave {BULK_MIN_STRIPES} stripes of bulk")
     else:
@@ -157,7 +162,7 @@ def analyze(run):
     else:
         bulk_h, lo, hi = choose_bulk_range(run)
         bulk_w = region_quantities(w, lo, hi, sigma, mass)
-    block = np.abs(np.asarray(s["block_vx"] if "block_vx" in s else com, dtype=float))
+    u, u_source = rg.block_velocity(s)   # the block's velocity per sample (regime.py)
     if no_window:
         window_signals, balance = {}, None
     else:
@@ -173,7 +178,7 @@ def analyze(run):
             walls = wall_force_ratio(s, ("bottom", "top"), time >= start_time)
             return interior[0] - walls["mean"], math.hypot(interior[1], walls["err"])
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
-                                    "abs_block_vx": block},
+                                    "abs_block_vx": np.abs(u)},
                              w["t_start"], window_signals, balance=balance,
                              stationarity_only=("abs_block_vx",))
     if no_window:
@@ -189,7 +194,6 @@ def analyze(run):
         return mean_err(*window_mean(np.asarray(x, dtype=float)[sel]))
 
     # regime: window states, the block velocity, band switches (regime.py)
-    u, u_source = rg.block_velocity(s)
     table = rg.window_table(w, sel, lo, hi, time, u, V)
     switches = rg.band_switches(time, u, V, rg.plateau_velocities(u, V, u_source))
     for sw in switches:

@@ -6,8 +6,8 @@ import unittest
 import numpy as np
 
 from cdshear_analysis.rundata import load_run
-from cdshear_analysis.steady_state import (STEADY_MAX_IMBALANCE, detect_steady_state,
-                                           window_differences)
+from cdshear_analysis.steady_state import STEADY_MAX_IMBALANCE, detect_steady_state
+from cdshear_analysis.statistics import window_mean
 from cdshear_analysis.summary import REFERENCE_H, analyze, choose_bulk_range
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -54,7 +54,7 @@ class StressBalance(unittest.TestCase):
         bulk_mu = 0.3 + offset + 0.004 * rng.standard_normal(len(starts))
         balance = bulk_mu - (0.3 + 0.004 * rng.standard_normal(len(starts)))
         return detect_steady_state(time, series, starts, {"bulk_mu_eff": bulk_mu},
-                                   balance=window_differences(balance))
+                                   balance=lambda windows, start: window_mean(balance[windows]))
 
     def test_balanced_stress_is_steady(self):
         st = self.verdict(0.0)

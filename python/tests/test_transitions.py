@@ -216,6 +216,13 @@ class PredictionTest(unittest.TestCase):
 
 
 class ReportTransitionTest(unittest.TestCase):
+    def report(self):
+        """`report` over the campaign folder: (its output folder, the parsed fits.json)."""
+        self.assertEqual(main(["report", self.d]), 0)
+        out = os.path.join(self.d, "report")
+        with open(os.path.join(out, "fits.json")) as f:
+            return out, json.load(f)
+
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory()
         self.d = self.tmp.name
@@ -235,10 +242,7 @@ class ReportTransitionTest(unittest.TestCase):
         for V, g, seed, steady in runs:
             fake_summary(os.path.join(self.d, "runs", f"s1_seed{seed}_V{V:g}"), V, 0.1 * V,
                          0.3 + 0.2 * V, 0.8 - 0.05 * V, 3.5, regime=g, steady=steady)
-        self.assertEqual(main(["report", self.d]), 0)
-        out = os.path.join(self.d, "report")
-        with open(os.path.join(out, "fits.json")) as f:
-            fits = json.load(f)
+        out, fits = self.report()
         t = fits["transitions"]["1"]
         self.assertEqual(t["V_AB"]["bracket"], [0.2, 1.0])
         self.assertEqual(t["monotonic"], True)
@@ -279,10 +283,7 @@ class ReportTransitionTest(unittest.TestCase):
                 s["switch_delta_mu"] = {"mean": 0.02, "err": 0.004}
                 with open(os.path.join(s["run_dir"], "summary.json"), "w") as f:
                     json.dump(s, f)
-        self.assertEqual(main(["report", self.d]), 0)
-        out = os.path.join(self.d, "report")
-        with open(os.path.join(out, "fits.json")) as f:
-            fits = json.load(f)
+        out, fits = self.report()
         t = fits["transitions"]["1"]
         self.assertEqual(t["V_AB"]["bracket"], [0.2, 1.0])
         # the C run at 0.01 is not steady: it does not vote, so V_BC is below the smallest
