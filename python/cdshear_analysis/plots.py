@@ -45,7 +45,7 @@ def _regime_text(summary):
         return "regime undetermined"
     if confidence is None or not np.isfinite(confidence):
         return f"regime {regime}"
-    return f"regime {regime} ({confidence:.0%} of the windows agree)"
+    return f"regime {regime} ({confidence:.0%} of the window time agrees)"
 
 
 class SkipFigure(Exception):
@@ -176,7 +176,7 @@ def com_velocity(run, summary):
     if "block_vx" in s:     # the block (central half) the regime classifier reads
         ax.plot(*_envelope(np.asarray(s["time"]) * strain, np.asarray(s["block_vx"]) / V),
                 lw=0.5, color="tab:orange", alpha=0.8, label="block (central half)")
-        ax.legend(loc="upper right", fontsize=7)
+        ax.legend(loc="lower left", fontsize=7)
     for level in (-0.5, 0.5):
         ax.axhline(level, color="0.5", ls=":", lw=0.8)
     _mark_transient(ax, summary)

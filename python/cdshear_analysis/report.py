@@ -682,8 +682,10 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
         cells += [_pm(r, c) for c in shown]
         out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     out.append("</table><h2>Fits of the bulk laws</h2><p>Over the steady runs in regime "
-               f"{' or '.join(BULK_REGIMES)}: in B and C the bulk moves as a block and is no "
-               "point of the flow law (crosses on the figures).</p>")
+               f"{' or '.join(BULK_REGIMES)} whose bulk is at h = 10: in B and C the bulk moves "
+               "as a block and is no point of the flow law (crosses on the figures); a cell too "
+               "thin for h = 10 has no bulk of SPEC 7's (plus signs; fits.json "
+               "<code>bulk_not_reference</code>).</p>")
     out += _fit_table(fits.items())
     out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
                "scaled by sqrt(chi2/dof) when that exceeds 1. The seeds of one (system, V) are "
