@@ -32,6 +32,7 @@
 
 #include "contact_dynamics.hpp"
 #include "scene_presets.hpp"
+#include "shear_case.hpp"
 #include "shear_measurement.hpp"
 #include "world.hpp"
 
@@ -51,6 +52,11 @@ using cdshear::StepReport;
 using cdshear::World;
 using Clock = std::chrono::steady_clock;
 
+cdshear::SolverOptions one_thread(cdshear::SolverOptions s) {
+  s.threads = 1;
+  return s;
+}
+
 struct Settings {
   std::vector<std::size_t> sizes{500, 5000};
   bool run_static = true;
@@ -60,19 +66,11 @@ struct Settings {
   std::uint64_t warmup_steps = 100;
   double velocity = 0.5;  // shear wall speed V
   double width = 0.0;     // cell width; 0: 20 below 2000 disks, 50 above
-  cdshear::ContactOrder order = cdshear::ContactOrder::kRandom;
-  int threads = 1;
-  bool skip_dormant = false;
-  int anderson_depth = 0, anderson_period = 1;
-  int slab_correction_period = 0;                // solver.slab_correction_period (0: off)
-  int anderson_period_with_slab_correction = 0;  // solver.anderson_period_with_slab_correction
-  cdshear::ConvergenceCriterion criterion = cdshear::ConvergenceCriterion::kChange;
-  int max_sweeps = 200;
-  double relaxation = 1.0;  // projected SOR factor of the NLGS updates (solver.relaxation)
+  // The shear phase's solver settings (shear_step_defaults), one thread: what `cdshear run`
+  // steps a shear case with, per core. Each option below overrides one of them.
+  cdshear::SolverOptions solver = one_thread(cdshear::shear_step_defaults().solver);
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
-  double alpha = 1e-6;                // convergence tolerance (solver.alpha); 0: always the cap
-  double converged_fraction = 0.9;    // solver.converged_fraction: share that must meet it
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -98,27 +96,34 @@ void usage() {
   --seconds S         measured wall time per case, at least (default 12)
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
-  --order O           NLGS contact order: random (default), sequential or coloured
+Solver settings: the shear phase's defaults (shear_case.hpp, docs/case-files.md) on one thread;
+each option overrides one of them.
+  --plain             start from the engine's plain defaults instead (random order, no
+                      acceleration, alpha 1e-6: scene files' defaults); later options apply on top
+  --order O           NLGS contact order: random, sequential or coloured (default)
   --threads N         solver threads (default 1; used by the coloured order only)
-  --skip-dormant      leave dormant contacts out of the sweeps (solver.skip_dormant)
-  --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth)
-  --anderson-period P mix every P sweeps (solver.anderson_period, default 1)
-  --slab-correction P the slab correction every P sweeps, coloured order only
-                      (solver.slab_correction_period, default 0: off; 8 in the shear phase)
+  --skip-dormant, --no-skip-dormant
+                      leave dormant contacts out of the sweeps, or not (solver.skip_dormant; on)
+  --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth, 5)
+  --anderson-period P mix every P sweeps (solver.anderson_period, 4)
+  --slab-correction P the slab correction every P sweeps in packings of 20 bands or more,
+                      coloured order only (solver.slab_correction_period, 8; 0: off)
   --anderson-period-with-slab-correction P  mix every P sweeps in the steps the correction
-                      runs in (solver.anderson_period_with_slab_correction, default 0: the
-                      --anderson-period)
-  --reference-anderson M  Anderson depth of --step-error's reference (default 0: plain)
+                      runs in (solver.anderson_period_with_slab_correction, 8)
   --criterion C       convergence criterion: change (default) or error (solver.criterion)
-  --max-sweeps N      sweep cap (default 200)
-  --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, default 1)
-  --reference-relaxation W
-                      relaxation of --step-error's reference solve (default 1: Gauss-Seidel;
-                      every relaxation has the same fixed point)
-  --alpha A           convergence tolerance (solver.alpha, default 1e-6; 0: every step sweeps
+  --max-sweeps N      sweep cap (solver.max_sweeps, 200)
+  --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, 1.6)
+  --alpha A           convergence tolerance (solver.alpha, 1e-5; 0: every step sweeps
                       max-sweeps times, to compare settings at equal sweeps)
   --converged-fraction F  share of the force-carrying contacts that must meet alpha
-                      (solver.converged_fraction, default 0.9, SPEC 3.5's reference)
+                      (solver.converged_fraction, 0.9, SPEC 3.5's reference)
+  --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
+                      0: off; active_set_solve.hpp)
+Reference solve of --step-error:
+  --reference-anderson M  its Anderson depth (default 0: plain)
+  --reference-relaxation W
+                      its relaxation (default 1: Gauss-Seidel; every relaxation has the same
+                      fixed point)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the force errors (stderr)
   --no-static         skip the static cases
@@ -154,58 +159,65 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--velocity") {
       s.velocity = std::stod(value());
     } else if (a == "--order") {
-      if (!cdshear::contact_order_from_name(value(), s.order))
+      if (!cdshear::contact_order_from_name(value(), s.solver.order))
         throw std::invalid_argument("--order must be random, sequential or coloured");
+    } else if (a == "--plain") {
+      s.solver = one_thread(cdshear::SolverOptions{});
+    } else if (a == "--newton") {
+      s.solver.newton_iterations = std::stoi(value());
     } else if (a == "--step-error") {
       s.step_error_samples = std::stoi(value());
     } else if (a == "--criterion") {
       const std::string c = value();
       if (c != "change" && c != "error")
         throw std::invalid_argument("--criterion must be change or error");
-      s.criterion = c == "error" ? cdshear::ConvergenceCriterion::kError
-                                 : cdshear::ConvergenceCriterion::kChange;
+      s.solver.criterion = c == "error" ? cdshear::ConvergenceCriterion::kError
+                                        : cdshear::ConvergenceCriterion::kChange;
     } else if (a == "--max-sweeps") {
-      s.max_sweeps = std::stoi(value());
-      if (s.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
+      s.solver.max_sweeps = std::stoi(value());
+      if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
     } else if (a == "--converged-fraction") {
-      s.converged_fraction = std::stod(value());
-      if (!(s.converged_fraction >= 0.0 && s.converged_fraction <= 1.0))
+      s.solver.converged_fraction = std::stod(value());
+      if (!(s.solver.converged_fraction >= 0.0 && s.solver.converged_fraction <= 1.0))
         throw std::invalid_argument("--converged-fraction must be in [0, 1]");
     } else if (a == "--alpha") {
-      s.alpha = std::stod(value());
-      if (!(s.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
+      s.solver.alpha = std::stod(value());
+      if (!(s.solver.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
     } else if (a == "--reference-relaxation") {
       s.reference_relaxation = std::stod(value());
       if (!(s.reference_relaxation > 0.0 && s.reference_relaxation < 2.0))
         throw std::invalid_argument("--reference-relaxation must be in (0, 2)");
     } else if (a == "--relaxation") {
-      s.relaxation = std::stod(value());
-      if (!(s.relaxation > 0.0 && s.relaxation < 2.0))
+      s.solver.relaxation = std::stod(value());
+      if (!(s.solver.relaxation > 0.0 && s.solver.relaxation < 2.0))
         throw std::invalid_argument("--relaxation must be in (0, 2)");
     } else if (a == "--skip-dormant") {
-      s.skip_dormant = true;
+      s.solver.skip_dormant = true;
+    } else if (a == "--no-skip-dormant") {
+      s.solver.skip_dormant = false;
     } else if (a == "--reference-anderson") {
       s.reference_anderson = std::stoi(value());
       if (s.reference_anderson < 0 || s.reference_anderson > cdshear::kMaxAndersonDepth)
         throw std::invalid_argument("--reference-anderson must be in 0..16");
     } else if (a == "--anderson") {
-      s.anderson_depth = std::stoi(value());
-      if (s.anderson_depth < 0 || s.anderson_depth > cdshear::kMaxAndersonDepth)
+      s.solver.anderson_depth = std::stoi(value());
+      if (s.solver.anderson_depth < 0 || s.solver.anderson_depth > cdshear::kMaxAndersonDepth)
         throw std::invalid_argument("--anderson must be in 0..16");
     } else if (a == "--slab-correction") {
-      s.slab_correction_period = std::stoi(value());
-      if (s.slab_correction_period < 0)
+      s.solver.slab_correction_period = std::stoi(value());
+      if (s.solver.slab_correction_period < 0)
         throw std::invalid_argument("--slab-correction must be >= 0");
     } else if (a == "--anderson-period-with-slab-correction") {
-      s.anderson_period_with_slab_correction = std::stoi(value());
-      if (s.anderson_period_with_slab_correction < 0)
+      s.solver.anderson_period_with_slab_correction = std::stoi(value());
+      if (s.solver.anderson_period_with_slab_correction < 0)
         throw std::invalid_argument("--anderson-period-with-slab-correction must be >= 0");
     } else if (a == "--anderson-period") {
-      s.anderson_period = std::stoi(value());
-      if (s.anderson_period < 1) throw std::invalid_argument("--anderson-period must be >= 1");
+      s.solver.anderson_period = std::stoi(value());
+      if (s.solver.anderson_period < 1)
+        throw std::invalid_argument("--anderson-period must be >= 1");
     } else if (a == "--threads") {
-      s.threads = std::stoi(value());
-      if (s.threads < 1) throw std::invalid_argument("--threads must be at least 1");
+      s.solver.threads = std::stoi(value());
+      if (s.solver.threads < 1) throw std::invalid_argument("--threads must be at least 1");
     } else if (a == "--no-static") {
       s.run_static = false;
     } else if (a == "--no-shear") {
@@ -434,6 +446,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
+  tight.solver.newton_iterations = 0;
   std::vector<double> l2, wall;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -464,6 +477,10 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     l2.push_back(std::sqrt(diff2 / ref2));
     wall.push_back(wall_error);
     const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps;
+    std::fprintf(
+        stderr, "    newton %d it, %zu unknowns, %zu changed, last %.2e, residual %.2e -> %.2e\n",
+        r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
+        r_opt.active_set.correction, r_opt.active_set.initial_residual, r_opt.active_set.residual);
     std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e%s\n", r_opt.solver.sweeps,
                  r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual), l2.back(), worst / mean,
                  wall_error, ref_capped ? "  (reference not converged: at its cap)" : "");
@@ -543,18 +560,7 @@ int run(const Settings& s) {
     };
 
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
-    options.solver.order = s.order;
-    options.solver.threads = s.threads;
-    options.solver.skip_dormant = s.skip_dormant;
-    options.solver.anderson_depth = s.anderson_depth;
-    options.solver.anderson_period = s.anderson_period;
-    options.solver.slab_correction_period = s.slab_correction_period;
-    options.solver.anderson_period_with_slab_correction = s.anderson_period_with_slab_correction;
-    options.solver.criterion = s.criterion;
-    options.solver.max_sweeps = s.max_sweeps;
-    options.solver.relaxation = s.relaxation;
-    options.solver.alpha = s.alpha;
-    options.solver.converged_fraction = s.converged_fraction;
+    options.solver = s.solver;
     if (s.run_static) report("static", 0.0, options);
     if (s.run_shear) {
       start_shear(box.world, s.velocity);

@@ -6,6 +6,7 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlohmann-json3-dev
           libfmt-dev librandom123-dev libgtest-dev libhdf5-dev zlib1g-dev liblapacke-dev
+          libsuitesparse-dev
           clang libclang-rt-14-dev openmpi-bin libopenmpi-dev
           python3-numpy python3-scipy python3-matplotlib python3-h5py
           chromium-headless-shell)

@@ -168,6 +168,11 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
 
   // 3. solve
   report.solver = solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
+  if (options.solver.newton_iterations > 0) {
+    ActiveSetOptions o;
+    o.max_iterations = options.solver.newton_iterations;
+    report.active_set = active_set_.refine(contacts_, bodies_, dt, o);
+  }
   report.seconds.solve = seconds_since(t0);
 
   // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities), each

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "active_set_solve.hpp"
 #include "contact.hpp"
 #include "contact_detection.hpp"
 #include "nlgs_solver.hpp"
@@ -39,6 +40,7 @@ struct StepReport {
   double time = 0.0;         ///< simulated time after the step
   std::size_t contacts = 0;  ///< candidate contacts
   SolverReport solver;
+  ActiveSetReport active_set;
   double max_overlap = 0.0;       ///< largest overlap after the step (>= 0) [length]
   double max_displacement = 0.0;  ///< largest disk displacement during the step [length]
   bool displacement_exceeded = false;
@@ -61,6 +63,7 @@ class ContactDynamics {
   std::vector<SolverBody> bodies_;
   ContactDetector detector_;
   SolverWorkspace workspace_;
+  ActiveSetSolver active_set_;
   std::vector<Contact> overlap_scratch_;  ///< every touching pair, when candidates may miss some
   std::vector<std::int64_t> image_before_wrap_;
   std::vector<Contact> renamed_;

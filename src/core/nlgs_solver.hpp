@@ -117,7 +117,14 @@ struct SolverOptions {
   /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
   /// (docs/accuracy.md, eighth pass). >= 0.
   int anderson_period_with_slab_correction = 0;
+  /// Active-set Newton iterations after the sweeps (active_set_solve.hpp; 0: off): each solves
+  /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,
+  /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
+  int newton_iterations = 0;
 };
+
+/// Largest SolverOptions::newton_iterations.
+inline constexpr int kMaxNewtonIterations = 50;
 
 /// Largest SolverOptions::anderson_depth.
 inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;

@@ -204,7 +204,8 @@ toml::table case_to_toml(const ShearCase& c) {
       {"anderson_period", s.anderson_period},
       {"slab_correction_period", s.slab_correction_period},
       {"slab_correction_min_bands", s.slab_correction_min_bands},
-      {"anderson_period_with_slab_correction", s.anderson_period_with_slab_correction}};
+      {"anderson_period_with_slab_correction", s.anderson_period_with_slab_correction},
+      {"newton_iterations", s.newton_iterations}};
   return toml::table{
       {"system", toml::table{{"n", static_cast<std::int64_t>(c.n)},
                              {"height", c.height},

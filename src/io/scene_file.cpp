@@ -42,6 +42,8 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
       solver.integer_in("slab_correction_min_bands", 2, 4096, s.slab_correction_min_bands));
   s.anderson_period_with_slab_correction = static_cast<int>(solver.integer_in(
       "anderson_period_with_slab_correction", 0, 1000, s.anderson_period_with_slab_correction));
+  s.newton_iterations = static_cast<int>(
+      solver.integer_in("newton_iterations", 0, kMaxNewtonIterations, s.newton_iterations));
   s.seed = static_cast<std::uint64_t>(solver.integer_in(
       "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
   solver.finish();

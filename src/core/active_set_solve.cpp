@@ -1,0 +1,359 @@
+#include "active_set_solve.hpp"
+
+#include <cholmod.h>
+#include <klu.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <tuple>
+
+namespace cdshear {
+
+namespace {
+
+/// Regularisations tried before an iteration gives up (each 1000 times the last), and the
+/// shortest step of the line search.
+constexpr int kRegularisationAttempts = 4;
+constexpr double kSmallestStep = 1.0 / 64.0;
+
+enum Status : std::int8_t { kOpen = 0, kStick = 1, kSlidePositive = 2, kSlideNegative = 3 };
+
+struct Velocity {
+  double n = 0.0, t = 0.0;  ///< u_n (gap bias included) and u_t [length/time]
+};
+
+Velocity relative_velocity(const Contact& k, const std::vector<SolverBody>& bodies, double inv_dt) {
+  const SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
+  const SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
+  const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
+  return {dvx * k.normal.x + dvy * k.normal.y + k.gap * inv_dt,
+          dvy * k.normal.x - dvx * k.normal.y + k.lever_a * a.omega + k.lever_b * b.omega};
+}
+
+void apply_impulse(const Contact& k, std::vector<SolverBody>& bodies, double dn, double dt) {
+  SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
+  SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
+  const double px = dn * k.normal.x - dt * k.normal.y;
+  const double py = dn * k.normal.y + dt * k.normal.x;
+  a.velocity.x += a.inv_mass.x * px;
+  a.velocity.y += a.inv_mass.y * py;
+  b.velocity.x -= b.inv_mass.x * px;
+  b.velocity.y -= b.inv_mass.y * py;
+  a.omega += a.inv_inertia * k.lever_a * dt;
+  b.omega += b.inv_inertia * k.lever_b * dt;
+}
+
+/// Diagonal Delassus entries (w_nn, w_tt) of a contact (nlgs_solver.cpp, fill_row).
+std::pair<double, double> delassus_diagonal(const Contact& k,
+                                            const std::vector<SolverBody>& bodies) {
+  const SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
+  const SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
+  const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
+  const Vec2 n = k.normal;
+  return {m_x * n.x * n.x + m_y * n.y * n.y, m_x * n.y * n.y + m_y * n.x * n.x +
+                                                 k.lever_a * k.lever_a * a.inv_inertia +
+                                                 k.lever_b * k.lever_b * b.inv_inertia};
+}
+
+/// Natural-map residual of the contact problem: sum over contacts of |R - proj_C(R - D^-1 u)|^2,
+/// D = diag(w_nn, w_tt) (the change each contact's exact local update would make if it were
+/// updated now, with the others held: zero exactly at a solution), and sum |R|^2.
+std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
+                                           const std::vector<SolverBody>& bodies, double inv_dt,
+                                           const std::vector<double>& w_nn,
+                                           const std::vector<double>& w_tt) {
+  double residual2 = 0.0, force2 = 0.0;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const Contact& c = contacts[k];
+    const Velocity u = relative_velocity(c, bodies, inv_dt);
+    const double r_n = std::max(0.0, c.impulse_n - u.n / w_nn[k]);
+    const double limit = c.friction * r_n;
+    const double r_t = std::clamp(c.impulse_t - u.t / w_tt[k], -limit, limit);
+    const double dn = r_n - c.impulse_n, dt = r_t - c.impulse_t;
+    residual2 += dn * dn + dt * dt;
+    force2 += c.impulse_n * c.impulse_n + c.impulse_t * c.impulse_t;
+  }
+  return {residual2, force2};
+}
+
+}  // namespace
+
+struct ActiveSetSolver::Impl {
+  cholmod_common common;
+  std::vector<std::int8_t> status;
+  std::vector<std::int64_t> unknown;  ///< first unknown of each contact, -1 for an open one
+  std::vector<double> w_nn, w_tt;
+  std::vector<SolverBody> base_bodies, start_bodies, full_bodies;
+  std::vector<std::pair<double, double>> base_impulses, start_impulses, full_impulses;
+  std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
+  std::vector<double> solution;
+  std::vector<int> t_rows, t_cols;
+  std::vector<double> t_values;
+  std::vector<int> c_rows, c_cols;
+  std::vector<double> c_values, rhs;
+
+  Impl() {
+    cholmod_start(&common);
+    common.print = 0;  // CHOLMOD forms B (sparse products); KLU factorises it
+    common.error_handler = nullptr;
+  }
+  ~Impl() { cholmod_finish(&common); }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+};
+
+ActiveSetSolver::ActiveSetSolver() : impl_(std::make_unique<Impl>()) {}
+ActiveSetSolver::~ActiveSetSolver() = default;
+ActiveSetSolver::ActiveSetSolver(const ActiveSetSolver&) : impl_(std::make_unique<Impl>()) {}
+ActiveSetSolver& ActiveSetSolver::operator=(const ActiveSetSolver&) {
+  return *this;
+}
+
+ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
+                                        std::vector<SolverBody>& bodies, double dt,
+                                        const ActiveSetOptions& options) {
+  Impl& s = *impl_;
+  ActiveSetReport report;
+  const std::size_t nc = contacts.size();
+  if (nc == 0) return report;
+  const double inv_dt = 1.0 / dt;
+  s.status.assign(nc, kOpen);
+  s.unknown.assign(nc, -1);
+  s.w_nn.resize(nc);
+  s.w_tt.resize(nc);
+  double mean_diagonal = 0.0;
+  for (std::size_t k = 0; k < nc; ++k) {
+    const auto [nn, tt] = delassus_diagonal(contacts[k], bodies);
+    s.w_nn[k] = nn;
+    s.w_tt[k] = tt;
+    mean_diagonal += nn;
+  }
+  mean_diagonal /= static_cast<double>(nc);
+  const auto merit = [&] {
+    const auto [r2, f2] = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt);
+    return f2 > 0.0 ? std::sqrt(r2 / f2) : std::sqrt(r2);
+  };
+  // The iterate a step starts from (impulses and bodies) and the full Newton iterate, between
+  // which the line search moves: both are on the cone, so is every point between them, and the
+  // bodies' velocities are affine in the impulses.
+  const auto save = [&](std::vector<SolverBody>& b, std::vector<std::pair<double, double>>& r) {
+    b = bodies;
+    r.resize(nc);
+    for (std::size_t k = 0; k < nc; ++k) r[k] = {contacts[k].impulse_n, contacts[k].impulse_t};
+  };
+  const auto restore = [&](const std::vector<SolverBody>& b,
+                           const std::vector<std::pair<double, double>>& r) {
+    bodies = b;
+    for (std::size_t k = 0; k < nc; ++k)
+      std::tie(contacts[k].impulse_n, contacts[k].impulse_t) = r[k];
+  };
+  const auto blend = [&](double lambda) {
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      const SolverBody& b0 = s.base_bodies[i];
+      const SolverBody& b1 = s.full_bodies[i];
+      bodies[i].velocity = b0.velocity + lambda * (b1.velocity - b0.velocity);
+      bodies[i].omega = b0.omega + lambda * (b1.omega - b0.omega);
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      const auto [n0, t0] = s.base_impulses[k];
+      const auto [n1, t1] = s.full_impulses[k];
+      contacts[k].impulse_n = n0 + lambda * (n1 - n0);
+      contacts[k].impulse_t = t0 + lambda * (t1 - t0);
+    }
+  };
+  double current = merit();
+  report.initial_residual = current;
+
+  for (int iteration = 1; iteration <= options.max_iterations && current > options.tolerance;
+       ++iteration) {
+    report.iterations = iteration;
+    save(s.base_bodies, s.base_impulses);
+    // 1. statuses; 2. open impulses to 0, sliding thresholds.
+    std::size_t changed = 0, unknowns = 0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      Contact& c = contacts[k];
+      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      const double sigma_n = c.impulse_n - u.n / s.w_nn[k];
+      std::int8_t next = kOpen;
+      if (sigma_n >= 0.0) {
+        const double sigma_t = c.impulse_t - u.t / s.w_tt[k];
+        const double limit = c.friction * sigma_n;
+        next = std::abs(sigma_t) <= limit ? kStick
+               : sigma_t > 0.0            ? kSlidePositive
+                                          : kSlideNegative;
+      }
+      changed += next != s.status[k] || iteration == 1;
+      s.status[k] = next;
+      if (next == kOpen) {
+        s.unknown[k] = -1;
+      } else {
+        s.unknown[k] = static_cast<std::int64_t>(unknowns);
+        unknowns += next == kStick ? 2 : 1;
+      }
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      Contact& c = contacts[k];
+      double r_n = c.impulse_n, r_t = c.impulse_t;
+      if (s.status[k] == kOpen) {
+        r_n = r_t = 0.0;
+      } else if (s.status[k] != kStick) {
+        r_t = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+      }
+      apply_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
+      c.impulse_n = r_n;
+      c.impulse_t = r_t;
+    }
+    report.changed = changed;
+    report.unknowns = unknowns;
+    if (unknowns == 0) break;
+    // 3. B = H_rows M^-1 H_cols^T + beta I, H_rows: the constrained velocities (u_n, and u_t
+    // of sticking contacts), H_cols: the impulse directions of the unknowns (n and t of a
+    // sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n).
+    s.t_rows.clear();
+    s.t_cols.clear();
+    s.t_values.clear();
+    s.c_rows.clear();
+    s.c_cols.clear();
+    s.c_values.clear();
+    const auto add = [](std::vector<int>& rows, std::vector<int>& cols, std::vector<double>& values,
+                        std::int64_t row, std::size_t body, int axis, double value, double inv_m) {
+      if (inv_m == 0.0 || value == 0.0) return;
+      rows.push_back(static_cast<int>(row));
+      cols.push_back(static_cast<int>(3 * body + static_cast<std::size_t>(axis)));
+      values.push_back(value * std::sqrt(inv_m));
+    };
+    s.rhs.assign(unknowns, 0.0);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (s.unknown[k] < 0) continue;
+      const Contact& c = contacts[k];
+      const auto ia = static_cast<std::size_t>(c.key.body_a);
+      const auto ib = static_cast<std::size_t>(c.key.body_b);
+      const SolverBody& a = bodies[ia];
+      const SolverBody& bb = bodies[ib];
+      const Vec2 n = c.normal, t{-n.y, n.x};
+      const std::int64_t row = s.unknown[k];
+      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      const auto both = [&](std::int64_t r, Vec2 row_dir, double row_lever_a, double row_lever_b,
+                            Vec2 col_dir, double col_lever_a, double col_lever_b) {
+        add(s.t_rows, s.t_cols, s.t_values, r, ia, 0, row_dir.x, a.inv_mass.x);
+        add(s.t_rows, s.t_cols, s.t_values, r, ia, 1, row_dir.y, a.inv_mass.y);
+        add(s.t_rows, s.t_cols, s.t_values, r, ia, 2, row_lever_a, a.inv_inertia);
+        add(s.t_rows, s.t_cols, s.t_values, r, ib, 0, -row_dir.x, bb.inv_mass.x);
+        add(s.t_rows, s.t_cols, s.t_values, r, ib, 1, -row_dir.y, bb.inv_mass.y);
+        add(s.t_rows, s.t_cols, s.t_values, r, ib, 2, row_lever_b, bb.inv_inertia);
+        add(s.c_rows, s.c_cols, s.c_values, r, ia, 0, col_dir.x, a.inv_mass.x);
+        add(s.c_rows, s.c_cols, s.c_values, r, ia, 1, col_dir.y, a.inv_mass.y);
+        add(s.c_rows, s.c_cols, s.c_values, r, ia, 2, col_lever_a, a.inv_inertia);
+        add(s.c_rows, s.c_cols, s.c_values, r, ib, 0, -col_dir.x, bb.inv_mass.x);
+        add(s.c_rows, s.c_cols, s.c_values, r, ib, 1, -col_dir.y, bb.inv_mass.y);
+        add(s.c_rows, s.c_cols, s.c_values, r, ib, 2, col_lever_b, bb.inv_inertia);
+      };
+      if (s.status[k] == kStick) {
+        both(row, n, 0.0, 0.0, n, 0.0, 0.0);
+        both(row + 1, t, c.lever_a, c.lever_b, t, c.lever_a, c.lever_b);
+        s.rhs[static_cast<std::size_t>(row + 1)] = -u.t;
+      } else {
+        const double st = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
+        both(row, n, 0.0, 0.0, n + st * t, st * c.lever_a, st * c.lever_b);
+      }
+      s.rhs[static_cast<std::size_t>(row)] = -u.n;
+    }
+    const auto to_sparse = [&](std::vector<int>& rows, std::vector<int>& cols,
+                               std::vector<double>& values) {
+      cholmod_triplet* triplet = cholmod_allocate_triplet(
+          unknowns, 3 * bodies.size(), values.size(), 0, CHOLMOD_REAL, &s.common);
+      std::copy(rows.begin(), rows.end(), static_cast<int*>(triplet->i));
+      std::copy(cols.begin(), cols.end(), static_cast<int*>(triplet->j));
+      std::copy(values.begin(), values.end(), static_cast<double*>(triplet->x));
+      triplet->nnz = values.size();
+      cholmod_sparse* m = cholmod_triplet_to_sparse(triplet, triplet->nnz, &s.common);
+      cholmod_free_triplet(&triplet, &s.common);
+      return m;
+    };
+    cholmod_sparse* h_rows = to_sparse(s.t_rows, s.t_cols, s.t_values);
+    cholmod_sparse* h_cols = to_sparse(s.c_rows, s.c_cols, s.c_values);
+    cholmod_sparse* h_cols_t = cholmod_transpose(h_cols, 1, &s.common);
+    cholmod_sparse* b_matrix = cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &s.common);
+    cholmod_free_sparse(&h_rows, &s.common);
+    cholmod_free_sparse(&h_cols, &s.common);
+    cholmod_free_sparse(&h_cols_t, &s.common);
+    auto* bp = static_cast<int*>(b_matrix->p);
+    auto* bi = static_cast<int*>(b_matrix->i);
+    auto* bx = static_cast<double*>(b_matrix->x);
+    s.diagonal.assign(unknowns, -1);
+    for (std::size_t j = 0; j < unknowns; ++j)
+      for (int q = bp[j]; q < bp[j + 1]; ++q)
+        if (static_cast<std::size_t>(bi[q]) == j) s.diagonal[j] = q;
+    klu_common kc;
+    klu_defaults(&kc);
+    const int nu = static_cast<int>(unknowns);
+    klu_symbolic* symbolic = klu_analyze(nu, bp, bi, &kc);
+    save(s.start_bodies, s.start_impulses);  // after step 2: where every solve starts from
+    // 4. Solve, R + dR on the cone, applied; 5. line search on the natural-map residual between
+    // the iterate this iteration started from and that one. Without descent, again with a
+    // regularisation 1000 times larger (Levenberg-Marquardt): where the statuses are wrong the
+    // system can be singular with a right-hand side outside its range, and its exact solution
+    // is useless.
+    bool descended = false;
+    double beta = options.regularisation * mean_diagonal, added = 0.0;
+    for (int attempt = 0; attempt < kRegularisationAttempts && symbolic != nullptr;
+         ++attempt, beta *= 1e3) {
+      for (std::size_t j = 0; j < unknowns; ++j)
+        if (s.diagonal[j] >= 0) bx[s.diagonal[j]] += beta - added;
+      added = beta;
+      klu_numeric* numeric = klu_factor(bp, bi, bx, symbolic, &kc);
+      s.solution = s.rhs;
+      const bool solved = numeric && klu_solve(symbolic, numeric, nu, 1, s.solution.data(), &kc);
+      if (numeric) klu_free_numeric(&numeric, &kc);
+      if (!solved) continue;
+      restore(s.start_bodies, s.start_impulses);
+      double change2 = 0.0, force2 = 0.0;
+      for (std::size_t k = 0; k < nc; ++k) {
+        if (s.unknown[k] < 0) continue;
+        Contact& c = contacts[k];
+        const auto row = static_cast<std::size_t>(s.unknown[k]);
+        const double r_n = std::max(0.0, c.impulse_n + s.solution[row]);
+        double r_t;
+        if (s.status[k] == kStick) {
+          const double limit = c.friction * r_n;
+          r_t = std::clamp(c.impulse_t + s.solution[row + 1], -limit, limit);
+        } else {
+          r_t = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+        }
+        const double dn = r_n - c.impulse_n, dtt = r_t - c.impulse_t;
+        change2 += dn * dn + dtt * dtt;
+        force2 += r_n * r_n + r_t * r_t;
+        apply_impulse(c, bodies, dn, dtt);
+        c.impulse_n = r_n;
+        c.impulse_t = r_t;
+      }
+      report.correction = force2 > 0.0 ? std::sqrt(change2 / force2) : 0.0;
+      double next = merit();
+      if (!(next < current)) {
+        save(s.full_bodies, s.full_impulses);
+        for (double lambda = 0.5; lambda >= kSmallestStep; lambda *= 0.5) {
+          blend(lambda);
+          next = merit();
+          if (next < current) break;
+        }
+      }
+      if (next < current) {
+        current = next;
+        descended = true;
+        break;
+      }
+    }
+    if (symbolic) klu_free_symbolic(&symbolic, &kc);
+    cholmod_free_sparse(&b_matrix, &s.common);
+    if (!descended) {  // back to the iterate this iteration started from
+      restore(s.base_bodies, s.base_impulses);
+      report.factorised = symbolic != nullptr;
+      break;
+    }
+  }
+  report.residual = current;
+  return report;
+}
+
+}  // namespace cdshear

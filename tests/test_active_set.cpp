@@ -1,0 +1,173 @@
+// The active-set Newton refinement (active_set_solve.hpp): a column's statics exactly after one
+// sweep, a sheared dense packing's step solved to round-off (the solution that Gauss-Seidel
+// reaches after thousands of sweeps), a residual that never grows, and the same result twice.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "scene_presets.hpp"
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+using testing::disk;
+using testing::fixed_wall;
+
+constexpr double kR = 0.5, kG = 1.0, kDt = 1e-3;
+
+TEST(ActiveSet, ColumnCarriesItsWeightAfterOneSweep) {
+  // n disks stacked on a floor under gravity, touching, at rest: the contact below disk k
+  // carries the weight of disks k..n-1 over the step, m g dt (n - k). One sweep of Gauss-Seidel
+  // (bottom to top in key order) leaves each contact with the weight of its own disk only.
+  constexpr int n = 12;
+  SceneDefinition s;
+  s.gravity = {0.0, -kG};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  for (int k = 0; k < n; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
+  StepOptions o;
+  o.dt = kDt;
+  o.solver.order = ContactOrder::kSequential;
+  o.solver.max_sweeps = 1;
+  o.solver.newton_iterations = 4;
+  testing::Simulation sim(s, o);
+  sim.run(1);
+  const double m = testing::disk_mass(kR);
+  const double floor_impulse = -sim.world.walls[0].contact_force.y * kDt;
+  EXPECT_NEAR(floor_impulse, n * m * kG * kDt, 1e-12 * n * m * kG * kDt);
+  for (int k = 1; k < n; ++k) {
+    const auto c = sim.contact(k - 1, k);
+    ASSERT_TRUE(c.has_value()) << "no contact between disks " << k << " and " << k - 1;
+    EXPECT_NEAR(c->impulse_n, (n - k) * m * kG * kDt, 1e-12 * n * m * kG * kDt) << "disk " << k;
+    EXPECT_EQ(c->impulse_t, 0.0);
+  }
+  EXPECT_LT(sim.last().active_set.residual, 1e-12);
+  for (int k = 0; k < n; ++k) EXPECT_NEAR(sim.world.disks.velocity[k].y, 0.0, 1e-12);
+  // Without the refinement the same sweep is far off.
+  o.solver.newton_iterations = 0;
+  testing::Simulation plain(s, o);
+  plain.run(1);
+  EXPECT_GT(std::abs(-plain.world.walls[0].contact_force.y * kDt - n * m * kG * kDt),
+            0.5 * n * m * kG * kDt);
+}
+
+/// A dense box periodic in x, its walls driven at -V and +V along x and free along y under
+/// their pressure, as the shear cell: `steps` steps with the shear phase's sweeps.
+struct ShearedBox {
+  World world;
+  ContactDynamics dynamics;
+  StepOptions options;
+
+  ShearedBox(double velocity, int steps) {
+    CompressedBoxParams p;
+    p.count = 300;
+    p.width = 12.0;
+    p.periodic_x = true;
+    DenseBox box = make_dense_box(p);
+    EXPECT_TRUE(box.report.dense);
+    world = box.world;
+    dynamics = box.dynamics;
+    Wall& bottom = world.walls[kBoxBottomWall];
+    Wall& top = world.walls[kBoxTopWall];
+    bottom.mode_x = top.mode_x = AxisMode::kImposed;
+    bottom.velocity.x = -velocity;
+    top.velocity.x = velocity;
+    bottom.mode_y = AxisMode::kFree;
+    bottom.mass = top.mass;
+    bottom.applied_force = {0.0, -top.applied_force.y};
+    options.dt = std::min(5e-3, 2e-3 / velocity);  // the shear default rule
+    options.solver.order = ContactOrder::kColoured;
+    options.solver.relaxation = 1.6;
+    options.solver.anderson_depth = 5;
+    options.solver.anderson_period = 4;
+    options.solver.alpha = 1e-5;
+    for (int k = 0; k < steps; ++k) EXPECT_FALSE(dynamics.step(world, options).blown_up);
+  }
+
+  /// The impulses of one more step with `solver`, from the same state.
+  std::vector<double> impulses(const SolverOptions& solver, StepReport* report = nullptr) const {
+    World w = world;
+    ContactDynamics d = dynamics;
+    StepOptions o = options;
+    o.solver = solver;
+    const StepReport r = d.step(w, o);
+    if (report != nullptr) *report = r;
+    std::vector<double> out;
+    for (const Contact& c : d.contacts()) {
+      out.push_back(c.impulse_n);
+      out.push_back(c.impulse_t);
+    }
+    for (std::size_t i = 0; i < w.disks.size(); ++i) {
+      out.push_back(w.disks.velocity[i].x);
+      out.push_back(w.disks.velocity[i].y);
+      out.push_back(w.disks.omega[i] * 0.5);
+    }
+    return out;
+  }
+};
+
+double relative_difference(const std::vector<double>& a, const std::vector<double>& b,
+                           std::size_t first = 0, std::size_t last = 0) {
+  double d2 = 0.0, b2 = 0.0;
+  for (std::size_t i = first; i < (last ? last : a.size()); ++i) {
+    d2 += (a[i] - b[i]) * (a[i] - b[i]);
+    b2 += b[i] * b[i];
+  }
+  return std::sqrt(d2 / b2);
+}
+
+TEST(ActiveSet, SolvesASlowShearStepToRoundOff) {
+  const ShearedBox box(0.05, 150);
+  // Reference: Gauss-Seidel run until no force changes any more.
+  SolverOptions exact;
+  exact.alpha = 1e-24;
+  exact.converged_fraction = 1.0;
+  exact.max_sweeps = 400000;
+  StepReport reference_report;
+  const std::vector<double> reference = box.impulses(exact, &reference_report);
+  ASSERT_FALSE(reference_report.solver.hit_cap);
+  StepReport plain_report, refined_report;
+  const std::vector<double> plain = box.impulses(box.options.solver, &plain_report);
+  SolverOptions refined = box.options.solver;
+  refined.newton_iterations = 12;
+  const std::vector<double> newton = box.impulses(refined, &refined_report);
+  ASSERT_EQ(newton.size(), reference.size());
+  const std::size_t nv = 3 * box.world.disks.size(), ni = reference.size() - nv;
+  const double plain_error = relative_difference(plain, reference, 0, ni);
+  const double newton_error = relative_difference(newton, reference, 0, ni);
+  std::printf("velocity errors: plain %.2e refined %.2e\n",
+              relative_difference(plain, reference, ni, ni + nv),
+              relative_difference(newton, reference, ni, ni + nv));
+  std::printf(
+      "reference %d sweeps; sweeps alone %d sweeps, error %.2e; refined %d iterations, "
+      "error %.2e, residual %.2e -> %.2e\n",
+      reference_report.solver.sweeps, plain_report.solver.sweeps, plain_error,
+      refined_report.active_set.iterations, newton_error,
+      refined_report.active_set.initial_residual, refined_report.active_set.residual);
+  EXPECT_LT(refined_report.active_set.residual, 1e-12);
+  EXPECT_LT(newton_error, 1e-7);
+  EXPECT_GT(plain_error, 1e3 * newton_error);
+}
+
+TEST(ActiveSet, ResidualNeverGrowsAndResultsRepeat) {
+  ShearedBox box(0.5, 30);
+  box.options.solver.newton_iterations = 3;
+  ShearedBox twin = box;
+  for (int k = 0; k < 40; ++k) {
+    const StepReport r = box.dynamics.step(box.world, box.options);
+    const StepReport t = twin.dynamics.step(twin.world, twin.options);
+    ASSERT_FALSE(r.blown_up);
+    EXPECT_LE(r.active_set.residual, r.active_set.initial_residual);
+    EXPECT_GE(r.active_set.iterations, 1);
+    EXPECT_EQ(r.active_set.residual, t.active_set.residual);
+  }
+  for (std::size_t i = 0; i < box.world.disks.size(); ++i) {
+    EXPECT_EQ(box.world.disks.position[i].x, twin.world.disks.position[i].x);
+    EXPECT_EQ(box.world.disks.position[i].y, twin.world.disks.position[i].y);
+  }
+}
+
+}  // namespace
+}  // namespace cdshear
