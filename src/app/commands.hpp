@@ -14,29 +14,32 @@ inline constexpr int kMaxThreads = 1024;
 
 /// An option NAME taking a whole number from 1 to kMaxThreads (threads, jobs); a value outside
 /// is bad input naming the option.
-inline void add_count_option(CLI::App* cmd, const std::string& name, int& value,
-                             const std::string& description) {
-  cmd->add_option_function<int>(
-         name,
-         [&value, name](int n) {
-           if (n < 1 || n > kMaxThreads)
-             throw ConfigError(name, "",
-                               "must be a whole number from 1 to " + std::to_string(kMaxThreads) +
-                                   ", got " + std::to_string(n));
-           value = n;
-         },
-         description)
+inline CLI::Option* add_count_option(CLI::App* cmd, const std::string& name, int& value,
+                                     const std::string& description) {
+  return cmd
+      ->add_option_function<int>(
+          name,
+          [&value, name](int n) {
+            if (n < 1 || n > kMaxThreads)
+              throw ConfigError(name, "",
+                                "must be a whole number from 1 to " + std::to_string(kMaxThreads) +
+                                    ", got " + std::to_string(n));
+            value = n;
+          },
+          description)
       ->type_name("N");
 }
 
 /// `--threads N`: threads of contact detection and of the coloured contact order's sweeps
-/// (default: every processor). Not part of the case: the results are the same for any N
+/// (default: every processor, the steps on one or all of them as measured faster: run_loop.hpp,
+/// thread_chooser.hpp). Not part of the case: the results are the same for any N
 /// (docs/performance.md).
-inline void add_threads_option(CLI::App* cmd, int& threads) {
-  add_count_option(
+inline CLI::Option* add_threads_option(CLI::App* cmd, int& threads) {
+  return add_count_option(
       cmd, "--threads", threads,
       "threads of contact detection and of the coloured order's sweeps (default: all " +
-          std::to_string(processors_available()) + " processors)");
+          std::to_string(processors_available()) +
+          " processors, each step on as many of them as measured fastest: one or all)");
 }
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`

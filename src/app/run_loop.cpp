@@ -1,5 +1,7 @@
 #include "run_loop.hpp"
 
+#include "thread_chooser.hpp"
+
 #include "interval_stats.hpp"
 
 #include <fmt/format.h>
@@ -43,13 +45,26 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   const std::uint64_t total = settings.end_step > first_step ? settings.end_step - first_step : 0;
   double sum_sweeps = 0.0, sum_contacts = 0.0;
   IntervalStats interval;  // since the last status line
+  StepOptions step_options = options;
+  const bool choosing = settings.choose_threads && options.solver.threads > 1;
+  ThreadChooser chooser(choosing ? options.solver.threads : 1);
 
   while (world.step < settings.end_step) {
     if (g_stop_requested.load()) {
       summary.outcome = RunOutcome::kInterrupted;
       break;
     }
-    StepReport r = dynamics.step(world, options);
+    if (choosing) step_options.solver.threads = chooser.threads();
+    const auto step_start = Clock::now();
+    StepReport r = dynamics.step(world, step_options);
+    if (chooser.after_step(std::chrono::duration<double>(Clock::now() - step_start).count())) {
+      const int most = chooser.most();
+      std::printf(
+          "threads: %d of %d from step %llu (measured %.3g ms per step on 1, %.3g ms on %d)\n",
+          chooser.threads(), most, static_cast<unsigned long long>(world.step),
+          1e3 * chooser.seconds_per_step(1), 1e3 * chooser.seconds_per_step(most), most);
+      std::fflush(stdout);
+    }
     if (!r.blown_up && settings.check_state)
       if (std::string problem = settings.check_state(world); !problem.empty()) {
         r.blown_up = true;

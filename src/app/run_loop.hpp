@@ -35,6 +35,10 @@ struct RunLoopSettings {
   std::uint64_t end_step = 0;      ///< run until world.step reaches this
   std::uint64_t status_every = 0;  ///< steps between status lines; 0: none
   bool progress_bar = false;       ///< redraw a bar with time left on stderr
+  /// With options.solver.threads > 1: run each step on one thread or on all of them, whichever
+  /// the run measures faster (thread_chooser.hpp); a line on stdout says each choice. Off: every
+  /// step on options.solver.threads. The results are the same either way.
+  bool choose_threads = false;
   /// Optional check of the state after every step: a non-empty answer names a problem and stops
   /// the run as blown up (for example the shear cell's walls flying apart).
   std::function<std::string(const World&)> check_state;

@@ -35,6 +35,7 @@ struct CaseArgs {
   std::vector<std::string> overrides;
   bool quiet = false;
   int threads = processors_available();
+  CLI::Option* threads_option = nullptr;  ///< given: exactly that many; else chosen by speed
 };
 
 CaseSource to_source(const CaseArgs& a) {
@@ -62,7 +63,7 @@ void add_case_options(CLI::App* cmd, CaseArgs& a) {
   cmd->add_option("--set", a.overrides,
                   "override a case key: --set shear.duration=50 (repeatable)");
   cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
-  add_threads_option(cmd, a.threads);
+  a.threads_option = add_threads_option(cmd, a.threads);
 }
 
 Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
@@ -416,6 +417,7 @@ int run_shear(const RunArgs& args) {
   const double dt = c.step.dt;
 
   RunLoopSettings loop;
+  loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
   const std::uint64_t end_step = loop.end_step = s.end_step;
   if (args.stop_at) {
     if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
@@ -501,7 +503,8 @@ int run_shear(const RunArgs& args) {
   }
   end.info = {
       {"resumed", s.resuming}, {"packing", s.packing_used},         {"dt", dt},
-      {"seed", c.seed},        {"solver_seed", c.step.solver.seed}, {"solver_threads", threads}};
+      {"seed", c.seed},        {"solver_seed", c.step.solver.seed}, {"solver_threads", threads},
+      {"solver_threads_chosen_by_speed", loop.choose_threads && threads > 1}};
   end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
   const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;
