@@ -454,6 +454,26 @@ ProcessResult run_cdshear(const TempDir& dir, const std::string& args) {
   return r;
 }
 
+TEST(Executable, VersionNamesTheCommitOfItsSourceTree) {
+  TempDir dir("exe_version");
+  const ProcessResult r = run_cdshear(dir, "--version");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_EQ(r.out.rfind("cdshear " CDSHEAR_VERSION " (commit ", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find(" build, instruction set "), std::string::npos) << r.out;
+  // The commit git names for the source tree now (the test runs on the build it tests).
+  const auto head = dir.path() / "head.txt";
+  const std::string git = "git -C '" + std::string(CDSHEAR_SOURCE_DIR) +
+                          "' rev-parse --short=12 HEAD > '" + head.string() + "' 2>/dev/null";
+  if (std::system(git.c_str()) == 0) {
+    std::string commit = testing::read_text(head);
+    while (!commit.empty() && (commit.back() == '\n' || commit.back() == '\r')) commit.pop_back();
+    EXPECT_NE(r.out.find("commit " + commit), std::string::npos)
+        << r.out << " (a binary built from another commit: rebuild)";
+  } else {
+    EXPECT_NE(r.out.find("commit unknown"), std::string::npos) << r.out;
+  }
+}
+
 TEST(Executable, UnknownKeyGivesNonZeroExitAndMessage) {
   TempDir dir("exe_unknown");
   const std::string path = dir.write("bad.toml", scene_text("dt = 1e-3\ndtt = 2e-3\n"));

@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "analysis_command.hpp"
+#include "build_info.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "run_loop.hpp"
@@ -42,7 +43,7 @@ int main(int argc, char** argv) {
   }
   CLI::App app{"cdshear " CDSHEAR_VERSION
                ": Contact Dynamics simulation of dense granular flow sheared between walls"};
-  app.set_version_flag("--version", CDSHEAR_VERSION);
+  app.set_version_flag("--version", cdshear::build_description());
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);

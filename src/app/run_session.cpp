@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "build_info.hpp"
 #include "config_error.hpp"
 #include "outputs.hpp"
 
@@ -84,6 +85,11 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   nlohmann::json info = end.info;
   info["program"] = "cdshear";
   info["version"] = CDSHEAR_VERSION;
+  const BuildInfo build = build_info();
+  info["build"] = {{"commit", build.commit},
+                   {"tree_modified", build.modified},
+                   {"build_type", build.build_type},
+                   {"description", build_description()}};
   // The build's instruction set changes the rounding, so which run repeats which bit for bit
   // (CMakeLists.txt, CDSHEAR_ARCH).
   info["instruction_set"] = CDSHEAR_INSTRUCTION_SET;

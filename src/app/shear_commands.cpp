@@ -501,10 +501,13 @@ int run_shear(const RunArgs& args) {
     for (int k = 2; fs::exists(s.dir / end.info_name); ++k)
       end.info_name = fmt::format("run_info_resume_{}_{}.json", s.world.step, k);
   }
-  end.info = {
-      {"resumed", s.resuming}, {"packing", s.packing_used},         {"dt", dt},
-      {"seed", c.seed},        {"solver_seed", c.step.solver.seed}, {"solver_threads", threads},
-      {"solver_threads_chosen_by_speed", loop.choose_threads && threads > 1}};
+  end.info = {{"resumed", s.resuming},
+              {"packing", s.packing_used},
+              {"dt", dt},
+              {"seed", c.seed},
+              {"solver_seed", c.step.solver.seed},
+              {"solver_threads", threads},
+              {"solver_threads_chosen_by_speed", loop.choose_threads && threads > 1}};
   end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
   const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;

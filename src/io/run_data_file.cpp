@@ -14,6 +14,7 @@
 #include <limits>
 #include <numbers>
 
+#include "build_info.hpp"
 #include "config_error.hpp"
 
 namespace cdshear {
@@ -410,6 +411,7 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
   attr_string(ctx, file, "format", "cdshear-run");
   attr_int(ctx, file, "format_version", kRunDataFormatVersion);
   attr_string(ctx, file, "program_version", CDSHEAR_VERSION);
+  attr_string(ctx, file, "program_build", build_description());
   attr_string(ctx, file, "case_toml", meta.case_toml);
   attr_int(ctx, file, "n", static_cast<std::int64_t>(meta.n));
   attr_double(ctx, file, "length_x", meta.length_x);
