@@ -196,7 +196,8 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         W[f"slip_{wall}_count"] = rng.integers(400, 600, n_windows)
     W["wall_mu"] = np.array([mu[s].mean() for s in inside])
 
-    attrs = dict(format="cdshear-run", format_version=3, program_version="synthetic", n=n,
+    attrs = dict(format="cdshear-run", format_version=3, program_version="synthetic",
+                 program_build="synthetic run (cdshear_analysis.synthetic)", n=n,
                  length_x=length_x, height=height, velocity=V, normal_stress=sigma, dt=dt,
                  seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
                  window=window, sample_steps=max(1, int(round(sample_interval / dt))),

@@ -206,7 +206,14 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     }
     report.changed = changed;
     report.unknowns = unknowns;
-    if (unknowns == 0) break;
+    if (unknowns == 0) {  // every contact open: R = 0 is the step, if it is better
+      const double open = merit();
+      if (open < current)
+        current = open;
+      else
+        restore(s.base_bodies, s.base_impulses);
+      break;
+    }
     // 3. B = H_rows M^-1 H_cols^T + beta I, H_rows: the constrained velocities (u_n, and u_t
     // of sticking contacts), H_cols: the impulse directions of the unknowns (n and t of a
     // sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n).
@@ -344,11 +351,12 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
         break;
       }
     }
+    const bool analysed = symbolic != nullptr;
     if (symbolic) klu_free_symbolic(&symbolic, &kc);
     cholmod_free_sparse(&b_matrix, &s.common);
     if (!descended) {  // back to the iterate this iteration started from
       restore(s.base_bodies, s.base_impulses);
-      report.factorised = symbolic != nullptr;
+      report.factorised = analysed;
       break;
     }
   }
