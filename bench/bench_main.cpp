@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "contact_dynamics.hpp"
+#include "packing_file.hpp"
 #include "scene_presets.hpp"
 #include "shear_case.hpp"
 #include "shear_measurement.hpp"
@@ -74,6 +75,7 @@ struct Settings {
   int step_error_samples = 0;
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
+  std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
 };
 
 struct System {
@@ -126,6 +128,9 @@ Reference solve of --step-error:
                       fixed point)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the force errors (stderr)
+  --packing FILE      shear a prepared packing (`cdshear prepare --system K -o FILE`: the
+                      study's cells, e.g. system 7) instead of compressed boxes of --sizes;
+                      the shear case only, walls as `cdshear run` builds them
   --no-static         skip the static cases
   --no-shear          skip the shear cases
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
@@ -161,6 +166,8 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.solver.order))
         throw std::invalid_argument("--order must be random, sequential or coloured");
+    } else if (a == "--packing") {
+      s.packing = value();
     } else if (a == "--plain") {
       s.solver = one_thread(cdshear::SolverOptions{});
     } else if (a == "--newton") {
@@ -510,24 +517,38 @@ int run(const Settings& s) {
 #ifndef NDEBUG
   std::cerr << "warning: assertions are on (not a Release build); figures are not representative\n";
 #endif
-  for (const std::size_t n : s.sizes) {
-    const System sys = system_for(n, s.width);
-    cdshear::CompressedBoxParams p;
-    p.count = n;
-    p.width = sys.width;
-    p.periodic_x = true;
-    p.initial_solid_fraction = 0.47;
-    std::cerr << "preparing " << n << " disks, width " << sys.width << ", periodic x ... "
-              << std::flush;
+  // One pass per size, or one for the prepared packing.
+  const std::vector<std::size_t> sizes = s.packing.empty() ? s.sizes : std::vector<std::size_t>{0};
+  for (const std::size_t size : sizes) {
+    cdshear::DenseBox box;
+    System sys{size, 0.0};
     const auto t0 = Clock::now();
-    cdshear::DenseBox box = cdshear::make_dense_box(p);
-    const cdshear::DensifyReport& d = box.report;
-    std::fprintf(stderr,
-                 "%.1f s: %s after %llu steps, solid fraction %.3f, height %.2f, %zu contacts, "
-                 "KE/disk %.2g, top wall |v_y| %.2g\n",
-                 seconds_between(t0, Clock::now()), d.dense ? "dense" : "NOT dense (max_steps)",
-                 static_cast<unsigned long long>(d.steps), d.solid_fraction, d.height, d.contacts,
-                 d.kinetic_energy_per_disk, d.top_wall_speed);
+    if (!s.packing.empty()) {
+      const cdshear::Packing packing = cdshear::read_packing(s.packing);
+      cdshear::ShearCase c;
+      c.velocity = s.velocity;
+      box.world = cdshear::build_shear_world(c, packing);
+      sys = {packing.n(), packing.length_x};
+      std::fprintf(stderr, "%s: %zu disks, L_x %.2f, L_y %.2f, sheared at V = %g\n",
+                   s.packing.c_str(), packing.n(), packing.length_x, packing.height, s.velocity);
+    } else {
+      sys = system_for(size, s.width);
+      cdshear::CompressedBoxParams p;
+      p.count = size;
+      p.width = sys.width;
+      p.periodic_x = true;
+      p.initial_solid_fraction = 0.47;
+      std::cerr << "preparing " << size << " disks, width " << sys.width << ", periodic x ... "
+                << std::flush;
+      box = cdshear::make_dense_box(p);
+      const cdshear::DensifyReport& d = box.report;
+      std::fprintf(stderr,
+                   "%.1f s: %s after %llu steps, solid fraction %.3f, height %.2f, %zu contacts, "
+                   "KE/disk %.2g, top wall |v_y| %.2g\n",
+                   seconds_between(t0, Clock::now()), d.dense ? "dense" : "NOT dense (max_steps)",
+                   static_cast<unsigned long long>(d.steps), d.solid_fraction, d.height, d.contacts,
+                   d.kinetic_energy_per_disk, d.top_wall_speed);
+    }
 
     auto report = [&](const std::string& name, double velocity, const StepOptions& options,
                       cdshear::ShearMeasurement* observer = nullptr) {
@@ -561,9 +582,9 @@ int run(const Settings& s) {
 
     StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
     options.solver = s.solver;
-    if (s.run_static) report("static", 0.0, options);
+    if (s.run_static && s.packing.empty()) report("static", 0.0, options);
     if (s.run_shear) {
-      start_shear(box.world, s.velocity);
+      if (s.packing.empty()) start_shear(box.world, s.velocity);
       options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
       const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
                             box.world.walls[cdshear::kBoxBottomWall].point.y;

@@ -315,6 +315,32 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       if (numeric) klu_free_numeric(&numeric, &kc);
       if (!solved) continue;
       restore(s.start_bodies, s.start_impulses);
+      // Ratio test (first attempt only): the longest step along dR, at most 1, that keeps
+      // every closed contact carrying force inside its cone; the first contacts to reach the
+      // boundary end on it (open, or sliding) and change status in the next iteration. Where
+      // the statuses leave a self-stress whose gaps no motion closes, dR runs along it without
+      // bound, and the projected full step zeroes half the forces; this step instead stops where
+      // the first contact of the loop opens, as the exact solution has it.
+      double step = 1.0;
+      for (std::size_t k = 0; k < nc; ++k) {
+        if (s.unknown[k] < 0) continue;
+        const Contact& c = contacts[k];
+        const auto row = static_cast<std::size_t>(s.unknown[k]);
+        const double dn = s.solution[row];
+        // A closed contact without force that the step would pull: let it open (projection).
+        if (c.impulse_n <= 0.0) continue;
+        if (dn < 0.0) step = std::min(step, c.impulse_n / -dn);
+        if (s.status[k] == kStick) {
+          const double d_t = s.solution[row + 1];
+          const double upper = c.friction * c.impulse_n - c.impulse_t;
+          const double lower = c.friction * c.impulse_n + c.impulse_t;
+          const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
+          if (d_upper < 0.0) step = std::min(step, std::max(0.0, upper) / -d_upper);
+          if (d_lower < 0.0) step = std::min(step, std::max(0.0, lower) / -d_lower);
+        }
+      }
+      if (attempt == 0 && step > 0.0 && step < 1.0)
+        for (double& x : s.solution) x *= step;
       double change2 = 0.0, force2 = 0.0;
       for (std::size_t k = 0; k < nc; ++k) {
         if (s.unknown[k] < 0) continue;
