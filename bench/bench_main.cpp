@@ -307,7 +307,21 @@ struct Measurement {
   double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
   double observer_s = 0.0;  // time in the measurement layer (shear cases)
+  std::vector<int> sweeps;  // of every measured step
 };
+
+/// "p10 a, p50 b, p90 c, p99 d, max e" of the sweeps per step.
+std::string sweep_distribution(std::vector<int> sweeps) {
+  if (sweeps.empty()) return "no steps";
+  std::sort(sweeps.begin(), sweeps.end());
+  const auto at = [&](double q) {
+    return sweeps[static_cast<std::size_t>(q * static_cast<double>(sweeps.size() - 1))];
+  };
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "p10 %d, p50 %d, p90 %d, p99 %d, max %d", at(0.1), at(0.5),
+                at(0.9), at(0.99), sweeps.back());
+  return buf;
+}
 
 /// Steps `world` untimed for `warmup` steps, then timed until both `seconds` and `min_steps`
 /// are reached.
@@ -336,6 +350,7 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.stages.integrate += r.seconds.integrate;
     m.stages.measure += r.seconds.measure;
     m.sum_sweeps += r.solver.sweeps;
+    m.sweeps.push_back(r.solver.sweeps);
     m.sum_contacts += static_cast<double>(r.contacts);
     m.sum_active += r.solver.active_contacts;
     m.sum_dormant += static_cast<double>(r.solver.dormant_contacts);
@@ -564,6 +579,9 @@ int run(const Settings& s) {
           static_cast<unsigned long long>(m.steps), m.steps / m.wall_s,
           1e9 * m.stages.solve / m.updates, m.sum_sweeps / m.steps, m.sum_contacts / m.steps,
           m.displacement_warnings ? " (displacement bound exceeded)" : "");
+      std::fprintf(stderr, "  sweeps per step: %s; capped %.1f%%\n",
+                   sweep_distribution(m.sweeps).c_str(),
+                   100.0 * static_cast<double>(m.capped) / static_cast<double>(m.steps));
       if (m.cpu_s < 0.9 * m.wall_s)
         std::fprintf(stderr,
                      "  warning: the process ran only %.0f%% of the wall time (load average "
