@@ -211,6 +211,13 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "true or false");
   expect_refused(kHead + ok_rest + "[set]\nshear.frobnicate = 3\n", "set.shear.frobnicate",
                  "unknown key");
+  // A quoted key that would smuggle a value past the checks when passed on as key=value text:
+  // every run at V = 5 under names that say 0.5, or a duration past the step limit.
+  expect_refused(kHead + ok_rest + "[set]\n\"shear.velocity=5 #\" = 0\n", "set", "not a case key");
+  expect_refused(kHead + ok_rest + "[set]\nshear.\"duration=1e9 #\" = 0\n", "set",
+                 "not a case key");
+  expect_refused(kHead + ok_rest + "[set]\n\"shear velocity\" = 1\n", "set", "not a case key");
+  expect_refused(kHead + ok_rest + "[set]\n\"\" = 1\n", "set", "empty");
   // a packing for a system the campaign does not run, and a missing packing file
   expect_refused(kHead + ok_rest + "packing = { 2 = \"p.json\" }\n", "campaign.packing.2",
                  "unknown key");

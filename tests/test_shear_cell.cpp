@@ -235,6 +235,13 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
   expect_case_error(with({"system.height=0.5"}), "system.height", "largest grain diameter");
   expect_case_error(with({"shear.velocty=1"}), "shear.velocty", "unknown key");
   expect_case_error(with({"step.dt=fast"}), "step.dt", "\"auto\"");
+  // Keys that are not case keys: none is taken for another (".=1" named no key, and a key with
+  // a space or a quote would be a TOML quoted key).
+  expect_case_error(with({".=1"}), "", "empty part");
+  expect_case_error(with({"shear..velocity=1"}), "", "empty part");
+  expect_case_error(with({"shear velocity=1"}), "", "not a case key");
+  EXPECT_EQ(load_case(with({"shear.velocity = 0.25"})).velocity, 0.25);
+  expect_case_error(with({"shear.\"velocity\"=1"}), "", "not a case key");
   CaseSource v;
   v.velocity = -2.0;
   expect_case_error(v, "shear.velocity", "must be > 0");

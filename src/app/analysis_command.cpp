@@ -10,6 +10,8 @@
 #include <memory>
 #include <system_error>
 
+#include "commands.hpp"
+
 namespace cdshear {
 
 int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
@@ -83,7 +85,9 @@ void register_analysis_commands(CLI::App& app) {
       "analyze",
       "Steady state, averages with uncertainties, flow regime, band switches of a run -> "
       "summary.json");
-  a->add_option("run_dir", analyze->dir, "run folder (holding run.h5)")->required();
+  a->add_option("run_dir", analyze->dir, "run folder (holding run.h5)")
+      ->check(kNonEmptyPath)
+      ->required();
   a->add_flag("-q,--quiet", analyze->quiet, "write summary.json without printing the report");
   a->add_flag("--plot", analyze->plot,
               "then write the run's figures too (RUN_DIR/figures/), as `cdshear run` does");
@@ -96,8 +100,10 @@ void register_analysis_commands(CLI::App& app) {
   });
   auto plot = std::make_shared<Args>();
   CLI::App* p = app.add_subcommand("plot", "PNG figures of a run (default: RUN_DIR/figures/)");
-  p->add_option("run_dir", plot->dir, "run folder (holding run.h5)")->required();
-  p->add_option("-o,--output", plot->out, "folder for the figures");
+  p->add_option("run_dir", plot->dir, "run folder (holding run.h5)")
+      ->check(kNonEmptyPath)
+      ->required();
+  p->add_option("-o,--output", plot->out, "folder for the figures")->check(kNonEmptyPath);
   p->callback([plot]() {
     std::vector<std::string> extra;
     if (!plot->out.empty()) extra = {"-o", plot->out};
@@ -110,8 +116,9 @@ void register_analysis_commands(CLI::App& app) {
       "A campaign's runs table, fitted laws mu_eff(I), nu(I), Z(I), figures and index.html "
       "(default: CAMPAIGN_DIR/report/)");
   r->add_option("campaign_dir", report->dir, "campaign folder (made by `cdshear sweep`)")
+      ->check(kNonEmptyPath)
       ->required();
-  r->add_option("-o,--output", report->out, "folder for the report");
+  r->add_option("-o,--output", report->out, "folder for the report")->check(kNonEmptyPath);
   r->callback([report]() {
     std::vector<std::string> extra;
     if (!report->out.empty()) extra = {"-o", report->out};

@@ -80,10 +80,10 @@ int run_scene(const SceneArgs& args) {
 void register_scene_command(CLI::App& app) {
   auto args = std::make_shared<SceneArgs>();
   CLI::App* cmd = app.add_subcommand("scene", "Run a system described by a scene file (TOML)");
-  cmd->add_option("file", args->file, "scene file")->required();
+  cmd->add_option("file", args->file, "scene file")->check(kNonEmptyPath)->required();
   cmd->add_option("--set", args->overrides, "override a key: --set step.dt=1e-4 (repeatable)");
   add_threads_option(cmd, args->threads);
-  cmd->add_option("-o,--output", args->out_dir, "output folder")->required();
+  cmd->add_option("-o,--output", args->out_dir, "output folder")->check(kNonEmptyPath)->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no status lines or progress bar");
   cmd->add_flag("--force", args->force, "replace the results of an earlier run in the folder");
   cmd->callback([args]() {

@@ -30,6 +30,15 @@ inline CLI::Option* add_count_option(CLI::App* cmd, const std::string& name, int
       ->type_name("N");
 }
 
+/// A file or folder argument: an empty one (an unset shell variable, `--resume "$RUN"`) is bad
+/// input, not the absence of the option (which would start the default job instead of the
+/// resume, or write to the default folder).
+inline const CLI::Validator kNonEmptyPath(
+    [](std::string& value) {
+      return value.empty() ? std::string("is empty (an unset shell variable?)") : std::string();
+    },
+    "PATH");
+
 /// `--threads N`: threads of contact detection and of the coloured contact order's sweeps
 /// (default: every processor, the steps on one or all of them as measured faster: run_loop.hpp,
 /// thread_chooser.hpp). Not part of the case: the results are the same for any N

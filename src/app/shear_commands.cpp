@@ -49,7 +49,8 @@ CaseSource to_source(const CaseArgs& a) {
 }
 
 void add_case_options(CLI::App* cmd, CaseArgs& a) {
-  cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)");
+  cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)")
+      ->check(kNonEmptyPath);
   cmd->add_option_function<int>(
       "--system", [&a](int k) { a.system = k; },
       "preset of SPEC 6, 1..7 (n, L_y, sigma_yy, duration)");
@@ -544,7 +545,8 @@ void register_shear_commands(CLI::App& app) {
       "prepare", "Prepare a packing (SPEC 5): settle, then compress with a piston to equilibrium");
   add_case_options(p, prep->c);
   p->add_option("-o,--output", prep->output,
-                "packing file; default packings/<parameters>.json (the cache `run` uses)");
+                "packing file; default packings/<parameters>.json (the cache `run` uses)")
+      ->check(kNonEmptyPath);
   p->callback([prep]() {
     if (const int rc = run_prepare(*prep); rc != 0) throw CLI::RuntimeError(rc);
   });
@@ -554,9 +556,12 @@ void register_shear_commands(CLI::App& app) {
       "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
   add_case_options(r, run->c);
   r->add_option("-o,--output", run->out_dir,
-                "output folder; default runs/n<n>_h<L_y>_V<V>_s<sigma_yy>_seed<seed>[_2, _3...]");
-  r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)");
-  r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint");
+                "output folder; default runs/n<n>_h<L_y>_V<V>_s<sigma_yy>_seed<seed>[_2, _3...]")
+      ->check(kNonEmptyPath);
+  r->add_option("--packing", run->packing, "packing file to shear (default: cached by parameters)")
+      ->check(kNonEmptyPath);
+  r->add_option("--resume", run->resume_dir, "continue the run in this folder from its checkpoint")
+      ->check(kNonEmptyPath);
   r->add_flag("--force", run->force, "overwrite an existing run folder");
   r->add_flag("--no-analyze", run->no_analyze,
               "do not run `cdshear analyze` and `cdshear plot` at the end");

@@ -495,8 +495,9 @@ void register_sweep_command(CLI::App& app) {
   auto args = std::make_shared<SweepArgs>();
   CLI::App* s = app.add_subcommand(
       "sweep", "Run a campaign: systems x velocities x seeds (docs/campaigns.md), resumable");
-  s->add_option("campaign", args->file, "campaign file (TOML)")->required();
-  s->add_option("-o,--output", args->out_dir, "campaign folder; default campaigns/<name>");
+  s->add_option("campaign", args->file, "campaign file (TOML)")->check(kNonEmptyPath)->required();
+  s->add_option("-o,--output", args->out_dir, "campaign folder; default campaigns/<name>")
+      ->check(kNonEmptyPath);
   add_count_option(s, "--jobs", args->jobs,
                    "runs at once (default: processors / --threads, at least 1)");
   add_count_option(s, "--threads", args->threads, "solver threads of each run (default 1)");

@@ -218,6 +218,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   TomlReader unused_set = root.table("set");  // marks [set] as read for root.finish()
   (void)unused_set;
   for (const auto& [key, value] : set_items) {
+    // A quoted TOML key can hold anything ("shear.velocity=5 #"): passed on as `key=value`, its
+    // '=' would make it another key with another value. Case keys are bare.
+    if (const std::string problem = case_key_problem(key); !problem.empty())
+      throw ConfigError(file, "set", "the key " + problem);
     if (const auto it = kOwnedKeys.find(key); it != kOwnedKeys.end())
       throw ConfigError(file, "set." + key, "is set by the campaign: " + it->second);
     c.overrides.push_back(key + "=" + value);

@@ -39,13 +39,32 @@ bool is_bare_word(const std::string& s) {
 }
 }  // namespace
 
+std::string case_key_problem(const std::string& key) {
+  if (key.empty()) return "is empty";
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t dot = key.find('.', start);
+    const std::string part = key.substr(start, dot == std::string::npos ? dot : dot - start);
+    if (part.empty()) return "'" + key + "' has an empty part (a key is parts joined by '.')";
+    for (const char ch : part)
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '_' && ch != '-')
+        return "'" + key + "' is not a case key: its parts hold only letters, digits, '_' and '-'";
+    if (dot == std::string::npos) return "";
+    start = dot + 1;
+  }
+}
+
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
                      OverrideSources* sources) {
   for (const std::string& item : overrides) {
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
       throw ConfigError("--set " + item, "", "expected key=value");
-    const std::string key = item.substr(0, eq);
+    std::string key = item.substr(0, eq);  // `--set 'shear.velocity = 1'` reads as without spaces
+    while (!key.empty() && (key.back() == ' ' || key.back() == '\t')) key.pop_back();
+    while (!key.empty() && (key.front() == ' ' || key.front() == '\t')) key.erase(0, 1);
+    if (const std::string problem = case_key_problem(key); !problem.empty())
+      throw ConfigError("--set " + item, "", "the key " + problem);
     std::string value = item.substr(eq + 1);
     if (item.find_first_of("\n\r") != std::string::npos)
       throw ConfigError("--set", key, "the value holds a line break; give one key=value per --set");

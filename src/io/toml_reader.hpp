@@ -33,10 +33,17 @@ toml::table parse_toml_file(const std::string& path);
 /// Where an overridden key's value comes from, by dotted key: "--set a.b=1", "--velocity".
 using OverrideSources = std::map<std::string, std::string>;
 
+/// Empty when `key` is a dotted key of bare parts (`shear.velocity`: each part letters, digits,
+/// '_' or '-', as TOML writes keys without quotes, the only keys a case has); otherwise what is
+/// wrong with it. An override's key is checked so that no '=', '#', quote or space in it can be
+/// read as part of its value when the override is passed on as `key=value` text.
+std::string case_key_problem(const std::string& key);
+
 /// Applies `--set` overrides "a.b.c=value" (value in TOML syntax; a bare word such as `random`
 /// is a string) to `root`, creating intermediate tables, and records each key's source in
 /// `sources` (if given) so that a bad value is blamed on the --set, not on the file. Throws
-/// ConfigError naming the override for a value that is not TOML or holds a newline.
+/// ConfigError naming the override for a key that is not a case key (case_key_problem), or a
+/// value that is not TOML or holds a newline.
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
                      OverrideSources* sources = nullptr);
 
