@@ -32,10 +32,26 @@ expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 expect_error "already holds results (case.toml, checkpoint.cbor" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
+# --force replaces what cdshear wrote and nothing else: the user's notes and own figures stay.
+mkdir -p done/figures done/snapshots
+echo "mine" > done/run_info_notes.txt
+echo "mine" > done/figures/my_plot.png
+echo "mine" > done/snapshots/particles_final.vtp
+touch done/figures/snapshot.png done/run_info_resume_12.json
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done --force \
   > /dev/null ||
   { echo "FAIL: --force did not overwrite"; fails=$((fails + 1)); }
 checks=$((checks + 1))
+for f in done/run_info_notes.txt done/figures/my_plot.png done/snapshots/particles_final.vtp; do
+  checks=$((checks + 1))
+  test -f "$f" || { echo "FAIL: --force removed the user's $f"; fails=$((fails + 1)); }
+done
+for f in done/figures/snapshot.png done/run_info_resume_12.json; do
+  checks=$((checks + 1))
+  test ! -e "$f" || { echo "FAIL: --force left cdshear's $f"; fails=$((fails + 1)); }
+done
+checks=$((checks + 1))
+test -f done/run_info.json || { echo "FAIL: the forced run wrote no run_info.json"; fails=$((fails + 1)); }
 
 # analyze and plot: a folder that is not a run, an empty and a truncated run.h5 give a clear
 # error naming the file, with exit status 2.

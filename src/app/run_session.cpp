@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <string_view>
 #include <vector>
 
 #include <cmath>
@@ -25,6 +26,63 @@ bool folder_is_free(const std::filesystem::path& dir) {
          (std::filesystem::is_directory(dir, ec) && std::filesystem::is_empty(dir, ec));
 }
 
+namespace {
+
+/// `digits` is one or more decimal digits.
+bool all_digits(std::string_view digits) {
+  return !digits.empty() &&
+         std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+/// The files a run or scene command writes at the top of its folder: fixed names, and
+/// run_info.json, run_info_resume_<step>.json, run_info_resume_<step>_<k>.json.
+bool is_written_run_file(std::string_view name) {
+  for (const char* fixed :
+       {"case.toml", "scene.toml", "run.h5", "summary.json", "checkpoint.cbor", "timeseries.csv",
+        "final_state.json", "interrupted_state.json", "blowup_state.json", "run_info.json"})
+    if (name == fixed) return true;
+  constexpr std::string_view prefix = "run_info_resume_", suffix = ".json";
+  if (!name.starts_with(prefix) || !name.ends_with(suffix) ||
+      name.size() <= prefix.size() + suffix.size())
+    return false;
+  std::string_view middle = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+  const auto underscore = middle.find('_');
+  if (underscore == std::string_view::npos) return all_digits(middle);
+  return all_digits(middle.substr(0, underscore)) && all_digits(middle.substr(underscore + 1));
+}
+
+/// The figures `cdshear plot` writes into a run's figures/ (python/cdshear_analysis/plots.py,
+/// FIGURES; a test checks the two lists agree).
+bool is_run_figure(std::string_view name) {
+  for (const char* figure : {"snapshot.png", "velocity_profiles.png", "com_velocity.png",
+                             "height_solid_fraction.png", "steady_profiles.png"})
+    if (name == figure) return true;
+  return false;
+}
+
+/// The ParaView files of snapshots/ (observers.cpp): particles_<step>.vtp, contacts_<step>.vtp,
+/// particles.pvd, contacts.pvd.
+bool is_snapshot_file(std::string_view name) {
+  if (name == "particles.pvd" || name == "contacts.pvd") return true;
+  for (const std::string_view prefix :
+       {std::string_view("particles_"), std::string_view("contacts_")})
+    if (name.starts_with(prefix) && name.ends_with(".vtp") &&
+        all_digits(name.substr(prefix.size(), name.size() - prefix.size() - 4)))
+      return true;
+  return false;
+}
+
+/// Removes the files of `folder` that `ours` names, then the folder if that left it empty.
+template <class Ours>
+void remove_written(const std::filesystem::path& folder, const Ours& ours) {
+  namespace fs = std::filesystem;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder))
+    if (!e.is_directory() && ours(e.path().filename().string())) fs::remove(e.path());
+  if (fs::is_empty(folder)) fs::remove(folder);
+}
+
+}  // namespace
+
 void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint) {
   namespace fs = std::filesystem;
   if (fs::exists(dir) && !fs::is_directory(dir))
@@ -41,15 +99,17 @@ void claim_output_folder(const std::filesystem::path& dir, bool force, const std
                                     "--force to replace them",
                                     fmt::join(names, ", "), hint.empty() ? "" : hint + ", "));
     }
-    // --force: remove what cdshear writes, nothing else.
+    // --force: remove what cdshear writes, nothing else (a user's notes, or figures of their
+    // own in figures/, stay).
     for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
       const std::string name = e.path().filename().string();
-      const bool ours = name == "case.toml" || name == "scene.toml" || name == "run.h5" ||
-                        name == "summary.json" || name == "checkpoint.cbor" ||
-                        name == "timeseries.csv" || name == "final_state.json" ||
-                        name == "interrupted_state.json" || name == "blowup_state.json" ||
-                        name == "figures" || name == "snapshots" || name.rfind("run_info", 0) == 0;
-      if (ours) fs::remove_all(e.path());
+      if (name == "figures" && e.is_directory()) {
+        remove_written(e.path(), is_run_figure);
+      } else if (name == "snapshots" && e.is_directory()) {
+        remove_written(e.path(), is_snapshot_file);
+      } else if (is_written_run_file(name) && !e.is_directory()) {
+        fs::remove(e.path());
+      }
     }
   }
   fs::create_directories(dir);
