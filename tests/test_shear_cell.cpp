@@ -240,6 +240,13 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
   expect_case_error(with({".=1"}), "", "empty part");
   expect_case_error(with({"shear..velocity=1"}), "", "empty part");
   expect_case_error(with({"shear velocity=1"}), "", "not a case key");
+  // Degenerate values: a speed that underflows, a boundary layer as thick as the cell.
+  expect_case_error(with({"shear.velocity=1e-320"}), "shear.velocity", "less than one grain");
+  expect_case_error(with({"measure.boundary_thickness=[5, 100]"}), "measure.boundary_thickness",
+                    "at most half of L_y");
+  EXPECT_EQ(load_case(with({"measure.boundary_thickness=[10]"})).measure.boundary_thickness,
+            std::vector<double>{10.0});  // system 1: the layers meet in the middle
+  EXPECT_EQ(load_case(with({"shear.velocity=0.005"})).velocity, 0.005);  // SPEC 6's slowest
   EXPECT_EQ(load_case(with({"shear.velocity = 0.25"})).velocity, 0.25);
   expect_case_error(with({"shear.\"velocity\"=1"}), "", "not a case key");
   CaseSource v;

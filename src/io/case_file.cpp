@@ -55,6 +55,14 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
     }
   }
   c.dt_max = step.positive("dt_max", c.dt_max);
+  // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
+  // an underflow (1e-320), not a flow (SPEC 6's slowest is 0.005).
+  if (const double longest = c.dt_max * kMaxRunSteps; c.velocity * longest < c.diameter_max)
+    sh.fail("velocity",
+            "V = " + format_number(c.velocity) + " would move the walls by less than one grain (" +
+                format_number(c.diameter_max) + ") in the longest run the step limit allows (" +
+                format_number(longest) + " time units at dt_max); give at least " +
+                format_number(c.diameter_max / longest));
   c.displacement_per_step = step.positive("displacement_per_step", c.displacement_per_step);
   c.step.contact_margin = step.non_negative("contact_margin", c.step.contact_margin);
   c.step.displacement_bound = step.positive("displacement_bound", c.step.displacement_bound);
@@ -128,6 +136,10 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
       const double h = mo.boundary_thickness[k];
       if (!(h > 0.0) || !std::isfinite(h))
         m.fail("boundary_thickness", "every h must be a positive number, got " + format_number(h));
+      if (!(h <= 0.5 * c.height))  // the two layers would overlap
+        m.fail("boundary_thickness", "every h must be at most half of L_y (" +
+                                         format_number(0.5 * c.height) + "), got " +
+                                         format_number(h));
       for (std::size_t j = 0; j < k; ++j)
         if (std::abs(mo.boundary_thickness[j] - h) < 1e-9)
           m.fail("boundary_thickness", "lists h = " + format_number(h) + " twice");
