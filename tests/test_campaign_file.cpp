@@ -22,7 +22,7 @@ Campaign parse(const std::string& text) {
 TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
   const Campaign c = parse(
       "[campaign]\nname = \"study\"\nsystems = [1, 2]\nvelocities = [0.05, 0.5]\n"
-      "seeds = [3]\nduration = 100\nboundary_thickness = [5.0, 10.0]\n"
+      "seeds = [3]\nduration = 100\nboundary_thickness = [5.0, 10.0]\nanalyze = false\n"
       "[set]\nmeasure.enabled = false\nsolver.order = \"sequential\"\n");
   EXPECT_EQ(c.name, "study");
   ASSERT_EQ(c.runs.size(), 4u);
@@ -43,7 +43,10 @@ TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
   EXPECT_EQ(c.overrides[0], "measure.enabled=false");
   EXPECT_EQ(c.overrides[1].rfind("solver.order=", 0), 0u);
   EXPECT_EQ(c.seeds, std::vector<std::uint64_t>{3});
-  EXPECT_TRUE(c.analyze);
+  EXPECT_FALSE(c.analyze);
+  // analyze defaults to true
+  EXPECT_TRUE(
+      parse("[campaign]\nname = \"a\"\nsystems = [1]\nvelocities = [0.5]\nduration = 1\n").analyze);
 }
 
 TEST(CampaignFile, LogRangeIsGeometric) {
@@ -218,6 +221,9 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"shear velocity\" = 1\n", "set", "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"\" = 1\n", "set", "empty");
+  // An analysis of runs that measure nothing (it exited 0 with no analysis).
+  expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = false\n", "campaign.analyze",
+                 "measure nothing");
   // a packing for a system the campaign does not run, and a missing packing file
   expect_refused(kHead + ok_rest + "packing = { 2 = \"p.json\" }\n", "campaign.packing.2",
                  "unknown key");

@@ -262,6 +262,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                                                     : "set." + e.key();
           throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
         }
+        if (c.analyze && !sc.measure.enabled)
+          t.fail("analyze",
+                 "is true, but the runs measure nothing ([set] measure.enabled = false): there "
+                 "would be no analysis; give analyze = false, or let the runs measure");
         run.n = sc.n;
         run.height = sc.height;
         run.duration = c.duration                      ? *c.duration
