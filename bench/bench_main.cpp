@@ -172,6 +172,10 @@ Settings parse(int argc, char** argv) {
       s.solver = one_thread(cdshear::SolverOptions{});
     } else if (a == "--newton") {
       s.solver.newton_iterations = std::stoi(value());
+      if (s.solver.newton_iterations < 0 ||
+          s.solver.newton_iterations > cdshear::kMaxNewtonIterations)
+        throw std::invalid_argument("--newton must be in 0.." +
+                                    std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--step-error") {
       s.step_error_samples = std::stoi(value());
     } else if (a == "--criterion") {
@@ -499,10 +503,12 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     l2.push_back(std::sqrt(diff2 / ref2));
     wall.push_back(wall_error);
     const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps;
-    std::fprintf(
-        stderr, "    newton %d it, %zu unknowns, %zu changed, last %.2e, residual %.2e -> %.2e\n",
-        r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
-        r_opt.active_set.correction, r_opt.active_set.initial_residual, r_opt.active_set.residual);
+    if (options.solver.newton_iterations > 0)
+      std::fprintf(
+          stderr, "    newton %d it, %zu unknowns, %zu changed, last %.2e, residual %.2e -> %.2e\n",
+          r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
+          r_opt.active_set.correction, r_opt.active_set.initial_residual,
+          r_opt.active_set.residual);
     std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e%s\n", r_opt.solver.sweeps,
                  r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual), l2.back(), worst / mean,
                  wall_error, ref_capped ? "  (reference not converged: at its cap)" : "");

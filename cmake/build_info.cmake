@@ -12,7 +12,8 @@ if(GIT_FOUND)
   if(rc EQUAL 0)
     set(commit "${out}")
     # Tracked files that differ from the commit (untracked ones do not make the build differ).
-    execute_process(COMMAND ${GIT_EXECUTABLE} -C ${SOURCE_DIR} status --porcelain
+    # --no-optional-locks: no index refresh (and no index.lock) while a commit may be under way.
+    execute_process(COMMAND ${GIT_EXECUTABLE} --no-optional-locks -C ${SOURCE_DIR} status --porcelain
                             --untracked-files=no
                     OUTPUT_VARIABLE status RESULT_VARIABLE rc2 ERROR_QUIET)
     if(rc2 EQUAL 0)

@@ -143,14 +143,15 @@ checks=$((checks + 1))
 
 # An empty file or folder argument (an unset shell variable) is refused, never read as the
 # option's absence (which would start the default job instead of a resume).
-expect_status2 "--resume: is empty" "$exe" run -q --resume ""
-expect_status2 "--output: is empty" "$exe" run -q --no-analyze --packing "$packing" -o ""
-expect_status2 "--packing: is empty" "$exe" run -q --packing ""
-expect_status2 "--output: is empty" "$exe" prepare -q -o ""
-expect_status2 "run_dir: is empty" "$exe" analyze ""
-expect_status2 "campaign_dir: is empty" "$exe" report ""
-expect_status2 "file: is empty" "$exe" scene "" -o empty_scene
-test -e runs || test -e empty_scene && { echo "FAIL: an empty argument wrote a folder"; fails=$((fails + 1)); }
+# (timeout: a regression would start the default job or preparation, minutes long)
+expect_status2 "--resume: is empty" timeout 60 "$exe" run -q --resume ""
+expect_status2 "--output: is empty" timeout 60 "$exe" run -q --no-analyze --packing "$packing" -o ""
+expect_status2 "--packing: is empty" timeout 60 "$exe" run -q --packing ""
+expect_status2 "--output: is empty" timeout 60 "$exe" prepare -q -o ""
+expect_status2 "run_dir: is empty" timeout 60 "$exe" analyze ""
+expect_status2 "campaign_dir: is empty" timeout 60 "$exe" report ""
+expect_status2 "file: is empty" timeout 60 "$exe" scene "" -o empty_scene
+test -e empty_scene && { echo "FAIL: an empty argument wrote a folder"; fails=$((fails + 1)); }
 checks=$((checks + 1))
 # A --set key must be a case key: nothing in it can be read as part of its value.
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"

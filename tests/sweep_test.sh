@@ -122,14 +122,20 @@ cat > huge.toml <<TOML
 [campaign]
 name = "huge"
 systems = [1]
-velocities = [1e-9]
-strain = 100
+velocities = [1e-6]
+strain = 1e5
 packing = { 1 = "$packing" }
 TOML
 rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a run beyond the step limit exited $rc, not 2: $(cat huge.out)"
 grep -q "campaign.strain" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
 test ! -e huge || fail "a refused campaign wrote its folder"
+# A wall speed that would not move the walls by a grain in any allowed run is blamed on the
+# campaign's velocities, not on [set].
+sed -i 's/^velocities = .*/velocities = [1e-9]/; s/^strain = .*/duration = 10/' huge.toml
+rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "V = 1e-9 exited $rc, not 2: $(cat huge.out)"
+grep -q "key 'campaign.velocities'" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
 
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished (each runs several seconds);

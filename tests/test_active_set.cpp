@@ -137,24 +137,24 @@ TEST(ActiveSet, SolvesASlowShearStepToRoundOff) {
   const std::size_t nv = 3 * box.world.disks.size(), ni = reference.size() - nv;
   const double plain_error = relative_difference(plain, reference, 0, ni);
   const double newton_error = relative_difference(newton, reference, 0, ni);
-  std::printf("velocity errors: plain %.2e refined %.2e\n",
-              relative_difference(plain, reference, ni, ni + nv),
-              relative_difference(newton, reference, ni, ni + nv));
-  std::printf(
-      "reference %d sweeps; sweeps alone %d sweeps, error %.2e; refined %d iterations, "
-      "error %.2e, residual %.2e -> %.2e\n",
-      reference_report.solver.sweeps, plain_report.solver.sweeps, plain_error,
-      refined_report.active_set.iterations, newton_error,
-      refined_report.active_set.initial_residual, refined_report.active_set.residual);
-  EXPECT_LT(refined_report.active_set.residual, 1e-12);
-  EXPECT_LT(newton_error, 1e-7);
+  EXPECT_LT(refined_report.active_set.residual, 1e-12)
+      << refined_report.active_set.iterations << " iterations";
+  EXPECT_LT(newton_error, 1e-7) << "the sweeps alone: " << plain_error;
   EXPECT_GT(plain_error, 1e3 * newton_error);
+  // The velocities, which the step's physics is, agree as closely.
+  EXPECT_LT(relative_difference(newton, reference, ni, ni + nv), 1e-7);
 }
 
-TEST(ActiveSet, ResidualNeverGrowsAndResultsRepeat) {
+TEST(ActiveSet, SolvesMostStepsOfAShearAndRepeatsOnAnyNumberOfThreads) {
+  // The sweeps run on one thread in one copy and on two in the other (the coloured order's
+  // result does not depend on it); the refinement then starts from the same impulses and must
+  // end on the same ones.
   ShearedBox box(0.5, 30);
-  box.options.solver.newton_iterations = 3;
+  box.options.solver.newton_iterations = 4;
   ShearedBox twin = box;
+  twin.options.solver.threads = 2;
+  twin.options.solver.min_rows_per_thread = 1;
+  int solved = 0;
   for (int k = 0; k < 40; ++k) {
     const StepReport r = box.dynamics.step(box.world, box.options);
     const StepReport t = twin.dynamics.step(twin.world, twin.options);
@@ -162,7 +162,9 @@ TEST(ActiveSet, ResidualNeverGrowsAndResultsRepeat) {
     EXPECT_LE(r.active_set.residual, r.active_set.initial_residual);
     EXPECT_GE(r.active_set.iterations, 1);
     EXPECT_EQ(r.active_set.residual, t.active_set.residual);
+    solved += r.active_set.residual < 1e-12;  // the refinement's tolerance: round-off
   }
+  EXPECT_GE(solved, 30) << "steps solved to round-off, of 40";
   for (std::size_t i = 0; i < box.world.disks.size(); ++i) {
     EXPECT_EQ(box.world.disks.position[i].x, twin.world.disks.position[i].x);
     EXPECT_EQ(box.world.disks.position[i].y, twin.world.disks.position[i].y);

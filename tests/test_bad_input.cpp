@@ -12,6 +12,7 @@
 #include <limits>
 #include <string>
 
+#include "cdshear_git.hpp"
 #include "checkpoint.hpp"
 #include "config_error.hpp"
 #include "scene_file.hpp"
@@ -460,17 +461,12 @@ TEST(Executable, VersionNamesTheCommitOfItsSourceTree) {
   EXPECT_EQ(r.status, 0);
   EXPECT_EQ(r.out.rfind("cdshear " CDSHEAR_VERSION " (commit ", 0), 0u) << r.out;
   EXPECT_NE(r.out.find(" build, instruction set "), std::string::npos) << r.out;
-  // The commit git names for the source tree now (the test runs on the build it tests).
-  const auto head = dir.path() / "head.txt";
-  const std::string git = "git -C '" + std::string(CDSHEAR_SOURCE_DIR) +
-                          "' rev-parse --short=12 HEAD > '" + head.string() + "' 2>/dev/null";
-  if (std::system(git.c_str()) == 0) {
-    std::string commit = testing::read_text(head);
-    while (!commit.empty() && (commit.back() == '\n' || commit.back() == '\r')) commit.pop_back();
-    EXPECT_NE(r.out.find("commit " + commit), std::string::npos)
-        << r.out << " (a binary built from another commit: rebuild)";
-  } else {
-    EXPECT_NE(r.out.find("commit unknown"), std::string::npos) << r.out;
+  // The commit the build read (cmake/build_info.cmake): 12 hex digits in a git tree.
+  EXPECT_NE(r.out.find("commit " CDSHEAR_GIT_COMMIT), std::string::npos) << r.out;
+  const std::string commit = CDSHEAR_GIT_COMMIT;
+  if (commit != "unknown") {
+    EXPECT_EQ(commit.size(), 12u);
+    EXPECT_EQ(commit.find_first_not_of("0123456789abcdef"), std::string::npos) << commit;
   }
 }
 

@@ -44,9 +44,6 @@ class SeriesEnvelope(unittest.TestCase):
         self.assertTrue(np.all(np.isnan(ey[2:])))
 
 
-if __name__ == "__main__":
-    unittest.main()
-
 
 class ForceKeepsOnlyItsOwnFigures(unittest.TestCase):
     """`cdshear run --force` removes from figures/ only the files plot_run writes; its list is in
@@ -63,3 +60,7 @@ class ForceKeepsOnlyItsOwnFigures(unittest.TestCase):
         body = text[text.index("bool is_run_figure("):]
         body = body[:body.index("return false;")]
         self.assertEqual(set(re.findall(r'"([\w.]+\.png)"', body)), set(FIGURES))
+
+
+if __name__ == "__main__":
+    unittest.main()

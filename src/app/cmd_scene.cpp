@@ -82,7 +82,7 @@ void register_scene_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("scene", "Run a system described by a scene file (TOML)");
   cmd->add_option("file", args->file, "scene file")->check(kNonEmptyPath)->required();
   cmd->add_option("--set", args->overrides, "override a key: --set step.dt=1e-4 (repeatable)");
-  add_threads_option(cmd, args->threads);
+  add_threads_option(cmd, args->threads, false);
   cmd->add_option("-o,--output", args->out_dir, "output folder")->check(kNonEmptyPath)->required();
   cmd->add_flag("-q,--quiet", args->quiet, "no status lines or progress bar");
   cmd->add_flag("--force", args->force, "replace the results of an earlier run in the folder");

@@ -43,12 +43,13 @@ inline const CLI::Validator kNonEmptyPath(
 /// (default: every processor, the steps on one or all of them as measured faster: run_loop.hpp,
 /// thread_chooser.hpp). Not part of the case: the results are the same for any N
 /// (docs/performance.md).
-inline CLI::Option* add_threads_option(CLI::App* cmd, int& threads) {
+inline CLI::Option* add_threads_option(CLI::App* cmd, int& threads, bool chosen_by_speed) {
   return add_count_option(
       cmd, "--threads", threads,
       "threads of contact detection and of the coloured order's sweeps (default: all " +
-          std::to_string(processors_available()) +
-          " processors, each step on as many of them as measured fastest: one or all)");
+          std::to_string(processors_available()) + " processors" +
+          (chosen_by_speed ? ", each step on one or all of them, whichever is measured faster)"
+                           : ")"));
 }
 
 /// `cdshear scene FILE.toml [--set key=value ...] -o DIR`

@@ -57,8 +57,10 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
     if (choosing) step_options.solver.threads = chooser.threads();
     const auto step_start = Clock::now();
     StepReport r = dynamics.step(world, step_options);
-    if (chooser.after_step(std::chrono::duration<double>(Clock::now() - step_start).count())) {
+    if (chooser.after_step(std::chrono::duration<double>(Clock::now() - step_start).count()) &&
+        settings.status_every > 0) {  // quiet runs say it in run_info.json only
       const int most = chooser.most();
+      if (settings.progress_bar) std::fputs("\r\033[K", stderr);
       std::printf(
           "threads: %d of %d from step %llu (measured %.3g ms per step on 1, %.3g ms on %d)\n",
           chooser.threads(), most, static_cast<unsigned long long>(world.step),

@@ -35,8 +35,13 @@ bool all_digits(std::string_view digits) {
 }
 
 /// The files a run or scene command writes at the top of its folder: fixed names, and
-/// run_info.json, run_info_resume_<step>.json, run_info_resume_<step>_<k>.json.
+/// run_info.json, run_info_resume_<step>.json, run_info_resume_<step>_<k>.json, and what a
+/// killed atomic write of any of them leaves: <name>.tmp.<pid>.
 bool is_written_run_file(std::string_view name) {
+  if (const auto tmp = name.rfind(".tmp.");
+      tmp != std::string_view::npos && all_digits(name.substr(tmp + 5)) && tmp > 0 &&
+      name.substr(0, tmp).find(".tmp.") == std::string_view::npos)
+    return is_written_run_file(name.substr(0, tmp));
   for (const char* fixed :
        {"case.toml", "scene.toml", "run.h5", "summary.json", "checkpoint.cbor", "timeseries.csv",
         "final_state.json", "interrupted_state.json", "blowup_state.json", "run_info.json"})

@@ -48,7 +48,7 @@ CaseSource to_source(const CaseArgs& a) {
   return s;
 }
 
-void add_case_options(CLI::App* cmd, CaseArgs& a) {
+void add_case_options(CLI::App* cmd, CaseArgs& a, bool threads_chosen_by_speed) {
   cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)")
       ->check(kNonEmptyPath);
   cmd->add_option_function<int>(
@@ -64,7 +64,7 @@ void add_case_options(CLI::App* cmd, CaseArgs& a) {
   cmd->add_option("--set", a.overrides,
                   "override a case key: --set shear.duration=50 (repeatable)");
   cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
-  a.threads_option = add_threads_option(cmd, a.threads);
+  a.threads_option = add_threads_option(cmd, a.threads, threads_chosen_by_speed);
 }
 
 Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
@@ -157,7 +157,9 @@ struct RunArgs {
 /// On resume only these may change: how long, what is written, and numerics of later steps.
 /// Physics (system, shear, preparation) and the measurement's layout come from the checkpoint.
 void check_resume_override(const std::string& item) {
-  const std::string key = item.substr(0, item.find('='));
+  std::string key = item.substr(0, item.find('='));  // spaces around it dropped, as --set does
+  while (!key.empty() && (key.back() == ' ' || key.back() == '\t')) key.pop_back();
+  while (!key.empty() && (key.front() == ' ' || key.front() == '\t')) key.erase(0, 1);
   for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
     if (key.rfind(allowed, 0) == 0) return;
   throw ConfigError("--set " + item, key,
@@ -543,7 +545,7 @@ void register_shear_commands(CLI::App& app) {
   auto prep = std::make_shared<PrepareArgs>();
   CLI::App* p = app.add_subcommand(
       "prepare", "Prepare a packing (SPEC 5): settle, then compress with a piston to equilibrium");
-  add_case_options(p, prep->c);
+  add_case_options(p, prep->c, false);
   p->add_option("-o,--output", prep->output,
                 "packing file; default packings/<parameters>.json (the cache `run` uses)")
       ->check(kNonEmptyPath);
@@ -554,7 +556,7 @@ void register_shear_commands(CLI::App& app) {
   auto run = std::make_shared<RunArgs>();
   CLI::App* r = app.add_subcommand(
       "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
-  add_case_options(r, run->c);
+  add_case_options(r, run->c, true);
   r->add_option("-o,--output", run->out_dir,
                 "output folder; default runs/n<n>_h<L_y>_V<V>_s<sigma_yy>_seed<seed>[_2, _3...]")
       ->check(kNonEmptyPath);

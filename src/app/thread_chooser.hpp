@@ -3,8 +3,9 @@
 // A step's result is the same on any number of threads (nlgs_solver.hpp, "coloured"), so the
 // thread count changes only the time a step takes, and that is not known in advance: on a
 // machine whose two processors share one core, or for a cell of a few thousand disks, the
-// barriers of every sweep phase cost more than the work two threads share (system 5 on two
-// threads of a 2-core machine of this kind took 1.2 times as long as on one). So a run given
+// barriers of every sweep phase can cost more than the work two threads share: system 5 took 1.2
+// times as long on two threads as on one on one 2-core virtual machine, 0.67 times on another
+// (docs/performance.md, "Threads"). So a run given
 // more than one thread times its steps on both counts, in alternating blocks (one thread, all,
 // one, all: a slow drift of the step's cost weighs on both alike), keeps the faster, and
 // measures again every `recheck_steps` steps, as the packing and the machine's load change.

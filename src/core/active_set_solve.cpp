@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <tuple>
 
 namespace cdshear {
@@ -130,9 +131,13 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     mean_diagonal += nn;
   }
   mean_diagonal /= static_cast<double>(nc);
+  // The residual relative to |R| on entry, a fixed scale (relative to the current |R|, a step
+  // could lower it by inflating the forces along a self-stress); absolute where every impulse
+  // was 0.
+  const double entry_force2 = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt).second;
   const auto merit = [&] {
-    const auto [r2, f2] = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt);
-    return f2 > 0.0 ? std::sqrt(r2 / f2) : std::sqrt(r2);
+    const double r2 = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt).first;
+    return entry_force2 > 0.0 ? std::sqrt(r2 / entry_force2) : std::sqrt(r2);
   };
   // The iterate a step starts from (impulses and bodies) and the full Newton iterate, between
   // which the line search moves: both are on the cone, so is every point between them, and the
@@ -267,9 +272,10 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       s.rhs[static_cast<std::size_t>(row)] = -u.n;
     }
     const auto to_sparse = [&](std::vector<int>& rows, std::vector<int>& cols,
-                               std::vector<double>& values) {
+                               std::vector<double>& values) -> cholmod_sparse* {
       cholmod_triplet* triplet = cholmod_allocate_triplet(
           unknowns, 3 * bodies.size(), values.size(), 0, CHOLMOD_REAL, &s.common);
+      if (triplet == nullptr) return nullptr;
       std::copy(rows.begin(), rows.end(), static_cast<int*>(triplet->i));
       std::copy(cols.begin(), cols.end(), static_cast<int*>(triplet->j));
       std::copy(values.begin(), values.end(), static_cast<double*>(triplet->x));
@@ -278,13 +284,26 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       cholmod_free_triplet(&triplet, &s.common);
       return m;
     };
+    // CHOLMOD and KLU index with int here: a system beyond that is left to the sweeps.
+    constexpr auto kMaxIndex = static_cast<std::size_t>(std::numeric_limits<int>::max());
+    if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex || s.t_values.size() > kMaxIndex) {
+      restore(s.base_bodies, s.base_impulses);
+      report.factorised = false;
+      break;
+    }
     cholmod_sparse* h_rows = to_sparse(s.t_rows, s.t_cols, s.t_values);
     cholmod_sparse* h_cols = to_sparse(s.c_rows, s.c_cols, s.c_values);
-    cholmod_sparse* h_cols_t = cholmod_transpose(h_cols, 1, &s.common);
-    cholmod_sparse* b_matrix = cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &s.common);
-    cholmod_free_sparse(&h_rows, &s.common);
+    cholmod_sparse* h_cols_t = h_cols ? cholmod_transpose(h_cols, 1, &s.common) : nullptr;
+    cholmod_sparse* b_matrix =
+        h_rows && h_cols_t ? cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &s.common) : nullptr;
+    cholmod_free_sparse(&h_rows, &s.common);  // each a no-op on a null pointer
     cholmod_free_sparse(&h_cols, &s.common);
     cholmod_free_sparse(&h_cols_t, &s.common);
+    if (b_matrix == nullptr) {  // out of memory: the sweeps' result stands
+      restore(s.base_bodies, s.base_impulses);
+      report.factorised = false;
+      break;
+    }
     auto* bp = static_cast<int*>(b_matrix->p);
     auto* bi = static_cast<int*>(b_matrix->i);
     auto* bx = static_cast<double*>(b_matrix->x);
@@ -302,7 +321,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     // regularisation 1000 times larger (Levenberg-Marquardt): where the statuses are wrong the
     // system can be singular with a right-hand side outside its range, and its exact solution
     // is useless.
-    bool descended = false;
+    bool descended = false, any_solved = false;
     double beta = options.regularisation * mean_diagonal, added = 0.0;
     for (int attempt = 0; attempt < kRegularisationAttempts && symbolic != nullptr;
          ++attempt, beta *= 1e3) {
@@ -314,6 +333,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       const bool solved = numeric && klu_solve(symbolic, numeric, nu, 1, s.solution.data(), &kc);
       if (numeric) klu_free_numeric(&numeric, &kc);
       if (!solved) continue;
+      any_solved = true;
       restore(s.start_bodies, s.start_impulses);
       // Ratio test (first attempt only): the longest step along dR, at most 1, that keeps
       // every closed contact carrying force inside its cone; the first contacts to reach the
@@ -335,8 +355,10 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
           const double upper = c.friction * c.impulse_n - c.impulse_t;
           const double lower = c.friction * c.impulse_n + c.impulse_t;
           const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
-          if (d_upper < 0.0) step = std::min(step, std::max(0.0, upper) / -d_upper);
-          if (d_lower < 0.0) step = std::min(step, std::max(0.0, lower) / -d_lower);
+          // A contact on its cone's edge (the sweeps leave many) that the step pushes out is
+          // projected back: it would otherwise stop the step at 0.
+          if (d_upper < 0.0 && upper > 0.0) step = std::min(step, upper / -d_upper);
+          if (d_lower < 0.0 && lower > 0.0) step = std::min(step, lower / -d_lower);
         }
       }
       if (attempt == 0 && step > 0.0 && step < 1.0)
@@ -377,12 +399,11 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
         break;
       }
     }
-    const bool analysed = symbolic != nullptr;
     if (symbolic) klu_free_symbolic(&symbolic, &kc);
     cholmod_free_sparse(&b_matrix, &s.common);
     if (!descended) {  // back to the iterate this iteration started from
       restore(s.base_bodies, s.base_impulses);
-      report.factorised = analysed;
+      report.factorised = any_solved;
       break;
     }
   }

@@ -25,7 +25,7 @@
 //      directions of the unknowns' impulses (n, t; n + s mu t for a sliding contact: B is not
 //      symmetric, Coulomb friction being non-associated). B is formed by CHOLMOD's sparse
 //      product and factorised by KLU (SuiteSparse; no BLAS, a fixed ordering: the same result
-//      on any machine load and thread count). beta, a 1e-10 fraction of W's mean diagonal,
+//      on any machine load and thread count). beta, a 1e-10 fraction of the mean w_nn,
 //      keeps self-stress states (null vectors of W in a hyperstatic packing) finite.
 //   4. R + tau dR, tau <= 1 the longest step keeping every closed contact carrying force inside
 //      its cone (a ratio test: the first contacts to reach the boundary open or slide in the
@@ -62,7 +62,7 @@ namespace cdshear {
 
 struct ActiveSetOptions {
   int max_iterations = 4;         ///< Newton iterations at most
-  double regularisation = 1e-10;  ///< beta, as a fraction of W's mean diagonal
+  double regularisation = 1e-10;  ///< beta, as a fraction of the mean w_nn
   double tolerance = 1e-12;       ///< stop when the natural-map residual / |R| is below this
 };
 
@@ -72,8 +72,8 @@ struct ActiveSetReport {
   std::size_t changed = 0;        ///< contacts whose status changed in the last iteration
   double correction = 0.0;        ///< |dR| / |R| of the last iteration
   bool factorised = true;         ///< false: the factorisation failed
-  double initial_residual = 0.0;  ///< natural-map residual / |R| on entry
-  double residual = 0.0;          ///< ... on exit (the best iterate's)
+  double initial_residual = 0.0;  ///< natural-map residual / |R on entry| on entry
+  double residual = 0.0;          ///< ... on exit, / |R on entry| too
 };
 
 class ActiveSetSolver {

@@ -258,8 +258,9 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
         } catch (const ConfigError& e) {
           const std::string key = e.key() == "measure.boundary_thickness"
                                       ? std::string("campaign.boundary_thickness")
-                                  : e.key().empty() ? std::string("set")
-                                                    : "set." + e.key();
+                                  : e.key() == "shear.velocity" ? std::string("campaign.velocities")
+                                  : e.key().empty()             ? std::string("set")
+                                                                : "set." + e.key();
           throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
         }
         if (c.analyze && !sc.measure.enabled)

@@ -57,11 +57,13 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   c.dt_max = step.positive("dt_max", c.dt_max);
   // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
   // an underflow (1e-320), not a flow (SPEC 6's slowest is 0.005).
-  if (const double longest = c.dt_max * kMaxRunSteps; c.velocity * longest < c.diameter_max)
+  // (The longer of dt_max and a given dt: a tiny given dt is the step limit's to refuse.)
+  if (const double longest = std::max(c.dt.value_or(c.dt_max), c.dt_max) * kMaxRunSteps;
+      c.velocity * longest < c.diameter_max)
     sh.fail("velocity",
             "V = " + format_number(c.velocity) + " would move the walls by less than one grain (" +
                 format_number(c.diameter_max) + ") in the longest run the step limit allows (" +
-                format_number(longest) + " time units at dt_max); give at least " +
+                format_number(longest) + " time units); give at least " +
                 format_number(c.diameter_max / longest));
   c.displacement_per_step = step.positive("displacement_per_step", c.displacement_per_step);
   c.step.contact_margin = step.non_negative("contact_margin", c.step.contact_margin);
