@@ -48,7 +48,7 @@
 // Measured (docs/performance.md, "Active-set Newton refinement"): where the sweeps' statuses
 // are nearly right (system 1) two to four iterations solve a step to round-off; in the tall
 // cells (system 5) the statuses of many loops are wrong, the iterations fix a few at a time, and
-// one step in four reached round-off within 40 iterations.
+// two steps in four reached round-off within 40 iterations.
 #pragma once
 
 #include <cstddef>
