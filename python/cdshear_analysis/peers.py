@@ -31,6 +31,7 @@ import os
 
 import numpy as np
 
+from .rundata import open_regular
 from .statistics import block_average
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -51,7 +52,7 @@ class PeerError(Exception):
 def load_packing(path):
     """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f:
             packing = json.load(f)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
@@ -212,7 +213,7 @@ def read_dump(path):
     y, radius]) and the box's x length."""
     snaps, lx = [], None
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f:
             lines = f.read().split("\n")
     except OSError as e:
         raise PeerError(path, f"cannot read dump: {e}") from e

@@ -32,6 +32,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
+from .rundata import open_regular
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -112,7 +113,7 @@ def read_summary(run_dir):
     parsed."""
     path = os.path.join(run_dir, "summary.json")
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f:
             return json.load(f)
     except (OSError, ValueError) as e:
         raise ReportError(path, f"cannot read: {e}") from None
@@ -230,7 +231,7 @@ def campaign_runs(campaign_toml):
     """(name, [run names], text) from a resolved campaign.toml: [campaign].name, the runs listed
     in its closing comment (`#   s1_seed1_V0.5  duration ...`) and the whole file."""
     try:
-        with open(campaign_toml, "rb") as f:
+        with open_regular(campaign_toml, "rb") as f:
             raw = f.read()
         data = tomllib.loads(raw.decode("utf-8"))
     except (OSError, ValueError) as e:  # tomllib.TOMLDecodeError is a ValueError
@@ -250,9 +251,11 @@ def software(campaign_text, run_dirs):
     versions = {}
     for d in run_dirs:
         try:
-            with open(os.path.join(d, "run_info.json"), encoding="utf-8") as f:
+            with open_regular(os.path.join(d, "run_info.json"), encoding="utf-8") as f:
                 info = json.load(f)
-            v = f"{info.get('program', '?')} {info.get('version', '?')}"
+            build = info.get("build")
+            v = (build.get("description") if isinstance(build, dict) else None) or \
+                f"{info.get('program', '?')} {info.get('version', '?')}"
         except (OSError, ValueError, AttributeError):
             v = "unknown (no readable run_info.json)"
         versions[v] = versions.get(v, 0) + 1

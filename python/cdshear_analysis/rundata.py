@@ -22,8 +22,10 @@ version 2 added rotational_stress into stress: it is taken out again, and mu_eff
 regions) recomputed; in a version-1 file, coordination (the contacts carrying force at the
 sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
+import errno
 import os
 import re
+import stat
 import tomllib
 import zlib
 
@@ -39,6 +41,18 @@ REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
 REQUIRED_WINDOWS = ("y", "t_start", "t_end", "height", "com_vx", "solid_fraction", "vx",
                     "stress", "mu_eff", "coordination", "shear_rate", "inertial_number",
                     "slip_bottom", "slip_top")
+
+
+def open_regular(path, mode="r", **kwargs):
+    """open(path, mode) for reading, refusing anything but a regular file: opening a FIFO
+    waits for a writer that may never come (docs/reliability.md). The refusal is an OSError
+    naming the path, which every reader here already reports as "cannot read"."""
+    st = os.stat(path)
+    if not stat.S_ISREG(st.st_mode):
+        kind = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a folder" if stat.S_ISDIR(st.st_mode)
+                else "a device or socket")
+        raise OSError(errno.EINVAL, f"not a regular file ({kind})", os.fspath(path))
+    return open(path, mode, **kwargs)
 
 
 USER_BLOCK = 512
@@ -66,7 +80,7 @@ def seal(path):
 
 def check_seal(path):
     """Raises RunDataError unless `path` carries a seal that matches its content."""
-    with open(path, "rb") as f:
+    with open_regular(path, "rb") as f:
         m = SEAL.match(f.read(96))
     if m is None:
         raise RunDataError(path, "not a cdshear HDF5 run file: no cdshear seal (written by "
@@ -229,7 +243,7 @@ def _as_version_3(windows, regions, attrs):
 
 def _read_text(path):
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f:
             return f.read()
     except OSError:
         return None

@@ -18,6 +18,7 @@ import json
 import math
 import os
 
+from .rundata import open_regular
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -43,7 +44,7 @@ class StudyError(Exception):
 
 def _read_json(path):
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f:
             return json.load(f)
     except FileNotFoundError:
         raise StudyError(path, "missing (run `cdshear analyze` on the run first)") from None

@@ -287,5 +287,47 @@ class WithoutCompleteWindow(unittest.TestCase):
             self.assertEqual(len(written), len(FIGURES))
 
 
+class SpecialFiles(unittest.TestCase):
+    """A FIFO where a file is read is refused at once: opening it would wait for a writer that
+    never comes (an alarm turns such a wait into a failure)."""
+
+    def setUp(self):
+        import signal
+        self.tmp = tempfile.TemporaryDirectory()
+        self.addCleanup(self.tmp.cleanup)
+        signal.signal(signal.SIGALRM, lambda *_: (_ for _ in ()).throw(TimeoutError("blocked")))
+        signal.alarm(20)
+        self.addCleanup(signal.alarm, 0)
+
+    def fifo(self, *parts):
+        path = os.path.join(self.tmp.name, *parts)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        os.mkfifo(path)
+        return path
+
+    def test_readers_refuse_a_fifo_naming_it(self):
+        from cdshear_analysis.report import ReportError, read_summary, software
+        from cdshear_analysis.rundata import open_regular
+        path = self.fifo("run", "summary.json")
+        with self.assertRaises(OSError) as e:
+            open_regular(path)
+        self.assertIn("not a regular file (a FIFO)", str(e.exception))
+        self.assertIn(path, str(e.exception))
+        with self.assertRaises(ReportError) as r:
+            read_summary(os.path.dirname(path))
+        self.assertIn("a FIFO", str(r.exception))
+        self.fifo("run", "run_info.json")
+        self.assertEqual(software("", [os.path.dirname(path)])["runs"],
+                         {"unknown (no readable run_info.json)": 1})
+
+    def test_analyze_of_a_run_whose_case_toml_is_a_fifo_finishes(self):
+        run_dir = os.path.join(self.tmp.name, "runC")
+        write_synthetic_run(run_dir, kind="C", duration=400.0, seed=3)
+        os.remove(os.path.join(run_dir, "case.toml"))
+        self.fifo("runC", "case.toml")
+        result = run_module("analyze", run_dir)
+        self.assertEqual(result.returncode, 0, result.stderr)
+
+
 if __name__ == "__main__":
     unittest.main()
