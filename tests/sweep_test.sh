@@ -137,6 +137,17 @@ rc=0; "$exe" sweep huge.toml -o huge > huge.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "V = 1e-9 exited $rc, not 2: $(cat huge.out)"
 grep -q "key 'campaign.velocities'" huge.out || fail "the refusal does not name the key: $(cat huge.out)"
 
+# A FIFO in a run's log's place is refused naming it (exit 2), not waited on; without it the
+# same campaign runs.
+campaign fifo "[0.5]"
+mkdir -p fifo/logs && mkfifo fifo/logs/s1_seed1_V0.5.log
+rc=0; timeout 60 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a FIFO log exited $rc, not 2: $(cat fifo.out)"
+grep -q "fifo/logs/s1_seed1_V0.5.log: is not a regular file" fifo.out ||
+  fail "the refusal does not name the FIFO: $(cat fifo.out)"
+rm fifo/logs/s1_seed1_V0.5.log
+"$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || fail "the campaign without the FIFO exited $?"
+
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished (each runs several seconds);
 # a bad period is refused.

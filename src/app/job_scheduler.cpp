@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "config_error.hpp"
 #include "run_loop.hpp"
 
 namespace cdshear {
@@ -34,10 +36,23 @@ int exit_code_of(int status) {
 
 pid_t start_job(const Job& job) {
   std::filesystem::create_directories(job.log.parent_path());
-  const int fd = ::open(job.log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  // O_NONBLOCK: a FIFO in the log's place fails at once (ENXIO without a reader) instead of
+  // waiting for one; anything but a regular file is then refused. Writes to a regular file do
+  // not block either way.
+  const int fd =
+      ::open(job.log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC | O_NONBLOCK, 0644);
+  // Something in the log's place that is not a file is bad input (exit 2), naming it.
+  const std::string not_a_file =
+      "is not a regular file (a FIFO or a device in a run's log's place): remove it";
+  if (fd < 0 && errno == ENXIO) throw ConfigError(job.log.string(), "", not_a_file);
   if (fd < 0)
     throw std::runtime_error("cannot open log file " + job.log.string() + ": " +
                              std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw ConfigError(job.log.string(), "", not_a_file);
+  }
   std::string header = "==== cdshear sweep starts";
   if (!job.where.empty()) header += " (" + job.where + ")";
   header += ":";
