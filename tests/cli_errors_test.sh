@@ -153,6 +153,10 @@ expect_status2 "campaign_dir: is empty" timeout 60 "$exe" report ""
 expect_status2 "file: is empty" timeout 60 "$exe" scene "" -o empty_scene
 test -e empty_scene && { echo "FAIL: an empty argument wrote a folder"; fails=$((fails + 1)); }
 checks=$((checks + 1))
+# An output folder that cannot be made names the true cause, not an "unexpected error".
+echo "a file" > plain_file
+expect_status2 "plain_file/sub: cannot create the output folder: Not a directory" \
+  "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o plain_file/sub
 # A --set key must be a case key: nothing in it can be read as part of its value.
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"
 expect_status2 "is not a case key" "$exe" run -q --set "shear velocity=1"

@@ -148,6 +148,14 @@ grep -q "fifo/logs/s1_seed1_V0.5.log: is not a regular file" fifo.out ||
 rm fifo/logs/s1_seed1_V0.5.log
 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || fail "the campaign without the FIFO exited $?"
 
+# A folder in the lock's place is named as the cause (not "another sweep is working").
+campaign locked "[0.5]"
+mkdir -p locked/.sweep.lock
+rc=0; "$exe" sweep locked.toml -o locked > locked.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a folder as the lock exited $rc, not 2: $(cat locked.out)"
+grep -q "locked/.sweep.lock: cannot open the sweep's lock file: Is a directory" locked.out ||
+  fail "the refusal does not name the lock: $(cat locked.out)"
+
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished (each runs several seconds);
 # a bad period is refused.

@@ -117,7 +117,10 @@ void claim_output_folder(const std::filesystem::path& dir, bool force, const std
       }
     }
   }
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)  // a file in the path, a read-only or special file system, a name too long...
+    throw ConfigError(dir.string(), "", "cannot create the output folder: " + ec.message());
 }
 
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,

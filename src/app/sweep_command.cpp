@@ -6,14 +6,17 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -229,8 +232,20 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   // until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
   // that died still hold it.
   const fs::path lock = dir / ".sweep.lock";
-  const int lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT, 0644);
-  if (lock_fd < 0 || ::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
+  // O_NONBLOCK: a FIFO there fails instead of waiting; the lock must be a regular file.
+  const int lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_NONBLOCK, 0644);
+  struct stat lock_stat {};
+  if (lock_fd < 0)
+    throw ConfigError(lock.string(), "",
+                      std::string("cannot open the sweep's lock file: ") + std::strerror(errno) +
+                          (errno == EISDIR ? " (a folder in its place: remove it)" : ""));
+  if (::fstat(lock_fd, &lock_stat) != 0 || !S_ISREG(lock_stat.st_mode)) {
+    ::close(lock_fd);
+    throw ConfigError(lock.string(), "",
+                      "is not a regular file (a FIFO or a device in the sweep's lock's place): "
+                      "remove it");
+  }
+  if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
     throw ConfigError(dir.string(), "",
                       "another sweep (or runs it left behind) is working in this folder; wait "
                       "for it to end, or stop it (its runs checkpoint on SIGTERM)");
