@@ -157,6 +157,18 @@ checks=$((checks + 1))
 echo "a file" > plain_file
 expect_status2 "plain_file/sub: cannot create the output folder: Not a directory" \
   "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o plain_file/sub
+# A blow-up that a resume goes past leaves no stale blowup_state.json behind; its message prints
+# a tiny bound as given.
+"$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.1 -o blown > /dev/null
+rc=0; "$exe" run -q --no-analyze --resume blown --set shear.duration=0.2 \
+  --set step.abort_overlap=1e-9 > blown.out 2>&1 || rc=$?
+checks=$((checks + 1))
+{ [ $rc -eq 3 ] && test -f blown/blowup_state.json && grep -q "exceeds abort_overlap 1e-09" blown.out; } ||
+  { echo "FAIL: no blow-up (exit $rc) or no state, or the bound misprinted: $(cat blown.out)"; fails=$((fails + 1)); }
+"$exe" run -q --no-analyze --resume blown --set shear.duration=0.2 --set step.abort_overlap=0.1 \
+  > /dev/null 2>&1 || { echo "FAIL: the resume past the blow-up failed"; fails=$((fails + 1)); }
+checks=$((checks + 1))
+test ! -e blown/blowup_state.json || { echo "FAIL: a stale blowup_state.json"; fails=$((fails + 1)); }
 # A --set key must be a case key: nothing in it can be read as part of its value.
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"
 expect_status2 "is not a case key" "$exe" run -q --set "shear velocity=1"

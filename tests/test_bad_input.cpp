@@ -235,6 +235,12 @@ TEST(BlowUp, TooFastApproachWithZeroMarginIsReported) {
   ASSERT_TRUE(r.blown_up);
   EXPECT_NE(r.problem.find("overlap 0.799"), std::string::npos) << r.problem;
   EXPECT_NE(r.problem.find("abort_overlap"), std::string::npos) << r.problem;
+  // A tiny bound is printed as given, not as 0.000000.
+  o.abort_overlap = 1e-9;
+  testing::Simulation tiny(s, o);
+  tiny.run(1);
+  EXPECT_NE(tiny.last().problem.find("exceeds abort_overlap 1e-09"), std::string::npos)
+      << tiny.last().problem;
 }
 
 TEST(BlowUp, SameApproachWithinTheMarginIsHandled) {

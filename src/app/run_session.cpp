@@ -148,8 +148,10 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   namespace fs = std::filesystem;
   const char* state_name = state_file_name(summary.outcome, end.reached_end);
   write_file_atomic(end.dir / state_name, state_to_json(world).dump(1) + "\n");
-  if (end.reached_end && summary.outcome == RunOutcome::kFinished)
-    fs::remove(end.dir / "interrupted_state.json");  // stale once the run is complete
+  if (end.reached_end && summary.outcome == RunOutcome::kFinished) {
+    fs::remove(end.dir / "interrupted_state.json");  // stale once the run is complete, and so
+    fs::remove(end.dir / "blowup_state.json");       // is a blow-up a resume went past
+  }
   nlohmann::json info = end.info;
   info["program"] = "cdshear";
   info["version"] = CDSHEAR_VERSION;

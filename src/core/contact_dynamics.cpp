@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "threads.hpp"
@@ -99,6 +100,15 @@ void ContactDynamics::follow_wrapped_disks(const World& world) {
   contacts_.insert(contacts_.end(), renamed_.begin(), renamed_.end());
   std::inplace_merge(contacts_.begin(), contacts_.begin() + middle, contacts_.end(), by_key);
 }
+
+namespace {
+/// x with 6 significant digits (std::to_string's 6 decimals print 1e-9 as 0.000000).
+std::string significant(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", x);
+  return text;
+}
+}  // namespace
 
 StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   StepReport report;
@@ -264,13 +274,13 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     report.problem = "a disk velocity became NaN or infinite";
   } else if (!std::isfinite(report.solver.residual)) {
     report.blown_up = true;
-    report.problem = "the solver residual is " + std::to_string(report.solver.residual) +
-                     " after " + std::to_string(report.solver.sweeps) + " sweeps" +
+    report.problem = "the solver residual is " + significant(report.solver.residual) + " after " +
+                     std::to_string(report.solver.sweeps) + " sweeps" +
                      (report.solver.hit_cap ? " (at the cap)" : "");
   } else if (report.max_overlap > options.abort_overlap) {
     report.blown_up = true;
-    report.problem = "overlap " + std::to_string(report.max_overlap) + " exceeds abort_overlap " +
-                     std::to_string(options.abort_overlap);
+    report.problem = "overlap " + significant(report.max_overlap) + " exceeds abort_overlap " +
+                     significant(options.abort_overlap);
   }
   report.seconds.measure = seconds_since(t0);
   return report;
