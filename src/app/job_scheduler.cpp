@@ -34,25 +34,27 @@ int exit_code_of(int status) {
 
 }  // namespace
 
-pid_t start_job(const Job& job) {
-  std::filesystem::create_directories(job.log.parent_path());
-  // O_NONBLOCK: a FIFO in the log's place fails at once (ENXIO without a reader) instead of
-  // waiting for one; anything but a regular file is then refused. Writes to a regular file do
-  // not block either way.
-  const int fd =
-      ::open(job.log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC | O_NONBLOCK, 0644);
-  // Something in the log's place that is not a file is bad input (exit 2), naming it.
+int open_regular_file(const std::filesystem::path& path, int flags, const std::string& role) {
   const std::string not_a_file =
-      "is not a regular file (a FIFO or a device in a run's log's place): remove it";
-  if (fd < 0 && errno == ENXIO) throw ConfigError(job.log.string(), "", not_a_file);
-  if (fd < 0)
-    throw std::runtime_error("cannot open log file " + job.log.string() + ": " +
-                             std::strerror(errno));
+      "is not a regular file (a FIFO or a device in " + role + "'s place): remove it";
+  const int fd = ::open(path.c_str(), flags | O_NONBLOCK, 0644);
+  if (fd < 0 && errno == ENXIO) throw ConfigError(path.string(), "", not_a_file);
+  if (fd < 0) return -1;
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    throw ConfigError(job.log.string(), "", not_a_file);
+    throw ConfigError(path.string(), "", not_a_file);
   }
+  return fd;
+}
+
+pid_t start_job(const Job& job) {
+  std::filesystem::create_directories(job.log.parent_path());
+  const int fd =
+      open_regular_file(job.log, O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, "a run's log");
+  if (fd < 0)
+    throw std::runtime_error("cannot open log file " + job.log.string() + ": " +
+                             std::strerror(errno));
   std::string header = "==== cdshear sweep starts";
   if (!job.where.empty()) header += " (" + job.where + ")";
   header += ":";

@@ -105,6 +105,13 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const JobEndCallback& on_end, const std::function<bool()>& also_stop = {},
                         const JobTick& tick = {});
 
+/// ::open(path, flags | O_NONBLOCK, 0644) of a file that must be a regular one: a FIFO in its
+/// place fails at once (ENXIO without a reader) instead of waiting for one, and anything but a
+/// regular file is refused as ConfigError(path, "is not a regular file (a FIFO or a device in
+/// <role>'s place): remove it"). Other failures return -1 with errno set, for the caller to
+/// report. Writes and locks on a regular file behave as without O_NONBLOCK.
+int open_regular_file(const std::filesystem::path& path, int flags, const std::string& role);
+
 /// Starts one job as a child process of this one, as run_jobs does (rank 0 of an MPI sweep keeps
 /// one of its own beside its workers): the command line (and `where`) appended to the log as its
 /// first line, then the job's output. Returns its pid. Throws std::runtime_error if the log cannot

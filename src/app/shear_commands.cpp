@@ -157,9 +157,7 @@ struct RunArgs {
 /// On resume only these may change: how long, what is written, and numerics of later steps.
 /// Physics (system, shear, preparation) and the measurement's layout come from the checkpoint.
 void check_resume_override(const std::string& item) {
-  std::string key = item.substr(0, item.find('='));  // spaces around it dropped, as --set does
-  while (!key.empty() && (key.back() == ' ' || key.back() == '\t')) key.pop_back();
-  while (!key.empty() && (key.front() == ' ' || key.front() == '\t')) key.erase(0, 1);
+  const std::string key = override_key(item);
   for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
     if (key.rfind(allowed, 0) == 0) return;
   throw ConfigError("--set " + item, key,

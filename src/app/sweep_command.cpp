@@ -6,7 +6,6 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <sys/file.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -232,19 +231,11 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   // until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
   // that died still hold it.
   const fs::path lock = dir / ".sweep.lock";
-  // O_NONBLOCK: a FIFO there fails instead of waiting; the lock must be a regular file.
-  const int lock_fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_NONBLOCK, 0644);
-  struct stat lock_stat {};
+  const int lock_fd = open_regular_file(lock, O_RDWR | O_CREAT, "the sweep's lock");
   if (lock_fd < 0)
     throw ConfigError(lock.string(), "",
                       std::string("cannot open the sweep's lock file: ") + std::strerror(errno) +
                           (errno == EISDIR ? " (a folder in its place: remove it)" : ""));
-  if (::fstat(lock_fd, &lock_stat) != 0 || !S_ISREG(lock_stat.st_mode)) {
-    ::close(lock_fd);
-    throw ConfigError(lock.string(), "",
-                      "is not a regular file (a FIFO or a device in the sweep's lock's place): "
-                      "remove it");
-  }
   if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
     throw ConfigError(dir.string(), "",
                       "another sweep (or runs it left behind) is working in this folder; wait "

@@ -9,6 +9,8 @@
 #include <limits>
 #include <tuple>
 
+#include "local_solve.hpp"
+
 namespace cdshear {
 
 namespace {
@@ -32,46 +34,60 @@ Velocity relative_velocity(const Contact& k, const std::vector<SolverBody>& bodi
           dvy * k.normal.x - dvx * k.normal.y + k.lever_a * a.omega + k.lever_b * b.omega};
 }
 
-void apply_impulse(const Contact& k, std::vector<SolverBody>& bodies, double dn, double dt) {
-  SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
-  SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
-  const double px = dn * k.normal.x - dt * k.normal.y;
-  const double py = dn * k.normal.y + dt * k.normal.x;
-  a.velocity.x += a.inv_mass.x * px;
-  a.velocity.y += a.inv_mass.y * py;
-  b.velocity.x -= b.inv_mass.x * px;
-  b.velocity.y -= b.inv_mass.y * py;
-  a.omega += a.inv_inertia * k.lever_a * dt;
-  b.omega += b.inv_inertia * k.lever_b * dt;
-}
+/// A sparse matrix being built entry by entry: one row per unknown, one column per body degree
+/// of freedom (x, y, rotation of each body), scaled by M^-1/2.
+struct Triplets {
+  std::vector<int> rows, cols;
+  std::vector<double> values;
 
-/// Diagonal Delassus entries (w_nn, w_tt) of a contact (nlgs_solver.cpp, fill_row).
-std::pair<double, double> delassus_diagonal(const Contact& k,
-                                            const std::vector<SolverBody>& bodies) {
-  const SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
-  const SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
-  const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
-  const Vec2 n = k.normal;
-  return {m_x * n.x * n.x + m_y * n.y * n.y, m_x * n.y * n.y + m_y * n.x * n.x +
-                                                 k.lever_a * k.lever_a * a.inv_inertia +
-                                                 k.lever_b * k.lever_b * b.inv_inertia};
+  void clear() {
+    rows.clear();
+    cols.clear();
+    values.clear();
+  }
+  /// Row `row` of H M^-1/2 for a direction `dir` with levers (lever_a, lever_b) between bodies
+  /// a and b: (dir, lever_a) on a, (-dir, lever_b) on b (contact.hpp); degrees of freedom of
+  /// zero inverse mass (imposed axes, walls' rotation) and zero entries are left out.
+  void add_row(std::size_t row, std::size_t ia, const SolverBody& a, std::size_t ib,
+               const SolverBody& b, Vec2 dir, double lever_a, double lever_b) {
+    add(row, ia, 0, dir.x, a.inv_mass.x);
+    add(row, ia, 1, dir.y, a.inv_mass.y);
+    add(row, ia, 2, lever_a, a.inv_inertia);
+    add(row, ib, 0, -dir.x, b.inv_mass.x);
+    add(row, ib, 1, -dir.y, b.inv_mass.y);
+    add(row, ib, 2, lever_b, b.inv_inertia);
+  }
+
+ private:
+  void add(std::size_t row, std::size_t body, std::size_t axis, double value, double inv_m) {
+    if (inv_m == 0.0 || value == 0.0) return;
+    rows.push_back(static_cast<int>(row));
+    cols.push_back(static_cast<int>(3 * body + axis));
+    values.push_back(value * std::sqrt(inv_m));
+  }
+};
+
+/// Applies (dn, dt) to the two bodies of contact k (apply_row_impulse, solver_rows.hpp).
+void apply_impulse(const Contact& k, std::vector<SolverBody>& bodies, double dn, double dt) {
+  apply_row_impulse(k, bodies[static_cast<std::size_t>(k.key.body_a)],
+                    bodies[static_cast<std::size_t>(k.key.body_b)], dn, dt);
 }
 
 /// Natural-map residual of the contact problem: sum over contacts of |R - proj_C(R - D^-1 u)|^2,
-/// D = diag(w_nn, w_tt) (the change each contact's exact local update would make if it were
-/// updated now, with the others held: zero exactly at a solution), and sum |R|^2.
+/// D = diag(w_nn, w_tt) (the change each contact's exact local update, decoupled_update of
+/// local_solve.hpp, would make if it were updated now with the others held: zero exactly at a
+/// solution), and sum |R|^2.
 std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
                                            const std::vector<SolverBody>& bodies, double inv_dt,
-                                           const std::vector<double>& w_nn,
-                                           const std::vector<double>& w_tt) {
+                                           const std::vector<double>& inv_w_nn,
+                                           const std::vector<double>& inv_w_tt) {
   double residual2 = 0.0, force2 = 0.0;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Contact& c = contacts[k];
     const Velocity u = relative_velocity(c, bodies, inv_dt);
-    const double r_n = std::max(0.0, c.impulse_n - u.n / w_nn[k]);
-    const double limit = c.friction * r_n;
-    const double r_t = std::clamp(c.impulse_t - u.t / w_tt[k], -limit, limit);
-    const double dn = r_n - c.impulse_n, dt = r_t - c.impulse_t;
+    const LocalImpulse next = decoupled_update({c.impulse_n, c.impulse_t}, u.n, u.t, inv_w_nn[k],
+                                               inv_w_tt[k], c.friction);
+    const double dn = next.n - c.impulse_n, dt = next.t - c.impulse_t;
     residual2 += dn * dn + dt * dt;
     force2 += c.impulse_n * c.impulse_n + c.impulse_t * c.impulse_t;
   }
@@ -83,16 +99,15 @@ std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
 struct ActiveSetSolver::Impl {
   cholmod_common common;
   std::vector<std::int8_t> status;
-  std::vector<std::int64_t> unknown;  ///< first unknown of each contact, -1 for an open one
-  std::vector<double> w_nn, w_tt;
+  std::vector<std::int64_t> unknown;       ///< first unknown of each contact, -1 for an open one
+  std::vector<double> inv_w_nn, inv_w_tt;  ///< 1 / the diagonal Delassus entries
   std::vector<SolverBody> base_bodies, start_bodies, full_bodies;
   std::vector<std::pair<double, double>> base_impulses, start_impulses, full_impulses;
   std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
   std::vector<double> solution;
-  std::vector<int> t_rows, t_cols;
-  std::vector<double> t_values;
-  std::vector<int> c_rows, c_cols;
-  std::vector<double> c_values, rhs;
+  /// H_rows M^-1/2 (the velocities held at 0) and H_cols M^-1/2 (the unknowns' impulses)
+  Triplets velocities, impulses;
+  std::vector<double> rhs;
 
   Impl() {
     cholmod_start(&common);
@@ -121,22 +136,25 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
   const double inv_dt = 1.0 / dt;
   s.status.assign(nc, kOpen);
   s.unknown.assign(nc, -1);
-  s.w_nn.resize(nc);
-  s.w_tt.resize(nc);
+  s.inv_w_nn.resize(nc);
+  s.inv_w_tt.resize(nc);
   double mean_diagonal = 0.0;
   for (std::size_t k = 0; k < nc; ++k) {
-    const auto [nn, tt] = delassus_diagonal(contacts[k], bodies);
-    s.w_nn[k] = nn;
-    s.w_tt[k] = tt;
-    mean_diagonal += nn;
+    const Contact& c = contacts[k];
+    const DelassusEntries w = delassus_entries(c, bodies[static_cast<std::size_t>(c.key.body_a)],
+                                               bodies[static_cast<std::size_t>(c.key.body_b)]);
+    s.inv_w_nn[k] = 1.0 / w.w_nn;
+    s.inv_w_tt[k] = 1.0 / w.w_tt;
+    mean_diagonal += w.w_nn;
   }
   mean_diagonal /= static_cast<double>(nc);
   // The residual relative to |R| on entry, a fixed scale (relative to the current |R|, a step
   // could lower it by inflating the forces along a self-stress); absolute where every impulse
   // was 0.
-  const double entry_force2 = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt).second;
+  const double entry_force2 =
+      natural_residual(contacts, bodies, inv_dt, s.inv_w_nn, s.inv_w_tt).second;
   const auto merit = [&] {
-    const double r2 = natural_residual(contacts, bodies, inv_dt, s.w_nn, s.w_tt).first;
+    const double r2 = natural_residual(contacts, bodies, inv_dt, s.inv_w_nn, s.inv_w_tt).first;
     return entry_force2 > 0.0 ? std::sqrt(r2 / entry_force2) : std::sqrt(r2);
   };
   // The iterate a step starts from (impulses and bodies) and the full Newton iterate, between
@@ -179,10 +197,10 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     for (std::size_t k = 0; k < nc; ++k) {
       Contact& c = contacts[k];
       const Velocity u = relative_velocity(c, bodies, inv_dt);
-      const double sigma_n = c.impulse_n - u.n / s.w_nn[k];
+      const double sigma_n = c.impulse_n - u.n * s.inv_w_nn[k];
       std::int8_t next = kOpen;
       if (sigma_n >= 0.0) {
-        const double sigma_t = c.impulse_t - u.t / s.w_tt[k];
+        const double sigma_t = c.impulse_t - u.t * s.inv_w_tt[k];
         const double limit = c.friction * sigma_n;
         next = std::abs(sigma_t) <= limit ? kStick
                : sigma_t > 0.0            ? kSlidePositive
@@ -222,19 +240,8 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     // 3. B = H_rows M^-1 H_cols^T + beta I, H_rows: the constrained velocities (u_n, and u_t
     // of sticking contacts), H_cols: the impulse directions of the unknowns (n and t of a
     // sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n).
-    s.t_rows.clear();
-    s.t_cols.clear();
-    s.t_values.clear();
-    s.c_rows.clear();
-    s.c_cols.clear();
-    s.c_values.clear();
-    const auto add = [](std::vector<int>& rows, std::vector<int>& cols, std::vector<double>& values,
-                        std::int64_t row, std::size_t body, int axis, double value, double inv_m) {
-      if (inv_m == 0.0 || value == 0.0) return;
-      rows.push_back(static_cast<int>(row));
-      cols.push_back(static_cast<int>(3 * body + static_cast<std::size_t>(axis)));
-      values.push_back(value * std::sqrt(inv_m));
-    };
+    s.velocities.clear();
+    s.impulses.clear();
     s.rhs.assign(unknowns, 0.0);
     for (std::size_t k = 0; k < nc; ++k) {
       if (s.unknown[k] < 0) continue;
@@ -242,57 +249,44 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       const auto ia = static_cast<std::size_t>(c.key.body_a);
       const auto ib = static_cast<std::size_t>(c.key.body_b);
       const SolverBody& a = bodies[ia];
-      const SolverBody& bb = bodies[ib];
+      const SolverBody& b = bodies[ib];
       const Vec2 n = c.normal, t{-n.y, n.x};
-      const std::int64_t row = s.unknown[k];
+      const auto row = static_cast<std::size_t>(s.unknown[k]);
       const Velocity u = relative_velocity(c, bodies, inv_dt);
-      const auto both = [&](std::int64_t r, Vec2 row_dir, double row_lever_a, double row_lever_b,
-                            Vec2 col_dir, double col_lever_a, double col_lever_b) {
-        add(s.t_rows, s.t_cols, s.t_values, r, ia, 0, row_dir.x, a.inv_mass.x);
-        add(s.t_rows, s.t_cols, s.t_values, r, ia, 1, row_dir.y, a.inv_mass.y);
-        add(s.t_rows, s.t_cols, s.t_values, r, ia, 2, row_lever_a, a.inv_inertia);
-        add(s.t_rows, s.t_cols, s.t_values, r, ib, 0, -row_dir.x, bb.inv_mass.x);
-        add(s.t_rows, s.t_cols, s.t_values, r, ib, 1, -row_dir.y, bb.inv_mass.y);
-        add(s.t_rows, s.t_cols, s.t_values, r, ib, 2, row_lever_b, bb.inv_inertia);
-        add(s.c_rows, s.c_cols, s.c_values, r, ia, 0, col_dir.x, a.inv_mass.x);
-        add(s.c_rows, s.c_cols, s.c_values, r, ia, 1, col_dir.y, a.inv_mass.y);
-        add(s.c_rows, s.c_cols, s.c_values, r, ia, 2, col_lever_a, a.inv_inertia);
-        add(s.c_rows, s.c_cols, s.c_values, r, ib, 0, -col_dir.x, bb.inv_mass.x);
-        add(s.c_rows, s.c_cols, s.c_values, r, ib, 1, -col_dir.y, bb.inv_mass.y);
-        add(s.c_rows, s.c_cols, s.c_values, r, ib, 2, col_lever_b, bb.inv_inertia);
-      };
+      s.velocities.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
       if (s.status[k] == kStick) {
-        both(row, n, 0.0, 0.0, n, 0.0, 0.0);
-        both(row + 1, t, c.lever_a, c.lever_b, t, c.lever_a, c.lever_b);
-        s.rhs[static_cast<std::size_t>(row + 1)] = -u.t;
+        s.impulses.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
+        s.velocities.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
+        s.impulses.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
+        s.rhs[row + 1] = -u.t;
       } else {
         const double st = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
-        both(row, n, 0.0, 0.0, n + st * t, st * c.lever_a, st * c.lever_b);
+        s.impulses.add_row(row, ia, a, ib, b, n + st * t, st * c.lever_a, st * c.lever_b);
       }
-      s.rhs[static_cast<std::size_t>(row)] = -u.n;
+      s.rhs[row] = -u.n;
     }
-    const auto to_sparse = [&](std::vector<int>& rows, std::vector<int>& cols,
-                               std::vector<double>& values) -> cholmod_sparse* {
+    const auto to_sparse = [&](const Triplets& m) -> cholmod_sparse* {
       cholmod_triplet* triplet = cholmod_allocate_triplet(
-          unknowns, 3 * bodies.size(), values.size(), 0, CHOLMOD_REAL, &s.common);
+          unknowns, 3 * bodies.size(), m.values.size(), 0, CHOLMOD_REAL, &s.common);
       if (triplet == nullptr) return nullptr;
-      std::copy(rows.begin(), rows.end(), static_cast<int*>(triplet->i));
-      std::copy(cols.begin(), cols.end(), static_cast<int*>(triplet->j));
-      std::copy(values.begin(), values.end(), static_cast<double*>(triplet->x));
-      triplet->nnz = values.size();
-      cholmod_sparse* m = cholmod_triplet_to_sparse(triplet, triplet->nnz, &s.common);
+      std::copy(m.rows.begin(), m.rows.end(), static_cast<int*>(triplet->i));
+      std::copy(m.cols.begin(), m.cols.end(), static_cast<int*>(triplet->j));
+      std::copy(m.values.begin(), m.values.end(), static_cast<double*>(triplet->x));
+      triplet->nnz = m.values.size();
+      cholmod_sparse* sparse = cholmod_triplet_to_sparse(triplet, triplet->nnz, &s.common);
       cholmod_free_triplet(&triplet, &s.common);
-      return m;
+      return sparse;
     };
     // CHOLMOD and KLU index with int here: a system beyond that is left to the sweeps.
     constexpr auto kMaxIndex = static_cast<std::size_t>(std::numeric_limits<int>::max());
-    if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex || s.t_values.size() > kMaxIndex) {
+    if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex ||
+        std::max(s.velocities.values.size(), s.impulses.values.size()) > kMaxIndex) {
       restore(s.base_bodies, s.base_impulses);
       report.factorised = false;
       break;
     }
-    cholmod_sparse* h_rows = to_sparse(s.t_rows, s.t_cols, s.t_values);
-    cholmod_sparse* h_cols = to_sparse(s.c_rows, s.c_cols, s.c_values);
+    cholmod_sparse* h_rows = to_sparse(s.velocities);
+    cholmod_sparse* h_cols = to_sparse(s.impulses);
     cholmod_sparse* h_cols_t = h_cols ? cholmod_transpose(h_cols, 1, &s.common) : nullptr;
     cholmod_sparse* b_matrix =
         h_rows && h_cols_t ? cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &s.common) : nullptr;

@@ -20,14 +20,7 @@ namespace cdshear {
 
 namespace {
 
-/// Delassus entries of one contact: W = sum over its two bodies of H_body M_body^-1 H_body^T with
-/// H rows (n, lever) and (t, lever) in (translation, rotation) coordinates. With the inverse
-/// masses summed per axis, (m_x, m_y) = M_a^-1 + M_b^-1 (diagonal), and t = perp(n) = (-n_y, n_x):
-///   w_nn = m_x n_x^2 + m_y n_y^2,  w_tt = m_x n_y^2 + m_y n_x^2 + levers^2 / inertias,
-///   w_nt = m_x n_x t_x + m_y n_y t_y = (m_y - m_x) n_x n_y,
-/// so w_nt is exactly 0 whenever m_x = m_y (any two disks) or n is along an axis (a flat wall),
-/// and such rows take the decoupled update. (Computed as n.(M^-1 t), it was a rounding residue
-/// of order 1e-17 instead of 0, which sent most rows to the general local solve.)
+/// One row and its Delassus entries (delassus_entries, solver_rows.hpp) from a contact.
 ///
 /// `step_scale` is the over-relaxation factor omega when omega > 1, else 1: the decoupled rows
 /// store omega / w_nn and omega / w_tt, the factors of their one-stage over-relaxed update
@@ -36,21 +29,16 @@ namespace {
 /// the product is 1 / w itself.
 void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const SolverBody& a,
               const SolverBody& b, double inv_dt, double step_scale) {
-  const Vec2 n = c.normal;
-  const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
   row.body_a = static_cast<std::uint32_t>(c.key.body_a);
   row.body_b = static_cast<std::uint32_t>(c.key.body_b);
-  row.normal = n;
+  row.normal = c.normal;
   row.lever_a = c.lever_a;
   row.lever_b = c.lever_b;
   row.bias_n = c.gap * inv_dt;
   row.friction = c.friction;
   row.impulse_n = c.impulse_n;
   row.impulse_t = c.impulse_t;
-  w.w_nn = m_x * n.x * n.x + m_y * n.y * n.y;
-  w.w_nt = (m_y - m_x) * n.x * n.y;
-  w.w_tt = m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
-           c.lever_b * c.lever_b * b.inv_inertia;
+  w = delassus_entries(c, a, b);
   row.inv_w_nn = step_scale * (1.0 / w.w_nn);
   row.inv_w_tt = w.w_nt == 0.0 ? step_scale * (1.0 / w.w_tt) : kCoupledRow;
 }

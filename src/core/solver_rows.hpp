@@ -50,9 +50,11 @@ static_assert(sizeof(SolverRow) == 88);
 inline constexpr double kCoupledRow = -1.0;
 
 /// Applies impulse (dn, dt) along (n, t = perp(n)) of a row: +P on a, -P on b, torques
-/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed.
-inline void apply_row_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, double dn,
-                              double dt) {
+/// lever * dt on both. Applying a zero impulse changes nothing, so no branch is needed. `Row` is
+/// anything with normal, lever_a and lever_b: a SolverRow, or a Contact (the active-set
+/// refinement works on the contacts).
+template <class Row>
+inline void apply_row_impulse(const Row& r, SolverBody& a, SolverBody& b, double dn, double dt) {
   const double px = dn * r.normal.x - dt * r.normal.y;
   const double py = dn * r.normal.y + dt * r.normal.x;
   a.velocity.x += a.inv_mass.x * px;
@@ -67,6 +69,24 @@ inline void apply_row_impulse(const SolverRow& r, SolverBody& a, SolverBody& b, 
 struct DelassusEntries {
   double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
 };
+
+/// The Delassus entries of a contact between bodies a and b: W = sum over its two bodies of
+/// H_body M_body^-1 H_body^T with H rows (n, lever) and (t, lever) in (translation, rotation)
+/// coordinates. With the inverse masses summed per axis, (m_x, m_y) = M_a^-1 + M_b^-1
+/// (diagonal), and t = perp(n) = (-n_y, n_x):
+///   w_nn = m_x n_x^2 + m_y n_y^2,  w_tt = m_x n_y^2 + m_y n_x^2 + levers^2 / inertias,
+///   w_nt = m_x n_x t_x + m_y n_y t_y = (m_y - m_x) n_x n_y,
+/// so w_nt is exactly 0 whenever m_x = m_y (any two disks) or n is along an axis (a flat wall).
+/// (Computed as n.(M^-1 t), it was a rounding residue of order 1e-17 instead of 0, which sent
+/// most rows to the general local solve.) `Row` is anything with normal, lever_a and lever_b.
+template <class Row>
+inline DelassusEntries delassus_entries(const Row& c, const SolverBody& a, const SolverBody& b) {
+  const Vec2 n = c.normal;
+  const double m_x = a.inv_mass.x + b.inv_mass.x, m_y = a.inv_mass.y + b.inv_mass.y;
+  return {m_x * n.x * n.x + m_y * n.y * n.y, (m_y - m_x) * n.x * n.y,
+          m_x * n.y * n.y + m_y * n.x * n.x + c.lever_a * c.lever_a * a.inv_inertia +
+              c.lever_b * c.lever_b * b.inv_inertia};
+}
 
 /// Groups [first_group, last_group) of rows that share no body: a sweep solves them at once,
 /// on as many threads as it has.

@@ -54,15 +54,20 @@ std::string case_key_problem(const std::string& key) {
   }
 }
 
+std::string override_key(const std::string& item) {
+  std::string key = item.substr(0, item.find('='));
+  const auto first = key.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return key.substr(first, key.find_last_not_of(" \t") - first + 1);
+}
+
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
                      OverrideSources* sources) {
   for (const std::string& item : overrides) {
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
       throw ConfigError("--set " + item, "", "expected key=value");
-    std::string key = item.substr(0, eq);  // `--set 'shear.velocity = 1'` reads as without spaces
-    while (!key.empty() && (key.back() == ' ' || key.back() == '\t')) key.pop_back();
-    while (!key.empty() && (key.front() == ' ' || key.front() == '\t')) key.erase(0, 1);
+    const std::string key = override_key(item);
     if (const std::string problem = case_key_problem(key); !problem.empty())
       throw ConfigError("--set " + item, "", "the key " + problem);
     std::string value = item.substr(eq + 1);

@@ -39,6 +39,10 @@ using OverrideSources = std::map<std::string, std::string>;
 /// read as part of its value when the override is passed on as `key=value` text.
 std::string case_key_problem(const std::string& key);
 
+/// The key of an override "key=value", spaces and tabs around it dropped
+/// (`--set 'shear.velocity = 1'` reads as `shear.velocity=1`).
+std::string override_key(const std::string& item);
+
 /// Applies `--set` overrides "a.b.c=value" (value in TOML syntax; a bare word such as `random`
 /// is a string) to `root`, creating intermediate tables, and records each key's source in
 /// `sources` (if given) so that a bad value is blamed on the --set, not on the file. Throws
