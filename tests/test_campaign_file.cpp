@@ -42,7 +42,7 @@ TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
   ASSERT_EQ(c.overrides.size(), 2u);
   EXPECT_EQ(c.overrides[0], "measure.enabled=false");
   EXPECT_EQ(c.overrides[1].rfind("solver.order=", 0), 0u);
-  EXPECT_EQ(c.seeds, std::vector<std::uint64_t>{3});
+  EXPECT_EQ(c.groups.at(0).seeds, std::vector<std::uint64_t>{3});
   EXPECT_FALSE(c.analyze);
   // analyze defaults to true
   EXPECT_TRUE(
@@ -54,18 +54,19 @@ TEST(CampaignFile, LogRangeIsGeometric) {
       "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
       "[campaign.velocity_range]\nfrom = 0.01\nto = 1\ncount = 5\nspacing = \"log\"\n");
   const std::vector<double> want = {0.01, 0.0316228, 0.1, 0.316228, 1.0};
-  ASSERT_EQ(c.velocities.size(), want.size());
-  for (std::size_t k = 0; k < want.size(); ++k) EXPECT_DOUBLE_EQ(c.velocities[k], want[k]) << k;
+  ASSERT_EQ(c.groups.at(0).velocities.size(), want.size());
+  for (std::size_t k = 0; k < want.size(); ++k)
+    EXPECT_DOUBLE_EQ(c.groups[0].velocities[k], want[k]) << k;
   EXPECT_EQ(c.runs[1].name, "s1_seed1_V0.0316228");
   // log is the default spacing; linear is evenly spaced
   const Campaign lin = parse(
       "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
       "[campaign.velocity_range]\nfrom = 0.5\nto = 2\ncount = 4\nspacing = \"linear\"\n");
-  EXPECT_EQ(lin.velocities, (std::vector<double>{0.5, 1.0, 1.5, 2.0}));
+  EXPECT_EQ(lin.groups.at(0).velocities, (std::vector<double>{0.5, 1.0, 1.5, 2.0}));
   const Campaign dflt = parse(
       "[campaign]\nname = \"r\"\nsystems = [1]\nduration = 10\n"
       "[campaign.velocity_range]\nfrom = 0.1\nto = 10\ncount = 3\n");
-  EXPECT_EQ(dflt.velocities, (std::vector<double>{0.1, 1.0, 10.0}));
+  EXPECT_EQ(dflt.groups.at(0).velocities, (std::vector<double>{0.1, 1.0, 10.0}));
 }
 
 TEST(CampaignFile, StrainBecomesADurationPerRun) {
@@ -94,7 +95,7 @@ TEST(CampaignFile, DurationsPerSystem) {
   EXPECT_DOUBLE_EQ(c.runs[1].duration, 10000.0);
   const Campaign back =
       campaign_from_toml(campaign_to_toml(c), "p.toml", std::filesystem::current_path().string());
-  EXPECT_EQ(back.duration_of_system, c.duration_of_system);
+  EXPECT_EQ(back.groups.at(0).duration_of_system, c.groups.at(0).duration_of_system);
 }
 
 TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
@@ -119,11 +120,65 @@ TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
   EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
   // a change is named
   Campaign changed = c;
-  changed.velocities.back() = 3.0;
+  changed.groups.at(0).velocities.back() = 3.0;
   const auto diff = campaign_differences(resolved, campaign_to_toml(changed));
   ASSERT_EQ(diff.size(), 1u);
   EXPECT_EQ(diff[0].rfind("campaign.velocities: ", 0), 0u) << diff[0];
   EXPECT_NE(campaign_fingerprint(campaign_to_toml(changed)), campaign_fingerprint(resolved));
+}
+
+TEST(CampaignFile, GroupsGiveEachPurposeItsOwnRuns) {
+  // Velocities around a transition with two seeds, and another system with its own range and
+  // duration: the runs of each group, in group order, and the resolved form keeps the groups.
+  const Campaign c = parse(
+      "[campaign]\nname = \"g\"\nboundary_thickness = [10.0]\n"
+      "[[campaign.group]]\npurpose = \"regimes of system 1\"\nsystems = [1]\n"
+      "velocities = [0.1, 0.2]\nseeds = [1, 2]\nduration = 50\n"
+      "[[campaign.group]]\nsystems = [2]\nstrain = 4\n"
+      "[campaign.group.velocity_range]\nfrom = 1\nto = 4\ncount = 3\n");
+  ASSERT_TRUE(c.grouped);
+  ASSERT_EQ(c.groups.size(), 2u);
+  EXPECT_EQ(c.groups[0].purpose, "regimes of system 1");
+  ASSERT_EQ(c.runs.size(), 7u);
+  EXPECT_EQ(c.runs[0].name, "s1_seed1_V0.1");
+  EXPECT_EQ(c.runs[3].name, "s1_seed2_V0.2");
+  EXPECT_DOUBLE_EQ(c.runs[3].duration, 50.0);
+  EXPECT_EQ(c.runs[4].name, "s2_seed1_V1");
+  EXPECT_EQ(c.runs[6].name, "s2_seed1_V4");
+  EXPECT_DOUBLE_EQ(c.runs[6].duration, 4.0 * 40.0 / (2.0 * 4.0));  // t = strain L_y / 2V
+  const toml::table resolved = campaign_to_toml(c);
+  const Campaign back = campaign_from_toml(resolved, "back.toml", "/");
+  ASSERT_EQ(back.runs.size(), c.runs.size());
+  for (std::size_t k = 0; k < c.runs.size(); ++k) {
+    EXPECT_EQ(back.runs[k].name, c.runs[k].name);
+    EXPECT_EQ(back.runs[k].duration, c.runs[k].duration);
+  }
+  EXPECT_EQ(back.groups[0].purpose, c.groups[0].purpose);
+  EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
+  // adding a group is a change that names the groups
+  Campaign more = c;
+  more.groups.push_back(c.groups[1]);
+  more.groups.back().systems = {3};
+  EXPECT_FALSE(campaign_differences(resolved, campaign_to_toml(more)).empty());
+}
+
+TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {
+  TempDir dir("campaign_packing");
+  const std::string packing = dir.write("p.json", "{}");
+  const std::string head = "[campaign]\nname = \"p\"\npacking = { 1 = \"" + packing + "\" }\n";
+  const std::string group =
+      "[[campaign.group]]\nsystems = [1]\nvelocities = [0.5]\nduration = 10\n";
+  EXPECT_EQ(campaign_from_toml(toml::parse(head + group), "p.toml", "/").packings.at(1), packing);
+  try {
+    campaign_from_toml(toml::parse(head + group +
+                                   "[[campaign.group]]\nsystems = [1]\nvelocities = [0.7]\n"
+                                   "seeds = [2]\nduration = 10\n"),
+                       "p.toml", "/");
+    FAIL() << "two seeds of system 1 shared one given packing";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "campaign.packing.1");
+    EXPECT_NE(std::string(e.what()).find("serves one seed"), std::string::npos) << e.what();
+  }
 }
 
 /// The file is refused with a ConfigError naming the file and `key`.
@@ -229,6 +284,16 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "unknown key");
   expect_refused(kHead + ok_rest + "packing = { 1 = \"missing.json\" }\n", "campaign.packing.1",
                  "no packing file");
+  // groups: the runs are listed in [campaign] or in groups, each run in one group
+  const std::string group = "[[campaign.group]]\n" + ok_rest;
+  expect_refused(kHead + "systems = [1]\n" + group, "campaign.systems", "each [[campaign.group]]");
+  expect_refused(kHead + "group = []\n", "campaign.group", "empty");
+  expect_refused(kHead + group + group, "campaign.group[1]", "campaign.group[0] already");
+  expect_refused(kHead + group + "frobnicate = 1\n", "campaign.group[0].frobnicate", "unknown key");
+  expect_refused(kHead + "[[campaign.group]]\nsystems = [1]\nvelocities = [-1]\nduration = 1\n",
+                 "campaign.group[0].velocities", "> 0");
+  expect_refused(kHead + group + "[[campaign.group]]\nsystems = [1]\nvelocities = [0.7]\n",
+                 "campaign.group[1].duration", "required");
 }
 
 }  // namespace

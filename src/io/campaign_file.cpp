@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -96,6 +97,91 @@ Campaign read_campaign(const std::string& path) {
   return campaign_from_toml(table, path, dir.string());
 }
 
+namespace {
+
+/// The keys that list a group's runs: in [campaign] for a one-group campaign, else in each
+/// [[campaign.group]].
+const std::vector<std::string> kGroupKeys = {"systems", "velocities", "velocity_range",
+                                             "seeds",   "duration",   "strain"};
+
+/// One group's lists and duration from `t` ([campaign] itself, or one [[campaign.group]]).
+CampaignGroup read_group(TomlReader& t) {
+  CampaignGroup g;
+  for (const std::int64_t k : t.integer_array("systems", std::numeric_limits<int>::min(),
+                                              std::numeric_limits<int>::max())) {
+    if (k < 1 || k > 7)
+      t.fail("systems",
+             "system " + std::to_string(k) + " is unknown: the systems of SPEC 6 are 1..7");
+    g.systems.push_back(static_cast<int>(k));
+  }
+  if (g.systems.empty()) t.fail("systems", "is empty: name at least one system");
+  for (std::size_t i = 0; i < g.systems.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (g.systems[i] == g.systems[j])
+        t.fail("systems", "lists system " + std::to_string(g.systems[i]) + " twice");
+
+  const bool has_list = t.has("velocities"), has_range = t.has("velocity_range");
+  if (has_list && has_range)
+    t.fail("velocity_range", "give either velocities or velocity_range, not both");
+  if (!has_list && !has_range) t.fail("velocities", "is required (or a velocity_range table)");
+  if (has_list) {
+    g.velocities = t.number_array("velocities");
+    if (g.velocities.empty()) t.fail("velocities", "is empty: give at least one V");
+    for (const double v : g.velocities)
+      if (!(v > 0.0) || !std::isfinite(v))
+        t.fail("velocities", "every V must be a finite number > 0, got " + format_number(v));
+  } else {
+    TomlReader r = t.table("velocity_range");
+    g.velocities = velocity_range(r);
+  }
+  std::set<std::string> velocity_names;  // as the run folders name them
+  for (const double v : g.velocities)
+    if (!velocity_names.insert(format_number(v)).second)
+      t.fail(has_list ? "velocities" : "velocity_range",
+             "gives V = " + format_number(v) +
+                 " twice (the same run twice; V is told apart to 6 significant digits)");
+
+  if (t.has("seeds")) {
+    for (const std::int64_t s :
+         t.integer_array("seeds", 0, std::numeric_limits<std::int64_t>::max()))
+      g.seeds.push_back(static_cast<std::uint64_t>(s));
+    if (g.seeds.empty()) t.fail("seeds", "is empty: give at least one seed (default [1])");
+  } else {
+    g.seeds = {1};
+  }
+  std::set<std::uint64_t> seen_seeds;  // n log n: a long list must not take quadratic time
+  for (const std::uint64_t seed : g.seeds)
+    if (!seen_seeds.insert(seed).second)
+      t.fail("seeds", "lists seed " + std::to_string(seed) + " twice (the same runs twice)");
+
+  const bool has_duration = t.has("duration"), has_strain = t.has("strain");
+  if (has_duration && has_strain)
+    t.fail("strain", "give either duration (time units) or strain, not both");
+  if (!has_duration && !has_strain)
+    t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
+  if (has_duration) {
+    if (t.has_table("duration")) {
+      // One duration per system (SPEC 6 gives each its own simulated time).
+      TomlReader per = t.table("duration");
+      for (const int k : g.systems) {
+        const std::string key = std::to_string(k);
+        if (!per.has(key))
+          per.fail(key,
+                   "is missing: a per-system duration must give every system of the "
+                   "campaign its own");
+        g.duration_of_system[k] = per.positive(key);
+      }
+      per.finish();  // a system not in the campaign is refused here
+    } else {
+      g.duration = t.positive("duration");
+    }
+  }
+  if (has_strain) g.strain = t.positive("strain");
+  return g;
+}
+
+}  // namespace
+
 Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                             const std::string& base_dir) {
   Campaign c;
@@ -110,77 +196,27 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
           "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos)
     t.fail("name", "must be a folder name: letters, digits, '.', '_', '-', got '" + c.name + "'");
 
-  for (const std::int64_t k : t.integer_array("systems", std::numeric_limits<int>::min(),
-                                              std::numeric_limits<int>::max())) {
-    if (k < 1 || k > 7)
-      t.fail("systems",
-             "system " + std::to_string(k) + " is unknown: the systems of SPEC 6 are 1..7");
-    c.systems.push_back(static_cast<int>(k));
-  }
-  if (c.systems.empty()) t.fail("systems", "is empty: name at least one system");
-  for (std::size_t i = 0; i < c.systems.size(); ++i)
-    for (std::size_t j = 0; j < i; ++j)
-      if (c.systems[i] == c.systems[j])
-        t.fail("systems", "lists system " + std::to_string(c.systems[i]) + " twice");
-
-  const bool has_list = t.has("velocities"), has_range = t.has("velocity_range");
-  if (has_list && has_range)
-    t.fail("velocity_range", "give either velocities or velocity_range, not both");
-  if (!has_list && !has_range)
-    t.fail("velocities", "is required (or a [campaign.velocity_range] table)");
-  if (has_list) {
-    c.velocities = t.number_array("velocities");
-    if (c.velocities.empty()) t.fail("velocities", "is empty: give at least one V");
-    for (const double v : c.velocities)
-      if (!(v > 0.0) || !std::isfinite(v))
-        t.fail("velocities", "every V must be a finite number > 0, got " + format_number(v));
-  } else {
-    TomlReader r = t.table("velocity_range");
-    c.velocities = velocity_range(r);
-  }
-  std::set<std::string> velocity_names;  // as the run folders name them
-  for (const double v : c.velocities)
-    if (!velocity_names.insert(format_number(v)).second)
-      t.fail(has_list ? "velocities" : "velocity_range",
-             "gives V = " + format_number(v) +
-                 " twice (the same run twice; V is told apart to 6 significant digits)");
-
-  if (t.has("seeds")) {
-    for (const std::int64_t s :
-         t.integer_array("seeds", 0, std::numeric_limits<std::int64_t>::max()))
-      c.seeds.push_back(static_cast<std::uint64_t>(s));
-    if (c.seeds.empty()) t.fail("seeds", "is empty: give at least one seed (default [1])");
-  } else {
-    c.seeds = {1};
-  }
-  std::set<std::uint64_t> seen_seeds;  // n log n: a long list must not take quadratic time
-  for (const std::uint64_t seed : c.seeds)
-    if (!seen_seeds.insert(seed).second)
-      t.fail("seeds", "lists seed " + std::to_string(seed) + " twice (the same runs twice)");
-
-  const bool has_duration = t.has("duration"), has_strain = t.has("strain");
-  if (has_duration && has_strain)
-    t.fail("strain", "give either duration (time units) or strain, not both");
-  if (!has_duration && !has_strain)
-    t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
-  if (has_duration) {
-    if (t.has_table("duration")) {
-      // One duration per system (SPEC 6 gives each its own simulated time).
-      TomlReader per = t.table("duration");
-      for (const int k : c.systems) {
-        const std::string key = std::to_string(k);
-        if (!per.has(key))
-          per.fail(key,
-                   "is missing: a per-system duration must give every system of the "
-                   "campaign its own");
-        c.duration_of_system[k] = per.positive(key);
-      }
-      per.finish();  // a system not in the campaign is refused here
-    } else {
-      c.duration = t.positive("duration");
+  // The runs: [campaign] itself, or [[campaign.group]] tables (never both).
+  std::vector<TomlReader> group_readers;  // kept to name a group's keys in later errors
+  c.grouped = t.has("group");
+  if (c.grouped) {
+    for (const std::string& key : kGroupKeys)
+      if (t.has(key))
+        t.fail(key, "is given in each [[campaign.group]] when the campaign has groups");
+    group_readers = t.tables("group");
+    if (group_readers.empty()) t.fail("group", "is empty: give at least one [[campaign.group]]");
+    for (TomlReader& g : group_readers) {
+      CampaignGroup group = read_group(g);
+      group.purpose = g.string("purpose", "");
+      g.finish();
+      c.groups.push_back(std::move(group));
     }
+  } else {
+    c.groups.push_back(read_group(t));
+    group_readers.push_back(t);
   }
-  if (has_strain) c.strain = t.positive("strain");
+  std::set<int> all_systems;
+  for (const CampaignGroup& g : c.groups) all_systems.insert(g.systems.begin(), g.systems.end());
 
   if (t.has("boundary_thickness")) {
     c.boundary_thickness = t.number_array("boundary_thickness");
@@ -193,7 +229,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   c.analyze = t.boolean("analyze", true);
 
   TomlReader packings = t.table("packing");
-  for (const int k : c.systems) {
+  for (const int k : all_systems) {
     const std::string key = std::to_string(k);
     if (!packings.has(key)) continue;
     std::string p = packings.string(key);
@@ -201,9 +237,13 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
     fs::path abs = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
     abs = abs.lexically_normal();
     if (!fs::is_regular_file(abs)) packings.fail(key, "no packing file at " + abs.string());
-    if (c.seeds.size() > 1)
+    std::set<std::uint64_t> seeds;  // of this system, over the groups that run it
+    for (const CampaignGroup& g : c.groups)
+      if (std::find(g.systems.begin(), g.systems.end(), k) != g.systems.end())
+        seeds.insert(g.seeds.begin(), g.seeds.end());
+    if (seeds.size() > 1)
       packings.fail(key, "a given packing serves one seed, the campaign lists " +
-                             std::to_string(c.seeds.size()));
+                             std::to_string(seeds.size()) + " for system " + key);
     c.packings[k] = abs.string();
   }
   packings.finish();  // a packing for a system not in the campaign is refused here
@@ -230,9 +270,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
 
   // A bound on the campaign's size (SPEC 6's whole study is a few hundred runs): each run is
   // resolved below, and a folder is made for each.
-  const double run_count = static_cast<double>(c.systems.size()) *
-                           static_cast<double>(c.seeds.size()) *
-                           static_cast<double>(c.velocities.size());
+  double run_count = 0.0;
+  for (const CampaignGroup& g : c.groups)
+    run_count += static_cast<double>(g.systems.size()) * static_cast<double>(g.seeds.size()) *
+                 static_cast<double>(g.velocities.size());
   if (run_count > kMaxCampaignRuns)
     throw ConfigError(file, "campaign",
                       fmt::format("lists {:.0f} runs (systems x seeds x velocities), more than the "
@@ -240,76 +281,108 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                                   run_count, kMaxCampaignRuns));
 
   // Every run, resolved by the case loader of `cdshear run`.
-  for (const int system : c.systems)
-    for (const std::uint64_t seed : c.seeds)
-      for (const double v : c.velocities) {
-        CampaignRun run;
-        run.name = campaign_run_name(system, seed, v);
-        run.system = system;
-        run.velocity = v;
-        run.seed = seed;
-        CaseSource src;
-        src.system = system;
-        src.velocity = v;
-        src.overrides = run_case_overrides(c, run);  // checked as the run will get them
-        ShearCase sc;
-        try {
-          sc = load_case(src);
-        } catch (const ConfigError& e) {
-          const std::string key = e.key() == "measure.boundary_thickness"
-                                      ? std::string("campaign.boundary_thickness")
-                                  : e.key() == "shear.velocity" ? std::string("campaign.velocities")
-                                  : e.key().empty()             ? std::string("set")
-                                                                : "set." + e.key();
-          throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
+  std::map<std::string, std::size_t> group_of_run;  // run name -> its group
+  for (std::size_t gi = 0; gi < c.groups.size(); ++gi) {
+    const CampaignGroup& g = c.groups[gi];
+    const TomlReader& gr = group_readers[gi];
+    for (const int system : g.systems)
+      for (const std::uint64_t seed : g.seeds)
+        for (const double v : g.velocities) {
+          CampaignRun run;
+          run.name = campaign_run_name(system, seed, v);
+          if (const auto [it, added] = group_of_run.emplace(run.name, gi); !added)
+            t.fail(fmt::format("group[{}]", gi),
+                   fmt::format("lists run {} again: it is in campaign.group[{}] already (a run "
+                               "belongs to one group)",
+                               run.name, it->second));
+          run.system = system;
+          run.velocity = v;
+          run.seed = seed;
+          CaseSource src;
+          src.system = system;
+          src.velocity = v;
+          src.overrides = run_case_overrides(c, run);  // checked as the run will get them
+          ShearCase sc;
+          try {
+            sc = load_case(src);
+          } catch (const ConfigError& e) {
+            const std::string key = e.key() == "measure.boundary_thickness"
+                                        ? std::string("campaign.boundary_thickness")
+                                    : e.key() == "shear.velocity" ? gr.full_key("velocities")
+                                    : e.key().empty()             ? std::string("set")
+                                                                  : "set." + e.key();
+            throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
+          }
+          if (c.analyze && !sc.measure.enabled)
+            t.fail("analyze",
+                   "is true, but the runs measure nothing ([set] measure.enabled = false): there "
+                   "would be no analysis; give analyze = false, or let the runs measure");
+          run.n = sc.n;
+          run.height = sc.height;
+          run.duration = g.duration                      ? *g.duration
+                         : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
+                                                         : *g.strain * sc.height / (2.0 * v);
+          sc.duration = run.duration;
+          resolve_time_step(sc);
+          run.dt = sc.step.dt;
+          const double steps = run.duration / run.dt;
+          if (!(steps >= 0.5))
+            gr.fail(g.strain ? "strain" : "duration",
+                    fmt::format(
+                        "gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
+                        run.name, run.duration, run.dt));
+          if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
+            gr.fail(g.strain ? "strain" : "duration",
+                    fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
+                                "(docs/reliability.md)",
+                                run.name, steps, kMaxRunSteps));
+          c.runs.push_back(run);
         }
-        if (c.analyze && !sc.measure.enabled)
-          t.fail("analyze",
-                 "is true, but the runs measure nothing ([set] measure.enabled = false): there "
-                 "would be no analysis; give analyze = false, or let the runs measure");
-        run.n = sc.n;
-        run.height = sc.height;
-        run.duration = c.duration                      ? *c.duration
-                       : !c.duration_of_system.empty() ? c.duration_of_system.at(system)
-                                                       : *c.strain * sc.height / (2.0 * v);
-        sc.duration = run.duration;
-        resolve_time_step(sc);
-        run.dt = sc.step.dt;
-        const double steps = run.duration / run.dt;
-        if (!(steps >= 0.5))
-          t.fail(
-              c.strain ? "strain" : "duration",
-              fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
-                          run.name, run.duration, run.dt));
-        if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
-          t.fail(c.strain ? "strain" : "duration",
-                 fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
-                             "(docs/reliability.md)",
-                             run.name, steps, kMaxRunSteps));
-        c.runs.push_back(run);
-      }
+  }
   return c;
 }
 
-toml::table campaign_to_toml(const Campaign& c) {
-  toml::array systems, velocities, seeds, boundary;
-  for (const int k : c.systems) systems.push_back(k);
-  for (const double v : c.velocities) velocities.push_back(v);
-  for (const std::uint64_t s : c.seeds) seeds.push_back(static_cast<std::int64_t>(s));
-  for (const double h : c.boundary_thickness) boundary.push_back(h);
-  toml::table campaign{{"name", c.name},
-                       {"systems", systems},
-                       {"velocities", velocities},
-                       {"seeds", seeds},
-                       {"analyze", c.analyze}};
-  if (c.duration) campaign.insert("duration", *c.duration);
-  if (!c.duration_of_system.empty()) {
+namespace {
+
+/// A group's lists and duration as TOML keys (into [campaign] or one [[campaign.group]]).
+void insert_group(toml::table& into, const CampaignGroup& g) {
+  toml::array systems, velocities, seeds;
+  for (const int k : g.systems) systems.push_back(k);
+  for (const double v : g.velocities) velocities.push_back(v);
+  for (const std::uint64_t s : g.seeds) seeds.push_back(static_cast<std::int64_t>(s));
+  into.insert("systems", systems);
+  into.insert("velocities", velocities);
+  into.insert("seeds", seeds);
+  if (g.duration) into.insert("duration", *g.duration);
+  if (!g.duration_of_system.empty()) {
     toml::table per;
-    for (const auto& [k, d] : c.duration_of_system) per.insert(std::to_string(k), d);
-    campaign.insert("duration", per);
+    for (const auto& [k, d] : g.duration_of_system) per.insert(std::to_string(k), d);
+    into.insert("duration", per);
   }
-  if (c.strain) campaign.insert("strain", *c.strain);
-  if (!c.boundary_thickness.empty()) campaign.insert("boundary_thickness", boundary);
+  if (g.strain) into.insert("strain", *g.strain);
+}
+
+}  // namespace
+
+toml::table campaign_to_toml(const Campaign& c) {
+  toml::table campaign{{"name", c.name}, {"analyze", c.analyze}};
+  if (c.grouped) {
+    toml::array groups;
+    for (const CampaignGroup& g : c.groups) {
+      toml::table group;
+      if (!g.purpose.empty()) group.insert("purpose", g.purpose);
+      insert_group(group, g);
+      groups.push_back(group);
+    }
+    campaign.insert("group", groups);
+  } else {
+    insert_group(campaign, c.groups.at(0));
+  }
+  if (!c.boundary_thickness.empty()) {
+    toml::array boundary;
+    for (const double h : c.boundary_thickness) boundary.push_back(h);
+    campaign.insert("boundary_thickness", boundary);
+  }
   if (!c.packings.empty()) {
     toml::table packing;
     for (const auto& [k, p] : c.packings) packing.insert(std::to_string(k), p);

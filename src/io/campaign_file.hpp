@@ -1,6 +1,6 @@
 // Campaign files (TOML) -> Campaign: the runs of a `cdshear sweep` (systems x velocities x
-// seeds, one duration or strain, shared case overrides), resolved and checked before anything
-// runs. Schema: docs/campaigns.md.
+// seeds with one duration or strain, in one or several groups; shared case overrides), resolved
+// and checked before anything runs. Schema: docs/campaigns.md.
 #pragma once
 
 #include <cstdint>
@@ -27,29 +27,41 @@ struct CampaignRun {
   double cost() const { return static_cast<double>(n) * duration / dt; }
 };
 
-struct Campaign {
-  std::string file;  ///< where it was read from (for messages)
-  std::string name;  ///< [campaign] name: default folder campaigns/<name>
+/// Runs that share their lists and duration: systems x seeds x velocities. A campaign is one
+/// group ([campaign] itself) or several ([[campaign.group]], each with the runs of one purpose,
+/// such as the velocities around a transition with two seeds).
+struct CampaignGroup {
+  std::string purpose;  ///< what the runs are for (free text, kept in the resolved file)
   std::vector<int> systems;
   std::vector<double> velocities;  ///< every V [d/t], in the order given (a range expanded)
   std::vector<std::uint64_t> seeds;
   std::optional<double> duration;            ///< [t], the same for every run; or per system:
   std::map<int, double> duration_of_system;  ///< [t] (`duration = { 1 = 20000, 7 = 13000 }`); or
   std::optional<double> strain;  ///< total shear strain 2 V t / L_y, per run t = strain L_y / 2V
+};
+
+struct Campaign {
+  std::string file;  ///< where it was read from (for messages)
+  std::string name;  ///< [campaign] name: default folder campaigns/<name>
+  /// One group read from [campaign] itself, or the [[campaign.group]] tables in order.
+  std::vector<CampaignGroup> groups;
+  bool grouped = false;                    ///< the runs come from [[campaign.group]] tables
   std::vector<double> boundary_thickness;  ///< measure.boundary_thickness [d]; empty: the case's
   bool analyze = true;                     ///< each run ends with analyze + plot
   std::map<int, std::string> packings;     ///< system -> given packing file (absolute path)
   /// [set]: case-key overrides "key=value" (value as TOML), applied to every run like --set.
   std::vector<std::string> overrides;
-  std::vector<CampaignRun> runs;  ///< systems x seeds x velocities, in that nesting order
+  /// Per group, systems x seeds x velocities in that nesting order; a run in two groups is
+  /// refused.
+  std::vector<CampaignRun> runs;
 };
+
+/// The most runs a campaign may list (systems x seeds x velocities, over all groups).
+inline constexpr int kMaxCampaignRuns = 10000;
 
 /// Reads and resolves a campaign file. Throws ConfigError naming the file, the key and the
 /// problem (unknown key, unknown system, empty or bad velocities, duplicate runs, both or
 /// neither of duration/strain, a [set] key the case refuses, ...).
-/// The most runs a campaign may list (systems x seeds x velocities).
-inline constexpr int kMaxCampaignRuns = 10000;
-
 Campaign read_campaign(const std::string& path);
 
 /// The same from a parsed table; `file` names it in errors, `base_dir` anchors relative packing
