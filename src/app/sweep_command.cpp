@@ -48,6 +48,7 @@ struct SweepArgs {
   int threads = 1;  ///< solver threads of each run
   bool quiet = false;
   bool force = false;
+  bool dry_run = false;           ///< print the resolved campaign and exit
   double progress_every = 600.0;  ///< [s] between periodic progress lines; 0: none
 };
 
@@ -203,6 +204,10 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
 /// scheduler that hands the jobs to the `ranks` ranks (rank 0 included), one at a time each.
 int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   const Campaign c = read_campaign(args.file);
+  if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
+    std::fputs(campaign_file_text(c).c_str(), stdout);
+    return 0;
+  }
   const fs::path dir =
       fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
   const fs::path exe = fs::read_symlink("/proc/self/exe");
@@ -521,6 +526,9 @@ void register_sweep_command(CLI::App& app) {
       ->type_name("SECONDS");
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");
+  s->add_flag("--dry-run", args->dry_run,
+              "print the resolved campaign (every run with its duration, dt and cost) and exit: "
+              "nothing is prepared, run or written");
   s->callback([args]() {
     int rc = 0;
 #ifdef CDSHEAR_WITH_MPI
