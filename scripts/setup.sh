@@ -9,6 +9,7 @@ packages=(build-essential cmake ninja-build libcli11-dev libtomlplusplus-dev nlo
           libsuitesparse-dev
           clang libclang-rt-14-dev openmpi-bin libopenmpi-dev
           python3-numpy python3-scipy python3-matplotlib python3-h5py
+          python3-venv python3-pip python3-setuptools python3-wheel
           chromium-headless-shell)
 missing=()
 for p in "${packages[@]}"; do

@@ -262,9 +262,10 @@ def software(campaign_text, run_dirs):
     return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}
 
 
-def usable_summary(run_dir, reanalysed):
+def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
     """(parsed summary.json of RUN_DIR, None) when it can be pooled, re-analysing a stale one
-    from run.h5 (appending (run, reason) to reanalysed), or (None, why it is left out)."""
+    from run.h5 (appending (run, reason) to reanalysed; with reanalyse_stale False, a stale one
+    is left out instead), or (None, why it is left out)."""
     from .rundata import RUN_FILE, RunDataError
     name = os.path.basename(os.path.normpath(run_dir))
     s = read_summary(run_dir)
@@ -278,6 +279,8 @@ def usable_summary(run_dir, reanalysed):
         return None, why
     if not os.path.isfile(os.path.join(run_dir, RUN_FILE)):
         return None, f"{why} and there is no {RUN_FILE} to analyse it again"
+    if not reanalyse_stale:
+        return None, f"{why}: left out (`cdshear analyze` the run to bring it up to date)"
     try:
         s = reanalyse(run_dir)
     except RunDataError as e:
@@ -290,10 +293,11 @@ def usable_summary(run_dir, reanalysed):
     return s, None
 
 
-def collect(campaign_dir):
+def collect(campaign_dir, reanalyse_stale=True):
     """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)] (the runs
-    left out), "reanalysed": [(run, reason)] (stale summaries analysed again), "notes": [text]}
-    (notes: about the campaign folder, not about a run)."""
+    left out), "reanalysed": [(run, reason)] (stale summaries analysed again; with
+    reanalyse_stale False none is, and nothing is written), "notes": [text]} (notes: about the
+    campaign folder, not about a run)."""
     if not os.path.isdir(campaign_dir):
         raise ReportError(campaign_dir, "not a folder")
     toml_path = os.path.join(campaign_dir, "campaign.toml")
@@ -318,7 +322,7 @@ def collect(campaign_dir):
         if not os.path.isfile(os.path.join(runs_dir, d, "summary.json")):
             skipped.append((d, "not analysed: no summary.json (`cdshear analyze` it)"))
             continue
-        s, why = usable_summary(os.path.join(runs_dir, d), reanalysed)
+        s, why = usable_summary(os.path.join(runs_dir, d), reanalysed, reanalyse_stale)
         if s is None:
             skipped.append((d, why))
             continue

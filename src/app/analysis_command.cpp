@@ -14,6 +14,24 @@
 
 namespace cdshear {
 
+AnalysisPackage find_analysis_package() {
+  namespace fs = std::filesystem;
+  const auto has_package = [](const fs::path& dir) {
+    std::error_code ec;
+    return fs::is_regular_file(dir / "cdshear_analysis" / "__main__.py", ec);
+  };
+  if (const char* env = std::getenv("CDSHEAR_ANALYSIS_DIR"); env != nullptr && *env != '\0')
+    return {env, "CDSHEAR_ANALYSIS_DIR", has_package(env)};
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed =
+        (exe.parent_path() / CDSHEAR_INSTALLED_PYTHON_DIR).lexically_normal();
+    if (has_package(installed)) return {installed, "install", true};
+  }
+  return {CDSHEAR_PYTHON_DIR, "source tree", has_package(CDSHEAR_PYTHON_DIR)};
+}
+
 int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  const std::vector<std::string>& extra) {
   // The interpreter with Debian's numpy/scipy/matplotlib/h5py; CDSHEAR_PYTHON overrides it.
@@ -26,23 +44,20 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  python.c_str(), verb.c_str());
     return 1;
   }
-  // The analysis package: the source tree's python/ folder, whose path is built in;
-  // CDSHEAR_ANALYSIS_DIR overrides it (a cdshear whose source tree has moved or is gone).
-  const char* env_dir = std::getenv("CDSHEAR_ANALYSIS_DIR");
-  const bool from_env = env_dir != nullptr && *env_dir != '\0';
-  const std::string package_dir = from_env ? env_dir : CDSHEAR_PYTHON_DIR;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(
-          std::filesystem::path(package_dir) / "cdshear_analysis" / "__main__.py", ec)) {
+  const AnalysisPackage package = find_analysis_package();
+  if (!package.found) {
     std::fprintf(stderr,
                  "error: %s/cdshear_analysis: the analysis package is not there (%s); set "
-                 "CDSHEAR_ANALYSIS_DIR to the `python` folder of a cdshear source tree\n",
-                 package_dir.c_str(),
-                 from_env
+                 "CDSHEAR_ANALYSIS_DIR to the folder that holds cdshear_analysis (a source "
+                 "tree's `python` folder, or an install's)\n",
+                 package.dir.c_str(),
+                 package.source == "CDSHEAR_ANALYSIS_DIR"
                      ? "from CDSHEAR_ANALYSIS_DIR"
-                     : "this cdshear was built from a source tree that has since moved or gone");
+                     : "this cdshear is not installed and was built from a source tree that has "
+                       "since moved or gone");
     return 1;
   }
+  const std::string package_dir = package.dir.string();
   std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, run_dir.string()};
   args.insert(args.end(), extra.begin(), extra.end());
   std::fflush(stdout);

@@ -43,7 +43,11 @@ int main(int argc, char** argv) {
   }
   CLI::App app{"cdshear " CDSHEAR_VERSION
                ": Contact Dynamics simulation of dense granular flow sheared between walls"};
-  app.set_version_flag("--version", cdshear::build_description());
+  app.set_version_flag("--version", [] {
+    const cdshear::AnalysisPackage package = cdshear::find_analysis_package();
+    return cdshear::build_description() + "\nanalysis package: " + package.dir.string() + " (" +
+           package.source + (package.found ? "" : ", missing") + ")";
+  });
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);

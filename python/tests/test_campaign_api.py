@@ -1,0 +1,94 @@
+"""The notebook API: load_campaign gives runs.csv's table as arrays, never writes, and leaves out
+stale summaries with the reason; the package's version is the program's."""
+import csv
+import json
+import os
+import re
+import tempfile
+import unittest
+
+import numpy as np
+
+import cdshear_analysis
+from cdshear_analysis import load_campaign
+from cdshear_analysis.report import ReportError
+
+from .test_report import fake_summary, main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+class LoadCampaign(unittest.TestCase):
+    def setUp(self):
+        self._tmp = tempfile.TemporaryDirectory()
+        self.d = self._tmp.name
+        runs = os.path.join(self.d, "runs")
+        fake_summary(os.path.join(runs, "s2_seed1_V1"), 1.0, 0.05, 0.30, 0.80, 3.0)
+        fake_summary(os.path.join(runs, "s2_seed1_V2"), 2.0, 0.10, 0.34, 0.79, 2.9)
+        fake_summary(os.path.join(runs, "s2_seed1_V0.1"), 0.1, 1e-5, 0.2, 0.81, 3.1, regime="B")
+        with open(os.path.join(self.d, "campaign.toml"), "w") as f:
+            f.write('[campaign]\nname = "api"\n\n# Runs (name, duration [t], dt [t], cost):\n'
+                    "#   s2_seed1_V1  duration 1000  dt 0.002  cost 5e8\n"
+                    "#   s2_seed1_V4  duration 1000  dt 0.0005  cost 2e9\n")
+
+    def tearDown(self):
+        self._tmp.cleanup()
+
+    def test_columns_are_the_report_table(self):
+        c = load_campaign(self.d)
+        self.assertEqual(c.name, "api")
+        self.assertEqual(len(c.rows), 3)
+        # the same values as runs.csv, column by column
+        self.assertEqual(main(["report", self.d]), 0)
+        with open(os.path.join(self.d, "report", "runs.csv")) as f:
+            table = list(csv.DictReader(f))
+        self.assertEqual(list(table[0].keys()), list(c.columns.keys()))
+        for k, row in enumerate(table):
+            for col in ("V", "I_bulk", "mu_eff_bulk", "mu_eff_bulk_err", "h10_top_I"):
+                self.assertAlmostEqual(c.columns[col][k], float(row[col]), msg=col)
+            self.assertEqual(c.columns["regime"][k], row["regime"])
+        self.assertEqual(c.columns["I_bulk"].dtype, np.float64)
+        self.assertEqual([r["run"] for r in c.select(regime="A")], ["s2_seed1_V1", "s2_seed1_V2"])
+        self.assertIn(("s2_seed1_V4", "not started: no run folder"), c.skipped)
+
+    def test_stale_summary_is_left_out_without_writing(self):
+        path = os.path.join(self.d, "runs", "s2_seed1_V2", "summary.json")
+        with open(path) as f:
+            s = json.load(f)
+        s["version"] -= 1
+        with open(path, "w") as f:
+            json.dump(s, f)
+        before = os.stat(path).st_mtime_ns
+        c = load_campaign(self.d)
+        self.assertEqual([r["run"] for r in c.rows], ["s2_seed1_V0.1", "s2_seed1_V1"])
+        reasons = dict(c.skipped)
+        self.assertIn("older", reasons["s2_seed1_V2"])
+        self.assertEqual(os.stat(path).st_mtime_ns, before)
+
+    def test_frame_or_a_clear_message(self):
+        c = load_campaign(self.d)
+        try:
+            import pandas  # noqa: F401
+        except ImportError:
+            with self.assertRaisesRegex(ImportError, "python3-pandas"):
+                c.frame()
+        else:
+            self.assertEqual(list(c.frame()["run"]), [r["run"] for r in c.rows])
+
+    def test_not_a_campaign_folder(self):
+        with self.assertRaises(ReportError):
+            load_campaign(os.path.join(self.d, "missing"))
+
+
+class Version(unittest.TestCase):
+    def test_package_version_is_the_programs(self):
+        with open(os.path.join(ROOT, "CMakeLists.txt")) as f:
+            program = re.search(r"project\(cdshear VERSION (\S+)", f.read()).group(1)
+        with open(os.path.join(ROOT, "python", "pyproject.toml")) as f:
+            packaged = re.search(r'^version = "([^"]+)"', f.read(), re.M).group(1)
+        self.assertEqual(cdshear_analysis.__version__, program)
+        self.assertEqual(packaged, program)
+
+
+if __name__ == "__main__":
+    unittest.main()
