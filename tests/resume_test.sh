@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A shear run stopped (at a chosen time, and by SIGTERM at an arbitrary moment) and resumed ends
 # in exactly the same state, with the same run.h5 (series, windows, snapshot), as the same run
-# done in one go; and a run without the measurement observers ends in the same state.
+# done in one go; and a run without the measurement observers ends in the same state. Its
+# progress.json follows the stop and the resume.
 # Usage: resume_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -19,7 +20,19 @@ common=(-q --no-analyze --packing "$packing" --set shear.duration=6
 test -f "$work/stopped/interrupted_state.json"
 grep -q '"outcome": "stopped"' "$work/stopped/run_info.json" ||
   { echo "FAIL: a run ended by --stop-at must say outcome \"stopped\", not finished"; exit 1; }
+# progress.json says where it stopped, and after the resume where the resume began and that it
+# finished (docs/shear-cell.md, "Outputs of a run").
+progress() {  # progress FOLDER: "state time sitting_start_time duration" from progress.json
+  /usr/bin/python3 -c 'import json, sys; p = json.load(open(sys.argv[1]))
+assert p["format"] == "cdshear-progress" and p["version"] == 1, p
+print(p["state"], round(p["time"], 6), round(p["sitting_start_time"], 6), p["duration"])' \
+    "$1/progress.json"
+}
+[ "$(progress "$work/stopped")" = "stopped 1.2 0.0 6.0" ] ||
+  { echo "FAIL: progress.json after --stop-at 1.2: $(progress "$work/stopped")"; exit 1; }
 "$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
+[ "$(progress "$work/stopped")" = "finished 6.0 1.2 6.0" ] ||
+  { echo "FAIL: progress.json after the resume: $(progress "$work/stopped")"; exit 1; }
 
 # Killed with SIGTERM at whatever step it has reached 0 to 0.3 s after its first checkpoint
 # (t = 0.5 of 6: a fixed sleep from the start would miss a fast run), then resumed.

@@ -48,6 +48,15 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   StepOptions step_options = options;
   const bool choosing = settings.choose_threads && options.solver.threads > 1;
   ThreadChooser chooser(choosing ? options.solver.threads : 1);
+  auto last_progress = start;
+  const double first_time = world.time;
+  const auto report_progress = [&](Clock::time_point now, bool last) {
+    if (!settings.on_progress) return;
+    last_progress = now;
+    settings.on_progress({world.step, world.time, first_step, first_time,
+                          std::chrono::duration<double>(now - start).count(), last});
+  };
+  report_progress(start, false);
 
   while (world.step < settings.end_step) {
     if (g_stop_requested.load()) {
@@ -122,6 +131,8 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
       interval_steps = 0;
       interval = IntervalStats{};
     }
+    if (std::chrono::duration<double>(now - last_progress).count() >= settings.progress_seconds)
+      report_progress(now, false);
     if (settings.progress_bar && total > 0 &&
         std::chrono::duration<double>(now - last_bar).count() > 0.25) {
       last_bar = now;
@@ -135,7 +146,9 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
     }
   }
   if (settings.progress_bar) std::fputs("\r\033[K", stderr);
-  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const auto end = Clock::now();
+  summary.wall_seconds = std::chrono::duration<double>(end - start).count();
+  report_progress(end, true);
   if (summary.steps > 0) {
     summary.mean_sweeps = sum_sweeps / static_cast<double>(summary.steps);
     summary.mean_contacts = sum_contacts / static_cast<double>(summary.steps);

@@ -31,6 +31,16 @@ struct ScheduledObserver {
   Observer* observer = nullptr;
 };
 
+/// Where a run stands in this sitting (this call of run_until), for a progress file.
+struct RunProgress {
+  std::uint64_t step = 0;             ///< the step reached
+  double time = 0.0;                  ///< [t] the simulated time reached
+  std::uint64_t sitting_step = 0;     ///< the step this sitting started from
+  double sitting_time = 0.0;          ///< [t] the time this sitting started from
+  double sitting_wall_seconds = 0.0;  ///< [s] wall time of this sitting so far
+  bool last = false;                  ///< the loop is returning
+};
+
 struct RunLoopSettings {
   std::uint64_t end_step = 0;      ///< run until world.step reaches this
   std::uint64_t status_every = 0;  ///< steps between status lines; 0: none
@@ -42,6 +52,10 @@ struct RunLoopSettings {
   /// Optional check of the state after every step: a non-empty answer names a problem and stops
   /// the run as blown up (for example the shear cell's walls flying apart).
   std::function<std::string(const World&)> check_state;
+  /// Called with where the run stands before the first step, every `progress_seconds` of wall
+  /// time, and as the loop returns; empty: never. It must not change the state.
+  std::function<void(const RunProgress&)> on_progress;
+  double progress_seconds = 2.0;  ///< [s] between calls of on_progress
 };
 
 enum class RunOutcome { kFinished, kInterrupted, kBlownUp };

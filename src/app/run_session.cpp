@@ -42,9 +42,9 @@ bool is_written_run_file(std::string_view name) {
       tmp != std::string_view::npos && all_digits(name.substr(tmp + 5)) && tmp > 0 &&
       name.substr(0, tmp).find(".tmp.") == std::string_view::npos)
     return is_written_run_file(name.substr(0, tmp));
-  for (const char* fixed :
-       {"case.toml", "scene.toml", "run.h5", "summary.json", "checkpoint.cbor", "timeseries.csv",
-        "final_state.json", "interrupted_state.json", "blowup_state.json", "run_info.json"})
+  for (const char* fixed : {"case.toml", "scene.toml", "run.h5", "summary.json", "checkpoint.cbor",
+                            "timeseries.csv", "final_state.json", "interrupted_state.json",
+                            "blowup_state.json", "run_info.json", "progress.json"})
     if (name == fixed) return true;
   constexpr std::string_view prefix = "run_info_resume_", suffix = ".json";
   if (!name.starts_with(prefix) || !name.ends_with(suffix) ||

@@ -1,12 +1,13 @@
 // `cdshear sweep CAMPAIGN.toml`: every run of a campaign (docs/campaigns.md) as a child process
 // of this executable (`prepare` once per system and seed, then `run` or `run --resume`), several
 // at once, resumable, with one log per run, a progress line after each and, every
-// --progress-every seconds, one with an estimate from the running runs' logs.
+// --progress-every seconds, one with an estimate from the running runs' progress.json.
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <sys/file.h>
 #include <unistd.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cerrno>
@@ -106,80 +107,36 @@ double seconds_left(double rate, const JobProgress& p, const std::vector<Job>& j
                                              p.running + p.waiting)));
 }
 
-/// What a run's log says of its current sitting: the part of the log from byte `from` on (its
-/// size when the sweep planned the run; the log is append-only and only that run writes it).
-struct SittingLog {
-  std::optional<double> resumed_at;  ///< t of its checkpoint ("resuming DIR at step N, t T")
-  std::optional<double> t;           ///< t of its last status line ("step N  t T  contacts ...")
-  double age = 0.0;  ///< [s] since that line was written, if it is the log's last; 0 otherwise
+/// Where a running run stands in its current sitting, from its progress.json (written by `cdshear
+/// run` every 2 s of wall time; docs/shear-cell.md, "Outputs of a run").
+struct SittingProgress {
+  std::optional<double> resumed_at;  ///< [t] where this sitting started (0 for a new run)
+  std::optional<double> t;           ///< [t] the time reached
+  double age = 0.0;                  ///< [s] since the file was written
 };
 
-/// Reads at most the first and the last 4 KB of the sitting; a partial last line is ignored. A
-/// log that is missing or unreadable, or says nothing yet, gives an empty answer.
-SittingLog read_sitting_log(const fs::path& log, std::uintmax_t from) {
-  constexpr std::uintmax_t kBytes = 4096;
-  SittingLog out;
-  std::error_code ec;
-  const std::uintmax_t size = fs::file_size(log, ec);
-  if (ec || size <= from) return out;
-  std::ifstream in(log, std::ios::binary);
-  const auto read = [&](std::uintmax_t at, std::uintmax_t n) {
-    std::string text(static_cast<std::size_t>(n), '\0');
-    in.clear();
-    in.seekg(static_cast<std::streamoff>(at));
-    in.read(text.data(), static_cast<std::streamsize>(n));
-    text.resize(static_cast<std::size_t>(std::max<std::streamsize>(0, in.gcount())));
-    return text;
+/// Reads RUN_DIR/progress.json; a file that is missing, unreadable, or older than this sitting
+/// (written before `sitting_seconds` ago: a killed earlier sitting's) gives an empty answer.
+SittingProgress read_sitting_progress(const fs::path& run_dir, double sitting_seconds) {
+  SittingProgress out;
+  std::ifstream in(run_dir / "progress.json");
+  if (!in) return out;
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return out;
+  const auto number = [&j](const char* key) -> std::optional<double> {
+    const auto it = j.find(key);
+    if (it == j.end() || !it->is_number()) return std::nullopt;
+    const double x = it->get<double>();
+    return std::isfinite(x) ? std::optional<double>(x) : std::nullopt;
   };
-  // The complete lines of `text`, the first one dropped if `text` may start inside a line.
-  const auto lines = [](const std::string& text, bool skip_first) {
-    std::vector<std::string_view> v;
-    std::size_t start = 0;
-    for (std::size_t nl = text.find('\n'); nl != std::string::npos;
-         start = nl + 1, nl = text.find('\n', start)) {
-      if (skip_first) {
-        skip_first = false;
-        continue;
-      }
-      v.push_back(std::string_view(text).substr(start, nl - start));
-    }
-    return v;
-  };
-  const auto number_after = [](std::string_view line, std::string_view key,
-                               bool last) -> std::optional<double> {
-    const std::size_t at = last ? line.rfind(key) : line.find(key);
-    if (at == std::string_view::npos) return std::nullopt;
-    const std::string rest(line.substr(at + key.size()));
-    char* end = nullptr;
-    const double x = std::strtod(rest.c_str(), &end);
-    if (end == rest.c_str() || !std::isfinite(x)) return std::nullopt;
-    return x;
-  };
-  // A resumed run says where it resumed before its first status line (src/app/shear_commands.cpp).
-  const std::string head = read(from, std::min(size - from, kBytes));
-  for (const std::string_view line : lines(head, false)) {
-    if (line.starts_with("step ")) break;
-    if (line.starts_with("resuming ") && line.find(" at step ") != std::string_view::npos)
-      out.resumed_at = number_after(line, ", t ", true);
-  }
-  // The last status line (src/app/run_loop.cpp): "step %10llu  t %10.4f  contacts ...".
-  const std::uintmax_t tail_from = std::max(from, size - std::min(size, kBytes));
-  const std::string tail = read(tail_from, size - tail_from);
-  const std::vector<std::string_view> tail_lines = lines(tail, tail_from > from);
-  for (std::size_t i = tail_lines.size(); i-- > 0;) {
-    const std::string_view line = tail_lines[i];
-    if (!line.starts_with("step ") || line.find(" contacts ") == std::string_view::npos) continue;
-    out.t = number_after(line, "  t ", false);
-    if (!out.t) continue;
-    if (i + 1 == tail_lines.size() && !tail.empty() && tail.back() == '\n') {
-      // Nothing written since: the log's age is the line's.
-      const auto mtime = fs::last_write_time(log, ec);
-      if (!ec)
-        out.age = std::max(
-            0.0, std::chrono::duration<double>(fs::file_time_type::clock::now() - mtime).count());
-    }
-    break;
-  }
+  const std::optional<double> updated = number("updated_unix_seconds");
+  if (!updated) return out;
+  const double now =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  out.age = std::max(0.0, now - *updated);
+  if (out.age > sitting_seconds + 1.0) return {};  // 1 s: the clocks' granularity
+  out.resumed_at = number("sitting_start_time");
+  out.t = number("time");
   return out;
 }
 
@@ -320,9 +277,7 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   };
   std::vector<Job> run_jobs_list;
   std::vector<Planned> planned;
-  // Per job: the run's duration (0 for an analysis), and where its log's current sitting starts.
-  std::vector<double> duration_of;
-  std::vector<std::uintmax_t> log_from;
+  std::vector<double> duration_of;  // per job: the run's duration (0 for an analysis)
   std::vector<std::string> failed;  // "NAME: why, log FILE"
   std::size_t finished_before = 0;
   std::set<std::size_t> analysis_jobs;  // jobs that only analyse a finished run
@@ -342,7 +297,6 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
         analysis_jobs.insert(run_jobs_list.size());
         run_jobs_list.push_back(j);
         duration_of.push_back(0.0);
-        log_from.push_back(0);
       }
       continue;
     }
@@ -377,9 +331,6 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
       if (fs::is_directory(rdir) && !fs::is_empty(rdir)) j.argv.push_back("--force");
     }
     if (!c.analyze) j.argv.push_back("--no-analyze");
-    std::error_code ec;
-    const std::uintmax_t log_size = fs::file_size(log, ec);
-    log_from.push_back(ec ? 0 : log_size);
     duration_of.push_back(r.duration);
     run_jobs_list.push_back(j);
     planned.push_back({&r, state});
@@ -443,20 +394,21 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   };
   // Every --progress-every seconds: the same counts, and the time left from the seconds per unit
   // of cost of the finished runs and of the running ones together (the seconds each has run in
-  // this sitting over the cost it has done since it started or resumed, from its log), times the
-  // cost left (a running run's share from its last status line).
+  // this sitting over the cost it has done since it started or resumed, from its progress.json),
+  // times the cost left (a running run's share from the time its progress.json has reached).
   const auto on_tick = [&](const JobProgress& p) {
     double seconds = done_seconds, cost = done_cost;
     std::map<std::size_t, double> share;  // running job -> share of its cost still to do
     for (const auto& [j, elapsed] : p.running_jobs) {
       const double d = duration_of[j];
       if (!(d > 0)) continue;  // an analysis
-      const SittingLog s = read_sitting_log(run_jobs_list[j].log, log_from[j]);
+      const SittingProgress s =
+          read_sitting_progress(dir / "runs" / run_jobs_list[j].name, elapsed);
       const double f0 = std::clamp(s.resumed_at.value_or(0.0) / d, 0.0, 1.0);
       if (s.t) {
         const double f = std::clamp(*s.t / d, 0.0, 1.0);
         share[j] = 1.0 - f;
-        // Its elapsed time when that line was written (a clock that disagrees: now).
+        // Its elapsed time when that file was written (a clock that disagrees: now).
         const double at = s.age < elapsed ? elapsed - s.age : elapsed;
         if (f > f0 && at > 0) {
           seconds += at;
@@ -521,7 +473,7 @@ void register_sweep_command(CLI::App& app) {
                              fmt::format("must be a number of seconds >= 0, got {}", seconds));
          args->progress_every = seconds;
        },
-       "seconds between progress lines with a time estimate from the running runs' logs "
+       "seconds between progress lines with a time estimate from the running runs' progress "
        "(default 600; 0: none)")
       ->type_name("SECONDS");
   s->add_flag("--force", args->force,
