@@ -53,6 +53,20 @@ done
 checks=$((checks + 1))
 test -f done/run_info.json || { echo "FAIL: the forced run wrote no run_info.json"; fails=$((fails + 1)); }
 
+# One writer per run folder: while a run is going, a resume of its folder and a new run forced
+# into it are refused naming the holder; once it has stopped, the resume goes on.
+"$exe" run -q --no-analyze --threads 1 --packing "$packing" --set shear.duration=500 \
+  --set output.checkpoint_interval=0.1 -o busy > /dev/null 2>&1 & busy_pid=$!
+for _ in $(seq 600); do [ -f busy/checkpoint.cbor ] && break; sleep 0.05; done
+expect_error "another cdshear is writing this folder (pid $busy_pid on " "$exe" run -q --resume busy
+expect_error "another cdshear is writing this folder (pid $busy_pid on " \
+  "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o busy --force
+kill -TERM $busy_pid; wait $busy_pid 2> /dev/null
+checks=$((checks + 1))
+stop=$(/usr/bin/python3 -c 'import json; print(json.load(open("busy/progress.json"))["time"] + 0.2)')
+"$exe" run -q --no-analyze --resume busy --stop-at "$stop" > /dev/null 2> err.txt ||
+  { echo "FAIL: the resume after the holder stopped: $(cat err.txt)"; fails=$((fails + 1)); }
+
 # analyze and plot: a folder that is not a run, an empty and a truncated run.h5 give a clear
 # error naming the file, with exit status 2.
 expect_status2() {  # expect_status2 "words in the message" command...

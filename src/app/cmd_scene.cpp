@@ -42,7 +42,7 @@ int run_scene(const SceneArgs& args) {
   const std::uint64_t end_step =
       checked_end_step(sf.run.duration, sf.step.dt, 0, args.file, "run.duration");
   const std::filesystem::path dir(args.out_dir);
-  claim_output_folder(dir, args.force, "");
+  const FolderLock lock = claim_output_folder(dir, args.force, "");
   {
     std::ostringstream resolved;
     resolved << sf.resolved << '\n';

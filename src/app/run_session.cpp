@@ -1,5 +1,6 @@
 #include "run_session.hpp"
 
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -7,8 +8,16 @@
 #include <string_view>
 #include <vector>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 
 #include "build_info.hpp"
 #include "config_error.hpp"
@@ -21,9 +30,57 @@ std::uint64_t steps_of(double interval, double dt) {
 }
 
 bool folder_is_free(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
   std::error_code ec;
-  return !std::filesystem::exists(dir, ec) ||
-         (std::filesystem::is_directory(dir, ec) && std::filesystem::is_empty(dir, ec));
+  if (!fs::exists(dir, ec)) return true;
+  if (!fs::is_directory(dir, ec)) return false;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
+    if (e.path().filename() != kFolderLockName) return false;
+  return !ec;
+}
+
+FolderLock FolderLock::take(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kFolderLockName;
+  FolderLock lock;
+  lock.fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+  if (lock.fd_ < 0)
+    throw ConfigError(file.string(), "",
+                      std::string("cannot open the folder's lock file: ") + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(lock.fd_, &st) != 0 || !S_ISREG(st.st_mode))
+    throw ConfigError(file.string(), "", "the folder's lock file is not a regular file");
+  if (::flock(lock.fd_, LOCK_EX | LOCK_NB) != 0) {
+    char holder[256] = {};
+    const ssize_t got = ::pread(lock.fd_, holder, sizeof holder - 1, 0);
+    std::string who(holder, got > 0 ? static_cast<std::size_t>(got) : 0);
+    while (!who.empty() && (who.back() == '\n' || who.back() == '\0')) who.pop_back();
+    throw ConfigError(dir.string(), "",
+                      "another cdshear is writing this folder (" +
+                          (who.empty() ? std::string("holder unknown") : who) +
+                          "); wait for it to end, or stop it (a run checkpoints on SIGTERM)");
+  }
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  const std::string who = fmt::format("pid {} on {} since {:%Y-%m-%d %H:%M:%S} UTC\n", ::getpid(),
+                                      host, fmt::gmtime(std::time(nullptr)));
+  if (::ftruncate(lock.fd_, 0) == 0) {
+    const ssize_t written = ::pwrite(lock.fd_, who.data(), who.size(), 0);
+    (void)written;  // the holder's name is a courtesy; the flock is the lock
+  }
+  return lock;
+}
+
+FolderLock& FolderLock::operator=(FolderLock&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = other.fd_;
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);
 }
 
 namespace {
@@ -88,15 +145,19 @@ void remove_written(const std::filesystem::path& folder, const Ours& ours) {
 
 }  // namespace
 
-void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint) {
+FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
+                               const std::string& hint) {
   namespace fs = std::filesystem;
   if (fs::exists(dir) && !fs::is_directory(dir))
     throw ConfigError(dir.string(), "", "exists and is not a folder");
+  // Locked before anything in it is looked at or removed: another run may be writing it.
+  FolderLock lock;
+  if (fs::is_directory(dir)) lock = FolderLock::take(dir);
   if (!folder_is_free(dir)) {
     if (!force) {
       std::vector<std::string> names;
       for (const fs::directory_entry& e : fs::directory_iterator(dir))
-        names.push_back(e.path().filename().string());
+        if (e.path().filename() != kFolderLockName) names.push_back(e.path().filename().string());
       std::sort(names.begin(), names.end());
       if (names.size() > 4) names.resize(4), names.push_back("...");
       throw ConfigError(dir.string(), "",
@@ -121,6 +182,7 @@ void claim_output_folder(const std::filesystem::path& dir, bool force, const std
   fs::create_directories(dir, ec);
   if (ec)  // a file in the path, a read-only or special file system, a name too long...
     throw ConfigError(dir.string(), "", "cannot create the output folder: " + ec.message());
+  return lock.held() ? std::move(lock) : FolderLock::take(dir);
 }
 
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,

@@ -26,14 +26,39 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
 /// Whole number of steps in a time interval (0 when the interval is 0: disabled).
 std::uint64_t steps_of(double interval, double dt);
 
-/// True when `dir` does not exist or is an empty folder.
+/// True when `dir` does not exist or is an empty folder (its lock file aside).
 bool folder_is_free(const std::filesystem::path& dir);
 
-/// The one rule of every command that writes a folder: a folder holding anything is refused
-/// (ConfigError naming it and what it holds, with `hint` on how to continue) unless `force`;
-/// with `force`, the outputs cdshear writes are removed first (nothing else is touched). Creates
-/// the folder.
-void claim_output_folder(const std::filesystem::path& dir, bool force, const std::string& hint);
+/// One writer per run folder: an exclusive flock on DIR/.cdshear.lock, held as long as this
+/// object lives (the process's life, for a run), whose file names the holder (pid, host, start).
+/// flock is local to one machine except on NFS, where Linux maps it to the server's byte-range
+/// locks (docs/reliability.md, "One writer per folder").
+class FolderLock {
+ public:
+  FolderLock() = default;
+  /// Takes the lock of `dir` (an existing folder), or throws ConfigError naming the folder and the
+  /// holder when another process has it.
+  static FolderLock take(const std::filesystem::path& dir);
+  FolderLock(FolderLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  FolderLock& operator=(FolderLock&& other) noexcept;
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  ~FolderLock();
+  bool held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+
+/// The file of a FolderLock, in the folder it guards.
+inline constexpr const char* kFolderLockName = ".cdshear.lock";
+
+/// The one rule of every command that writes a folder: a folder another cdshear is writing is
+/// refused (FolderLock); a folder holding anything is refused (ConfigError naming it and what it
+/// holds, with `hint` on how to continue) unless `force`; with `force`, the outputs cdshear
+/// writes are removed first (nothing else is touched). Creates the folder and returns its lock.
+FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
+                               const std::string& hint);
 
 /// The step at which a run of `duration` with step `dt` ends, checked: a step count that is not
 /// finite or above kMaxRunSteps, or a run with nothing left to do (end at or before

@@ -191,6 +191,7 @@ struct ShearSession {
   std::string case_source;     ///< where the case comes from, for error messages
   std::uint64_t end_step = 0;  ///< the step the run ends at (plan_run)
   std::string dt_warning;      ///< from the time-step rule, printed at start (empty: none)
+  FolderLock lock;             ///< one writer per run folder, held until the command ends
 };
 
 /// The physics a checkpoint belongs to: a checkpoint copied from another run must not resume
@@ -254,6 +255,8 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
                       "combined with --resume: the run continues with its own case.toml");
   if (!fs::exists(s.dir / "checkpoint.cbor"))
     throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
+  // Before anything is read: a run still writing this folder would overwrite the resume's files.
+  s.lock = FolderLock::take(s.dir);
   for (const std::string& item : args.c.overrides) check_resume_override(item);
   CaseSource src;
   src.file = (s.dir / "case.toml").string();
@@ -328,10 +331,10 @@ void open_new(const RunArgs& args, ShearSession& s) {
   } else {
     s.dir = args.out_dir;
   }
-  claim_output_folder(s.dir, args.force,
-                      fs::exists(s.dir / "checkpoint.cbor")
-                          ? "continue it with --resume " + s.dir.string()
-                          : std::string());
+  s.lock = claim_output_folder(s.dir, args.force,
+                               fs::exists(s.dir / "checkpoint.cbor")
+                                   ? "continue it with --resume " + s.dir.string()
+                                   : std::string());
   write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
 }
 
