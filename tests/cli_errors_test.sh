@@ -53,6 +53,16 @@ done
 checks=$((checks + 1))
 test -f done/run_info.json || { echo "FAIL: the forced run wrote no run_info.json"; fails=$((fails + 1)); }
 
+# A run's files belong together: another run's run.h5 (same dt, other V) copied into a stopped
+# run's folder is refused on resume, naming the file and the key.
+for V in 0.1 0.2; do
+  "$exe" run -q --no-analyze --packing "$packing" -V $V --set shear.duration=1 --stop-at 0.5 \
+    -o "mixed_$V" > /dev/null
+done
+cp mixed_0.2/run.h5 mixed_0.1/run.h5
+expect_error "run.h5: key 'velocity': the data are of a run with velocity = 0.2, case.toml says 0.1" \
+  "$exe" run -q --no-analyze --resume mixed_0.1
+
 # One writer per run folder: while a run is going, a resume of its folder and a new run forced
 # into it are refused naming the holder; once it has stopped, the resume goes on.
 "$exe" run -q --no-analyze --threads 1 --packing "$packing" --set shear.duration=500 \

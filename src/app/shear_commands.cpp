@@ -1,4 +1,5 @@
-// `cdshear prepare` and `cdshear run`: the shear cell of the reference study (SPEC 4-6).
+// `cdshear prepare` and `cdshear run`: the shear cell of the reference study (docs/model.md
+// sections 4 to 6).
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -54,7 +55,7 @@ void add_case_options(CLI::App* cmd, CaseArgs& a, bool threads_chosen_by_speed) 
       ->check(kNonEmptyPath);
   cmd->add_option_function<int>(
       "--system", [&a](int k) { a.system = k; },
-      "preset of SPEC 6, 1..7 (n, L_y, sigma_yy, duration)");
+      "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)");
   cmd->add_option_function<double>(
       "-V,--velocity",
       [&a](double v) {
@@ -360,6 +361,21 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
   RunData data = read_run_data(s.dir / "run.h5");
   const std::string data_file = (s.dir / "run.h5").string();
+  // The data must be this run's: another run's run.h5 copied into the folder (a V = 0.2 run's
+  // under a V = 0.1 case.toml and checkpoint) would join two flows in one record.
+  const auto same_run = [&](const char* key, double in_file, double in_run, const char* where) {
+    if (in_file != in_run)
+      throw ConfigError(data_file, key,
+                        fmt::format("the data are of a run with {} = {}, {} says {}: run.h5 "
+                                    "belongs to another run",
+                                    key, format_number(in_file), where, format_number(in_run)));
+  };
+  same_run("n", static_cast<double>(data.meta.n), static_cast<double>(s.c.n), "case.toml");
+  same_run("velocity", data.meta.velocity, s.c.velocity, "case.toml");
+  same_run("normal_stress", data.meta.normal_stress, s.c.normal_stress, "case.toml");
+  same_run("height", data.meta.height, s.c.height, "case.toml");
+  same_run("seed", static_cast<double>(data.meta.seed), static_cast<double>(s.c.seed), "case.toml");
+  same_run("length_x", data.meta.length_x, s.world.domain.length_x, "the checkpoint");
   // The step count, the samples and the windows are tied to the time step: a resume that
   // changes it (step.dt, step.dt_max, step.displacement_per_step) would mix two clocks.
   if (data.meta.dt != s.c.step.dt)
@@ -578,7 +594,8 @@ int run_prepare(const PrepareArgs& args) {
 void register_shear_commands(CLI::App& app) {
   auto prep = std::make_shared<PrepareArgs>();
   CLI::App* p = app.add_subcommand(
-      "prepare", "Prepare a packing (SPEC 5): settle, then compress with a piston to equilibrium");
+      "prepare",
+      "Prepare a packing (model.md section 5): settle, then compress with a piston to equilibrium");
   add_case_options(p, prep->c, false);
   p->add_option("-o,--output", prep->output,
                 "packing file; default packings/<parameters>.json (the cache `run` uses)")
@@ -589,7 +606,9 @@ void register_shear_commands(CLI::App& app) {
 
   auto run = std::make_shared<RunArgs>();
   CLI::App* r = app.add_subcommand(
-      "run", "Shear a packing between walls at -V and +V (SPEC 4); no arguments: system 1 demo");
+      "run",
+      "Shear a packing between walls at -V and +V (model.md section 4); no arguments: system 1 "
+      "demo");
   add_case_options(r, run->c, true);
   r->add_option("-o,--output", run->out_dir,
                 "output folder; default runs/n<n>_h<L_y>_V<V>_s<sigma_yy>_seed<seed>[_2, _3...]")
