@@ -4,7 +4,8 @@
 // compressed-box preset (untimed), then stepped
 //   - "static": at rest under the top-wall pressure, StepOptions defaults (dt = 1e-3);
 //   - "shear":  bottom and top walls driven at -V and +V along x, both free in y under the
-//               pressure (SPEC 4), dt from the shear default rule min(5e-3, 2e-3 / V);
+//               pressure (docs/model.md section 4), dt from the shear default rule
+//               min(5e-3, 2e-3 / V);
 // and the figures below are written as one CSV line per case to stdout:
 //   ns_per_update   solve seconds / sum over steps of (sweeps x contacts): one contact solved once
 //                   in one sweep (the solve stage includes the Delassus fill, the warm start and
@@ -94,7 +95,7 @@ void usage() {
       R"(usage: cdshear_bench [options]
   --quick             shorter run: 4 s per case, 30 warm-up steps (about 1 minute in all)
   --sizes N[,N...]    disk counts (default 500,5000); width 20 below 2000 disks, 50 above
-  --width W           cell width for every size (system 7 of SPEC 6: --sizes 5119 --width 20)
+  --width W           cell width for every size (system 7's shape: --sizes 5119 --width 20)
   --seconds S         measured wall time per case, at least (default 12)
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
@@ -118,7 +119,7 @@ each option overrides one of them.
   --alpha A           convergence tolerance (solver.alpha, 1e-5; 0: every step sweeps
                       max-sweeps times, to compare settings at equal sweeps)
   --converged-fraction F  share of the force-carrying contacts that must meet alpha
-                      (solver.converged_fraction, 0.9, SPEC 3.5's reference)
+                      (solver.converged_fraction, 0.9, as in docs/model.md section 3)
   --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
                       0: off; active_set_solve.hpp)
 Reference solve of --step-error:
@@ -283,8 +284,9 @@ double seconds_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
 }
 
-/// Turns the dense box into the shear cell of SPEC 4: walls at -V and +V along x, both free in y
-/// (mass of the top wall, force pressure * width inwards), disks given the linear profile.
+/// Turns the dense box into the shear cell of model.md section 4: walls at -V and +V along x, both
+/// free in y (mass of the top wall, force pressure * width inwards), disks given the linear
+/// profile.
 void start_shear(World& world, double v) {
   cdshear::Wall& bottom = world.walls[cdshear::kBoxBottomWall];
   cdshear::Wall& top = world.walls[cdshear::kBoxTopWall];
@@ -362,7 +364,8 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.capped += r.solver.hit_cap;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
-    if (observer != nullptr) {  // what `cdshear run` adds to every step: the SPEC 7 observers
+    // What `cdshear run` adds to every step: the observers of model.md section 7.
+    if (observer != nullptr) {
       const auto o0 = Clock::now();
       observer->after_step(world, dynamics.contacts(), r);
       m.observer_s += seconds_between(o0, Clock::now());
@@ -456,10 +459,9 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
 /// `options` does, without the slab correction (every relaxation, mix and correction has
 /// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
-/// is unique; where it is not, a corrected solve may end on another one: docs/accuracy.md,
-/// seventh pass). A reference that stops at its cap
-/// is flagged: in the 200 d tall cell most do, whatever the relaxation (docs/accuracy.md, "Tall
-/// cells"). The world goes on with `options`.
+/// is unique; where it is not, a corrected solve may end on another one). A reference that stops
+/// at its cap is flagged: in the 200 d tall cell most do, whatever the relaxation. Both:
+/// docs/accuracy.md, "Tall cells". The world goes on with `options`.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
                 int spacing, double reference_relaxation, int reference_anderson) {
   StepOptions tight = options;
@@ -604,7 +606,7 @@ int run(const Settings& s) {
                    s.reference_relaxation, s.reference_anderson);
     };
 
-    StepOptions options;  // the defaults of a run (SPEC 3.5), dt = 1e-3
+    StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3
     options.solver = s.solver;
     if (s.run_static && s.packing.empty()) report("static", 0.0, options);
     if (s.run_shear) {

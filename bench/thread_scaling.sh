@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Thread scaling from a checkpoint (docs/benchmarks.md, "eighth stop"): resumes copies of a
+# Thread scaling from a checkpoint (docs/benchmarks.md, "Threads"): resumes copies of a
 # run's checkpoint for DURATION time units on each thread count in turn, REPEATS rounds, and
 # prints each run's wall time and state hash, then the median wall time per thread count and its
 # speed-up against the first count. Every copy starts from the same state, so the runs do the

@@ -89,6 +89,10 @@ expect_status2() {  # expect_status2 "words in the message" command...
 }
 mkdir -p notarun empty truncated
 expect_status2 "notarun" "$exe" analyze notarun
+# An analysis that dies inside a library (HDF5 on a damaged file) is named by its parent, exit 2.
+printf '#!/bin/sh\nkill -SEGV $$\n' > crash.sh; chmod +x crash.sh
+expect_status2 "done: the analysis (\`analyze\`) died of signal 11" \
+  env CDSHEAR_PYTHON="$work/crash.sh" "$exe" analyze done
 expect_status2 "notarun" "$exe" plot notarun
 expect_status2 "nowhere" "$exe" analyze nowhere
 : > empty/run.h5

@@ -4,7 +4,8 @@
 #   1. the prefix holds the executable, the analysis package, examples, campaigns and docs, and
 #      nothing is written outside it (install_manifest.txt);
 #   2. the installed cdshear names its installed package, runs a short shear run that ends with
-#      `analyze` and `plot`, and reports a campaign, all with the installed package;
+#      `analyze` and `plot`, reports a campaign and runs a one-run sweep, all with the installed
+#      package;
 #   3. the example notebook's code cells run on synthetic runs with the installed package;
 #   4. pip installs the package into a venv made with --system-site-packages (Debian's numpy,
 #      scipy, matplotlib, h5py), offline, and the venv's Python imports it from there.
@@ -46,6 +47,19 @@ cd "$work"
 ls "$work"/campaign/runs/s1_seed1_V1/figures/*.png > /dev/null || fail "no figures"
 "$exe" report "$work/campaign" > "$work/report.log" 2>&1 || fail "report: $(tail -3 "$work/report.log")"
 [ -s "$work/campaign/report/runs.csv" ] || fail "no runs.csv"
+cat > "$work/tiny.toml" <<TOML
+[campaign]
+name = "tiny"
+systems = [1]
+velocities = [1.0]
+duration = 20
+packing = { 1 = "$packing" }
+[set]
+measure.window = 10
+TOML
+"$exe" sweep "$work/tiny.toml" -o "$work/tiny" --jobs 1 -q > "$work/sweep.log" 2>&1 ||
+  fail "installed sweep: $(tail -3 "$work/sweep.log")"
+[ -s "$work/tiny/runs/s1_seed1_V1/summary.json" ] || fail "the sweep's run has no summary.json"
 
 # 3. The example notebook, on synthetic runs, with the installed package.
 PYTHONPATH=$pydir /usr/bin/python3 - "$work" <<'PY'

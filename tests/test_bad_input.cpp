@@ -1,6 +1,7 @@
 // Bad input is refused with a message that names the file and the key; a step that blows up says
 // so; the executable turns both into a non-zero exit status and a message on stderr.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <bit>
 #include <functional>
@@ -353,6 +354,28 @@ TEST(CheckpointValidation, APipeIsRefusedWithoutBlocking) {
     ADD_FAILURE() << "a FIFO was read";
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CheckpointValidation, ACraftedDeepNestingBehindACorrectSealIsRefused) {
+  // 200000 nested CBOR arrays (0x81: an array of one element) around a null, sealed with its
+  // correct checksum: the seal stops accidents, the reader's depth bound stops crafted files
+  // (nlohmann's CBOR reader recurses once per level: this crashed on the stack before).
+  std::vector<std::uint8_t> body(200000, 0x81);
+  body.push_back(0xf6);
+  const uLong crc = crc32(crc32(0L, Z_NULL, 0), body.data(), static_cast<uInt>(body.size()));
+  char seal[96];
+  std::snprintf(seal, sizeof seal, "cdshear-checkpoint crc32=%08lx size=%zu\n", crc, body.size());
+  const TempDir dir("checkpoint_deep");
+  const std::string text = std::string(seal) + std::string(body.begin(), body.end());
+  const std::string path = dir.write("deep.cbor", text);
+  try {
+    read_checkpoint(path);
+    ADD_FAILURE() << "a 200000-deep checkpoint was read";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_NE(std::string(e.what()).find("nests deeper than 64 levels"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -86,7 +86,7 @@ TEST(CampaignFile, StrainBecomesADurationPerRun) {
 }
 
 TEST(CampaignFile, DurationsPerSystem) {
-  // SPEC 6 gives each system its own simulated time; the resolved form keeps the table.
+  // model.md section 6 gives each system its own simulated time; the resolved form keeps the table.
   const Campaign c = parse(
       "[campaign]\nname = \"p\"\nsystems = [1, 2]\nvelocities = [0.5]\n"
       "duration = { 1 = 20000, 2 = 10000 }\n");

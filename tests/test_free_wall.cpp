@@ -160,8 +160,8 @@ TEST(FreeWall, PressedLayerBalancesTheAppliedForce) {
 }
 
 TEST(FreeWall, PistonFreeAlongXPushesARow) {
-  // The preparation's piston (SPEC 5): a vertical wall free in x pushing a row of disks against
-  // a fixed vertical wall. Contact force on the piston = applied force, along +x.
+  // The preparation's piston (docs/model.md section 5): a vertical wall free in x pushing a row of
+  // disks against a fixed vertical wall. Contact force on the piston = applied force, along +x.
   const double f = 3.0;
   SceneDefinition s;
   s.walls.push_back(fixed_wall("left", {0.0, 0.0}, {1.0, 0.0}));

@@ -49,9 +49,9 @@ ShearCase system1_case(double window) {
 
 TEST(MeasuredShear, ShearStressFollowsTheMomentumBalanceAcrossTheCell) {
   // The material above height y gains momentum from the top wall and loses it to the material
-  // below: dP_above/dt = F_top_on_grains + L_x sigma_.y(y) (sign conventions of SPEC 7: the top
-  // wall's own stripe has sigma_.y = f_top / L_x, f_top the force of the grains on the wall).
-  // So over a window of length T: sigma_xy(y) = (f_top,x + dP_above,x(y) / T) / L_x, and the
+  // below: dP_above/dt = F_top_on_grains + L_x sigma_.y(y) (sign conventions of model.md section 7:
+  // the top wall's own stripe has sigma_.y = f_top / L_x, f_top the force of the grains on the
+  // wall). So over a window of length T: sigma_xy(y) = (f_top,x + dP_above,x(y) / T) / L_x, and the
   // same for sigma_yy with the y components. In a steady state dP = 0 and sigma_xy and sigma_yy
   // are uniform; in a transient (this run: the start of a shear at V = 0.5 from a linear
   // profile) the momentum change is measured here independently. The

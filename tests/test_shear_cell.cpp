@@ -1,6 +1,6 @@
-// The shear cell (SPEC 4-6): the prepared packing of system 1, momentum balance of a short shear
-// run, and bad case values. The packing comes from the ctest fixture `system1_packing`
-// (`cdshear prepare`), whose path is CDSHEAR_SYSTEM1_PACKING.
+// The shear cell (docs/model.md sections 4 to 6): the prepared packing of system 1, momentum
+// balance of a short shear run, and bad case values. The packing comes from the ctest fixture
+// `system1_packing` (`cdshear prepare`), whose path is CDSHEAR_SYSTEM1_PACKING.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -28,8 +28,8 @@ TEST(Preparation, System1HasNominalSizeAndDenseRandomSolidFraction) {
   const Packing& p = system1_packing();
   ASSERT_EQ(p.n(), 511u);
   EXPECT_DOUBLE_EQ(p.height, 20.0);
-  // Nominal L_x = 20 (SPEC 6) corresponds to a solid fraction of 0.816 for these 511 disks.
-  // Frictionless polydisperse disks jam between about 0.80 and 0.85 depending on protocol
+  // Nominal L_x = 20 (model.md section 6) corresponds to a solid fraction of 0.816 for these 511
+  // disks. Frictionless polydisperse disks jam between about 0.80 and 0.85 depending on protocol
   // (random close packing of bidisperse/polydisperse disks: 0.82-0.84), i.e. L_x within 4% of
   // 20: [19.2, 20.4] covers that range with margin and would catch a loose or crystallised
   // packing, or a piston that never reached the surface.
@@ -106,8 +106,8 @@ TEST(Preparation, ThePackingMeetsTheEquilibriumCriteriaWhenCheckedAgain) {
 }
 
 TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
-  // SPEC 5.3: v_x = -V + 2V y / L_y, v_y = 0, w = 0; mu_p between grains and mu_w with the
-  // walls, set apart here so that swapping them is caught.
+  // model.md section 5, step 3: v_x = -V + 2V y / L_y, v_y = 0, w = 0; mu_p between grains and mu_w
+  // with the walls, set apart here so that swapping them is caught.
   ShearCase c;
   c.velocity = 0.7;
   c.friction_grain = 0.6;
@@ -246,7 +246,8 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
                     "at most half of L_y");
   EXPECT_EQ(load_case(with({"measure.boundary_thickness=[10]"})).measure.boundary_thickness,
             std::vector<double>{10.0});  // system 1: the layers meet in the middle
-  EXPECT_EQ(load_case(with({"shear.velocity=0.005"})).velocity, 0.005);  // SPEC 6's slowest
+  // The slowest V of model.md section 6.
+  EXPECT_EQ(load_case(with({"shear.velocity=0.005"})).velocity, 0.005);
   EXPECT_EQ(load_case(with({"shear.velocity = 0.25"})).velocity, 0.25);
   expect_case_error(with({"shear.\"velocity\"=1"}), "", "not a case key");
   CaseSource v;

@@ -19,7 +19,7 @@
 
 namespace cdshear::testing {
 
-/// Mass of a uniform disk of radius r and 2D density rho (SPEC 1).
+/// Mass of a uniform disk of radius r and 2D density rho (docs/model.md section 1).
 inline double disk_mass(double r, double rho = 1.0) {
   return rho * std::numbers::pi * r * r;
 }

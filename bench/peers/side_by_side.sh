@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Side by side with soft-contact DEM (issue 7): the same sheared packing with cdshear (Contact
+# Side by side with soft-contact DEM: the same sheared packing with cdshear (Contact
 # Dynamics, rigid disks) and with LAMMPS (gran/hooke/history, bench/peers/lammps/in.shear),
 # one after the other on the same cores, then one table: wall seconds per simulated time unit of
 # each and their ratio, mu_eff (ratio of the time-averaged tangential and normal wall forces)
@@ -12,9 +12,10 @@
 # -T: simulated time of each run (default 400; about 3 minutes on one core in all);
 # --cdshear-set: a case setting of the cdshear run (repeatable), e.g. the coarser time step
 # `step.displacement_per_step=0.005` (docs/accuracy.md);
-# -V: wall speed (default 0.5); --kappa: LAMMPS' stiffness level k_n / sigma_yy (default 1e4,
-# the issue's; dt = t_c / 50 follows it, so the cost grows as sqrt(kappa));
-# --system: the SPEC 6 system whose shear cell both run (default 1, n = 511; 7 is n = 5119);
+# -V: wall speed (default 0.5); --kappa: LAMMPS' stiffness level k_n / sigma_yy (default 1e4;
+# dt = t_c / 50 follows it, so the cost grows as sqrt(kappa));
+# --system: the system (docs/model.md section 6) whose shear cell both run (default 1, n = 511; 7
+# is n = 5119);
 # --threads: cores given to each code (default 1): cdshear's --threads, and LAMMPS as that many
 # MPI processes (`mpirun -np N lmp`, domain decomposition; Debian's lammps is built with
 # Open MPI);
@@ -63,7 +64,8 @@ positive='^[0-9]+([.][0-9]+)?([eE][-+]?[0-9]+)?$'
   || die "-V must be a positive number, got '$V'"
 [[ "$kappa" =~ $positive ]] && awk -v k="$kappa" 'BEGIN{exit !(k >= 100)}' \
   || die "--kappa must be a number of at least 100, got '$kappa'"
-[[ "$system" =~ ^[1-9][0-9]*$ ]] || die "--system must be a system number of SPEC 6, got '$system'"
+[[ "$system" =~ ^[1-9][0-9]*$ ]] ||
+  die "--system must be a system number of docs/model.md section 6, got '$system'"
 [[ "$threads" =~ ^[1-9][0-9]*$ ]] || die "--threads must be a positive whole number, got '$threads'"
 [ -z "$packing" ] || [ -f "$packing" ] || die "packing file '$packing' not found"
 suffix=""; [ "$system" = 1 ] || suffix="_s$system"; [ "$threads" = 1 ] || suffix="${suffix}_j$threads"

@@ -1,5 +1,5 @@
-"""The boundary-layer laws of SPEC 8 over a campaign, the influence of h on the bulk law, and the
-predictions that need the boundary law (V_AB, stability of the symmetric state).
+"""The boundary-layer laws of docs/model.md section 8 over a campaign, the influence of h on the
+bulk law, and the predictions that need the boundary law (V_AB, stability of the symmetric state).
 
 Points. One point per (steady run in regime A, B or C, boundary thickness h, wall) from the
 run's `hK_bottom_*` and `hK_top_*` columns (report.read_run), with I_boundary > 0. In regime C
@@ -19,8 +19,8 @@ h and layer, fitting.combine), fits.json `boundary`:
   pooled over every h, key "all_h": mu_eff against I_b and against h I_b, for the layers of runs
     in regime B or C and, separately, in regime A (`mu_I_BC`, `mu_hI_BC`, `mu_I_A`, `mu_hI_A`),
     with `collapse`: per group the chi2/dof of the two fits; the variable with the smaller one
-    collapses the thicknesses (SPEC 8 expects h I for B and C, I for A). Needs two h at least
-    and both fits fitted (whatever their status: the one that does not collapse is "poor").
+    collapses the thicknesses (model.md section 8 expects h I for B and C, I for A). Needs two h
+    at least and both fits fitted (whatever their status: the one that does not collapse is "poor").
 
 The predictions take the laws whose parameters are determined (fitting.usable: status "ok" or
 "poor"); an "undetermined" or skipped law gives a `reason` instead.
@@ -49,7 +49,7 @@ import numpy as np
 
 from . import fitting
 
-INERTIAL_MASS = math.pi / 4   # SPEC 7: m in I = gamma_dot sqrt(m / sigma_yy)
+INERTIAL_MASS = math.pi / 4   # model.md section 7: m in I = gamma_dot sqrt(m / sigma_yy)
 MONTE_CARLO = 4000            # parameter draws for the V_AB intervals
 SEED = 20261123               # of those draws: a report is reproducible
 

@@ -1,4 +1,5 @@
-"""The figures of a campaign report (SPEC 9, across runs), written by report.write_report.
+"""The figures of a campaign report (docs/model.md section 9, across runs), written by
+report.write_report.
 
 Bulk laws (mu_eff_I, nu_I, Z_I) and slip against V with their fits; the regime diagram; the
 boundary laws (boundary_mu_I, boundary_mu_hI, boundary_nu_I, boundary_nu_ratio, boundary_Z_I)
@@ -259,7 +260,7 @@ def boundary_law_figure(path, rows, boundary, y, ylabel, law, fits=None):
 
 def boundary_collapse_figure(path, rows, boundary, fits):
     """mu_eff of the layers against h I_boundary: colour per regime, marker per h, the pooled
-    laws of B and C and of A (SPEC 8: B and C collapse in h I, A does not)."""
+    laws of B and C and of A (model.md section 8: B and C collapse in h I, A does not)."""
     plt, fig, ax = _figure()
     xs = {"BC": [], "A": []}
     for k, h in enumerate(boundary["thicknesses"]):

@@ -1,4 +1,5 @@
-"""Weighted least-squares fits of the SPEC 8 laws, shared by the bulk and the boundary laws.
+"""Weighted least-squares fits of the laws of docs/model.md section 8, shared by the bulk and the
+boundary laws.
 
 A law (LAWS) is a model y(x; parameters) with its starting points and bounds; `fit(law, points)`
 fits it to points (x, y, err, label[, group[, averaged_time]]) with scipy.optimize.curve_fit
@@ -136,10 +137,11 @@ def combine(points):
     (averaged_time, statistics.time_weighted_mean: equal weights for seeds of one length), as in
     study.combine and for the same reason: a seed's own error bar is itself an estimate that
     scatters by 14 to 20% between seeds and correlates with its value, so 1/err^2 weights move
-    the mean by up to one standard error (docs/accuracy.md, sixteenth pass). Where a seed of the
-    group does not say its averaged time (None or not positive), the weights are w = 1 / err^2
-    (statistics.weighted_mean). y and x are the weighted means; the error is the propagated
-    one, or with 2 seeds or more the error of the weighted mean from the seeds' scatter,
+    the mean by up to one standard error (docs/accuracy.md, "Effect on the averaged
+    quantities"). Where a seed of the group does not say its averaged time (None or not
+    positive), the weights are w = 1 / err^2 (statistics.weighted_mean). y and x are the
+    weighted means; the error is the propagated one, or with 2 seeds or more the error of the
+    weighted mean from the seeds' scatter,
     sqrt(sum w (y - y_w)^2 / ((k - 1) sum w)) (std / sqrt(k) for equal weights), when that is
     larger: the seeds scatter more than their error bars say. detail (None for a point of one
     run): runs, weights ("time" or "error"), x, y, err, err_propagated, err_seeds and the

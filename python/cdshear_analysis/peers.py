@@ -4,9 +4,9 @@
 (`bench/peers/lammps/in.shear`, pair style gran/hooke/history) and prints one table. This module
 holds the Python half of it:
 
-- `packing_to_lammps(packing)`: a cdshear packing (the JSON of `cdshear prepare`, SPEC 5) as a
-  LAMMPS data file (`atom_style sphere`, 2D) plus an include file of LAMMPS variables
-  (`write_lammps_packing`). Grains keep their position and radius; each flat wall of the
+- `packing_to_lammps(packing)`: a cdshear packing (the JSON of `cdshear prepare`, docs/model.md
+  section 5) as a LAMMPS data file (`atom_style sphere`, 2D) plus an include file of LAMMPS
+  variables (`write_lammps_packing`). Grains keep their position and radius; each flat wall of the
   shear cell becomes a row of `n_wall` overlapping disks (type 2 bottom, type 3 top) whose tops
   are on the wall line: LAMMPS has no flat wall that is free in y under Newton's law, so
   in.shear makes each row one rigid body (fix rigid, y free, x imposed, no rotation).
@@ -17,12 +17,12 @@ holds the Python half of it:
 - `max_overlap_from_dump(path)`: the largest overlap (grain-grain and grain-wall) over the
   snapshots of a LAMMPS dump.
 
-Units: SPEC 1 (largest diameter d = 1, 2D density 1, sigma_yy = 0.25).
+Units: docs/model.md section 1 (largest diameter d = 1, 2D density 1, sigma_yy = 0.25).
 
 LAMMPS' data-file density. With atom_style sphere, read_data sets the mass from the density
 column as m = density * 4/3 pi r^3, also when `dimension 2` (checked with LAMMPS 20220106: a
-disk of diameter 1 and density 1 gets m = 0.5236 = pi/6). The disks of SPEC 1 have m = pi r^2
-(2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for a grain, and
+disk of diameter 1 and density 1 gets m = 0.5236 = pi/6). The disks of model.md section 1 have
+m = pi r^2 (2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for a grain, and
 (M_w / n_wall) / (4/3 pi R_w^3) for a wall disk, so that a wall row weighs M_w = 50.
 """
 import json
@@ -35,7 +35,7 @@ from .rundata import open_regular
 from .statistics import block_average
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
-WALL_MASS = 50.0        # M_w of SPEC 4, mass of each wall
+WALL_MASS = 50.0        # M_w of model.md section 4, mass of each wall
 WALL_RADIUS = 0.5       # R_w: radius of the wall disks (d)
 WALL_SPACING = 0.05     # largest distance between neighbouring wall disks (d)
 BOX_MARGIN = 5.0        # room above and below the walls in the fixed (f) y boundary (d)
@@ -76,8 +76,8 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
                       wall_mass=WALL_MASS, margin=BOX_MARGIN):
     """(data_text, variables): the LAMMPS data file and the variables of the include file.
 
-    Geometry (SPEC 4, 5): the packing's bottom wall is the line y = 0, its top wall y = height,
-    x periodic with period length_x. Grains: type 1, ids 1..n, centre x wrapped into
+    Geometry (model.md sections 4 and 5): the packing's bottom wall is the line y = 0, its top
+    wall y = height, x periodic with period length_x. Grains: type 1, ids 1..n, centre x wrapped into
     [0, length_x). Walls: n_wall = ceil(length_x / wall_spacing) disks of radius R_w per wall,
     spaced length_x / n_wall, centres at y = -R_w (bottom, type 2) and height + R_w (top,
     type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from

@@ -1,4 +1,4 @@
-"""Figures of one run (SPEC 9), PNG via matplotlib's Agg backend.
+"""Figures of one run (docs/model.md section 9), PNG via matplotlib's Agg backend.
 
 snapshot.png              disks (coloured by v_x / V) and force chains (width ~ normal force)
 velocity_profiles.png     v_x / V against y for several windows, coloured by strain

@@ -1,5 +1,5 @@
-"""Flow regimes A, B, C (SPEC 8) by positive criteria, per window and per run; the block
-velocity's statistics; shear-band switches.
+"""Flow regimes A, B, C (docs/model.md section 8) by positive criteria, per window and per run; the
+block velocity's statistics; shear-band switches.
 
 Block velocity u, the velocity of the bulk between the boundary layers:
   per sample, the series `block_vx` (mass-weighted x-velocity of the grains whose centre lies in
@@ -44,9 +44,9 @@ plateau likewise (P+- = +-V from block_vx; from com_vx, the median of that side'
 +-COM_LEVEL V, when it lies beyond +-GAP_LEVELS[1] V). A switch is a change from one plateau to
 the other (excursions that return to the old plateau are none): start = the last sample on the
 old plateau, end = the first sample on the new one, so a switch from +V to -V spans the change
-from (1 - PLATEAU_LEVEL) V to the opposite, the fraction SWITCH_FRACTION of SPEC 8's time T; a
-change that rests at 0 (B) on the way is one switch lasting through the rest (intermittent
-runs). delta_mu is taken over the stretch of the old plateau before the switch, while the block
+from (1 - PLATEAU_LEVEL) V to the opposite, the fraction SWITCH_FRACTION of the time T of
+model.md section 8; a change that rests at 0 (B) on the way is one switch lasting through the
+rest (intermittent runs). delta_mu is taken over the stretch of the old plateau before the switch, while the block
 still moves at its plateau velocity: the stretch ends at the last sample before the start with u
 at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back, or to the
 previous switch's end if that is nearer (summary.switch_friction_difference).
@@ -73,7 +73,8 @@ GAP_LEVELS = (0.3, 0.7)   # the gap between rest and wall: 0.3 V < |u| < 0.7 V .
 GAP_SHARE = 0.2           # ... holding at most 20% of the samples: the states are told apart
 DWELL_RATIO = 5.0         # C: mean time on a plateau at least 5 switch durations
 PLATEAU_LEVEL = 0.2       # on a plateau: |u - plateau velocity| <= 0.2 V
-SWITCH_FRACTION = 1 - PLATEAU_LEVEL  # share of SPEC 8's T (from +V to -V) a switch's duration spans
+# Share of the T of model.md section 8 (from +V to -V) that a switch's duration spans.
+SWITCH_FRACTION = 1 - PLATEAU_LEVEL
 PRE_SWITCH_TIME = 80.0    # delta_mu over this long a stretch of the old plateau before a switch
 VISIT_LEVEL = 0.9         # com_vx visits both walls: beyond +0.9 V and below -0.9 V
 HISTOGRAM_RANGE = 1.2     # histograms over [-1.2 V, 1.2 V] ...

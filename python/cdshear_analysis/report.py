@@ -1,21 +1,21 @@
 """The report of a campaign (`cdshear sweep` folder): `python3 -m cdshear_analysis report DIR`.
 
-`collect(campaign_dir)` reads DIR/campaign.toml (the campaign's name and its list of runs) and
-every DIR/runs/*/summary.json (written by `cdshear analyze`). A run folder without summary.json
-is listed as "not analysed", a run of campaign.toml without a folder as "not started"; both are
-left out. Only summaries of this code's format and version (summary.SUMMARY_FORMAT,
-summary.SUMMARY_VERSION) are pooled (`summary_state`): a stale one (an older version, no format
-or version, `{}`, not a JSON object) is re-analysed from the run's run.h5 as `analyze` does
-(`reanalyse`, which rewrites summary.json) or, without run.h5, left out; a summary of another
-format or of a newer version is left out. Every run re-analysed or left out is listed with its
-reason. `fit_laws(rows)` fits the bulk laws of SPEC 8 over the steady runs in regime A of every
-system (fitting.py; the seeds of one (system, V) are one point), `fit_laws_per_system(rows)` the
-same laws over each system alone; `write_report(report, out_dir)` writes runs.csv, fits.json,
-figures/*.png (campaign_figures.py) and index.html, with the boundary-layer laws of
-boundary_laws.py and the transition velocities and SPEC 8 predictions of transitions.py
-(docs/campaigns.md, "Reports", documents every column and key), and adds to report["notes"] the
-lines that `cdshear report` prints after the paths (`printed_lines`: the runs re-analysed, every
-bulk law's status and every boundary or per-system law that is poor or undetermined).
+`collect(campaign_dir)` reads DIR/campaign.toml (the campaign's name and its list of runs) and every
+DIR/runs/*/summary.json (written by `cdshear analyze`). A run folder without summary.json is listed
+as "not analysed", a run of campaign.toml without a folder as "not started"; both are left out. Only
+summaries of this code's format and version (summary.SUMMARY_FORMAT, summary.SUMMARY_VERSION) are
+pooled (`summary_state`): a stale one (an older version, no format or version, `{}`, not a JSON
+object) is re-analysed from the run's run.h5 as `analyze` does (`reanalyse`, which rewrites
+summary.json) or, without run.h5, left out; a summary of another format or of a newer version is
+left out. Every run re-analysed or left out is listed with its reason. `fit_laws(rows)` fits the
+bulk laws of docs/model.md section 8 over the steady runs in regime A of every system (fitting.py;
+the seeds of one (system, V) are one point), `fit_laws_per_system(rows)` the same laws over each
+system alone; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png
+(campaign_figures.py) and index.html, with the boundary-layer laws of boundary_laws.py and the
+transition velocities and model.md section 8 predictions of transitions.py (docs/campaigns.md,
+"Reports", documents every column and key), and adds to report["notes"] the lines that `cdshear
+report` prints after the paths (`printed_lines`: the runs re-analysed, every bulk law's status and
+every boundary or per-system law that is poor or undetermined).
 """
 import csv
 import html
@@ -39,7 +39,7 @@ from .transitions import find_transitions, predictions
 REPORT_FORMAT = "cdshear-report-fits"
 REPORT_VERSION = 2
 RUN_NAME = re.compile(r"^s(\d+)_seed(\d+)_V(.+)$")  # campaign_run_name() in campaign_file.cpp
-LINEAR_RANGE = (0.03, 0.2)  # SPEC 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
+LINEAR_RANGE = (0.03, 0.2)  # model.md section 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
 
 
 class ReportError(Exception):
@@ -385,15 +385,15 @@ def fit_law(name, rows, x=None, y=None):
 
 
 def bulk_rows(rows):
-    """The rows whose bulk is SPEC 7's (h = 10): the bulk laws take no other. A cell too thin for
-    h = 10 (or a run that did not measure it) says so in bulk_h_note and is listed in fits.json
-    `bulk_not_reference`."""
+    """The rows whose bulk is that of model.md section 7 (h = 10): the bulk laws take no other. A
+    cell too thin for h = 10 (or a run that did not measure it) says so in bulk_h_note and is
+    listed in fits.json `bulk_not_reference`."""
     return [r for r in rows if r.get("bulk_h_reference") is True]
 
 
 def fit_laws(rows):
-    """fits.json `fits`: every law of FITS over the runs of every system (SPEC 8) whose bulk is
-    at h = 10 (bulk_rows)."""
+    """fits.json `fits`: every law of FITS over the runs of every system (model.md section 8)
+    whose bulk is at h = 10 (bulk_rows)."""
     rows = bulk_rows(rows)
     return {name: fit_law(name, rows) for name in FITS}
 
@@ -492,7 +492,7 @@ def _html_transitions(transitions, preds):
                    f"<td style='text-align:left'>{ns or 'none'}</td><td>{cell(t['V_AB'])}</td>"
                    f"<td>{cell(t['V_BC'])}</td><td style='text-align:left'>{flags}</td></tr>")
     out.append("</table>")
-    out.append("<h2>Predictions (SPEC 8) beside the runs</h2>")
+    out.append("<h2>Predictions (model.md section 8) beside the runs</h2>")
     out += _html_v_ab(preds["V_AB"])
     out += _html_stability(preds["symmetric_state_stability"])
     out.append("<h3>Regime C: band switch time T = 2 rho nu V L_y / (delta_mu sigma_yy)"
@@ -691,8 +691,8 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
     out.append("</table><h2>Fits of the bulk laws</h2><p>Over the steady runs in regime "
                f"{' or '.join(BULK_REGIMES)} whose bulk is at h = 10: in B and C the bulk moves "
                "as a block and is no point of the flow law (crosses on the figures); a cell too "
-               "thin for h = 10 has no bulk of SPEC 7's (plus signs; fits.json "
-               "<code>bulk_not_reference</code>).</p>")
+               "thin for h = 10 has no bulk as model.md section 7 defines it (plus signs; "
+               "fits.json <code>bulk_not_reference</code>).</p>")
     out += _fit_table(fits.items())
     out.append("<p>Errors from the error bars (absolute); fits.json also gives them "
                "scaled by sqrt(chi2/dof) when that exceeds 1. The seeds of one (system, V) are "
@@ -703,8 +703,8 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
                f"<p><small>{STATUS_TEXT}</small></p>")
     if per_system:
         out.append("<h3>The bulk laws per system</h3><p>The same laws fitted on each "
-                   "system's runs alone (the laws of SPEC 8 are the ones over all systems, "
-                   "above): do the systems agree?</p>")
+                   "system's runs alone (the laws of model.md section 8 are the ones over all "
+                   "systems, above): do the systems agree?</p>")
         out += _fit_table([(f"system {s}: {name}", f) for s, laws in per_system.items()
                            for name, f in laws.items()])
     if boundary is not None:

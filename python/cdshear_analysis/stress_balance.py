@@ -1,7 +1,7 @@
-"""SPEC 7's check of the measured stress against the walls: over a run's steady windows, the
-interior (bulk) sigma_yy, sigma_xy and mu_eff against the walls' normal stress, shear stress and
-friction, each difference as mean and standard error over the windows (the windows are 80 t
-long: nearly independent), and the sizes of the kinetic and rotational parts.
+"""The check of docs/model.md section 7 of the measured stress against the walls: over a run's
+steady windows, the interior (bulk) sigma_yy, sigma_xy and mu_eff against the walls' normal stress,
+shear stress and friction, each difference as mean and standard error over the windows (the windows
+are 80 t long: nearly independent), and the sizes of the kinetic and rotational parts.
 
 The walls' stresses of a window come from its exact mean forces: sigma_yy,wall = (|f_y,bottom| +
 |f_y,top|) / (2 L_x), sigma_xy,wall = (f_x,top - f_x,bottom) / (2 L_x) (the grains' force on each

@@ -130,8 +130,8 @@ def combine(rows):
     apart between ten 3000-t seeds of system 1) and correlated with the value (-0.75 to +0.61
     between a seed's bulk inertial number or slip and its error bar), so weighting by them
     (1/err^2) moved an ensemble's mean by up to one of its standard errors, one way or the
-    other (docs/accuracy.md, sixteenth pass). Where a realization does not say
-    what time it covers, the weights are 1/err^2 (statistics.weighted_mean)."""
+    other (docs/accuracy.md, "Effect on the averaged quantities"). Where a realization does not
+    say what time it covers, the weights are 1/err^2 (statistics.weighted_mean)."""
     if len(rows) == 1:
         return rows[0]
     out = dict(rows[0])
@@ -227,9 +227,9 @@ def welch_p(values_a, values_b):
 
 def compare_references(dir_a, dir_b):
     """Two builds or settings, each a study folder of realizations (`reference`,
-    `reference_seed2`, ...: the same case with other solver seeds), compared as the ninth pass
-    of docs/accuracy.md does: each folder's runs combined (`combine`), then for every quantity
-    the two means, their errors, the difference b - a in combined errors,
+    `reference_seed2`, ...: the same case with other solver seeds), compared as in
+    docs/accuracy.md, "Seed ensembles": each folder's runs combined (`combine`), then for every
+    quantity the two means, their errors, the difference b - a in combined errors,
     (b - a) / sqrt(err_a^2 + err_b^2), and Welch's p-value from the realizations' values
     (`welch_p`). Returns (combined row a, combined row b, lines, skipped), each line (quantity,
     a, err_a, b, err_b, difference in combined errors (NaN when both errors are 0 or missing),
@@ -321,7 +321,7 @@ def windowed_means(study_dir, windows):
     and each window the mean over the realizations of their window means, with its error from
     their scatter, std / sqrt(k) (NaN for one realization). Shows whether a flow is still
     drifting, and whether two builds differ by a constant or by a rate (docs/accuracy.md,
-    fifteenth pass). Returns (edges, k, {quantity: [(mean, err) per window]})."""
+    "System 1, V = 0.05"). Returns (edges, k, {quantity: [(mean, err) per window]})."""
     import numpy as np
     if windows < 1:
         raise StudyError(study_dir, f"--windows must be at least 1, not {windows}")

@@ -21,7 +21,7 @@ from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
 
 SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 3
-REFERENCE_H = 10.0     # SPEC 7's boundary thickness: the bulk is h < y < L_y - h with h = 10
+REFERENCE_H = 10.0     # model.md section 7: the bulk is h < y < L_y - h with h = 10
 BULK_MIN_STRIPES = 3   # a bulk holds at least this many stripes
 PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination",
                   "force_carrying_coordination", "inertial_number", "shear_rate")
@@ -38,11 +38,11 @@ def wall_friction_series(series):
 
 
 def wall_force_ratio(series, sides, keep):
-    """The walls' friction as SPEC 7 checks it against the interior's mu_eff: the ratio of the
-    time-averaged tangential and normal forces, (|<f_x>| summed over `sides`) / (|<f_y>| summed
-    likewise), over the samples `keep`, with its standard error (statistics.ratio_of_means).
-    Not the mean of each sample's ratio: where the forces fluctuate, that mean is biased (by
-    -0.007 on system 7, 0.2404 against 0.2472, while the bulk gave 0.2478)."""
+    """The walls' friction as model.md section 7 checks it against the interior's mu_eff: the ratio
+    of the time-averaged tangential and normal forces, (|<f_x>| summed over `sides`) / (|<f_y>|
+    summed likewise), over the samples `keep`, with its standard error (statistics.ratio_of_means).
+    Not the mean of each sample's ratio: where the forces fluctuate, that mean is biased (by -0.007
+    on system 7, 0.2404 against 0.2472, while the bulk gave 0.2478)."""
     num = np.zeros(int(np.sum(keep)))
     den = np.zeros_like(num)
     if len(num) == 0:
@@ -67,13 +67,13 @@ def window_wall_friction(windows):
 
 
 def switch_friction_difference(series, time, switch):
-    """delta_mu before one band switch: |mean of (bottom_fx + top_fx)| / the mean normal force of
-    a wall, over the samples delta_mu_start_time < t <= delta_mu_end_time (the stretch of the
-    old plateau before the switch, regime.band_switches): the walls' net tangential force on the
-    grains per unit normal force in the quasi-steady state the switch leaves (SPEC 8: T = 2 rho
-    nu V L_y / (delta_mu sigma_yy)). By momentum balance it equals the grains' momentum change
-    over the stretch, so on a plateau it measures how far the block already accelerates there.
-    NaN without samples in the stretch."""
+    """delta_mu before one band switch: |mean of (bottom_fx + top_fx)| / the mean normal force of a
+    wall, over the samples delta_mu_start_time < t <= delta_mu_end_time (the stretch of the old
+    plateau before the switch, regime.band_switches): the walls' net tangential force on the grains
+    per unit normal force in the quasi-steady state the switch leaves (model.md section 8: T = 2 rho
+    nu V L_y / (delta_mu sigma_yy)). By momentum balance it equals the grains' momentum change over
+    the stretch, so on a plateau it measures how far the block already accelerates there. NaN
+    without samples in the stretch."""
     sel = (time > switch["delta_mu_start_time"]) & (time <= switch["delta_mu_end_time"])
     if not sel.any():
         return np.nan
@@ -103,9 +103,10 @@ def choose_bulk_range(run):
 
 
 def bulk_h_note(run, h):
-    """None when the bulk is SPEC 7's (h = REFERENCE_H), else why it is not, in words."""
+    """None when the bulk is that of model.md section 7 (h = REFERENCE_H), else why it is not, in
+    words."""
     height = np.asarray(run["windows"]["height"], dtype=float)
-    if h == REFERENCE_H or not np.isfinite(height).any():   # SPEC's, or no window: no bulk
+    if h == REFERENCE_H or not np.isfinite(height).any():   # the reference h, or no window: no bulk
         return None
     y = np.asarray(run["windows"]["y"], dtype=float)
     mean_height = float(np.nanmean(height))
@@ -117,7 +118,7 @@ def bulk_h_note(run, h):
     else:
         why = (f"h = {REFERENCE_H:g} was not measured (measure.boundary_thickness = "
                f"{[float(m) for m in measured]})")
-    return f"{where}, not SPEC 7's h = {REFERENCE_H:g}: {why}"
+    return f"{where}, not the h = {REFERENCE_H:g} of model.md section 7: {why}"
 
 
 def profile_warnings(run):
@@ -379,9 +380,11 @@ def format_report(summary, summary_path):
 
 
 # Share of steps at the sweep cap from which the report says what it costs: on system 7 in its
-# slow phase, 27% (alpha 1e-5) and 79% (1e-6) of the steps at the cap of 200 left 2.6% and 4.3%
-# of the force-carrying contacts open against a converged solve (docs/accuracy.md, sixth pass),
-# while system 1's runs, with 2 to 10% at the cap, gave the same Z at both tolerances.
+# slow phase without the slab correction, 27% (alpha 1e-5) and 79% (1e-6) of the steps at the cap
+# of 200 left 2.6% and 4.3% of the force-carrying contacts open against a converged solve; with
+# it (a shear default in cells of 20 bands or more) they come within 0.3 to 1.1%
+# (docs/accuracy.md, "Tall cells"). System 1's runs, with 2 to 10% at the cap, gave the same Z at
+# both tolerances.
 CAPPED_SHARE_WARNING = 0.15
 
 
@@ -396,8 +399,8 @@ def sweep_cap_warning(solver):
     lines = [f"warning: {capped} of {steps} steps ({share:.1%}) hit the sweep cap"]
     if share >= CAPPED_SHARE_WARNING:
         lines.append("  with so many steps at the cap the contact forces are not converged: the "
-                     "count of force-carrying contacts (Z) moves first (docs/accuracy.md, sixth "
-                     "pass); a stretch rerun with a tighter solver.alpha and a larger "
+                     "count of force-carrying contacts (Z) moves first (docs/accuracy.md, \"Tall "
+                     "cells\"); a stretch rerun with a tighter solver.alpha and a larger "
                      "solver.max_sweeps tells how far")
     return lines
 

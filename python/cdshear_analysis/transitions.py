@@ -1,4 +1,5 @@
-"""Transition velocities of each system and the SPEC 8 predictions, for `cdshear report`.
+"""Transition velocities of each system and the predictions of docs/model.md section 8, for
+`cdshear report`.
 
 `find_transitions(rows)` (fits.json `transitions`): per system, the runs' regimes by V, seeds
 combined by majority vote per V, and the brackets of V_AB and V_BC. Only a steady run classified
@@ -12,17 +13,17 @@ the estimate is the geometric mean of the bracket. A sequence whose regimes do n
 as V increases is flagged "not monotonic"; a transition without a run on one side is
 "unbracketed" with the side that is missing.
 
-`predictions(rows, fits)` (fits.json `predictions`): the SPEC 8 predictions the summaries can
-give, each next to what the runs show (docs/campaigns.md, "Reports"). Anything that cannot be
-computed is given with its reason.
+`predictions(rows, fits)` (fits.json `predictions`): the predictions of model.md section 8 the
+summaries can give, each next to what the runs show (docs/campaigns.md, "Reports"). Anything that
+cannot be computed is given with its reason.
 """
 import math
 
 from . import fitting
 from .regime import SWITCH_FRACTION
 
-RHO = 1.0                  # SPEC 1: 2D mass density
-INERTIAL_MASS = math.pi / 4  # SPEC 1/7: m in I = gamma_dot sqrt(m / sigma_yy)
+RHO = 1.0                  # model.md section 1: 2D mass density
+INERTIAL_MASS = math.pi / 4  # model.md sections 1 and 7: m in I = gamma_dot sqrt(m / sigma_yy)
 RANK = {"C": 0, "B": 1, "A": 2}
 
 
@@ -142,13 +143,13 @@ def find_transitions(rows):
 # Predictions
 
 def switch_time(V, L_y, nu, delta_mu, sigma_yy, rho=RHO):
-    """SPEC 8: T = 2 rho nu V L_y / (delta_mu sigma_yy), a block of mass rho nu L_x L_y taken
-    from -V to +V by the force delta_mu sigma_yy L_x."""
+    """model.md section 8: T = 2 rho nu V L_y / (delta_mu sigma_yy), a block of mass
+    rho nu L_x L_y taken from -V to +V by the force delta_mu sigma_yy L_x."""
     return 2 * rho * nu * V * L_y / (delta_mu * sigma_yy)
 
 
 def steady_state_time(fit, I, L_y, nu, sigma_yy, rho=RHO, m=INERTIAL_MASS):
-    """SPEC 8: T_SS = L_y^2 / D, D = (d mu / d gamma_dot) sigma_yy / (rho nu) with
+    """model.md section 8: T_SS = L_y^2 / D, D = (d mu / d gamma_dot) sigma_yy / (rho nu) with
     d mu / d gamma_dot = (d mu / d I) sqrt(m / sigma_yy) (I = gamma_dot sqrt(m / sigma_yy)).
     Returns (T_SS, D)."""
     dmu_dgd = fitting.slope(fit, I) * math.sqrt(m / sigma_yy)
@@ -201,7 +202,7 @@ def switch_predictions(rows, boundary=None):
             e["delta_mu_implied"] = None
         e["delta_mu_law"] = _delta_mu_law(r, e, boundary)
         # The prediction: the boundary law's delta_mu at the layers' jumps, at the h closest to
-        # SPEC 7's 10 among those that give a T.
+        # the 10 of model.md section 7 among those that give a T.
         by_h = [v for v in e["delta_mu_law"]["by_h"].values() if v.get("predicted_T")]
         missing = _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"])
         if by_h and not missing:

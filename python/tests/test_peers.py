@@ -69,7 +69,7 @@ class PackingToLammps(unittest.TestCase):
         np.testing.assert_allclose(grains[:, 2], 2 * xyr[:, 2], rtol=0, atol=0)
         np.testing.assert_allclose(grains[:, 5], xyr[:, 1], rtol=0, atol=0)
         self.assertAlmostEqual(grains[0, 4], 5.0 - 0.01, places=12)
-        # LAMMPS: m = density * 4/3 pi r^3; SPEC 1: m = pi r^2 (2D density 1)
+        # LAMMPS: m = density * 4/3 pi r^3; model.md section 1: m = pi r^2 (2D density 1)
         mass = grains[:, 3] * 4.0 / 3.0 * math.pi * (grains[:, 2] / 2) ** 3
         np.testing.assert_allclose(mass, math.pi * xyr[:, 2] ** 2, rtol=1e-12)
         self.assertAlmostEqual(self.vars["grain_area"], float(np.sum(math.pi * xyr[:, 2] ** 2)),

@@ -174,8 +174,8 @@ class Classifier(unittest.TestCase):
     def test_switch_durations_and_the_switch_time_they_measure(self):
         # The synthetic block goes from +V to -V in a linear ramp of 20 t, its acceleration
         # carried by the wall forces: delta_mu = mass 2 V / 20 over sigma_yy L_x during the ramp,
-        # for which SPEC 8's T is the ramp itself. Plateau to plateau (0.2 V from each wall) a
-        # switch spans 0.8 of it.
+        # for which the T of model.md section 8 is the ramp itself. Plateau to plateau (0.2 V from
+        # each wall) a switch spans 0.8 of it.
         from cdshear_analysis.transitions import switch_time
         s = self.summaries["C_forces"]
         ramp_delta_mu = MASS * 2 * V / 20.0 / (SIGMA * LX)

@@ -44,10 +44,12 @@ def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=Tru
         "regime": regime, "regime_confidence": 0.9,
         "mu_eff_wall": entry(mu, e_mu), "height": entry(20.1, 0.01),
         "solid_fraction": entry(nu, e_nu),
-        # the bulk of the laws: SPEC 7's h = 10 (bulk_h_reference) unless the test says otherwise
+        # the bulk of the laws: the h = 10 of model.md section 7 (bulk_h_reference) unless the test
+        # says otherwise
         "bulk": {"h": 10.0, "h_reference": bulk_reference,
-                 "h_note": None if bulk_reference else "bulk at h = 5, not SPEC 7's h = 10: "
-                 "the cell is too thin", "y_range": [10, 10.1], "mu_eff": entry(mu, e_mu),
+                 "h_note": None if bulk_reference else ("bulk at h = 5, not the h = 10 of model.md "
+                                                        "section 7: the cell is too thin"),
+                 "y_range": [10, 10.1], "mu_eff": entry(mu, e_mu),
                  "solid_fraction": entry(nu, e_nu), "coordination": entry(Z, e_z),
                  "shear_rate": entry(I * 0.5, I * 0.01), "inertial_number": entry(I, 0.01 * I)},
         "slip": {"bottom": entry(0.1 * V, 0.01 * V), "top": entry(0.12 * V, 0.01 * V)},
@@ -329,7 +331,8 @@ class ReportTest(unittest.TestCase):
 
 
 class BulkThicknessTest(unittest.TestCase):
-    """The bulk laws take only runs whose bulk is SPEC 7's (h = 10); the others are listed."""
+    """The bulk laws take only runs whose bulk is that of model.md section 7 (h = 10); the others
+    are listed."""
 
     def test_runs_of_a_cell_too_thin_for_h_10_stay_out_of_the_bulk_laws(self):
         with tempfile.TemporaryDirectory() as d:

@@ -48,8 +48,9 @@ class BlockAveraging(unittest.TestCase):
         self.assertTrue(np.isnan(ratio_of_means([1.0], [0.0])["mean"]))
 
     def test_wall_friction_is_the_ratio_of_time_averaged_forces(self):
-        # SPEC 7: |<f_x>| / |<f_y>|, not <|f_x| / |f_y|>: a normal force alternating 10 and 30
-        # under a constant tangential 3 gives 3 / 20 = 0.15 (the mean of the ratios is 0.2)
+        # model.md section 7: |<f_x>| / |<f_y>|, not <|f_x| / |f_y|>: a normal force alternating
+        # 10 and 30 under a constant tangential 3 gives 3 / 20 = 0.15 (the mean of the ratios is
+        # 0.2)
         fy = np.tile([10.0, 30.0], 500)
         series = {"bottom_fx": np.full_like(fy, 3.0), "bottom_fy": -fy,
                   "top_fx": np.full_like(fy, -1.5), "top_fy": fy}

@@ -1,4 +1,5 @@
-"""The bulk at SPEC 7's h = 10 (or why not) and the steady-state checks on the flow itself."""
+"""The bulk at the h = 10 of docs/model.md section 7 (or why not) and the steady-state checks on
+the flow itself."""
 import os
 import tempfile
 import unittest
@@ -21,8 +22,8 @@ class BulkThickness(unittest.TestCase):
             return run, analyze(run)
 
     def test_the_reference_h_is_taken_where_the_cell_allows_it(self):
-        # A 40-d cell measured at h = 3 and 10: the bulk is SPEC's (h = 10), not the thinnest
-        # h's, which would include the faster-sheared layers near the walls.
+        # A 40-d cell measured at h = 3 and 10: the bulk is the reference one (h = 10), not the
+        # thinnest h's, which would include the faster-sheared layers near the walls.
         run, summary = self.run_with(40.0, (3.0, 10.0))
         self.assertEqual(choose_bulk_range(run)[0], REFERENCE_H)
         self.assertEqual(summary["bulk"]["h"], REFERENCE_H)

@@ -1,4 +1,4 @@
-"""Transition velocities from synthetic sweeps and the SPEC 8 predictions against hand
+"""Transition velocities from synthetic sweeps and the model.md section 8 predictions against hand
 computations (transitions.py), and their place in the report."""
 import json
 import math

@@ -4,8 +4,10 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <system_error>
@@ -86,7 +88,16 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
       return 1;
     }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
-  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  const int signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+  if (signal == SIGINT || signal == SIGTERM || signal == SIGHUP) return 128 + signal;
+  // The interpreter died inside a library (HDF5 reading a damaged file whose seal still matches,
+  // typically): it cannot say so itself, so its parent does, and the run's files are untouched.
+  std::fprintf(stderr,
+               "error: %s: the analysis (`%s`) died of signal %d (%s) while reading the files: a "
+               "damaged run.h5 its seal does not catch, or a bug (please report it with the "
+               "file); the run's data files are left as they were\n",
+               run_dir.c_str(), verb.c_str(), signal, strsignal(signal));
+  return 2;
 }
 
 void register_analysis_commands(CLI::App& app) {

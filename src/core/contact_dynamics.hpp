@@ -1,4 +1,4 @@
-// One Contact Dynamics time step, as a named sequence of stages (SPEC 3):
+// One Contact Dynamics time step, as a named sequence of stages (docs/model.md section 3):
 //   1. detect   candidate contacts (cell list, gap < margin), warm-started from the last step;
 //   2. prepare  free velocities: v + dt * (external force / mass) for disks and free wall axes,
 //               imposed values on driven axes, 0 on fixed ones;

@@ -5,7 +5,8 @@
 //     u = b + W R,   W = [[w_nn, w_nt], [w_nt, w_tt]]  (symmetric positive definite),
 // where b is the "free" velocity (all other impulses applied, this one removed). The normal
 // component carries the gap bias: b_n = u_n,free + gap / dt, so that u_n = 0 means
-// gap + dt u_n(end) = 0 (SPEC 3.3: inelastic Signorini, existing overlaps removed in one step).
+// gap + dt u_n(end) = 0 (docs/model.md section 3, item 3: inelastic Signorini, existing overlaps
+// removed in one step).
 // Conditions:
 //   Signorini:  R_n >= 0,  u_n >= 0,  R_n u_n = 0
 //   Coulomb:    |R_t| <= mu R_n;  |R_t| < mu R_n => u_t = 0;  R_t = -s mu R_n => s u_t >= 0.

@@ -43,11 +43,11 @@ void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const Solver
   row.inv_w_tt = w.w_nt == 0.0 ? step_scale * (1.0 / w.w_tt) : kCoupledRow;
 }
 
-/// Adds up a group's convergence figures (SPEC 3.5): the counts during a sweep, and the sums of
-/// |dR| and |R| afterwards from the stored squares (sum_group_lengths), in the order of the
-/// updates. The two square roots of a row are taken together in one packed instruction where
-/// the machine has one (SSE2, every x86-64). Square roots are correctly rounded either way: same
-/// sums.
+/// Adds up a group's convergence figures (docs/model.md section 3, item 5): the counts during a
+/// sweep, and the sums of |dR| and |R| afterwards from the stored squares (sum_group_lengths), in
+/// the order of the updates. The two square roots of a row are taken together in one packed
+/// instruction where the machine has one (SSE2, every x86-64). Square roots are correctly rounded
+/// either way: same sums.
 class TallyAccumulator {
  public:
   void count(bool carries, bool converged) {

@@ -1,4 +1,5 @@
-// Nonlinear Gauss-Seidel (NLGS) solver of the Contact Dynamics step (Moreau-Jean), SPEC 3.
+// Nonlinear Gauss-Seidel (NLGS) solver of the Contact Dynamics step (Moreau-Jean), docs/model.md
+// section 3.
 //
 // A function of (contacts, bodies, dt, options) that returns a report. Bodies carry the free
 // end-of-step velocities on entry (previous velocities plus dt times external accelerations) and
@@ -6,7 +7,7 @@
 // solution on exit.
 //
 // Each sweep visits every contact once and solves its 2x2 problem exactly (local_solve.hpp) with
-// the other impulses held fixed. Orders (SPEC 3.4, "random or colour-ordered"):
+// the other impulses held fixed. Orders (model.md section 3, item 4, "random or colour-ordered"):
 //   - random:     a shuffle of the contacts, seeded by (seed, step), the same in every sweep;
 //   - sequential: key order (disk a, then b, then image);
 //   - coloured:   the contacts grouped by where they are: the packing is cut into slabs of
@@ -45,8 +46,8 @@
 // unless a dormant contact closes and opens again between two looks (then it is a Gauss-Seidel
 // iterate of its own, within the same tolerance).
 //
-// Convergence (SPEC 3.5): after each sweep, with dR_k the change of contact k's impulse during
-// that sweep, stop when both
+// Convergence (model.md section 3, item 5): after each sweep, with dR_k the change of contact k's
+// impulse during that sweep, stop when both
 //   - |dR_k|^2 <= alpha |R_k|^2 for at least `converged_fraction` of the force-carrying contacts
 //     (R_k != 0 before or after the sweep; idle candidates are not counted), and
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
@@ -75,8 +76,8 @@ namespace cdshear {
 
 enum class ContactOrder { kRandom, kSequential, kColoured };
 
-/// What the tolerance alpha bounds (see above): the relative change of the last sweep (SPEC 3.5),
-/// or the estimated relative error left after it.
+/// What the tolerance alpha bounds (see above): the relative change of the last sweep (model.md
+/// section 3, item 5), or the estimated relative error left after it.
 enum class ConvergenceCriterion { kChange, kError };
 
 /// "random", "sequential", "coloured": the names in case and scene files.
@@ -111,11 +112,11 @@ struct SolverOptions {
   /// together. 0 = off. Same fixed points (docs/performance.md, "Slab correction").
   int slab_correction_period = 0;
   /// ... and only in packings of at least this many bands (the correction is for profiles over
-  /// the height of a tall packing; docs/accuracy.md, seventh pass). >= 2.
+  /// the height of a tall packing; docs/accuracy.md, "Defaults and what they guarantee"). >= 2.
   int slab_correction_min_bands = 2;
   /// The mix's period in the steps where the slab correction runs (0: anderson_period). With the
   /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
-  /// (docs/accuracy.md, eighth pass). >= 0.
+  /// (docs/accuracy.md, "Systems 5 and 7 (the slab correction on)"). >= 0.
   int anderson_period_with_slab_correction = 0;
   /// Active-set Newton iterations after the sweeps (active_set_solve.hpp; 0: off): each solves
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,

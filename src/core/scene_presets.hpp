@@ -2,9 +2,9 @@
 // by a pressure-controlled top wall. They are built through the project's one scene builder
 // (SceneDefinition + build_world) and stepped with the ordinary ContactDynamics step.
 //
-// Units are those of SPEC section 1: length = largest grain diameter (the default diameters are
-// in [0.8, 1.0]), mass from the 2D density 1, and the time unit set by the pressure (stress
-// sigma_yy = force / length = 0.25 by default).
+// Units are those of docs/model.md section 1: length = largest grain diameter (the default
+// diameters are in [0.8, 1.0]), mass from the 2D density 1, and the time unit set by the pressure
+// (stress sigma_yy = force / length = 0.25 by default).
 #pragma once
 
 #include <cstdint>
@@ -59,9 +59,10 @@ void start_compaction(World& world, double speed);
 
 /// Step settings of the compaction: coarser than the StepOptions defaults, because the
 /// preparation only has to end dense and at rest, not follow an accurate trajectory: dt = 4e-3,
-/// displacement_bound = 0.02, solver alpha = 1e-4 and max_sweeps = 20 (SPEC 3.5 defaults: 1e-6
-/// and 200; 20 sweeps halve the preparation time of 5000 disks against 50, 10 let the packing
-/// creep). With compaction_speed 2 a disk moves at most about 0.01 per step.
+/// displacement_bound = 0.02, solver alpha = 1e-4 and max_sweeps = 20 (the reference values of
+/// model.md section 3, item 5: 1e-6 and 200; 20 sweeps halve the preparation time of 5000 disks
+/// against 50, 10 let the packing creep). With compaction_speed 2 a disk moves at most about 0.01
+/// per step.
 StepOptions densify_step_options();
 
 /// When a compressed packing counts as dense, checked every `check_every` steps: kinetic energy

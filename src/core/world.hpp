@@ -1,5 +1,5 @@
 // The simulation state as plain data: disks, walls, the periodic domain, the body force.
-// Units are those of SPEC section 1 (length: largest grain diameter; mass: 2D density 1).
+// Units are those of docs/model.md section 1 (length: largest grain diameter; mass: 2D density 1).
 #pragma once
 
 #include <cmath>

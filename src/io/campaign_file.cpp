@@ -110,8 +110,8 @@ CampaignGroup read_group(TomlReader& t) {
   for (const std::int64_t k : t.integer_array("systems", std::numeric_limits<int>::min(),
                                               std::numeric_limits<int>::max())) {
     if (k < 1 || k > 7)
-      t.fail("systems",
-             "system " + std::to_string(k) + " is unknown: the systems of SPEC 6 are 1..7");
+      t.fail("systems", "system " + std::to_string(k) +
+                            " is unknown: the systems of docs/model.md section 6 are 1..7");
     g.systems.push_back(static_cast<int>(k));
   }
   if (g.systems.empty()) t.fail("systems", "is empty: name at least one system");
@@ -161,7 +161,7 @@ CampaignGroup read_group(TomlReader& t) {
     t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
   if (has_duration) {
     if (t.has_table("duration")) {
-      // One duration per system (SPEC 6 gives each its own simulated time).
+      // One duration per system (model.md section 6 gives each its own simulated time).
       TomlReader per = t.table("duration");
       for (const int k : g.systems) {
         const std::string key = std::to_string(k);
@@ -268,8 +268,8 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   }
   root.finish();
 
-  // A bound on the campaign's size (SPEC 6's whole study is a few hundred runs): each run is
-  // resolved below, and a folder is made for each.
+  // A bound on the campaign's size (the whole study of model.md section 6 is a few hundred runs):
+  // each run is resolved below, and a folder is made for each.
   double run_count = 0.0;
   for (const CampaignGroup& g : c.groups)
     run_count += static_cast<double>(g.systems.size()) * static_cast<double>(g.seeds.size()) *

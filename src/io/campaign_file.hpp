@@ -16,7 +16,7 @@ namespace cdshear {
 /// One shear run of a campaign, fully resolved.
 struct CampaignRun {
   std::string name;        ///< folder name: s<system>_seed<seed>_V<V>
-  int system = 1;          ///< SPEC 6 preset, 1..7
+  int system = 1;          ///< preset of model.md section 6, 1..7
   double velocity = 0.0;   ///< V [d/t]
   std::uint64_t seed = 1;  ///< packing placement seed (case key system.seed)
   double duration = 0.0;   ///< simulated shear time [t] (from `duration`, or from `strain`)

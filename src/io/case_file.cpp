@@ -56,7 +56,7 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   }
   c.dt_max = step.positive("dt_max", c.dt_max);
   // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
-  // an underflow (1e-320), not a flow (SPEC 6's slowest is 0.005).
+  // an underflow (1e-320), not a flow (the slowest of model.md section 6 is 0.005).
   // (The longer of dt_max and a given dt: a tiny given dt is the step limit's to refuse.)
   if (const double longest = std::max(c.dt.value_or(c.dt_max), c.dt_max) * kMaxRunSteps;
       c.velocity * longest < c.diameter_max)

@@ -1,5 +1,6 @@
 #include "checkpoint.hpp"
 
+#include <fmt/format.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -16,6 +17,46 @@ namespace cdshear {
 namespace {
 
 using nlohmann::json;
+
+/// How deep a checkpoint's CBOR may nest. A checkpoint nests a few levels (the measurement's state
+/// the deepest); nlohmann's CBOR reader recurses once per level, so a crafted file of a few
+/// hundred thousand nested arrays behind a correct seal would exhaust the stack.
+constexpr std::size_t kMaxCborDepth = 64;
+
+/// nlohmann's DOM builder behind a bound on nesting: past kMaxCborDepth, start_object and
+/// start_array answer false, which stops the reader before it recurses further.
+class BoundedDomBuilder {
+ public:
+  explicit BoundedDomBuilder(json& result) : dom_(result, true) {}
+  bool null() { return dom_.null(); }
+  bool boolean(bool v) { return dom_.boolean(v); }
+  bool number_integer(json::number_integer_t v) { return dom_.number_integer(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return dom_.number_unsigned(v); }
+  bool number_float(json::number_float_t v, const json::string_t& s) {
+    return dom_.number_float(v, s);
+  }
+  bool string(json::string_t& v) { return dom_.string(v); }
+  bool binary(json::binary_t& v) { return dom_.binary(v); }
+  bool start_object(std::size_t n) { return deeper() && dom_.start_object(n); }
+  bool key(json::string_t& k) { return dom_.key(k); }
+  bool end_object() { return --depth_, dom_.end_object(); }
+  bool start_array(std::size_t n) { return deeper() && dom_.start_array(n); }
+  bool end_array() { return --depth_, dom_.end_array(); }
+  bool parse_error(std::size_t at, const std::string& token, const nlohmann::detail::exception& e) {
+    return dom_.parse_error(at, token, e);
+  }
+  bool too_deep() const { return too_deep_; }
+
+ private:
+  bool deeper() {
+    if (++depth_ <= kMaxCborDepth) return true;
+    too_deep_ = true;
+    return false;
+  }
+  nlohmann::detail::json_sax_dom_parser<json> dom_;
+  std::size_t depth_ = 0;
+  bool too_deep_ = false;
+};
 
 json xy(const std::vector<Vec2>& v, bool take_y) {
   std::vector<double> out(v.size());
@@ -179,7 +220,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                       "was written");
   Checkpoint cp;
   try {
-    const json j = json::from_cbor(body);
+    json j;
+    BoundedDomBuilder builder(j);
+    json::sax_parse(body, &builder, json::input_format_t::cbor);
+    if (builder.too_deep())
+      throw ConfigError(file, "",
+                        fmt::format("nests deeper than {} levels: not a checkpoint cdshear wrote",
+                                    kMaxCborDepth));
     if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
       throw ConfigError(file, "format", "not a cdshear checkpoint");
     if (j.at("version") != 1)

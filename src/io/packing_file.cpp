@@ -94,8 +94,8 @@ std::string packing_cache_name(const PreparationOptions& o) {
                   o.step.abort_overlap, s.alpha, s.converged_fraction, s.max_sweeps, s.seed);
   // Added only when they differ from the values they were introduced with (relaxation 1, random
   // order, every contact swept, no slab correction), so that the names of packings made before them
-  // hold: a packing prepared in the random order (the default until 2026-11-23) keeps its name, and
-  // today's default, the coloured order, carries " ocoloured".
+  // hold: a packing prepared in the random order keeps its name, and the default, the coloured
+  // order, carries " ocoloured".
   std::string added = s.relaxation != 1.0 ? fmt::format(" r{}", s.relaxation) : "";
   if (s.order != ContactOrder::kRandom) added += fmt::format(" o{}", contact_order_name(s.order));
   if (s.skip_dormant) added += " sd";

@@ -250,7 +250,8 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
       w.stress_yy[s] -= share * m.yy;
     }
     state_.grain_moment[i] = Tensor2{};
-    // Slip (SPEC 7): grain surface velocity at the contact point minus the wall's velocity.
+    // Slip (docs/model.md section 7): grain surface velocity at the contact point minus the wall's
+    // velocity.
     if (touches_[i] & 1) {
       w.slip_bottom_sum += v.x + w_i * r - world.walls[kBottom].velocity.x;
       ++w.slip_bottom_count;

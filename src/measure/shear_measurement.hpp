@@ -1,5 +1,6 @@
-// The measurements of SPEC 7 on the shear cell, as one observer-side object that reads the state
-// after every step and never changes it (no I/O here; src/io/run_data_file writes what it holds).
+// The measurements of docs/model.md section 7 on the shear cell, as one observer-side object that
+// reads the state after every step and never changes it (no I/O here; src/io/run_data_file writes
+// what it holds).
 //
 // Every step: the solver statistics of the sampling interval, and each grain's contact moment
 //   M_i = sum over its contacts j of R_ij (x) r_ij   [force time length]
@@ -30,8 +31,8 @@
 //                    x' dS), and the centripetal acceleration a = -w^2 x' of a spinning rigid
 //                    disk gives + rho w^2 int x' (x) x' = (pi r^4 / 4) rho w^2 I, which cancels
 //                    the rotational flux rho w^2 int (z x x') (x) (z x x') of the whole disk
-//                    exactly; with each grain's stress spread over its area as a whole (SPEC 7),
-//                    neither term enters
+//                    exactly; with each grain's stress spread over its area as a whole
+//                    (model.md section 7), neither term enters
 //   stress           s_k + k_k;  mu_eff = |stress_xy| / stress_yy
 //   Z_k = sum S_ik z_i / sum S_ik, z_i the grain's closed contacts (below);
 //   shear rate by central differences; I = |gamma_dot| sqrt(m / sigma_yy), m = pi/4.
@@ -78,7 +79,8 @@ struct MeasureContext {
   double nominal_height = 20.0;  ///< nominal L_y, sets the number of stripes [d]
 };
 
-/// m = pi/4: the mass of a disk of diameter 1 in I = gamma_dot sqrt(m / sigma_yy) (SPEC 7).
+/// m = pi/4: the mass of a disk of diameter 1 in I = gamma_dot sqrt(m / sigma_yy) (model.md
+/// section 7).
 inline constexpr double kInertialMass = 0.78539816339744830962;
 
 struct Tensor2 {

@@ -1,6 +1,6 @@
-// Exact geometry of a disk cut by a horizontal stripe (SPEC 7): the area of the part of the
-// disk between two heights, its first moment about the disk's centre height, and its second
-// moments about the centre (for the kinetic stress of the grains' rotation).
+// Exact geometry of a disk cut by a horizontal stripe (docs/model.md section 7): the area of the
+// part of the disk between two heights, its first moment about the disk's centre height, and its
+// second moments about the centre (for the kinetic stress of the grains' rotation).
 //
 // Derivation. For a disk of radius r centred at height y_c, write u = (y - y_c) / r clamped to
 // [-1, 1] and s = sqrt(1 - u^2). The chord at height y' (relative to the centre) runs over

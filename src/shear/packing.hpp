@@ -1,5 +1,5 @@
-// A prepared packing (SPEC 5 step 2): the reusable artefact from which every shear run of a
-// system starts. One packing serves every wall velocity V.
+// A prepared packing (docs/model.md section 5, step 2): the reusable artefact from which every
+// shear run of a system starts. One packing serves every wall velocity V.
 #pragma once
 
 #include <cstdint>
@@ -23,7 +23,7 @@ struct Packing {
   double solid_fraction = 0.0;    ///< sum of disk areas / (L_x L_y)
   double piston_stress = 0.25;    ///< sigma_xx it was compressed with [force/length]
   double preparation_time = 0.0;  ///< simulated time the protocol took
-  // How the protocol's numerics behaved (SPEC 3 asks every run to report them).
+  // How the protocol's numerics behaved (model.md section 3 asks every run to report them).
   std::uint64_t preparation_steps = 0;
   std::uint64_t capped_steps = 0;           ///< steps whose solver hit the sweep cap
   std::uint64_t displacement_warnings = 0;  ///< steps moving a disk beyond displacement_bound

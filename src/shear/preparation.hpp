@@ -1,4 +1,4 @@
-// The preparation protocol of SPEC 5 (steps 1 and 2):
+// The preparation protocol of docs/model.md section 5 (steps 1 and 2):
 //   1. settling: horizontal walls fixed at y = 0 and y = L_y, a vertical wall at x = 0, every
 //      contact frictionless; n disks placed at random without overlap in a loose box to the right
 //      of the wall, settling against it under a body force g along -x;
@@ -52,10 +52,10 @@ struct PreparationOptions {
   /// here, not the 1e-5 of shear runs: preparation needs an equilibrium packing, not accurate
   /// force histories, and is then about 3 times faster (measured: 91 s against more than 4 min for
   /// system 1; L_x 19.56 against 19.67, solid fraction 0.829 against 0.824).
-  /// The coloured contact order (since 2026-11-23; random before), so that `--threads` share the
-  /// sweeps: system 7 in 10 min on two threads against 19 min in the random order on one, and no
-  /// shift of the prepared solid fraction over five seeds of system 1 (+0.0008 +- 0.0016,
-  /// docs/benchmarks.md). The result does not depend on the number of threads.
+  /// The coloured contact order, so that `--threads` share the sweeps: system 7 in 10 min on two
+  /// threads against 19 min in the random order on one, and no shift of the prepared solid
+  /// fraction over five seeds of system 1 (+0.0008 +- 0.0016, docs/benchmarks.md, "Performance
+  /// targets"). The result does not depend on the number of threads.
   StepOptions step = [] {
     StepOptions s;
     s.solver.alpha = 1e-4;

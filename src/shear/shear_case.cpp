@@ -33,7 +33,7 @@ void apply_system_preset(ShearCase& c, int system) {
     std::size_t n;
     double height, stress, duration;
   };
-  // SPEC 6. Durations: the reference simulated time (system 5: the upper value).
+  // docs/model.md section 6. Durations: the reference simulated time (system 5: the upper value).
   static constexpr Row rows[] = {{511, 20, 0.25, 20000},    {1023, 40, 0.25, 10000},
                                  {1023, 40, 0.0625, 10000}, {3199, 50, 0.25, 8000},
                                  {2047, 80, 0.25, 12000},   {3071, 120, 0.25, 6000},
@@ -45,7 +45,7 @@ void apply_system_preset(ShearCase& c, int system) {
   c.height = r.height;
   c.normal_stress = r.stress;
   c.duration = r.duration;
-  c.measure.window = 80.0;  // SPEC 7's windows
+  c.measure.window = 80.0;  // the windows of model.md section 7
   // System 4 is 50 wide: its packing is prepared to that width by the same protocol.
   sync_preparation(c);
 }

@@ -1,6 +1,6 @@
-// The plane shear cell of SPEC 4 and 6: every parameter of one shear run, the seven systems of
-// the reference study as presets, the default time-step rule, and the world built from a
-// prepared packing (SPEC 5 step 3).
+// The plane shear cell of docs/model.md sections 4 and 6: every parameter of one shear run, the
+// seven systems of the reference study as presets, the default time-step rule, and the world built
+// from a prepared packing (model.md section 5, step 3).
 #pragma once
 
 #include <cstdint>
@@ -15,30 +15,28 @@
 
 namespace cdshear {
 
-/// The shear phase's step options when the case sets none: solver.skip_dormant on (0.74 times the
-/// cost, same averages) and solver.relaxation = 1.6 (projected over-relaxation: 0.58 times the
-/// cost, and Z within the error of the converged reference where Gauss-Seidel's is 2% low), both
-/// from docs/accuracy.md, and Anderson mixing of the sweeps (depth 5, every 4 sweeps: the same
-/// cost at V = 0.5 and 4% less at V = 0.05, per-step errors 2 to 5 times smaller, and at
-/// V = 0.05 the solid fraction and Z of the converged reference where over-relaxation alone
-/// was 3 to 14 combined errors off; docs/accuracy.md, fourth pass). The coloured contact order
-/// (since 2026-11-24; random before), so that `--threads` share the sweeps of large systems (1.5
-/// to 1.7 times on two threads for system 7): the same averages as the random order at V = 0.5 and,
-/// over five seeds each, at V = 0.05 (docs/accuracy.md). The tolerance alpha = 1e-5 (since
-/// 2026-11-24; SPEC 3.5's reference value 1e-6 before): with the mix it gave the averages of
-/// 1e-6 at V = 0.5 (two seeds each), at V = 0.05 (three seeds against five) and on system 7
-/// (400 t), within 1.4 combined errors, for 15 to 29% fewer sweeps (docs/accuracy.md, fifth
-/// pass). The slab correction every 8 sweeps in packings of 20 bands or more (L_y >= 80 d:
-/// systems 5 to 7; since 2026-11-24, slab_correction.hpp): without it, in system 7's slow
-/// phase, these settings and SPEC 3.5's reference values alike left 3 to 7% of the
-/// force-carrying contacts open against a solve run to convergence; with it, 0.3 to 1.1%, for a
-/// quarter fewer sweeps there. Not in system 1 (5 bands), which has nothing to correct: the
-/// same averages with it over four seeds at V = 0.5, but no sweep saved (docs/accuracy.md,
-/// seventh pass). Where the correction runs, the mix every 8 sweeps instead of 4
-/// (anderson_period_with_slab_correction = 8, since 2026-11-24): 6 to 10% fewer sweeps and half
-/// the mixes, the same averages over five seeds of system 5 (docs/accuracy.md, eighth pass).
-/// Scene files keep the engine's plain
-/// defaults; the preparation has its own (preparation.hpp).
+/// The shear phase's step options when the case sets none. Each default and its measured reason
+/// (docs/accuracy.md, "Defaults and what they guarantee"):
+/// - the coloured contact order, so that `--threads` share the sweeps of large systems (two
+///   threads step system 7 1.8 to 1.9 times as fast as one); the same averages as the random order;
+/// - alpha = 1e-5 (the reference value of model.md section 3, item 5, is 1e-6): with the mix, the
+///   averages of 1e-6 at V = 0.5, at V = 0.05 and on system 7, within 1.4 combined errors, for 15
+///   to 29% fewer sweeps;
+/// - skip_dormant on: the same averages as sweeping every contact at 0.74 times the cost;
+/// - relaxation = 1.6 (projected over-relaxation): 0.58 times Gauss-Seidel's cost, and Z within
+///   the error of the converged reference where Gauss-Seidel at the sweep cap is 3.4 errors low;
+/// - Anderson mixing of the sweeps (depth 5, every 4 sweeps): the same cost at V = 0.5 and 4% less
+///   at V = 0.05, per-step errors 2 to 5 times smaller, and at V = 0.05 the solid fraction and Z
+///   of the converged reference where over-relaxation alone was 3 to 14 combined errors off;
+/// - the slab correction every 8 sweeps in packings of 20 bands or more (L_y >= 80 d: systems 5
+///   to 7; slab_correction.hpp): in system 7's slow phase the force-carrying contacts within 0.3
+///   to 1.1% of a solve run to convergence, where without it they are 2.6 to 7% too few, for a
+///   quarter fewer sweeps. Not in system 1 (5 bands), which has nothing to correct: the same
+///   averages with it, but no sweep saved;
+/// - where the correction runs, the mix every 8 sweeps instead of 4
+///   (anderson_period_with_slab_correction = 8): 6 to 10% fewer sweeps and half the mixes, the
+///   same averages over five seeds of system 5.
+/// Scene files keep the engine's plain defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
   o.solver.order = ContactOrder::kColoured;
@@ -85,14 +83,15 @@ struct ShearCase {
   double checkpoint_interval = 50.0;
   double snapshot_interval = 0.0;  ///< VTK snapshots
 
-  /// SPEC 7 measurements ([measure]); boundary_thickness empty: default_boundary_thickness().
-  /// The built-in case (the default job) averages over windows of 40 so that its 240 time units
-  /// hold enough windows for error bars; the --system presets use SPEC's 80.
+  /// The measurements of model.md section 7 ([measure]); boundary_thickness empty:
+  /// default_boundary_thickness(). The built-in case (the default job) averages over windows of 40
+  /// so that its 240 time units hold enough windows for error bars; the --system presets use the 80
+  /// of model.md section 7.
   MeasureOptions measure{.window = 40.0, .boundary_thickness = {}};
 };
 
-/// The boundary thicknesses h measured when the case names none: [10] (SPEC 7), or [L_y / 4] for
-/// cells thinner than 40 d so that a bulk remains (system 1: h = 5).
+/// The boundary thicknesses h measured when the case names none: [10] (model.md section 7), or
+/// [L_y / 4] for cells thinner than 40 d so that a bulk remains (system 1: h = 5).
 std::vector<double> default_boundary_thickness(double height);
 
 /// The default time-step rule: dt = min(dt_max, displacement_per_step / V), so that the walls
@@ -103,15 +102,15 @@ double default_time_step(const ShearCase& c);
 /// resulting wall displacement per step V dt exceeds c.step.displacement_bound.
 std::string resolve_time_step(ShearCase& c);
 
-/// Applies the row of SPEC 6 for system 1..7 (n, L_y, sigma_yy, duration); V is left as is.
-/// Throws std::invalid_argument for another number.
+/// Applies the row of model.md section 6 for system 1..7 (n, L_y, sigma_yy, duration); V is left as
+/// is. Throws std::invalid_argument for another number.
 void apply_system_preset(ShearCase& c, int system);
 
 /// Copies the system parameters into c.preparation (n, height, diameters, seed).
 void sync_preparation(ShearCase& c);
 
-/// The shear world of SPEC 4 from a packing: x periodic with period L_x, walls at y = 0 and
-/// y = L_y moving at -V and +V along x and free along y (mass M_w, force F_y inwards), friction
+/// The shear world of model.md section 4 from a packing: x periodic with period L_x, walls at y = 0
+/// and y = L_y moving at -V and +V along x and free along y (mass M_w, force F_y inwards), friction
 /// mu_p and mu_w, disks given the linear velocity profile from -V (bottom) to +V (top).
 World build_shear_world(const ShearCase& c, const Packing& packing);
 
