@@ -53,6 +53,17 @@ done
 checks=$((checks + 1))
 test -f done/run_info.json || { echo "FAIL: the forced run wrote no run_info.json"; fails=$((fails + 1)); }
 
+# An output folder that cannot be made is refused before any packing is prepared (a case without
+# a cached packing would otherwise prepare one first), and nothing is left behind.
+expect_error "/proc/cdshear_x: cannot create the output folder" \
+  "$exe" run -q --set system.n=37 --set system.height=6 -o /proc/cdshear_x
+checks=$((checks + 1))
+[ ! -e packings ] || { echo "FAIL: a packing was prepared for an unusable -o"; fails=$((fails + 1)); }
+# A run that fails after its folder was made (no such packing) leaves no empty run folder.
+expect_error "nowhere.json: packing file not found" "$exe" run -q --packing nowhere.json -o fresh
+checks=$((checks + 1))
+[ ! -e fresh ] || { echo "FAIL: a failed run left its folder"; fails=$((fails + 1)); }
+
 # A run's files belong together: another run's run.h5 (same dt, other V) copied into a stopped
 # run's folder is refused on resume, naming the file and the key.
 for V in 0.1 0.2; do

@@ -90,6 +90,9 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
   } catch (const PreparationInterrupted& e) {
     std::fprintf(stderr, "%s\n", e.what());
     throw CLI::RuntimeError(130);  // like an interrupted run
+  } catch (const PreparationFailed& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    throw CLI::RuntimeError(1);  // not the input's fault as such (docs/reliability.md)
   } catch (const SceneError& e) {
     // Only the loose random placement can fail this way.
     throw ConfigError("preparation", "preparation.initial_solid_fraction",
@@ -313,14 +316,8 @@ void open_new(const RunArgs& args, ShearSession& s) {
                   (args.c.overrides.empty() ? "" : " (with --set overrides)");
   if (!args.packing.empty()) c.packing_file = args.packing;
   plan_run(s);  // the new world starts at step 0
-  auto [packing, path] = obtain_packing(c, args.c.quiet);
-  s.packing_used = path.string();
-  check_packing_matches(c, packing, path);
-  try {
-    s.world = build_shear_world(c, packing);
-  } catch (const SceneError& e) {
-    throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
-  }
+  // The output folder is claimed before the packing is obtained: a folder that cannot be used
+  // must not be found out after minutes of preparation.
   if (args.out_dir.empty()) {
     // Default folder: named after the case; a new run never overwrites an earlier one but
     // takes the next free suffix (_2, _3, ...).
@@ -332,10 +329,36 @@ void open_new(const RunArgs& args, ShearSession& s) {
   } else {
     s.dir = args.out_dir;
   }
+  const bool existed = fs::exists(s.dir);
+  fs::path outermost_made = s.dir;  // the outermost folder claiming s.dir creates
+  while (!outermost_made.parent_path().empty() && outermost_made.parent_path() != outermost_made &&
+         !fs::exists(outermost_made.parent_path()))
+    outermost_made = outermost_made.parent_path();
   s.lock = claim_output_folder(s.dir, args.force,
                                fs::exists(s.dir / "checkpoint.cbor")
                                    ? "continue it with --resume " + s.dir.string()
                                    : std::string());
+  try {
+    auto [packing, path] = obtain_packing(c, args.c.quiet);
+    s.packing_used = path.string();
+    check_packing_matches(c, packing, path);
+    try {
+      s.world = build_shear_world(c, packing);
+    } catch (const SceneError& e) {
+      throw ConfigError(path.string(), "", std::string("cannot build the shear cell: ") + e.what());
+    }
+  } catch (...) {  // the folders this command made, and left empty, go again
+    if (!existed) {
+      std::error_code ec;
+      s.lock = FolderLock();
+      fs::remove(s.dir / kFolderLockName, ec);
+      for (fs::path p = s.dir;; p = p.parent_path()) {
+        fs::remove(p, ec);  // only if empty
+        if (ec || p == outermost_made || p.parent_path() == p) break;
+      }
+    }
+    throw;
+  }
   write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 
@@ -53,8 +54,8 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
     stats.displacement_warnings += r.displacement_exceeded;
     stats.largest_overlap = std::max(stats.largest_overlap, r.max_overlap);
     if (r.blown_up)
-      throw std::runtime_error("preparation phase " + std::to_string(phase) + " blew up at step " +
-                               std::to_string(r.step) + ": " + r.problem);
+      throw PreparationFailed("preparation phase " + std::to_string(phase) + " blew up at step " +
+                              std::to_string(r.step) + ": " + r.problem);
     const double ek = kinetic_energy(world) / n;
     const Wall* piston = has_piston ? &world.walls.back() : nullptr;
     const double speed = piston ? std::abs(piston->velocity.x) : 0.0;
@@ -85,9 +86,14 @@ double run_phase(int phase, World& world, ContactDynamics& dynamics, const Prepa
       progress(p);
     }
   }
-  throw std::runtime_error("preparation phase " + std::to_string(phase) +
-                           " did not reach equilibrium within max_time_per_phase = " +
-                           std::to_string(o.max_time_per_phase));
+  char limit[32];
+  std::snprintf(limit, sizeof limit, "%g", o.max_time_per_phase);
+  throw PreparationFailed(
+      "preparation phase " + std::to_string(phase) + " (" +
+      (phase == 1 ? "settling" : "compression") +
+      ") did not reach equilibrium within preparation.max_time_per_phase = " + limit +
+      " time units; nothing was written (give a longer preparation.max_time_per_phase, or looser "
+      "equilibrium thresholds: docs/shear-cell.md, \"Preparation\")");
 }
 
 }  // namespace

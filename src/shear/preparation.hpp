@@ -33,6 +33,12 @@ struct PreparationInterrupted : std::runtime_error {
                            "; nothing was written") {}
 };
 
+/// Thrown when a preparation phase blows up or does not reach equilibrium within
+/// max_time_per_phase: not the input's fault as such (exit 1), nothing is written.
+struct PreparationFailed : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 struct PreparationOptions {
   std::size_t n = 511;
   double height = 20.0;  ///< L_y [d]
