@@ -134,6 +134,64 @@ def _check_lengths(data, keys, length, what, path):
                                      f"expected first dimension {length}")
 
 
+# Root attributes that must be finite numbers > 0 (n also a whole number), and those that must be
+# finite and >= 0: what `cdshear run` writes; anything else is not a run of this model.
+POSITIVE_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window")
+NON_NEGATIVE_ATTRS = ("time",)
+
+
+def _number(value):
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+def _check_physics(attrs, series, windows, n_stripes, path):
+    """Refuses data that are not a shear run, naming the attribute or dataset: what `cdshear run`
+    cannot write (a V of 0, NaN or text, a negative height, time running backwards, no stripes,
+    arrays of the wrong rank, every physical series NaN), so that no regime is ever given to them."""
+    for k in POSITIVE_ATTRS + NON_NEGATIVE_ATTRS:
+        v = attrs[k]
+        if not _number(v) or not np.isfinite(v):
+            raise RunDataError(path, f"attribute {k} is {v!r}, not a finite number")
+        if k in POSITIVE_ATTRS and not v > 0:
+            raise RunDataError(path, f"attribute {k} is {v!r}: it must be > 0")
+        if k in NON_NEGATIVE_ATTRS and v < 0:
+            raise RunDataError(path, f"attribute {k} is {v!r}: it must be >= 0")
+    if float(attrs["n"]) != int(attrs["n"]):
+        raise RunDataError(path, f"attribute n is {attrs['n']!r}: a number of disks is whole")
+    for k, v in series.items():
+        if np.ndim(v) != 1 or np.asarray(v).dtype.kind not in "biuf":
+            raise RunDataError(path, f"/series/{k} is not a one-dimensional array of numbers "
+                                     f"(shape {np.shape(v)}, type {np.asarray(v).dtype})")
+    t = np.asarray(series["time"], dtype=float)
+    if not np.all(np.isfinite(t)):
+        raise RunDataError(path, "/series/time holds a value that is not finite")
+    if t.size > 1 and np.any(np.diff(t) <= 0):
+        k = int(np.argmax(np.diff(t) <= 0)) + 1
+        raise RunDataError(path, f"/series/time does not increase at row {k} "
+                                 f"({t[k - 1]:g} then {t[k]:g})")
+    if "step" in series and not np.all(np.isfinite(np.asarray(series["step"], dtype=float))):
+        raise RunDataError(path, "/series/step holds a value that is not finite")
+    physical = [k for k in REQUIRED_SERIES if k != "time"]
+    if t.size > 0 and all(np.all(np.isnan(np.asarray(series[k], dtype=float))) for k in physical):
+        raise RunDataError(path, "every physical series (" + ", ".join(physical) +
+                                 ") is NaN: there is nothing to analyse")
+    if n_stripes == 0:
+        raise RunDataError(path, "/windows/y is empty: the profiles have no stripes")
+    for k in ("y", "t_start", "t_end"):
+        if np.ndim(windows[k]) != 1:
+            raise RunDataError(path, f"/windows/{k} has shape {np.shape(windows[k])}, expected "
+                                     "one dimension")
+    for k in ("solid_fraction", "vx", "mu_eff", "coordination"):
+        if np.ndim(windows[k]) != 2:
+            raise RunDataError(path, f"/windows/{k} has shape {np.shape(windows[k])}, expected "
+                                     "(windows, stripes)")
+    ts, te = (np.asarray(windows[k], dtype=float) for k in ("t_start", "t_end"))
+    if ts.size and (not np.all(np.isfinite(ts)) or not np.all(np.isfinite(te))
+                    or np.any(te <= ts)):
+        raise RunDataError(path, "/windows/t_start and t_end do not make windows of positive "
+                                 "length")
+
+
 def _read(f, run_dir, path):
     attrs = {k: _plain(v) for k, v in f.attrs.items()}
     for k, v in attrs.items():
@@ -154,6 +212,7 @@ def _read(f, run_dir, path):
         if windows[k].shape[1:2] != (n_stripes,):
             raise RunDataError(path, f"/windows/{k} has shape {windows[k].shape}, "
                                      f"expected ({n_windows}, {n_stripes}, ...)")
+    _check_physics(attrs, series, windows, n_stripes, path)
     regions = {}
     if "regions" in f["windows"]:
         for label, group in f["windows/regions"].items():

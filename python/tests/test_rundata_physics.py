@@ -1,0 +1,101 @@
+"""run.h5 files that are sealed but are not a shear run (V of 0, NaN or text, a negative height,
+time running backwards, no stripes, a window of 0, every physical series NaN, arrays of the wrong
+rank) are refused by load_run naming the attribute or dataset, and `analyze` exits 2 with the
+message and no traceback: no regime is ever given to them."""
+import contextlib
+import io
+import os
+import shutil
+import tempfile
+import unittest
+
+import h5py
+import numpy as np
+
+from cdshear_analysis import RunDataError, load_run
+from cdshear_analysis.__main__ import main
+from cdshear_analysis.rundata import seal
+from cdshear_analysis.synthetic import write_synthetic_run
+
+
+def set_attr(name, value):
+    def damage(f):
+        f.attrs[name] = value
+    return damage
+
+
+def replace(dataset, make):
+    def damage(f):
+        old = f[dataset][()]
+        del f[dataset]
+        f[dataset] = make(old)
+    return damage
+
+
+def backwards(t):
+    t = np.array(t, dtype=float)
+    t[5] = t[3]
+    return t
+
+
+def all_nan_series(f):
+    for k in ("com_vx", "height", "solid_fraction", "bottom_fx", "bottom_fy", "top_fx", "top_fy"):
+        data = f[f"series/{k}"][()]
+        del f[f"series/{k}"]
+        f[f"series/{k}"] = np.full_like(np.asarray(data, dtype=float), np.nan)
+
+
+CASES = [
+    ("V = 0", set_attr("velocity", 0.0), "attribute velocity is 0.0: it must be > 0"),
+    ("V = NaN", set_attr("velocity", np.nan), "attribute velocity is nan, not a finite number"),
+    ("n = 'abc'", set_attr("n", "abc"), "attribute n is 'abc', not a finite number"),
+    ("n = 2.5", set_attr("n", 2.5), "a number of disks is whole"),
+    ("negative height", set_attr("height", -20.0), "attribute height is -20.0: it must be > 0"),
+    ("window 0", set_attr("window", 0.0), "attribute window is 0.0: it must be > 0"),
+    ("time backwards", replace("series/time", backwards), "/series/time does not increase at row 5"),
+    ("no stripes", replace("windows/y", lambda y: np.zeros(0)), "/windows/"),
+    ("all NaN", all_nan_series, "every physical series"),
+    ("3-D vx", replace("windows/vx", lambda v: np.asarray(v)[..., None]),
+     "/windows/vx has shape"),
+    ("2-D series", replace("series/com_vx", lambda v: np.stack([v, v], axis=1)),
+     "/series/com_vx"),
+]
+
+
+class NotPhysics(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.good = os.path.join(cls.tmp.name, "good")
+        write_synthetic_run(cls.good, kind="A", duration=400.0)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_the_untouched_run_reads(self):
+        self.assertGreater(len(load_run(self.good)["series"]["time"]), 10)
+
+    def test_each_damage_is_refused_naming_what(self):
+        for name, damage, words in CASES:
+            with self.subTest(name):
+                d = os.path.join(self.tmp.name, name.replace(" ", "_").replace("'", ""))
+                shutil.copytree(self.good, d)
+                path = os.path.join(d, "run.h5")
+                with h5py.File(path, "r+") as f:
+                    damage(f)
+                seal(path)
+                with self.assertRaises(RunDataError) as e:
+                    load_run(d)
+                self.assertIn(words, e.exception.problem)
+                out, err = io.StringIO(), io.StringIO()
+                with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                    rc = main(["analyze", d])
+                self.assertEqual(rc, 2, err.getvalue())
+                self.assertIn(f"error: {path}", err.getvalue())
+                self.assertNotIn("Traceback", err.getvalue())
+                self.assertFalse(os.path.exists(os.path.join(d, "summary.json")))
+
+
+if __name__ == "__main__":
+    unittest.main()
