@@ -1,11 +1,14 @@
 // `cdshear prepare` and `cdshear run`: the shear cell of the reference study (docs/model.md
 // sections 4 to 6).
 #include <fmt/format.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -362,6 +365,36 @@ void open_new(const RunArgs& args, ShearSession& s) {
   write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
 }
 
+/// read_run_data, first tried in a child process: HDF5 may crash on a file damaged in a way its
+/// seal does not catch (a crafted one), and a crash in this process would take the message with
+/// it. The child only reads and exits; then this process reads the file itself.
+RunData read_run_data_isolated(const fs::path& path) {
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    int code = 0;
+    try {
+      read_run_data(path);
+    } catch (...) {
+      code = 2;  // this process reads it again below and says why
+    }
+    _exit(code);
+  }
+  if (pid > 0) {
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (WIFSIGNALED(status))
+      throw ConfigError(path.string(), "",
+                        fmt::format("the HDF5 library crashed reading it (signal {}, {}): the file "
+                                    "is damaged in a way its seal does not catch; nothing was "
+                                    "written",
+                                    WTERMSIG(status), strsignal(WTERMSIG(status))));
+  }  // fork refused: read it here, unprotected
+  return read_run_data(path);
+}
+
 /// The measurement layer of a session, restored from the checkpoint and run.h5 when resuming.
 std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   if (!s.c.measure.enabled) return nullptr;
@@ -382,7 +415,7 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
     throw ConfigError(checkpoint, "observers.measurement",
                       "does not match the run's disks or stripes");
   // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
-  RunData data = read_run_data(s.dir / "run.h5");
+  RunData data = read_run_data_isolated(s.dir / "run.h5");
   const std::string data_file = (s.dir / "run.h5").string();
   // The data must be this run's: another run's run.h5 copied into the folder (a V = 0.2 run's
   // under a V = 0.1 case.toml and checkpoint) would join two flows in one record.
