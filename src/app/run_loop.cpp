@@ -25,6 +25,19 @@ std::string format_duration(double s) {
   if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
   return fmt::format("{:.0f}h{:02.0f}m", std::floor(s / 3600), std::fmod(s / 60, 60));
 }
+
+/// One line per interval: the interval's solver figures, capped steps summed (no warning per step:
+/// a default run can cap thousands of steps).
+void print_status_line(const World& world, const StepReport& r, const IntervalStats& interval,
+                       double steps_per_second) {
+  std::printf(
+      "step %10llu  t %10.4f  contacts %6zu  sweeps mean %6.1f max %4d  capped %6llu/%llu  "
+      "residual max %9.3g  overlap max %9.3g  Ek %11.5g  %8.1f steps/s\n",
+      static_cast<unsigned long long>(world.step), world.time, r.contacts, interval.sweeps_mean(),
+      interval.sweeps_max, static_cast<unsigned long long>(interval.capped_steps),
+      static_cast<unsigned long long>(interval.steps), interval.residual_max, interval.overlap_max,
+      kinetic_energy(world), steps_per_second);
+}
 }  // namespace
 
 void install_stop_handlers() {
@@ -115,17 +128,8 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
     if (settings.status_every > 0 && world.step % settings.status_every == 0) {
       const double secs = std::chrono::duration<double>(now - interval_start).count();
       if (settings.progress_bar) std::fputs("\r\033[K", stderr);
-      // One line per interval: the interval's solver figures, capped steps summed (no warning
-      // per step: a default run can cap thousands of steps).
-      std::printf(
-          "step %10llu  t %10.4f  contacts %6zu  sweeps mean %6.1f max %4d  capped %6llu/%llu  "
-          "residual max %9.3g  overlap max %9.3g  Ek %11.5g  %8.1f steps/s\n",
-          static_cast<unsigned long long>(world.step), world.time, r.contacts,
-          interval.sweeps_mean(), interval.sweeps_max,
-          static_cast<unsigned long long>(interval.capped_steps),
-          static_cast<unsigned long long>(interval.steps), interval.residual_max,
-          interval.overlap_max, kinetic_energy(world),
-          secs > 0 ? static_cast<double>(interval_steps) / secs : 0.0);
+      print_status_line(world, r, interval,
+                        secs > 0 ? static_cast<double>(interval_steps) / secs : 0.0);
       std::fflush(stdout);
       interval_start = now;
       interval_steps = 0;

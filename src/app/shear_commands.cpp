@@ -483,6 +483,31 @@ RunMetadata run_metadata(const ShearSession& s, bool finished) {
   return meta;
 }
 
+/// progress.json: where a run stands, for `sweep` and any other tool (docs/shear-cell.md,
+/// "Outputs of a run"), rewritten every 2 s of wall time and when the run ends. A failure to
+/// write it is a warning: a progress file is a courtesy and never stops a run.
+void write_progress_file(const fs::path& dir, const RunProgress& p, double duration,
+                         std::uint64_t end_step, const char* state) {
+  const nlohmann::json j = {
+      {"format", "cdshear-progress"},
+      {"version", 1},
+      {"state", state},
+      {"step", p.step},
+      {"time", p.time},
+      {"duration", duration},
+      {"end_step", end_step},
+      {"sitting_start_step", p.sitting_step},
+      {"sitting_start_time", p.sitting_time},
+      {"sitting_wall_seconds", p.sitting_wall_seconds},
+      {"updated_unix_seconds",
+       std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()}};
+  try {
+    write_file_atomic(dir / "progress.json", j.dump(1) + "\n");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "warning: %s\n", e.what());
+  }
+}
+
 int run_shear(const RunArgs& args) {
   ShearSession s;
   if (args.resume_dir.empty())
@@ -560,43 +585,21 @@ int run_shear(const RunArgs& args) {
       static_cast<unsigned long long>(s.world.step), static_cast<unsigned long long>(loop.end_step),
       contact_order_name(c.step.solver.order), threads, threads == 1 ? "" : "s", s.dir.c_str());
   std::fflush(stdout);
-  // progress.json: where the run stands, for `sweep` and any other tool (docs/shear-cell.md,
-  // "Outputs of a run"), rewritten every 2 s of wall time and when the run ends.
-  const auto write_progress = [&](const RunProgress& p, const char* state) {
-    const nlohmann::json j = {
-        {"format", "cdshear-progress"},
-        {"version", 1},
-        {"state", state},
-        {"step", p.step},
-        {"time", p.time},
-        {"duration", c.duration},
-        {"end_step", end_step},
-        {"sitting_start_step", p.sitting_step},
-        {"sitting_start_time", p.sitting_time},
-        {"sitting_wall_seconds", p.sitting_wall_seconds},
-        {"updated_unix_seconds",
-         std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-             .count()}};
-    try {
-      write_file_atomic(s.dir / "progress.json", j.dump(1) + "\n");
-    } catch (const std::exception& e) {  // a progress file is a courtesy: never stop a run
-      std::fprintf(stderr, "warning: %s\n", e.what());
-    }
-  };
   RunProgress last_progress;
   loop.on_progress = [&](const RunProgress& p) {
     last_progress = p;
-    if (!p.last) write_progress(p, "running");
+    if (!p.last) write_progress_file(s.dir, p, c.duration, end_step, "running");
   };
   const RunSummary summary = run_until(s.world, s.dynamics, c.step, loop, observers);
 
   // Whatever happened, what was measured and the state reached are kept: run.h5 and the
   // checkpoint (after a blow-up only run.h5: the last good checkpoint stays).
   finished = summary.outcome == RunOutcome::kFinished && s.world.step >= end_step;
-  write_progress(last_progress, finished                                      ? "finished"
-                                : summary.outcome == RunOutcome::kBlownUp     ? "blown up"
-                                : summary.outcome == RunOutcome::kInterrupted ? "interrupted"
-                                                                              : "stopped");
+  write_progress_file(s.dir, last_progress, c.duration, end_step,
+                      finished                                      ? "finished"
+                      : summary.outcome == RunOutcome::kBlownUp     ? "blown up"
+                      : summary.outcome == RunOutcome::kInterrupted ? "interrupted"
+                                                                    : "stopped");
   if (summary.outcome != RunOutcome::kBlownUp)
     checkpoint.observe(s.world, s.dynamics, summary.last);
   else if (hooks.before)

@@ -180,6 +180,54 @@ CampaignGroup read_group(TomlReader& t) {
   return g;
 }
 
+/// One run of group `g` (read by `gr`; `t` reads [campaign]) resolved by the case loader of
+/// `cdshear run` with the overrides it will get: its n, L_y, duration and dt, every problem named
+/// by its campaign key.
+void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr,
+                 const TomlReader& t, CampaignRun& run, int system, std::uint64_t seed, double v) {
+  const std::string& file = c.file;
+  run.system = system;
+  run.velocity = v;
+  run.seed = seed;
+  CaseSource src;
+  src.system = system;
+  src.velocity = v;
+  src.overrides = run_case_overrides(c, run);  // checked as the run will get them
+  ShearCase sc;
+  try {
+    sc = load_case(src);
+  } catch (const ConfigError& e) {
+    const std::string key = e.key() == "measure.boundary_thickness"
+                                ? std::string("campaign.boundary_thickness")
+                            : e.key() == "shear.velocity" ? gr.full_key("velocities")
+                            : e.key().empty()             ? std::string("set")
+                                                          : "set." + e.key();
+    throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
+  }
+  if (c.analyze && !sc.measure.enabled)
+    t.fail("analyze",
+           "is true, but the runs measure nothing ([set] measure.enabled = false): there "
+           "would be no analysis; give analyze = false, or let the runs measure");
+  run.n = sc.n;
+  run.height = sc.height;
+  run.duration = g.duration                      ? *g.duration
+                 : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
+                                                 : *g.strain * sc.height / (2.0 * v);
+  sc.duration = run.duration;
+  resolve_time_step(sc);
+  run.dt = sc.step.dt;
+  const double steps = run.duration / run.dt;
+  if (!(steps >= 0.5))
+    gr.fail(g.strain ? "strain" : "duration",
+            fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
+                        run.name, run.duration, run.dt));
+  if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
+    gr.fail(g.strain ? "strain" : "duration",
+            fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
+                        "(docs/reliability.md)",
+                        run.name, steps, kMaxRunSteps));
+}
+
 }  // namespace
 
 Campaign campaign_from_toml(const toml::table& table, const std::string& file,
@@ -295,47 +343,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                    fmt::format("lists run {} again: it is in campaign.group[{}] already (a run "
                                "belongs to one group)",
                                run.name, it->second));
-          run.system = system;
-          run.velocity = v;
-          run.seed = seed;
-          CaseSource src;
-          src.system = system;
-          src.velocity = v;
-          src.overrides = run_case_overrides(c, run);  // checked as the run will get them
-          ShearCase sc;
-          try {
-            sc = load_case(src);
-          } catch (const ConfigError& e) {
-            const std::string key = e.key() == "measure.boundary_thickness"
-                                        ? std::string("campaign.boundary_thickness")
-                                    : e.key() == "shear.velocity" ? gr.full_key("velocities")
-                                    : e.key().empty()             ? std::string("set")
-                                                                  : "set." + e.key();
-            throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
-          }
-          if (c.analyze && !sc.measure.enabled)
-            t.fail("analyze",
-                   "is true, but the runs measure nothing ([set] measure.enabled = false): there "
-                   "would be no analysis; give analyze = false, or let the runs measure");
-          run.n = sc.n;
-          run.height = sc.height;
-          run.duration = g.duration                      ? *g.duration
-                         : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
-                                                         : *g.strain * sc.height / (2.0 * v);
-          sc.duration = run.duration;
-          resolve_time_step(sc);
-          run.dt = sc.step.dt;
-          const double steps = run.duration / run.dt;
-          if (!(steps >= 0.5))
-            gr.fail(g.strain ? "strain" : "duration",
-                    fmt::format(
-                        "gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
-                        run.name, run.duration, run.dt));
-          if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
-            gr.fail(g.strain ? "strain" : "duration",
-                    fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
-                                "(docs/reliability.md)",
-                                run.name, steps, kMaxRunSteps));
+          resolve_run(c, g, gr, t, run, system, seed, v);
           c.runs.push_back(run);
         }
   }

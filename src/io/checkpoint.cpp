@@ -58,6 +58,19 @@ class BoundedDomBuilder {
   bool too_deep_ = false;
 };
 
+/// The CBOR of a checkpoint's body, nested at most kMaxCborDepth levels (else a ConfigError naming
+/// `file`); nlohmann's parse errors pass through.
+json parse_bounded_cbor(const std::vector<std::uint8_t>& body, const std::string& file) {
+  json j;
+  BoundedDomBuilder builder(j);
+  json::sax_parse(body, &builder, json::input_format_t::cbor);
+  if (builder.too_deep())
+    throw ConfigError(
+        file, "",
+        fmt::format("nests deeper than {} levels: not a checkpoint cdshear wrote", kMaxCborDepth));
+  return j;
+}
+
 json xy(const std::vector<Vec2>& v, bool take_y) {
   std::vector<double> out(v.size());
   for (std::size_t i = 0; i < v.size(); ++i) out[i] = take_y ? v[i].y : v[i].x;
@@ -220,13 +233,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                       "was written");
   Checkpoint cp;
   try {
-    json j;
-    BoundedDomBuilder builder(j);
-    json::sax_parse(body, &builder, json::input_format_t::cbor);
-    if (builder.too_deep())
-      throw ConfigError(file, "",
-                        fmt::format("nests deeper than {} levels: not a checkpoint cdshear wrote",
-                                    kMaxCborDepth));
+    const json j = parse_bounded_cbor(body, file);
     if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
       throw ConfigError(file, "format", "not a cdshear checkpoint");
     if (j.at("version") != 1)
