@@ -46,6 +46,11 @@ def main(argv=None):
     p_side.add_argument("--cdshear-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--lammps-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--json", help="also write the figures to this JSON file")
+    p_ccompare = commands.add_parser(
+        "campaign-compare", help="the runs two campaigns share, quantity by quantity, in "
+        "combined errors (a solver setting's effect: docs/validation.md)")
+    p_ccompare.add_argument("campaign_a")
+    p_ccompare.add_argument("campaign_b")
     p_compare = commands.add_parser(
         "study-compare", help="two folders of realizations (reference, reference_seedK) compared")
     p_compare.add_argument("dir_a")
@@ -81,6 +86,17 @@ def main(argv=None):
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command == "campaign-compare":
+        from .campaign import compare_campaigns, format_comparison as format_campaigns
+        from .report import ReportError
+        try:
+            items = compare_campaigns(args.campaign_a, args.campaign_b)
+        except ReportError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        print(format_campaigns(items, args.campaign_a, args.campaign_b))
         return 0
 
     if args.command == "study-compare":

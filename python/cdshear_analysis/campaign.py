@@ -10,6 +10,7 @@ every column), read from each run's summary.json. Loading never writes: a run wh
 is of an older version is left out (listed in `skipped`), where `cdshear report` would analyse
 it again from run.h5.
 """
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,3 +66,49 @@ def load_campaign(folder):
     columns = {c: _column([r.get(c) for r in rows]) for c in csv_columns(rows)}
     return Campaign(name=report["campaign"], folder=folder, rows=rows, columns=columns,
                     skipped=list(report["skipped"]))
+
+
+# The quantities compared between two campaigns, each with its standard error (runs.csv columns
+# X and X_err): the averages a setting could move.
+COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", "slip_bottom",
+            "slip_top", "h10_bottom_mu_eff", "h10_bottom_nu", "h10_bottom_I")
+
+
+def compare_campaigns(a, b, quantities=COMPARED):
+    """The runs of campaign b that campaign a has too (the same run name: system, seed, V),
+    compared quantity by quantity: a list of {"run", "regime_a", "regime_b", "<q>": {"a", "b",
+    "diff" (b - a), "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is
+    missing)}}. a and b are Campaign objects or folders."""
+    a = a if isinstance(a, Campaign) else load_campaign(a)
+    b = b if isinstance(b, Campaign) else load_campaign(b)
+    by_name = {r["run"]: r for r in a.rows}
+    out = []
+    for rb in b.rows:
+        ra = by_name.get(rb["run"])
+        if ra is None:
+            continue
+        item = {"run": rb["run"], "regime_a": ra.get("regime"), "regime_b": rb.get("regime")}
+        for q in quantities:
+            va, vb = ra.get(q), rb.get(q)
+            ea, eb = ra.get(q + "_err"), rb.get(q + "_err")
+            if va is None or vb is None:
+                continue
+            diff = vb - va
+            err = math.hypot(ea, eb) if ea is not None and eb is not None else math.nan
+            item[q] = {"a": va, "b": vb, "diff": diff,
+                       "combined_errors": diff / err if err > 0 else math.nan}
+        out.append(item)
+    return out
+
+
+def format_comparison(items, name_a="a", name_b="b"):
+    """The comparison as text: one block per run, one line per quantity."""
+    lines = []
+    for it in items:
+        lines.append(f"{it['run']}: regime {it['regime_a']} ({name_a}) -> {it['regime_b']} "
+                     f"({name_b})")
+        for q, v in it.items():
+            if isinstance(v, dict):
+                lines.append(f"  {q:22s} {v['a']:.5g} -> {v['b']:.5g}  diff {v['diff']:+.3g}  "
+                             f"({v['combined_errors']:+.2f} combined errors)")
+    return "\n".join(lines) if lines else "no run in both campaigns"

@@ -11,6 +11,7 @@ import numpy as np
 
 import cdshear_analysis
 from cdshear_analysis import load_campaign
+from cdshear_analysis.campaign import compare_campaigns
 from cdshear_analysis.report import ReportError
 
 from .test_report import fake_summary, main
@@ -78,6 +79,26 @@ class LoadCampaign(unittest.TestCase):
     def test_not_a_campaign_folder(self):
         with self.assertRaises(ReportError):
             load_campaign(os.path.join(self.d, "missing"))
+
+
+class CompareCampaigns(unittest.TestCase):
+    def test_shared_runs_in_combined_errors(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            fake_summary(os.path.join(a, "runs", "s1_seed1_V0.1"), 0.1, 0.01, 0.20, 0.80, 3.0)
+            fake_summary(os.path.join(a, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.30, 0.80, 3.0)
+            # b: one shared run with mu_eff 0.012 higher (errors 0.003 each: 2.83 combined)
+            fake_summary(os.path.join(b, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.312, 0.80, 3.0,
+                         regime="B")
+            items = compare_campaigns(a, b)
+            self.assertEqual([it["run"] for it in items], ["s1_seed1_V1"])
+            mu = items[0]["mu_eff_bulk"]
+            self.assertAlmostEqual(mu["diff"], 0.012)
+            self.assertAlmostEqual(mu["combined_errors"], 0.012 / (0.003 * 2 ** 0.5))
+            self.assertAlmostEqual(items[0]["nu_bulk"]["combined_errors"], 0.0)
+            self.assertEqual((items[0]["regime_a"], items[0]["regime_b"]), ("A", "B"))
+            self.assertEqual(main(["campaign-compare", a, b]), 0)
+            self.assertEqual(main(["campaign-compare", a, os.path.join(d, "none")]), 2)
 
 
 class Version(unittest.TestCase):
