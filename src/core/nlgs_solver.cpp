@@ -436,78 +436,136 @@ bool contact_order_from_name(std::string_view name, ContactOrder& order) {
   return false;
 }
 
-SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
-                            std::size_t first_wall, double dt, const SolverOptions& options,
-                            std::uint64_t step, SolverWorkspace& workspace) {
-  SolverReport report;
-  const std::size_t nc = contacts.size();
-  if (nc == 0) return report;
-  SolverWorkspace& ws = workspace;
-  const bool coloured = options.order == ContactOrder::kColoured;
+namespace {
 
-  // Coloured order: the sweeps work on a copy of the bodies the rows touch, numbered in the
-  // order the rows first use them. A slab's rows are contiguous, so its bodies are too, and two
-  // threads solving two slabs write to different cache lines (with the bodies in their own
-  // numbering, neighbours in space are scattered in memory and the threads' writes to shared
-  // cache lines serialise them). The arithmetic is the same, so are the results.
-  std::vector<SolverBody>& bodies = coloured ? ws.local_bodies : all_bodies;
+/// One call of solve_contacts as an object: what its phases share (every member is shared by the
+/// team's threads), and the phases as member functions in the order a step runs them. Each phase
+/// is called by every thread of the team unless it says otherwise; the work-sharing constructs
+/// inside (omp for, omp single, and those of AndersonMixer::mix) bind to whatever team calls it.
+class ContactSolve {
+ public:
+  ContactSolve(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
+               std::size_t first_wall, double dt, const SolverOptions& options, std::uint64_t step,
+               SolverWorkspace& ws)
+      : contacts(contacts),
+        all_bodies(all_bodies),
+        first_wall(first_wall),
+        options(options),
+        step(step),
+        ws(ws),
+        nc(contacts.size()),
+        coloured(options.order == ContactOrder::kColoured),
+        // Coloured order: the sweeps work on a copy of the bodies the rows touch, numbered in
+        // the order the rows first use them. A slab's rows are contiguous, so its bodies are
+        // too, and two threads solving two slabs write to different cache lines (with the bodies
+        // in their own numbering, neighbours in space are scattered in memory and the threads'
+        // writes to shared cache lines serialise them). The arithmetic is the same, so are the
+        // results.
+        bodies(coloured ? ws.local_bodies : all_bodies),
+        // Threads: only for the coloured order (the others are one serial group), and only with
+        // enough rows to share. Their number does not change the result
+        // (coloured_groups_begin). More threads than processors would only wait for each other
+        // at every phase.
+        threads(coloured ? threads_for(nc, options.min_rows_per_thread, options.threads) : 1),
+        rows(ws.rows),
+        inv_dt(1.0 / dt),
+        // The decoupled rows' step factors carry the over-relaxation (fill_row, update_row).
+        step_scale(options.relaxation > 1.0 ? options.relaxation : 1.0),
+        // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
+        // Known once the groups are (coloured_groups_begin sets cg.bands); read after a barrier.
+        slab_period(coloured ? options.slab_correction_period : 0),
+        min_bands(static_cast<std::size_t>(std::max(options.slab_correction_min_bands, 2))),
+        walls(all_bodies.size() - std::min(first_wall, all_bodies.size())),
+        // Anderson acceleration mixes the rows awake at the start (the others are open and
+        // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve
+        // them).
+        accelerate(options.anderson_depth > 0),
+        plain_period(std::max(options.anderson_period, 1)) {}
 
-  // Threads: only for the coloured order (the others are one serial group), and only with
-  // enough rows to share. Their number does not change the result (coloured_groups_begin).
-  // More threads than processors would only wait for each other at every phase.
-  const int threads = coloured ? threads_for(nc, options.min_rows_per_thread, options.threads) : 1;
-  auto& rows = ws.rows;
-  rows.resize(nc);
-  ws.delassus.resize(nc);
-  ws.row_lengths2.resize(nc);
-  const double inv_dt = 1.0 / dt;
-  // The decoupled rows' step factors carry the over-relaxation (fill_row, update_row).
-  const double step_scale = options.relaxation > 1.0 ? options.relaxation : 1.0;
-  std::size_t groups = 1;  // the last one is the serial group; set before any thread reads it
+  /// The whole solve: the team (one parallel region per step), then the report.
+  SolverReport run() {
+    if (nc == 0) return report;
+    set_up();
+#if defined(_OPENMP)
+    if (threads > 1) {
+#pragma omp parallel num_threads(threads)
+      solve_rows();
+    } else {
+      solve_rows();
+    }
+#else
+    solve_rows();
+#endif
+    report.active_contacts = active_contacts;
+    return report;
+  }
 
-  // Sizes the per-group scratch once the groups are known (on one thread).
-  const auto size_group_scratch = [&] {
+ private:
+  /// What one thread keeps across the sweeps. After a sweep every thread adds the groups'
+  /// tallies itself (the same sums in the same order: the same decision on every thread), so
+  /// that no thread waits for another to decide whether to stop; only the first thread writes
+  /// the report.
+  struct SweepState {
+    TeamPlace place;
+    bool first_thread = false;
+    Share my_groups;  ///< this thread's groups in the passes over every group (sums, wake-ups)
+    bool slab_corrections = false;
+    int period = 1;  ///< sweeps between two Anderson mixes
+    bool serial_rows = false;
+    std::size_t tallied_groups = 0;
+    bool any_dormant = false;
+    std::array<double, kRateSweeps + 1> recent_change{};  ///< relative change of the last sweeps
+    bool error_criterion = false;
+    double residual = 0.0;  ///< of the last sweep whose sums were taken
+    double error_bound = std::numeric_limits<double>::quiet_NaN();  ///< criterion "error" only
+  };
+
+  bool corrects_slabs() const {
+    return slab_period > 0 && cg.bands >= min_bands;
+  }
+
+  /// Set-up on the calling thread, before the team starts: the rows' storage, the serial order
+  /// (random and sequential orders), the team's scratch (coloured order).
+  void set_up() {
+    rows.resize(nc);
+    ws.delassus.resize(nc);
+    ws.row_lengths2.resize(nc);
+    if (!coloured) {
+      order_rows_serially(nc, options, step, ws);
+      size_group_scratch();
+    }
+    if (coloured) {  // per-thread scratch, sized for the team before it starts
+      const auto team = static_cast<std::size_t>(threads);
+      ws.team_max_band.resize(team);
+      ws.team_wall_band.resize(team * walls);
+      ws.team_new_bodies.resize(team);
+      ws.team_body_offset.resize(team + 1);
+      ws.local_of.resize(all_bodies.size());
+      // A new stamp per call marks this call's uses (renumbering); the stamps restart from zero
+      // when the bodies or the team change, or after 2^32 - 1 calls.
+      if (ws.team_seen.size() != team * all_bodies.size() || ws.seen_stamp == 0xffffffffu) {
+        ws.team_seen.assign(team * all_bodies.size(), 0);
+        ws.seen_stamp = 0;
+      }
+      ++ws.seen_stamp;
+    }
+  }
+
+  /// Sizes the per-group scratch once the groups are known (on one thread).
+  void size_group_scratch() {
     groups = ws.group_start.size() - 1;
     report.colours = ws.phases.size();
     ws.group_tallies.resize(2 * groups);  // two sweeps' worth: see solve_rows
     ws.woken_of_group.resize(groups);
     ws.awake.resize(groups);
     ws.dormant_of_group.resize(groups);
-  };
-  if (!coloured) {
-    order_rows_serially(nc, options, step, ws);
-    size_group_scratch();
   }
 
-  // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
-  // Known once the groups are (coloured_groups_begin sets cg.bands); read after a barrier.
-  const int slab_period = coloured ? options.slab_correction_period : 0;
-  const std::size_t min_bands =
-      static_cast<std::size_t>(std::max(options.slab_correction_min_bands, 2));
-  ColouredGroups cg;
-  const auto corrects_slabs = [&] { return slab_period > 0 && cg.bands >= min_bands; };
-
-  // The coloured order's groups, the shuffle inside each group and the renumbered bodies, on
-  // every thread of the team: each pass over bodies, contacts or groups is shared, and what one
-  // thread must do between them (merging the threads' findings in thread order) is over groups,
-  // walls or threads only.
-  const std::size_t walls = all_bodies.size() - std::min(first_wall, all_bodies.size());
-  if (coloured) {  // per-thread scratch, sized for the team before it starts
-    const auto team = static_cast<std::size_t>(threads);
-    ws.team_max_band.resize(team);
-    ws.team_wall_band.resize(team * walls);
-    ws.team_new_bodies.resize(team);
-    ws.team_body_offset.resize(team + 1);
-    ws.local_of.resize(all_bodies.size());
-    // A new stamp per call marks this call's uses (renumbering); the stamps restart from zero
-    // when the bodies or the team change, or after 2^32 - 1 calls.
-    if (ws.team_seen.size() != team * all_bodies.size() || ws.seen_stamp == 0xffffffffu) {
-      ws.team_seen.assign(team * all_bodies.size(), 0);
-      ws.seen_stamp = 0;
-    }
-    ++ws.seen_stamp;
-  }
-  const auto arrange_coloured_rows = [&] {
+  /// Ordering (coloured order): the groups, the shuffle inside each group and the renumbered
+  /// bodies, on every thread of the team: each pass over bodies, contacts or groups is shared,
+  /// and what one thread must do between them (merging the threads' findings in thread order)
+  /// is over groups, walls or threads only.
+  void arrange_coloured_rows() {
     const TeamPlace place = team_place();
     const Share my_contacts = share_of(nc, place);
     coloured_groups_share(contacts, all_bodies, first_wall, place, ws);
@@ -549,13 +607,19 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       for (std::size_t g = mine.first; g < mine.last; ++g) shuffle_group(g, options, step, ws);
       team_barrier();
     }
-    // The bodies the rows touch, numbered in the order the rows first use them (row i's body a
-    // before its body b). Each thread lists the bodies its share of the rows uses, in the order of
-    // their first use there (its own stamps mark those seen), then drops those that a thread
-    // before it uses too (read in that thread's stamps): the lists joined in thread order are the
-    // order of first use over all rows. No thread writes where another reads or writes (atomic
-    // minima of a shared array, tried first, cost more than the serial loop: the bodies' global
-    // numbers are scattered in space, so both threads wrote to the same cache lines).
+    renumber_bodies(place, my_contacts);
+  }
+
+  /// Ordering (coloured order), the second part: the bodies the rows touch, numbered in the
+  /// order the rows first use them (row i's body a before its body b), copied to the local
+  /// bodies (with their slab-correction band). Each thread lists the bodies its share of the
+  /// rows uses, in the order of their first use there (its own stamps mark those seen), then
+  /// drops those that a thread before it uses too (read in that thread's stamps): the lists
+  /// joined in thread order are the order of first use over all rows. No thread writes where
+  /// another reads or writes (atomic minima of a shared array, tried first, cost more than the
+  /// serial loop: the bodies' global numbers are scattered in space, so both threads wrote to the
+  /// same cache lines).
+  void renumber_bodies(const TeamPlace& place, const Share& my_contacts) {
     {
       const std::uint32_t stamp = ws.seen_stamp;
       const std::size_t body_count = all_bodies.size();
@@ -617,23 +681,24 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       }
     }
     team_barrier();  // prepare_rows reads any body's local number
-  };
+  }
 
-  // Runs `for_group(g)` over every group, phase by phase, then the serial group: groups of a
-  // phase share no body, so each body meets the groups' changes in group order, as one thread
-  // going through the rows in order would. Called by every thread of the team.
-  const auto each_group_by_phase = [&](const auto& for_group) {
+  /// Runs `for_group(g)` over every group, phase by phase, then the serial group: groups of a
+  /// phase share no body, so each body meets the groups' changes in group order, as one thread
+  /// going through the rows in order would.
+  template <class ForGroup>
+  void each_group_by_phase(const ForGroup& for_group) {
     for_each_phased_group(ws.phases, for_group);
 #if defined(_OPENMP)
 #pragma omp single
 #endif
     for_group(groups - 1);
-  };
+  }
 
-  // Prepare, on every thread of the team: the rows in visit order (the sweeps then read them
-  // front to back) and their Delassus entries, then the warm start (apply the carried-over
-  // impulses), then the dormant rows.
-  const auto prepare_rows = [&] {
+  /// Set-up of the rows: the rows in visit order (the sweeps then read them front to back) and
+  /// their Delassus entries, then the warm start (apply the carried-over impulses), then the
+  /// dormant rows.
+  void prepare_rows() {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
@@ -681,18 +746,15 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       dormant.resize(dormant_count);
     }
     team_barrier();
-  };
+  }
 
-  // Anderson acceleration mixes the rows awake at the start (the others are open and
-  // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve them).
-  const bool accelerate = options.anderson_depth > 0;
-  const int plain_period = std::max(options.anderson_period, 1);
-  // Called by every thread of the team (the loop is shared; v has its size already).
-  // scale_rows: right after a slab correction that left its pass 5 to this gather, every awake
-  // row of the slab and boundary groups is scaled first (SlabCorrection::scale_row): the mixed
-  // ones here, the ones woken since the start (not mixed) by their group's thread. The serial
-  // group's rows are not scaled (pass 5 leaves them: the correction moved no body for them).
-  const auto gather_mixed_impulses = [&](std::vector<double>& v, bool scale_rows) {
+  /// Acceleration: the impulses of the mixed rows into v (the loop is shared; v has its size
+  /// already). scale_rows: right after a slab correction that left its pass 5 to this gather,
+  /// every awake row of the slab and boundary groups is scaled first (SlabCorrection::scale_row):
+  /// the mixed ones here, the ones woken since the start (not mixed) by their group's thread. The
+  /// serial group's rows are not scaled (pass 5 leaves them: the correction moved no body for
+  /// them).
+  void gather_mixed_impulses(std::vector<double>& v, bool scale_rows) {
     const std::size_t phased_groups = groups - 1;  // all but the serial group
     if (scale_rows) {
       const Share mine = groups_share(ws.group_start, team_place());
@@ -713,11 +775,12 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       v[2 * k] = r.impulse_n;
       v[2 * k + 1] = r.impulse_t;
     }
-  };
-  // The mixed impulses of group g's rows, projected on the Signorini-Coulomb set; the bodies
-  // follow through the change of each impulse (applied by each_group_by_phase: bit for bit what
-  // one thread going through the rows would give).
-  const auto apply_mixed_impulses = [&](std::size_t g) {
+  }
+
+  /// Acceleration: the mixed impulses of group g's rows, projected on the Signorini-Coulomb set;
+  /// the bodies follow through the change of each impulse (applied by each_group_by_phase: bit
+  /// for bit what one thread going through the rows would give).
+  void apply_mixed_impulses(std::size_t g) {
     for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
       SolverRow& r = rows[ws.anderson_rows[k]];
       const double r_n = std::max(0.0, ws.anderson_g[2 * k]);
@@ -730,10 +793,11 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       ws.anderson_x[2 * k] = r_n;
       ws.anderson_x[2 * k + 1] = r_t;
     }
-  };
-  // On one thread of the team, once the rows are prepared: how many rows are dormant, and the
-  // rows the mix works on.
-  const auto count_dormant_and_list_mixed_rows = [&] {
+  }
+
+  /// On one thread of the team, once the rows are prepared: how many rows are dormant, and the
+  /// rows the mix works on.
+  void count_dormant_and_list_mixed_rows() {
     std::size_t dormant = 0;
     for (std::size_t g = 0; g < groups; ++g) dormant += ws.dormant_of_group[g].size();
     report.dormant_contacts = dormant;
@@ -747,27 +811,28 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
     ws.anderson.reset(2 * ws.anderson_rows.size(), options.anderson_depth);
     ws.anderson_x.resize(2 * ws.anderson_rows.size());
     ws.anderson_g.resize(2 * ws.anderson_rows.size());
-  };
+  }
 
-  int active_contacts = 0;  // rows with R_n > 0 at the end, counted by the copy-back
-  // Preparation, sweeps and the impulses back to the contacts, run by every thread of the team
-  // (one parallel region per step): the work-sharing constructs inside (omp for,
-  // omp single, and those of AndersonMixer::mix) bind to whatever team calls this. One thread
-  // calls it outside any parallel region: a team of one (`if (false)`) would still end every
-  // construct with a barrier that makes a system call (futex wake), two to seven per sweep.
-  //
-  // After a sweep every thread adds the groups' tallies itself (the same sums in the same
-  // order: the same decision on every thread), so that no thread waits for another to decide
-  // whether to stop; only the first thread writes the report. A thread may then start the next
-  // sweep while another is still adding, so the tallies of consecutive sweeps go to the two
-  // halves of group_tallies in turn (a thread can be at most one barrier ahead of another).
-  const auto solve_rows = [&] {
-    const TeamPlace place = team_place();
-    const bool first_thread = place.thread == 0;
+  /// The solve on every thread of the team: ordering and set-up, the sweeps until the criterion
+  /// holds or the cap, the write-back. One thread calls it outside any parallel region: a team
+  /// of one (`if (false)`) would still end every construct with a barrier that makes a system
+  /// call (futex wake), two to seven per sweep.
+  void solve_rows() {
+    SweepState st = begin_sweeps();
+    for (int sweep = 1; sweep <= options.max_sweeps; ++sweep)
+      if (sweep_once(sweep, st)) break;
+    write_back();
+  }
+
+  /// Ordering and set-up, then what the sweeps need: the dormant rows counted, the mixed rows
+  /// listed, the slab correction reset, this thread's SweepState.
+  SweepState begin_sweeps() {
+    SweepState st;
+    st.place = team_place();
+    st.first_thread = st.place.thread == 0;
     if (coloured) arrange_coloured_rows();
     prepare_rows();
-    // This thread's groups in the passes over every group at once (sums, wake-ups).
-    const Share my_groups = groups_share(ws.group_start, place);
+    st.my_groups = groups_share(ws.group_start, st.place);
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -777,114 +842,150 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
         ws.slab_correction.reset(
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
-    const bool slab_corrections = corrects_slabs();
-    const int period = slab_corrections && options.anderson_period_with_slab_correction > 0
-                           ? options.anderson_period_with_slab_correction
-                           : plain_period;
+    st.slab_corrections = corrects_slabs();
+    st.period = st.slab_corrections && options.anderson_period_with_slab_correction > 0
+                    ? options.anderson_period_with_slab_correction
+                    : plain_period;
     if (accelerate) gather_mixed_impulses(ws.anderson_x, false);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.
-    const bool serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
-    const std::size_t tallied_groups = serial_rows ? groups : groups - 1;
-    const bool any_dormant = report.dormant_contacts > 0;
-    std::array<double, kRateSweeps + 1> recent_change{};  // relative change of the last sweeps
-    const bool error_criterion = options.criterion == ConvergenceCriterion::kError;
-    double residual = 0.0;  // of the last sweep whose sums were taken
-    double error_bound = std::numeric_limits<double>::quiet_NaN();  // criterion "error" only
-    if (first_thread) report.threads = static_cast<int>(place.size);
-    for (int sweep = 1; sweep <= options.max_sweeps; ++sweep) {
-      SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
-      // Neither correction nor mix after the last sweep: a step ends on a sweep's result. The
-      // sweep before a correction gathers its rows for it (dropped if the sweep ends the step:
-      // the next step's reset clears it).
-      const bool corrects =
-          slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps;
-      for (const SolverPhase& phase : ws.phases) {
+    st.serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
+    st.tallied_groups = st.serial_rows ? groups : groups - 1;
+    st.any_dormant = report.dormant_contacts > 0;
+    st.error_criterion = options.criterion == ConvergenceCriterion::kError;
+    if (st.first_thread) report.threads = static_cast<int>(st.place.size);
+    return st;
+  }
+
+  /// One sweep and what follows it: the convergence test, the dormant rows' look, the report,
+  /// then (if the step goes on) the slab correction and the Anderson mix. True when done. A
+  /// thread may start the next sweep while another is still adding, so the tallies of
+  /// consecutive sweeps go to the two halves of group_tallies in turn (a thread can be at most
+  /// one barrier ahead of another).
+  bool sweep_once(int sweep, SweepState& st) {
+    SweepTally* tallies = ws.group_tallies.data() + (sweep % 2) * groups;
+    // Neither correction nor mix after the last sweep: a step ends on a sweep's result. The
+    // sweep before a correction gathers its rows for it (dropped if the sweep ends the step:
+    // the next step's reset clears it).
+    const bool corrects =
+        st.slab_corrections && sweep % slab_period == 0 && sweep < options.max_sweeps;
+    sweep_groups(tallies, corrects, st);
+    double converged_fraction = 1.0;
+    bool done = test_convergence(sweep, tallies, st, converged_fraction);
+    const std::size_t woken = wake_dormant_rows(sweep, done, st);
+    done = done && woken == 0;
+    if (st.first_thread) {
+      report.sweeps = sweep;
+      report.converged_fraction = converged_fraction;
+      report.residual = st.residual;
+      report.error_bound = st.error_bound;
+      report.woken_contacts += woken;
+      if (!done && sweep == options.max_sweeps) report.hit_cap = true;
+    }
+    if (done) return true;  // a gathering for a correction is dropped (the next reset clears it)
+    correct_and_mix(sweep, corrects, st);
+    return false;
+  }
+
+  /// Sweeps: every group of every phase (the groups of a phase in parallel), then the serial
+  /// group.
+  void sweep_groups(SweepTally* tallies, bool corrects, const SweepState& st) {
+    for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
-        for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
-          sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
-      }
-      if (serial_rows) {
+      for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+        sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
+    }
+    if (st.serial_rows) {
 #if defined(_OPENMP)
 #pragma omp single
 #endif
-        sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
-      }
-      std::size_t converged = 0, carrying = 0;
-      for (std::size_t g = 0; g < tallied_groups; ++g) {
-        converged += tallies[g].converged;
-        carrying += tallies[g].carrying;
-      }
-      const double converged_fraction =
-          carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
-      // The sums of |dR| and |R| (square roots) only where the decision or the report needs
-      // them: the count half of the criterion met, criterion "error" (its rate needs every
-      // sweep's change), or the last sweep allowed. Every thread decides the same.
-      const bool fraction_met = converged_fraction >= options.converged_fraction;
-      bool done = false;
-      if (fraction_met || error_criterion || sweep == options.max_sweeps) {
-        for (std::size_t g = my_groups.first; g < std::min(my_groups.last, tallied_groups); ++g)
-          sum_group_lengths(g, ws, tallies);
-        team_barrier();
-        double sum_change = 0.0, sum_force = 0.0;
-        for (std::size_t g = 0; g < tallied_groups; ++g) {
-          sum_change += tallies[g].sum_change;
-          sum_force += tallies[g].sum_force;
-        }
-        if (sum_force > 0.0) {
-          const double ratio = sum_change / sum_force;
-          residual = ratio * ratio;
-        } else {
-          // Every force vanished in this sweep: each |dR| is the |R| it had, a relative change
-          // of 1 measured against the forces before. (It was infinity, which the step took for
-          // a blow-up: a packing whose last contacts all opened in a capped step stopped there.)
-          residual = sum_change > 0.0 ? 1.0 : 0.0;
-        }
-        double tested2 = residual;  // alpha bounds the square (the residual is the change squared)
-        if (error_criterion) {
-          std::rotate(recent_change.begin(), recent_change.begin() + 1, recent_change.end());
-          recent_change.back() = std::sqrt(residual);
-          error_bound = remaining_error_bound(recent_change, sweep);
-          tested2 = error_bound * error_bound;
-        }
-        done = fraction_met && tested2 <= options.alpha;
-      }
-      std::size_t woken = 0;
-      if (any_dormant &&
-          (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
-        for (std::size_t g = my_groups.first; g < my_groups.last; ++g)
-          ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
-        team_barrier();
-        for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
-        done = done && woken == 0;
-      }
-      if (first_thread) {
-        report.sweeps = sweep;
-        report.converged_fraction = converged_fraction;
-        report.residual = residual;
-        report.error_bound = error_bound;
-        report.woken_contacts += woken;
-        if (!done && sweep == options.max_sweeps) report.hit_cap = true;
-      }
-      if (done) break;  // a gathering for a correction is dropped (the next reset clears it)
-      const bool mixes = accelerate && sweep % period == 0 && sweep < options.max_sweeps;
-      // A correction followed by a mix leaves the scaling of the rows to the mix's gather.
-      const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
-      if (corrected && first_thread) ++report.slab_corrections;
-      const bool scale_in_gather = corrected && mixes;
-      if (mixes) {
-        // The Anderson mix of the last images, every pass shared among the threads.
-        gather_mixed_impulses(ws.anderson_g, scale_in_gather);
-        ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-        each_group_by_phase(apply_mixed_impulses);
-      }
+      sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
     }
-    // The impulses back to the contacts (each row has its own contact), counting the active
-    // ones on the way: each thread its own rows, then one atomic add (an integer sum: the same
-    // in any order). Not a `reduction` clause: the counter is a lambda capture, which some
-    // compilers do not accept as a shared reduction variable in an orphaned loop.
+  }
+
+  /// Convergence test (nlgs_solver.hpp, SolverOptions::criterion): the share of converged
+  /// force-carrying rows, and the relative change (or, criterion "error", the error bound) of
+  /// the forces against alpha. The sums of |dR| and |R| (square roots) only where the decision
+  /// or the report needs them: the count half of the criterion met, criterion "error" (its rate
+  /// needs every sweep's change), or the last sweep allowed. Every thread decides the same.
+  bool test_convergence(int sweep, SweepTally* tallies, SweepState& st,
+                        double& converged_fraction) {
+    std::size_t converged = 0, carrying = 0;
+    for (std::size_t g = 0; g < st.tallied_groups; ++g) {
+      converged += tallies[g].converged;
+      carrying += tallies[g].carrying;
+    }
+    converged_fraction =
+        carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
+    const bool fraction_met = converged_fraction >= options.converged_fraction;
+    bool done = false;
+    if (fraction_met || st.error_criterion || sweep == options.max_sweeps) {
+      for (std::size_t g = st.my_groups.first; g < std::min(st.my_groups.last, st.tallied_groups);
+           ++g)
+        sum_group_lengths(g, ws, tallies);
+      team_barrier();
+      double sum_change = 0.0, sum_force = 0.0;
+      for (std::size_t g = 0; g < st.tallied_groups; ++g) {
+        sum_change += tallies[g].sum_change;
+        sum_force += tallies[g].sum_force;
+      }
+      if (sum_force > 0.0) {
+        const double ratio = sum_change / sum_force;
+        st.residual = ratio * ratio;
+      } else {
+        // Every force vanished in this sweep: each |dR| is the |R| it had, a relative change
+        // of 1 measured against the forces before. (It was infinity, which the step took for
+        // a blow-up: a packing whose last contacts all opened in a capped step stopped there.)
+        st.residual = sum_change > 0.0 ? 1.0 : 0.0;
+      }
+      double tested2 = st.residual;  // alpha bounds the square (the residual is the change squared)
+      if (st.error_criterion) {
+        std::rotate(st.recent_change.begin(), st.recent_change.begin() + 1, st.recent_change.end());
+        st.recent_change.back() = std::sqrt(st.residual);
+        st.error_bound = remaining_error_bound(st.recent_change, sweep);
+        tested2 = st.error_bound * st.error_bound;
+      }
+      done = fraction_met && tested2 <= options.alpha;
+    }
+    return done;
+  }
+
+  /// The dormant rows' look (every kDormantCheckInterval sweeps, before the last one allowed,
+  /// and before the sweeps stop): those that would now close wake. Returns how many woke.
+  std::size_t wake_dormant_rows(int sweep, bool done, const SweepState& st) {
+    std::size_t woken = 0;
+    if (st.any_dormant &&
+        (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
+      for (std::size_t g = st.my_groups.first; g < st.my_groups.last; ++g)
+        ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
+      team_barrier();
+      for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
+    }
+    return woken;
+  }
+
+  /// Between two sweeps: the slab correction (its rows gathered by the sweep before) and the
+  /// Anderson mix of the last images, every pass shared among the threads. A correction followed
+  /// by a mix leaves the scaling of the rows to the mix's gather.
+  void correct_and_mix(int sweep, bool corrects, const SweepState& st) {
+    const bool mixes = accelerate && sweep % st.period == 0 && sweep < options.max_sweeps;
+    const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
+    if (corrected && st.first_thread) ++report.slab_corrections;
+    const bool scale_in_gather = corrected && mixes;
+    if (mixes) {
+      gather_mixed_impulses(ws.anderson_g, scale_in_gather);
+      ws.anderson.mix(ws.anderson_x, ws.anderson_g);
+      each_group_by_phase([this](std::size_t g) { apply_mixed_impulses(g); });
+    }
+  }
+
+  /// Write-back: the impulses back to the contacts (each row has its own contact), counting the
+  /// active ones on the way: each thread its own rows, then one atomic add (an integer sum: the
+  /// same in any order). Then the velocities back to the bodies (coloured order: each local body
+  /// has its own body).
+  void write_back() {
     int active_here = 0;
 #if defined(_OPENMP)
 #pragma omp for schedule(static) nowait
@@ -899,7 +1000,6 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
 #pragma omp atomic
 #endif
     active_contacts += active_here;
-    // The velocities back to the bodies (coloured order: each local body has its own body).
     if (coloured) {
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
@@ -907,20 +1007,40 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       for (std::size_t k = 0; k < ws.global_of.size(); ++k)
         all_bodies[ws.global_of[k]] = ws.local_bodies[k];
     }
-  };
-#if defined(_OPENMP)
-  if (threads > 1) {
-#pragma omp parallel num_threads(threads)
-    solve_rows();
-  } else {
-    solve_rows();
   }
-#else
-  solve_rows();
-#endif
 
-  report.active_contacts = active_contacts;
-  return report;
+  // The call's inputs.
+  std::vector<Contact>& contacts;
+  std::vector<SolverBody>& all_bodies;
+  const std::size_t first_wall;
+  const SolverOptions& options;
+  const std::uint64_t step;
+  SolverWorkspace& ws;
+  // Shared by the phases.
+  SolverReport report;
+  const std::size_t nc;
+  const bool coloured;
+  std::vector<SolverBody>& bodies;
+  const int threads;
+  std::vector<SolverRow>& rows;
+  const double inv_dt;
+  const double step_scale;
+  const int slab_period;
+  const std::size_t min_bands;
+  const std::size_t walls;
+  const bool accelerate;
+  const int plain_period;
+  std::size_t groups = 1;  ///< the last one is the serial group; set before any thread reads it
+  ColouredGroups cg;
+  int active_contacts = 0;  ///< rows with R_n > 0 at the end, counted by the write-back
+};
+
+}  // namespace
+
+SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
+                            std::size_t first_wall, double dt, const SolverOptions& options,
+                            std::uint64_t step, SolverWorkspace& workspace) {
+  return ContactSolve(contacts, all_bodies, first_wall, dt, options, step, workspace).run();
 }
 
 }  // namespace cdshear
