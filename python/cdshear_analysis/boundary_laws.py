@@ -275,7 +275,7 @@ def symmetric_state_stability(rows, boundary):
 
 def predict_delta_mu(row, boundary):
     """The friction difference between the walls of a regime-C run from the boundary law
-    (fits.json predictions `switch_time_C`, `delta_mu_law`; docs/campaigns.md): per h of the
+    (fits.json predictions `switch_time_C`, `delta_mu_law`; docs/reports.md): per h of the
     run, the pooled B/C law mu_hI_BC (mu_eff of the sheared layers against h I_b =
     sqrt(m / sigma_yy) dv, every h) at each wall's measured velocity jump dv (`hK_bottom_
     velocity_jump`, `hK_top_velocity_jump`, taken >= 0), delta_mu = |mu(bottom) - mu(top)|, with

@@ -5,7 +5,7 @@
     c.columns["I_bulk"], c.columns["mu_eff_bulk"]     # numpy arrays, one entry per analysed run
     c.frame()                                          # the same as a pandas DataFrame
 
-The table is the one `cdshear report` writes to runs.csv (docs/campaigns.md, "Reports", names
+The table is the one `cdshear report` writes to runs.csv (docs/reports.md names
 every column), read from each run's summary.json. Loading never writes: a run whose summary.json
 is of an older version is left out (listed in `skipped`), where `cdshear report` would analyse
 it again from run.h5.

@@ -27,7 +27,7 @@ Curves are drawn for every fitted law (`fitted`); predictions take the laws whos
 determined, "ok" and "poor" (`usable`; a poor law's draws with its covariance scaled by
 chi2/dof, `parameter_samples`).
 
-The result is a dict with the keys of fits.json (docs/campaigns.md, "Reports"): law, x, y,
+The result is a dict with the keys of fits.json (docs/reports.md): law, x, y,
 range, status, reason, n_points (after combining), points_without_error, runs (every run of the
 points), n_runs, combined (the points made of 2+ runs), x_span, parameters ({name: {value, err,
 err_scaled}}), covariance (rows and columns in the order of parameters), chi2, dof, chi2_dof,

@@ -12,8 +12,8 @@ bulk laws of docs/model.md section 8 over the steady runs in regime A of every s
 the seeds of one (system, V) are one point), `fit_laws_per_system(rows)` the same laws over each
 system alone; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png
 (campaign_figures.py) and index.html, with the boundary-layer laws of boundary_laws.py and the
-transition velocities and model.md section 8 predictions of transitions.py (docs/campaigns.md,
-"Reports", documents every column and key), and adds to report["notes"] the lines that `cdshear
+transition velocities and model.md section 8 predictions of transitions.py (docs/reports.md
+documents every column and key), and adds to report["notes"] the lines that `cdshear
 report` prints after the paths (`printed_lines`: the runs re-analysed, every bulk law's status and
 every boundary or per-system law that is poor or undetermined).
 """
@@ -365,7 +365,7 @@ def _cell(v):
 
 # The bulk laws take the steady runs in regime A only: in B and C the bulk does not flow (it
 # moves as a block, I_bulk ~ 1e-5 from noise) and sits below its yield friction, so its
-# (I, mu_eff) is no point of the flow law (docs/campaigns.md, "Which runs each law takes").
+# (I, mu_eff) is no point of the flow law (docs/reports.md, "Which runs each law takes").
 BULK_REGIMES = ("A",)
 FITS = {
     "mu_power": fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_bulk", "I_bulk",

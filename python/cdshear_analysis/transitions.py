@@ -14,7 +14,7 @@ as V increases is flagged "not monotonic"; a transition without a run on one sid
 "unbracketed" with the side that is missing.
 
 `predictions(rows, fits)` (fits.json `predictions`): the predictions of model.md section 8 the
-summaries can give, each next to what the runs show (docs/campaigns.md, "Reports"). Anything that
+summaries can give, each next to what the runs show (docs/reports.md). Anything that
 cannot be computed is given with its reason.
 """
 import math
