@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -466,6 +467,49 @@ NoisyRun noisy_run(std::uint64_t seed, int steps) {
   return r;
 }
 
+/// The metadata of the noisy run's cell (dt 0.01, V 0.5, sigma_yy 0.25, 10 x 8): the readers
+/// refuse sizes, speeds and durations that are not finite and > 0.
+RunMetadata physical_metadata(const World& w) {
+  RunMetadata meta;
+  meta.n = w.disks.size();
+  meta.length_x = 10.0;
+  meta.height = 8.0;
+  meta.velocity = 0.5;
+  meta.normal_stress = 0.25;
+  meta.dt = 0.01;
+  meta.duration = 2.5;
+  meta.time = w.time;
+  return meta;
+}
+
+TEST(RunDataFile, DataThatAreNotARunAreRefusedNamingTheKey) {
+  // As the analysis's reader does (python/tests/test_rundata_physics.py): what `cdshear run`
+  // cannot write.
+  NoisyRun run = noisy_run(3, 50);
+  const testing::TempDir tmp("run_data_not_physics");
+  const auto refused = [&](RunMetadata meta, const std::string& key) {
+    write_run_data(tmp.path() / "run.h5", meta, run.measurement, run.world, {});
+    try {
+      read_run_data(tmp.path() / "run.h5");
+      ADD_FAILURE() << "accepted a run.h5 with a bad " << key;
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), key) << e.what();
+    }
+  };
+  RunMetadata meta = physical_metadata(run.world);
+  meta.velocity = 0.0;
+  refused(meta, "velocity");
+  meta = physical_metadata(run.world);
+  meta.height = -8.0;
+  refused(meta, "height");
+  meta = physical_metadata(run.world);
+  meta.duration = std::numeric_limits<double>::quiet_NaN();
+  refused(meta, "duration");
+  meta = physical_metadata(run.world);
+  meta.time = -1.0;
+  refused(meta, "time");
+}
+
 TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
   NoisyRun run = noisy_run(3, 250);
   const World& w = run.world;
@@ -473,11 +517,8 @@ TEST(RunDataFile, WrittenAndReadBackGivesTheSameNumbers) {
   ASSERT_EQ(m.windows().size(), 2u);
   const testing::TempDir tmp("run_data_roundtrip");
   const auto path = tmp.path() / "run.h5";
-  RunMetadata meta;
+  RunMetadata meta = physical_metadata(w);
   meta.case_toml = "[shear]\nvelocity = 0.5\n";
-  meta.n = w.disks.size();
-  meta.velocity = 0.5;
-  meta.dt = 0.01;
   meta.step = w.step;
   write_run_data(path, meta, m, w, {});
   const RunData back = read_run_data(path);
@@ -509,9 +550,7 @@ TEST(RunDataFile, PythonLoadRunReadsTheSameNumbers) {
   const World& w = run.world;
   const ShearMeasurement& m = run.measurement;
   const testing::TempDir tmp("python_reads");
-  RunMetadata meta;
-  meta.n = w.disks.size();
-  meta.dt = 0.01;
+  const RunMetadata meta = physical_metadata(w);
   write_run_data(tmp.path() / "run.h5", meta, m, w, {});
   nlohmann::json expected;
   for (const SeriesRow& r : m.series()) {

@@ -16,6 +16,7 @@
 
 #include "build_info.hpp"
 #include "config_error.hpp"
+#include "toml_reader.hpp"
 
 namespace cdshear {
 namespace {
@@ -549,6 +550,17 @@ RunData read_run_data(const fs::path& path) {
   RunData data;
   RunMetadata& meta = data.meta;
   meta.case_toml = read_attr_string(ctx, file, "case_toml");
+  // What cdshear run cannot write is refused here as by the analysis's reader
+  // (python/cdshear_analysis/rundata.py, _check_physics): whole n >= 1, finite positive sizes,
+  // speeds, stresses, durations and intervals, a time reached >= 0.
+  for (const char* key : {"n", "length_x", "height", "velocity", "normal_stress", "dt", "duration",
+                          "window", "sample_interval", "stripe_thickness"})
+    if (const double v = read_attr_double(ctx, file, key); !(v > 0.0) || !std::isfinite(v))
+      ctx.fail(key, "is " + format_number(v) + ": it must be a finite number > 0");
+  if (const double n = read_attr_double(ctx, file, "n"); n != std::floor(n))
+    ctx.fail("n", "is " + format_number(n) + ": a number of disks is whole");
+  if (const double t = read_attr_double(ctx, file, "time"); !(t >= 0.0) || !std::isfinite(t))
+    ctx.fail("time", "is " + format_number(t) + ": it must be a finite number >= 0");
   meta.n = static_cast<std::size_t>(read_attr_double(ctx, file, "n"));
   meta.length_x = read_attr_double(ctx, file, "length_x");
   meta.height = read_attr_double(ctx, file, "height");
@@ -572,7 +584,12 @@ RunData read_run_data(const fs::path& path) {
 
   {
     Handle g = open_group(ctx, file, "series");
-    const std::size_t rows = read_doubles(ctx, g, "time").size();
+    const std::vector<double> time = read_doubles(ctx, g, "time");
+    for (std::size_t r = 0; r < time.size(); ++r)
+      if (!std::isfinite(time[r]) || (r > 0 && !(time[r] > time[r - 1])))
+        ctx.fail("series/time", fmt::format("does not increase at row {} ({} then {})", r,
+                                            r > 0 ? time[r - 1] : 0.0, time[r]));
+    const std::size_t rows = time.size();
     data.series.resize(rows);
     for (const SeriesColumn& col : series_columns()) {
       const std::vector<double> v = read_doubles(ctx, g, col.name, rows);
@@ -581,6 +598,7 @@ RunData read_run_data(const fs::path& path) {
   }
   Handle g = open_group(ctx, file, "windows");
   data.stripe_centres = read_doubles(ctx, g, "y");
+  if (data.stripe_centres.empty()) ctx.fail("windows/y", "is empty: the profiles have no stripes");
   const std::size_t w_count = read_doubles(ctx, g, "t_start").size();
   const std::size_t s_count = data.stripe_centres.size();
   data.windows.resize(w_count);
