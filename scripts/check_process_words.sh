@@ -20,7 +20,7 @@ fi
 files=$(printf '%s\n' "$files" | grep -v -E '^(CHANGELOG\.md|scripts/check_process_words\.sh)$' |
   grep -E '\.(cpp|hpp|h|py|sh|md|toml|txt|cmake|ipynb|json|in)$|^\.ci/|(^|/)CMakeLists\.txt$' |
   grep -v -E '^(campaigns/[^/]+/|docs/validation/runs/)' || true)
-found=$(printf '%s\n' "$files" | tr '\n' '\0' | xargs -0 grep -n -i -E "$pattern" -- 2> /dev/null || true)
+found=$(printf '%s\n' "$files" | tr '\n' '\0' | xargs -0 grep -H -n -i -E "$pattern" -- 2> /dev/null || true)
 if [ -n "$found" ]; then
   printf '%s\n' "$found"
   echo "check_process_words: $(printf '%s\n' "$found" | wc -l) lines speak of the development" \

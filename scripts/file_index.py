@@ -58,13 +58,14 @@ def description(path):
 
 
 def tracked_files(root):
-    try:
-        out = subprocess.run(["git", "ls-files"], cwd=root, capture_output=True, text=True,
-                             check=True).stdout.split()
+    try:  # tracked files and new ones not ignored, as check_process_words.sh reads them
+        out = subprocess.run(["git", "ls-files", "-z", "--cached", "--others",
+                              "--exclude-standard"], cwd=root, capture_output=True, text=True,
+                             check=True).stdout.split("\0")
     except (OSError, subprocess.CalledProcessError):
         out = [os.path.relpath(os.path.join(d, f), root) for d, _, fs in os.walk(root)
                for f in fs]
-    return sorted(f for f in out if SOURCE.search(f))
+    return sorted(set(f for f in out if SOURCE.search(f) and os.path.isfile(os.path.join(root, f))))
 
 
 def index_text(root):

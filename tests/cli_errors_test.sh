@@ -59,6 +59,12 @@ expect_error "/proc/cdshear_x: cannot create the output folder" \
   "$exe" run -q --set system.n=37 --set system.height=6 -o /proc/cdshear_x
 checks=$((checks + 1))
 [ ! -e packings ] || { echo "FAIL: a packing was prepared for an unusable -o"; fails=$((fails + 1)); }
+# A --force that is refused (no such packing) loses nothing: the earlier run is still there.
+expect_error "nowhere.json: packing file not found" \
+  "$exe" run -q --packing nowhere.json -o done --force
+checks=$((checks + 1))
+[ -f done/run_info.json ] && [ -f done/checkpoint.cbor ] ||
+  { echo "FAIL: a refused --force removed the earlier run's files"; fails=$((fails + 1)); }
 # A run that fails after its folder was made (no such packing) leaves no empty run folder.
 expect_error "nowhere.json: packing file not found" "$exe" run -q --packing nowhere.json -o fresh
 checks=$((checks + 1))

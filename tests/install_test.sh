@@ -24,6 +24,7 @@ manifest=$build/install_manifest.txt
 while read -r f; do
   case "$f" in "$prefix"/*) ;; *) fail "installed outside the prefix: $f" ;; esac
 done < "$manifest"
+prefix=$(realpath "$prefix")  # as the installed program sees its own path
 pydir=$(ls -d "$prefix"/lib/python3*/dist-packages)
 for f in bin/cdshear share/cdshear/examples/shear_system1.toml share/cdshear/examples/analysis.ipynb \
          share/cdshear/campaigns/validation.toml share/cdshear/scenes/box_settle.toml \

@@ -159,7 +159,10 @@ TEST(CampaignFile, GroupsGiveEachPurposeItsOwnRuns) {
   Campaign more = c;
   more.groups.push_back(c.groups[1]);
   more.groups.back().systems = {3};
-  EXPECT_FALSE(campaign_differences(resolved, campaign_to_toml(more)).empty());
+  const auto diff = campaign_differences(resolved, campaign_to_toml(more));
+  ASSERT_FALSE(diff.empty());
+  for (const std::string& line : diff)  // one line per key, named within its group
+    EXPECT_EQ(line.rfind("campaign.group[2].", 0), 0u) << line;
 }
 
 TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {

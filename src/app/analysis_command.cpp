@@ -89,7 +89,15 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   const int signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-  if (signal == SIGINT || signal == SIGTERM || signal == SIGHUP) return 128 + signal;
+  // Only a crash is blamed on the files; a kill (the OOM killer, kill -9, a closed pipe) is
+  // reported as what it is.
+  if (signal != SIGSEGV && signal != SIGBUS && signal != SIGABRT && signal != SIGFPE &&
+      signal != SIGILL) {
+    if (signal != SIGINT && signal != SIGTERM && signal != SIGHUP)
+      std::fprintf(stderr, "error: %s: the analysis (`%s`) was killed by signal %d (%s)\n",
+                   run_dir.c_str(), verb.c_str(), signal, strsignal(signal));
+    return 128 + signal;
+  }
   // The interpreter died inside a library (HDF5 reading a damaged file whose seal still matches,
   // typically): it cannot say so itself, so its parent does, and the run's files are untouched.
   std::fprintf(stderr,

@@ -34,12 +34,41 @@ bool folder_is_free(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!fs::exists(dir, ec)) return true;
   if (!fs::is_directory(dir, ec)) return false;
-  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
+  bool only_lock = false;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
     if (e.path().filename() != kFolderLockName) return false;
-  return !ec;
+    only_lock = true;
+  }
+  if (ec) return false;
+  // A lock file alone: free unless a command holds it (a run still preparing its packing).
+  if (only_lock) {
+    const int fd = ::open((dir / kFolderLockName).c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW |
+                                                              O_NONBLOCK);
+    if (fd < 0) return false;
+    const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0;
+    ::close(fd);
+    return !held;
+  }
+  return true;
 }
 
 FolderLock FolderLock::take(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kFolderLockName;
+  // The file locked must still be the one at the path: a holder that removes its lock file
+  // (a run that made the folder and failed) does so while it holds it, and whoever opened the
+  // old file meanwhile tries again on the new one.
+  for (int attempt = 0;; ++attempt) {
+    FolderLock lock = take_once(dir);
+    struct stat held {}, named {};
+    if (::fstat(lock.fd_, &held) == 0 && ::stat(file.c_str(), &named) == 0 &&
+        held.st_ino == named.st_ino && held.st_dev == named.st_dev)
+      return lock;
+    if (attempt >= 8)
+      throw ConfigError(file.string(), "", "the folder's lock file keeps being replaced");
+  }
+}
+
+FolderLock FolderLock::take_once(const std::filesystem::path& dir) {
   const std::filesystem::path file = dir / kFolderLockName;
   FolderLock lock;
   lock.fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
@@ -81,6 +110,13 @@ FolderLock& FolderLock::operator=(FolderLock&& other) noexcept {
 
 FolderLock::~FolderLock() {
   if (fd_ >= 0) ::close(fd_);
+}
+
+void FolderLock::remove_and_release(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::remove(dir / kFolderLockName, ec);
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
 }
 
 namespace {
@@ -145,44 +181,53 @@ void remove_written(const std::filesystem::path& folder, const Ours& ours) {
 
 }  // namespace
 
-FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
-                               const std::string& hint) {
+FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
+                              const std::string& hint) {
   namespace fs = std::filesystem;
   if (fs::exists(dir) && !fs::is_directory(dir))
     throw ConfigError(dir.string(), "", "exists and is not a folder");
-  // Locked before anything in it is looked at or removed: another run may be writing it.
+  // Locked before anything in it is looked at: another run may be writing it.
   FolderLock lock;
   if (fs::is_directory(dir)) lock = FolderLock::take(dir);
-  if (!folder_is_free(dir)) {
-    if (!force) {
-      std::vector<std::string> names;
-      for (const fs::directory_entry& e : fs::directory_iterator(dir))
-        if (e.path().filename() != kFolderLockName) names.push_back(e.path().filename().string());
-      std::sort(names.begin(), names.end());
-      if (names.size() > 4) names.resize(4), names.push_back("...");
-      throw ConfigError(dir.string(), "",
-                        fmt::format("already holds results ({}); {}choose another -o, or pass "
-                                    "--force to replace them",
-                                    fmt::join(names, ", "), hint.empty() ? "" : hint + ", "));
-    }
-    // --force: remove what cdshear writes, nothing else (a user's notes, or figures of their
-    // own in figures/, stay).
-    for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
-      const std::string name = e.path().filename().string();
-      if (name == "figures" && e.is_directory()) {
-        remove_written(e.path(), is_run_figure);
-      } else if (name == "snapshots" && e.is_directory()) {
-        remove_written(e.path(), is_snapshot_file);
-      } else if (is_written_run_file(name) && !e.is_directory()) {
-        fs::remove(e.path());
-      }
-    }
+  if (!force && !folder_is_free(dir)) {
+    std::vector<std::string> names;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir))
+      if (e.path().filename() != kFolderLockName) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    if (names.size() > 4) names.resize(4), names.push_back("...");
+    throw ConfigError(dir.string(), "",
+                      fmt::format("already holds results ({}); {}choose another -o, or pass "
+                                  "--force to replace them",
+                                  fmt::join(names, ", "), hint.empty() ? "" : hint + ", "));
   }
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec)  // a file in the path, a read-only or special file system, a name too long...
     throw ConfigError(dir.string(), "", "cannot create the output folder: " + ec.message());
   return lock.held() ? std::move(lock) : FolderLock::take(dir);
+}
+
+void remove_written_outputs(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  // What cdshear writes, nothing else (a user's notes, or figures of their own in figures/,
+  // stay).
+  for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name == "figures" && e.is_directory()) {
+      remove_written(e.path(), is_run_figure);
+    } else if (name == "snapshots" && e.is_directory()) {
+      remove_written(e.path(), is_snapshot_file);
+    } else if (is_written_run_file(name) && !e.is_directory()) {
+      fs::remove(e.path());
+    }
+  }
+}
+
+FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
+                               const std::string& hint) {
+  FolderLock lock = lock_output_folder(dir, force, hint);
+  if (force) remove_written_outputs(dir);
+  return lock;
 }
 
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,

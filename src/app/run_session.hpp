@@ -45,8 +45,12 @@ class FolderLock {
   FolderLock& operator=(const FolderLock&) = delete;
   ~FolderLock();
   bool held() const { return fd_ >= 0; }
+  /// Removes the lock file while still holding it, then lets go (for a command that made the
+  /// folder and leaves it empty).
+  void remove_and_release(const std::filesystem::path& dir);
 
  private:
+  static FolderLock take_once(const std::filesystem::path& dir);
   int fd_ = -1;
 };
 
@@ -55,8 +59,16 @@ inline constexpr const char* kFolderLockName = ".cdshear.lock";
 
 /// The one rule of every command that writes a folder: a folder another cdshear is writing is
 /// refused (FolderLock); a folder holding anything is refused (ConfigError naming it and what it
-/// holds, with `hint` on how to continue) unless `force`; with `force`, the outputs cdshear
-/// writes are removed first (nothing else is touched). Creates the folder and returns its lock.
+/// holds, with `hint` on how to continue) unless `force`. Creates the folder and returns its
+/// lock; removes nothing.
+FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
+                              const std::string& hint);
+
+/// What `--force` removes: the outputs cdshear writes in `dir`, by name (nothing else).
+void remove_written_outputs(const std::filesystem::path& dir);
+
+/// lock_output_folder, then with `force` remove_written_outputs at once (a command with nothing
+/// to check before it writes).
 FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
                                const std::string& hint);
 

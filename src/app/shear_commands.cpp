@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -337,10 +338,12 @@ void open_new(const RunArgs& args, ShearSession& s) {
   while (!outermost_made.parent_path().empty() && outermost_made.parent_path() != outermost_made &&
          !fs::exists(outermost_made.parent_path()))
     outermost_made = outermost_made.parent_path();
-  s.lock = claim_output_folder(s.dir, args.force,
-                               fs::exists(s.dir / "checkpoint.cbor")
-                                   ? "continue it with --resume " + s.dir.string()
-                                   : std::string());
+  // Locked and checked now; with --force the earlier outputs are removed only once the new run
+  // is known to start (its packing obtained and its world built): a refused --force loses nothing.
+  s.lock = lock_output_folder(s.dir, args.force,
+                              fs::exists(s.dir / "checkpoint.cbor")
+                                  ? "continue it with --resume " + s.dir.string()
+                                  : std::string());
   try {
     auto [packing, path] = obtain_packing(c, args.c.quiet);
     s.packing_used = path.string();
@@ -353,8 +356,7 @@ void open_new(const RunArgs& args, ShearSession& s) {
   } catch (...) {  // the folders this command made, and left empty, go again
     if (!existed) {
       std::error_code ec;
-      s.lock = FolderLock();
-      fs::remove(s.dir / kFolderLockName, ec);
+      s.lock.remove_and_release(s.dir);
       for (fs::path p = s.dir;; p = p.parent_path()) {
         fs::remove(p, ec);  // only if empty
         if (ec || p == outermost_made || p.parent_path() == p) break;
@@ -362,6 +364,7 @@ void open_new(const RunArgs& args, ShearSession& s) {
     }
     throw;
   }
+  if (args.force) remove_written_outputs(s.dir);
   write_file_atomic(s.dir / "case.toml", resolved_case_text(c, s.packing_used, s.dir));
 }
 
@@ -385,12 +388,14 @@ RunData read_run_data_isolated(const fs::path& path) {
     int status = 0;
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
-    if (WIFSIGNALED(status))
+    const int signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+    if (signal == SIGSEGV || signal == SIGBUS || signal == SIGABRT || signal == SIGFPE ||
+        signal == SIGILL)  // a crash; any other end (killed, out of memory): read it here
       throw ConfigError(path.string(), "",
                         fmt::format("the HDF5 library crashed reading it (signal {}, {}): the file "
                                     "is damaged in a way its seal does not catch; nothing was "
                                     "written",
-                                    WTERMSIG(status), strsignal(WTERMSIG(status))));
+                                    signal, strsignal(signal)));
   }  // fork refused: read it here, unprotected
   return read_run_data(path);
 }
@@ -485,7 +490,7 @@ RunMetadata run_metadata(const ShearSession& s, bool finished) {
 
 /// progress.json: where a run stands, for `sweep` and any other tool (docs/shear-cell.md,
 /// "Outputs of a run"), rewritten every 2 s of wall time and when the run ends. A failure to
-/// write it is a warning: a progress file is a courtesy and never stops a run.
+/// write it is one warning: a progress file is a courtesy and never stops a run.
 void write_progress_file(const fs::path& dir, const RunProgress& p, double duration,
                          std::uint64_t end_step, const char* state) {
   const nlohmann::json j = {
@@ -501,10 +506,12 @@ void write_progress_file(const fs::path& dir, const RunProgress& p, double durat
       {"sitting_wall_seconds", p.sitting_wall_seconds},
       {"updated_unix_seconds",
        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()}};
+  static bool warned = false;  // one warning, not one every 2 s (a full disk stays full)
   try {
     write_file_atomic(dir / "progress.json", j.dump(1) + "\n");
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "warning: %s\n", e.what());
+    if (!warned) std::fprintf(stderr, "warning: %s (progress.json is not kept up)\n", e.what());
+    warned = true;
   }
 }
 

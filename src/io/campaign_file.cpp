@@ -49,10 +49,15 @@ void flatten(const toml::table& t, const std::string& prefix,
   for (const auto& [k, v] : t) {
     const std::string key =
         prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
-    if (const toml::table* sub = v.as_table())
+    const toml::array* array = v.as_array();
+    if (const toml::table* sub = v.as_table()) {
       flatten(*sub, key, out);
-    else
+    } else if (array != nullptr && !array->empty() && array->is_array_of_tables()) {
+      for (std::size_t i = 0; i < array->size(); ++i)  // [[campaign.group]]: group[i].key
+        flatten(*(*array)[i].as_table(), key + "[" + std::to_string(i) + "]", out);
+    } else {
       out[key] = value_text(v);
+    }
   }
 }
 
@@ -197,11 +202,12 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   try {
     sc = load_case(src);
   } catch (const ConfigError& e) {
-    const std::string key = e.key() == "measure.boundary_thickness"
-                                ? std::string("campaign.boundary_thickness")
-                            : e.key() == "shear.velocity" ? gr.full_key("velocities")
-                            : e.key().empty()             ? std::string("set")
-                                                          : "set." + e.key();
+    const std::string key =
+        e.key() == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
+        : e.key() == "shear.velocity"
+            ? gr.full_key(gr.has("velocities") ? "velocities" : "velocity_range")
+        : e.key().empty() ? std::string("set")
+                          : "set." + e.key();
     throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
   }
   if (c.analyze && !sc.measure.enabled)

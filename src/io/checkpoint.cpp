@@ -23,39 +23,69 @@ using nlohmann::json;
 /// hundred thousand nested arrays behind a correct seal would exhaust the stack.
 constexpr std::size_t kMaxCborDepth = 64;
 
-/// nlohmann's DOM builder behind a bound on nesting: past kMaxCborDepth, start_object and
-/// start_array answer false, which stops the reader before it recurses further.
+/// A DOM builder for nlohmann's SAX interface with a bound on nesting: past kMaxCborDepth,
+/// start_object and start_array answer false, which stops the reader before it recurses further.
+/// Written here rather than derived from nlohmann's own builder, whose class is internal to the
+/// library (its template parameters differ between versions).
 class BoundedDomBuilder {
  public:
-  explicit BoundedDomBuilder(json& result) : dom_(result, true) {}
-  bool null() { return dom_.null(); }
-  bool boolean(bool v) { return dom_.boolean(v); }
-  bool number_integer(json::number_integer_t v) { return dom_.number_integer(v); }
-  bool number_unsigned(json::number_unsigned_t v) { return dom_.number_unsigned(v); }
-  bool number_float(json::number_float_t v, const json::string_t& s) {
-    return dom_.number_float(v, s);
+  explicit BoundedDomBuilder(json& root) : root_(root) {}
+  bool null() { return put(nullptr); }
+  bool boolean(bool v) { return put(v); }
+  bool number_integer(json::number_integer_t v) { return put(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return put(v); }
+  bool number_float(json::number_float_t v, const json::string_t&) { return put(v); }
+  bool string(json::string_t& v) { return put(std::move(v)); }
+  bool binary(json::binary_t& v) { return put(json::binary(std::move(v))); }
+  bool start_object(std::size_t) { return open(json::object()); }
+  bool key(json::string_t& k) {
+    key_ = std::move(k);
+    return true;
   }
-  bool string(json::string_t& v) { return dom_.string(v); }
-  bool binary(json::binary_t& v) { return dom_.binary(v); }
-  bool start_object(std::size_t n) { return deeper() && dom_.start_object(n); }
-  bool key(json::string_t& k) { return dom_.key(k); }
-  bool end_object() { return --depth_, dom_.end_object(); }
-  bool start_array(std::size_t n) { return deeper() && dom_.start_array(n); }
-  bool end_array() { return --depth_, dom_.end_array(); }
-  bool parse_error(std::size_t at, const std::string& token, const nlohmann::detail::exception& e) {
-    return dom_.parse_error(at, token, e);
-  }
-  bool too_deep() const { return too_deep_; }
-
- private:
-  bool deeper() {
-    if (++depth_ <= kMaxCborDepth) return true;
-    too_deep_ = true;
+  bool end_object() { return close(); }
+  bool start_array(std::size_t) { return open(json::array()); }
+  bool end_array() { return close(); }
+  bool parse_error(std::size_t, const std::string&, const json::exception& e) {
+    error_ = e.what();
     return false;
   }
-  nlohmann::detail::json_sax_dom_parser<json> dom_;
-  std::size_t depth_ = 0;
+  bool too_deep() const { return too_deep_; }
+  const std::string& error() const { return error_; }
+
+ private:
+  /// Where the next value goes: the root, the open array's end, or the open object's key.
+  json& slot() {
+    if (open_.empty()) return root_;
+    json& top = *open_.back();
+    if (top.is_array()) {
+      top.push_back(nullptr);
+      return top.back();
+    }
+    return top[key_];
+  }
+  bool put(json&& v) {
+    slot() = std::move(v);
+    return true;
+  }
+  bool open(json&& container) {
+    if (open_.size() >= kMaxCborDepth) {
+      too_deep_ = true;
+      return false;
+    }
+    json& s = slot();
+    s = std::move(container);
+    open_.push_back(&s);
+    return true;
+  }
+  bool close() {
+    open_.pop_back();
+    return true;
+  }
+  json& root_;
+  std::vector<json*> open_;  ///< the containers being filled, outermost first
+  json::string_t key_;
   bool too_deep_ = false;
+  std::string error_;
 };
 
 /// The CBOR of a checkpoint's body, nested at most kMaxCborDepth levels (else a ConfigError naming
@@ -63,11 +93,15 @@ class BoundedDomBuilder {
 json parse_bounded_cbor(const std::vector<std::uint8_t>& body, const std::string& file) {
   json j;
   BoundedDomBuilder builder(j);
-  json::sax_parse(body, &builder, json::input_format_t::cbor);
+  const bool parsed = json::sax_parse(body, &builder, json::input_format_t::cbor);
   if (builder.too_deep())
     throw ConfigError(
         file, "",
         fmt::format("nests deeper than {} levels: not a checkpoint cdshear wrote", kMaxCborDepth));
+  if (!parsed)
+    throw ConfigError(file, "",
+                      "corrupt checkpoint: " +
+                          (builder.error().empty() ? std::string("not CBOR") : builder.error()));
   return j;
 }
 

@@ -585,10 +585,13 @@ RunData read_run_data(const fs::path& path) {
   {
     Handle g = open_group(ctx, file, "series");
     const std::vector<double> time = read_doubles(ctx, g, "time");
-    for (std::size_t r = 0; r < time.size(); ++r)
-      if (!std::isfinite(time[r]) || (r > 0 && !(time[r] > time[r - 1])))
-        ctx.fail("series/time", fmt::format("does not increase at row {} ({} then {})", r,
-                                            r > 0 ? time[r - 1] : 0.0, time[r]));
+    for (std::size_t r = 0; r < time.size(); ++r) {
+      if (!std::isfinite(time[r]))
+        ctx.fail("series/time", fmt::format("is {} at row {}: not finite", time[r], r));
+      if (r > 0 && !(time[r] > time[r - 1]))
+        ctx.fail("series/time",
+                 fmt::format("does not increase at row {} ({} then {})", r, time[r - 1], time[r]));
+    }
     const std::size_t rows = time.size();
     data.series.resize(rows);
     for (const SeriesColumn& col : series_columns()) {
