@@ -527,6 +527,24 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
   if (ec) throw ConfigError(path.string(), "", "cannot rename the new data file: " + ec.message());
 }
 
+namespace {
+
+/// What cdshear run cannot write is refused here as by the analysis's reader
+/// (python/cdshear_analysis/rundata.py, _check_physics): whole n >= 1, finite positive sizes,
+/// speeds, stresses, durations and intervals, a time reached >= 0.
+void check_run_attributes(const H5Context& ctx, hid_t file) {
+  for (const char* key : {"n", "length_x", "height", "velocity", "normal_stress", "dt", "duration",
+                          "window", "sample_interval", "stripe_thickness"})
+    if (const double v = read_attr_double(ctx, file, key); !(v > 0.0) || !std::isfinite(v))
+      ctx.fail(key, "is " + format_number(v) + ": it must be a finite number > 0");
+  if (const double n = read_attr_double(ctx, file, "n"); n != std::floor(n))
+    ctx.fail("n", "is " + format_number(n) + ": a number of disks is whole");
+  if (const double t = read_attr_double(ctx, file, "time"); !(t >= 0.0) || !std::isfinite(t))
+    ctx.fail("time", "is " + format_number(t) + ": it must be a finite number >= 0");
+}
+
+}  // namespace
+
 RunData read_run_data(const fs::path& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const H5Context ctx{path.string()};
@@ -550,17 +568,7 @@ RunData read_run_data(const fs::path& path) {
   RunData data;
   RunMetadata& meta = data.meta;
   meta.case_toml = read_attr_string(ctx, file, "case_toml");
-  // What cdshear run cannot write is refused here as by the analysis's reader
-  // (python/cdshear_analysis/rundata.py, _check_physics): whole n >= 1, finite positive sizes,
-  // speeds, stresses, durations and intervals, a time reached >= 0.
-  for (const char* key : {"n", "length_x", "height", "velocity", "normal_stress", "dt", "duration",
-                          "window", "sample_interval", "stripe_thickness"})
-    if (const double v = read_attr_double(ctx, file, key); !(v > 0.0) || !std::isfinite(v))
-      ctx.fail(key, "is " + format_number(v) + ": it must be a finite number > 0");
-  if (const double n = read_attr_double(ctx, file, "n"); n != std::floor(n))
-    ctx.fail("n", "is " + format_number(n) + ": a number of disks is whole");
-  if (const double t = read_attr_double(ctx, file, "time"); !(t >= 0.0) || !std::isfinite(t))
-    ctx.fail("time", "is " + format_number(t) + ": it must be a finite number >= 0");
+  check_run_attributes(ctx, file);
   meta.n = static_cast<std::size_t>(read_attr_double(ctx, file, "n"));
   meta.length_x = read_attr_double(ctx, file, "length_x");
   meta.height = read_attr_double(ctx, file, "height");
