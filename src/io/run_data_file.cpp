@@ -543,6 +543,17 @@ void check_run_attributes(const H5Context& ctx, hid_t file) {
     ctx.fail("time", "is " + format_number(t) + ": it must be a finite number >= 0");
 }
 
+/// The series' time is finite and increases from row to row.
+void check_series_time(const H5Context& ctx, const std::vector<double>& time) {
+  for (std::size_t r = 0; r < time.size(); ++r) {
+    if (!std::isfinite(time[r]))
+      ctx.fail("series/time", fmt::format("is {} at row {}: not finite", time[r], r));
+    if (r > 0 && !(time[r] > time[r - 1]))
+      ctx.fail("series/time",
+               fmt::format("does not increase at row {} ({} then {})", r, time[r - 1], time[r]));
+  }
+}
+
 }  // namespace
 
 RunData read_run_data(const fs::path& path) {
@@ -593,13 +604,7 @@ RunData read_run_data(const fs::path& path) {
   {
     Handle g = open_group(ctx, file, "series");
     const std::vector<double> time = read_doubles(ctx, g, "time");
-    for (std::size_t r = 0; r < time.size(); ++r) {
-      if (!std::isfinite(time[r]))
-        ctx.fail("series/time", fmt::format("is {} at row {}: not finite", time[r], r));
-      if (r > 0 && !(time[r] > time[r - 1]))
-        ctx.fail("series/time",
-                 fmt::format("does not increase at row {} ({} then {})", r, time[r - 1], time[r]));
-    }
+    check_series_time(ctx, time);
     const std::size_t rows = time.size();
     data.series.resize(rows);
     for (const SeriesColumn& col : series_columns()) {
