@@ -42,8 +42,8 @@ bool folder_is_free(const std::filesystem::path& dir) {
   if (ec) return false;
   // A lock file alone: free unless a command holds it (a run still preparing its packing).
   if (only_lock) {
-    const int fd = ::open((dir / kFolderLockName).c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW |
-                                                              O_NONBLOCK);
+    const int fd =
+        ::open((dir / kFolderLockName).c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
     if (fd < 0) return false;
     const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0;
     ::close(fd);
@@ -59,7 +59,8 @@ FolderLock FolderLock::take(const std::filesystem::path& dir) {
   // old file meanwhile tries again on the new one.
   for (int attempt = 0;; ++attempt) {
     FolderLock lock = take_once(dir);
-    struct stat held {}, named {};
+    struct stat held {
+    }, named{};
     if (::fstat(lock.fd_, &held) == 0 && ::stat(file.c_str(), &named) == 0 &&
         held.st_ino == named.st_ino && held.st_dev == named.st_dev)
       return lock;
