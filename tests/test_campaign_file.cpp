@@ -19,6 +19,17 @@ Campaign parse(const std::string& text) {
   return campaign_from_toml(toml::parse(text), "test.toml", "/tmp");
 }
 
+/// `back` (a campaign read back from its resolved form) has the same runs as `c`: names,
+/// durations and time steps, in order.
+void expect_same_runs(const Campaign& back, const Campaign& c) {
+  ASSERT_EQ(back.runs.size(), c.runs.size());
+  for (std::size_t k = 0; k < c.runs.size(); ++k) {
+    EXPECT_EQ(back.runs[k].name, c.runs[k].name);
+    EXPECT_EQ(back.runs[k].duration, c.runs[k].duration);
+    EXPECT_EQ(back.runs[k].dt, c.runs[k].dt);
+  }
+}
+
 TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
   const Campaign c = parse(
       "[campaign]\nname = \"study\"\nsystems = [1, 2]\nvelocities = [0.05, 0.5]\n"
@@ -110,12 +121,7 @@ TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
   EXPECT_EQ(c.packings.at(1), packing);  // relative to the campaign file's folder
   const toml::table resolved = campaign_to_toml(c);
   const Campaign back = campaign_from_toml(resolved, "back.toml", "/");
-  ASSERT_EQ(back.runs.size(), c.runs.size());
-  for (std::size_t k = 0; k < c.runs.size(); ++k) {
-    EXPECT_EQ(back.runs[k].name, c.runs[k].name);
-    EXPECT_EQ(back.runs[k].duration, c.runs[k].duration);
-    EXPECT_EQ(back.runs[k].dt, c.runs[k].dt);
-  }
+  expect_same_runs(back, c);
   EXPECT_EQ(campaign_fingerprint(campaign_to_toml(back)), campaign_fingerprint(resolved));
   EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
   // a change is named
@@ -148,11 +154,7 @@ TEST(CampaignFile, GroupsGiveEachPurposeItsOwnRuns) {
   EXPECT_DOUBLE_EQ(c.runs[6].duration, 4.0 * 40.0 / (2.0 * 4.0));  // t = strain L_y / 2V
   const toml::table resolved = campaign_to_toml(c);
   const Campaign back = campaign_from_toml(resolved, "back.toml", "/");
-  ASSERT_EQ(back.runs.size(), c.runs.size());
-  for (std::size_t k = 0; k < c.runs.size(); ++k) {
-    EXPECT_EQ(back.runs[k].name, c.runs[k].name);
-    EXPECT_EQ(back.runs[k].duration, c.runs[k].duration);
-  }
+  expect_same_runs(back, c);
   EXPECT_EQ(back.groups[0].purpose, c.groups[0].purpose);
   EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
   // adding a group is a change that names the groups
