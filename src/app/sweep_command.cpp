@@ -18,7 +18,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -119,9 +118,22 @@ struct SittingProgress {
 /// (written before `sitting_seconds` ago: a killed earlier sitting's) gives an empty answer.
 SittingProgress read_sitting_progress(const fs::path& run_dir, double sitting_seconds) {
   SittingProgress out;
-  std::ifstream in(run_dir / "progress.json");
-  if (!in) return out;
-  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  // Opened as the sweep opens its logs: a FIFO in the file's place must not block the sweep
+  // (nothing of a courtesy file stops it either: it then gives no estimate).
+  int fd = -1;
+  try {
+    fd =
+        open_regular_file(run_dir / "progress.json", O_RDONLY | O_CLOEXEC, "a run's progress file");
+  } catch (const ConfigError&) {
+    return out;
+  }
+  if (fd < 0) return out;
+  std::string text;
+  char buffer[4096];
+  for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;)
+    text.append(buffer, static_cast<std::size_t>(got));
+  ::close(fd);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return out;
   const auto number = [&j](const char* key) -> std::optional<double> {
     const auto it = j.find(key);
