@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);
+  cdshear::register_settings_command(app);
   cdshear::register_sweep_command(app);
   cdshear::register_analysis_commands(app);
   // From the start, so that a signal during set-up still ends in a clean stop with a checkpoint.

@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "case_settings.hpp"
+
 namespace cdshear {
 
 AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
@@ -9,43 +11,8 @@ AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
   return m == "free" ? AxisMode::kFree : m == "imposed" ? AxisMode::kImposed : AxisMode::kFixed;
 }
 
-ContactOrder read_contact_order(TomlReader& table, ContactOrder order) {
-  const std::string name = table.choice(
-      "order",
-      std::vector<std::string>(std::begin(kContactOrderNames), std::end(kContactOrderNames)),
-      contact_order_name(order));
-  contact_order_from_name(name, order);
-  return order;
-}
-
 SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
-  s.alpha = solver.positive("alpha", s.alpha);
-  s.converged_fraction = solver.positive("converged_fraction", s.converged_fraction);
-  if (s.converged_fraction > 1.0) solver.fail("converged_fraction", "must be <= 1");
-  s.max_sweeps = static_cast<int>(solver.integer_in("max_sweeps", 1, kMaxSweeps, s.max_sweeps));
-  s.order = read_contact_order(solver, s.order);
-  s.skip_dormant = solver.boolean("skip_dormant", s.skip_dormant);
-  s.relaxation = solver.positive("relaxation", s.relaxation);
-  if (!(s.relaxation < 2.0)) solver.fail("relaxation", "must be < 2 (projected SOR diverges)");
-  const bool error = s.criterion == ConvergenceCriterion::kError;
-  s.criterion =
-      solver.choice("criterion", {"change", "error"}, error ? "error" : "change") == "error"
-          ? ConvergenceCriterion::kError
-          : ConvergenceCriterion::kChange;
-  s.anderson_depth =
-      static_cast<int>(solver.integer_in("anderson_depth", 0, kMaxAndersonDepth, s.anderson_depth));
-  s.anderson_period =
-      static_cast<int>(solver.integer_in("anderson_period", 1, 1000, s.anderson_period));
-  s.slab_correction_period = static_cast<int>(
-      solver.integer_in("slab_correction_period", 0, 1000, s.slab_correction_period));
-  s.slab_correction_min_bands = static_cast<int>(
-      solver.integer_in("slab_correction_min_bands", 2, 4096, s.slab_correction_min_bands));
-  s.anderson_period_with_slab_correction = static_cast<int>(solver.integer_in(
-      "anderson_period_with_slab_correction", 0, 1000, s.anderson_period_with_slab_correction));
-  s.newton_iterations = static_cast<int>(
-      solver.integer_in("newton_iterations", 0, kMaxNewtonIterations, s.newton_iterations));
-  s.seed = static_cast<std::uint64_t>(solver.integer_in(
-      "seed", 0, std::numeric_limits<std::int64_t>::max(), static_cast<std::int64_t>(s.seed)));
+  for (const Setting<SolverOptions>& row : solver_settings()) read_setting(row, solver, s);
   solver.finish();
   return s;
 }

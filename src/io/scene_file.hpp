@@ -30,11 +30,10 @@ struct SceneFile {
 /// file and key of the first problem (unknown key, wrong type, bad value, overlapping disks).
 SceneFile load_scene_file(const std::string& path, const std::vector<std::string>& overrides);
 
-/// The [solver] table, shared by scene and shear-case files; absent keys keep `base`'s values.
+/// The [solver] table of a scene file (the rows of solver_settings(), which case files share);
+/// absent keys keep `base`'s values.
 SolverOptions read_solver_options(TomlReader& solver, SolverOptions base);
 
-/// The contact order under `table`.order (random, sequential or coloured), `base` if absent.
-ContactOrder read_contact_order(TomlReader& table, ContactOrder base);
 /// The [step] and [solver] tables of a scene file.
 StepOptions read_step_options(TomlReader& step, TomlReader& solver);
 

@@ -125,6 +125,11 @@ bool TomlReader::has(const std::string& key) const {
   return table_->contains(key);
 }
 
+bool TomlReader::holds_string(const std::string& key) const {
+  const toml::node* node = table_->get(key);
+  return node != nullptr && node->is_string();
+}
+
 bool TomlReader::has_table(const std::string& key) const {
   const toml::node* node = table_->get(key);
   return node != nullptr && node->is_table();

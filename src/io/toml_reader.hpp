@@ -59,6 +59,8 @@ class TomlReader {
   bool has(const std::string& key) const;
   /// True when the key holds a table (for keys that take a value or a table of values).
   bool has_table(const std::string& key) const;
+  /// True when the key holds a string (for keys that take a number or a word such as "auto").
+  bool holds_string(const std::string& key) const;
   double number(const std::string& key, std::optional<double> fallback = std::nullopt);
   std::int64_t integer(const std::string& key, std::optional<std::int64_t> fallback = std::nullopt);
   /// An integer in [lo, hi]: every integer key is range-checked against the type and the limit

@@ -1,0 +1,156 @@
+// The settings table (src/io/case_settings.hpp): every row reads, writes and checks its own key,
+// and what `cdshear settings` prints reads back as the same case.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "case_file.hpp"
+#include "case_settings.hpp"
+#include "config_error.hpp"
+
+namespace cdshear {
+namespace {
+
+std::string resolved_text(const ShearCase& c) {
+  std::ostringstream out;
+  out << case_to_toml(c);
+  return out.str();
+}
+
+ShearCase with(const std::vector<std::string>& overrides) {
+  CaseSource source;
+  source.overrides = overrides;
+  return load_case(source);
+}
+
+/// A value of `s` other than `now` and inside its range (and its constraints, for the defaults).
+SettingValue other_value(const CaseSetting& s, const SettingValue& now) {
+  switch (s.type) {
+    case SettingType::kNumber: {
+      const double v = std::get<double>(now);
+      return v != 0.0 ? 0.9 * v : 1.0;
+    }
+    case SettingType::kInteger: {
+      const std::int64_t v = std::get<std::int64_t>(now);
+      return v + 1 <= s.hi ? v + 1 : v - 1;
+    }
+    case SettingType::kBoolean:
+      return !std::get<bool>(now);
+    case SettingType::kString:
+      return std::get<std::string>(now) + "other.json";
+    case SettingType::kChoice:
+      for (const std::string& c : s.choices)
+        if (c != std::get<std::string>(now)) return c;
+      break;
+    case SettingType::kNumberList:
+      return std::vector<double>{0.5 * std::get<std::vector<double>>(now).at(0)};
+    case SettingType::kNumberOrAuto:
+      return 1e-3;
+  }
+  ADD_FAILURE() << s.dotted() << ": no other value";
+  return now;
+}
+
+std::string dotted_key_of(const std::string& line) {
+  return line.substr(0, line.find(" = "));
+}
+
+TEST(CaseSettings, EveryKeyIsReadIntoItsOwnFieldAndWrittenBack) {
+  // For every row: --set it to another value; the resolved case must show that value under that
+  // key and nothing else changed (two rows bound to one field, or a row whose reader and writer
+  // disagree, fail here).
+  const ShearCase defaults = with({});
+  const toml::table base = case_to_toml(defaults);
+  std::set<std::string> keys;
+  for (const CaseSetting& s : case_settings()) {
+    EXPECT_TRUE(keys.insert(s.dotted()).second) << s.dotted() << " listed twice";
+    const SettingValue value = other_value(s, s.get(defaults));
+    const ShearCase changed = with({s.dotted() + "=" + toml_text(value)});
+    EXPECT_EQ(toml_text(s.get(changed)), toml_text(value)) << s.dotted();
+    const toml::table resolved = case_to_toml(changed);
+    for (const CaseSetting& other : case_settings()) {
+      if (&other == &s) continue;
+      // L_y sets the default boundary thickness (L_y / 4 below 40).
+      if (s.dotted() == "system.height" && other.dotted() == "measure.boundary_thickness") continue;
+      EXPECT_EQ(toml_text(other.get(changed)), toml_text(other.get(defaults)))
+          << "--set " << s.dotted() << " changed " << other.dotted();
+    }
+    EXPECT_NE(resolved_text(changed), resolved_text(defaults)) << s.dotted();
+  }
+  // Every key the writer writes is a row (the resolved case holds nothing else).
+  std::size_t written = 0;
+  for (const auto& [table, values] : base) written += values.as_table()->size();
+  EXPECT_EQ(written, case_settings().size());
+}
+
+TEST(CaseSettings, ValuesOutsideTheRangeAreRefusedNamingTheKey) {
+  for (const CaseSetting& s : case_settings()) {
+    std::vector<std::string> bad;
+    if (s.type == SettingType::kNumber || s.type == SettingType::kInteger ||
+        s.type == SettingType::kNumberOrAuto || s.type == SettingType::kNumberList) {
+      const bool integer = s.type == SettingType::kInteger;
+      const auto text = [&](double v) {
+        const std::string one =
+            integer ? std::to_string(static_cast<std::int64_t>(v)) : toml_text(SettingValue(v));
+        return s.type == SettingType::kNumberList ? "[" + one + "]" : one;
+      };
+      if (std::isfinite(s.lo)) bad.push_back(text(s.lo_open ? s.lo : s.lo - 1.0));
+      if (std::isfinite(s.hi) && s.hi < 1e18) bad.push_back(text(s.hi_open ? s.hi : s.hi + 1.0));
+      if (!integer) bad.push_back(s.type == SettingType::kNumberList ? "[nan]" : "nan");
+    }
+    if (s.type == SettingType::kChoice) bad.push_back("\"none-of-these\"");
+    if (s.type != SettingType::kString && s.type != SettingType::kChoice) bad.push_back("[[1]]");
+    for (const std::string& value : bad) {
+      try {
+        with({s.dotted() + "=" + value});
+        ADD_FAILURE() << s.dotted() << " = " << value << " accepted";
+      } catch (const ConfigError& e) {
+        EXPECT_EQ(e.key(), s.dotted()) << e.what();
+      }
+    }
+  }
+}
+
+TEST(CaseSettings, PrintedSettingsReadBackAsTheSameCase) {
+  // `cdshear settings --system 5 -V 0.1` is a case file: reading it gives the case it describes,
+  // every number exact (0.1 is not 0.10000000000000001 rounded to 6 digits).
+  CaseSource source;
+  source.system = 5;
+  source.velocity = 0.1;
+  source.overrides = {"measure.boundary_thickness=[3, 5, 7, 10]", "step.dt=3e-4",
+                      "preparation.packing=\"a \\\"quoted\\\" path.json\""};
+  const ShearCase c = load_case(source);
+  const std::string text = settings_as_toml(c,
+                                            "a header that is long enough to be wrapped over "
+                                            "more than one line of comments in the file");
+  const toml::table read = toml::parse(text);
+  const ShearCase back = case_from_toml(read, "printed settings", ShearCase{});
+  EXPECT_EQ(resolved_text(back), resolved_text(c));
+  // Each key is printed once, under its own table.
+  std::istringstream lines(text);
+  std::string line, table;
+  std::set<std::string> seen;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (line[0] == '[') {
+      table = line.substr(1, line.find(']') - 1);
+      continue;
+    }
+    EXPECT_TRUE(seen.insert(table + "." + dotted_key_of(line)).second) << line;
+  }
+  EXPECT_EQ(seen.size(), case_settings().size());
+}
+
+TEST(CaseSettings, SceneSolverRowsAreTheCaseSolverRows) {
+  // Scene files and case files read [solver] through the same rows: the same keys and ranges.
+  std::set<std::string> scene, cases;
+  for (const auto& row : solver_settings()) scene.insert(row.key + " " + range_text(row));
+  for (const CaseSetting& s : case_settings())
+    if (s.table == "solver") cases.insert(s.key + " " + range_text(s));
+  EXPECT_EQ(scene, cases);
+}
+
+}  // namespace
+}  // namespace cdshear
