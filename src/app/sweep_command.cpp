@@ -169,96 +169,121 @@ void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
                list.c_str());
 }
 
-/// `remote`: null for a sweep on this machine (run_jobs, --jobs at once); under MPI, the
-/// scheduler that hands the jobs to the `ranks` ranks (rank 0 included), one at a time each.
-int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
-  const Campaign c = read_campaign(args.file);
-  if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
-    std::fputs(campaign_file_text(c).c_str(), stdout);
-    return 0;
+/// One sweep of a campaign folder, in the order `run` calls its phases: claim the folder,
+/// prepare the packings, plan the runs (skip, resume or start each), run them with a progress
+/// line after each and every --progress-every seconds, and sum up.
+class Sweep {
+ public:
+  /// `remote`: null for a sweep on this machine (run_jobs, --jobs at once); under MPI, the
+  /// scheduler that hands the jobs to the `ranks` ranks (rank 0 included), one at a time each.
+  Sweep(const SweepArgs& args, Campaign campaign, const RemoteScheduler* remote, int ranks)
+      : args_(args),
+        c_(std::move(campaign)),
+        remote_(remote),
+        dir_(fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c_.name
+                                               : fs::path(args.out_dir))),
+        exe_(fs::read_symlink("/proc/self/exe")),
+        jobs_(remote != nullptr ? ranks
+              : args.jobs > 0   ? args.jobs
+                              : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) /
+                                                args.threads)),
+        threads_(std::to_string(args.threads)),
+        tick_every_(args.quiet ? 0.0 : args.progress_every) {
+    if (remote != nullptr && args.jobs > 0)
+      std::fprintf(stderr,
+                   "warning: --jobs is ignored under MPI: each rank runs one run at a time\n");
   }
-  const fs::path dir =
-      fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir));
-  const fs::path exe = fs::read_symlink("/proc/self/exe");
-  const int jobs =
-      remote != nullptr ? ranks
-      : args.jobs > 0
-          ? args.jobs
-          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / args.threads);
-  if (remote != nullptr && args.jobs > 0)
-    std::fprintf(stderr,
-                 "warning: --jobs is ignored under MPI: each rank runs one run at a time\n");
-  const auto schedule = [&](const std::vector<Job>& list, const JobEndCallback& on_end,
-                            const JobTick& tick) {
-    return remote != nullptr ? (*remote)(list, on_end, tick)
-                             : run_jobs(list, jobs, on_end, {}, tick);
-  };
-  const auto sweep_start = std::chrono::steady_clock::now();
-  const double tick_every = args.quiet ? 0.0 : args.progress_every;
-  const auto since_start = [&] {
-    return format_seconds(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count());
-  };
-  check_same_campaign(dir / "campaign.toml", c, args.force);
-  for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir / sub);
-  // One sweep per folder at a time: two would start or resume the same runs. The lock is held
-  // until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
-  // that died still hold it.
-  const fs::path lock = dir / ".sweep.lock";
-  const int lock_fd = open_regular_file(lock, O_RDWR | O_CREAT, "the sweep's lock");
-  if (lock_fd < 0)
-    throw ConfigError(lock.string(), "",
-                      std::string("cannot open the sweep's lock file: ") + std::strerror(errno) +
-                          (errno == EISDIR ? " (a folder in its place: remove it)" : ""));
-  if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
-    throw ConfigError(dir.string(), "",
-                      "another sweep (or runs it left behind) is working in this folder; wait "
-                      "for it to end, or stop it (its runs checkpoint on SIGTERM)");
-  write_file_atomic(dir / "campaign.toml", campaign_file_text(c));
-  const std::string threads = std::to_string(args.threads);
 
-  // 1. One packing per (system, seed): copied from [campaign.packing], kept from an earlier
-  // sweep, or prepared now (in parallel).
-  std::map<std::pair<int, std::uint64_t>, fs::path> packing_of;
-  std::vector<Job> prepare_jobs;
-  for (const CampaignRun& r : c.runs) {
-    const auto key = std::make_pair(r.system, r.seed);
-    if (packing_of.contains(key)) continue;
-    const fs::path p = dir / "packings" / fmt::format("s{}_seed{}.json", r.system, r.seed);
-    packing_of[key] = p;
-    if (fs::exists(p)) continue;
-    if (const auto given = c.packings.find(r.system); given != c.packings.end()) {
-      fs::copy_file(given->second, p);
-      continue;
-    }
-    Job j;
-    j.name = fmt::format("prepare_s{}_seed{}", r.system, r.seed);
-    j.argv = {exe.string(),
-              "prepare",
-              "-q",
-              "--system",
-              std::to_string(r.system),
-              "--set",
-              fmt::format("system.seed={}", r.seed),
-              "--threads",
-              threads,
-              "-o",
-              p.string()};
-    for (const std::string& o : c.overrides) j.argv.insert(j.argv.end(), {"--set", o});
-    j.log = dir / "logs" / (j.name + ".log");
-    j.cost = r.cost();
-    prepare_jobs.push_back(j);
+  int run() {
+    claim_folder();
+    if (!prepare_packings()) return 130;
+    plan_runs();
+    const ScheduleResult res = schedule(
+        jobs_list_, [this](const JobEnd& e, const JobProgress& p) { on_run_end(e, p); },
+        JobTick{tick_every_, [this](const JobProgress& p) { on_tick(p); }});
+    return sum_up(res);
   }
-  if (!prepare_jobs.empty()) {
-    if (!args.quiet)
-      std::printf("sweep %s: preparing %zu packing%s\n", c.name.c_str(), prepare_jobs.size(),
+
+ private:
+  /// The runs of this sweep, in the order of jobs_list_ (analysis jobs have duration 0).
+  struct Planned {
+    const CampaignRun* run;
+    RunState before;
+  };
+
+  ScheduleResult schedule(const std::vector<Job>& list, const JobEndCallback& on_end,
+                          const JobTick& tick) const {
+    return remote_ != nullptr ? (*remote_)(list, on_end, tick)
+                              : run_jobs(list, jobs_, on_end, {}, tick);
+  }
+
+  std::string since_start() const {
+    return format_seconds(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+  }
+
+  /// The folder: the same campaign as before (or --force), its subfolders, and its lock. One
+  /// sweep per folder at a time: two would start or resume the same runs. The lock is held
+  /// until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
+  /// that died still hold it.
+  void claim_folder() {
+    check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
+    for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir_ / sub);
+    const fs::path lock = dir_ / ".sweep.lock";
+    const int lock_fd = open_regular_file(lock, O_RDWR | O_CREAT, "the sweep's lock");
+    if (lock_fd < 0)
+      throw ConfigError(lock.string(), "",
+                        std::string("cannot open the sweep's lock file: ") + std::strerror(errno) +
+                            (errno == EISDIR ? " (a folder in its place: remove it)" : ""));
+    if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
+      throw ConfigError(dir_.string(), "",
+                        "another sweep (or runs it left behind) is working in this folder; wait "
+                        "for it to end, or stop it (its runs checkpoint on SIGTERM)");
+    write_file_atomic(dir_ / "campaign.toml", campaign_file_text(c_));
+  }
+
+  /// One packing per (system, seed): copied from [campaign.packing], kept from an earlier
+  /// sweep, or prepared now (in parallel). False when interrupted.
+  bool prepare_packings() {
+    std::vector<Job> prepare_jobs;
+    for (const CampaignRun& r : c_.runs) {
+      const auto key = std::make_pair(r.system, r.seed);
+      if (packing_of_.contains(key)) continue;
+      const fs::path p = dir_ / "packings" / fmt::format("s{}_seed{}.json", r.system, r.seed);
+      packing_of_[key] = p;
+      if (fs::exists(p)) continue;
+      if (const auto given = c_.packings.find(r.system); given != c_.packings.end()) {
+        fs::copy_file(given->second, p);
+        continue;
+      }
+      Job j;
+      j.name = fmt::format("prepare_s{}_seed{}", r.system, r.seed);
+      j.argv = {exe_.string(),
+                "prepare",
+                "-q",
+                "--system",
+                std::to_string(r.system),
+                "--set",
+                fmt::format("system.seed={}", r.seed),
+                "--threads",
+                threads_,
+                "-o",
+                p.string()};
+      for (const std::string& o : c_.overrides) j.argv.insert(j.argv.end(), {"--set", o});
+      j.log = dir_ / "logs" / (j.name + ".log");
+      j.cost = r.cost();
+      prepare_jobs.push_back(j);
+    }
+    if (prepare_jobs.empty()) return true;
+    if (!args_.quiet)
+      std::printf("sweep %s: preparing %zu packing%s\n", c_.name.c_str(), prepare_jobs.size(),
                   prepare_jobs.size() == 1 ? "" : "s");
     std::fflush(stdout);
     const ScheduleResult res = schedule(
         prepare_jobs,
         [&](const JobEnd& e, const JobProgress&) {
           const Job& j = prepare_jobs[e.job];
-          if (!args.quiet || e.exit_code != 0)
+          if (!args_.quiet || e.exit_code != 0)
             std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
                         e.exit_code == 0     ? "done"
                         : e.exit_code == 130 ? "interrupted"
@@ -267,7 +292,7 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
                         e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
           std::fflush(stdout);
         },
-        JobTick{tick_every, [&](const JobProgress& p) {
+        JobTick{tick_every_, [&](const JobProgress& p) {
                   std::printf("sweep: after %s: packings done %zu/%zu, preparing %zu, left %zu\n",
                               since_start().c_str(), p.done, prepare_jobs.size(), p.running,
                               p.waiting);
@@ -277,145 +302,144 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
       std::printf(
           "sweep %s: interrupted while preparing packings; run the same command again "
           "to go on\n",
-          c.name.c_str());
-      return 130;
+          c_.name.c_str());
+      return false;
     }
+    return true;
   }
 
-  // 2. The runs: skip finished ones, resume interrupted ones, start the rest.
-  struct Planned {
-    const CampaignRun* run;
-    RunState before;
-  };
-  std::vector<Job> run_jobs_list;
-  std::vector<Planned> planned;
-  std::vector<double> duration_of;  // per job: the run's duration (0 for an analysis)
-  std::vector<std::string> failed;  // "NAME: why, log FILE"
-  std::size_t finished_before = 0;
-  std::set<std::size_t> analysis_jobs;  // jobs that only analyse a finished run
-  for (const CampaignRun& r : c.runs) {
-    const fs::path rdir = dir / "runs" / r.name;
-    const fs::path log = dir / "logs" / (r.name + ".log");
-    const RunState state = run_state(rdir);
-    if (state == RunState::kFinished) {
-      ++finished_before;
-      // Killed after its last step but before (or during) its analysis: analyse and plot it
-      // now, as the run would have.
-      if (c.analyze && fs::exists(rdir / "run.h5") && !fs::exists(rdir / "summary.json")) {
-        Job j;
-        j.name = r.name;
-        j.log = log;
-        j.argv = {exe.string(), "analyze", "-q", "--plot", rdir.string()};
-        analysis_jobs.insert(run_jobs_list.size());
-        run_jobs_list.push_back(j);
-        duration_of.push_back(0.0);
-      }
-      continue;
-    }
-    if (state == RunState::kBlownUp) {
-      failed.push_back(
-          fmt::format("{}: blew up in an earlier sweep (remove {} to try again), log {}", r.name,
-                      rdir.string(), log.string()));
-      continue;
-    }
-    const fs::path packing = packing_of.at({r.system, r.seed});
-    if (!fs::exists(packing)) {
-      failed.push_back(fmt::format(
-          "{}: its packing was not prepared, log {}", r.name,
-          (dir / "logs" / fmt::format("prepare_s{}_seed{}.log", r.system, r.seed)).string()));
-      continue;
-    }
+  /// The job of a run that is to be started or resumed.
+  Job run_job(const CampaignRun& r, RunState state, const fs::path& packing) const {
+    const fs::path rdir = dir_ / "runs" / r.name;
     Job j;
     j.name = r.name;
-    j.log = log;
+    j.log = dir_ / "logs" / (r.name + ".log");
     j.cost = r.cost();
     if (state == RunState::kInterrupted) {
-      j.argv = {exe.string(), "run", "--resume", rdir.string(), "--threads", threads};
+      j.argv = {exe_.string(), "run", "--resume", rdir.string(), "--threads", threads_};
     } else {
-      j.argv = {exe.string(), "run",
-                "--system",   std::to_string(r.system),
-                "-V",         fmt::format("{}", r.velocity),
-                "--set",      fmt::format("shear.duration={}", r.duration)};
-      for (const std::string& o : run_case_overrides(c, r))
+      j.argv = {exe_.string(), "run",
+                "--system",    std::to_string(r.system),
+                "-V",          fmt::format("{}", r.velocity),
+                "--set",       fmt::format("shear.duration={}", r.duration)};
+      for (const std::string& o : run_case_overrides(c_, r))
         j.argv.insert(j.argv.end(), {"--set", o});
       j.argv.insert(j.argv.end(),
-                    {"--packing", packing.string(), "--threads", threads, "-o", rdir.string()});
+                    {"--packing", packing.string(), "--threads", threads_, "-o", rdir.string()});
       if (fs::is_directory(rdir) && !fs::is_empty(rdir)) j.argv.push_back("--force");
     }
-    if (!c.analyze) j.argv.push_back("--no-analyze");
-    duration_of.push_back(r.duration);
-    run_jobs_list.push_back(j);
-    planned.push_back({&r, state});
+    if (!c_.analyze) j.argv.push_back("--no-analyze");
+    return j;
   }
-  if (!args.quiet) {
+
+  /// Skips finished runs (analysing those killed before their analysis), reports blown-up ones
+  /// and those without a packing, resumes interrupted ones and starts the rest.
+  void plan_runs() {
+    for (const CampaignRun& r : c_.runs) {
+      const fs::path rdir = dir_ / "runs" / r.name;
+      const fs::path log = dir_ / "logs" / (r.name + ".log");
+      const RunState state = run_state(rdir);
+      if (state == RunState::kFinished) {
+        ++finished_before_;
+        // Killed after its last step but before (or during) its analysis: analyse and plot it
+        // now, as the run would have.
+        if (c_.analyze && fs::exists(rdir / "run.h5") && !fs::exists(rdir / "summary.json")) {
+          Job j;
+          j.name = r.name;
+          j.log = log;
+          j.argv = {exe_.string(), "analyze", "-q", "--plot", rdir.string()};
+          analysis_jobs_.insert(jobs_list_.size());
+          jobs_list_.push_back(j);
+          duration_of_.push_back(0.0);
+        }
+        continue;
+      }
+      if (state == RunState::kBlownUp) {
+        failed_.push_back(
+            fmt::format("{}: blew up in an earlier sweep (remove {} to try again), log {}", r.name,
+                        rdir.string(), log.string()));
+        continue;
+      }
+      const fs::path packing = packing_of_.at({r.system, r.seed});
+      if (!fs::exists(packing)) {
+        failed_.push_back(fmt::format(
+            "{}: its packing was not prepared, log {}", r.name,
+            (dir_ / "logs" / fmt::format("prepare_s{}_seed{}.log", r.system, r.seed)).string()));
+        continue;
+      }
+      duration_of_.push_back(r.duration);
+      jobs_list_.push_back(run_job(r, state, packing));
+      planned_.push_back({&r, state});
+    }
+    if (args_.quiet) return;
     std::size_t resumed = 0;
-    for (const Planned& p : planned) resumed += p.before == RunState::kInterrupted;
+    for (const Planned& p : planned_) resumed += p.before == RunState::kInterrupted;
     std::printf(
         "sweep %s: %zu runs: %zu finished earlier%s, %zu to resume, %zu to start; up to %d "
         "at once%s, %s thread%s each -> %s\n",
-        c.name.c_str(), c.runs.size(), finished_before,
-        analysis_jobs.empty() ? "" : fmt::format(" ({} to analyse)", analysis_jobs.size()).c_str(),
-        resumed, planned.size() - resumed, jobs, remote != nullptr ? " (MPI: one per rank)" : "",
-        threads.c_str(), args.threads == 1 ? "" : "s", dir.c_str());
+        c_.name.c_str(), c_.runs.size(), finished_before_,
+        analysis_jobs_.empty() ? ""
+                               : fmt::format(" ({} to analyse)", analysis_jobs_.size()).c_str(),
+        resumed, planned_.size() - resumed, jobs_, remote_ != nullptr ? " (MPI: one per rank)" : "",
+        threads_.c_str(), args_.threads == 1 ? "" : "s", dir_.c_str());
     std::fflush(stdout);
   }
 
-  double done_cost = 0.0, done_seconds = 0.0;  // runs that ran to the end in this sweep
-  std::size_t finished_now = 0;
-  std::vector<std::string> interrupted;
-  const auto on_end = [&](const JobEnd& e, const JobProgress& p) {
-    const Job& j = run_jobs_list[e.job];
-    if (analysis_jobs.count(e.job) != 0) {
+  /// A job ended: what its folder now says, and a progress line.
+  void on_run_end(const JobEnd& e, const JobProgress& p) {
+    const Job& j = jobs_list_[e.job];
+    if (analysis_jobs_.count(e.job) != 0) {
       if (e.exit_code != 0)
-        failed.push_back(fmt::format("{}: finished, but its analysis failed (exit {}), log {}",
-                                     j.name, e.exit_code, j.log.string()));
-      else if (!args.quiet)
+        failed_.push_back(fmt::format("{}: finished, but its analysis failed (exit {}), log {}",
+                                      j.name, e.exit_code, j.log.string()));
+      else if (!args_.quiet)
         std::printf("sweep: %s analysed (it had ended before its analysis)\n", j.name.c_str());
       std::fflush(stdout);
       return;
     }
-    const RunState after = run_state(dir / "runs" / j.name);
+    const RunState after = run_state(dir_ / "runs" / j.name);
     std::string what = state_name(after);
     if (after == RunState::kFinished) {
-      ++finished_now;
-      done_cost += j.cost;
-      done_seconds += e.seconds;
+      ++finished_now_;
+      done_cost_ += j.cost;
+      done_seconds_ += e.seconds;
       if (e.exit_code != 0)
         what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
     } else if (after != RunState::kBlownUp &&
                (e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
-      interrupted.push_back(j.name);
+      interrupted_.push_back(j.name);
       what = "interrupted";
     } else {
-      failed.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
-                                   e.exit_code, j.log.string()));
+      failed_.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
+                                    e.exit_code, j.log.string()));
       what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
     }
-    if (args.quiet) return;
+    if (args_.quiet) return;
     std::string eta;
     // Seconds per unit of cost of the runs finished in this sweep, times the cost left (a running
     // run's elapsed time subtracted), shared among the parallel slots.
-    if (done_cost > 0 && (p.running > 0 || p.waiting > 0))
+    if (done_cost_ > 0 && (p.running > 0 || p.waiting > 0))
       eta = "; about " +
-            format_seconds(seconds_left(done_seconds / done_cost, p, run_jobs_list, jobs)) +
+            format_seconds(seconds_left(done_seconds_ / done_cost_, p, jobs_list_, jobs_)) +
             " left";
     std::printf("sweep: %s %s (%s); runs done %zu/%zu, running %zu, left %zu%s\n", j.name.c_str(),
-                what.c_str(), format_seconds(e.seconds).c_str(), finished_before + finished_now,
-                c.runs.size(), p.running, p.waiting, eta.c_str());
+                what.c_str(), format_seconds(e.seconds).c_str(), finished_before_ + finished_now_,
+                c_.runs.size(), p.running, p.waiting, eta.c_str());
     std::fflush(stdout);
-  };
-  // Every --progress-every seconds: the same counts, and the time left from the seconds per unit
-  // of cost of the finished runs and of the running ones together (the seconds each has run in
-  // this sitting over the cost it has done since it started or resumed, from its progress.json),
-  // times the cost left (a running run's share from the time its progress.json has reached).
-  const auto on_tick = [&](const JobProgress& p) {
-    double seconds = done_seconds, cost = done_cost;
+  }
+
+  /// Every --progress-every seconds: the same counts, and the time left from the seconds per
+  /// unit of cost of the finished runs and of the running ones together (the seconds each has
+  /// run in this sitting over the cost it has done since it started or resumed, from its
+  /// progress.json), times the cost left (a running run's share from the time its progress.json
+  /// has reached).
+  void on_tick(const JobProgress& p) const {
+    double seconds = done_seconds_, cost = done_cost_;
     std::map<std::size_t, double> share;  // running job -> share of its cost still to do
     for (const auto& [j, elapsed] : p.running_jobs) {
-      const double d = duration_of[j];
+      const double d = duration_of_[j];
       if (!(d > 0)) continue;  // an analysis
-      const SittingProgress s =
-          read_sitting_progress(dir / "runs" / run_jobs_list[j].name, elapsed);
+      const SittingProgress s = read_sitting_progress(dir_ / "runs" / jobs_list_[j].name, elapsed);
       const double f0 = std::clamp(s.resumed_at.value_or(0.0) / d, 0.0, 1.0);
       if (s.t) {
         const double f = std::clamp(*s.t / d, 0.0, 1.0);
@@ -424,7 +448,7 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
         const double at = s.age < elapsed ? elapsed - s.age : elapsed;
         if (f > f0 && at > 0) {
           seconds += at;
-          cost += run_jobs_list[j].cost * (f - f0);
+          cost += jobs_list_[j].cost * (f - f0);
         }
       } else if (s.resumed_at) {
         share[j] = 1.0 - f0;
@@ -433,7 +457,7 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
     std::string eta = "; no estimate yet";
     if (cost > 0)
       eta = "; about " +
-            format_seconds(seconds_left(seconds / cost, p, run_jobs_list, jobs,
+            format_seconds(seconds_left(seconds / cost, p, jobs_list_, jobs_,
                                         [&](std::size_t j) -> std::optional<double> {
                                           const auto it = share.find(j);
                                           if (it == share.end()) return std::nullopt;
@@ -441,27 +465,57 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
                                         })) +
             " left";
     std::printf("sweep: after %s: runs done %zu/%zu, running %zu, left %zu%s\n",
-                since_start().c_str(), finished_before + finished_now, c.runs.size(), p.running,
+                since_start().c_str(), finished_before_ + finished_now_, c_.runs.size(), p.running,
                 p.waiting, eta.c_str());
     std::fflush(stdout);
-  };
-  const ScheduleResult res = schedule(run_jobs_list, on_end, JobTick{tick_every, on_tick});
-
-  const std::size_t finished = finished_before + finished_now;
-  std::printf(
-      "sweep %s: %zu/%zu runs finished (%zu earlier), %zu failed, %zu interrupted, %zu "
-      "not started -> %s\n",
-      c.name.c_str(), finished, c.runs.size(), finished_before, failed.size(), interrupted.size(),
-      res.never.size(), dir.c_str());
-  for (const std::string& f : failed) std::printf("  failed: %s\n", f.c_str());
-  if (res.interrupted) {
-    std::printf("interrupted: run the same command again to resume\n");
-    return 130;
   }
-  if (!interrupted.empty())
-    std::printf("  interrupted (not by this sweep): %s; run the same command again to resume\n",
-                fmt::format("{}", fmt::join(interrupted, ", ")).c_str());
-  return finished == c.runs.size() ? 0 : 1;
+
+  /// The final summary; the exit status: 0 when every run finished, 130 when interrupted, else 1.
+  int sum_up(const ScheduleResult& res) const {
+    const std::size_t finished = finished_before_ + finished_now_;
+    std::printf(
+        "sweep %s: %zu/%zu runs finished (%zu earlier), %zu failed, %zu interrupted, %zu "
+        "not started -> %s\n",
+        c_.name.c_str(), finished, c_.runs.size(), finished_before_, failed_.size(),
+        interrupted_.size(), res.never.size(), dir_.c_str());
+    for (const std::string& f : failed_) std::printf("  failed: %s\n", f.c_str());
+    if (res.interrupted) {
+      std::printf("interrupted: run the same command again to resume\n");
+      return 130;
+    }
+    if (!interrupted_.empty())
+      std::printf("  interrupted (not by this sweep): %s; run the same command again to resume\n",
+                  fmt::format("{}", fmt::join(interrupted_, ", ")).c_str());
+    return finished == c_.runs.size() ? 0 : 1;
+  }
+
+  const SweepArgs& args_;
+  const Campaign c_;
+  const RemoteScheduler* remote_;
+  const fs::path dir_, exe_;
+  const int jobs_;
+  const std::string threads_;  ///< --threads of each run
+  const double tick_every_;    ///< [s] between periodic progress lines; 0: none
+  const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+
+  std::map<std::pair<int, std::uint64_t>, fs::path> packing_of_;  ///< (system, seed) -> packing
+  std::vector<Job> jobs_list_;
+  std::vector<Planned> planned_;
+  std::vector<double> duration_of_;      ///< per job: the run's duration (0 for an analysis)
+  std::set<std::size_t> analysis_jobs_;  ///< jobs that only analyse a finished run
+  std::vector<std::string> failed_;      ///< "NAME: why, log FILE"
+  std::vector<std::string> interrupted_;
+  std::size_t finished_before_ = 0, finished_now_ = 0;
+  double done_cost_ = 0.0, done_seconds_ = 0.0;  ///< runs that ran to the end in this sweep
+};
+
+int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
+  Campaign c = read_campaign(args.file);
+  if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
+    std::fputs(campaign_file_text(c).c_str(), stdout);
+    return 0;
+  }
+  return Sweep(args, std::move(c), remote, ranks).run();
 }
 
 }  // namespace

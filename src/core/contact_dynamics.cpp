@@ -113,9 +113,7 @@ std::string significant(double x) {
 StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   StepReport report;
   auto t0 = Clock::now();
-  const double dt = options.dt;
-  Disks& d = world.disks;
-  const std::size_t n = d.size();
+  const std::size_t n = world.disks.size();
 
   // 1. detect (on the solver's threads: the list is the same on any number)
   detector_.detect(world, options.contact_margin, contacts_, options.solver.threads);
@@ -124,6 +122,33 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
 
   // 2. prepare free velocities (per disk: shared by the threads, each its share of the disks)
   const int team = threads_for(n, ContactDetector::kMinDisksPerThread, options.solver.threads);
+  prepare_bodies(world, options, team);
+  report.seconds.prepare = seconds_since(t0);
+
+  // 3. solve
+  report.solver =
+      solve_contacts(contacts_, bodies_, n, options.dt, options.solver, world.step, workspace_);
+  if (options.solver.newton_iterations > 0) {
+    ActiveSetOptions o;
+    o.max_iterations = options.solver.newton_iterations;
+    report.active_set = active_set_.refine(contacts_, bodies_, options.dt, o);
+  }
+  report.seconds.solve = seconds_since(t0);
+
+  // 4. integrate
+  const Integrated integrated = integrate(world, options.dt, team);
+  report.seconds.integrate = seconds_since(t0);
+
+  // 5. measure
+  measure(world, options, team, integrated, report);
+  report.seconds.measure = seconds_since(t0);
+  return report;
+}
+
+void ContactDynamics::prepare_bodies(const World& world, const StepOptions& options, int team) {
+  const double dt = options.dt;
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
   const auto team_size = static_cast<std::size_t>(team);
   bodies_.resize(n + world.walls.size());
   // Bands of height for the coloured order (nlgs_solver.hpp): four of the largest diameters, so
@@ -174,20 +199,15 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     b.inv_mass = {axis_inv_mass(wall.mode_x, wall.mass), axis_inv_mass(wall.mode_y, wall.mass)};
     b.inv_inertia = 0.0;
   }
-  report.seconds.prepare = seconds_since(t0);
+}
 
-  // 3. solve
-  report.solver = solve_contacts(contacts_, bodies_, n, dt, options.solver, world.step, workspace_);
-  if (options.solver.newton_iterations > 0) {
-    ActiveSetOptions o;
-    o.max_iterations = options.solver.newton_iterations;
-    report.active_set = active_set_.refine(contacts_, bodies_, dt, o);
-  }
-  report.seconds.solve = seconds_since(t0);
-
-  // 4. integrate (semi-implicit Euler: positions move with the end-of-step velocities), each
-  // thread its share of the disks; the largest displacement and the finiteness merged after (a
-  // maximum and a logical and: the same in any order).
+ContactDynamics::Integrated ContactDynamics::integrate(World& world, double dt, int team) {
+  // Semi-implicit Euler: positions move with the end-of-step velocities, each thread its share
+  // of the disks; the largest displacement and the finiteness merged after (a maximum and a
+  // logical and: the same in any order).
+  Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const auto team_size = static_cast<std::size_t>(team);
   thread_high_.assign(team_size, 0.0);
   thread_finite_.assign(team_size, 1);
   for_shares(team, n, [&](std::size_t first, std::size_t last, std::size_t t) {
@@ -206,35 +226,36 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     thread_high_[t] = max_disp2;
     thread_finite_[t] = finite ? 1 : 0;
   });
-  double max_disp2 = 0.0;
-  bool finite = true;
+  Integrated out;
   for (std::size_t t = 0; t < team_size; ++t) {
-    max_disp2 = std::max(max_disp2, thread_high_[t]);
-    finite = finite && thread_finite_[t] != 0;
+    out.max_disp2 = std::max(out.max_disp2, thread_high_[t]);
+    out.finite = out.finite && thread_finite_[t] != 0;
   }
-  double max_wall_disp = 0.0;
-  const Wall* broken_wall = nullptr;
   for (std::size_t w = 0; w < world.walls.size(); ++w) {
     Wall& wall = world.walls[w];
     wall.velocity = bodies_[n + w].velocity;
     wall.point += dt * wall.velocity;
     wall.contact_force = {};
-    max_wall_disp = std::max(max_wall_disp, dt * length(wall.velocity));
+    out.max_wall_disp = std::max(out.max_wall_disp, dt * length(wall.velocity));
     if (!std::isfinite(wall.point.x) || !std::isfinite(wall.point.y) ||
         !std::isfinite(wall.velocity.x) || !std::isfinite(wall.velocity.y))
-      broken_wall = broken_wall != nullptr ? broken_wall : &wall;
+      out.broken_wall = out.broken_wall != nullptr ? out.broken_wall : &wall;
   }
-  finite = finite && broken_wall == nullptr;
-  if (finite && world.domain.periodic_x) {
+  out.finite = out.finite && out.broken_wall == nullptr;
+  if (out.finite && world.domain.periodic_x) {
     image_before_wrap_ = d.image;
     wrap_positions(world);
     follow_wrapped_disks(world);
   }
   world.time += dt;
   ++world.step;
-  report.seconds.integrate = seconds_since(t0);
+  return out;
+}
 
-  // 5. measure
+void ContactDynamics::measure(World& world, const StepOptions& options, int team,
+                              const Integrated& integrated, StepReport& report) {
+  const double dt = options.dt;
+  const std::size_t n = world.disks.size();
   for (const Contact& c : contacts_) {
     const std::size_t b = static_cast<std::size_t>(c.key.body_b);
     if (b >= n) {  // force on the wall is minus the impulse on the disk, per unit time
@@ -242,8 +263,8 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
           (1.0 / dt) * (c.impulse_n * c.normal + c.impulse_t * c.tangent);
     }
   }
-  if (finite) {  // each thread the largest of its share of the contacts, then the largest of those
-    thread_high_.assign(team_size, report.max_overlap);
+  if (integrated.finite) {  // each thread the largest of its share, then the largest of those
+    thread_high_.assign(static_cast<std::size_t>(team), report.max_overlap);
     for_shares(team, contacts_.size(), [&](std::size_t first, std::size_t last, std::size_t t) {
       thread_high_[t] = largest_overlap(
           world, std::span<const Contact>(contacts_).subspan(first, last - first), thread_high_[t]);
@@ -252,24 +273,24 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
       report.max_overlap = std::max(report.max_overlap, largest);
   }
   for (Wall& wall : world.walls) wall.contact_impulse += dt * wall.contact_force;
-  report.max_displacement = std::sqrt(max_disp2);
+  report.max_displacement = std::sqrt(integrated.max_disp2);
   // The candidates had gap < margin at the start of the step. Another pair can overlap now only
   // if its two bodies closed in by more than the margin during the step: then look at every pair
   // again (cell list, margin 0), or an overlap from a too-fast approach would go unreported.
   const double closing =
-      std::max(2.0 * report.max_displacement, report.max_displacement + max_wall_disp);
-  if (finite && closing > options.contact_margin) {
+      std::max(2.0 * report.max_displacement, report.max_displacement + integrated.max_wall_disp);
+  if (integrated.finite && closing > options.contact_margin) {
     detector_.detect(world, 0.0, overlap_scratch_);
     report.max_overlap = largest_overlap(world, overlap_scratch_, report.max_overlap);
   }
   report.displacement_exceeded = report.max_displacement > options.displacement_bound;
   report.step = world.step;
   report.time = world.time;
-  if (broken_wall != nullptr) {
+  if (integrated.broken_wall != nullptr) {
     report.blown_up = true;
-    report.problem =
-        "the position or velocity of wall '" + broken_wall->name + "' became NaN or infinite";
-  } else if (!finite) {
+    report.problem = "the position or velocity of wall '" + integrated.broken_wall->name +
+                     "' became NaN or infinite";
+  } else if (!integrated.finite) {
     report.blown_up = true;
     report.problem = "a disk velocity became NaN or infinite";
   } else if (!std::isfinite(report.solver.residual)) {
@@ -282,8 +303,6 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     report.problem = "overlap " + significant(report.max_overlap) + " exceeds abort_overlap " +
                      significant(options.abort_overlap);
   }
-  report.seconds.measure = seconds_since(t0);
-  return report;
 }
 
 }  // namespace cdshear

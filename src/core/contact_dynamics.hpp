@@ -71,6 +71,21 @@ class ContactDynamics {
   std::vector<double> thread_low_, thread_high_;
   std::vector<std::uint8_t> thread_finite_;
 
+  /// What the integration found, for the measurement stage.
+  struct Integrated {
+    double max_disp2 = 0.0;             ///< largest squared disk displacement [length^2]
+    double max_wall_disp = 0.0;         ///< largest wall displacement [length]
+    bool finite = true;                 ///< every disk and wall position and velocity finite
+    const Wall* broken_wall = nullptr;  ///< the first wall that is not
+  };
+
+  /// The stages of step() after detection, in order (each its own pass, shared by `team`
+  /// threads).
+  void prepare_bodies(const World& world, const StepOptions& options, int team);
+  Integrated integrate(World& world, double dt, int team);
+  void measure(World& world, const StepOptions& options, int team, const Integrated& integrated,
+               StepReport& report);
+
   /// Renames the contacts of disks that were just wrapped across x = 0 (see the .cpp).
   void follow_wrapped_disks(const World& world);
 };

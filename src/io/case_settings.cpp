@@ -165,6 +165,8 @@ std::vector<std::string> wrap(const std::string& text, std::size_t width) {
   return lines;
 }
 
+// A table, one row per key, in the order of the docs: longer than a function should be, because
+// splitting it would scatter the keys of one file table over several places.
 std::vector<Setting<SolverOptions>> make_solver_settings() {
   using S = Setting<SolverOptions>;
   const std::vector<std::string> orders(std::begin(kContactOrderNames),
@@ -281,6 +283,7 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
   };
 }
 
+// A table, one row per key, in the order of the docs (see make_solver_settings).
 std::vector<CaseSetting> make_case_settings() {
   using S = CaseSetting;
   std::vector<CaseSetting> rows = {
