@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `cdshear sweep` end to end on a tiny campaign of system 1 (the fixture's packing, no
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
-# redoes nothing; a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
+# redoes nothing (and refuses a final state copied from another run); a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
 # untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
 # finishes all; a run killed between its last step and its analysis is analysed, not run again;
 # a changed campaign for the same folder is refused; `--progress-every` prints a progress line
@@ -43,6 +43,14 @@ sums=$(md5sum "$dir"/runs/*/run_info.json)
 "$exe" sweep two.toml > again.out || fail "second sweep exited $?"
 grep -q "2 finished earlier" again.out || fail "second sweep: $(cat again.out)"
 [ "$sums" = "$(md5sum "$dir"/runs/*/run_info.json)" ] || fail "a finished run was redone"
+grep -q '"velocity": 0.25' "$dir/runs/s1_seed1_V0.25/final_state.json" ||
+  fail "the final state carries no case identity"
+# A final state copied from another run does not pass for this run's end.
+cp -r "$dir" swapped
+cp swapped/runs/s1_seed1_V1/final_state.json swapped/runs/s1_seed1_V0.25/final_state.json
+"$exe" sweep two.toml -o swapped > swapped.out 2>&1 && fail "a swapped final state was accepted"
+grep -q "s1_seed1_V0.25: .*final_state.json is of another run (velocity = 1.0, its case.toml says 0.25)" \
+  swapped.out || fail "swapped final state: $(cat swapped.out)"
 
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
 # is not run again (a resume would be refused: it reached its end); a missing summary.json is

@@ -255,7 +255,9 @@ std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current
 int finish_run(const RunEnd& end, const World& world, const RunSummary& summary) {
   namespace fs = std::filesystem;
   const char* state_name = state_file_name(summary.outcome, end.reached_end);
-  write_file_atomic(end.dir / state_name, state_to_json(world).dump(1) + "\n");
+  nlohmann::json state = state_to_json(world);
+  if (!end.case_identity.is_null()) state["case"] = end.case_identity;
+  write_file_atomic(end.dir / state_name, state.dump(1) + "\n");
   if (end.reached_end && summary.outcome == RunOutcome::kFinished) {
     fs::remove(end.dir / "interrupted_state.json");  // stale once the run is complete, and so
     fs::remove(end.dir / "blowup_state.json");       // is a blow-up a resume went past

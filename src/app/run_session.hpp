@@ -19,6 +19,8 @@ struct RunEnd {
   nlohmann::json info;       ///< the command's own fields; version, state hash, summary are added
   bool reached_end = false;  ///< the run reached its end time
   std::string resume_hint;   ///< for a run stopped early: how to continue (empty: none)
+  /// Written into the state file as "case" (null: none, a scene): case_identity of the run.
+  nlohmann::json case_identity;
 };
 
 int finish_run(const RunEnd& end, const World& world, const RunSummary& summary);

@@ -202,21 +202,6 @@ struct ShearSession {
   FolderLock lock;             ///< one writer per run folder, held until the command ends
 };
 
-/// The physics a checkpoint belongs to: a checkpoint copied from another run must not resume
-/// under this case.toml.
-nlohmann::json case_identity(const ShearCase& c) {
-  return {{"n", c.n},
-          {"height", c.height},
-          {"diameter_min", c.diameter_min},
-          {"diameter_max", c.diameter_max},
-          {"seed", c.seed},
-          {"velocity", c.velocity},
-          {"normal_stress", c.normal_stress},
-          {"friction_grain", c.friction_grain},
-          {"friction_wall", c.friction_wall},
-          {"wall_mass", c.wall_mass}};
-}
-
 /// Resolves the time step and checks the run's size (docs/reliability.md) once the case and the
 /// state it starts from are known: a run that asks for too much, or for nothing, is refused
 /// before anything is prepared or written.
@@ -613,6 +598,7 @@ int run_shear(const RunArgs& args) {
     hooks.before(s.world, s.dynamics);
   RunEnd end;
   end.dir = s.dir;
+  end.case_identity = case_identity(c);
   end.reached_end = s.world.step >= end_step;
   end.info_name = "run_info.json";
   if (s.resuming) {  // one file per resume, never overwriting an earlier one

@@ -27,6 +27,7 @@
 #include <thread>
 
 #include "campaign_file.hpp"
+#include "case_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "job_scheduler.hpp"
@@ -106,6 +107,52 @@ double seconds_left(double rate, const JobProgress& p, const std::vector<Job>& j
                                              p.running + p.waiting)));
 }
 
+/// The text of a file a run wrote, opened as the sweep opens the runs' logs: a FIFO or another
+/// special file in its place must not block the sweep. Empty when it is missing or unreadable.
+std::optional<std::string> read_run_file(const fs::path& path, const std::string& role) {
+  int fd = -1;
+  try {
+    fd = open_regular_file(path, O_RDONLY | O_CLOEXEC, role);
+  } catch (const ConfigError&) {
+    return std::nullopt;
+  }
+  if (fd < 0) return std::nullopt;
+  std::string text;
+  char buffer[4096];
+  for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;)
+    text.append(buffer, static_cast<std::size_t>(got));
+  ::close(fd);
+  return text;
+}
+
+/// Empty when the final state of a finished run belongs to the run's case.toml (the case
+/// identity it carries matches); otherwise why not: a final_state.json copied from another run
+/// must not make the sweep skip this one as finished. A final state without an identity
+/// (written by an earlier cdshear) is taken as it is.
+std::string final_state_problem(const fs::path& run_dir) {
+  const fs::path file = run_dir / "final_state.json";
+  const std::optional<std::string> text = read_run_file(file, "a run's final state");
+  if (!text) return file.string() + " cannot be read";
+  const nlohmann::json state = nlohmann::json::parse(*text, nullptr, false);
+  if (state.is_discarded() || !state.is_object()) return file.string() + " is not JSON";
+  if (!state.contains("case")) return "";
+  nlohmann::json identity;
+  try {
+    CaseSource source;
+    source.file = (run_dir / "case.toml").string();
+    identity = case_identity(load_case(source));
+  } catch (const ConfigError& e) {
+    return std::string("its case.toml cannot be read: ") + e.what();
+  }
+  for (const auto& [key, value] : identity.items())
+    if (state["case"].value(key, nlohmann::json()) != value)
+      return fmt::format(
+          "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
+          "this one again",
+          file.string(), key, state["case"].value(key, nlohmann::json()).dump(), value.dump());
+  return "";
+}
+
 /// Where a running run stands in its current sitting, from its progress.json (written by `cdshear
 /// run` every 2 s of wall time; docs/shear-cell.md, "Outputs of a run").
 struct SittingProgress {
@@ -118,22 +165,10 @@ struct SittingProgress {
 /// (written before `sitting_seconds` ago: a killed earlier sitting's) gives an empty answer.
 SittingProgress read_sitting_progress(const fs::path& run_dir, double sitting_seconds) {
   SittingProgress out;
-  // Opened as the sweep opens its logs: a FIFO in the file's place must not block the sweep
-  // (nothing of a courtesy file stops it either: it then gives no estimate).
-  int fd = -1;
-  try {
-    fd =
-        open_regular_file(run_dir / "progress.json", O_RDONLY | O_CLOEXEC, "a run's progress file");
-  } catch (const ConfigError&) {
-    return out;
-  }
-  if (fd < 0) return out;
-  std::string text;
-  char buffer[4096];
-  for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;)
-    text.append(buffer, static_cast<std::size_t>(got));
-  ::close(fd);
-  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  const std::optional<std::string> text =
+      read_run_file(run_dir / "progress.json", "a run's progress file");
+  if (!text) return out;
+  const nlohmann::json j = nlohmann::json::parse(*text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return out;
   const auto number = [&j](const char* key) -> std::optional<double> {
     const auto it = j.find(key);
@@ -340,6 +375,10 @@ class Sweep {
       const fs::path log = dir_ / "logs" / (r.name + ".log");
       const RunState state = run_state(rdir);
       if (state == RunState::kFinished) {
+        if (const std::string problem = final_state_problem(rdir); !problem.empty()) {
+          failed_.push_back(fmt::format("{}: {}", r.name, problem));
+          continue;
+        }
         ++finished_before_;
         // Killed after its last step but before (or during) its analysis: analyse and plot it
         // now, as the run would have.

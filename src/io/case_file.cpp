@@ -125,6 +125,19 @@ ShearCase load_case(const CaseSource& src) {
   return resolved;
 }
 
+nlohmann::json case_identity(const ShearCase& c) {
+  return {{"n", c.n},
+          {"height", c.height},
+          {"diameter_min", c.diameter_min},
+          {"diameter_max", c.diameter_max},
+          {"seed", c.seed},
+          {"velocity", c.velocity},
+          {"normal_stress", c.normal_stress},
+          {"friction_grain", c.friction_grain},
+          {"friction_wall", c.friction_wall},
+          {"wall_mass", c.wall_mass}};
+}
+
 toml::table case_to_toml(const ShearCase& c) {
   toml::table out;
   for (const CaseSetting& s : case_settings()) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <toml++/toml.h>
+#include <nlohmann/json.hpp>
 
 #include "shear_case.hpp"
 #include "toml_reader.hpp"
@@ -30,6 +31,11 @@ ShearCase load_case(const CaseSource& source);
 /// errors.
 ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base,
                          std::shared_ptr<const OverrideSources> sources = nullptr);
+
+/// The physics a run's files belong to (the system, the wall speed and stress, the frictions and
+/// the wall mass), stored in its checkpoint and final state: a file copied from another run is
+/// refused where it is read against this run's case.toml.
+nlohmann::json case_identity(const ShearCase& c);
 
 /// Every parameter of the case, as TOML (the resolved case).
 toml::table case_to_toml(const ShearCase& c);
