@@ -5,6 +5,7 @@
 set -uo pipefail
 exe=$1; packing=$2; work=$3
 scene="$(cd "$(dirname "$0")/../scenes" && pwd)/box_settle.toml"
+data="$(cd "$(dirname "$0")/data" && pwd)"
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0; checks=0
 expect_error() {  # expect_error "words in the message" command...
@@ -217,6 +218,16 @@ test ! -e blown/blowup_state.json || { echo "FAIL: a stale blowup_state.json"; f
 # A --set key must be a case key: nothing in it can be read as part of its value.
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"
 expect_status2 "is not a case key" "$exe" run -q --set "shear velocity=1"
+
+# Two run.h5 files behind a correct seal that the HDF5 library (Debian's 1.10.8) cannot read: one
+# byte of a small synthetic run changed (tests/data/README.md). One crashes it (SIGSEGV), one
+# makes it loop for ever; `analyze` names the folder and the cause, exit 2, in seconds.
+mkdir -p crash hang
+cp "$data/hdf5_crash_run.h5" crash/run.h5
+cp "$data/hdf5_hang_run.h5" hang/run.h5
+expect_status2 "crash: the analysis (\`analyze\`) died of signal 11" "$exe" analyze crash
+expect_status2 "hang: the analysis (\`analyze\`) gave up reading run.h5 after its time limit" \
+  env CDSHEAR_READ_TIME_LIMIT=3 "$exe" analyze hang
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -227,4 +227,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
+    from . import rundata
+    rundata.LIMIT_READ_TIME = True  # a process of its own: a read that never ends may end it
     sys.exit(main())

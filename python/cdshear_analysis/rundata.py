@@ -22,10 +22,13 @@ version 2 added rotational_stress into stress: it is taken out again, and mu_eff
 regions) recomputed; in a version-1 file, coordination (the contacts carrying force at the
 sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
+import contextlib
 import errno
 import os
 import re
+import signal
 import stat
+import threading
 import tomllib
 import zlib
 
@@ -138,6 +141,10 @@ def _check_lengths(data, keys, length, what, path):
 # finite and >= 0: what `cdshear run` writes; anything else is not a run of this model.
 POSITIVE_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window")
 NON_NEGATIVE_ATTRS = ("time",)
+# Per-interval counts of the series: whole numbers >= 0 where present.
+COUNT_SERIES = ("step", "contacts", "force_carrying", "closed", "capped_steps", "sweeps_max")
+# Read when present (older files lack some): each must then be a finite number > 0.
+OPTIONAL_POSITIVE_ATTRS = ("inertial_mass", "sample_interval", "dt", "stripe_thickness")
 
 
 def _number(value):
@@ -156,12 +163,30 @@ def _check_physics(attrs, series, windows, n_stripes, path):
             raise RunDataError(path, f"attribute {k} is {v!r}: it must be > 0")
         if k in NON_NEGATIVE_ATTRS and v < 0:
             raise RunDataError(path, f"attribute {k} is {v!r}: it must be >= 0")
+    for k in OPTIONAL_POSITIVE_ATTRS:
+        v = attrs.get(k)
+        if v is not None and (not _number(v) or not np.isfinite(v) or not v > 0):
+            raise RunDataError(path, f"attribute {k} is {v!r}: it must be a finite number > 0")
+    if "finished" in attrs and (not _number(attrs["finished"]) or attrs["finished"] not in (0, 1)):
+        raise RunDataError(path, f"attribute finished is {attrs['finished']!r}: it must be 0 or 1")
+    h = attrs.get("boundary_thickness")
+    if h is not None:
+        h = np.asarray(h)
+        if h.dtype.kind not in "iuf" or h.size == 0 or not np.all(np.isfinite(h)) or np.any(h <= 0):
+            raise RunDataError(path, f"attribute boundary_thickness is {h!r}: it must list "
+                                     "finite thicknesses > 0")
     if float(attrs["n"]) != int(attrs["n"]):
         raise RunDataError(path, f"attribute n is {attrs['n']!r}: a number of disks is whole")
     for k, v in series.items():
         if np.ndim(v) != 1 or np.asarray(v).dtype.kind not in "biuf":
             raise RunDataError(path, f"/series/{k} is not a one-dimensional array of numbers "
                                      f"(shape {np.shape(v)}, type {np.asarray(v).dtype})")
+    for k in COUNT_SERIES:
+        if k in series:
+            c = np.asarray(series[k], dtype=float)
+            if not np.all(np.isfinite(c)) or np.any(c < 0):
+                raise RunDataError(path, f"/series/{k} holds a value that is not a count "
+                                         "(finite, >= 0)")
     t = np.asarray(series["time"], dtype=float)
     if not np.all(np.isfinite(t)):
         raise RunDataError(path, "/series/time holds a value that is not finite")
@@ -308,6 +333,40 @@ def _read_text(path):
         return None
 
 
+def read_time_limit_seconds(path):
+    """How long reading `path` may take in a `cdshear_analysis` command: CDSHEAR_READ_TIME_LIMIT
+    seconds if set, else 60 s plus 0.5 s per MB (2 MB/s, far below any disk). A damaged file can
+    make the HDF5 library loop without end inside C code, where no Python handler runs."""
+    given = os.environ.get("CDSHEAR_READ_TIME_LIMIT")
+    if given:
+        try:
+            return max(1, int(float(given)))
+        except ValueError:
+            pass
+    return int(60 + 0.5 * os.path.getsize(path) / 1e6)
+
+
+# Set by the command line (__main__): only a process of its own may be ended by the alarm.
+LIMIT_READ_TIME = False
+
+
+@contextlib.contextmanager
+def _read_time_limit(path):
+    """In a command-line process, ends the process by SIGALRM (its default action) when reading
+    takes longer than read_time_limit_seconds: `cdshear analyze` then names the file and the
+    signal (exit 2) instead of waiting for ever. Elsewhere (a notebook, a test) it does nothing."""
+    use = LIMIT_READ_TIME and hasattr(signal, "alarm") and \
+        threading.current_thread() is threading.main_thread()
+    if use:
+        signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        signal.alarm(read_time_limit_seconds(path))
+    try:
+        yield
+    finally:
+        if use:
+            signal.alarm(0)
+
+
 def load_run(run_dir):
     """Read RUN_DIR/run.h5 into a dict of numpy arrays and metadata (see the module doc)."""
     run_dir = os.fspath(run_dir)
@@ -321,7 +380,7 @@ def load_run(run_dir):
         raise RunDataError(path, "empty file")
     check_seal(path)
     try:
-        with h5py.File(path, "r") as f:
+        with _read_time_limit(path), h5py.File(path, "r") as f:
             return _read(f, run_dir, path)
     except RunDataError:
         raise

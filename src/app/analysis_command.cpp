@@ -89,6 +89,18 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     }
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   const int signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+  // The analysis ends itself by SIGALRM when reading a run.h5 takes longer than its limit
+  // (python/cdshear_analysis/rundata.py, read_time_limit_seconds): the HDF5 library looping
+  // without end on a damaged file.
+  if (signal == SIGALRM) {
+    std::fprintf(stderr,
+                 "error: %s: the analysis (`%s`) gave up reading run.h5 after its time limit "
+                 "(60 s + 0.5 s per MB, or CDSHEAR_READ_TIME_LIMIT seconds): a damaged run.h5 its "
+                 "seal does not catch (the HDF5 library loops on it), or a disk that slow; the "
+                 "run's data files are left as they were\n",
+                 run_dir.c_str(), verb.c_str());
+    return 2;
+  }
   // Only a crash is blamed on the files; a kill (the OOM killer, kill -9, a closed pipe) is
   // reported as what it is.
   if (signal != SIGSEGV && signal != SIGBUS && signal != SIGABRT && signal != SIGFPE &&
