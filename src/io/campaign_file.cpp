@@ -234,6 +234,51 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
                         run.name, steps, kMaxRunSteps));
 }
 
+/// [campaign.packing]: a packing file per system (relative to the campaign file's folder),
+/// each serving the one seed the campaign runs that system with.
+void read_packings(TomlReader& t, const std::set<int>& all_systems, const std::string& base_dir,
+                   Campaign& c) {
+  TomlReader packings = t.table("packing");
+  for (const int k : all_systems) {
+    const std::string key = std::to_string(k);
+    if (!packings.has(key)) continue;
+    std::string p = packings.string(key);
+    if (p.empty()) packings.fail(key, "is empty: give a packing file, or leave the key out");
+    fs::path abs = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
+    abs = abs.lexically_normal();
+    if (!fs::is_regular_file(abs)) packings.fail(key, "no packing file at " + abs.string());
+    std::set<std::uint64_t> seeds;  // of this system, over the groups that run it
+    for (const CampaignGroup& g : c.groups)
+      if (std::find(g.systems.begin(), g.systems.end(), k) != g.systems.end())
+        seeds.insert(g.seeds.begin(), g.seeds.end());
+    if (seeds.size() > 1)
+      packings.fail(key, "a given packing serves one seed, the campaign lists " +
+                             std::to_string(seeds.size()) + " for system " + key);
+    c.packings[k] = abs.string();
+  }
+  packings.finish();  // a packing for a system not in the campaign is refused here
+}
+
+/// [set]: case overrides for every run, each a bare case key the campaign does not own.
+void read_set(const toml::table& table, TomlReader& root, const std::string& file, Campaign& c) {
+  std::map<std::string, std::string> set_items;
+  if (const toml::node* set = table.get("set")) {
+    if (!set->is_table()) root.fail("set", "must be a table of case keys: [set]");
+    flatten(*set->as_table(), "", set_items);
+  }
+  TomlReader unused_set = root.table("set");  // marks [set] as read for root.finish()
+  (void)unused_set;
+  for (const auto& [key, value] : set_items) {
+    // A quoted TOML key can hold anything ("shear.velocity=5 #"): passed on as `key=value`, its
+    // '=' would make it another key with another value. Case keys are bare.
+    if (const std::string problem = case_key_problem(key); !problem.empty())
+      throw ConfigError(file, "set", "the key " + problem);
+    if (const auto it = kOwnedKeys.find(key); it != kOwnedKeys.end())
+      throw ConfigError(file, "set." + key, "is set by the campaign: " + it->second);
+    c.overrides.push_back(key + "=" + value);
+  }
+}
+
 }  // namespace
 
 Campaign campaign_from_toml(const toml::table& table, const std::string& file,
@@ -282,44 +327,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   }
   c.analyze = t.boolean("analyze", true);
 
-  TomlReader packings = t.table("packing");
-  for (const int k : all_systems) {
-    const std::string key = std::to_string(k);
-    if (!packings.has(key)) continue;
-    std::string p = packings.string(key);
-    if (p.empty()) packings.fail(key, "is empty: give a packing file, or leave the key out");
-    fs::path abs = fs::path(p).is_absolute() ? fs::path(p) : fs::path(base_dir) / p;
-    abs = abs.lexically_normal();
-    if (!fs::is_regular_file(abs)) packings.fail(key, "no packing file at " + abs.string());
-    std::set<std::uint64_t> seeds;  // of this system, over the groups that run it
-    for (const CampaignGroup& g : c.groups)
-      if (std::find(g.systems.begin(), g.systems.end(), k) != g.systems.end())
-        seeds.insert(g.seeds.begin(), g.seeds.end());
-    if (seeds.size() > 1)
-      packings.fail(key, "a given packing serves one seed, the campaign lists " +
-                             std::to_string(seeds.size()) + " for system " + key);
-    c.packings[k] = abs.string();
-  }
-  packings.finish();  // a packing for a system not in the campaign is refused here
+  read_packings(t, all_systems, base_dir, c);
   t.finish();
 
-  // [set]: case overrides for every run.
-  std::map<std::string, std::string> set_items;
-  if (const toml::node* set = table.get("set")) {
-    if (!set->is_table()) root.fail("set", "must be a table of case keys: [set]");
-    flatten(*set->as_table(), "", set_items);
-  }
-  TomlReader unused_set = root.table("set");  // marks [set] as read for root.finish()
-  (void)unused_set;
-  for (const auto& [key, value] : set_items) {
-    // A quoted TOML key can hold anything ("shear.velocity=5 #"): passed on as `key=value`, its
-    // '=' would make it another key with another value. Case keys are bare.
-    if (const std::string problem = case_key_problem(key); !problem.empty())
-      throw ConfigError(file, "set", "the key " + problem);
-    if (const auto it = kOwnedKeys.find(key); it != kOwnedKeys.end())
-      throw ConfigError(file, "set." + key, "is set by the campaign: " + it->second);
-    c.overrides.push_back(key + "=" + value);
-  }
+  read_set(table, root, file, c);
   root.finish();
 
   // A bound on the campaign's size (the whole study of model.md section 6 is a few hundred runs):
