@@ -46,6 +46,34 @@ void install_stop_handlers() {
   std::signal(SIGHUP, on_stop_signal);  // a closed terminal or a batch system's hang-up
 }
 
+namespace {
+
+/// One step's report into the run's totals (the last report, counts, largest values, seconds).
+void add_step(RunSummary& summary, const StepReport& r) {
+  summary.last = r;
+  ++summary.steps;
+  summary.largest_sweeps = std::max(summary.largest_sweeps, r.solver.sweeps);
+  summary.largest_overlap = std::max(summary.largest_overlap, r.max_overlap);
+  summary.seconds.detect += r.seconds.detect;
+  summary.seconds.prepare += r.seconds.prepare;
+  summary.seconds.solve += r.seconds.solve;
+  summary.seconds.integrate += r.seconds.integrate;
+  summary.seconds.measure += r.seconds.measure;
+  summary.capped_steps += r.solver.hit_cap ? 1 : 0;
+}
+
+/// The progress bar on stderr: the share `done` of the run, the time reached, and the wall time
+/// left at the pace so far (`elapsed` seconds for `done`).
+void print_progress_bar(double done, double time, double elapsed) {
+  const int width = 30, filled = static_cast<int>(done * width);
+  std::fprintf(stderr, "\r[%s%s] %5.1f%%  t %.2f  left %s ", std::string(filled, '#').c_str(),
+               std::string(width - filled, '.').c_str(), 100.0 * done, time,
+               format_duration(done > 0 ? elapsed * (1 - done) / done : 0.0).c_str());
+  std::fflush(stderr);
+}
+
+}  // namespace
+
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
                      const RunLoopSettings& settings,
                      std::span<const ScheduledObserver> observers) {
@@ -94,20 +122,11 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
         r.blown_up = true;
         r.problem = std::move(problem);
       }
-    summary.last = r;
-    ++summary.steps;
+    add_step(summary, r);
     ++interval_steps;
     sum_sweeps += r.solver.sweeps;
     sum_contacts += static_cast<double>(r.contacts);
-    summary.largest_sweeps = std::max(summary.largest_sweeps, r.solver.sweeps);
-    summary.largest_overlap = std::max(summary.largest_overlap, r.max_overlap);
-    summary.seconds.detect += r.seconds.detect;
-    summary.seconds.prepare += r.seconds.prepare;
-    summary.seconds.solve += r.seconds.solve;
-    summary.seconds.integrate += r.seconds.integrate;
-    summary.seconds.measure += r.seconds.measure;
     interval.add(r);
-    summary.capped_steps += r.solver.hit_cap ? 1 : 0;
     if (r.displacement_exceeded) {
       if (summary.displacement_warnings == 0)
         std::fprintf(stderr,
@@ -140,13 +159,8 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
     if (settings.progress_bar && total > 0 &&
         std::chrono::duration<double>(now - last_bar).count() > 0.25) {
       last_bar = now;
-      const double done = static_cast<double>(world.step - first_step) / static_cast<double>(total);
-      const double elapsed = std::chrono::duration<double>(now - start).count();
-      const int width = 30, filled = static_cast<int>(done * width);
-      std::fprintf(stderr, "\r[%s%s] %5.1f%%  t %.2f  left %s ", std::string(filled, '#').c_str(),
-                   std::string(width - filled, '.').c_str(), 100.0 * done, world.time,
-                   format_duration(done > 0 ? elapsed * (1 - done) / done : 0.0).c_str());
-      std::fflush(stderr);
+      print_progress_bar(static_cast<double>(world.step - first_step) / static_cast<double>(total),
+                         world.time, std::chrono::duration<double>(now - start).count());
     }
   }
   if (settings.progress_bar) std::fputs("\r\033[K", stderr);
