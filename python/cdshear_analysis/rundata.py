@@ -217,7 +217,29 @@ def _check_physics(attrs, series, windows, n_stripes, path):
                                  "length")
 
 
+def _check_structure(f, path):
+    """Refuses what a damaged file's metadata can claim before anything is read: a name that is
+    not text, or a dataset larger than the file could hold (cdshear and the synthetic runs write
+    contiguous, uncompressed data, so a dataset's bytes lie inside the file; a compressed one may
+    claim up to 1000 times its file)."""
+    size = os.path.getsize(path)
+
+    def check(name, obj):
+        if not isinstance(name, str):
+            raise RunDataError(path, f"an object name {name!r} is not text: damaged metadata")
+        if isinstance(obj, h5py.Dataset):
+            claimed = int(np.prod(obj.shape, dtype=object)) * obj.dtype.itemsize if obj.shape \
+                else obj.dtype.itemsize
+            bound = size * (1000 if obj.compression else 1) + (1 << 20)
+            if claimed > bound:
+                raise RunDataError(path, f"/{name} claims {claimed} bytes (shape {obj.shape}), "
+                                         f"more than a file of {size} bytes holds: damaged "
+                                         "metadata")
+    f.visititems(check)
+
+
 def _read(f, run_dir, path):
+    _check_structure(f, path)
     attrs = {k: _plain(v) for k, v in f.attrs.items()}
     for k, v in attrs.items():
         if k == "boundary_thickness":    # always an array (one h may be stored as a scalar)

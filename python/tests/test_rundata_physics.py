@@ -1,6 +1,6 @@
 """run.h5 files that are sealed but are not a shear run (V of 0, NaN or text, a negative height,
 time running backwards, no stripes, a window of 0, every physical series NaN, arrays of the wrong
-rank) are refused by load_run naming the attribute or dataset, and `analyze` exits 2 with the
+rank, a dataset larger than the file) are refused by load_run naming the attribute or dataset, and `analyze` exits 2 with the
 message and no traceback: no regime is ever given to them."""
 import contextlib
 import io
@@ -45,6 +45,13 @@ def all_nan_series(f):
         f[f"series/{k}"] = np.full_like(np.asarray(data, dtype=float), np.nan)
 
 
+def huge_series(f):
+    """A dataset whose dataspace claims 8 TB (nothing written: the file stays small), as damaged
+    dimensions in the metadata do."""
+    del f["series/com_vx"]
+    f.create_dataset("series/com_vx", shape=(10**12,), dtype="f8")
+
+
 CASES = [
     ("V = 0", set_attr("velocity", 0.0), "attribute velocity is 0.0: it must be > 0"),
     ("V = NaN", set_attr("velocity", np.nan), "attribute velocity is nan, not a finite number"),
@@ -59,6 +66,7 @@ CASES = [
      "/windows/vx has shape"),
     ("2-D series", replace("series/com_vx", lambda v: np.stack([v, v], axis=1)),
      "/series/com_vx"),
+    ("8 TB series", huge_series, "/series/com_vx claims 8000000000000 bytes"),
 ]
 
 
