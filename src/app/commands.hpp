@@ -2,7 +2,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "config_error.hpp"
 #include "threads.hpp"
@@ -38,6 +40,22 @@ inline const CLI::Validator kNonEmptyPath(
       return value.empty() ? std::string("is empty (an unset shell variable?)") : std::string();
     },
     "PATH");
+
+/// CASE, `--system K`, `-V/--velocity V` and `--set key=value`: the options that choose a shear
+/// case (docs/case-files.md, "Precedence"), shared by `prepare`, `run` and `settings`.
+inline void add_case_choice_options(CLI::App* cmd, std::string& file, std::optional<int>& system,
+                                    std::optional<double>& velocity,
+                                    std::vector<std::string>& overrides) {
+  cmd->add_option("case", file, "case file (TOML); default: the built-in case (system 1)")
+      ->check(kNonEmptyPath);
+  cmd->add_option_function<int>(
+      "--system", [&system](int k) { system = k; },
+      "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)");
+  cmd->add_option_function<double>(
+      "-V,--velocity", [&velocity](double v) { velocity = v; },
+      "wall velocity V (bottom -V, top +V)");
+  cmd->add_option("--set", overrides, "override a case key: --set shear.duration=50 (repeatable)");
+}
 
 /// `--threads N`: threads of contact detection and of the coloured contact order's sweeps
 /// (default: every processor, the steps on one or all of them as measured faster: run_loop.hpp,

@@ -36,8 +36,7 @@ namespace fs = std::filesystem;
 struct CaseArgs {
   std::string file;
   std::optional<int> system;
-  double velocity = 0.0;
-  bool has_velocity = false;
+  std::optional<double> velocity;
   std::vector<std::string> overrides;
   bool quiet = false;
   int threads = processors_available();
@@ -48,27 +47,14 @@ CaseSource to_source(const CaseArgs& a) {
   CaseSource s;
   s.file = a.file;
   s.system = a.system;
-  if (a.has_velocity) s.velocity = a.velocity;
+  s.velocity = a.velocity;
   s.overrides = a.overrides;
   s.threads = a.threads;
   return s;
 }
 
 void add_case_options(CLI::App* cmd, CaseArgs& a, bool threads_chosen_by_speed) {
-  cmd->add_option("case", a.file, "case file (TOML); default: the built-in case (system 1)")
-      ->check(kNonEmptyPath);
-  cmd->add_option_function<int>(
-      "--system", [&a](int k) { a.system = k; },
-      "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)");
-  cmd->add_option_function<double>(
-      "-V,--velocity",
-      [&a](double v) {
-        a.velocity = v;
-        a.has_velocity = true;
-      },
-      "wall velocity V (bottom -V, top +V)");
-  cmd->add_option("--set", a.overrides,
-                  "override a case key: --set shear.duration=50 (repeatable)");
+  add_case_choice_options(cmd, a.file, a.system, a.velocity, a.overrides);
   cmd->add_flag("-q,--quiet", a.quiet, "no status lines or progress bar");
   a.threads_option = add_threads_option(cmd, a.threads, threads_chosen_by_speed);
 }
@@ -241,7 +227,7 @@ void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
 void open_resumed(const RunArgs& args, ShearSession& s) {
   s.resuming = true;
   s.dir = args.resume_dir;
-  if (!args.c.file.empty() || args.c.system || args.c.has_velocity || !args.packing.empty() ||
+  if (!args.c.file.empty() || args.c.system || args.c.velocity || !args.packing.empty() ||
       !args.out_dir.empty() || args.force)
     throw ConfigError("--resume " + s.dir.string(), "",
                       "a case file, --system, --velocity, --packing, -o and --force cannot be "
