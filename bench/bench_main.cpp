@@ -103,19 +103,17 @@ Solver settings: the shear phase's defaults (shear_case.hpp, docs/case-files.md)
 each option overrides one of them.
   --plain             start from the engine's plain defaults instead (random order, no
                       acceleration, alpha 1e-6: scene files' defaults); later options apply on top
-  --order O           NLGS contact order: random, sequential or coloured (default)
+  --order O           NLGS contact order: random or coloured (default)
   --threads N         solver threads (default 1; used by the coloured order only)
   --skip-dormant, --no-skip-dormant
                       leave dormant contacts out of the sweeps, or not (solver.skip_dormant; on)
   --anderson M        Anderson mixing of the last M sweeps' images (solver.anderson_depth, 5)
   --anderson-period P mix every P sweeps (solver.anderson_period, 4)
   --slab-correction P the slab correction every P sweeps in packings of 20 bands or more,
-                      coloured order only (solver.slab_correction_period, 8; 0: off)
-  --anderson-period-with-slab-correction P  mix every P sweeps in the steps the correction
-                      runs in (solver.anderson_period_with_slab_correction, 8)
-  --criterion C       convergence criterion: change (default) or error (solver.criterion)
+                      coloured order only (solver.slab_correction_period, 8; 0: off); where
+                      it runs, the mix runs every 2 anderson-period sweeps
   --max-sweeps N      sweep cap (solver.max_sweeps, 200)
-  --relaxation W      over-relaxation of each update, 0 < W < 2 (solver.relaxation, 1.6)
+  --relaxation W      over-relaxation of each update, 1 <= W < 2 (solver.relaxation, 1.6)
   --alpha A           convergence tolerance (solver.alpha, 1e-5; 0: every step sweeps
                       max-sweeps times, to compare settings at equal sweeps)
   --converged-fraction F  share of the force-carrying contacts that must meet alpha
@@ -166,7 +164,7 @@ Settings parse(int argc, char** argv) {
       s.velocity = std::stod(value());
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.solver.order))
-        throw std::invalid_argument("--order must be random, sequential or coloured");
+        throw std::invalid_argument("--order must be random or coloured");
     } else if (a == "--packing") {
       s.packing = value();
     } else if (a == "--plain") {
@@ -179,12 +177,6 @@ Settings parse(int argc, char** argv) {
                                     std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--step-error") {
       s.step_error_samples = std::stoi(value());
-    } else if (a == "--criterion") {
-      const std::string c = value();
-      if (c != "change" && c != "error")
-        throw std::invalid_argument("--criterion must be change or error");
-      s.solver.criterion = c == "error" ? cdshear::ConvergenceCriterion::kError
-                                        : cdshear::ConvergenceCriterion::kChange;
     } else if (a == "--max-sweeps") {
       s.solver.max_sweeps = std::stoi(value());
       if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
@@ -197,12 +189,12 @@ Settings parse(int argc, char** argv) {
       if (!(s.solver.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
     } else if (a == "--reference-relaxation") {
       s.reference_relaxation = std::stod(value());
-      if (!(s.reference_relaxation > 0.0 && s.reference_relaxation < 2.0))
-        throw std::invalid_argument("--reference-relaxation must be in (0, 2)");
+      if (!(s.reference_relaxation >= 1.0 && s.reference_relaxation < 2.0))
+        throw std::invalid_argument("--reference-relaxation must be in [1, 2)");
     } else if (a == "--relaxation") {
       s.solver.relaxation = std::stod(value());
-      if (!(s.solver.relaxation > 0.0 && s.solver.relaxation < 2.0))
-        throw std::invalid_argument("--relaxation must be in (0, 2)");
+      if (!(s.solver.relaxation >= 1.0 && s.solver.relaxation < 2.0))
+        throw std::invalid_argument("--relaxation must be in [1, 2)");
     } else if (a == "--skip-dormant") {
       s.solver.skip_dormant = true;
     } else if (a == "--no-skip-dormant") {
@@ -219,10 +211,6 @@ Settings parse(int argc, char** argv) {
       s.solver.slab_correction_period = std::stoi(value());
       if (s.solver.slab_correction_period < 0)
         throw std::invalid_argument("--slab-correction must be >= 0");
-    } else if (a == "--anderson-period-with-slab-correction") {
-      s.solver.anderson_period_with_slab_correction = std::stoi(value());
-      if (s.solver.anderson_period_with_slab_correction < 0)
-        throw std::invalid_argument("--anderson-period-with-slab-correction must be >= 0");
     } else if (a == "--anderson-period") {
       s.solver.anderson_period = std::stoi(value());
       if (s.solver.anderson_period < 1)
@@ -454,8 +442,11 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// on every force-carrying contact, no practical cap), from the same state and warm start:
 /// `samples` times, `spacing` ordinary steps apart. Printed to stderr: the relative L2 error of
 /// all impulses, the largest error of one contact relative to the mean impulse, the relative
-/// error of the top wall's force, the last sweep's relative change (sqrt of the residual) and
-/// the sweeps of both solves. The reference relaxes its updates by `reference_relaxation`
+/// error of the top wall's force, the disks' end-of-step velocity error (root mean square of
+/// |v - v_ref| over the disks, in units of the top wall's speed V), the last sweep's relative
+/// change (sqrt of the residual) and the sweeps of both solves. In a hyperstatic packing the
+/// impulses of a step need not be unique while the velocities are: the velocity error is what
+/// the motion feels. The reference relaxes its updates by `reference_relaxation`
 /// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
 /// `options` does, without the slab correction (every relaxation, mix and correction has
 /// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
@@ -469,16 +460,16 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.converged_fraction = 1.0;
   tight.solver.max_sweeps = 200000;
   tight.solver.skip_dormant = false;
-  tight.solver.criterion = cdshear::ConvergenceCriterion::kChange;
   tight.solver.relaxation = reference_relaxation;
   tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   tight.solver.newton_iterations = 0;
-  std::vector<double> l2, wall;
+  std::vector<double> l2, wall, velocity;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
-               "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall\n");
+               "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall"
+               "  velocity_rms/V\n");
   for (int k = 0; k < samples; ++k) {
     for (int j = 0; j < spacing; ++j) dynamics.step(world, options);
     World w_ref = world;
@@ -504,6 +495,13 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         cdshear::length(w_ref.walls[top].contact_force);
     l2.push_back(std::sqrt(diff2 / ref2));
     wall.push_back(wall_error);
+    double dv2 = 0.0;
+    const std::size_t n = w_ref.disks.size();
+    for (std::size_t i = 0; i < n; ++i)
+      dv2 += cdshear::length_squared(w_opt.disks.velocity[i] - w_ref.disks.velocity[i]);
+    const double wall_speed = std::abs(w_ref.walls[top].velocity.x);
+    velocity.push_back(std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
+                       (wall_speed > 0.0 ? wall_speed : 1.0));
     const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps;
     if (options.solver.newton_iterations > 0)
       std::fprintf(
@@ -511,18 +509,21 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
           r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
           r_opt.active_set.correction, r_opt.active_set.initial_residual,
           r_opt.active_set.residual);
-    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e%s\n", r_opt.solver.sweeps,
-                 r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual), l2.back(), worst / mean,
-                 wall_error, ref_capped ? "  (reference not converged: at its cap)" : "");
+    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e  %14.2e%s\n",
+                 r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
+                 l2.back(), worst / mean, wall_error, velocity.back(),
+                 ref_capped ? "  (reference not converged: at its cap)" : "");
     dynamics.step(world, options);
   }
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());
+  std::sort(velocity.begin(), velocity.end());
   if (!l2.empty())
     std::fprintf(stderr,
                  "    median impulse error %.2e (largest %.2e), median top-wall error "
-                 "%.2e (largest %.2e)\n",
-                 l2[l2.size() / 2], l2.back(), wall[wall.size() / 2], wall.back());
+                 "%.2e (largest %.2e), median velocity error %.2e V (largest %.2e V)\n",
+                 l2[l2.size() / 2], l2.back(), wall[wall.size() / 2], wall.back(),
+                 velocity[velocity.size() / 2], velocity.back());
 }
 
 double solid_fraction(const World& world) {

@@ -5,7 +5,7 @@
 #
 #   scripts/accuracy_study.sh OUT_DIR [PARAMETER...]
 #
-# PARAMETER: cap, alpha, dt, order, criterion, seed, or all (default). Environment (defaults in
+# PARAMETER: cap, alpha, dt, order, seed, or all (default). Environment (defaults in
 # brackets):
 #   SYSTEM [1]  V [0.5]  DURATION [400] time units per run  THREADS [1]
 #   CDSHEAR [build/cdshear]  PACKING [prepared and cached in packings/ by the first run]
@@ -51,16 +51,12 @@ for p in "${params[@]}"; do
         add "step.dt=$(awk -v d="$d" -v v="$velocity" 'BEGIN { printf "%.6g", d / v }')"
       done ;;&
     order | all)
-      for o in random sequential coloured; do add "solver.order=\"$o\""; done
+      for o in random coloured; do add "solver.order=\"$o\""; done
       add "solver.skip_dormant=false" ;;&
-    criterion | all)  # the error bound needs more sweeps than the change: a cap of 1000
-      for a in 1e-5 1e-6; do
-        add "solver.criterion=\"error\",solver.alpha=$a,solver.max_sweeps=1000"
-      done ;;&
     seed | all)  # the default settings with another solver seed: the scatter of realizations
       add "solver.seed=2" ;;
-    cap | alpha | dt | order | criterion) ;;
-    *) echo "error: unknown parameter '$p' (cap, alpha, dt, order, criterion, seed, all)" >&2
+    cap | alpha | dt | order) ;;
+    *) echo "error: unknown parameter '$p' (cap, alpha, dt, order, seed, all)" >&2
       exit 2 ;;
   esac
 done

@@ -34,7 +34,7 @@ TEST(CampaignFile, GoodFileIsResolvedIntoEveryRun) {
   const Campaign c = parse(
       "[campaign]\nname = \"study\"\nsystems = [1, 2]\nvelocities = [0.05, 0.5]\n"
       "seeds = [3]\nduration = 100\nboundary_thickness = [5.0, 10.0]\nanalyze = false\n"
-      "[set]\nmeasure.enabled = false\nsolver.order = \"sequential\"\n");
+      "[set]\nmeasure.enabled = false\nsolver.order = \"random\"\n");
   EXPECT_EQ(c.name, "study");
   ASSERT_EQ(c.runs.size(), 4u);
   // systems x seeds x velocities

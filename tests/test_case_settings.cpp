@@ -152,5 +152,41 @@ TEST(CaseSettings, SceneSolverRowsAreTheCaseSolverRows) {
   EXPECT_EQ(scene, cases);
 }
 
+TEST(CaseSettings, KeysNoLongerReadAreAcceptedAtTheValueNowUsedOnly) {
+  // A case.toml written while these were keys holds them at their defaults of then: it reads as
+  // today's defaults, so the run resumes.
+  const std::vector<std::string> written_then = {"solver.criterion=\"change\"",
+                                                 "solver.slab_correction_min_bands=20",
+                                                 "solver.anderson_period_with_slab_correction=8",
+                                                 "preparation.relaxation=1.0",
+                                                 "preparation.skip_dormant=false",
+                                                 "preparation.slab_correction_period=0"};
+  EXPECT_EQ(resolved_text(with(written_then)), resolved_text(with({})));
+  // Any other value would ask for a solve cdshear no longer does: refused, naming the key.
+  for (const std::string item :
+       {"solver.criterion=\"error\"", "solver.slab_correction_min_bands=2",
+        "solver.anderson_period_with_slab_correction=4", "preparation.relaxation=1.6",
+        "preparation.skip_dormant=true", "preparation.slab_correction_period=8"}) {
+    const std::string key = item.substr(0, item.find('='));
+    try {
+      with({item});
+      ADD_FAILURE() << item << " was accepted";
+    } catch (const ConfigError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(key), std::string::npos) << message;
+      EXPECT_NE(message.find("no longer a setting"), std::string::npos) << message;
+    }
+  }
+  // Where the key has no effect (no slab correction), any value.
+  EXPECT_NO_THROW(with({"solver.slab_correction_period=0", "solver.slab_correction_min_bands=2",
+                        "solver.anderson_period_with_slab_correction=4"}));
+  // The mix period follows anderson_period.
+  EXPECT_NO_THROW(
+      with({"solver.anderson_period=3", "solver.anderson_period_with_slab_correction=6"}));
+  // The sequential order and under-relaxation are not offered.
+  EXPECT_THROW(with({"solver.order=\"sequential\""}), ConfigError);
+  EXPECT_THROW(with({"solver.relaxation=0.9"}), ConfigError);
+}
+
 }  // namespace
 }  // namespace cdshear

@@ -54,8 +54,8 @@ TEST(Determinism, SameSeedGivesTheSameStateHash) {
   const std::uint64_t first = run_hash(1);
   EXPECT_EQ(run_hash(1), first);
   EXPECT_EQ(run_hash(1), first);
-  // Sequential order too.
-  EXPECT_EQ(run_hash(1, ContactOrder::kSequential), run_hash(1, ContactOrder::kSequential));
+  // Coloured order too.
+  EXPECT_EQ(run_hash(1, ContactOrder::kColoured), run_hash(1, ContactOrder::kColoured));
 }
 
 TEST(Determinism, ColouredOrderGivesTheSameStateOnAnyNumberOfThreads) {
@@ -197,7 +197,7 @@ TEST(Determinism, ContactOrderSeedChangesTheHash) {
   const std::uint64_t h1 = state_hash(sim.world);
   EXPECT_NE(run_hash(2), h1);
   EXPECT_NE(run_hash(3), h1);
-  EXPECT_NE(run_hash(1, ContactOrder::kSequential), h1);
+  EXPECT_NE(run_hash(1, ContactOrder::kColoured), h1);
 }
 
 TEST(Determinism, StateHashSeesOneBitOfAnyField) {

@@ -255,8 +255,8 @@ TEST(DecoupledUpdate, IsTheExactLocalSolution) {
 // Over-relaxation in one stage (the solver's update for omega > 1) against the definition,
 // the exact update relaxed and projected on the cone: the same impulse up to rounding whenever
 // the old impulse is in the cone (local_solve.hpp derives it), in every regime (opening,
-// sticking, sliding either way, before and after relaxing). Not for omega < 1, which is why
-// under-relaxation keeps the two stages.
+// sticking, sliding either way, before and after relaxing). Not for omega < 1 (checked below),
+// which the solver does not offer.
 TEST(DecoupledUpdate, OverRelaxedInOneStageIsTheRelaxedExactUpdate) {
   std::mt19937_64 rng(12);
   std::uniform_real_distribution<double> unit(-1.0, 1.0), positive(0.1, 3.0), friction(0.0, 1.0),

@@ -235,13 +235,9 @@ double error_after_load_change(int n, const SolverOptions& second, int* correcti
   return worst_force_error(sim, n, 1.5 * kG);
 }
 
-/// The same with `sweeps` sweeps and the slab correction every `slab_period` (0: none), only
-/// with at least `min_bands` bands.
-double error_after_load_change(int n, int sweeps, int slab_period, int min_bands = 2,
-                               int* corrections = nullptr) {
-  SolverOptions second = fixed_sweeps(sweeps, slab_period);
-  second.slab_correction_min_bands = min_bands;
-  return error_after_load_change(n, second, corrections);
+/// The same with `sweeps` sweeps and the slab correction every `slab_period` (0: none).
+double error_after_load_change(int n, int sweeps, int slab_period, int* corrections = nullptr) {
+  return error_after_load_change(n, fixed_sweeps(sweeps, slab_period), corrections);
 }
 
 TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
@@ -250,7 +246,7 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
   const int n = 200;
   const double plain = error_after_load_change(n, 100, 0);
   int corrections = 0;
-  const double corrected = error_after_load_change(n, 100, 8, 2, &corrections);
+  const double corrected = error_after_load_change(n, 100, 8, &corrections);
   std::printf(
       "column of %d, load x 1.5, one step of 100 sweeps: worst force error %.3g plain, "
       "%.3g with the slab correction every 8 sweeps\n",
@@ -261,34 +257,38 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
   EXPECT_LT(corrected, 1e-4);
   // After sweeps 8, 16, ..., 96: never after the last one (the step ends on a sweep's result).
   EXPECT_EQ(corrections, 12);
-  // The column has 50 bands: asking for 51 leaves the solve plain, bit for bit.
-  int none = -1;
-  EXPECT_EQ(error_after_load_change(n, 100, 8, 51, &none), plain);
-  EXPECT_EQ(none, 0);
-  EXPECT_EQ(error_after_load_change(n, 100, 8, 50), corrected);
 }
 
-TEST(SlabCorrection, MixPeriodWithTheCorrectionAppliesWhereItRuns) {
-  // solver.anderson_period_with_slab_correction replaces anderson_period in the steps where the
-  // correction runs, and only there. The column of 200 has 50 bands.
-  const auto with = [](int period, int period_with_correction, int min_bands) {
-    SolverOptions o = fixed_sweeps(60, 8);
+TEST(SlabCorrection, RunsInPackingsOfTwentyBandsOrMoreOnly) {
+  // A column of n disks has (n - 1) / 4 + 1 bands of four diameters (whole division). One band
+  // short of kSlabCorrectionMinBands, the solve stays plain, bit for bit; at the threshold it is
+  // corrected.
+  const int below = 4 * static_cast<int>(kSlabCorrectionMinBands - 1);  // 19 bands
+  const int at = below + 4;                                             // 20 bands
+  int none = -1, some = -1;
+  EXPECT_EQ(error_after_load_change(below, 100, 8, &none), error_after_load_change(below, 100, 0));
+  EXPECT_EQ(none, 0);
+  const double corrected = error_after_load_change(at, 100, 8, &some);
+  EXPECT_EQ(some, 12);
+  EXPECT_LT(corrected, error_after_load_change(at, 100, 0));
+}
+
+TEST(SlabCorrection, MixRunsHalfAsOftenWhereTheCorrectionRuns) {
+  // In the steps where the correction runs, the mix runs every 2 anderson_period sweeps
+  // (kMixPeriodFactorWithSlabCorrection), and only there: 60 sweeps, anderson_period 4, never
+  // after the last sweep.
+  const auto mixes = [](int n, int slab_period) {
+    SolverOptions o = fixed_sweeps(60, slab_period);
     o.relaxation = 1.6;
     o.anderson_depth = 5;
-    o.anderson_period = period;
-    o.anderson_period_with_slab_correction = period_with_correction;
-    o.slab_correction_min_bands = min_bands;
-    return error_after_load_change(200, o);
+    o.anderson_period = 4;
+    testing::Simulation sim = column(n, o);
+    sim.run(1);
+    return sim.last().solver.anderson_mixes;
   };
-  const double mixed_every_8 = with(4, 8, 50), mixed_every_4 = with(4, 0, 50);
-  std::printf(
-      "column of 200, 60 sweeps with the correction: error %.3g mixing every 4, %.3g every 8\n",
-      mixed_every_4, mixed_every_8);
-  EXPECT_EQ(mixed_every_8, with(8, 0, 50));  // the same solve, bit for bit
-  EXPECT_NE(mixed_every_8, mixed_every_4);   // and not the one mixing every 4
-  // Without the correction (51 bands asked for), the plain period applies.
-  EXPECT_EQ(with(4, 8, 51), with(4, 0, 51));
-  EXPECT_NE(with(4, 8, 51), with(8, 0, 51));
+  EXPECT_EQ(mixes(200, 8), 7);   // after sweeps 8, 16, ..., 56
+  EXPECT_EQ(mixes(200, 0), 14);  // after sweeps 4, 8, ..., 56
+  EXPECT_EQ(mixes(76, 8), 14);   // 19 bands: no correction, the plain period
 }
 
 TEST(SlabCorrection, ScalingLeftToTheCallerGivesTheSameAsApply) {

@@ -68,7 +68,7 @@ struct LocalImpulse {
 ///     too.
 /// So both give the same impulse in exact arithmetic; the one stage has a dependency chain
 /// through the bodies' velocities about a third shorter (docs/performance.md). It does not
-/// hold for omega < 1 (c > 0): under-relaxation keeps the two stages.
+/// hold for omega < 1 (c > 0), which the solver does not offer.
 inline LocalImpulse decoupled_update(LocalImpulse old, double u_n, double u_t, double inv_w_nn,
                                      double inv_w_tt, double mu, double omega = 1.0) {
   const double r_n = std::max(0.0, old.n - u_n * (omega * inv_w_nn));

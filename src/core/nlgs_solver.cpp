@@ -105,10 +105,10 @@ class TallyAccumulator {
 ///     projecting, in exact arithmetic, with a chain of dependent operations from a row's
 ///     two velocities to their new values a third shorter: 9 to 13% less time per sweep). Coupled
 ///     rows: the exact solution, then relaxed and projected.
-///   kUnder (omega < 1): the exact solution, then relaxed and projected (relax_and_project).
-/// Forced inline: with several sweep loops (relaxation, gathering or not) g++ 12 called it out
-/// of line, and a step of system 7 took 8% longer.
-enum class Relaxation { kNone, kOver, kUnder };
+/// omega is in [1, 2) (SolverOptions::relaxation): under-relaxation never paid
+/// (docs/performance.md). Forced inline: with several sweep loops (relaxation, gathering or not)
+/// g++ 12 called it out of line, and a step of system 7 took 8% longer.
+enum class Relaxation { kNone, kOver };
 
 template <Relaxation kRelax>
 [[gnu::always_inline]] inline void update_row(SolverRow& r, const DelassusEntries& w,
@@ -134,10 +134,8 @@ template <Relaxation kRelax>
   if (r.inv_w_tt != kCoupledRow) [[likely]] {
     // kOver: the row's inverses are scaled by omega already (fill_row), so decoupled_update's
     // own factor is 1 (1 x (omega / w) is omega / w exactly) and this is the one-stage
-    // over-relaxed update. kNone: plain Gauss-Seidel. kUnder: the exact update, then relaxed.
+    // over-relaxed update. kNone: plain Gauss-Seidel.
     next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
-    if constexpr (kRelax == Relaxation::kUnder)
-      next = relax_and_project(old, next, omega, r.friction);
   } else {
     LocalProblem p;
     p.w_nn = w.w_nn;
@@ -166,40 +164,17 @@ template <Relaxation kRelax>
   lengths2 = {change2, force2};
 }
 
-/// Sweeps over which the contraction rate of the error is measured (criterion "error").
-constexpr int kRateSweeps = 10;
-
-/// Estimate of the relative error left after the last sweep, from the relative changes of the
-/// last sweeps (oldest first, `changes.back()` the last): with the error contracting by rho per
-/// sweep, the change of a sweep is (1 - rho) times the error before it, so the error left is
-/// change x rho / (1 - rho). rho is the geometric mean ratio of successive changes over the last
-/// kRateSweeps sweeps. Infinite until there are two sweeps, or while the changes do not shrink.
-/// The estimate is low when the slowest mode has not yet taken over the last sweeps (by about 4
-/// on a chain of ten disks: test Column.ErrorCriterionBoundsTheErrorOfEveryStep).
-double remaining_error_bound(const std::array<double, kRateSweeps + 1>& changes, int sweep) {
-  const double last = changes.back();
-  if (last == 0.0) return 0.0;
-  const int span = std::min(sweep - 1, kRateSweeps);
-  if (span < 1) return std::numeric_limits<double>::infinity();
-  const double first = changes[static_cast<std::size_t>(kRateSweeps - span)];
-  const double rho = std::pow(last / first, 1.0 / span);
-  if (!(rho < 1.0)) return std::numeric_limits<double>::infinity();
-  return last * rho / (1.0 - rho);
-}
-
 /// Markers of SolverWorkspace::wall_band: no contact yet, contacts in several bands.
 constexpr std::uint32_t kNoBand = 0xffffffffu;
 constexpr std::uint32_t kManyBands = 0xfffffffeu;
 
-/// Random and sequential orders: the rows' visit order, in one serial group (no phases).
+/// Random order: the rows' visit order, in one serial group (no phases).
 void order_rows_serially(std::size_t nc, const SolverOptions& options, std::uint64_t step,
                          SolverWorkspace& ws) {
   auto& order = ws.order;
   order.resize(nc);
   std::iota(order.begin(), order.end(), 0u);
-  if (options.order != ContactOrder::kSequential) {
-    shuffle_rows(order.data(), nc, options.seed, RandomStream::kContactOrder, step, 0);
-  }
+  shuffle_rows(order.data(), nc, options.seed, RandomStream::kContactOrder, step, 0);
   ws.phases.clear();
   ws.group_start.assign({0, nc});
 }
@@ -366,10 +341,8 @@ void sweep_group(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bo
   };
   if (omega == 1.0)
     sweep.template operator()<Relaxation::kNone>();
-  else if (omega > 1.0)
-    sweep.template operator()<Relaxation::kOver>();
   else
-    sweep.template operator()<Relaxation::kUnder>();
+    sweep.template operator()<Relaxation::kOver>();
   tallies[g] = tally.tally();
 }
 
@@ -474,7 +447,6 @@ class ContactSolve {
         // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
         // Known once the groups are (coloured_groups_begin sets cg.bands); read after a barrier.
         slab_period(coloured ? options.slab_correction_period : 0),
-        min_bands(static_cast<std::size_t>(std::max(options.slab_correction_min_bands, 2))),
         walls(all_bodies.size() - std::min(first_wall, all_bodies.size())),
         // Anderson acceleration mixes the rows awake at the start (the others are open and
         // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve
@@ -514,18 +486,15 @@ class ContactSolve {
     bool serial_rows = false;
     std::size_t tallied_groups = 0;
     bool any_dormant = false;
-    std::array<double, kRateSweeps + 1> recent_change{};  ///< relative change of the last sweeps
-    bool error_criterion = false;
     double residual = 0.0;  ///< of the last sweep whose sums were taken
-    double error_bound = std::numeric_limits<double>::quiet_NaN();  ///< criterion "error" only
   };
 
   bool corrects_slabs() const {
-    return slab_period > 0 && cg.bands >= min_bands;
+    return slab_period > 0 && cg.bands >= kSlabCorrectionMinBands;
   }
 
   /// Set-up on the calling thread, before the team starts: the rows' storage, the serial order
-  /// (random and sequential orders), the team's scratch (coloured order).
+  /// (random order), the team's scratch (coloured order).
   void set_up() {
     rows.resize(nc);
     ws.delassus.resize(nc);
@@ -843,16 +812,14 @@ class ContactSolve {
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
     st.slab_corrections = corrects_slabs();
-    st.period = st.slab_corrections && options.anderson_period_with_slab_correction > 0
-                    ? options.anderson_period_with_slab_correction
-                    : plain_period;
+    st.period =
+        st.slab_corrections ? kMixPeriodFactorWithSlabCorrection * plain_period : plain_period;
     if (accelerate) gather_mixed_impulses(ws.anderson_x, false);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
     // left out of them: no thread writes its entry, which every thread would otherwise zero.
     st.serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
     st.tallied_groups = st.serial_rows ? groups : groups - 1;
     st.any_dormant = report.dormant_contacts > 0;
-    st.error_criterion = options.criterion == ConvergenceCriterion::kError;
     if (st.first_thread) report.threads = static_cast<int>(st.place.size);
     return st;
   }
@@ -878,7 +845,6 @@ class ContactSolve {
       report.sweeps = sweep;
       report.converged_fraction = converged_fraction;
       report.residual = st.residual;
-      report.error_bound = st.error_bound;
       report.woken_contacts += woken;
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
     }
@@ -905,11 +871,10 @@ class ContactSolve {
     }
   }
 
-  /// Convergence test (nlgs_solver.hpp, SolverOptions::criterion): the share of converged
-  /// force-carrying rows, and the relative change (or, criterion "error", the error bound) of
-  /// the forces against alpha. The sums of |dR| and |R| (square roots) only where the decision
-  /// or the report needs them: the count half of the criterion met, criterion "error" (its rate
-  /// needs every sweep's change), or the last sweep allowed. Every thread decides the same.
+  /// Convergence test (nlgs_solver.hpp): the share of converged force-carrying rows, and the
+  /// relative change of the forces against alpha. The sums of |dR| and |R| (square roots) only
+  /// where the decision or the report needs them: the count half of the criterion met, or the
+  /// last sweep allowed. Every thread decides the same.
   bool test_convergence(int sweep, SweepTally* tallies, SweepState& st,
                         double& converged_fraction) {
     std::size_t converged = 0, carrying = 0;
@@ -921,7 +886,7 @@ class ContactSolve {
         carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
     const bool fraction_met = converged_fraction >= options.converged_fraction;
     bool done = false;
-    if (fraction_met || st.error_criterion || sweep == options.max_sweeps) {
+    if (fraction_met || sweep == options.max_sweeps) {
       for (std::size_t g = st.my_groups.first; g < std::min(st.my_groups.last, st.tallied_groups);
            ++g)
         sum_group_lengths(g, ws, tallies);
@@ -940,14 +905,8 @@ class ContactSolve {
         // a blow-up: a packing whose last contacts all opened in a capped step stopped there.)
         st.residual = sum_change > 0.0 ? 1.0 : 0.0;
       }
-      double tested2 = st.residual;  // alpha bounds the square (the residual is the change squared)
-      if (st.error_criterion) {
-        std::rotate(st.recent_change.begin(), st.recent_change.begin() + 1, st.recent_change.end());
-        st.recent_change.back() = std::sqrt(st.residual);
-        st.error_bound = remaining_error_bound(st.recent_change, sweep);
-        tested2 = st.error_bound * st.error_bound;
-      }
-      done = fraction_met && tested2 <= options.alpha;
+      // alpha bounds the square (the residual is the change squared)
+      done = fraction_met && st.residual <= options.alpha;
     }
     return done;
   }
@@ -973,6 +932,7 @@ class ContactSolve {
     const bool mixes = accelerate && sweep % st.period == 0 && sweep < options.max_sweeps;
     const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
     if (corrected && st.first_thread) ++report.slab_corrections;
+    if (mixes && st.first_thread) ++report.anderson_mixes;
     const bool scale_in_gather = corrected && mixes;
     if (mixes) {
       gather_mixed_impulses(ws.anderson_g, scale_in_gather);
@@ -1026,7 +986,6 @@ class ContactSolve {
   const double inv_dt;
   const double step_scale;
   const int slab_period;
-  const std::size_t min_bands;
   const std::size_t walls;
   const bool accelerate;
   const int plain_period;

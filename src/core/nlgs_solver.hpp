@@ -9,7 +9,6 @@
 // Each sweep visits every contact once and solves its 2x2 problem exactly (local_solve.hpp) with
 // the other impulses held fixed. Orders (model.md section 3, item 4, "random or colour-ordered"):
 //   - random:     a shuffle of the contacts, seeded by (seed, step), the same in every sweep;
-//   - sequential: key order (disk a, then b, then image);
 //   - coloured:   the contacts grouped by where they are: the packing is cut into slabs of
 //                 height (bands); first the contacts inside each slab, all slabs at once (no two
 //                 share a disk; a wall whose contacts are all in one slab goes with it), then
@@ -27,12 +26,14 @@
 // vector's length, anderson.hpp), and the mixed impulses are applied phase by phase like a
 // sweep: the result is the same on any number of threads. So are the rows' set-up, the warm start
 // (applied phase by phase too) and the copy-back of the impulses.
-// Slab correction (options.slab_correction_period > 0, coloured order, slab_correction.hpp):
-// every slab_correction_period sweeps, before any mix of that sweep and never after the last,
+// Slab correction (options.slab_correction_period > 0, coloured order, packings of at least
+// kSlabCorrectionMinBands bands, slab_correction.hpp): every slab_correction_period sweeps, before
+// any mix of that sweep and never after the last,
 // the force-carrying rows of each band are rescaled so that the bands' force-weighted mean
 // normal-velocity errors vanish together: the force profile over the height, which the sweeps
 // relax over thousands of sweeps in a tall packing, in one banded solve. Same fixed points, same
-// result on any number of threads.
+// result on any number of threads. In the steps where it runs, the Anderson mix runs every
+// 2 anderson_period sweeps (kMixPeriodFactorWithSlabCorrection).
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
 // free velocity is its current relative velocity minus W times its current impulse: a contact
 // update costs O(1).
@@ -51,12 +52,9 @@
 //   - |dR_k|^2 <= alpha |R_k|^2 for at least `converged_fraction` of the force-carrying contacts
 //     (R_k != 0 before or after the sweep; idle candidates are not counted), and
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
-// or when `max_sweeps` is reached (reported as hit_cap).
-// With criterion kError the second condition tests, instead of the last change c, the error it
-// leaves: e = c rho / (1 - rho), rho = (c_k / c_{k-10})^(1/10) the contraction per sweep (Gauss-
-// Seidel contracts the error by 0.97 to 0.999 per sweep on dense packings, so the last change
-// underestimates the error 30 to 1000 times: docs/accuracy.md). e^2 <= alpha then bounds the
-// error, not the change.
+// or when `max_sweeps` is reached (reported as hit_cap). The last change underestimates the error
+// left 30 to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on dense
+// packings: docs/accuracy.md, which measures the error itself).
 #pragma once
 
 #include <array>
@@ -74,17 +72,13 @@
 
 namespace cdshear {
 
-enum class ContactOrder { kRandom, kSequential, kColoured };
+enum class ContactOrder { kRandom, kColoured };
 
-/// What the tolerance alpha bounds (see above): the relative change of the last sweep (model.md
-/// section 3, item 5), or the estimated relative error left after it.
-enum class ConvergenceCriterion { kChange, kError };
-
-/// "random", "sequential", "coloured": the names in case and scene files.
+/// "random", "coloured": the names in case and scene files.
 const char* contact_order_name(ContactOrder order);
 /// The order of that name; false when there is none.
 bool contact_order_from_name(std::string_view name, ContactOrder& order);
-inline constexpr const char* kContactOrderNames[] = {"random", "sequential", "coloured"};
+inline constexpr const char* kContactOrderNames[] = {"random", "coloured"};
 
 struct SolverOptions {
   double alpha = 1e-6;              ///< tolerance on the squared relative force change
@@ -94,8 +88,7 @@ struct SolverOptions {
   std::uint64_t seed = 1;     ///< keys the shuffle of the random and coloured orders
   int threads = 1;            ///< threads for the coloured order (the others use one); >= 1
   bool skip_dormant = false;  ///< leave dormant contacts out of the sweeps (see above)
-  ConvergenceCriterion criterion = ConvergenceCriterion::kChange;
-  /// Projected over-relaxation of each update, in (0, 2): R <- proj(R + omega (R_GS - R)), with
+  /// Projected over-relaxation of each update, in [1, 2): R <- proj(R + omega (R_GS - R)), with
   /// R_GS the exact local solution and proj the Signorini-Coulomb projection. 1 is plain
   /// Gauss-Seidel (and takes exactly its code path); docs/performance.md, "Over-relaxation".
   double relaxation = 1.0;
@@ -107,17 +100,11 @@ struct SolverOptions {
   /// the last images, projected on the Signorini-Coulomb set (docs/performance.md).
   int anderson_depth = 0;
   int anderson_period = 1;
-  /// Slab correction (slab_correction.hpp), coloured order only: every this many sweeps, the
-  /// impulses of each band are rescaled so that the bands' mean normal velocity errors vanish
-  /// together. 0 = off. Same fixed points (docs/performance.md, "Slab correction").
+  /// Slab correction (slab_correction.hpp), coloured order only, in packings of at least
+  /// kSlabCorrectionMinBands bands: every this many sweeps, the impulses of each band are
+  /// rescaled so that the bands' mean normal velocity errors vanish together. 0 = off. Same
+  /// fixed points (docs/performance.md, "Slab correction").
   int slab_correction_period = 0;
-  /// ... and only in packings of at least this many bands (the correction is for profiles over
-  /// the height of a tall packing; docs/accuracy.md, "Defaults and what they guarantee"). >= 2.
-  int slab_correction_min_bands = 2;
-  /// The mix's period in the steps where the slab correction runs (0: anderson_period). With the
-  /// correction, a tall cell's steps need fewer sweeps when the mix runs less often
-  /// (docs/accuracy.md, "Systems 5 and 7 (the slab correction on)"). >= 0.
-  int anderson_period_with_slab_correction = 0;
   /// Active-set Newton iterations after the sweeps (active_set_solve.hpp; 0: off): each solves
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,
   /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
@@ -130,21 +117,25 @@ inline constexpr int kMaxNewtonIterations = 50;
 /// Largest SolverOptions::anderson_depth.
 inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;
 
+/// In the steps where the slab correction runs, the Anderson mix runs every this many times
+/// anderson_period sweeps: with the correction, a tall cell's steps need fewer sweeps when the
+/// mix runs less often (6 to 10% fewer on system 5 with the mix every 8 sweeps instead of 4, the
+/// same averages over five seeds: docs/accuracy.md, "Defaults and what they guarantee").
+inline constexpr int kMixPeriodFactorWithSlabCorrection = 2;
+
 struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
   /// (sum |dR| / sum |R|)^2 of the last sweep; 1 when every force vanished in it (sum |R| = 0
   /// after a change: the whole force changed)
   double residual = 0.0;
-  double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
-  int active_contacts = 0;          ///< contacts with R_n > 0 at the end
-  std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
-  /// Estimated relative error left after the last sweep; criterion "error" only (its history
-  /// of changes is kept under that criterion alone), NaN under "change".
-  double error_bound = 0.0;
+  double converged_fraction = 1.0;   ///< share of force-carrying contacts meeting it, last sweep
+  int active_contacts = 0;           ///< contacts with R_n > 0 at the end
+  std::size_t colours = 0;           ///< parallel phases of a coloured sweep (0 for the others)
   std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
   int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
+  int anderson_mixes = 0;            ///< Anderson mixes applied
   int threads = 1;                   ///< threads used
 };
 

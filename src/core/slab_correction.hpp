@@ -60,6 +60,11 @@
 
 namespace cdshear {
 
+/// The solver runs the slab correction only in packings of at least this many bands of four
+/// largest diameters (L_y >= 80 d: systems 5 to 7). Below, it has nothing to correct: on system 1
+/// (5 bands) the same averages with it and without it, and no sweep saved (docs/accuracy.md).
+inline constexpr std::size_t kSlabCorrectionMinBands = 20;
+
 /// Where the slab correction finds the solver's rows, groups and bands.
 struct SlabLayout {
   const std::vector<std::size_t>* group_start = nullptr;           ///< rows of group g

@@ -86,6 +86,8 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
                           "moved to measure.sample_interval (the series of a shear run are in "
                           "run.h5)");
   for (const CaseSetting& s : case_settings()) read_setting(s, tables[s.table], c);
+  read_retired_solver_keys(tables["solver"], "solver", c.step.solver);
+  read_retired_solver_keys(tables["preparation"], "preparation", c.preparation.step.solver);
   check_constraints(c, tables);
   tables.finish();
   if (c.measure.boundary_thickness.empty())

@@ -32,8 +32,6 @@ Setting<T> bind(Setting<T> s, Field field) {
       return static_cast<std::int64_t>(v);
     else if constexpr (std::is_same_v<V, ContactOrder>)
       return std::string(contact_order_name(v));
-    else if constexpr (std::is_same_v<V, ConvergenceCriterion>)
-      return std::string(v == ConvergenceCriterion::kError ? "error" : "change");
     else if constexpr (std::is_same_v<V, std::optional<double>>)
       return v ? SettingValue(*v) : SettingValue(std::string("auto"));
     else
@@ -48,9 +46,6 @@ Setting<T> bind(Setting<T> s, Field field) {
       v = static_cast<V>(std::get<std::int64_t>(value));  // within the range read_setting checked
     else if constexpr (std::is_same_v<V, ContactOrder>)
       contact_order_from_name(std::get<std::string>(value), v);
-    else if constexpr (std::is_same_v<V, ConvergenceCriterion>)
-      v = std::get<std::string>(value) == "error" ? ConvergenceCriterion::kError
-                                                  : ConvergenceCriterion::kChange;
     else if constexpr (std::is_same_v<V, std::optional<double>>)
       v = std::holds_alternative<double>(value) ? std::optional<double>(std::get<double>(value))
                                                 : std::nullopt;
@@ -86,6 +81,43 @@ const Setting<SolverOptions>& solver_row(const std::string& key) {
     if (row.key == key) return row;
   throw std::logic_error("no solver setting " + key);
 }
+
+/// A key of read_retired_solver_keys: its table, what the solver now does in its place, and
+/// whether the file's value (read with the key's type) gives that.
+struct RetiredSolverKey {
+  const char* table;
+  const char* key;
+  const char* now;
+  bool (*accepts)(TomlReader& reader, const std::string& key, const SolverOptions& options);
+};
+
+const RetiredSolverKey kRetiredSolverKeys[] = {
+    {"solver", "criterion", "alpha bounds the last sweep's change (\"change\")",
+     [](TomlReader& r, const std::string& k, const SolverOptions&) {
+       return r.string(k) == "change";
+     }},
+    {"solver", "slab_correction_min_bands",
+     "the slab correction runs in packings of 20 bands or more",
+     [](TomlReader& r, const std::string& k, const SolverOptions& o) {
+       const std::int64_t v = r.integer(k);
+       return o.slab_correction_period == 0 ||
+              v == static_cast<std::int64_t>(kSlabCorrectionMinBands);
+     }},
+    {"solver", "anderson_period_with_slab_correction",
+     "where the slab correction runs, the mix runs every 2 anderson_period sweeps",
+     [](TomlReader& r, const std::string& k, const SolverOptions& o) {
+       const std::int64_t v = r.integer(k);
+       return o.slab_correction_period == 0 || o.anderson_depth == 0 ||
+              v ==
+                  static_cast<std::int64_t>(kMixPeriodFactorWithSlabCorrection) * o.anderson_period;
+     }},
+    {"preparation", "relaxation", "the preparation's sweeps are plain Gauss-Seidel (1)",
+     [](TomlReader& r, const std::string& k, const SolverOptions&) { return r.number(k) == 1.0; }},
+    {"preparation", "skip_dormant", "the preparation sweeps every contact (false)",
+     [](TomlReader& r, const std::string& k, const SolverOptions&) { return !r.boolean(k); }},
+    {"preparation", "slab_correction_period", "the preparation runs no slab correction (0)",
+     [](TomlReader& r, const std::string& k, const SolverOptions&) { return r.integer(k) == 0; }},
+};
 
 std::int64_t integer_bound(double v) {
   if (v >= 9.2e18) return std::numeric_limits<std::int64_t>::max();
@@ -198,8 +230,8 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
       bind(
           S{.key = "order",
             .type = kChoice,
-            .meaning = "order of the contacts in a sweep: coloured (the order `--threads` share), "
-                       "random (shuffled each sweep) or sequential (docs/performance.md)",
+            .meaning = "order of the contacts in a sweep: coloured (the order `--threads` share) "
+                       "or random (shuffled each step; docs/performance.md)",
             .choices = orders},
           [](auto& o) -> auto& { return o.order; }),
       bind(
@@ -211,19 +243,12 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
       bind(
           S{.key = "relaxation",
             .meaning = "projected over-relaxation of each update (1: plain Gauss-Seidel)",
-            .lo = 0.0,
+            .lo = 1.0,
             .hi = 2.0,
-            .lo_open = true,
             .hi_open = true,
-            .range_reason = "projected SOR diverges at 2 and above"},
+            .range_reason = "projected SOR diverges at 2 and above; under-relaxation never paid "
+                            "(docs/performance.md)"},
           [](auto& o) -> auto& { return o.relaxation; }),
-      bind(
-          S{.key = "criterion",
-            .type = kChoice,
-            .meaning = "what alpha bounds: the last sweep's change, or the error estimated to be "
-                       "left after it (change x rho / (1 - rho), rho the contraction per sweep)",
-            .choices = {"change", "error"}},
-          [](auto& o) -> auto& { return o.criterion; }),
       bind(
           S{.key = "anderson_depth",
             .type = kInteger,
@@ -243,28 +268,14 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
           S{.key = "slab_correction_period",
             .type = kInteger,
             .meaning =
-                "the slab correction every this many sweeps (0: off; coloured order "
-                "only): the force-carrying contacts of each band of height rescaled so "
-                "that every band's mean normal-velocity error vanishes (docs/performance.md)",
+                "the slab correction every this many sweeps (0: off; coloured order, packings "
+                "of 20 bands of 4 largest diameters or more, L_y >= 80 d): the force-carrying "
+                "contacts of each band of height rescaled so that every band's mean "
+                "normal-velocity error vanishes; the mix then runs every 2 anderson_period "
+                "sweeps (docs/performance.md)",
             .lo = 0,
             .hi = 1000},
           [](auto& o) -> auto& { return o.slab_correction_period; }),
-      bind(
-          S{.key = "slab_correction_min_bands",
-            .type = kInteger,
-            .meaning = "the slab correction only in packings of at least this many bands of 4 "
-                       "largest diameters (20: L_y >= 80 d, systems 5 to 7)",
-            .lo = 2,
-            .hi = 4096},
-          [](auto& o) -> auto& { return o.slab_correction_min_bands; }),
-      bind(
-          S{.key = "anderson_period_with_slab_correction",
-            .type = kInteger,
-            .meaning = "sweeps between two Anderson mixes in the steps where the slab correction "
-                       "runs (0: anderson_period)",
-            .lo = 0,
-            .hi = 1000},
-          [](auto& o) -> auto& { return o.anderson_period_with_slab_correction; }),
       bind(
           S{.key = "newton_iterations",
             .type = kInteger,
@@ -565,8 +576,7 @@ std::vector<CaseSetting> make_case_settings() {
   const auto preparation_solver = [](auto& c) -> auto& {
     return c.preparation.step.solver;
   };
-  for (const char* key :
-       {"alpha", "max_sweeps", "relaxation", "order", "skip_dormant", "slab_correction_period"})
+  for (const char* key : {"alpha", "max_sweeps", "order"})
     rows.push_back(lift(solver_row(key), "preparation", kPreparation, preparation_solver,
                         "as solver." + std::string(key) + ", for the preparation's solver"));
   // [output]: intervals of simulated time, converted to whole steps.
@@ -720,6 +730,14 @@ void read_setting(const Setting<T>& s, TomlReader& r, T& target) {
       break;
   }
   s.set(target, value);
+}
+
+void read_retired_solver_keys(TomlReader& reader, const std::string& table,
+                              const SolverOptions& options) {
+  for (const RetiredSolverKey& k : kRetiredSolverKeys)
+    if (table == k.table && reader.has(k.key) && !k.accepts(reader, k.key, options))
+      reader.fail(k.key, std::string("is no longer a setting: ") + k.now +
+                             "; remove the key (docs/case-files.md, \"Keys no longer read\")");
 }
 
 template <class T>

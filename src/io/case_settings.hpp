@@ -68,12 +68,21 @@ const std::vector<CaseSetting>& case_settings();
 /// [preparation]).
 const std::vector<Setting<SolverOptions>>& solver_settings();
 
+/// Keys an earlier cdshear read that are now fixed parts of the solver (docs/case-files.md, "Keys
+/// no longer read"). A [solver] or [preparation] table (`table`: "solver" or "preparation",
+/// `options` the solver options read from the rest of the file) may still give one with the
+/// value the solver now uses, or with any value where the key has no effect, so that the
+/// case.toml of earlier runs still resume; any other value is refused, naming the key. Call after
+/// the table's settings are read, before its finish().
+void read_retired_solver_keys(TomlReader& reader, const std::string& table,
+                              const SolverOptions& options);
+
 /// Reads `s` from `reader` (which is positioned at s.table) into `target` when the key is
 /// present, checking its type and range; an absent key leaves `target` as it is.
 template <class T>
 void read_setting(const Setting<T>& s, TomlReader& reader, T& target);
 
-/// The range of `s` as a person reads it: "> 0", "0 to 1000", "coloured, random, sequential".
+/// The range of `s` as a person reads it: "> 0", "0 to 1000", "random, coloured".
 template <class T>
 std::string range_text(const Setting<T>& s);
 

@@ -28,14 +28,12 @@ namespace cdshear {
 /// - Anderson mixing of the sweeps (depth 5, every 4 sweeps): the same cost at V = 0.5 and 4% less
 ///   at V = 0.05, per-step errors 2 to 5 times smaller, and at V = 0.05 the solid fraction and Z
 ///   of the converged reference where over-relaxation alone was 3 to 14 combined errors off;
-/// - the slab correction every 8 sweeps in packings of 20 bands or more (L_y >= 80 d: systems 5
-///   to 7; slab_correction.hpp): in system 7's slow phase the force-carrying contacts within 0.3
-///   to 1.1% of a solve run to convergence, where without it they are 2.6 to 7% too few, for a
-///   quarter fewer sweeps. Not in system 1 (5 bands), which has nothing to correct: the same
-///   averages with it, but no sweep saved;
-/// - where the correction runs, the mix every 8 sweeps instead of 4
-///   (anderson_period_with_slab_correction = 8): 6 to 10% fewer sweeps and half the mixes, the
-///   same averages over five seeds of system 5.
+/// - the slab correction every 8 sweeps, which the solver runs in packings of 20 bands or more
+///   only (L_y >= 80 d: systems 5 to 7; slab_correction.hpp): in system 7's slow phase the
+///   force-carrying contacts within 0.3 to 1.1% of a solve run to convergence, where without it
+///   they are 2.6 to 7% too few, for a quarter fewer sweeps. Where it runs, the mix runs every 8
+///   sweeps instead of 4 (kMixPeriodFactorWithSlabCorrection): 6 to 10% fewer sweeps and half
+///   the mixes, the same averages over five seeds of system 5.
 /// Scene files keep the engine's plain defaults; the preparation has its own (preparation.hpp).
 inline StepOptions shear_step_defaults() {
   StepOptions o;
@@ -46,8 +44,6 @@ inline StepOptions shear_step_defaults() {
   o.solver.anderson_depth = 5;
   o.solver.anderson_period = 4;
   o.solver.slab_correction_period = 8;
-  o.solver.slab_correction_min_bands = 20;
-  o.solver.anderson_period_with_slab_correction = 8;
   return o;
 }
 
