@@ -486,6 +486,65 @@ void write_progress_file(const fs::path& dir, const RunProgress& p, double durat
   }
 }
 
+/// How the run loop of a shear run steps, reports and stops (run_loop.hpp): to the case's end or
+/// --stop-at, status lines and the progress bar, the thread choice, and the check of the walls.
+RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
+  const ShearCase& c = s.c;
+  const double dt = c.step.dt;
+  RunLoopSettings loop;
+  loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
+  loop.end_step = s.end_step;
+  if (args.stop_at) {
+    if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
+      throw ConfigError("--stop-at", "",
+                        fmt::format("{} is not later than the run's time {}: nothing to do",
+                                    *args.stop_at, s.world.time));
+    loop.end_step = std::min(s.end_step, steps_of(*args.stop_at, dt));
+  }
+  const std::uint64_t status = steps_of(c.status_interval, dt);
+  loop.status_every = args.c.quiet ? 0
+                      : status > 0 ? status
+                                   : std::max<std::uint64_t>(1, s.end_step / 20);
+  loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
+  // Walls flying apart (or through each other) are a blow-up, not a result: L_y must stay within
+  // kHeightRange times the nominal height (shear_case.hpp: a fast start dilates the cell to
+  // three times its height and back).
+  loop.check_state = [height = c.height](const World& w) {
+    const double h = w.walls[kTopWall].point.y - w.walls[kBottomWall].point.y;
+    if (h > kHeightRange[0] * height && h < kHeightRange[1] * height) return std::string();
+    return fmt::format(
+        "the walls flew apart or collapsed: L_y = {:.6g}, outside {} to {} times "
+        "the nominal {}",
+        h, kHeightRange[0], kHeightRange[1], height);
+  };
+  return loop;
+}
+
+/// What finish_run writes at the end of a shear run or sitting: run_info.json (one file per
+/// resume, never overwriting an earlier one) with the run's solver and packing.
+RunEnd shear_run_end(const ShearSession& s, int threads, bool threads_chosen) {
+  const ShearCase& c = s.c;
+  RunEnd end;
+  end.dir = s.dir;
+  end.case_identity = case_identity(c);
+  end.reached_end = s.world.step >= s.end_step;
+  end.info_name = "run_info.json";
+  if (s.resuming) {
+    end.info_name = fmt::format("run_info_resume_{}.json", s.world.step);
+    for (int k = 2; fs::exists(s.dir / end.info_name); ++k)
+      end.info_name = fmt::format("run_info_resume_{}_{}.json", s.world.step, k);
+  }
+  end.info = {{"resumed", s.resuming},
+              {"packing", s.packing_used},
+              {"dt", c.step.dt},
+              {"seed", c.seed},
+              {"solver_seed", c.step.solver.seed},
+              {"solver_threads", threads},
+              {"solver_threads_chosen_by_speed", threads_chosen}};
+  end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
+  return end;
+}
+
 int run_shear(const RunArgs& args) {
   ShearSession s;
   if (args.resume_dir.empty())
@@ -495,33 +554,8 @@ int run_shear(const RunArgs& args) {
   if (!s.dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", s.dt_warning.c_str());
   const ShearCase& c = s.c;
   const double dt = c.step.dt;
-
-  RunLoopSettings loop;
-  loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
-  const std::uint64_t end_step = loop.end_step = s.end_step;
-  if (args.stop_at) {
-    if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
-      throw ConfigError("--stop-at", "",
-                        fmt::format("{} is not later than the run's time {}: nothing to do",
-                                    *args.stop_at, s.world.time));
-    loop.end_step = std::min(end_step, steps_of(*args.stop_at, dt));
-  }
-  const std::uint64_t status = steps_of(c.status_interval, dt);
-  loop.status_every = args.c.quiet ? 0
-                      : status > 0 ? status
-                                   : std::max<std::uint64_t>(1, end_step / 20);
-  loop.progress_bar = !args.c.quiet && isatty(STDERR_FILENO);
-  // Walls flying apart (or through each other) are a blow-up, not a result: L_y must stay within
-  // kHeightRange times the nominal height (shear_case.hpp: a fast start dilates the cell to
-  // three times its height and back).
-  loop.check_state = [&c](const World& w) {
-    const double h = w.walls[kTopWall].point.y - w.walls[kBottomWall].point.y;
-    if (h > kHeightRange[0] * c.height && h < kHeightRange[1] * c.height) return std::string();
-    return fmt::format(
-        "the walls flew apart or collapsed: L_y = {:.6g}, outside {} to {} times "
-        "the nominal {}",
-        h, kHeightRange[0], kHeightRange[1], c.height);
-  };
+  RunLoopSettings loop = run_loop_settings(args, s);
+  const std::uint64_t end_step = s.end_step;
 
   // Observers: measurement (every step), snapshots, then the checkpoint, which writes run.h5
   // first and stores the measurement's running state.
@@ -582,25 +616,8 @@ int run_shear(const RunArgs& args) {
     checkpoint.observe(s.world, s.dynamics, summary.last);
   else if (hooks.before)
     hooks.before(s.world, s.dynamics);
-  RunEnd end;
-  end.dir = s.dir;
-  end.case_identity = case_identity(c);
-  end.reached_end = s.world.step >= end_step;
-  end.info_name = "run_info.json";
-  if (s.resuming) {  // one file per resume, never overwriting an earlier one
-    end.info_name = fmt::format("run_info_resume_{}.json", s.world.step);
-    for (int k = 2; fs::exists(s.dir / end.info_name); ++k)
-      end.info_name = fmt::format("run_info_resume_{}_{}.json", s.world.step, k);
-  }
-  end.info = {{"resumed", s.resuming},
-              {"packing", s.packing_used},
-              {"dt", dt},
-              {"seed", c.seed},
-              {"solver_seed", c.step.solver.seed},
-              {"solver_threads", threads},
-              {"solver_threads_chosen_by_speed", loop.choose_threads && threads > 1}};
-  end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
-  const int status_code = finish_run(end, s.world, summary);
+  const int status_code =
+      finish_run(shear_run_end(s, threads, loop.choose_threads && threads > 1), s.world, summary);
   if (status_code != 0 || !finished) return status_code;
   std::printf("done: output in %s (run.h5, case.toml, final_state.json, run_info.json%s)\n",
               s.dir.c_str(), snapshots ? ", snapshots/*.pvd" : "");

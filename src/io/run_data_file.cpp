@@ -554,6 +554,55 @@ void check_series_time(const H5Context& ctx, const std::vector<double>& time) {
   }
 }
 
+/// The windows' profiles of a run.h5 (group "windows", its regions included) into `data`,
+/// whose options (boundary_thickness) are read already.
+void read_windows(const H5Context& ctx, hid_t file, RunData& data) {
+  const MeasureOptions& o = data.options;
+  Handle g = open_group(ctx, file, "windows");
+  data.stripe_centres = read_doubles(ctx, g, "y");
+  if (data.stripe_centres.empty()) ctx.fail("windows/y", "is empty: the profiles have no stripes");
+  const std::size_t w_count = read_doubles(ctx, g, "t_start").size();
+  const std::size_t s_count = data.stripe_centres.size();
+  data.windows.resize(w_count);
+  for (const auto& [name, field] : kWindowScalars) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = v[w];
+  }
+  for (const auto& [name, field] : kWindowCounts) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      data.windows[w].*field = static_cast<std::uint64_t>(v[w]);
+  }
+  for (const auto& [name, field] : kWindowForces) {
+    const std::vector<double> v = read_doubles(ctx, g, name, 2 * w_count);
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = {v[2 * w], v[2 * w + 1]};
+  }
+  for (const auto& [name, field] : kWindowProfiles) {
+    const std::vector<double> v = read_doubles(ctx, g, name, w_count * s_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      (data.windows[w].*field).assign(v.begin() + w * s_count, v.begin() + (w + 1) * s_count);
+  }
+  for (const auto& [name, field] : kWindowTensors) {
+    const std::vector<double> v = read_doubles(ctx, g, name, 4 * w_count * s_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      for (std::size_t s = 0; s < s_count; ++s) {
+        const double* t = &v[4 * (w * s_count + s)];
+        (data.windows[w].*field).push_back({t[0], t[1], t[2], t[3]});
+      }
+  }
+  Handle regions = open_group(ctx, g, "regions");
+  for (const double h : o.boundary_thickness) {
+    Handle r = open_group(ctx, regions, region_group_name(h));
+    std::vector<RegionValues> values(w_count);
+    for (RegionValues& v : values) v.h = h;
+    for (const auto& [name, field] : kRegionFields) {
+      const std::vector<double> v = read_doubles(ctx, r, name, w_count);
+      for (std::size_t w = 0; w < w_count; ++w) values[w].*field = v[w];
+    }
+    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].regions.push_back(values[w]);
+  }
+}
+
 }  // namespace
 
 RunData read_run_data(const fs::path& path) {
@@ -612,49 +661,7 @@ RunData read_run_data(const fs::path& path) {
       for (std::size_t r = 0; r < rows; ++r) col.set(data.series[r], v[r]);
     }
   }
-  Handle g = open_group(ctx, file, "windows");
-  data.stripe_centres = read_doubles(ctx, g, "y");
-  if (data.stripe_centres.empty()) ctx.fail("windows/y", "is empty: the profiles have no stripes");
-  const std::size_t w_count = read_doubles(ctx, g, "t_start").size();
-  const std::size_t s_count = data.stripe_centres.size();
-  data.windows.resize(w_count);
-  for (const auto& [name, field] : kWindowScalars) {
-    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
-    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = v[w];
-  }
-  for (const auto& [name, field] : kWindowCounts) {
-    const std::vector<double> v = read_doubles(ctx, g, name, w_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      data.windows[w].*field = static_cast<std::uint64_t>(v[w]);
-  }
-  for (const auto& [name, field] : kWindowForces) {
-    const std::vector<double> v = read_doubles(ctx, g, name, 2 * w_count);
-    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = {v[2 * w], v[2 * w + 1]};
-  }
-  for (const auto& [name, field] : kWindowProfiles) {
-    const std::vector<double> v = read_doubles(ctx, g, name, w_count * s_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      (data.windows[w].*field).assign(v.begin() + w * s_count, v.begin() + (w + 1) * s_count);
-  }
-  for (const auto& [name, field] : kWindowTensors) {
-    const std::vector<double> v = read_doubles(ctx, g, name, 4 * w_count * s_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      for (std::size_t s = 0; s < s_count; ++s) {
-        const double* t = &v[4 * (w * s_count + s)];
-        (data.windows[w].*field).push_back({t[0], t[1], t[2], t[3]});
-      }
-  }
-  Handle regions = open_group(ctx, g, "regions");
-  for (const double h : o.boundary_thickness) {
-    Handle r = open_group(ctx, regions, region_group_name(h));
-    std::vector<RegionValues> values(w_count);
-    for (RegionValues& v : values) v.h = h;
-    for (const auto& [name, field] : kRegionFields) {
-      const std::vector<double> v = read_doubles(ctx, r, name, w_count);
-      for (std::size_t w = 0; w < w_count; ++w) values[w].*field = v[w];
-    }
-    for (std::size_t w = 0; w < w_count; ++w) data.windows[w].regions.push_back(values[w]);
-  }
+  read_windows(ctx, file, data);
   return data;
 }
 

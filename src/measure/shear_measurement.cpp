@@ -119,7 +119,8 @@ void ShearMeasurement::add_contact_moments(std::size_t n, const std::vector<Cont
   std::size_t count = 0;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     loaded_[count] = static_cast<std::uint32_t>(k);
-    count += (contacts[k].impulse_n != 0.0) | (contacts[k].impulse_t != 0.0);
+    count += static_cast<std::size_t>(contacts[k].impulse_n != 0.0) |
+             static_cast<std::size_t>(contacts[k].impulse_t != 0.0);
   }
   for (std::size_t k = 0; k < count; ++k) {
     const Contact& c = contacts[loaded_[k]];
@@ -139,28 +140,24 @@ void ShearMeasurement::add_contact_moments(std::size_t n, const std::vector<Cont
   }
 }
 
-void ShearMeasurement::sample(const World& world, const std::vector<Contact>& contacts) {
-  const Disks& d = world.disks;
-  const std::size_t n = d.size();
-  const double bottom_y = world.walls[kBottom].point.y;
-  const double height = world.walls[kTop].point.y - bottom_y;
-
-  // Closed and force-carrying contacts per grain, and which grains touch a wall (closed).
+ShearMeasurement::ContactCounts ShearMeasurement::count_contacts(
+    const World& world, const std::vector<Contact>& contacts) {
+  const std::size_t n = world.disks.size();
   const double threshold = force_carrying_threshold(contacts, options_.force_threshold);
   carrying_count_.assign(n, 0);
   closed_count_.assign(n, 0);
   touches_.assign(n, 0);
-  std::uint64_t carrying = 0, closed = 0;
+  ContactCounts counts;
   for (const Contact& c : contacts) {
     const auto a = static_cast<std::size_t>(c.key.body_a);
     const auto b = static_cast<std::size_t>(c.key.body_b);
     if (c.impulse_n > threshold) {
-      ++carrying;
+      ++counts.carrying;
       ++carrying_count_[a];
       if (b < n) ++carrying_count_[b];
     }
     if (current_gap(world, c) <= options_.contact_gap) {
-      ++closed;
+      ++counts.closed;
       ++closed_count_[a];
       if (b < n)
         ++closed_count_[b];
@@ -168,8 +165,15 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
         touches_[a] |= static_cast<signed char>(b - n == kBottom ? 1 : 2);
     }
   }
+  return counts;
+}
 
-  // Global series row.
+double ShearMeasurement::add_series_row(const World& world, const std::vector<Contact>& contacts,
+                                        const ContactCounts& counts) {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const double bottom_y = world.walls[kBottom].point.y;
+  const double height = world.walls[kTop].point.y - bottom_y;
   SeriesRow row;
   row.step = world.step;
   row.time = world.time;
@@ -190,8 +194,8 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   row.solid_fraction = area / (length_x_ * height);
   row.kinetic_energy = kinetic_energy(world);
   row.contacts = contacts.size();
-  row.force_carrying = carrying;
-  row.closed = closed;
+  row.force_carrying = counts.carrying;
+  row.closed = counts.closed;
   const double interval_time = world.time - state_.last_sample_time;
   row.bottom_force =
       mean_force(world.walls[kBottom].contact_impulse, state_.bottom_impulse_last, interval_time);
@@ -206,8 +210,13 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   state_.last_sample_time = world.time;
   state_.bottom_impulse_last = world.walls[kBottom].contact_impulse;
   state_.top_impulse_last = world.walls[kTop].contact_impulse;
+  return row.com_vx;
+}
 
-  // Each grain's share of each stripe.
+void ShearMeasurement::add_stripe_shares(const World& world) {
+  const Disks& d = world.disks;
+  const std::size_t n = d.size();
+  const double bottom_y = world.walls[kBottom].point.y;
   WindowSums& w = state_.window;
   const double dy = options_.stripe_thickness;
   const auto stripes = static_cast<std::ptrdiff_t>(stripe_centres_.size());
@@ -261,8 +270,16 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
       ++w.slip_top_count;
     }
   }
+}
+
+void ShearMeasurement::sample(const World& world, const std::vector<Contact>& contacts) {
+  const double height = world.walls[kTop].point.y - world.walls[kBottom].point.y;
+  const ContactCounts counts = count_contacts(world, contacts);
+  const double com_vx = add_series_row(world, contacts, counts);
+  add_stripe_shares(world);
+  WindowSums& w = state_.window;
   w.height_sum += height;
-  w.com_vx_sum += row.com_vx;
+  w.com_vx_sum += com_vx;
   ++w.samples;
   if (w.samples == samples_per_window_) {
     close_window(world);

@@ -185,8 +185,24 @@ class ShearMeasurement {
                std::vector<WindowProfile> windows);
 
  private:
+  /// Contacts of a sample, over the whole packing.
+  struct ContactCounts {
+    std::uint64_t carrying = 0, closed = 0;
+  };
+
   void add_contact_moments(std::size_t n, const std::vector<Contact>& contacts);
+  /// One sample: the series row, each grain's share of the stripes, and the window closed when
+  /// it is full.
   void sample(const World& world, const std::vector<Contact>& contacts);
+  /// Closed and force-carrying contacts per grain (carrying_count_, closed_count_) and which
+  /// grains touch a wall with a closed contact (touches_).
+  ContactCounts count_contacts(const World& world, const std::vector<Contact>& contacts);
+  /// The series row of this sample (the wall forces averaged since the last one); returns its
+  /// centre-of-mass velocity.
+  double add_series_row(const World& world, const std::vector<Contact>& contacts,
+                        const ContactCounts& counts);
+  /// Each grain's share of each stripe, and the wall slip, into the window's sums.
+  void add_stripe_shares(const World& world);
   void close_window(const World& world);
   void reset_window(const World& world);
 
