@@ -296,30 +296,29 @@ TEST(ShearCase, DefaultTimeStepBoundsTheWallDisplacement) {
   EXPECT_FALSE(resolve_time_step(fast).empty());
 }
 
-// The preparation's contact order and dormant-contact skipping change the packing, so they
-// enter the cache name; a packing prepared in the random order (the default before the coloured
+// The preparation's solver keys (order, alpha, max_sweeps) change the packing, so they enter the
+// cache name; a packing prepared in the random order (the default before the coloured
 // one) keeps the name it had before the keys existed (older caches stay valid for that order).
 TEST(ShearCase, PreparationSolverKeysEnterThePackingCacheName) {
   const ShearCase base = load_case(with({}));
   EXPECT_EQ(base.preparation.step.solver.order, ContactOrder::kColoured);
-  EXPECT_FALSE(base.preparation.step.solver.skip_dormant);
   const std::string name = packing_cache_name(base.preparation);
   EXPECT_EQ(packing_cache_name(load_case(with({"preparation.order=coloured"})).preparation), name);
   const ShearCase random = load_case(with({"preparation.order=random"}));
   EXPECT_EQ(random.preparation.step.solver.order, ContactOrder::kRandom);
-  const ShearCase skipping = load_case(with({"preparation.skip_dormant=true"}));
-  EXPECT_TRUE(skipping.preparation.step.solver.skip_dormant);
+  const ShearCase tighter = load_case(with({"preparation.alpha=1e-5"}));
+  EXPECT_EQ(tighter.preparation.step.solver.alpha, 1e-5);
   const std::string a = packing_cache_name(random.preparation);
-  const std::string b = packing_cache_name(skipping.preparation);
+  const std::string b = packing_cache_name(tighter.preparation);
   EXPECT_NE(a, name);
   EXPECT_NE(b, name);
   EXPECT_NE(a, b);
+  // Fixed, not keys: every contact swept, plain Gauss-Seidel, no slab correction.
+  EXPECT_FALSE(base.preparation.step.solver.skip_dormant);
+  EXPECT_EQ(base.preparation.step.solver.relaxation, 1.0);
   EXPECT_EQ(base.preparation.step.solver.slab_correction_period, 0);
-  const ShearCase corrected = load_case(with({"preparation.slab_correction_period=8"}));
-  EXPECT_EQ(corrected.preparation.step.solver.slab_correction_period, 8);
-  EXPECT_NE(packing_cache_name(corrected.preparation), name);
-  expect_case_error(with({"preparation.slab_correction_period=-1"}),
-                    "preparation.slab_correction_period", "between");
+  expect_case_error(with({"preparation.slab_correction_period=8"}),
+                    "preparation.slab_correction_period", "no longer a setting");
   // The random order's name is the one of the packing committed before the change.
   EXPECT_EQ(a, "n511_h20_d0.8-1_seed1_s0.25_ecd48f39.json");
   expect_case_error(with({"preparation.order=diagonal"}), "preparation.order", "coloured");
