@@ -126,7 +126,8 @@ Reference solve of --step-error:
                       its relaxation (default 1: Gauss-Seidel; every relaxation has the same
                       fixed point)
   --step-error N      after each case, N times: solve one step with the case's settings and
-                      again to round-off from the same state; print the force errors (stderr)
+                      again to round-off from the same state; print the impulse, wall-force
+                      and velocity errors (stderr)
   --packing FILE      shear a prepared packing (`cdshear prepare --system K -o FILE`: the
                       study's cells, e.g. system 7) instead of compressed boxes of --sizes;
                       the shear case only, walls as `cdshear run` builds them
@@ -466,10 +467,12 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   tight.solver.newton_iterations = 0;
   std::vector<double> l2, wall, velocity;
+  const bool sheared = world.walls[cdshear::kBoxTopWall].velocity.x != 0.0;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
                "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall"
-               "  velocity_rms/V\n");
+               "  %s\n",
+               sheared ? "velocity_rms/V" : "velocity_rms");
   for (int k = 0; k < samples; ++k) {
     for (int j = 0; j < spacing; ++j) dynamics.step(world, options);
     World w_ref = world;
@@ -499,6 +502,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     const std::size_t n = w_ref.disks.size();
     for (std::size_t i = 0; i < n; ++i)
       dv2 += cdshear::length_squared(w_opt.disks.velocity[i] - w_ref.disks.velocity[i]);
+    // In units of the wall speed; absolute (length / time) in the static case, where V = 0.
     const double wall_speed = std::abs(w_ref.walls[top].velocity.x);
     velocity.push_back(std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
                        (wall_speed > 0.0 ? wall_speed : 1.0));

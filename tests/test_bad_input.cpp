@@ -94,6 +94,20 @@ TEST(BadInput, WrongType) {
                "disks[0].position", "array of two numbers");
 }
 
+TEST(BadInput, SolverKeyNoLongerReadOnlyAtTheValueNowUsed) {
+  // A scene's [solver] reads the keys retired from the solver as a case file does
+  // (read_retired_solver_keys): at the value now used, and no other.
+  TempDir dir("retired_key");
+  const std::string path = dir.write("scene.toml", scene_text());
+  EXPECT_NO_THROW(load_scene_file(path, {"solver.criterion=\"change\""}));
+  try {
+    load_scene_file(path, {"solver.criterion=\"error\""});
+    ADD_FAILURE() << "solver.criterion = \"error\" was accepted";
+  } catch (const ConfigError& e) {
+    expect_names(e, "solver.criterion", "no longer a setting");
+  }
+}
+
 TEST(BadInput, NegativeRadius) {
   expect_names(
       load_error(scene_text("dt = 1e-3\n", "[[disks]]\nposition = [1.0, 0.5]\nradius = -0.5\n")),

@@ -96,13 +96,21 @@ std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
 
 }  // namespace
 
+/// The refinement's scratch and phases; refine() below is the loop over them. Each phase takes
+/// the step's contacts and bodies, which hold the current iterate.
 struct ActiveSetSolver::Impl {
+  using Impulses = std::vector<std::pair<double, double>>;
+
   cholmod_common common;
+  std::size_t nc = 0;
+  double inv_dt = 0.0;
+  double mean_diagonal = 0.0;  ///< mean w_nn, the scale of the regularisation
+  double entry_force2 = 0.0;   ///< sum |R|^2 on entry, the residual's fixed scale
   std::vector<std::int8_t> status;
   std::vector<std::int64_t> unknown;       ///< first unknown of each contact, -1 for an open one
   std::vector<double> inv_w_nn, inv_w_tt;  ///< 1 / the diagonal Delassus entries
   std::vector<SolverBody> base_bodies, start_bodies, full_bodies;
-  std::vector<std::pair<double, double>> base_impulses, start_impulses, full_impulses;
+  Impulses base_impulses, start_impulses, full_impulses;
   std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
   std::vector<double> solution;
   /// H_rows M^-1/2 (the velocities held at 0) and H_cols M^-1/2 (the unknowns' impulses)
@@ -117,6 +125,284 @@ struct ActiveSetSolver::Impl {
   ~Impl() { cholmod_finish(&common); }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
+
+  /// Sizes the scratch and reads the diagonal Delassus entries and the residual's scale.
+  void begin(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
+             double dt) {
+    nc = contacts.size();
+    inv_dt = 1.0 / dt;
+    status.assign(nc, kOpen);
+    unknown.assign(nc, -1);
+    inv_w_nn.resize(nc);
+    inv_w_tt.resize(nc);
+    mean_diagonal = 0.0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      const Contact& c = contacts[k];
+      const DelassusEntries w = delassus_entries(c, bodies[static_cast<std::size_t>(c.key.body_a)],
+                                                 bodies[static_cast<std::size_t>(c.key.body_b)]);
+      inv_w_nn[k] = 1.0 / w.w_nn;
+      inv_w_tt[k] = 1.0 / w.w_tt;
+      mean_diagonal += w.w_nn;
+    }
+    mean_diagonal /= static_cast<double>(nc);
+    // The residual relative to |R| on entry, a fixed scale (relative to the current |R|, a step
+    // could lower it by inflating the forces along a self-stress); absolute where every impulse
+    // was 0.
+    entry_force2 = natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt).second;
+  }
+
+  /// The merit of the current iterate: its natural-map residual on the fixed scale.
+  double merit(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies) const {
+    const double r2 = natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt).first;
+    return entry_force2 > 0.0 ? std::sqrt(r2 / entry_force2) : std::sqrt(r2);
+  }
+
+  /// The iterate a step starts from (impulses and bodies) and the full Newton iterate, between
+  /// which the line search moves: both are on the cone, so is every point between them, and the
+  /// bodies' velocities are affine in the impulses.
+  void save(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
+            std::vector<SolverBody>& b, Impulses& r) const {
+    b = bodies;
+    r.resize(nc);
+    for (std::size_t k = 0; k < nc; ++k) r[k] = {contacts[k].impulse_n, contacts[k].impulse_t};
+  }
+  void restore(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
+               const std::vector<SolverBody>& b, const Impulses& r) const {
+    bodies = b;
+    for (std::size_t k = 0; k < nc; ++k)
+      std::tie(contacts[k].impulse_n, contacts[k].impulse_t) = r[k];
+  }
+  /// The point lambda of the way from the base iterate to the full Newton iterate.
+  void blend(double lambda, std::vector<Contact>& contacts, std::vector<SolverBody>& bodies) const {
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      const SolverBody& b0 = base_bodies[i];
+      const SolverBody& b1 = full_bodies[i];
+      bodies[i].velocity = b0.velocity + lambda * (b1.velocity - b0.velocity);
+      bodies[i].omega = b0.omega + lambda * (b1.omega - b0.omega);
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      const auto [n0, t0] = base_impulses[k];
+      const auto [n1, t1] = full_impulses[k];
+      contacts[k].impulse_n = n0 + lambda * (n1 - n0);
+      contacts[k].impulse_t = t0 + lambda * (t1 - t0);
+    }
+  }
+
+  /// Phases 1 and 2: each contact's status from the current iterate (the Alart-Curnier
+  /// classification, rho = 1 / w), its unknowns numbered, open impulses set to 0 and sliding
+  /// ones to their thresholds. Returns how many statuses changed (all in the first iteration).
+  std::size_t classify(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies, bool first,
+                       std::size_t& unknowns) {
+    std::size_t changed = 0;
+    unknowns = 0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      Contact& c = contacts[k];
+      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      const double sigma_n = c.impulse_n - u.n * inv_w_nn[k];
+      std::int8_t next = kOpen;
+      if (sigma_n >= 0.0) {
+        const double sigma_t = c.impulse_t - u.t * inv_w_tt[k];
+        const double limit = c.friction * sigma_n;
+        next = std::abs(sigma_t) <= limit ? kStick
+               : sigma_t > 0.0            ? kSlidePositive
+                                          : kSlideNegative;
+      }
+      changed += next != status[k] || first;
+      status[k] = next;
+      if (next == kOpen) {
+        unknown[k] = -1;
+      } else {
+        unknown[k] = static_cast<std::int64_t>(unknowns);
+        unknowns += next == kStick ? 2 : 1;
+      }
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      Contact& c = contacts[k];
+      double r_n = c.impulse_n, r_t = c.impulse_t;
+      if (status[k] == kOpen) {
+        r_n = r_t = 0.0;
+      } else if (status[k] != kStick) {
+        r_t = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+      }
+      apply_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
+      c.impulse_n = r_n;
+      c.impulse_t = r_t;
+    }
+    return changed;
+  }
+
+  /// Phase 3: B = H_rows M^-1 H_cols^T (the regularisation is added by the solves), H_rows: the
+  /// constrained velocities (u_n, and u_t of sticking contacts), H_cols: the impulse directions
+  /// of the unknowns (n and t of a sticking contact; n + s mu t of a sliding one, whose R_t
+  /// follows s mu R_n); rhs: minus those velocities. Null where CHOLMOD runs out of memory or
+  /// the system exceeds the int indices CHOLMOD and KLU use here (then the sweeps' result
+  /// stands).
+  cholmod_sparse* delassus_matrix(const std::vector<Contact>& contacts,
+                                  const std::vector<SolverBody>& bodies, std::size_t unknowns) {
+    velocities.clear();
+    impulses.clear();
+    rhs.assign(unknowns, 0.0);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const Contact& c = contacts[k];
+      const auto ia = static_cast<std::size_t>(c.key.body_a);
+      const auto ib = static_cast<std::size_t>(c.key.body_b);
+      const SolverBody& a = bodies[ia];
+      const SolverBody& b = bodies[ib];
+      const Vec2 n = c.normal, t{-n.y, n.x};
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      velocities.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
+      if (status[k] == kStick) {
+        impulses.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
+        velocities.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
+        impulses.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
+        rhs[row + 1] = -u.t;
+      } else {
+        const double st = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
+        impulses.add_row(row, ia, a, ib, b, n + st * t, st * c.lever_a, st * c.lever_b);
+      }
+      rhs[row] = -u.n;
+    }
+    constexpr auto kMaxIndex = static_cast<std::size_t>(std::numeric_limits<int>::max());
+    if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex ||
+        std::max(velocities.values.size(), impulses.values.size()) > kMaxIndex)
+      return nullptr;
+    const auto to_sparse = [&](const Triplets& m) -> cholmod_sparse* {
+      cholmod_triplet* triplet = cholmod_allocate_triplet(
+          unknowns, 3 * bodies.size(), m.values.size(), 0, CHOLMOD_REAL, &common);
+      if (triplet == nullptr) return nullptr;
+      std::copy(m.rows.begin(), m.rows.end(), static_cast<int*>(triplet->i));
+      std::copy(m.cols.begin(), m.cols.end(), static_cast<int*>(triplet->j));
+      std::copy(m.values.begin(), m.values.end(), static_cast<double*>(triplet->x));
+      triplet->nnz = m.values.size();
+      cholmod_sparse* sparse = cholmod_triplet_to_sparse(triplet, triplet->nnz, &common);
+      cholmod_free_triplet(&triplet, &common);
+      return sparse;
+    };
+    cholmod_sparse* h_rows = to_sparse(velocities);
+    cholmod_sparse* h_cols = to_sparse(impulses);
+    cholmod_sparse* h_cols_t = h_cols ? cholmod_transpose(h_cols, 1, &common) : nullptr;
+    cholmod_sparse* b_matrix =
+        h_rows && h_cols_t ? cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &common) : nullptr;
+    cholmod_free_sparse(&h_rows, &common);  // each a no-op on a null pointer
+    cholmod_free_sparse(&h_cols, &common);
+    cholmod_free_sparse(&h_cols_t, &common);
+    return b_matrix;
+  }
+
+  /// Ratio test: the longest step along the solution dR, at most 1, that keeps every closed
+  /// contact carrying force inside its cone; the first contacts to reach the boundary end on it
+  /// (open, or sliding) and change status in the next iteration. Where the statuses leave a
+  /// self-stress whose gaps no motion closes, dR runs along it without bound, and the projected
+  /// full step zeroes half the forces; this step instead stops where the first contact of the
+  /// loop opens, as the exact solution has it.
+  double ratio_step(const std::vector<Contact>& contacts) const {
+    double step = 1.0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const Contact& c = contacts[k];
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const double dn = solution[row];
+      // A closed contact without force that the step would pull: let it open (projection).
+      if (c.impulse_n <= 0.0) continue;
+      if (dn < 0.0) step = std::min(step, c.impulse_n / -dn);
+      if (status[k] == kStick) {
+        const double d_t = solution[row + 1];
+        const double upper = c.friction * c.impulse_n - c.impulse_t;
+        const double lower = c.friction * c.impulse_n + c.impulse_t;
+        const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
+        // A contact on its cone's edge (the sweeps leave many) that the step pushes out is
+        // projected back: it would otherwise stop the step at 0.
+        if (d_upper < 0.0 && upper > 0.0) step = std::min(step, upper / -d_upper);
+        if (d_lower < 0.0 && lower > 0.0) step = std::min(step, lower / -d_lower);
+      }
+    }
+    return step;
+  }
+
+  /// R + dR projected on the cone, applied to the bodies. Returns |dR| / |R + dR|.
+  double apply_solution(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies) const {
+    double change2 = 0.0, force2 = 0.0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      Contact& c = contacts[k];
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const double r_n = std::max(0.0, c.impulse_n + solution[row]);
+      double r_t;
+      if (status[k] == kStick) {
+        const double limit = c.friction * r_n;
+        r_t = std::clamp(c.impulse_t + solution[row + 1], -limit, limit);
+      } else {
+        r_t = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+      }
+      const double dn = r_n - c.impulse_n, dtt = r_t - c.impulse_t;
+      change2 += dn * dn + dtt * dtt;
+      force2 += r_n * r_n + r_t * r_t;
+      apply_impulse(c, bodies, dn, dtt);
+      c.impulse_n = r_n;
+      c.impulse_t = r_t;
+    }
+    return force2 > 0.0 ? std::sqrt(change2 / force2) : 0.0;
+  }
+
+  /// Phases 4 and 5: solve B dR = rhs (KLU), R + dR on the cone, applied; then a line search on
+  /// the merit between the iterate this iteration started from and that one. Without descent,
+  /// again with a regularisation 1000 times larger (Levenberg-Marquardt): where the statuses
+  /// are wrong the system can be singular with a right-hand side outside its range, and its
+  /// exact solution is useless. True when the merit went down (`current` then holds it).
+  bool solve_and_search(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
+                        cholmod_sparse* b_matrix, std::size_t unknowns,
+                        const ActiveSetOptions& options, double& current, ActiveSetReport& report) {
+    auto* bp = static_cast<int*>(b_matrix->p);
+    auto* bi = static_cast<int*>(b_matrix->i);
+    auto* bx = static_cast<double*>(b_matrix->x);
+    diagonal.assign(unknowns, -1);
+    for (std::size_t j = 0; j < unknowns; ++j)
+      for (int q = bp[j]; q < bp[j + 1]; ++q)
+        if (static_cast<std::size_t>(bi[q]) == j) diagonal[j] = q;
+    klu_common kc;
+    klu_defaults(&kc);
+    const int nu = static_cast<int>(unknowns);
+    klu_symbolic* symbolic = klu_analyze(nu, bp, bi, &kc);
+    save(contacts, bodies, start_bodies, start_impulses);  // where every solve starts from
+    bool descended = false, any_solved = false;
+    double beta = options.regularisation * mean_diagonal, added = 0.0;
+    for (int attempt = 0; attempt < kRegularisationAttempts && symbolic != nullptr;
+         ++attempt, beta *= 1e3) {
+      for (std::size_t j = 0; j < unknowns; ++j)
+        if (diagonal[j] >= 0) bx[diagonal[j]] += beta - added;
+      added = beta;
+      klu_numeric* numeric = klu_factor(bp, bi, bx, symbolic, &kc);
+      solution = rhs;
+      const bool solved = numeric && klu_solve(symbolic, numeric, nu, 1, solution.data(), &kc);
+      if (numeric) klu_free_numeric(&numeric, &kc);
+      if (!solved) continue;
+      any_solved = true;
+      restore(contacts, bodies, start_bodies, start_impulses);
+      // The ratio test on the first attempt only.
+      if (const double step = ratio_step(contacts); attempt == 0 && step > 0.0 && step < 1.0)
+        for (double& x : solution) x *= step;
+      report.correction = apply_solution(contacts, bodies);
+      double next = merit(contacts, bodies);
+      if (!(next < current)) {
+        save(contacts, bodies, full_bodies, full_impulses);
+        for (double lambda = 0.5; lambda >= kSmallestStep; lambda *= 0.5) {
+          blend(lambda, contacts, bodies);
+          next = merit(contacts, bodies);
+          if (next < current) break;
+        }
+      }
+      if (next < current) {
+        current = next;
+        descended = true;
+        break;
+      }
+    }
+    if (symbolic) klu_free_symbolic(&symbolic, &kc);
+    if (!descended) report.factorised = any_solved;
+    return descended;
+  }
 };
 
 ActiveSetSolver::ActiveSetSolver() : impl_(std::make_unique<Impl>()) {}
@@ -131,273 +417,36 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
                                         const ActiveSetOptions& options) {
   Impl& s = *impl_;
   ActiveSetReport report;
-  const std::size_t nc = contacts.size();
-  if (nc == 0) return report;
-  const double inv_dt = 1.0 / dt;
-  s.status.assign(nc, kOpen);
-  s.unknown.assign(nc, -1);
-  s.inv_w_nn.resize(nc);
-  s.inv_w_tt.resize(nc);
-  double mean_diagonal = 0.0;
-  for (std::size_t k = 0; k < nc; ++k) {
-    const Contact& c = contacts[k];
-    const DelassusEntries w = delassus_entries(c, bodies[static_cast<std::size_t>(c.key.body_a)],
-                                               bodies[static_cast<std::size_t>(c.key.body_b)]);
-    s.inv_w_nn[k] = 1.0 / w.w_nn;
-    s.inv_w_tt[k] = 1.0 / w.w_tt;
-    mean_diagonal += w.w_nn;
-  }
-  mean_diagonal /= static_cast<double>(nc);
-  // The residual relative to |R| on entry, a fixed scale (relative to the current |R|, a step
-  // could lower it by inflating the forces along a self-stress); absolute where every impulse
-  // was 0.
-  const double entry_force2 =
-      natural_residual(contacts, bodies, inv_dt, s.inv_w_nn, s.inv_w_tt).second;
-  const auto merit = [&] {
-    const double r2 = natural_residual(contacts, bodies, inv_dt, s.inv_w_nn, s.inv_w_tt).first;
-    return entry_force2 > 0.0 ? std::sqrt(r2 / entry_force2) : std::sqrt(r2);
-  };
-  // The iterate a step starts from (impulses and bodies) and the full Newton iterate, between
-  // which the line search moves: both are on the cone, so is every point between them, and the
-  // bodies' velocities are affine in the impulses.
-  const auto save = [&](std::vector<SolverBody>& b, std::vector<std::pair<double, double>>& r) {
-    b = bodies;
-    r.resize(nc);
-    for (std::size_t k = 0; k < nc; ++k) r[k] = {contacts[k].impulse_n, contacts[k].impulse_t};
-  };
-  const auto restore = [&](const std::vector<SolverBody>& b,
-                           const std::vector<std::pair<double, double>>& r) {
-    bodies = b;
-    for (std::size_t k = 0; k < nc; ++k)
-      std::tie(contacts[k].impulse_n, contacts[k].impulse_t) = r[k];
-  };
-  const auto blend = [&](double lambda) {
-    for (std::size_t i = 0; i < bodies.size(); ++i) {
-      const SolverBody& b0 = s.base_bodies[i];
-      const SolverBody& b1 = s.full_bodies[i];
-      bodies[i].velocity = b0.velocity + lambda * (b1.velocity - b0.velocity);
-      bodies[i].omega = b0.omega + lambda * (b1.omega - b0.omega);
-    }
-    for (std::size_t k = 0; k < nc; ++k) {
-      const auto [n0, t0] = s.base_impulses[k];
-      const auto [n1, t1] = s.full_impulses[k];
-      contacts[k].impulse_n = n0 + lambda * (n1 - n0);
-      contacts[k].impulse_t = t0 + lambda * (t1 - t0);
-    }
-  };
-  double current = merit();
+  if (contacts.empty()) return report;
+  s.begin(contacts, bodies, dt);
+  double current = s.merit(contacts, bodies);
   report.initial_residual = current;
-
   for (int iteration = 1; iteration <= options.max_iterations && current > options.tolerance;
        ++iteration) {
     report.iterations = iteration;
-    save(s.base_bodies, s.base_impulses);
-    // 1. statuses; 2. open impulses to 0, sliding thresholds.
-    std::size_t changed = 0, unknowns = 0;
-    for (std::size_t k = 0; k < nc; ++k) {
-      Contact& c = contacts[k];
-      const Velocity u = relative_velocity(c, bodies, inv_dt);
-      const double sigma_n = c.impulse_n - u.n * s.inv_w_nn[k];
-      std::int8_t next = kOpen;
-      if (sigma_n >= 0.0) {
-        const double sigma_t = c.impulse_t - u.t * s.inv_w_tt[k];
-        const double limit = c.friction * sigma_n;
-        next = std::abs(sigma_t) <= limit ? kStick
-               : sigma_t > 0.0            ? kSlidePositive
-                                          : kSlideNegative;
-      }
-      changed += next != s.status[k] || iteration == 1;
-      s.status[k] = next;
-      if (next == kOpen) {
-        s.unknown[k] = -1;
-      } else {
-        s.unknown[k] = static_cast<std::int64_t>(unknowns);
-        unknowns += next == kStick ? 2 : 1;
-      }
-    }
-    for (std::size_t k = 0; k < nc; ++k) {
-      Contact& c = contacts[k];
-      double r_n = c.impulse_n, r_t = c.impulse_t;
-      if (s.status[k] == kOpen) {
-        r_n = r_t = 0.0;
-      } else if (s.status[k] != kStick) {
-        r_t = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
-      }
-      apply_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
-      c.impulse_n = r_n;
-      c.impulse_t = r_t;
-    }
-    report.changed = changed;
+    s.save(contacts, bodies, s.base_bodies, s.base_impulses);
+    std::size_t unknowns = 0;
+    report.changed = s.classify(contacts, bodies, iteration == 1, unknowns);
     report.unknowns = unknowns;
     if (unknowns == 0) {  // every contact open: R = 0 is the step, if it is better
-      const double open = merit();
+      const double open = s.merit(contacts, bodies);
       if (open < current)
         current = open;
       else
-        restore(s.base_bodies, s.base_impulses);
+        s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
     }
-    // 3. B = H_rows M^-1 H_cols^T + beta I, H_rows: the constrained velocities (u_n, and u_t
-    // of sticking contacts), H_cols: the impulse directions of the unknowns (n and t of a
-    // sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n).
-    s.velocities.clear();
-    s.impulses.clear();
-    s.rhs.assign(unknowns, 0.0);
-    for (std::size_t k = 0; k < nc; ++k) {
-      if (s.unknown[k] < 0) continue;
-      const Contact& c = contacts[k];
-      const auto ia = static_cast<std::size_t>(c.key.body_a);
-      const auto ib = static_cast<std::size_t>(c.key.body_b);
-      const SolverBody& a = bodies[ia];
-      const SolverBody& b = bodies[ib];
-      const Vec2 n = c.normal, t{-n.y, n.x};
-      const auto row = static_cast<std::size_t>(s.unknown[k]);
-      const Velocity u = relative_velocity(c, bodies, inv_dt);
-      s.velocities.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
-      if (s.status[k] == kStick) {
-        s.impulses.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
-        s.velocities.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
-        s.impulses.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
-        s.rhs[row + 1] = -u.t;
-      } else {
-        const double st = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
-        s.impulses.add_row(row, ia, a, ib, b, n + st * t, st * c.lever_a, st * c.lever_b);
-      }
-      s.rhs[row] = -u.n;
-    }
-    const auto to_sparse = [&](const Triplets& m) -> cholmod_sparse* {
-      cholmod_triplet* triplet = cholmod_allocate_triplet(
-          unknowns, 3 * bodies.size(), m.values.size(), 0, CHOLMOD_REAL, &s.common);
-      if (triplet == nullptr) return nullptr;
-      std::copy(m.rows.begin(), m.rows.end(), static_cast<int*>(triplet->i));
-      std::copy(m.cols.begin(), m.cols.end(), static_cast<int*>(triplet->j));
-      std::copy(m.values.begin(), m.values.end(), static_cast<double*>(triplet->x));
-      triplet->nnz = m.values.size();
-      cholmod_sparse* sparse = cholmod_triplet_to_sparse(triplet, triplet->nnz, &s.common);
-      cholmod_free_triplet(&triplet, &s.common);
-      return sparse;
-    };
-    // CHOLMOD and KLU index with int here: a system beyond that is left to the sweeps.
-    constexpr auto kMaxIndex = static_cast<std::size_t>(std::numeric_limits<int>::max());
-    if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex ||
-        std::max(s.velocities.values.size(), s.impulses.values.size()) > kMaxIndex) {
-      restore(s.base_bodies, s.base_impulses);
+    cholmod_sparse* b_matrix = s.delassus_matrix(contacts, bodies, unknowns);
+    if (b_matrix == nullptr) {  // too large, or out of memory: the sweeps' result stands
+      s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       report.factorised = false;
       break;
     }
-    cholmod_sparse* h_rows = to_sparse(s.velocities);
-    cholmod_sparse* h_cols = to_sparse(s.impulses);
-    cholmod_sparse* h_cols_t = h_cols ? cholmod_transpose(h_cols, 1, &s.common) : nullptr;
-    cholmod_sparse* b_matrix =
-        h_rows && h_cols_t ? cholmod_ssmult(h_rows, h_cols_t, 0, 1, 1, &s.common) : nullptr;
-    cholmod_free_sparse(&h_rows, &s.common);  // each a no-op on a null pointer
-    cholmod_free_sparse(&h_cols, &s.common);
-    cholmod_free_sparse(&h_cols_t, &s.common);
-    if (b_matrix == nullptr) {  // out of memory: the sweeps' result stands
-      restore(s.base_bodies, s.base_impulses);
-      report.factorised = false;
-      break;
-    }
-    auto* bp = static_cast<int*>(b_matrix->p);
-    auto* bi = static_cast<int*>(b_matrix->i);
-    auto* bx = static_cast<double*>(b_matrix->x);
-    s.diagonal.assign(unknowns, -1);
-    for (std::size_t j = 0; j < unknowns; ++j)
-      for (int q = bp[j]; q < bp[j + 1]; ++q)
-        if (static_cast<std::size_t>(bi[q]) == j) s.diagonal[j] = q;
-    klu_common kc;
-    klu_defaults(&kc);
-    const int nu = static_cast<int>(unknowns);
-    klu_symbolic* symbolic = klu_analyze(nu, bp, bi, &kc);
-    save(s.start_bodies, s.start_impulses);  // after step 2: where every solve starts from
-    // 4. Solve, R + dR on the cone, applied; 5. line search on the natural-map residual between
-    // the iterate this iteration started from and that one. Without descent, again with a
-    // regularisation 1000 times larger (Levenberg-Marquardt): where the statuses are wrong the
-    // system can be singular with a right-hand side outside its range, and its exact solution
-    // is useless.
-    bool descended = false, any_solved = false;
-    double beta = options.regularisation * mean_diagonal, added = 0.0;
-    for (int attempt = 0; attempt < kRegularisationAttempts && symbolic != nullptr;
-         ++attempt, beta *= 1e3) {
-      for (std::size_t j = 0; j < unknowns; ++j)
-        if (s.diagonal[j] >= 0) bx[s.diagonal[j]] += beta - added;
-      added = beta;
-      klu_numeric* numeric = klu_factor(bp, bi, bx, symbolic, &kc);
-      s.solution = s.rhs;
-      const bool solved = numeric && klu_solve(symbolic, numeric, nu, 1, s.solution.data(), &kc);
-      if (numeric) klu_free_numeric(&numeric, &kc);
-      if (!solved) continue;
-      any_solved = true;
-      restore(s.start_bodies, s.start_impulses);
-      // Ratio test (first attempt only): the longest step along dR, at most 1, that keeps
-      // every closed contact carrying force inside its cone; the first contacts to reach the
-      // boundary end on it (open, or sliding) and change status in the next iteration. Where
-      // the statuses leave a self-stress whose gaps no motion closes, dR runs along it without
-      // bound, and the projected full step zeroes half the forces; this step instead stops where
-      // the first contact of the loop opens, as the exact solution has it.
-      double step = 1.0;
-      for (std::size_t k = 0; k < nc; ++k) {
-        if (s.unknown[k] < 0) continue;
-        const Contact& c = contacts[k];
-        const auto row = static_cast<std::size_t>(s.unknown[k]);
-        const double dn = s.solution[row];
-        // A closed contact without force that the step would pull: let it open (projection).
-        if (c.impulse_n <= 0.0) continue;
-        if (dn < 0.0) step = std::min(step, c.impulse_n / -dn);
-        if (s.status[k] == kStick) {
-          const double d_t = s.solution[row + 1];
-          const double upper = c.friction * c.impulse_n - c.impulse_t;
-          const double lower = c.friction * c.impulse_n + c.impulse_t;
-          const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
-          // A contact on its cone's edge (the sweeps leave many) that the step pushes out is
-          // projected back: it would otherwise stop the step at 0.
-          if (d_upper < 0.0 && upper > 0.0) step = std::min(step, upper / -d_upper);
-          if (d_lower < 0.0 && lower > 0.0) step = std::min(step, lower / -d_lower);
-        }
-      }
-      if (attempt == 0 && step > 0.0 && step < 1.0)
-        for (double& x : s.solution) x *= step;
-      double change2 = 0.0, force2 = 0.0;
-      for (std::size_t k = 0; k < nc; ++k) {
-        if (s.unknown[k] < 0) continue;
-        Contact& c = contacts[k];
-        const auto row = static_cast<std::size_t>(s.unknown[k]);
-        const double r_n = std::max(0.0, c.impulse_n + s.solution[row]);
-        double r_t;
-        if (s.status[k] == kStick) {
-          const double limit = c.friction * r_n;
-          r_t = std::clamp(c.impulse_t + s.solution[row + 1], -limit, limit);
-        } else {
-          r_t = (s.status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
-        }
-        const double dn = r_n - c.impulse_n, dtt = r_t - c.impulse_t;
-        change2 += dn * dn + dtt * dtt;
-        force2 += r_n * r_n + r_t * r_t;
-        apply_impulse(c, bodies, dn, dtt);
-        c.impulse_n = r_n;
-        c.impulse_t = r_t;
-      }
-      report.correction = force2 > 0.0 ? std::sqrt(change2 / force2) : 0.0;
-      double next = merit();
-      if (!(next < current)) {
-        save(s.full_bodies, s.full_impulses);
-        for (double lambda = 0.5; lambda >= kSmallestStep; lambda *= 0.5) {
-          blend(lambda);
-          next = merit();
-          if (next < current) break;
-        }
-      }
-      if (next < current) {
-        current = next;
-        descended = true;
-        break;
-      }
-    }
-    if (symbolic) klu_free_symbolic(&symbolic, &kc);
+    const bool descended =
+        s.solve_and_search(contacts, bodies, b_matrix, unknowns, options, current, report);
     cholmod_free_sparse(&b_matrix, &s.common);
     if (!descended) {  // back to the iterate this iteration started from
-      restore(s.base_bodies, s.base_impulses);
-      report.factorised = any_solved;
+      s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
     }
   }

@@ -7,6 +7,8 @@
 #include <iterator>
 #include <limits>
 #include <numeric>
+#include <stdexcept>
+#include <string>
 
 #include "local_solve.hpp"
 #include "random_shuffle.hpp"
@@ -999,6 +1001,10 @@ class ContactSolve {
 SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
                             std::size_t first_wall, double dt, const SolverOptions& options,
                             std::uint64_t step, SolverWorkspace& workspace) {
+  // The over-relaxed update is the one-stage form of local_solve.hpp, exact for omega >= 1 only.
+  if (!(options.relaxation >= 1.0 && options.relaxation < 2.0))
+    throw std::invalid_argument("solver relaxation must be in [1, 2), got " +
+                                std::to_string(options.relaxation));
   return ContactSolve(contacts, all_bodies, first_wall, dt, options, step, workspace).run();
 }
 

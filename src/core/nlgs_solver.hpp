@@ -135,7 +135,7 @@ struct SolverReport {
   std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
   int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
-  int anderson_mixes = 0;            ///< Anderson mixes applied
+  int anderson_mixes = 0;            ///< Anderson mix passes, restarts included
   int threads = 1;                   ///< threads used
 };
 
