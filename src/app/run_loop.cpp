@@ -54,6 +54,10 @@ void add_step(RunSummary& summary, const StepReport& r) {
   ++summary.steps;
   summary.largest_sweeps = std::max(summary.largest_sweeps, r.solver.sweeps);
   summary.largest_overlap = std::max(summary.largest_overlap, r.max_overlap);
+  summary.velocity_residual_rms_largest =
+      std::max(summary.velocity_residual_rms_largest, r.velocity_residual.rms_carrying);
+  summary.velocity_residual_largest =
+      std::max(summary.velocity_residual_largest, r.velocity_residual.largest);
   summary.seconds.detect += r.seconds.detect;
   summary.seconds.prepare += r.seconds.prepare;
   summary.seconds.solve += r.seconds.solve;
@@ -84,7 +88,7 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   std::uint64_t interval_steps = 0;
   const std::uint64_t first_step = world.step;
   const std::uint64_t total = settings.end_step > first_step ? settings.end_step - first_step : 0;
-  double sum_sweeps = 0.0, sum_contacts = 0.0;
+  double sum_sweeps = 0.0, sum_contacts = 0.0, sum_residual_rms = 0.0;
   IntervalStats interval;  // since the last status line
   StepOptions step_options = options;
   const bool choosing = settings.choose_threads && options.solver.threads > 1;
@@ -126,6 +130,7 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
     ++interval_steps;
     sum_sweeps += r.solver.sweeps;
     sum_contacts += static_cast<double>(r.contacts);
+    sum_residual_rms += r.velocity_residual.rms_carrying;
     interval.add(r);
     if (r.displacement_exceeded) {
       if (summary.displacement_warnings == 0)
@@ -170,6 +175,7 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   if (summary.steps > 0) {
     summary.mean_sweeps = sum_sweeps / static_cast<double>(summary.steps);
     summary.mean_contacts = sum_contacts / static_cast<double>(summary.steps);
+    summary.velocity_residual_rms_mean = sum_residual_rms / static_cast<double>(summary.steps);
   }
   return summary;
 }
@@ -195,6 +201,10 @@ nlohmann::json summary_to_json(const RunSummary& s) {
           {"capped_steps", s.capped_steps},
           {"displacement_warnings", s.displacement_warnings},
           {"largest_overlap", s.largest_overlap},
+          {"velocity_residual",
+           {{"rms_mean", s.velocity_residual_rms_mean},
+            {"rms_largest", s.velocity_residual_rms_largest},
+            {"largest", s.velocity_residual_largest}}},
           {"stage_seconds",
            {{"detect", s.seconds.detect},
             {"prepare", s.seconds.prepare},

@@ -73,6 +73,12 @@ struct RunSummary {
   double mean_sweeps = 0.0;
   int largest_sweeps = 0;
   double mean_contacts = 0.0;
+  /// The steps' velocity residuals (velocity_residual.hpp) [length/time]: the mean and the
+  /// largest of each step's root mean square over its force-carrying contacts, and the largest
+  /// of one contact.
+  double velocity_residual_rms_mean = 0.0;
+  double velocity_residual_rms_largest = 0.0;
+  double velocity_residual_largest = 0.0;
   StageSeconds seconds;  ///< summed over the steps
 };
 

@@ -133,6 +133,7 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
     o.max_iterations = options.solver.newton_iterations;
     report.active_set = active_set_.refine(contacts_, bodies_, options.dt, o);
   }
+  report.velocity_residual = velocity_residual(contacts_, bodies_, options.dt);
   report.seconds.solve = seconds_since(t0);
 
   // 4. integrate

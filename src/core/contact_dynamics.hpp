@@ -18,6 +18,7 @@
 #include "contact.hpp"
 #include "contact_detection.hpp"
 #include "nlgs_solver.hpp"
+#include "velocity_residual.hpp"
 #include "world.hpp"
 
 namespace cdshear {
@@ -41,8 +42,9 @@ struct StepReport {
   std::size_t contacts = 0;  ///< candidate contacts
   SolverReport solver;
   ActiveSetReport active_set;
-  double max_overlap = 0.0;       ///< largest overlap after the step (>= 0) [length]
-  double max_displacement = 0.0;  ///< largest disk displacement during the step [length]
+  VelocityResidual velocity_residual;  ///< the solved step against the contact laws
+  double max_overlap = 0.0;            ///< largest overlap after the step (>= 0) [length]
+  double max_displacement = 0.0;       ///< largest disk displacement during the step [length]
   bool displacement_exceeded = false;
   bool blown_up = false;  ///< NaN or overlap above abort_overlap: stop the run
   std::string problem;    ///< what blew up, when blown_up

@@ -1,0 +1,42 @@
+#include "velocity_residual.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cdshear {
+
+VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
+                                   const std::vector<SolverBody>& bodies, double dt) {
+  VelocityResidual r;
+  const double inv_dt = 1.0 / dt;
+  double sum2 = 0.0;
+  for (const Contact& c : contacts) {
+    const SolverBody& a = bodies[static_cast<std::size_t>(c.key.body_a)];
+    const SolverBody& b = bodies[static_cast<std::size_t>(c.key.body_b)];
+    const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
+    const double u_n = dvx * c.normal.x + dvy * c.normal.y + c.gap * inv_dt;
+    const double u_t =
+        dvy * c.normal.x - dvx * c.normal.y + c.lever_a * a.omega + c.lever_b * b.omega;
+    double e_n = 0.0, e_t = 0.0;
+    if (c.impulse_n > 0.0) {
+      e_n = std::abs(u_n);
+      const double limit = c.friction * c.impulse_n;
+      if (std::abs(c.impulse_t) < limit)
+        e_t = std::abs(u_t);
+      else
+        e_t = std::max(0.0, c.impulse_t > 0.0 ? u_t : -u_t);
+    } else {
+      e_n = std::max(0.0, -u_n);
+    }
+    const double e2 = e_n * e_n + e_t * e_t;
+    r.largest = std::max(r.largest, std::sqrt(e2));
+    if (c.impulse_n > 0.0) {
+      sum2 += e2;
+      ++r.carrying;
+    }
+  }
+  if (r.carrying > 0) r.rms_carrying = std::sqrt(sum2 / static_cast<double>(r.carrying));
+  return r;
+}
+
+}  // namespace cdshear

@@ -1,0 +1,39 @@
+// How far a solved step is from the contact laws, in velocities: the per-step check of the
+// solver's accuracy (docs/accuracy.md, "Per-step check"). The sweeps stop on the last sweep's
+// change, which underestimates the error left 30 to 300 times; this residual is read from the
+// step's result itself.
+//
+// For each candidate contact, with u_n the end-of-step normal velocity plus gap/dt (the
+// Signorini condition of the step: u_n >= 0, R_n >= 0, u_n R_n = 0) and u_t the sliding
+// velocity (Coulomb: |R_t| <= mu R_n, u_t = 0 where |R_t| < mu R_n, u_t against R_t where
+// |R_t| = mu R_n):
+//   e_n = |u_n| where R_n > 0 (a closed contact that still opens or interpenetrates),
+//         max(0, -u_n) where R_n = 0 (an open contact closing faster than its gap allows);
+//   e_t = |u_t| where R_n > 0 and |R_t| < mu R_n (a sticking contact that slides),
+//         max(0, u_t sign(R_t)) where |R_t| = mu R_n (sliding with the friction force);
+//   e = sqrt(e_n^2 + e_t^2)  [length/time].
+// Zero at a solution of the step. It measures what the motion feels: in a hyperstatic packing
+// the impulses of a step are not unique and the sweeps relax their self-stress part slowest, but
+// a residual velocity moves grains. One pass over the contacts, about a sweep's cost.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "contact.hpp"
+#include "solver_rows.hpp"
+
+namespace cdshear {
+
+struct VelocityResidual {
+  double largest = 0.0;       ///< largest e over the candidates [length/time]
+  double rms_carrying = 0.0;  ///< root mean square of e over the force-carrying ones (R_n > 0)
+  std::size_t carrying = 0;   ///< force-carrying contacts
+};
+
+/// The residual of a solved step: `bodies` hold the end-of-step velocities of the solver (walls
+/// included), `contacts` the step's impulses and start-of-step gaps.
+VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
+                                   const std::vector<SolverBody>& bodies, double dt);
+
+}  // namespace cdshear
