@@ -94,8 +94,22 @@ void SlabCorrection::gather_rows(const std::vector<SolverRow>& rows) {
 
 bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<SolverBody>& bodies,
                                     bool scale_rows) {
-  const std::size_t bands = layout_.bands;
+  add_body_sums(bodies);  // pass 2
+  // 3. On one thread: add the shares in order, solve A s = -r, bound s.
+#if defined(_OPENMP)
+#pragma omp single
+#endif
+  solved_ = solve();
+  move_bodies(bodies);  // pass 4
+  if (!solved_) return false;
+  if (!scale_rows) return true;  // the caller scales them (pass 4's loop ended on a barrier)
+  scale_gathered_rows(rows);     // pass 5
+  team_barrier();                // the next sweep reads any row
+  return true;
+}
 
+void SlabCorrection::add_body_sums(const std::vector<SolverBody>& bodies) {
+  const std::size_t bands = layout_.bands;
   // 2. A and r's velocity part, chunk by chunk of bodies: body k adds test_p . M^-1 force_q to
   //    A(band_p, band_q) for its slots p and q (band_p = its band + p - 1), and test_p . v_k to
   //    r(band_p): summed over the bodies, test . v is the sum over the rows of w R_n u_n (a
@@ -148,13 +162,9 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     }
     if (window_band != kNoNode) store_window();
   }
+}
 
-  // 3. On one thread: add the shares in order, solve A s = -r, bound s.
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-  solved_ = solve();
-
+void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
   // 4. The bodies follow the scaled impulses (sum over slots of s_band M^-1 impulse; the same
   //    as applying each row's change), and their slots' marks are cleared for the next
   //    correction.
@@ -197,10 +207,9 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
       marks[k] = 0;  // the slots themselves are reset by their next first row (pass 1)
     }
   }
-  if (!solved_) return false;
+}
 
-  if (!scale_rows) return true;  // the caller scales them (pass 4's loop ended on a barrier)
-
+void SlabCorrection::scale_gathered_rows(std::vector<SolverRow>& rows) {
   // 5. The rows' impulses, scaled.
   // Each thread its consecutive groups with an equal share of the rows (groups_share): an omp
   // for over the groups gave the first thread nearly all the slabs.
@@ -209,8 +218,6 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
     if (group_low_[g] == kNoNode) continue;  // no row to scale (or the serial group)
     for (const std::uint32_t i : (*layout_.awake)[g]) scale_row(rows[i]);
   }
-  team_barrier();  // the next sweep reads any row
-  return true;
 }
 
 bool SlabCorrection::solve() {

@@ -175,7 +175,15 @@ class SlabCorrection {
   /// Step 3 of apply_gathered(), on one thread: r from the groups' and then the chunks' shares,
   /// A from the chunks' shares (clearing them), then s. False when dgbsv finds A singular or s is
   /// not finite.
+  /// Pass 2: A and r's velocity part, chunk by chunk of bodies (every thread of the team).
+  void add_body_sums(const std::vector<SolverBody>& bodies);
+  /// Pass 3, on one thread: the shares added in order, A s = -r solved, s bounded.
   bool solve();
+  /// Pass 4: the bodies follow the scaled impulses, their slots' marks cleared (every thread;
+  /// ends on the barrier of its loop).
+  void move_bodies(std::vector<SolverBody>& bodies);
+  /// Pass 5: each thread scales the awake rows of its groups (no barrier).
+  void scale_gathered_rows(std::vector<SolverRow>& rows);
 
   /// What the rows of one body add to the correction, for the bands next to its own (slot 0:
   /// band - 1, slot 1: its band, slot 2: band + 1): the impulse and torque its rows apply to it,
