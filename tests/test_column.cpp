@@ -362,5 +362,29 @@ TEST(VelocityResidual, VanishesAtTheSolutionOfAStepAndNotBefore) {
   EXPECT_LE(one_sweep.rms_carrying, one_sweep.largest);
 }
 
+TEST(VelocityResidual, ReadsEachContactLaw) {
+  // One contact between a disk (body 0) and a fixed body (body 1) along the normal y, impulse
+  // R_n > 0, the disk moving at (vx, vy): u_n = vy (plus gap/dt = 0) and u_t = -vx.
+  const auto residual = [](double friction, double r_t, Vec2 velocity) {
+    std::vector<SolverBody> bodies(2);
+    bodies[0].velocity = velocity;
+    Contact c;
+    c.key.body_a = 0;
+    c.key.body_b = 1;
+    c.normal = {0.0, 1.0};
+    c.tangent = {-1.0, 0.0};
+    c.friction = friction;
+    c.impulse_n = 1.0;
+    c.impulse_t = r_t;
+    return velocity_residual({c}, bodies, 1e-3).largest;
+  };
+  EXPECT_EQ(residual(0.5, 0.0, {0.0, 0.0}), 0.0);         // closed, at rest: the laws hold
+  EXPECT_DOUBLE_EQ(residual(0.5, 0.0, {0.0, 0.3}), 0.3);  // closed but opening
+  EXPECT_DOUBLE_EQ(residual(0.5, 0.2, {0.4, 0.0}), 0.4);  // sticking (|R_t| < mu R_n) but sliding
+  EXPECT_EQ(residual(0.5, 0.5, {0.4, 0.0}), 0.0);  // sliding against its friction (u_t R_t < 0)
+  EXPECT_DOUBLE_EQ(residual(0.5, -0.5, {0.4, 0.0}), 0.4);  // sliding with its friction
+  EXPECT_EQ(residual(0.0, 0.0, {0.4, 0.0}), 0.0);          // frictionless: free to slide
+}
+
 }  // namespace
 }  // namespace cdshear

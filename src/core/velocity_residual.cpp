@@ -21,7 +21,9 @@ VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
     if (c.impulse_n > 0.0) {
       e_n = std::abs(u_n);
       const double limit = c.friction * c.impulse_n;
-      if (std::abs(c.impulse_t) < limit)
+      if (c.friction == 0.0)
+        e_t = 0.0;  // frictionless: free to slide either way
+      else if (std::abs(c.impulse_t) < limit)
         e_t = std::abs(u_t);
       else
         e_t = std::max(0.0, c.impulse_t > 0.0 ? u_t : -u_t);

@@ -10,7 +10,8 @@
 //   e_n = |u_n| where R_n > 0 (a closed contact that still opens or interpenetrates),
 //         max(0, -u_n) where R_n = 0 (an open contact closing faster than its gap allows);
 //   e_t = |u_t| where R_n > 0 and |R_t| < mu R_n (a sticking contact that slides),
-//         max(0, u_t sign(R_t)) where |R_t| = mu R_n (sliding with the friction force);
+//         max(0, u_t sign(R_t)) where |R_t| = mu R_n (sliding with the friction force),
+//         0 where mu = 0;
 //   e = sqrt(e_n^2 + e_t^2)  [length/time].
 // Zero at a solution of the step. It measures what the motion feels: in a hyperstatic packing
 // the impulses of a step are not unique and the sweeps relax their self-stress part slowest, but
