@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "local_solve.hpp"
+#include "velocity_residual.hpp"
 
 namespace cdshear {
 
@@ -21,18 +22,6 @@ constexpr int kRegularisationAttempts = 4;
 constexpr double kSmallestStep = 1.0 / 64.0;
 
 enum Status : std::int8_t { kOpen = 0, kStick = 1, kSlidePositive = 2, kSlideNegative = 3 };
-
-struct Velocity {
-  double n = 0.0, t = 0.0;  ///< u_n (gap bias included) and u_t [length/time]
-};
-
-Velocity relative_velocity(const Contact& k, const std::vector<SolverBody>& bodies, double inv_dt) {
-  const SolverBody& a = bodies[static_cast<std::size_t>(k.key.body_a)];
-  const SolverBody& b = bodies[static_cast<std::size_t>(k.key.body_b)];
-  const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
-  return {dvx * k.normal.x + dvy * k.normal.y + k.gap * inv_dt,
-          dvy * k.normal.x - dvx * k.normal.y + k.lever_a * a.omega + k.lever_b * b.omega};
-}
 
 /// A sparse matrix being built entry by entry: one row per unknown, one column per body degree
 /// of freedom (x, y, rotation of each body), scaled by M^-1/2.
@@ -84,7 +73,7 @@ std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
   double residual2 = 0.0, force2 = 0.0;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Contact& c = contacts[k];
-    const Velocity u = relative_velocity(c, bodies, inv_dt);
+    const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
     const LocalImpulse next = decoupled_update({c.impulse_n, c.impulse_t}, u.n, u.t, inv_w_nn[k],
                                                inv_w_tt[k], c.friction);
     const double dn = next.n - c.impulse_n, dt = next.t - c.impulse_t;
@@ -197,7 +186,7 @@ struct ActiveSetSolver::Impl {
     unknowns = 0;
     for (std::size_t k = 0; k < nc; ++k) {
       Contact& c = contacts[k];
-      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
       const double sigma_n = c.impulse_n - u.n * inv_w_nn[k];
       std::int8_t next = kOpen;
       if (sigma_n >= 0.0) {
@@ -251,7 +240,7 @@ struct ActiveSetSolver::Impl {
       const SolverBody& b = bodies[ib];
       const Vec2 n = c.normal, t{-n.y, n.x};
       const auto row = static_cast<std::size_t>(unknown[k]);
-      const Velocity u = relative_velocity(c, bodies, inv_dt);
+      const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
       velocities.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
       if (status[k] == kStick) {
         impulses.add_row(row, ia, a, ib, b, n, 0.0, 0.0);

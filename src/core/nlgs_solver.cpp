@@ -24,7 +24,7 @@ namespace {
 
 /// One row and its Delassus entries (delassus_entries, solver_rows.hpp) from a contact.
 ///
-/// `step_scale` is the over-relaxation factor omega when omega > 1, else 1: the decoupled rows
+/// `step_scale` is the over-relaxation factor omega (1: plain Gauss-Seidel): the decoupled rows
 /// store omega / w_nn and omega / w_tt, the factors of their one-stage over-relaxed update
 /// (update_row), computed here once per step instead of in every update. omega x (1 / w) is
 /// the product the update formed before, so the update is the same bit for bit; with omega = 1
@@ -444,11 +444,9 @@ class ContactSolve {
         threads(coloured ? threads_for(nc, options.min_rows_per_thread, options.threads) : 1),
         rows(ws.rows),
         inv_dt(1.0 / dt),
-        // The decoupled rows' step factors carry the over-relaxation (fill_row, update_row).
-        step_scale(options.relaxation > 1.0 ? options.relaxation : 1.0),
-        // Slab correction (slab_correction.hpp): coloured order only (the others have no bands).
-        // Known once the groups are (coloured_groups_begin sets cg.bands); read after a barrier.
-        slab_period(coloured ? options.slab_correction_period : 0),
+        // Slab correction (slab_correction.hpp); whether the packing has the bands for it is
+        // known once the groups are (coloured_groups_begin sets cg.bands), read after a barrier.
+        slab_period(asks_for_slab_correction(options) ? options.slab_correction_period : 0),
         walls(all_bodies.size() - std::min(first_wall, all_bodies.size())),
         // Anderson acceleration mixes the rows awake at the start (the others are open and
         // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve
@@ -679,7 +677,8 @@ class ContactSolve {
       const auto global_b = static_cast<std::size_t>(c.key.body_b);
       const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
       const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
-      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt, step_scale);
+      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt,
+               options.relaxation);  // the decoupled rows' factors carry the over-relaxation
       rows[i].body_a = static_cast<std::uint32_t>(ia);
       rows[i].body_b = static_cast<std::uint32_t>(ib);
     }
@@ -986,7 +985,6 @@ class ContactSolve {
   const int threads;
   std::vector<SolverRow>& rows;
   const double inv_dt;
-  const double step_scale;
   const int slab_period;
   const std::size_t walls;
   const bool accelerate;

@@ -28,10 +28,10 @@
 // (applied phase by phase too) and the copy-back of the impulses.
 // Slab correction (options.slab_correction_period > 0, coloured order, packings of at least
 // kSlabCorrectionMinBands bands, slab_correction.hpp): every slab_correction_period sweeps, before
-// any mix of that sweep and never after the last,
-// the force-carrying rows of each band are rescaled so that the bands' force-weighted mean
-// normal-velocity errors vanish together: the force profile over the height, which the sweeps
-// relax over thousands of sweeps in a tall packing, in one banded solve. Same fixed points, same
+// any mix of that sweep and never after the last, the force-carrying rows of each band are
+// rescaled so that the bands' force-weighted mean normal-velocity errors vanish together: the
+// force profile over the height, which the sweeps relax over thousands of sweeps in a tall
+// packing, in one banded solve. Same fixed points, same
 // result on any number of threads. In the steps where it runs, the Anderson mix runs every
 // 2 anderson_period sweeps (kMixPeriodFactorWithSlabCorrection).
 // Body velocities are kept equal to free velocity + M^-1 H^T R at all times, so that a contact's
@@ -110,6 +110,12 @@ struct SolverOptions {
   /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
   int newton_iterations = 0;
 };
+
+/// Whether the options ask for the slab correction: the coloured order only (the others have no
+/// bands), and then, in each step, only in packings of kSlabCorrectionMinBands bands or more.
+inline bool asks_for_slab_correction(const SolverOptions& o) {
+  return o.order == ContactOrder::kColoured && o.slab_correction_period > 0;
+}
 
 /// Largest SolverOptions::newton_iterations.
 inline constexpr int kMaxNewtonIterations = 50;

@@ -11,12 +11,7 @@ VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
   const double inv_dt = 1.0 / dt;
   double sum2 = 0.0;
   for (const Contact& c : contacts) {
-    const SolverBody& a = bodies[static_cast<std::size_t>(c.key.body_a)];
-    const SolverBody& b = bodies[static_cast<std::size_t>(c.key.body_b)];
-    const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
-    const double u_n = dvx * c.normal.x + dvy * c.normal.y + c.gap * inv_dt;
-    const double u_t =
-        dvy * c.normal.x - dvx * c.normal.y + c.lever_a * a.omega + c.lever_b * b.omega;
+    const auto [u_n, u_t] = contact_velocity(c, bodies, inv_dt);
     double e_n = 0.0, e_t = 0.0;
     if (c.impulse_n > 0.0) {
       e_n = std::abs(u_n);

@@ -26,6 +26,22 @@
 
 namespace cdshear {
 
+/// A contact's end-of-step relative velocity [length/time]: n = u_n + gap/dt (the Signorini
+/// condition's velocity), t = u_t (the sliding velocity), from the bodies' velocities (walls
+/// included, body_b >= the disks' count).
+struct ContactVelocity {
+  double n = 0.0, t = 0.0;
+};
+
+inline ContactVelocity contact_velocity(const Contact& c, const std::vector<SolverBody>& bodies,
+                                        double inv_dt) {
+  const SolverBody& a = bodies[static_cast<std::size_t>(c.key.body_a)];
+  const SolverBody& b = bodies[static_cast<std::size_t>(c.key.body_b)];
+  const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
+  return {dvx * c.normal.x + dvy * c.normal.y + c.gap * inv_dt,
+          dvy * c.normal.x - dvx * c.normal.y + c.lever_a * a.omega + c.lever_b * b.omega};
+}
+
 struct VelocityResidual {
   double largest = 0.0;       ///< largest e over the candidates [length/time]
   double rms_carrying = 0.0;  ///< root mean square of e over the force-carrying ones (R_n > 0)

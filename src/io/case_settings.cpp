@@ -94,11 +94,6 @@ struct RetiredSolverKey {
 // The texts below name these values.
 static_assert(kSlabCorrectionMinBands == 20 && kMixPeriodFactorWithSlabCorrection == 2);
 
-/// Where the slab correction never runs, its keys have no effect (nlgs_solver.hpp).
-bool without_slab_correction(const SolverOptions& o) {
-  return o.slab_correction_period == 0 || o.order != ContactOrder::kColoured;
-}
-
 const RetiredSolverKey kRetiredSolverKeys[] = {
     {"solver", "criterion", "alpha bounds the last sweep's change (\"change\")",
      [](TomlReader& r, const std::string& k, const SolverOptions&) {
@@ -108,13 +103,14 @@ const RetiredSolverKey kRetiredSolverKeys[] = {
      "the slab correction runs in packings of 20 bands or more",
      [](TomlReader& r, const std::string& k, const SolverOptions& o) {
        const std::int64_t v = r.integer(k);
-       return without_slab_correction(o) || v == static_cast<std::int64_t>(kSlabCorrectionMinBands);
+       return !asks_for_slab_correction(o) ||
+              v == static_cast<std::int64_t>(kSlabCorrectionMinBands);
      }},
     {"solver", "anderson_period_with_slab_correction",
      "where the slab correction runs, the mix runs every 2 anderson_period sweeps",
      [](TomlReader& r, const std::string& k, const SolverOptions& o) {
        const std::int64_t v = r.integer(k);
-       return without_slab_correction(o) || o.anderson_depth == 0 ||
+       return !asks_for_slab_correction(o) || o.anderson_depth == 0 ||
               v ==
                   static_cast<std::int64_t>(kMixPeriodFactorWithSlabCorrection) * o.anderson_period;
      }},
