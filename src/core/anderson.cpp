@@ -124,6 +124,91 @@ double sum_in_chunk_order(const double* values, std::size_t stride, std::size_t 
   return sum;
 }
 
+/// store_differences over one chunk [begin, end): f = g - x, the differences df = f - last_f and
+/// dg = g - last_g, and the new last values last_f = f, last_g = g. Returns the chunk's share of
+/// |f|^2, four running sums i mod 4 (as pairs, or as one Quad with AVX: the same lanes, the same
+/// bits).
+double store_chunk_differences(const double* __restrict xs, const double* __restrict gs,
+                               double* __restrict df, double* __restrict dg,
+                               double* __restrict last_f, double* __restrict last_g,
+                               std::size_t begin, std::size_t end) {
+  Pair f2_01{}, f2_23{};
+  // Differences and new last values of the vector (a Pair or a Quad, the type of `like`) at
+  // `at`; returns f there.
+  const auto differences = [&](std::size_t at, auto like) {
+    using Vector = decltype(like);
+    const Vector g_at = load<Vector>(gs + at);
+    const Vector f = g_at - load<Vector>(xs + at);
+    store(df + at, f - load<Vector>(last_f + at));
+    store(dg + at, g_at - load<Vector>(last_g + at));
+    store(last_f + at, f);
+    store(last_g + at, g_at);
+    return f;
+  };
+  std::size_t i = begin;
+#if defined(__AVX__)
+  Quad f2_0123{};
+  for (; i + 4 <= end; i += 4) {
+    const Quad f = differences(i, Quad{});
+    f2_0123 += f * f;
+  }
+  f2_01 = Pair{f2_0123[0], f2_0123[1]};
+  f2_23 = Pair{f2_0123[2], f2_0123[3]};
+#else
+  for (; i + 4 <= end; i += 4) {
+    const Pair f01 = differences(i, Pair{}), f23 = differences(i + 2, Pair{});
+    f2_01 += f01 * f01;
+    f2_23 += f23 * f23;
+  }
+#endif
+  for (; i < end; ++i) {
+    const double f = gs[i] - xs[i];
+    f2_01[0] += f * f;
+    df[i] = f - last_f[i];
+    dg[i] = gs[i] - last_g[i];
+    last_f[i] = f;
+    last_g[i] = gs[i];
+  }
+  return sum_of_pairs(f2_01, f2_23);
+}
+
+/// g -= sum_j gamma_j dg_columns[j] over one chunk [begin, end), each element's terms subtracted
+/// in order j = 0, 1, ...: eight elements at a time (sixteen with AVX), all m terms while they
+/// stay in registers (column by column, g went through memory m times, a load and a store per
+/// term; the same subtractions in the same order, so the same bits). 0.7 of the time of the
+/// column-by-column loop for 1000 elements and five columns, alone in a loop.
+void subtract_chunk_mixes(double* __restrict gw, const double* const* dg_columns,
+                          const double* gamma, int m, std::size_t begin, std::size_t end) {
+  // Four vectors of g (Pairs, or Quads with AVX: the type of `like`) from element k, each with
+  // all m terms subtracted while it stays in a register: four independent chains. gamma_j - 0
+  // is gamma_j in every lane, signed zeros included.
+  const auto subtract_terms = [&](std::size_t k, auto like) {
+    using Vector = decltype(like);
+    constexpr std::size_t w = sizeof(Vector) / sizeof(double);
+    Vector g0 = load<Vector>(gw + k), g1 = load<Vector>(gw + k + w),
+           g2 = load<Vector>(gw + k + 2 * w), g3 = load<Vector>(gw + k + 3 * w);
+    for (int j = 0; j < m; ++j) {
+      const double* d = dg_columns[j] + k;
+      const Vector gamma_j = gamma[j] - Vector{};
+      g0 -= gamma_j * load<Vector>(d);
+      g1 -= gamma_j * load<Vector>(d + w);
+      g2 -= gamma_j * load<Vector>(d + 2 * w);
+      g3 -= gamma_j * load<Vector>(d + 3 * w);
+    }
+    store(gw + k, g0);
+    store(gw + k + w, g1);
+    store(gw + k + 2 * w, g2);
+    store(gw + k + 3 * w, g3);
+  };
+  std::size_t k = begin;
+#if defined(__AVX__)
+  for (; k + 16 <= end; k += 16) subtract_terms(k, Quad{});
+#endif
+  for (; k + 8 <= end; k += 8) subtract_terms(k, Pair{});
+  for (; k < end; ++k)
+    for (int j = 0; j < m; ++j) gw[k] -= gamma[j] * dg_columns[j][k];
+}
+
 /// Solves the m x m system a x = b (a symmetric positive semi-definite plus a small diagonal)
 /// by Gaussian elimination with partial pivoting; false if a pivot vanishes.
 bool solve_small(std::array<double, kMaxDepth * kMaxDepth>& a, std::array<double, kMaxDepth>& b,
@@ -174,70 +259,38 @@ void AndersonMixer::reset(std::size_t n, int depth) {
 }
 
 void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
-  const std::size_t n = n_;
+  // Every thread reads next_column_ before the barrier that ends store_differences.
+  const int c = next_column_;
+  store_differences(x, g, c);
+  update_history(c);
+  if (dots_pending_) add_gram_row(c);
+  if (update_pending_) subtract_mixes(g);
+}
+
+void AndersonMixer::store_differences(const std::vector<double>& x, const std::vector<double>& g,
+                                      int c) {
+  // Chunk by chunk: f = g - x, each chunk's share of |f|^2, and the new differences
+  // delta_f = f - f_last and delta_g = g - g_last written into the ring's column c. When there
+  // is no last map yet, or the history is dropped next, that column is not in use (kept_ = 0)
+  // and what was written there is never read. |f|^2 only decides the restart.
   const std::size_t chunks = chunk_f2_.size();
-  // Pass 1, chunk by chunk: f = g - x, each chunk's share of |f|^2, and the new differences
-  // delta_f = f - f_last and delta_g = g - g_last written into the ring's next column. When there
-  // is no last map yet, or the history is dropped below, that column is not in use (kept_ = 0)
-  // and what was written there is never read. |f|^2 only decides the restart below.
-  const int c = next_column_;  // every thread reads it before the barrier that ends this pass
-  double* __restrict df = column(delta_f_, c);
-  double* __restrict dg = column(delta_g_, c);
-  double* __restrict last_f = last_f_.data();
-  double* __restrict last_g = last_g_.data();
-  const double* __restrict xs = x.data();
-  const double* __restrict gs = g.data();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-    Pair f2_01{}, f2_23{};  // running sums i mod 4, in pairs
-    // Differences and new last values of the vector (a Pair or a Quad, the type of `like`) at
-    // `at`; returns f there.
-    const auto differences = [&](std::size_t at, auto like) {
-      using Vector = decltype(like);
-      const Vector g_at = load<Vector>(gs + at);
-      const Vector f = g_at - load<Vector>(xs + at);
-      store(df + at, f - load<Vector>(last_f + at));
-      store(dg + at, g_at - load<Vector>(last_g + at));
-      store(last_f + at, f);
-      store(last_g + at, g_at);
-      return f;
-    };
-    std::size_t i = begin;
-#if defined(__AVX__)
-    // Four elements as one value: f2's four sums i mod 4 in one (the pairs' lanes, same bits).
-    Quad f2_0123{};
-    for (; i + 4 <= end; i += 4) {
-      const Quad f = differences(i, Quad{});
-      f2_0123 += f * f;
-    }
-    f2_01 = Pair{f2_0123[0], f2_0123[1]};
-    f2_23 = Pair{f2_0123[2], f2_0123[3]};
-#else
-    for (; i + 4 <= end; i += 4) {
-      const Pair f01 = differences(i, Pair{}), f23 = differences(i + 2, Pair{});
-      f2_01 += f01 * f01;
-      f2_23 += f23 * f23;
-    }
-#endif
-    for (; i < end; ++i) {
-      const double f = gs[i] - xs[i];
-      f2_01[0] += f * f;
-      df[i] = f - last_f[i];
-      dg[i] = gs[i] - last_g[i];
-      last_f[i] = f;
-      last_g[i] = gs[i];
-    }
-    chunk_f2_[chunk] = sum_of_pairs(f2_01, f2_23);
+    const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
+    chunk_f2_[chunk] =
+        store_chunk_differences(x.data(), g.data(), column(delta_f_, c), column(delta_g_, c),
+                                last_f_.data(), last_g_.data(), begin, end);
   }
+}
 
+void AndersonMixer::update_history(int c) {
 #if defined(_OPENMP)
 #pragma omp single
 #endif
   {
-    const double f2 = sum_in_chunk_order(chunk_f2_.data(), 1, chunks);
+    const double f2 = sum_in_chunk_order(chunk_f2_.data(), 1, chunk_f2_.size());
     if (have_last_ && f2 > last_f2_) {
       // The residual grew since the last map: the mixes of the kept history made things worse
       // (the map is only piecewise linear: contacts open, close, stick and slip). Start again
@@ -256,80 +309,53 @@ void AndersonMixer::mix(const std::vector<double>& x, std::vector<double>& g) {
     }
     update_pending_ = false;
   }
+}
 
-  if (dots_pending_) {
-    // The new column's row of the Gram matrix, delta_f_c . delta_f_j, and the right-hand side
-    // delta_f_j . f, chunk by chunk (a chunk of both vectors stays in L1 while the columns go
-    // by; each column is read once for both products).
-    const int m = kept_;
-    std::array<const double*, kMaxDepth> columns{};
-    for (int j = 0; j < m; ++j) columns[j] = column(delta_f_, j);
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-      const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-      double* sums = &chunk_dots_[chunk * 2 * kMaxDepth];
-      dot_columns(df + begin, last_f + begin, columns.data(), begin, m, end - begin, sums,
-                  sums + kMaxDepth);
-    }
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-    {
-      for (int j = 0; j < m; ++j) {
-        const double gram = sum_in_chunk_order(&chunk_dots_[j], 2 * kMaxDepth, chunks);
-        gram_[static_cast<std::size_t>(c * depth_ + j)] = gram;
-        gram_[static_cast<std::size_t>(j * depth_ + c)] = gram;
-        rhs_[j] = sum_in_chunk_order(&chunk_dots_[kMaxDepth + j], 2 * kMaxDepth, chunks);
-      }
-      update_pending_ = solve_for_gamma();
-    }
-  }
-  if (!update_pending_) return;
-
-  // g -= sum_j gamma_j delta_g_j, each element's terms subtracted in order j = 0, 1, ...: eight
-  // elements at a time (sixteen with AVX), all m terms while they stay in registers (column by
-  // column, g went through memory m times, a load and a store per term; the same subtractions in
-  // the same order, so the same bits). 0.7 of the time of the column-by-column loop for 1000
-  // elements and five columns, alone in a loop.
+void AndersonMixer::add_gram_row(int c) {
+  // The new column's row of the Gram matrix, delta_f_c . delta_f_j, and the right-hand side
+  // delta_f_j . f, chunk by chunk (a chunk of both vectors stays in L1 while the columns go by;
+  // each column is read once for both products); then gamma_ on one thread.
+  const std::size_t chunks = chunk_f2_.size();
   const int m = kept_;
-  double* __restrict gw = g.data();
-  std::array<const double*, kMaxDepth> dg_columns{};
-  for (int j = 0; j < m; ++j) dg_columns[j] = column(delta_g_, j);
-  // Four vectors of g (Pairs, or Quads with AVX: the type of `like`) from element k, each with
-  // all m terms subtracted while it stays in a register: four independent chains. gamma_j - 0
-  // is gamma_j in every lane, signed zeros included.
-  const auto subtract_terms = [&](std::size_t k, auto like) {
-    using Vector = decltype(like);
-    constexpr std::size_t w = sizeof(Vector) / sizeof(double);
-    Vector g0 = load<Vector>(gw + k), g1 = load<Vector>(gw + k + w),
-           g2 = load<Vector>(gw + k + 2 * w), g3 = load<Vector>(gw + k + 3 * w);
-    for (int j = 0; j < m; ++j) {
-      const double* d = dg_columns[j] + k;
-      const Vector gamma = gamma_[j] - Vector{};
-      g0 -= gamma * load<Vector>(d);
-      g1 -= gamma * load<Vector>(d + w);
-      g2 -= gamma * load<Vector>(d + 2 * w);
-      g3 -= gamma * load<Vector>(d + 3 * w);
-    }
-    store(gw + k, g0);
-    store(gw + k + w, g1);
-    store(gw + k + 2 * w, g2);
-    store(gw + k + 3 * w, g3);
-  };
+  std::array<const double*, kMaxDepth> columns{};
+  for (int j = 0; j < m; ++j) columns[j] = column(delta_f_, j);
+  const double* df = column(delta_f_, c);
+  const double* f = last_f_.data();
 #if defined(_OPENMP)
 #pragma omp for schedule(static)
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    const std::size_t begin = chunk * kChunk, end = std::min(n, begin + kChunk);
-    std::size_t k = begin;
-#if defined(__AVX__)
-    for (; k + 16 <= end; k += 16) subtract_terms(k, Quad{});
+    const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
+    double* sums = &chunk_dots_[chunk * 2 * kMaxDepth];
+    dot_columns(df + begin, f + begin, columns.data(), begin, m, end - begin, sums,
+                sums + kMaxDepth);
+  }
+#if defined(_OPENMP)
+#pragma omp single
 #endif
-    for (; k + 8 <= end; k += 8) subtract_terms(k, Pair{});
-    for (; k < end; ++k)
-      for (int j = 0; j < m; ++j) gw[k] -= gamma_[j] * dg_columns[j][k];
+  {
+    for (int j = 0; j < m; ++j) {
+      const double gram = sum_in_chunk_order(&chunk_dots_[j], 2 * kMaxDepth, chunks);
+      gram_[static_cast<std::size_t>(c * depth_ + j)] = gram;
+      gram_[static_cast<std::size_t>(j * depth_ + c)] = gram;
+      rhs_[j] = sum_in_chunk_order(&chunk_dots_[kMaxDepth + j], 2 * kMaxDepth, chunks);
+    }
+    update_pending_ = solve_for_gamma();
+  }
+}
+
+void AndersonMixer::subtract_mixes(std::vector<double>& g) {
+  // g -= sum_j gamma_j delta_g_j, chunk by chunk.
+  const std::size_t chunks = chunk_f2_.size();
+  const int m = kept_;
+  std::array<const double*, kMaxDepth> dg_columns{};
+  for (int j = 0; j < m; ++j) dg_columns[j] = column(delta_g_, j);
+#if defined(_OPENMP)
+#pragma omp for schedule(static)
+#endif
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
+    subtract_chunk_mixes(g.data(), dg_columns.data(), gamma_.data(), m, begin, end);
   }
 }
 

@@ -41,6 +41,16 @@ class AndersonMixer {
   int kept() const { return kept_; }
 
  private:
+  // The phases of a mix, each called by every thread of a team (or by one thread alone).
+  /// Pass 1: f = g - x, its differences to the last map into column c, each chunk's |f|^2.
+  void store_differences(const std::vector<double>& x, const std::vector<double>& g, int c);
+  /// One thread: the restart test on |f|^2 and the ring's bookkeeping.
+  void update_history(int c);
+  /// Pass 2: column c's row of the Gram matrix and the right-hand side; then gamma_.
+  void add_gram_row(int c);
+  /// Pass 3: g -= sum_j gamma_j delta_g_j.
+  void subtract_mixes(std::vector<double>& g);
+
   /// The mixing coefficients gamma_ from the Gram matrix and rhs_ (one thread); false, and the
   /// history dropped if the system is singular, when there is nothing to mix.
   bool solve_for_gamma();
