@@ -12,8 +12,10 @@ batches.
 Signals (see summary.py): the wall friction mu_wall = (|bottom_fx|+|top_fx|)/(|bottom_fy|+|top_fy|),
 the height L_y and the block's speed |block_vx| (the centre-of-mass statistics) from /series,
 and, with >= MSER_MIN_WINDOWS windows, the bulk mu_eff, bulk solid fraction and bulk shear rate
-(the velocity profile) of each window. The transient ends at the latest truncation time. The
-run is steady unless
+(the velocity profile) of each window. The block's speed takes part only when its level
+changes by more than regime.BLOCK_SPEED_TOLERANCE V (batch means further apart than that): below
+it no regime criterion can tell the difference. The transient ends at the latest truncation
+time. The run is steady unless
   - a signal with >= MSER_MIN_BATCHES batches has its MSER minimum at the search limit (half
     of the data): the transient may last longer than half the run;
   - fewer than STEADY_MIN_WINDOWS complete windows start after the transient;
@@ -64,18 +66,35 @@ def mser_truncation(z):
     return d, d == limit and k >= MSER_MIN_BATCHES
 
 
-def series_truncation(time, x):
-    """MSER on batch means of a sampled series: (truncation time, at_limit)."""
+def series_batches(time, x):
+    """(times, means): the finite samples of a series cut into batches of b samples, b its
+    statistical inefficiency over its second half (at least MSER_MIN_BATCH); each batch's first
+    time and mean. Empty arrays without finite samples."""
     ok = np.isfinite(x)
     time, x = np.asarray(time)[ok], np.asarray(x, dtype=float)[ok]
     if len(x) == 0:
-        return np.nan, False
+        return np.zeros(0), np.zeros(0)
     tail = block_average(x[len(x) // 2:])
     inefficiency = (tail["n"] / tail["n_independent"]) if tail["n_independent"] > 0 else 1.0
     b = max(MSER_MIN_BATCH, int(np.ceil(inefficiency)))
     k = len(x) // b
-    d, at_limit = mser_truncation(x[: k * b].reshape(k, b).mean(axis=1))
-    return float(time[d * b]), at_limit
+    return time[: k * b: b], x[: k * b].reshape(k, b).mean(axis=1)
+
+
+def series_truncation(time, x):
+    """MSER on batch means of a sampled series: (truncation time, at_limit)."""
+    times, means = series_batches(time, x)
+    if len(means) == 0:
+        return np.nan, False
+    d, at_limit = mser_truncation(means)
+    return float(times[d]), at_limit
+
+
+def within_tolerance(time, x, tolerance):
+    """True when every batch mean of the series lies within `tolerance` of every other one: no
+    change of its level, transient or drift, reaches the size that matters for it."""
+    means = series_batches(time, x)[1]
+    return len(means) > 0 and float(np.ptp(means)) <= tolerance
 
 
 def stress_balance(balance, windows, start_time):
@@ -90,7 +109,7 @@ def stress_balance(balance, windows, start_time):
 
 
 def detect_steady_state(time, series, window_start, window_signals, balance=None,
-                        stationarity_only=()):
+                        stationarity_only=(), tolerances=None):
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
@@ -98,7 +117,10 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     (mean, err) of the interior mu_eff minus the walls' friction over those windows and the
     samples from start_time (None: not checked); stationarity_only: series that must not drift but need not
     hold STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is
-    not reported, such as the block's speed). Returns a dict with steady (bool), reason,
+    not reported, such as the block's speed); tolerances: {name: size} for series whose
+    changes matter only from that size on: a series whose batch means all lie within it takes
+    no part in the transient's end nor in the drift test (its truncation time is NaN). Returns
+    a dict with steady (bool), reason,
     transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
     truncation_times {name: t}, independent_samples {name: n}, drift_sigmas {name: z} and
     stress_balance {mean, err, sigmas} over the steady windows (NaN if not checked).
@@ -107,7 +129,13 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     window_start = np.asarray(window_start, dtype=float)
     t_end = float(time[-1])
     truncation, problems = {}, []
+    tolerances = tolerances or {}
+    level = {name for name, size in tolerances.items()
+             if name in series and within_tolerance(time, series[name], size)}
     for name, x in series.items():
+        if name in level:
+            truncation[name] = np.nan
+            continue
         truncation[name], at_limit = series_truncation(time, x)
         if at_limit:
             problems.append(f"{name} still drifting (MSER truncation at t = "
@@ -144,7 +172,7 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
                 problems.append(f"only {n_ind:.3g} independent samples of {name} after the "
                                 f"transient, need {STEADY_MIN_INDEPENDENT}")
         for name, z in drift.items():
-            if z > STEADY_MAX_DRIFT:
+            if name not in level and z > STEADY_MAX_DRIFT:
                 problems.append(f"{name} still drifting (the two halves after t = "
                                 f"{transient_end:.4g} differ by {z:.2g} standard errors)")
     imbalance = (stress_balance(balance, steady_windows, transient_end)

@@ -181,7 +181,8 @@ def analyze(run):
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
                                     "abs_block_vx": np.abs(u)},
                              w["t_start"], window_signals, balance=balance,
-                             stationarity_only=("abs_block_vx",))
+                             stationarity_only=("abs_block_vx",),
+                             tolerances={"abs_block_vx": rg.BLOCK_SPEED_TOLERANCE * V})
     if no_window:
         st.update(steady=False, reason=no_window_reason(run, time),
                   transient_end_time=np.nan)   # no transient end is claimed

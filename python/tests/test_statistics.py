@@ -134,6 +134,26 @@ class SteadyState(unittest.TestCase):
         self.assertIn("still drifting", st["reason"])
         self.assertGreaterEqual(st["averaging_start_time"], 0.5 * t[-1] - 1e-9)
 
+    def test_a_change_within_its_tolerance_does_not_count(self):
+        # The same slow relaxation of a block speed (in units of V), still going at the end of
+        # the run: from 0.03, as regime A's wander, and from 0.9, a block leaving a wall.
+        t = 0.5 * np.arange(1, 8001)
+        rng = np.random.default_rng(7)
+        mu = rng.normal(0.3, 0.02, len(t))
+        decay = np.exp(-t / (0.5 * t[-1]))
+        creep = 0.03 * decay + np.abs(ar1(len(t), 0.9, 0.003, rng))
+        jump = 0.9 * decay + np.abs(ar1(len(t), 0.9, 0.003, rng))
+        starts = np.arange(0.0, t[-1] - self.window + 1e-9, self.window)
+        for speed, tolerated in ((creep, True), (jump, False)):
+            series = {"mu": mu, "speed": speed}
+            plain = detect_steady_state(t, series, starts, {}, stationarity_only=("speed",))
+            self.assertFalse(plain["steady"])
+            self.assertIn("speed still drifting", plain["reason"])
+            st = detect_steady_state(t, series, starts, {}, stationarity_only=("speed",),
+                                     tolerances={"speed": 0.1})
+            self.assertEqual(st["steady"], tolerated, st["reason"])
+            self.assertEqual(np.isnan(st["truncation_times"]["speed"]), tolerated)
+
     def test_too_short_is_not_steady(self):
         t = 0.5 * np.arange(1, 241)          # 120 time units: one window
         st = self.detect(t, {"mu": np.random.default_rng(2).normal(0.3, 0.02, len(t))})
