@@ -342,6 +342,7 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.stages.detect += r.seconds.detect;
     m.stages.prepare += r.seconds.prepare;
     m.stages.solve += r.seconds.solve;
+    m.stages.check += r.seconds.check;
     m.stages.integrate += r.seconds.integrate;
     m.stages.measure += r.seconds.measure;
     m.sum_sweeps += r.solver.sweeps;

@@ -61,6 +61,7 @@ void add_step(RunSummary& summary, const StepReport& r) {
   summary.seconds.detect += r.seconds.detect;
   summary.seconds.prepare += r.seconds.prepare;
   summary.seconds.solve += r.seconds.solve;
+  summary.seconds.check += r.seconds.check;
   summary.seconds.integrate += r.seconds.integrate;
   summary.seconds.measure += r.seconds.measure;
   summary.capped_steps += r.solver.hit_cap ? 1 : 0;
@@ -209,6 +210,7 @@ nlohmann::json summary_to_json(const RunSummary& s) {
            {{"detect", s.seconds.detect},
             {"prepare", s.seconds.prepare},
             {"solve", s.seconds.solve},
+            {"check", s.seconds.check},
             {"integrate", s.seconds.integrate},
             {"measure", s.seconds.measure}}},
           {"problem", s.last.problem}};

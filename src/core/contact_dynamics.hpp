@@ -3,8 +3,10 @@
 //   2. prepare  free velocities: v + dt * (external force / mass) for disks and free wall axes,
 //               imposed values on driven axes, 0 on fixed ones;
 //   3. solve    the contact impulses by nonlinear Gauss-Seidel (nlgs_solver.hpp);
-//   4. integrate positions with the new velocities (semi-implicit Euler), wrap x;
-//   5. measure  wall forces, largest overlap (over every pair when bodies moved more than the
+//   4. check    the solved step's velocity residual against the contact laws
+//               (velocity_residual.hpp): an observer of the solve, it changes nothing;
+//   5. integrate positions with the new velocities (semi-implicit Euler), wrap x;
+//   6. measure  wall forces, largest overlap (over every pair when bodies moved more than the
 //               contact margin allows for), largest displacement; check for blow-up.
 // Each stage is timed into the report. The step never does I/O.
 #pragma once
@@ -32,8 +34,9 @@ struct StepOptions {
 };
 
 struct StageSeconds {
-  double detect = 0.0, prepare = 0.0, solve = 0.0, integrate = 0.0, measure = 0.0;
-  double total() const { return detect + prepare + solve + integrate + measure; }
+  /// check: the velocity residual of the solved step (velocity_residual.hpp).
+  double detect = 0.0, prepare = 0.0, solve = 0.0, check = 0.0, integrate = 0.0, measure = 0.0;
+  double total() const { return detect + prepare + solve + check + integrate + measure; }
 };
 
 struct StepReport {
