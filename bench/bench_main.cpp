@@ -74,6 +74,8 @@ struct Settings {
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   int step_error_samples = 0;
+  int step_error_spacing = 20;  // ordinary steps before each sample
+  bool from_reference = false;  // after each sample, go on from the reference's step
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
   std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
@@ -125,6 +127,9 @@ Reference solve of --step-error:
   --reference-relaxation W
                       its relaxation (default 1: Gauss-Seidel; every relaxation has the same
                       fixed point)
+  --step-error-spacing S  ordinary steps between two samples of --step-error (default 20)
+  --from-reference    after each sample of --step-error, go on from the reference's step
+                      instead of the tested one: how fast exact steps lose their accuracy
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the impulse, wall-force
                       and velocity errors (stderr)
@@ -178,6 +183,12 @@ Settings parse(int argc, char** argv) {
                                     std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--step-error") {
       s.step_error_samples = std::stoi(value());
+    } else if (a == "--step-error-spacing") {
+      s.step_error_spacing = std::stoi(value());
+      if (s.step_error_spacing < 0)
+        throw std::invalid_argument("--step-error-spacing must be at least 0");
+    } else if (a == "--from-reference") {
+      s.from_reference = true;
     } else if (a == "--max-sweeps") {
       s.solver.max_sweeps = std::stoi(value());
       if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
@@ -454,9 +465,13 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
 /// is unique; where it is not, a corrected solve may end on another one). A reference that stops
 /// at its cap is flagged: in the 200 d tall cell most do, whatever the relaxation. Both:
-/// docs/accuracy.md, "Tall cells". The world goes on with `options`.
+/// docs/accuracy.md, "Tall cells". The world goes on with `options`, or, `from_reference`, from
+/// the reference's step (its positions, velocities and impulses as the next warm start): the
+/// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
+/// ordinary steps later.
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
-                int spacing, double reference_relaxation, int reference_anderson) {
+                int spacing, double reference_relaxation, int reference_anderson,
+                bool from_reference) {
   StepOptions tight = options;
   tight.solver.alpha = 1e-20;
   tight.solver.converged_fraction = 1.0;
@@ -518,7 +533,12 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                  r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
                  l2.back(), worst / mean, wall_error, velocity.back(),
                  ref_capped ? "  (reference not converged: at its cap)" : "");
-    dynamics.step(world, options);
+    if (from_reference) {
+      world = w_ref;
+      dynamics = d_ref;
+    } else {
+      dynamics.step(world, options);
+    }
   }
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());
@@ -608,8 +628,8 @@ int run(const Settings& s) {
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
       if (s.step_error_samples > 0)
-        step_error(box.world, box.dynamics, options, s.step_error_samples, 20,
-                   s.reference_relaxation, s.reference_anderson);
+        step_error(box.world, box.dynamics, options, s.step_error_samples, s.step_error_spacing,
+                   s.reference_relaxation, s.reference_anderson, s.from_reference);
     };
 
     StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3
