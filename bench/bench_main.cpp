@@ -457,7 +457,8 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// all impulses, the largest error of one contact relative to the mean impulse, the relative
 /// error of the top wall's force, the disks' end-of-step velocity error (root mean square of
 /// |v - v_ref| over the disks, in units of the top wall's speed V), the last sweep's relative
-/// change (sqrt of the residual) and the sweeps of both solves. In a hyperstatic packing the
+/// change (sqrt of the residual), the sweeps of both solves and the contacts whose status (open,
+/// sticking, sliding) differs between the two solves. In a hyperstatic packing the
 /// impulses of a step need not be unique while the velocities are: the velocity error is what
 /// the motion feels. The reference relaxes its updates by `reference_relaxation`
 /// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
@@ -469,6 +470,13 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// the reference's step (its positions, velocities and impulses as the next warm start): the
 /// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
 /// ordinary steps later.
+/// A solved contact's status: 0 open (no normal impulse), 1 sticking, 2 sliding (|R_t| on the
+/// Coulomb bound to a relative 1e-9).
+int contact_status(const cdshear::Contact& c) {
+  if (!(c.impulse_n > 0.0)) return 0;
+  return std::abs(c.impulse_t) >= (1.0 - 1e-9) * c.friction * c.impulse_n ? 2 : 1;
+}
+
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
                 int spacing, double reference_relaxation, int reference_anderson,
                 bool from_reference) {
@@ -487,7 +495,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
                "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall"
-               "  %s\n",
+               "  %s  status_changes\n",
                sheared ? "velocity_rms/V" : "velocity_rms");
   for (int k = 0; k < samples; ++k) {
     for (int j = 0; j < spacing; ++j) dynamics.step(world, options);
@@ -500,7 +508,9 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     const auto& a = d_opt.contacts();
     const auto& b = d_ref.contacts();
     double diff2 = 0.0, ref2 = 0.0, ref_sum = 0.0, worst = 0.0;
+    std::size_t status_changes = 0;  // contacts open, sticking or sliding in one solve only
     for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+      status_changes += contact_status(a[i]) != contact_status(b[i]) ? 1 : 0;
       const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
       diff2 += dn * dn + dt * dt;
       ref2 += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
@@ -529,9 +539,9 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
           r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
           r_opt.active_set.correction, r_opt.active_set.initial_residual,
           r_opt.active_set.residual);
-    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e  %14.2e%s\n",
+    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e  %14.2e  %14zu%s\n",
                  r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
-                 l2.back(), worst / mean, wall_error, velocity.back(),
+                 l2.back(), worst / mean, wall_error, velocity.back(), status_changes,
                  ref_capped ? "  (reference not converged: at its cap)" : "");
     if (from_reference) {
       world = w_ref;
