@@ -29,6 +29,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "contact_dynamics.hpp"
@@ -470,13 +471,6 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// the reference's step (its positions, velocities and impulses as the next warm start): the
 /// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
 /// ordinary steps later.
-/// A solved contact's status: 0 open (no normal impulse), 1 sticking, 2 sliding (|R_t| on the
-/// Coulomb bound to a relative 1e-9).
-int contact_status(const cdshear::Contact& c) {
-  if (!(c.impulse_n > 0.0)) return 0;
-  return std::abs(c.impulse_t) >= (1.0 - 1e-9) * c.friction * c.impulse_n ? 2 : 1;
-}
-
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
                 int spacing, double reference_relaxation, int reference_anderson,
                 bool from_reference) {
@@ -510,7 +504,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     double diff2 = 0.0, ref2 = 0.0, ref_sum = 0.0, worst = 0.0;
     std::size_t status_changes = 0;  // contacts open, sticking or sliding in one solve only
     for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
-      status_changes += contact_status(a[i]) != contact_status(b[i]) ? 1 : 0;
+      status_changes += cdshear::impulse_status(a[i]) != cdshear::impulse_status(b[i]) ? 1 : 0;
       const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
       diff2 += dn * dn + dt * dt;
       ref2 += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
@@ -543,12 +537,8 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                  r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
                  l2.back(), worst / mean, wall_error, velocity.back(), status_changes,
                  ref_capped ? "  (reference not converged: at its cap)" : "");
-    if (from_reference) {
-      world = w_ref;
-      dynamics = d_ref;
-    } else {
-      dynamics.step(world, options);
-    }
+    world = from_reference ? std::move(w_ref) : std::move(w_opt);  // the step, not solved again
+    dynamics = from_reference ? std::move(d_ref) : std::move(d_opt);
   }
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());

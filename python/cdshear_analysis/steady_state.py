@@ -81,20 +81,12 @@ def series_batches(time, x):
     return time[: k * b: b], x[: k * b].reshape(k, b).mean(axis=1)
 
 
-def series_truncation(time, x):
-    """MSER on batch means of a sampled series: (truncation time, at_limit)."""
-    times, means = series_batches(time, x)
+def batch_truncation(times, means):
+    """MSER on a series' batches (series_batches): (truncation time, at_limit)."""
     if len(means) == 0:
         return np.nan, False
     d, at_limit = mser_truncation(means)
     return float(times[d]), at_limit
-
-
-def within_tolerance(time, x, tolerance):
-    """True when every batch mean of the series lies within `tolerance` of every other one: no
-    change of its level, transient or drift, reaches the size that matters for it."""
-    means = series_batches(time, x)[1]
-    return len(means) > 0 and float(np.ptp(means)) <= tolerance
 
 
 def stress_balance(balance, windows, start_time):
@@ -130,13 +122,14 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     t_end = float(time[-1])
     truncation, problems = {}, []
     tolerances = tolerances or {}
-    level = {name for name, size in tolerances.items()
-             if name in series and within_tolerance(time, series[name], size)}
+    level = set()   # series whose batch means all lie within their tolerance of each other
     for name, x in series.items():
-        if name in level:
+        times, means = series_batches(time, x)
+        if name in tolerances and len(means) and float(np.ptp(means)) <= tolerances[name]:
+            level.add(name)
             truncation[name] = np.nan
             continue
-        truncation[name], at_limit = series_truncation(time, x)
+        truncation[name], at_limit = batch_truncation(times, means)
         if at_limit:
             problems.append(f"{name} still drifting (MSER truncation at t = "
                             f"{truncation[name]:.4g}, the limit of its search: half the data)")

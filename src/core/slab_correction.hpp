@@ -172,12 +172,11 @@ class SlabCorrection {
   std::vector<double> scales() const { return {scale_.begin() + 1, scale_.end() - 1}; }
 
  private:
-  /// Step 3 of apply_gathered(), on one thread: r from the groups' and then the chunks' shares,
-  /// A from the chunks' shares (clearing them), then s. False when dgbsv finds A singular or s is
-  /// not finite.
   /// Pass 2: A and r's velocity part, chunk by chunk of bodies (every thread of the team).
   void add_body_sums(const std::vector<SolverBody>& bodies);
-  /// Pass 3, on one thread: the shares added in order, A s = -r solved, s bounded.
+  /// Pass 3 of apply_gathered(), on one thread: r from the groups' and then the chunks' shares,
+  /// A from the chunks' shares (clearing them), then s, bounded. False when dgbsv finds A
+  /// singular or s is not finite.
   bool solve();
   /// Pass 4: the bodies follow the scaled impulses, their slots' marks cleared (every thread;
   /// ends on the barrier of its loop).

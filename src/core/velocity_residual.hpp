@@ -18,6 +18,7 @@
 // a residual velocity moves grains. One pass over the contacts, about a sweep's cost.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -40,6 +41,16 @@ inline ContactVelocity contact_velocity(const Contact& c, const std::vector<Solv
   const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
   return {dvx * c.normal.x + dvy * c.normal.y + c.gap * inv_dt,
           dvy * c.normal.x - dvx * c.normal.y + c.lever_a * a.omega + c.lever_b * b.omega};
+}
+
+/// A solved contact's state by its impulses: open (no normal impulse), sticking (inside the
+/// Coulomb cone) or sliding (on its boundary, where the solver's projection puts it exactly).
+enum class ImpulseStatus { kOpen, kSticking, kSliding };
+
+inline ImpulseStatus impulse_status(const Contact& c) {
+  if (!(c.impulse_n > 0.0)) return ImpulseStatus::kOpen;
+  return std::abs(c.impulse_t) < c.friction * c.impulse_n ? ImpulseStatus::kSticking
+                                                          : ImpulseStatus::kSliding;
 }
 
 struct VelocityResidual {
