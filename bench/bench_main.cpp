@@ -123,6 +123,9 @@ each option overrides one of them.
                       (solver.converged_fraction, 0.9, as in docs/model.md section 3)
   --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
                       0: off; active_set_solve.hpp)
+  --profile           time the solver's stages on its first thread (set-up, sweeps, waits at
+                      the phases' barriers, convergence test, slab correction, mix,
+                      write-back) and print their shares of the solve
 Reference solve of --step-error:
   --reference-anderson M  its Anderson depth (default 0: plain)
   --reference-relaxation W
@@ -197,6 +200,8 @@ Settings parse(int argc, char** argv) {
       s.solver.converged_fraction = std::stod(value());
       if (!(s.solver.converged_fraction >= 0.0 && s.solver.converged_fraction <= 1.0))
         throw std::invalid_argument("--converged-fraction must be in [0, 1]");
+    } else if (a == "--profile") {
+      s.solver.profile = true;
     } else if (a == "--alpha") {
       s.solver.alpha = std::stod(value());
       if (!(s.solver.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
@@ -313,8 +318,9 @@ struct Measurement {
   std::uint64_t capped = 0, displacement_warnings = 0;
   double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
-  double observer_s = 0.0;  // time in the measurement layer (shear cases)
-  std::vector<int> sweeps;  // of every measured step
+  double observer_s = 0.0;         // time in the measurement layer (shear cases)
+  std::vector<int> sweeps;         // of every measured step
+  cdshear::SolverProfile profile;  // --profile: the solver's first thread, summed over steps
 };
 
 /// "p10 a, p50 b, p90 c, p99 d, max e" of the sweeps per step.
@@ -328,6 +334,21 @@ std::string sweep_distribution(std::vector<int> sweeps) {
   std::snprintf(buf, sizeof buf, "p10 %d, p50 %d, p90 %d, p99 %d, max %d", at(0.1), at(0.5),
                 at(0.9), at(0.99), sweeps.back());
   return buf;
+}
+
+/// --profile: the shares of the solver's stages on its first thread, and the part of the solve
+/// stage they cover (the rest: the set-up before the team starts, the refinement).
+void print_profile(const cdshear::SolverProfile& p, double solve_seconds) {
+  const double total = p.total();
+  if (!(total > 0.0)) return;
+  const auto pc = [&](double x) { return 100.0 * x / total; };
+  std::fprintf(stderr,
+               "  solver stages, first thread: set-up %.1f%%, sweeps %.1f%%, waits at phase "
+               "ends %.1f%%, convergence test %.1f%%, slab correction %.1f%%, mix %.1f%%, "
+               "write-back %.1f%% (%.3f s, %.1f%% of the solve stage)\n",
+               pc(p.set_up), pc(p.sweeps), pc(p.phase_waits), pc(p.convergence), pc(p.correction),
+               pc(p.mix), pc(p.write_back), total,
+               solve_seconds > 0.0 ? 100.0 * total / solve_seconds : 0.0);
 }
 
 /// Steps `world` untimed for `warmup` steps, then timed until both `seconds` and `min_steps`
@@ -363,6 +384,7 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.sum_active += r.solver.active_contacts;
     m.sum_dormant += static_cast<double>(r.solver.dormant_contacts);
     m.sum_woken += static_cast<double>(r.solver.woken_contacts);
+    m.profile += r.solver.profile;
     m.capped += r.solver.hit_cap;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
@@ -625,6 +647,7 @@ int run(const Settings& s) {
         std::fprintf(
             stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
+      if (options.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
       if (s.step_error_samples > 0)

@@ -133,7 +133,9 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   const DenseBox box = make_dense_box(p);
   ASSERT_TRUE(box.report.dense);
   std::vector<std::size_t> woken;
-  const auto hash = [&](int threads) {
+  SolverProfile profile;       // of the last call, summed over its steps
+  double solve_seconds = 0.0;  // its solve stages
+  const auto hash = [&](int threads, bool profiled = false) {
     World world = box.world;
     ContactDynamics dynamics = box.dynamics;
     Wall& top = world.walls[kBoxTopWall];
@@ -148,6 +150,9 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     o.solver.anderson_period = 4;
     o.solver.alpha = 1e-5;
     o.solver.slab_correction_period = 4;
+    o.solver.profile = profiled;
+    profile = {};
+    solve_seconds = 0.0;
     int most_threads = 0, most_phases = 0;
     std::size_t most_contacts = 0;
     woken.clear();
@@ -158,6 +163,8 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
       most_phases = std::max(most_phases, static_cast<int>(r.solver.colours));
       most_contacts = std::max<std::size_t>(most_contacts, r.solver.active_contacts);
       woken.push_back(r.solver.woken_contacts);
+      profile += r.solver.profile;
+      solve_seconds += r.seconds.solve;
     }
     EXPECT_GE(most_phases, 3);          // slabs, even and odd boundaries
     EXPECT_GT(most_contacts, p.count);  // dense: more force-carrying contacts than disks
@@ -167,11 +174,21 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     return state_hash(world);
   };
   const std::uint64_t one = hash(1);
+  EXPECT_EQ(profile.total(), 0.0);  // nothing timed unless asked
   const std::vector<std::size_t> woken_one = woken;
   EXPECT_GT(*std::max_element(woken_one.begin(), woken_one.end()), 0u);  // rows did wake
   EXPECT_EQ(hash(2), one);
   EXPECT_EQ(woken, woken_one);
   EXPECT_EQ(hash(3), one);
+  // Timing the solver's stages (cdshear_bench --profile) changes no result; the stages it
+  // fills lie within the step's solve stage.
+  EXPECT_EQ(hash(2, true), one);
+  EXPECT_GT(profile.set_up, 0.0);
+  EXPECT_GT(profile.sweeps, 0.0);
+  EXPECT_GT(profile.convergence, 0.0);
+  EXPECT_GT(profile.mix, 0.0);
+  EXPECT_GT(profile.write_back, 0.0);
+  EXPECT_LE(profile.total(), solve_seconds);
 }
 
 TEST(Determinism, InterleavedRunsDoNotInfluenceEachOther) {

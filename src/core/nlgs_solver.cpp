@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <limits>
@@ -165,6 +166,25 @@ template <Relaxation kRelax>
   tally.count(r_n > 0.0 || dn != 0.0, change2 <= alpha * force2);
   lengths2 = {change2, force2};
 }
+
+/// The first thread's stopwatch for SolverProfile: each lap adds the time since the last one to
+/// a stage. Off (no clock read) unless the options ask for a profile and this is that thread.
+class StageClock {
+ public:
+  explicit StageClock(bool on) : on_(on) {
+    if (on_) last_ = std::chrono::steady_clock::now();
+  }
+  void lap(double& stage_seconds) {
+    if (!on_) return;
+    const auto now = std::chrono::steady_clock::now();
+    stage_seconds += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  bool on_;
+  std::chrono::steady_clock::time_point last_;
+};
 
 /// Markers of SolverWorkspace::wall_band: no contact yet, contacts in several bands.
 constexpr std::uint32_t kNoBand = 0xffffffffu;
@@ -486,7 +506,8 @@ class ContactSolve {
     bool serial_rows = false;
     std::size_t tallied_groups = 0;
     bool any_dormant = false;
-    double residual = 0.0;  ///< of the last sweep whose sums were taken
+    double residual = 0.0;        ///< of the last sweep whose sums were taken
+    StageClock* clock = nullptr;  ///< this thread's (SolverOptions::profile)
   };
 
   bool corrects_slabs() const {
@@ -788,10 +809,14 @@ class ContactSolve {
   /// of one (`if (false)`) would still end every construct with a barrier that makes a system
   /// call (futex wake), two to seven per sweep.
   void solve_rows() {
+    StageClock clock(options.profile && team_place().thread == 0);
     SweepState st = begin_sweeps();
+    st.clock = &clock;
+    clock.lap(report.profile.set_up);
     for (int sweep = 1; sweep <= options.max_sweeps; ++sweep)
       if (sweep_once(sweep, st)) break;
     write_back();
+    clock.lap(report.profile.write_back);
   }
 
   /// Ordering and set-up, then what the sweeps need: the dormant rows counted, the mixed rows
@@ -842,6 +867,7 @@ class ContactSolve {
     bool done = test_convergence(sweep, tallies, st, converged_fraction);
     const std::size_t woken = wake_dormant_rows(sweep, done, st);
     done = done && woken == 0;
+    st.clock->lap(report.profile.convergence);
     if (st.first_thread) {
       report.sweeps = sweep;
       report.converged_fraction = converged_fraction;
@@ -857,18 +883,26 @@ class ContactSolve {
   /// Sweeps: every group of every phase (the groups of a phase in parallel), then the serial
   /// group.
   void sweep_groups(SweepTally* tallies, bool corrects, const SweepState& st) {
+    // Each phase's `omp for` without its barrier, then the barrier on its own: the same
+    // synchronisation, with the wait timed apart from the work.
     for (const SolverPhase& phase : ws.phases) {
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
       for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
         sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
+      st.clock->lap(report.profile.sweeps);
+      team_barrier();
+      st.clock->lap(report.profile.phase_waits);
     }
     if (st.serial_rows) {
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
       sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
+      st.clock->lap(report.profile.sweeps);
+      team_barrier();
+      st.clock->lap(report.profile.phase_waits);
     }
   }
 
@@ -932,6 +966,7 @@ class ContactSolve {
   void correct_and_mix(int sweep, bool corrects, const SweepState& st) {
     const bool mixes = accelerate && sweep % st.period == 0 && sweep < options.max_sweeps;
     const bool corrected = corrects && ws.slab_correction.apply_gathered(rows, bodies, !mixes);
+    st.clock->lap(report.profile.correction);
     if (corrected && st.first_thread) ++report.slab_corrections;
     if (mixes && st.first_thread) ++report.anderson_mixes;
     const bool scale_in_gather = corrected && mixes;
@@ -939,6 +974,7 @@ class ContactSolve {
       gather_mixed_impulses(ws.anderson_g, scale_in_gather);
       ws.anderson.mix(ws.anderson_x, ws.anderson_g);
       each_group_by_phase([this](std::size_t g) { apply_mixed_impulses(g); });
+      st.clock->lap(report.profile.mix);
     }
   }
 

@@ -109,6 +109,9 @@ struct SolverOptions {
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,
   /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
   int newton_iterations = 0;
+  /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
+  /// sweep phase; no effect on the results). `cdshear_bench --profile`.
+  bool profile = false;
 };
 
 /// Whether the options ask for the slab correction: the coloured order only (the others have no
@@ -129,6 +132,34 @@ inline constexpr int kMaxAndersonDepth = AndersonMixer::kMaxDepth;
 /// same averages over five seeds: docs/accuracy.md, "Defaults and what they guarantee").
 inline constexpr int kMixPeriodFactorWithSlabCorrection = 2;
 
+/// Where the first thread of a solve spent its time [s], filled when SolverOptions::profile is
+/// set. The stages add up to that thread's time in solve_contacts but the set-up before the team
+/// starts (sizing scratch); on more than one thread, `phase_waits` is its wait for the others at
+/// the end of each sweep phase, and the other stages hold their own barriers' waits.
+struct SolverProfile {
+  double set_up = 0.0;       ///< ordering, rows, warm start, dormant rows, the mixed rows listed
+  double sweeps = 0.0;       ///< the thread's share of the sweeps' phases and the serial group
+  double phase_waits = 0.0;  ///< at the barrier ending each phase
+  double convergence = 0.0;  ///< the convergence test and the looks at the dormant rows
+  double correction = 0.0;   ///< slab corrections
+  double mix = 0.0;          ///< Anderson mixes: gather, mix, apply
+  double write_back = 0.0;   ///< impulses and velocities back to the contacts and bodies
+
+  double total() const {
+    return set_up + sweeps + phase_waits + convergence + correction + mix + write_back;
+  }
+  SolverProfile& operator+=(const SolverProfile& o) {
+    set_up += o.set_up;
+    sweeps += o.sweeps;
+    phase_waits += o.phase_waits;
+    convergence += o.convergence;
+    correction += o.correction;
+    mix += o.mix;
+    write_back += o.write_back;
+    return *this;
+  }
+};
+
 struct SolverReport {
   int sweeps = 0;
   bool hit_cap = false;
@@ -143,6 +174,7 @@ struct SolverReport {
   int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
   int anderson_mixes = 0;            ///< Anderson mix passes, restarts included
   int threads = 1;                   ///< threads used
+  SolverProfile profile;             ///< options.profile only
 };
 
 /// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive
