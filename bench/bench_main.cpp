@@ -123,6 +123,9 @@ each option overrides one of them.
                       (solver.converged_fraction, 0.9, as in docs/model.md section 3)
   --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
                       0: off; active_set_solve.hpp)
+  --residual-tolerance L  stop only once the force-carrying contacts' root mean square
+                      contact-law violation over the step, e dt, is at most L [d]
+                      (solver.residual_tolerance, 0: off)
   --profile           time the solver's stages on its first thread (set-up, sweeps, waits at
                       the phases' barriers, convergence test, slab correction, mix,
                       write-back) and print their shares of the solve
@@ -200,6 +203,10 @@ Settings parse(int argc, char** argv) {
       s.solver.converged_fraction = std::stod(value());
       if (!(s.solver.converged_fraction >= 0.0 && s.solver.converged_fraction <= 1.0))
         throw std::invalid_argument("--converged-fraction must be in [0, 1]");
+    } else if (a == "--residual-tolerance") {
+      s.solver.residual_tolerance = std::stod(value());
+      if (!(s.solver.residual_tolerance >= 0.0))
+        throw std::invalid_argument("--residual-tolerance must be >= 0");
     } else if (a == "--profile") {
       s.solver.profile = true;
     } else if (a == "--alpha") {
@@ -318,9 +325,12 @@ struct Measurement {
   std::uint64_t capped = 0, displacement_warnings = 0;
   double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
-  double observer_s = 0.0;         // time in the measurement layer (shear cases)
-  std::vector<int> sweeps;         // of every measured step
-  cdshear::SolverProfile profile;  // --profile: the solver's first thread, summed over steps
+  double observer_s = 0.0;           // time in the measurement layer (shear cases)
+  std::vector<int> sweeps;           // of every measured step
+  cdshear::SolverProfile profile;    // --profile: the solver's first thread, summed over steps
+  std::uint64_t held_back = 0;       // steps whose residual test refused a stop at least once
+  std::vector<double> residual_rms;  // the check's rms_carrying of every step not at the cap
+  double residual_rms_capped = 0.0;  // its largest over the steps at the cap
 };
 
 /// "p10 a, p50 b, p90 c, p99 d, max e" of the sweeps per step.
@@ -334,6 +344,25 @@ std::string sweep_distribution(std::vector<int> sweeps) {
   std::snprintf(buf, sizeof buf, "p10 %d, p50 %d, p90 %d, p99 %d, max %d", at(0.1), at(0.5),
                 at(0.9), at(0.99), sweeps.back());
   return buf;
+}
+
+/// The steps' velocity residual (the check; docs/accuracy.md, "Per-step check") as the
+/// contact-law violation over a step, e dt [d]: median and largest over the steps not at the cap,
+/// largest over those at it; and the steps that the residual test held back.
+void print_residual(const Measurement& m, double dt, double velocity) {
+  std::vector<double> rms = m.residual_rms;
+  if (rms.empty()) return;
+  std::sort(rms.begin(), rms.end());
+  const double median = rms[rms.size() / 2], largest = rms.back();
+  char per_v[96] = "";
+  if (velocity > 0.0)
+    std::snprintf(per_v, sizeof per_v, " (e / V: %.2e, %.2e, %.2e)", median / velocity,
+                  largest / velocity, m.residual_rms_capped / velocity);
+  std::fprintf(stderr,
+               "  velocity residual, e dt [d]: median %.2e, largest %.2e off the cap, largest "
+               "%.2e at it%s; held back by the residual test: %.2f%% of the steps\n",
+               median * dt, largest * dt, m.residual_rms_capped * dt, per_v,
+               100.0 * static_cast<double>(m.held_back) / static_cast<double>(m.steps));
 }
 
 /// --profile: the shares of the solver's stages on its first thread, and the part of the solve
@@ -385,6 +414,11 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.sum_dormant += static_cast<double>(r.solver.dormant_contacts);
     m.sum_woken += static_cast<double>(r.solver.woken_contacts);
     m.profile += r.solver.profile;
+    m.held_back += r.solver.residual_refusals > 0;
+    if (r.solver.hit_cap)
+      m.residual_rms_capped = std::max(m.residual_rms_capped, r.velocity_residual.rms_carrying);
+    else
+      m.residual_rms.push_back(r.velocity_residual.rms_carrying);
     m.capped += r.solver.hit_cap;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
@@ -647,6 +681,7 @@ int run(const Settings& s) {
         std::fprintf(
             stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
+      print_residual(m, options.dt, velocity);
       if (options.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);

@@ -3,11 +3,13 @@
 // weight of disks k..N-1, and nothing moves.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <utility>
 #include <vector>
 
+#include "shear_case.hpp"
 #include "test_support.hpp"
 
 namespace cdshear {
@@ -384,6 +386,48 @@ TEST(VelocityResidual, ReadsEachContactLaw) {
   EXPECT_EQ(residual(0.5, 0.5, {0.4, 0.0}), 0.0);  // sliding against its friction (u_t R_t < 0)
   EXPECT_DOUBLE_EQ(residual(0.5, -0.5, {0.4, 0.0}), 0.4);  // sliding with its friction
   EXPECT_EQ(residual(0.0, 0.0, {0.4, 0.0}), 0.0);          // frictionless: free to slide
+}
+
+TEST(VelocityResidual, ToleranceHoldsTheSweepsUntilEachStepMeetsIt) {
+  // A dense periodic box sheared by its top wall with the shear phase's solver: first without
+  // the residual test, whose steps' contact-law violations over a step (e dt, the check's root
+  // mean square) set the tolerance at their median; then with it, where every step that ends
+  // before the cap meets it, the sweeps having gone on where it did not hold yet.
+  const testing::ShearedBox box = testing::sheared_dense_box(300, 10.0, 0.1);
+  ASSERT_TRUE(box.dense);
+  struct Steps {
+    std::vector<double> violation;  // e dt [d] of each step not at the cap
+    int sweeps = 0, refusals = 0;
+  };
+  const auto shear = [&](double tolerance) {
+    World world = box.world;
+    ContactDynamics dynamics = box.dynamics;
+    StepOptions o = shear_step_defaults();
+    o.dt = 5e-3;
+    o.solver.residual_tolerance = tolerance;
+    Steps steps;
+    for (int k = 0; k < 150; ++k) {
+      const StepReport r = dynamics.step(world, o);
+      EXPECT_FALSE(r.blown_up);
+      steps.sweeps += r.solver.sweeps;
+      steps.refusals += r.solver.residual_refusals;
+      if (!r.solver.hit_cap) steps.violation.push_back(r.velocity_residual.rms_carrying * o.dt);
+    }
+    return steps;
+  };
+  const Steps free_steps = shear(0.0);
+  EXPECT_EQ(free_steps.refusals, 0);
+  std::vector<double> sorted = free_steps.violation;
+  std::sort(sorted.begin(), sorted.end());
+  const double tolerance = sorted[sorted.size() / 2];
+  ASSERT_GT(tolerance, 0.0);
+  const Steps held = shear(tolerance);
+  std::printf("residual tolerance %.3g d: %d refusals, %d sweeps against %d\n", tolerance,
+              held.refusals, held.sweeps, free_steps.sweeps);
+  EXPECT_GT(held.refusals, 0);  // (the runs part ways at the first: no sweep totals compared)
+  // The check adds the same squares over the contacts, the test over the rows group by group:
+  // the same sum but for rounding.
+  for (const double v : held.violation) EXPECT_LE(v, tolerance * (1.0 + 1e-9));
 }
 
 }  // namespace

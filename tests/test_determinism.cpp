@@ -126,21 +126,14 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   // settings are the shear phase's: dormant rows left out and woken group by group on the
   // team, over-relaxation, Anderson mixing, alpha 1e-5, and the slab correction (every 4
   // sweeps here, twice as often as in the shear phase, to exercise it more).
-  CompressedBoxParams p;
-  p.count = 600;
-  p.width = 12.0;
-  p.periodic_x = true;
-  const DenseBox box = make_dense_box(p);
-  ASSERT_TRUE(box.report.dense);
+  const testing::ShearedBox box = testing::sheared_dense_box(600, 12.0, 0.5);
+  ASSERT_TRUE(box.dense);
   std::vector<std::size_t> woken;
   SolverProfile profile;       // of the last call, summed over its steps
   double solve_seconds = 0.0;  // its solve stages
   const auto hash = [&](int threads, bool profiled = false) {
     World world = box.world;
     ContactDynamics dynamics = box.dynamics;
-    Wall& top = world.walls[kBoxTopWall];
-    top.mode_x = AxisMode::kImposed;
-    top.velocity.x = 0.5;
     StepOptions o = options(3, ContactOrder::kColoured);
     o.solver.threads = threads;
     o.solver.min_rows_per_thread = 1;
@@ -166,8 +159,8 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
       profile += r.solver.profile;
       solve_seconds += r.seconds.solve;
     }
-    EXPECT_GE(most_phases, 3);          // slabs, even and odd boundaries
-    EXPECT_GT(most_contacts, p.count);  // dense: more force-carrying contacts than disks
+    EXPECT_GE(most_phases, 3);       // slabs, even and odd boundaries
+    EXPECT_GT(most_contacts, 600u);  // dense: more force-carrying contacts than disks
 #if defined(_OPENMP)
     EXPECT_EQ(most_threads, std::min(threads, processors_available()));
 #endif

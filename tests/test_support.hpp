@@ -15,9 +15,30 @@
 
 #include "contact_dynamics.hpp"
 #include "scene.hpp"
+#include "scene_presets.hpp"
 #include "world.hpp"
 
 namespace cdshear::testing {
+
+/// The shear cell in small: `count` disks compressed in a box periodic in x over `width` under
+/// sigma_yy = 0.25 (scene_presets.hpp), its top wall then driven along x at `speed`. Densified
+/// once per call; `dense` says whether it settled.
+struct ShearedBox {
+  World world;
+  ContactDynamics dynamics;
+  bool dense = false;
+};
+inline ShearedBox sheared_dense_box(std::size_t count, double width, double speed) {
+  CompressedBoxParams p;
+  p.count = count;
+  p.width = width;
+  p.periodic_x = true;
+  DenseBox box = make_dense_box(p);
+  Wall& top = box.world.walls[kBoxTopWall];
+  top.mode_x = AxisMode::kImposed;
+  top.velocity.x = speed;
+  return {std::move(box.world), std::move(box.dynamics), box.report.dense};
+}
 
 /// Mass of a uniform disk of radius r and 2D density rho (docs/model.md section 1).
 inline double disk_mass(double r, double rho = 1.0) {

@@ -14,6 +14,7 @@
 #include "local_solve.hpp"
 #include "random_shuffle.hpp"
 #include "threads.hpp"
+#include "velocity_residual.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -943,7 +944,45 @@ class ContactSolve {
       // alpha bounds the square (the residual is the change squared)
       done = fraction_met && st.residual <= options.alpha;
     }
+    if (done && options.residual_tolerance > 0.0 && !meets_residual_tolerance(tallies, st)) {
+      done = false;
+      if (st.first_thread) ++report.residual_refusals;
+    }
     return done;
+  }
+
+  /// The stop test's second part (SolverOptions::residual_tolerance): the root mean square of
+  /// e dt over the force-carrying rows, each thread its groups' sums, added in group order.
+  /// Dormant rows carry no force and are not counted, as in the step's check.
+  bool meets_residual_tolerance(SweepTally* tallies, const SweepState& st) {
+    for (std::size_t g = st.my_groups.first; g < st.my_groups.last; ++g) {
+      double sum2 = 0.0;
+      std::size_t carrying = 0;
+      for (const std::uint32_t i : ws.awake[g]) {
+        const SolverRow& r = rows[i];
+        if (!(r.impulse_n > 0.0)) continue;
+        const SolverBody& a = bodies[r.body_a];
+        const SolverBody& b = bodies[r.body_b];
+        const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
+        const double u_n = dvx * r.normal.x + dvy * r.normal.y + r.bias_n;
+        const double u_t =
+            dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega;
+        sum2 += contact_law_violation2(u_n, u_t, r.impulse_n, r.impulse_t, r.friction);
+        ++carrying;
+      }
+      tallies[g].violation2 = sum2;
+      tallies[g].carrying_rows = carrying;
+    }
+    team_barrier();
+    double sum2 = 0.0;
+    std::size_t carrying = 0;
+    for (std::size_t g = 0; g < groups; ++g) {
+      sum2 += tallies[g].violation2;
+      carrying += tallies[g].carrying_rows;
+    }
+    if (carrying == 0) return true;
+    const double tolerance = options.residual_tolerance * inv_dt;  // on e [length/time]
+    return sum2 <= tolerance * tolerance * static_cast<double>(carrying);
   }
 
   /// The dormant rows' look (every kDormantCheckInterval sweeps, before the last one allowed,

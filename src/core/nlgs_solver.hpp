@@ -52,6 +52,8 @@
 //   - |dR_k|^2 <= alpha |R_k|^2 for at least `converged_fraction` of the force-carrying contacts
 //     (R_k != 0 before or after the sweep; idle candidates are not counted), and
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
+// and, if residual_tolerance > 0, the force-carrying rows' root mean square contact-law violation
+// over the step (e dt) is at most residual_tolerance,
 // or when `max_sweeps` is reached (reported as hit_cap). The last change underestimates the error
 // left 30 to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on dense
 // packings: docs/accuracy.md, which measures the error itself).
@@ -109,6 +111,12 @@ struct SolverOptions {
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,
   /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
   int newton_iterations = 0;
+  /// Largest contact-law violation over the step at which the sweeps may stop [length]: when
+  /// the criterion above holds, the root mean square over the force-carrying contacts of e dt
+  /// (e the velocity residual of velocity_residual.hpp: interpenetration, separation of a
+  /// closed contact, slip of a sticking one) must also be at most this, or the sweeps go on.
+  /// 0: no such test. Steps at the cap are reported as before.
+  double residual_tolerance = 0.0;
   /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
   /// sweep phase; no effect on the results). `cdshear_bench --profile`.
   bool profile = false;
@@ -173,6 +181,7 @@ struct SolverReport {
   std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
   int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
   int anderson_mixes = 0;            ///< Anderson mix passes, restarts included
+  int residual_refusals = 0;         ///< sweeps whose criterion held but not residual_tolerance
   int threads = 1;                   ///< threads used
   SolverProfile profile;             ///< options.profile only
 };
@@ -189,6 +198,8 @@ inline Share groups_share(const std::vector<std::size_t>& group_start, TeamPlace
 struct SweepTally {
   std::size_t converged = 0, carrying = 0;
   double sum_change = 0.0, sum_force = 0.0;  ///< sums of |dR| and |R|
+  double violation2 = 0.0;        ///< sum of e^2 over the force-carrying rows (residual test)
+  std::size_t carrying_rows = 0;  ///< their count
 };
 
 /// A dormant row as the looks at it read it (solve_contacts wakes those that would close): its

@@ -18,6 +18,7 @@
 // a residual velocity moves grains. One pass over the contacts, about a sweep's cost.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <vector>
@@ -51,6 +52,21 @@ inline ImpulseStatus impulse_status(const Contact& c) {
   if (!(c.impulse_n > 0.0)) return ImpulseStatus::kOpen;
   return std::abs(c.impulse_t) < c.friction * c.impulse_n ? ImpulseStatus::kSticking
                                                           : ImpulseStatus::kSliding;
+}
+
+/// e^2 of one contact (the definitions above) from its Signorini velocity u_n (+ gap/dt), its
+/// sliding velocity u_t and its impulses: shared by the step's check and the solver's stop test
+/// (SolverOptions::residual_tolerance), which reads it from its rows.
+inline double contact_law_violation2(double u_n, double u_t, double r_n, double r_t,
+                                     double friction) {
+  if (!(r_n > 0.0)) {
+    const double e_n = std::max(0.0, -u_n);
+    return e_n * e_n;
+  }
+  double e_t = 0.0;  // frictionless: free to slide either way
+  if (friction != 0.0)
+    e_t = std::abs(r_t) < friction * r_n ? std::abs(u_t) : std::max(0.0, r_t > 0.0 ? u_t : -u_t);
+  return u_n * u_n + e_t * e_t;
 }
 
 struct VelocityResidual {

@@ -280,6 +280,14 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
             .hi = 1000},
           [](auto& o) -> auto& { return o.slab_correction_period; }),
       bind(
+          S{.key = "residual_tolerance",
+            .meaning = "largest root mean square contact-law violation over a step, e dt "
+                       "[d], of the force-carrying contacts at which the sweeps may stop, "
+                       "once alpha's test holds (0: no such test; docs/accuracy.md, \"Per-step "
+                       "check\")",
+            .lo = 0.0},
+          [](auto& o) -> auto& { return o.residual_tolerance; }),
+      bind(
           S{.key = "newton_iterations",
             .type = kInteger,
             .meaning = "active-set Newton iterations after the sweeps (0: off; "
