@@ -14,6 +14,7 @@
 //   share_*         share of the summed stage timings (StepReport::seconds) per stage;
 //   mean_sweeps, mean_contacts, capped_share (steps that hit the sweep cap) and more.
 // Progress goes to stderr. --save appends the lines to bench/results/<hostname>.csv.
+#include <lapacke.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -77,6 +78,7 @@ struct Settings {
   int step_error_samples = 0;
   int step_error_spacing = 20;  // ordinary steps before each sample
   bool from_reference = false;  // after each sample, go on from the reference's step
+  bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
   std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
@@ -137,6 +139,9 @@ Reference solve of --step-error:
   --step-error-spacing S  ordinary steps between two samples of --step-error (default 20)
   --from-reference    after each sample of --step-error, go on from the reference's step
                       instead of the tested one: how fast exact steps lose their accuracy
+  --error-spectrum    split each sample's impulse error over the singular vectors of
+                      M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
+                      up to a few thousand contacts)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the impulse, wall-force
                       and velocity errors (stderr)
@@ -196,6 +201,8 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--step-error-spacing must be at least 0");
     } else if (a == "--from-reference") {
       s.from_reference = true;
+    } else if (a == "--error-spectrum") {
+      s.error_spectrum = true;
     } else if (a == "--max-sweeps") {
       s.solver.max_sweeps = std::stoi(value());
       if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
@@ -527,16 +534,100 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// the reference's step (its positions, velocities and impulses as the next warm start): the
 /// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
 /// ordinary steps later.
-void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options, int samples,
-                int spacing, double reference_relaxation, int reference_anderson,
-                bool from_reference) {
+/// --error-spectrum: where a sample's impulse error e = R - R_ref lies. A = M^-1/2 H^T maps the
+/// impulses (normal and tangential) of the reference's force-carrying contacts to the bodies'
+/// velocity changes, scaled so that |A R|^2 is twice the kinetic energy R gives; its singular
+/// values sigma_j are the square roots of the eigenvalues of the Delassus operator W = A^T A on
+/// those contacts, its null space their self-stresses (impulses that move no body). e's
+/// components along the right singular vectors: the shares of |e|^2 in the null space and at
+/// sigma / sigma_max in [0, 0.01), [0.01, 0.03), [0.03, 0.1), [0.1, 0.3), [0.3, 1], on the
+/// contacts open in the reference; and how many of the lowest modes hold 90% of it. A
+/// Gauss-Seidel sweep damps a mode the less the smaller its sigma.
+void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cdshear::Contact>& b,
+                    const std::vector<cdshear::SolverBody>& bodies) {
+  std::vector<std::size_t> carrying;
+  double total2 = 0.0, open2 = 0.0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
+    total2 += dn * dn + dt * dt;
+    if (b[i].impulse_n > 0.0)
+      carrying.push_back(i);
+    else
+      open2 += dn * dn + dt * dt;
+  }
+  if (carrying.empty() || !(total2 > 0.0)) return;
+  const int m = static_cast<int>(3 * bodies.size()), n = static_cast<int>(2 * carrying.size());
+  std::vector<double> A(static_cast<std::size_t>(m) * n, 0.0), e(n);  // A column-major
+  const auto add = [&](std::size_t body, int col, cdshear::Vec2 force, double torque) {
+    const cdshear::SolverBody& q = bodies[body];
+    double* column = A.data() + static_cast<std::size_t>(col) * m + 3 * body;
+    column[0] += force.x * std::sqrt(q.inv_mass.x);
+    column[1] += force.y * std::sqrt(q.inv_mass.y);
+    column[2] += torque * std::sqrt(q.inv_inertia);
+  };
+  for (std::size_t k = 0; k < carrying.size(); ++k) {
+    const cdshear::Contact& c = b[carrying[k]];
+    const auto ia = static_cast<std::size_t>(c.key.body_a),
+               ib = static_cast<std::size_t>(c.key.body_b);
+    const int col = static_cast<int>(2 * k);
+    // The impulse R_n n + R_t t on body a, its opposite on b; R_t turns each by its lever
+    // (u_t = t . (v_a - v_b) + lever_a omega_a + lever_b omega_b, H's rows).
+    add(ia, col, c.normal, 0.0);
+    add(ib, col, -c.normal, 0.0);
+    add(ia, col + 1, c.tangent, c.lever_a);
+    add(ib, col + 1, -c.tangent, c.lever_b);
+    e[2 * k] = a[carrying[k]].impulse_n - c.impulse_n;
+    e[2 * k + 1] = a[carrying[k]].impulse_t - c.impulse_t;
+  }
+  const int rank_bound = std::min(m, n);
+  std::vector<double> sigma(rank_bound), vt(static_cast<std::size_t>(n) * n), superb(rank_bound);
+  double unused_u = 0.0;
+  if (LAPACKE_dgesvd(LAPACK_COL_MAJOR, 'N', 'A', m, n, A.data(), m, sigma.data(), &unused_u, 1,
+                     vt.data(), n, superb.data()) != 0) {
+    std::fprintf(stderr, "    error spectrum: the SVD did not converge\n");
+    return;
+  }
+  const double kLimits[] = {0.01, 0.03, 0.1, 0.3};
+  double share[6] = {};          // null space, then the bands of sigma / sigma_max
+  std::vector<double> along(n);  // |e . v_j|^2, j by decreasing sigma
+  int null_dimension = 0;
+  for (int j = 0; j < n; ++j) {
+    double c = 0.0;
+    for (int k = 0; k < n; ++k) c += vt[static_cast<std::size_t>(k) * n + j] * e[k];
+    along[j] = c * c;
+    const double rel = j < rank_bound ? sigma[j] / sigma[0] : 0.0;
+    int band = 0;
+    if (rel >= 1e-10)
+      band = 1 + static_cast<int>(std::upper_bound(std::begin(kLimits), std::end(kLimits), rel) -
+                                  std::begin(kLimits));
+    null_dimension += band == 0;
+    share[band] += along[j];
+  }
+  double held = 0.0;
+  int lowest = 0;
+  double carrying2 = total2 - open2;
+  for (int j = n - 1; j >= 0 && held < 0.9 * carrying2; --j, ++lowest) held += along[j];
+  std::fprintf(stderr,
+               "    error spectrum: %zu contacts, null space %d, sigma_min / sigma_max %.1e; "
+               "|e|^2 shares: null %.3f, <0.01 %.3f, <0.03 %.3f, <0.1 %.3f, <0.3 %.3f, rest "
+               "%.3f, open in the reference %.3f; 90%% of it in the lowest %d of %d modes\n",
+               carrying.size(), null_dimension,
+               rank_bound > 0 ? sigma[rank_bound - 1] / sigma[0] : 0.0, share[0] / total2,
+               share[1] / total2, share[2] / total2, share[3] / total2, share[4] / total2,
+               share[5] / total2, open2 / total2, lowest, n);
+}
+
+void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options,
+                const Settings& s) {
+  const int samples = s.step_error_samples, spacing = s.step_error_spacing;
+  const bool from_reference = s.from_reference;
   StepOptions tight = options;
   tight.solver.alpha = 1e-20;
   tight.solver.converged_fraction = 1.0;
   tight.solver.max_sweeps = 200000;
   tight.solver.skip_dormant = false;
-  tight.solver.relaxation = reference_relaxation;
-  tight.solver.anderson_depth = reference_anderson;  // not the tested settings' own
+  tight.solver.relaxation = s.reference_relaxation;
+  tight.solver.anderson_depth = s.reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   tight.solver.newton_iterations = 0;
@@ -583,6 +674,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     velocity.push_back(std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
                        (wall_speed > 0.0 ? wall_speed : 1.0));
     const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps;
+    if (s.error_spectrum) error_spectrum(a, b, d_ref.bodies());
     if (options.solver.newton_iterations > 0)
       std::fprintf(
           stderr, "    newton %d it, %zu unknowns, %zu changed, last %.2e, residual %.2e -> %.2e\n",
@@ -685,9 +777,7 @@ int run(const Settings& s) {
       if (options.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
-      if (s.step_error_samples > 0)
-        step_error(box.world, box.dynamics, options, s.step_error_samples, s.step_error_spacing,
-                   s.reference_relaxation, s.reference_anderson, s.from_reference);
+      if (s.step_error_samples > 0) step_error(box.world, box.dynamics, options, s);
     };
 
     StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3

@@ -60,6 +60,9 @@ class ContactDynamics {
   StepReport step(World& world, const StepOptions& options);
 
   const std::vector<Contact>& contacts() const { return contacts_; }
+  /// The solver's bodies of the last step (disks, then walls): end-of-step velocities, inverse
+  /// masses.
+  const std::vector<SolverBody>& bodies() const { return bodies_; }
   /// Replaces the contact memory (used when resuming from a checkpoint).
   void set_contacts(std::vector<Contact> contacts) { contacts_ = std::move(contacts); }
 
