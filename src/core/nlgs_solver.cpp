@@ -393,6 +393,16 @@ inline double biased_normal_velocity(const Row& r, const std::vector<SolverBody>
          r.bias_n;
 }
 
+/// u_n + gap/dt and u_t of a row in the current velocities (contact_velocity's, read from a row;
+/// update_row computes the same inline).
+inline ContactVelocity row_velocity(const SolverRow& r, const std::vector<SolverBody>& bodies) {
+  const SolverBody& a = bodies[r.body_a];
+  const SolverBody& b = bodies[r.body_b];
+  const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
+  return {dvx * r.normal.x + dvy * r.normal.y + r.bias_n,
+          dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega};
+}
+
 /// Sweeps between two looks at the dormant rows (nlgs_solver.hpp).
 constexpr int kDormantCheckInterval = 8;
 
@@ -961,12 +971,7 @@ class ContactSolve {
       for (const std::uint32_t i : ws.awake[g]) {
         const SolverRow& r = rows[i];
         if (!(r.impulse_n > 0.0)) continue;
-        const SolverBody& a = bodies[r.body_a];
-        const SolverBody& b = bodies[r.body_b];
-        const double dvx = a.velocity.x - b.velocity.x, dvy = a.velocity.y - b.velocity.y;
-        const double u_n = dvx * r.normal.x + dvy * r.normal.y + r.bias_n;
-        const double u_t =
-            dvy * r.normal.x - dvx * r.normal.y + r.lever_a * a.omega + r.lever_b * b.omega;
+        const auto [u_n, u_t] = row_velocity(r, bodies);
         sum2 += contact_law_violation2(u_n, u_t, r.impulse_n, r.impulse_t, r.friction);
         ++carrying;
       }
