@@ -78,6 +78,9 @@ struct Settings {
   int step_error_samples = 0;
   int step_error_spacing = 20;  // ordinary steps before each sample
   bool from_reference = false;  // after each sample, go on from the reference's step
+  // The ordinary steps (warm-up, measured, between samples) with the shear defaults, only the
+  // samples' tested solves with `solver`: runs that differ in `solver` sample the same states.
+  bool paired = false;
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -102,6 +105,8 @@ void usage() {
   --sizes N[,N...]    disk counts (default 500,5000); width 20 below 2000 disks, 50 above
   --width W           cell width for every size (system 7's shape: --sizes 5119 --width 20)
   --seconds S         measured wall time per case, at least (default 12)
+  --steps N           measure exactly N steps per case instead (no time limit): with the
+                      same settings, the same states whatever the machine's speed
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
 Solver settings: the shear phase's defaults (shear_case.hpp, docs/case-files.md) on one thread;
@@ -139,6 +144,10 @@ Reference solve of --step-error:
   --step-error-spacing S  ordinary steps between two samples of --step-error (default 20)
   --from-reference    after each sample of --step-error, go on from the reference's step
                       instead of the tested one: how fast exact steps lose their accuracy
+  --paired            every ordinary step (warm-up, measured, between samples) with the shear
+                      defaults, only --step-error's tested solves with the settings given:
+                      with --steps, runs that differ in their solver settings test the same
+                      states, sample by sample (the case's line then describes the defaults)
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
@@ -201,6 +210,12 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--step-error-spacing must be at least 0");
     } else if (a == "--from-reference") {
       s.from_reference = true;
+    } else if (a == "--paired") {
+      s.paired = true;
+    } else if (a == "--steps") {
+      s.min_steps = std::stoull(value());
+      s.seconds = 0.0;
+      if (s.min_steps == 0) throw std::invalid_argument("--steps must be >= 1");
     } else if (a == "--error-spectrum") {
       s.error_spectrum = true;
     } else if (a == "--max-sweeps") {
@@ -533,7 +548,9 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// docs/accuracy.md, "Tall cells". The world goes on with `options`, or, `from_reference`, from
 /// the reference's step (its positions, velocities and impulses as the next warm start): the
 /// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
-/// ordinary steps later.
+/// ordinary steps later. --paired: the ordinary steps use `trajectory` (the shear defaults) and
+/// go on from the state before each sample, the reference is formed from `trajectory`, and only
+/// the tested solve uses `options`: runs that differ in `options` test the same states.
 /// --error-spectrum: where a sample's impulse error e = R - R_ref lies. A = M^-1/2 H^T maps the
 /// impulses (normal and tangential) of the reference's force-carrying contacts to the bodies'
 /// velocity changes, scaled so that |A R|^2 is twice the kinetic energy R gives; its singular
@@ -618,10 +635,12 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
 }
 
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options,
-                const Settings& s) {
+                const StepOptions& trajectory, const Settings& s) {
   const int samples = s.step_error_samples, spacing = s.step_error_spacing;
   const bool from_reference = s.from_reference;
-  StepOptions tight = options;
+  // --paired: the reference from the trajectory's settings too, so that it is the same solve
+  // in runs that differ in `options` only.
+  StepOptions tight = s.paired ? trajectory : options;
   tight.solver.alpha = 1e-20;
   tight.solver.converged_fraction = 1.0;
   tight.solver.max_sweeps = 200000;
@@ -638,8 +657,9 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall"
                "  %s  status_changes\n",
                sheared ? "velocity_rms/V" : "velocity_rms");
+  std::vector<int> sweeps;
   for (int k = 0; k < samples; ++k) {
-    for (int j = 0; j < spacing; ++j) dynamics.step(world, options);
+    for (int j = 0; j < spacing; ++j) dynamics.step(world, trajectory);
     World w_ref = world;
     ContactDynamics d_ref = dynamics;
     World w_opt = world;
@@ -685,18 +705,28 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                  r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
                  l2.back(), worst / mean, wall_error, velocity.back(), status_changes,
                  ref_capped ? "  (reference not converged: at its cap)" : "");
-    world = from_reference ? std::move(w_ref) : std::move(w_opt);  // the step, not solved again
-    dynamics = from_reference ? std::move(d_ref) : std::move(d_opt);
+    sweeps.push_back(r_opt.solver.sweeps);
+    // The step, not solved again; --paired without --from-reference: the trajectory's own
+    // steps go on from the state before the sample.
+    if (from_reference) {
+      world = std::move(w_ref);
+      dynamics = std::move(d_ref);
+    } else if (!s.paired) {
+      world = std::move(w_opt);
+      dynamics = std::move(d_opt);
+    }
   }
+  std::sort(sweeps.begin(), sweeps.end());
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());
   std::sort(velocity.begin(), velocity.end());
   if (!l2.empty())
     std::fprintf(stderr,
                  "    median impulse error %.2e (largest %.2e), median top-wall error "
-                 "%.2e (largest %.2e), median velocity error %.2e V (largest %.2e V)\n",
+                 "%.2e (largest %.2e), median velocity error %.2e V (largest %.2e V), "
+                 "median sweeps %d\n",
                  l2[l2.size() / 2], l2.back(), wall[wall.size() / 2], wall.back(),
-                 velocity[velocity.size() / 2], velocity.back());
+                 velocity[velocity.size() / 2], velocity.back(), sweeps[sweeps.size() / 2]);
 }
 
 double solid_fraction(const World& world) {
@@ -749,13 +779,24 @@ int run(const Settings& s) {
 
     auto report = [&](const std::string& name, double velocity, const StepOptions& options,
                       cdshear::ShearMeasurement* observer = nullptr) {
-      std::fprintf(stderr, "  %s: %llu warm-up steps, then >= %.0f s ... ", name.c_str(),
-                   static_cast<unsigned long long>(s.warmup_steps), s.seconds);
+      // --paired: the ordinary steps with the shear defaults (one thread), the line theirs.
+      StepOptions trajectory = options;
+      if (s.paired) {
+        trajectory.solver = one_thread(cdshear::shear_step_defaults().solver);
+        trajectory.solver.profile = options.solver.profile;
+      }
+      std::fprintf(stderr, "  %s%s: %llu warm-up steps, then ", name.c_str(),
+                   s.paired ? " (--paired: the shear defaults' steps)" : "",
+                   static_cast<unsigned long long>(s.warmup_steps));
+      if (s.seconds > 0.0)
+        std::fprintf(stderr, ">= %.0f s ... ", s.seconds);
+      else
+        std::fprintf(stderr, "%llu steps ... ", static_cast<unsigned long long>(s.min_steps));
       std::fflush(stderr);
       const double load = load_average();
-      const Measurement m = measure(box.world, box.dynamics, options, s, observer);
+      const Measurement m = measure(box.world, box.dynamics, trajectory, s, observer);
       const std::string line =
-          csv_line(date, host, name, sys, velocity, options, m, solid_fraction(box.world), load);
+          csv_line(date, host, name, sys, velocity, trajectory, m, solid_fraction(box.world), load);
       std::fprintf(
           stderr, "%llu steps, %.1f steps/s, %.2f ns/update, %.1f sweeps, %.0f contacts%s\n",
           static_cast<unsigned long long>(m.steps), m.steps / m.wall_s,
@@ -774,10 +815,10 @@ int run(const Settings& s) {
             stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       print_residual(m, options.dt, velocity);
-      if (options.solver.profile) print_profile(m.profile, m.stages.solve);
+      if (trajectory.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
-      if (s.step_error_samples > 0) step_error(box.world, box.dynamics, options, s);
+      if (s.step_error_samples > 0) step_error(box.world, box.dynamics, options, trajectory, s);
     };
 
     StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3
