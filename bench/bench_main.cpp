@@ -655,7 +655,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
                "    sweeps  ref_sweeps  last_change  impulse_l2  worst_contact/mean  top_wall"
-               "  %s  status_changes\n",
+               "  %s  status_changes  largest_e_dt  ref_largest_e_dt\n",
                sheared ? "velocity_rms/V" : "velocity_rms");
   std::vector<int> sweeps;
   for (int k = 0; k < samples; ++k) {
@@ -701,10 +701,15 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
           r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
           r_opt.active_set.correction, r_opt.active_set.initial_residual,
           r_opt.active_set.residual);
-    std::fprintf(stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e  %14.2e  %14zu%s\n",
-                 r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual),
-                 l2.back(), worst / mean, wall_error, velocity.back(), status_changes,
-                 ref_capped ? "  (reference not converged: at its cap)" : "");
+    // The largest contact-law violation over the step, e dt [length], of each solve
+    // (velocity_residual.hpp): a tested step far from the reference in its impulses but not in
+    // its contact law is another near-solution of the step.
+    std::fprintf(
+        stderr, "    %6d  %10d  %11.2e  %10.2e  %18.2e  %8.2e  %14.2e  %14zu  %12.2e  %16.2e%s\n",
+        r_opt.solver.sweeps, r_ref.solver.sweeps, std::sqrt(r_opt.solver.residual), l2.back(),
+        worst / mean, wall_error, velocity.back(), status_changes,
+        r_opt.velocity_residual.largest * options.dt, r_ref.velocity_residual.largest * options.dt,
+        ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.
