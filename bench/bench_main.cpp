@@ -81,6 +81,7 @@ struct Settings {
   // The ordinary steps (warm-up, measured, between samples) with the shear defaults, only the
   // samples' tested solves with `solver`: runs that differ in `solver` sample the same states.
   bool paired = false;
+  bool polish = false;          // a third solve: the reference's settings from the tested end
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
@@ -148,6 +149,11 @@ Reference solve of --step-error:
                       defaults, only --step-error's tested solves with the settings given:
                       with --steps, runs that differ in their solver settings test the same
                       states, sample by sample (the case's line then describes the defaults)
+  --polish            a third solve of each sample: the reference's settings, warm-started
+                      from the tested solve's impulses; prints the tested solve's distance
+                      to that exact solution (an upper bound on its distance to the step's
+                      solution set) and that solution's distance to the reference (another
+                      exact solution of the step where it is not small)
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
@@ -212,6 +218,8 @@ Settings parse(int argc, char** argv) {
       s.from_reference = true;
     } else if (a == "--paired") {
       s.paired = true;
+    } else if (a == "--polish") {
+      s.polish = true;
     } else if (a == "--steps") {
       s.min_steps = std::stoull(value());
       s.seconds = 0.0;
@@ -539,7 +547,8 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// change (sqrt of the residual), the sweeps of both solves and the contacts whose status (open,
 /// sticking, sliding) differs between the two solves. In a hyperstatic packing the
 /// impulses of a step need not be unique while the velocities are: the velocity error is what
-/// the motion feels. The reference relaxes its updates by `reference_relaxation`
+/// the motion feels, and `polish` (the reference's solve from the tested impulses) tells an error
+/// from another solution. The reference relaxes its updates by `reference_relaxation`
 /// and mixes them with Anderson depth `reference_anderson` (every 2 sweeps; 0: off) whatever
 /// `options` does, without the slab correction (every relaxation, mix and correction has
 /// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
@@ -634,6 +643,28 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
                share[5] / total2, open2 / total2, lowest, n);
 }
 
+/// |R_a - R_b| / |R_b| over both impulse components of contacts listed alike (one step's
+/// candidates from one state).
+double relative_impulse_distance(const std::vector<cdshear::Contact>& a,
+                                 const std::vector<cdshear::Contact>& b) {
+  double diff2 = 0.0, ref2 = 0.0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
+    diff2 += dn * dn + dt * dt;
+    ref2 += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
+  }
+  return ref2 > 0.0 ? std::sqrt(diff2 / ref2) : 0.0;
+}
+
+/// The contacts open, sticking or sliding in one list only.
+std::size_t status_differences(const std::vector<cdshear::Contact>& a,
+                               const std::vector<cdshear::Contact>& b) {
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+    count += cdshear::impulse_status(a[i]) != cdshear::impulse_status(b[i]) ? 1 : 0;
+  return count;
+}
+
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options,
                 const StepOptions& trajectory, const Settings& s) {
   const int samples = s.step_error_samples, spacing = s.step_error_spacing;
@@ -651,6 +682,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   tight.solver.newton_iterations = 0;
   std::vector<double> l2, wall, velocity;
+  std::vector<double> polished, between;  // --polish: tested to polished, polished to reference
   const bool sheared = world.walls[cdshear::kBoxTopWall].velocity.x != 0.0;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -669,9 +701,8 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     const auto& a = d_opt.contacts();
     const auto& b = d_ref.contacts();
     double diff2 = 0.0, ref2 = 0.0, ref_sum = 0.0, worst = 0.0;
-    std::size_t status_changes = 0;  // contacts open, sticking or sliding in one solve only
+    const std::size_t status_changes = status_differences(a, b);
     for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
-      status_changes += cdshear::impulse_status(a[i]) != cdshear::impulse_status(b[i]) ? 1 : 0;
       const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
       diff2 += dn * dn + dt * dt;
       ref2 += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
@@ -711,6 +742,39 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         r_opt.velocity_residual.largest * options.dt, r_ref.velocity_residual.largest * options.dt,
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
+    if (s.polish) {
+      // The tested solve's impulses as the warm start of a solve to round-off from the state
+      // before the step. Keys renamed for disks that crossed x = 0 in the tested step
+      // (follow_wrapped_disks) get their image back, so that every contact finds its impulse.
+      std::vector<cdshear::Contact> start = a;
+      const std::size_t n_disks = world.disks.size();
+      for (cdshear::Contact& c : start) {
+        const auto ia = static_cast<std::size_t>(c.key.body_a),
+                   ib = static_cast<std::size_t>(c.key.body_b);
+        if (ib >= n_disks) continue;
+        const std::int64_t shift = (w_opt.disks.image[ib] - world.disks.image[ib]) -
+                                   (w_opt.disks.image[ia] - world.disks.image[ia]);
+        c.key.image_b -= static_cast<std::int32_t>(shift);
+      }
+      std::sort(start.begin(), start.end(),
+                [](const cdshear::Contact& x, const cdshear::Contact& y) { return x.key < y.key; });
+      World w_pol = world;
+      ContactDynamics d_pol = dynamics;
+      d_pol.set_contacts(std::move(start));
+      const StepReport r_pol = d_pol.step(w_pol, tight);
+      const auto& p = d_pol.contacts();
+      const double to_polished = relative_impulse_distance(a, p),
+                   polished_to_reference = relative_impulse_distance(p, b);
+      polished.push_back(to_polished);
+      between.push_back(polished_to_reference);
+      std::fprintf(stderr,
+                   "      polish: %d sweeps%s, tested to polished %.2e, polished to reference "
+                   "%.2e, status changes %zu and %zu, largest e dt %.2e\n",
+                   r_pol.solver.sweeps,
+                   r_pol.solver.sweeps >= tight.solver.max_sweeps ? " (at its cap)" : "",
+                   to_polished, polished_to_reference, status_differences(a, p),
+                   status_differences(p, b), r_pol.velocity_residual.largest * options.dt);
+    }
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.
     if (from_reference) {
@@ -722,6 +786,14 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     }
   }
   std::sort(sweeps.begin(), sweeps.end());
+  std::sort(polished.begin(), polished.end());
+  std::sort(between.begin(), between.end());
+  if (!polished.empty())
+    std::fprintf(stderr,
+                 "    polish: median distance to the polished solution %.2e (largest %.2e), "
+                 "polished to reference %.2e (largest %.2e)\n",
+                 polished[polished.size() / 2], polished.back(), between[between.size() / 2],
+                 between.back());
   std::sort(l2.begin(), l2.end());
   std::sort(wall.begin(), wall.end());
   std::sort(velocity.begin(), velocity.end());
