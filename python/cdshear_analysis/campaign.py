@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import t as student_t
 
 from .report import collect, csv_columns
 
@@ -87,7 +88,8 @@ def compare_campaigns(a, b, quantities=COMPARED):
         ra = by_name.get(rb["run"])
         if ra is None:
             continue
-        item = {"run": rb["run"], "regime_a": ra.get("regime"), "regime_b": rb.get("regime")}
+        item = {"run": rb["run"], "system": rb.get("system"), "V": rb.get("V"),
+                "regime_a": ra.get("regime"), "regime_b": rb.get("regime")}
         for q in quantities:
             va, vb = ra.get(q), rb.get(q)
             ea, eb = ra.get(q + "_err"), rb.get(q + "_err")
@@ -101,8 +103,38 @@ def compare_campaigns(a, b, quantities=COMPARED):
     return out
 
 
+def paired_differences(items):
+    """The shared runs grouped by (system, V), each group's seeds paired: for every quantity with
+    at least two pairs, {"n", "mean" (of b - a), "sd" (their standard deviation), "se" (sd /
+    sqrt(n)), "t" (mean / se, Student's with n - 1 degrees of freedom; NaN where se is 0), "p"
+    (its two-sided probability under no difference), "higher" (pairs with b > a)}. Pairing by seed takes out the scatter between packings, which
+    in slow flows is several times one run's error bar (docs/accuracy.md, "Effect on the averaged
+    quantities"). A list of {"system", "V", "runs", "<q>": {...}}, by system and V."""
+    groups = {}
+    for it in items:
+        groups.setdefault((it["system"], it["V"]), []).append(it)
+    out = []
+    for (system, velocity), group in sorted(groups.items(),
+                                            key=lambda g: (g[0][0] or 0, g[0][1] or 0.0)):
+        entry = {"system": system, "V": velocity, "runs": len(group)}
+        quantities = [q for q, v in group[0].items() if isinstance(v, dict)]
+        for q in quantities:
+            diffs = np.array([it[q]["diff"] for it in group if isinstance(it.get(q), dict)])
+            if diffs.size < 2:
+                continue
+            mean, sd = float(diffs.mean()), float(diffs.std(ddof=1))
+            se = sd / math.sqrt(diffs.size)
+            t = mean / se if se > 0 else math.nan
+            entry[q] = {"n": int(diffs.size), "mean": mean, "sd": sd, "se": se, "t": t,
+                        "p": float(2.0 * student_t.sf(abs(t), diffs.size - 1)),
+                        "higher": int((diffs > 0).sum())}
+        out.append(entry)
+    return out
+
+
 def format_comparison(items, name_a="a", name_b="b"):
-    """The comparison as text: one block per run, one line per quantity."""
+    """The comparison as text: one block per run, one line per quantity; then, for each system
+    and V with two or more seeds in both, the differences paired by seed."""
     lines = []
     for it in items:
         lines.append(f"{it['run']}: regime {it['regime_a']} ({name_a}) -> {it['regime_b']} "
@@ -111,4 +143,14 @@ def format_comparison(items, name_a="a", name_b="b"):
             if isinstance(v, dict):
                 lines.append(f"  {q:22s} {v['a']:.5g} -> {v['b']:.5g}  diff {v['diff']:+.3g}  "
                              f"({v['combined_errors']:+.2f} combined errors)")
+    for g in paired_differences(items):
+        shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
+        if not shown:
+            continue
+        lines.append(f"system {g['system']}, V = {g['V']:g}: {g['runs']} seeds paired, b - a "
+                     f"(mean +- standard error of the differences; t = mean / error and its "
+                     f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a)")
+        for q, v in shown:
+            lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  t = {v['t']:+.2f}, p = {v['p']:.2g}  "
+                         f"({v['higher']} of {v['n']} higher)")
     return "\n".join(lines) if lines else "no run in both campaigns"

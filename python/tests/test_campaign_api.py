@@ -2,6 +2,7 @@
 stale summaries with the reason; the package's version is the program's."""
 import csv
 import json
+import math
 import os
 import re
 import tempfile
@@ -11,7 +12,7 @@ import numpy as np
 
 import cdshear_analysis
 from cdshear_analysis import load_campaign
-from cdshear_analysis.campaign import compare_campaigns
+from cdshear_analysis.campaign import compare_campaigns, paired_differences
 from cdshear_analysis.report import ReportError
 
 from .test_report import fake_summary, main
@@ -99,6 +100,32 @@ class CompareCampaigns(unittest.TestCase):
             self.assertEqual((items[0]["regime_a"], items[0]["regime_b"]), ("A", "B"))
             self.assertEqual(main(["campaign-compare", a, b]), 0)
             self.assertEqual(main(["campaign-compare", a, os.path.join(d, "none")]), 2)
+
+    def test_seeds_paired_by_system_and_velocity(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # three seeds at V = 0.05 whose mu_eff differ by +0.01, +0.02, +0.06 from a to b,
+            # although a's seeds scatter by 0.1; one seed at V = 1 (no pair statistics)
+            for seed, mu_a, shift in ((1, 0.10, 0.01), (2, 0.20, 0.02), (3, 0.30, 0.06)):
+                name = f"s1_seed{seed}_V0.05"
+                fake_summary(os.path.join(a, "runs", name), 0.05, 1e-4, mu_a, 0.83, 2.8)
+                fake_summary(os.path.join(b, "runs", name), 0.05, 1e-4, mu_a + shift, 0.83, 2.8)
+            fake_summary(os.path.join(a, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.30, 0.80, 3.0)
+            fake_summary(os.path.join(b, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.35, 0.80, 3.0)
+            groups = paired_differences(compare_campaigns(a, b))
+            self.assertEqual([(g["system"], g["V"], g["runs"]) for g in groups],
+                             [(1, 0.05, 3), (1, 1.0, 1)])
+            mu = groups[0]["mu_eff_bulk"]
+            self.assertEqual((mu["n"], mu["higher"]), (3, 3))
+            self.assertAlmostEqual(mu["mean"], 0.03)
+            sd = ((0.02 ** 2 + 0.01 ** 2 + 0.03 ** 2) / 2) ** 0.5
+            self.assertAlmostEqual(mu["sd"], sd)
+            t = 0.03 / (sd / 3 ** 0.5)
+            self.assertAlmostEqual(mu["t"], t)
+            # Student's t with 2 degrees of freedom in closed form: P(|T| > t) = 1 - t / sqrt(2 + t^2)
+            self.assertAlmostEqual(mu["p"], 1.0 - t / math.sqrt(2.0 + t * t))
+            self.assertTrue(math.isnan(groups[0]["nu_bulk"]["t"]))  # no difference at all
+            self.assertNotIn("mu_eff_bulk", groups[1])
 
 
 class Version(unittest.TestCase):
