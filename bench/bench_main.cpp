@@ -73,6 +73,9 @@ struct Settings {
   // The shear phase's solver settings (shear_step_defaults), one thread: what `cdshear run`
   // steps a shear case with, per core. Each option below overrides one of them.
   cdshear::SolverOptions solver = one_thread(cdshear::shear_step_defaults().solver);
+  // Neither --alpha nor --plain: the shear case takes the shear phase's rule, alpha =
+  // default_alpha(V) (shear_case.hpp), the static case shear_step_defaults()' alpha.
+  bool alpha_given = false;
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   int step_error_samples = 0;
@@ -125,8 +128,10 @@ each option overrides one of them.
                       it runs, the mix runs every 2 anderson-period sweeps
   --max-sweeps N      sweep cap (solver.max_sweeps, 200)
   --relaxation W      over-relaxation of each update, 1 <= W < 2 (solver.relaxation, 1.6)
-  --alpha A           convergence tolerance (solver.alpha, 1e-5; 0: every step sweeps
-                      max-sweeps times, to compare settings at equal sweeps)
+  --alpha A           convergence tolerance (solver.alpha; default: the shear phase's rule,
+                      1e-5 (V' / 0.5)^2 with V' = V within [0.05, 0.5], 1e-5 in the static
+                      case; 0: every step sweeps max-sweeps times, to compare settings at
+                      equal sweeps)
   --converged-fraction F  share of the force-carrying contacts that must meet alpha
                       (solver.converged_fraction, 0.9, as in docs/model.md section 3)
   --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
@@ -202,6 +207,7 @@ Settings parse(int argc, char** argv) {
       s.packing = value();
     } else if (a == "--plain") {
       s.solver = one_thread(cdshear::SolverOptions{});
+      s.alpha_given = true;
     } else if (a == "--newton") {
       s.solver.newton_iterations = std::stoi(value());
       if (s.solver.newton_iterations < 0 ||
@@ -241,6 +247,7 @@ Settings parse(int argc, char** argv) {
       s.solver.profile = true;
     } else if (a == "--alpha") {
       s.solver.alpha = std::stod(value());
+      s.alpha_given = true;
       if (!(s.solver.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
     } else if (a == "--reference-relaxation") {
       s.reference_relaxation = std::stod(value());
@@ -860,6 +867,7 @@ int run(const Settings& s) {
       StepOptions trajectory = options;
       if (s.paired) {
         trajectory.solver = one_thread(cdshear::shear_step_defaults().solver);
+        if (velocity > 0.0) trajectory.solver.alpha = cdshear::default_alpha(velocity);
         trajectory.solver.profile = options.solver.profile;
       }
       std::fprintf(stderr, "  %s%s: %llu warm-up steps, then ", name.c_str(),
@@ -904,6 +912,7 @@ int run(const Settings& s) {
     if (s.run_shear) {
       if (s.packing.empty()) start_shear(box.world, s.velocity);
       options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
+      if (!s.alpha_given) options.solver.alpha = cdshear::default_alpha(s.velocity);
       const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
                             box.world.walls[cdshear::kBoxBottomWall].point.y;
       cdshear::ShearMeasurement observer(cdshear::MeasureOptions{},

@@ -9,6 +9,7 @@
 #include "case_file.hpp"
 #include "case_settings.hpp"
 #include "config_error.hpp"
+#include "shear_case.hpp"
 
 namespace cdshear {
 namespace {
@@ -144,12 +145,49 @@ TEST(CaseSettings, PrintedSettingsReadBackAsTheSameCase) {
 }
 
 TEST(CaseSettings, SceneSolverRowsAreTheCaseSolverRows) {
-  // Scene files and case files read [solver] through the same rows: the same keys and ranges.
+  // Scene files and case files read [solver] through the same rows: the same keys and ranges,
+  // except that a case's alpha may also be "auto" (the rule of the wall speed, default_alpha).
   std::set<std::string> scene, cases;
   for (const auto& row : solver_settings()) scene.insert(row.key + " " + range_text(row));
-  for (const CaseSetting& s : case_settings())
-    if (s.table == "solver") cases.insert(s.key + " " + range_text(s));
+  for (const CaseSetting& s : case_settings()) {
+    if (s.table != "solver") continue;
+    std::string range = range_text(s);
+    if (s.key == "alpha") {
+      EXPECT_EQ(s.type, SettingType::kNumberOrAuto);
+      const std::string or_auto = ", or \"auto\"";
+      ASSERT_NE(range.find(or_auto), std::string::npos) << range;
+      range.erase(range.find(or_auto), or_auto.size());
+    }
+    cases.insert(s.key + " " + range);
+  }
   EXPECT_EQ(scene, cases);
+}
+
+TEST(CaseSettings, AlphaFollowsTheWallSpeedUnlessTheCaseGivesIt) {
+  // "auto" (the default): the shear phase's alpha from V' = V within [0.05, 0.5], as
+  // alpha_fast (V' / 0.5)^2, alpha_fast being shear_step_defaults()' alpha.
+  const double fast = shear_step_defaults().solver.alpha;
+  const auto resolved_alpha = [](const std::vector<std::string>& overrides) {
+    ShearCase c = with(overrides);
+    resolve_time_step(c);
+    return c.step.solver.alpha;
+  };
+  EXPECT_EQ(resolved_alpha({}), fast);  // the built-in case runs at V = 0.5
+  EXPECT_EQ(resolved_alpha({"shear.velocity=2"}), fast);
+  EXPECT_DOUBLE_EQ(resolved_alpha({"shear.velocity=0.25"}), fast / 4);
+  EXPECT_DOUBLE_EQ(resolved_alpha({"shear.velocity=0.05"}), fast / 100);
+  EXPECT_DOUBLE_EQ(resolved_alpha({"shear.velocity=0.01"}), fast / 100);
+  EXPECT_EQ(resolved_alpha({"shear.velocity=0.05", "solver.alpha=3e-6"}), 3e-6);
+  EXPECT_DOUBLE_EQ(resolved_alpha({"shear.velocity=0.05", "solver.alpha=\"auto\""}), fast / 100);
+  // Slower walls, tighter tolerance: never looser as V falls.
+  double previous = 1.0;
+  for (const double v : {8.0, 0.5, 0.4, 0.2, 0.1, 0.07, 0.05, 0.02}) {
+    const double a = default_alpha(v);
+    EXPECT_LE(a, previous) << "V = " << v;
+    previous = a;
+  }
+  // A case file keeps the word, so that a resumed or rerun case follows its own V.
+  EXPECT_NE(resolved_text(with({"shear.velocity=0.05"})).find("alpha = 'auto'"), std::string::npos);
 }
 
 TEST(CaseSettings, KeysNoLongerReadAreAcceptedAtTheValueNowUsedOnly) {

@@ -459,8 +459,24 @@ std::vector<CaseSetting> make_case_settings() {
   const auto shear_solver = [](auto& c) -> auto& {
     return c.step.solver;
   };
-  for (const auto& row : solver_settings())
-    rows.push_back(lift(row, "solver", kShear, shear_solver, ""));
+  for (const auto& row : solver_settings()) {
+    if (row.key != "alpha") {
+      rows.push_back(lift(row, "solver", kShear, shear_solver, ""));
+      continue;
+    }
+    // alpha: a number, or "auto" for the rule of the wall speed (shear_case.hpp, default_alpha),
+    // which resolve_time_step applies.
+    CaseSetting a = lift(row, "solver", kShear, shear_solver,
+                         fmt::format("{}; \"auto\": {:g} (V' / 0.5)^2, V' = V within [0.05, 0.5] "
+                                     "(docs/accuracy.md)",
+                                     row.meaning, shear_step_defaults().solver.alpha));
+    a.type = kNumberOrAuto;
+    const CaseSetting bound = bind(
+        CaseSetting{}, [](auto& c) -> auto& { return c.alpha; });
+    a.get = bound.get;
+    a.set = bound.set;
+    rows.push_back(std::move(a));
+  }
   // [preparation]: the protocol of model.md section 5 and its solver.
   const auto more = std::vector<CaseSetting>{
       bind(

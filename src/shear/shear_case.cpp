@@ -12,7 +12,15 @@ double default_time_step(const ShearCase& c) {
   return std::min(c.dt_max, c.displacement_per_step / c.velocity);
 }
 
+double default_alpha(double velocity) {
+  constexpr double kFullSpeed = 0.5;   // [d/t] from here up, alpha_fast
+  constexpr double kSlowSpeed = 0.05;  // [d/t] below it, the value there (the slowest measured)
+  const double v = std::clamp(velocity, kSlowSpeed, kFullSpeed) / kFullSpeed;
+  return shear_step_defaults().solver.alpha * v * v;
+}
+
 std::string resolve_time_step(ShearCase& c) {
+  c.step.solver.alpha = c.alpha ? *c.alpha : default_alpha(c.velocity);
   c.step.dt = c.dt ? *c.dt : default_time_step(c);
   const double per_step = c.velocity * c.step.dt;
   if (per_step > c.step.displacement_bound)

@@ -19,9 +19,9 @@ namespace cdshear {
 /// (docs/accuracy.md, "Defaults and what they guarantee"):
 /// - the coloured contact order, so that `--threads` share the sweeps of large systems (two
 ///   threads step system 7 1.8 to 1.9 times as fast as one); the same averages as the random order;
-/// - alpha = 1e-5 (the reference value of model.md section 3, item 5, is 1e-6): with the mix, the
-///   averages of 1e-6 at V = 0.5, at V = 0.05 and on system 7, within 1.4 combined errors, for 15
-///   to 29% fewer sweeps;
+/// - alpha = 1e-5 (the reference value of model.md section 3, item 5, is 1e-6) at V >= 0.5, the
+///   ceiling of the shear case's rule default_alpha: with the mix, the averages of 1e-6 at V = 0.5
+///   and on system 7, within 1.4 combined errors, for 15 to 28% fewer sweeps;
 /// - skip_dormant on: the same averages as sweeping every contact at 0.74 times the cost;
 /// - relaxation = 1.6 (projected over-relaxation): 0.58 times Gauss-Seidel's cost, and Z within
 ///   the error of the converged reference where Gauss-Seidel at the sweep cap is 3.4 errors low;
@@ -63,7 +63,10 @@ struct ShearCase {
   double duration = 240.0;      ///< simulated shear time [t] (the default job: 6 windows of 40)
 
   // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
-  std::optional<double> dt;             ///< explicit dt [t]
+  std::optional<double> dt;  ///< explicit dt [t]
+  /// Explicit solver.alpha; empty: default_alpha(velocity), set into step.solver.alpha by
+  /// resolve_time_step.
+  std::optional<double> alpha;
   double dt_max = 5e-3;                 ///< [t]
   double displacement_per_step = 2e-3;  ///< target wall displacement per step [d]
   /// Margin, bounds, solver; step.dt set by resolve_dt. The shear phase leaves dormant contacts
@@ -94,8 +97,20 @@ std::vector<double> default_boundary_thickness(double height);
 /// (and the fastest grains, which move at about V) move at most displacement_per_step per step.
 double default_time_step(const ShearCase& c);
 
-/// Sets c.step.dt from c.dt or the default rule; returns a warning (empty if none) when the
-/// resulting wall displacement per step V dt exceeds c.step.displacement_bound.
+/// The shear phase's convergence tolerance at wall speed V when the case gives none:
+/// alpha = alpha_fast (V' / 0.5)^2, V' = V within [0.05, 0.5], alpha_fast =
+/// shear_step_defaults().solver.alpha (1e-5): 1e-5 from V = 0.5 up, 1.6e-6 at 0.2, 4e-7 at 0.1,
+/// 1e-7 at 0.05 and below (the slowest measured). Below V = 0.4 a step moves
+/// the walls 0.005 V (dt_max), less and less as V falls, and the impulses' change over a step with
+/// it, while the sweeps' relative change that alpha bounds does not follow: at one alpha the
+/// per-step error grows as V falls (system 1 at 1e-5: median 0.11% at V = 0.5, 1.3% at 0.2, 2.2%
+/// at 0.1, 3.2% at 0.05). With the rule it stays below 1% (0.11, 0.58, 0.56, 0.35%), for 1.2, 1.4
+/// and 1.6 times the sweeps at 0.2, 0.1 and 0.05 (docs/accuracy.md, "Per-step error").
+double default_alpha(double velocity);
+
+/// Sets c.step.dt from c.dt or the default rule, and c.step.solver.alpha from c.alpha or
+/// default_alpha; returns a warning (empty if none) when the resulting wall displacement per step
+/// V dt exceeds c.step.displacement_bound.
 std::string resolve_time_step(ShearCase& c);
 
 /// Applies the row of model.md section 6 for system 1..7 (n, L_y, sigma_yy, duration); V is left as
