@@ -169,7 +169,7 @@ TEST(CaseSettings, AlphaFollowsTheWallSpeedUnlessTheCaseGivesIt) {
   const double fast = shear_step_defaults().solver.alpha;
   const auto resolved_alpha = [](const std::vector<std::string>& overrides) {
     ShearCase c = with(overrides);
-    resolve_time_step(c);
+    resolve_step_rules(c);
     return c.step.solver.alpha;
   };
   EXPECT_EQ(resolved_alpha({}), fast);  // the built-in case runs at V = 0.5

@@ -41,7 +41,7 @@ Vec2 momentum_above(const World& w, double y) {
 ShearCase system1_case(double window) {
   ShearCase c;
   c.velocity = 0.5;
-  resolve_time_step(c);
+  resolve_step_rules(c);
   c.measure.window = window;
   c.measure.boundary_thickness = {5.0};
   return c;

@@ -112,7 +112,7 @@ TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   c.velocity = 0.7;
   c.friction_grain = 0.6;
   c.friction_wall = 0.3;
-  resolve_time_step(c);
+  resolve_step_rules(c);
   const World w = build_shear_world(c, system1_packing());
   EXPECT_EQ(w.friction_disk_disk, 0.6);
   for (const Wall& wall : w.walls) EXPECT_EQ(wall.friction, 0.3);
@@ -126,7 +126,7 @@ TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   }
   // The documented time step at V = 0.5: min(0.005, 0.002 / 0.5) = 0.004.
   ShearCase d;
-  resolve_time_step(d);
+  resolve_step_rules(d);
   EXPECT_DOUBLE_EQ(d.step.dt, 0.004);
 }
 
@@ -140,7 +140,7 @@ struct ShearWindow {
 TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
   ShearCase c;
   c.velocity = 0.5;
-  resolve_time_step(c);
+  resolve_step_rules(c);
   World world = build_shear_world(c, system1_packing());
   ContactDynamics dynamics;
   const double dt = c.step.dt;
@@ -286,14 +286,14 @@ TEST(ShearCase, DefaultTimeStepBoundsTheWallDisplacement) {
   for (const double v : {0.005, 0.05, 0.5, 5.0, 35.0}) {
     ShearCase c;
     c.velocity = v;
-    EXPECT_TRUE(resolve_time_step(c).empty()) << "V = " << v;
+    EXPECT_TRUE(resolve_step_rules(c).empty()) << "V = " << v;
     EXPECT_LE(v * c.step.dt, c.displacement_per_step * (1 + 1e-12));
     EXPECT_LE(c.step.dt, c.dt_max);
   }
   ShearCase fast;
   fast.velocity = 30.0;
   fast.dt = 1e-3;  // moves the walls by 0.03 per step
-  EXPECT_FALSE(resolve_time_step(fast).empty());
+  EXPECT_FALSE(resolve_step_rules(fast).empty());
 }
 
 // The preparation's solver keys (order, alpha, max_sweeps) change the packing, so they enter the

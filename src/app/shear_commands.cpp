@@ -193,7 +193,7 @@ struct ShearSession {
 /// before anything is prepared or written.
 void plan_run(ShearSession& s) {
   ShearCase& c = s.c;
-  s.dt_warning = resolve_time_step(c);
+  s.dt_warning = resolve_step_rules(c);
   s.end_step =
       checked_end_step(c.duration, c.step.dt, s.world.step, s.case_source, "shear.duration");
   if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
@@ -250,8 +250,8 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   as_written.file = src.file;
   ShearCase before = load_case(as_written);
   ShearCase after = s.c;
-  resolve_time_step(before);
-  resolve_time_step(after);
+  resolve_step_rules(before);
+  resolve_step_rules(after);
   if (before.step.dt != after.step.dt)
     throw ConfigError("--set", "step.dt",
                       fmt::format("changes the time step of the run from {} to {}: a resumed run "

@@ -220,7 +220,7 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
                  : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
                                                  : *g.strain * sc.height / (2.0 * v);
   sc.duration = run.duration;
-  resolve_time_step(sc);
+  resolve_step_rules(sc);
   run.dt = sc.step.dt;
   const double steps = run.duration / run.dt;
   if (!(steps >= 0.5))

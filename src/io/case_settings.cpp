@@ -465,7 +465,7 @@ std::vector<CaseSetting> make_case_settings() {
       continue;
     }
     // alpha: a number, or "auto" for the rule of the wall speed (shear_case.hpp, default_alpha),
-    // which resolve_time_step applies.
+    // which resolve_step_rules applies.
     CaseSetting a = lift(row, "solver", kShear, shear_solver,
                          fmt::format("{}; \"auto\": {:g} (V' / 0.5)^2, V' = V within [0.05, 0.5] "
                                      "(docs/accuracy.md)",

@@ -19,7 +19,7 @@ double default_alpha(double velocity) {
   return shear_step_defaults().solver.alpha * v * v;
 }
 
-std::string resolve_time_step(ShearCase& c) {
+std::string resolve_step_rules(ShearCase& c) {
   c.step.solver.alpha = c.alpha ? *c.alpha : default_alpha(c.velocity);
   c.step.dt = c.dt ? *c.dt : default_time_step(c);
   const double per_step = c.velocity * c.step.dt;

@@ -63,15 +63,15 @@ struct ShearCase {
   double duration = 240.0;      ///< simulated shear time [t] (the default job: 6 windows of 40)
 
   // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
-  std::optional<double> dt;  ///< explicit dt [t]
-  /// Explicit solver.alpha; empty: default_alpha(velocity), set into step.solver.alpha by
-  /// resolve_time_step.
-  std::optional<double> alpha;
+  std::optional<double> dt;             ///< explicit dt [t]
   double dt_max = 5e-3;                 ///< [t]
   double displacement_per_step = 2e-3;  ///< target wall displacement per step [d]
-  /// Margin, bounds, solver; step.dt set by resolve_dt. The shear phase leaves dormant contacts
-  /// out of the sweeps: docs/accuracy.md measured the same steady averages as sweeping every
-  /// contact at 0.74 times the cost. The preparation (static packings, not measured) does not.
+  // Solver tolerance: step.solver.alpha = alpha unless empty, then default_alpha(velocity).
+  std::optional<double> alpha;
+  /// Margin, bounds, solver; step.dt and step.solver.alpha set by resolve_step_rules. The shear
+  /// phase leaves dormant contacts out of the sweeps: docs/accuracy.md measured the same steady
+  /// averages as sweeping every contact at 0.74 times the cost. The preparation (static packings,
+  /// not measured) does not.
   StepOptions step = shear_step_defaults();
 
   PreparationOptions preparation;  ///< n, height, diameters, seed copied from above
@@ -100,18 +100,18 @@ double default_time_step(const ShearCase& c);
 /// The shear phase's convergence tolerance at wall speed V when the case gives none:
 /// alpha = alpha_fast (V' / 0.5)^2, V' = V within [0.05, 0.5], alpha_fast =
 /// shear_step_defaults().solver.alpha (1e-5): 1e-5 from V = 0.5 up, 1.6e-6 at 0.2, 4e-7 at 0.1,
-/// 1e-7 at 0.05 and below (the slowest measured). Below V = 0.4 a step moves
-/// the walls 0.005 V (dt_max), less and less as V falls, and the impulses' change over a step with
-/// it, while the sweeps' relative change that alpha bounds does not follow: at one alpha the
-/// per-step error grows as V falls (system 1 at 1e-5: median 0.11% at V = 0.5, 1.3% at 0.2, 2.2%
-/// at 0.1, 3.2% at 0.05). With the rule it stays below 1% (0.11, 0.58, 0.56, 0.35%), for 1.2, 1.4
-/// and 1.6 times the sweeps at 0.2, 0.1 and 0.05 (docs/accuracy.md, "Per-step error").
+/// 1e-7 at 0.05 and below (the slowest measured). Measured: at one alpha the per-step error
+/// grows as V falls (system 1 at 1e-5: median 0.11% at V = 0.5, 1.3% at 0.2, 2.2% at 0.1, 3.2% at
+/// 0.05); with the rule it stays below 1% (0.11, 0.58, 0.56, 0.35%), for 1.2, 1.4 and 1.6 times
+/// the sweeps at 0.2, 0.1 and 0.05 (docs/accuracy.md, "Per-step error"). A likely reason: below
+/// V = 0.4 a step moves the walls 0.005 V (dt_max), so the impulses change less per step as V
+/// falls, while the relative change per sweep that alpha bounds does not scale with it.
 double default_alpha(double velocity);
 
-/// Sets c.step.dt from c.dt or the default rule, and c.step.solver.alpha from c.alpha or
-/// default_alpha; returns a warning (empty if none) when the resulting wall displacement per step
-/// V dt exceeds c.step.displacement_bound.
-std::string resolve_time_step(ShearCase& c);
+/// The case's "auto" settings made numbers: c.step.dt from c.dt or the default rule, and
+/// c.step.solver.alpha from c.alpha or default_alpha; returns a warning (empty if none) when the
+/// resulting wall displacement per step V dt exceeds c.step.displacement_bound.
+std::string resolve_step_rules(ShearCase& c);
 
 /// Applies the row of model.md section 6 for system 1..7 (n, L_y, sigma_yy, duration); V is left as
 /// is. Throws std::invalid_argument for another number.
