@@ -1,6 +1,6 @@
 // The plane shear cell of docs/model.md sections 4 and 6: every parameter of one shear run, the
-// seven systems of the reference study as presets, the default time-step rule, and the world built
-// from a prepared packing (model.md section 5, step 3).
+// seven systems of the reference study as presets, the default time-step and tolerance rules, and
+// the world built from a prepared packing (model.md section 5, step 3).
 #pragma once
 
 #include <cstdint>
