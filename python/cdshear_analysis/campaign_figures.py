@@ -13,6 +13,7 @@ none of A, B, C (undecided, intermittent, ...) is a grey diamond labelled with i
 without a regime a grey cross.
 """
 import os
+import textwrap
 
 import numpy as np
 
@@ -178,6 +179,8 @@ def _plot_regimes(path, rows, transitions):
 # ---------------------------------------------------------------------------------------------
 # Boundary layers, h, switches, profiles
 
+# Legends of more entries than this go beside the axes.
+LEGEND_INSIDE_MAX = 10
 H_MARKERS = ["o", "s", "^", "D", "v", "P", "X", "*"]
 H_STYLES = ["-", "--", ":", "-."]
 
@@ -198,11 +201,22 @@ def _finish(plt, fig, ax, path, title, xlabel, ylabel, xs, legend=True):
         _label_log_axis(ax)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=9)
+    # Titles longer than the axes are wrapped rather than cut at the figure's edge.
+    ax.set_title(textwrap.fill(title, 64), fontsize=9)
+    outside = False
     if xs and legend:
-        ax.legend(fontsize=6)
+        # Many entries (one per system and h, and the fits) hide the points inside the axes:
+        # beside them, the figure widened by the legend's width.
+        outside = len(ax.get_legend_handles_labels()[0]) > LEGEND_INSIDE_MAX
+        if outside:
+            box = ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+            fig.canvas.draw()  # the legend's size, to widen the figure by it
+            extra = box.get_window_extent().width / fig.dpi + 0.2
+            fig.set_size_inches(fig.get_figwidth() + extra, fig.get_figheight())
+        else:
+            ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight" if outside else None)
     plt.close(fig)
 
 
