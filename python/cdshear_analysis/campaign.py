@@ -107,9 +107,10 @@ def paired_differences(items):
     """The shared runs grouped by (system, V), each group's seeds paired: for every quantity with
     at least two pairs, {"n", "mean" (of b - a), "sd" (their standard deviation), "se" (sd /
     sqrt(n)), "t" (mean / se, Student's with n - 1 degrees of freedom; NaN where se is 0), "p"
-    (its two-sided probability under no difference), "higher" (pairs with b > a)}. Pairing by seed takes out the scatter between packings, which
-    in slow flows is several times one run's error bar (docs/accuracy.md, "Effect on the averaged
-    quantities"). A list of {"system", "V", "runs", "<q>": {...}}, by system and V."""
+    (its two-sided probability under no difference), "higher" (pairs with b > a)}. Pairing by
+    seed takes out the scatter between packings, which in slow flows is several times one run's
+    error bar (docs/accuracy.md, "Effect on the averaged quantities"). A list of {"system", "V",
+    "runs", "<q>": {...}}, by system and V."""
     groups = {}
     for it in items:
         groups.setdefault((it["system"], it["V"]), []).append(it)
@@ -151,6 +152,6 @@ def format_comparison(items, name_a="a", name_b="b"):
                      f"(mean +- standard error of the differences; t = mean / error and its "
                      f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a)")
         for q, v in shown:
-            lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  t = {v['t']:+.2f}, p = {v['p']:.2g}  "
-                         f"({v['higher']} of {v['n']} higher)")
+            lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  t = {v['t']:+.2f}, "
+                         f"p = {v['p']:.2g}  ({v['higher']} of {v['n']} higher)")
     return "\n".join(lines) if lines else "no run in both campaigns"

@@ -467,9 +467,10 @@ std::vector<CaseSetting> make_case_settings() {
     // alpha: a number, or "auto" for the rule of the wall speed (shear_case.hpp, default_alpha),
     // which resolve_step_rules applies.
     CaseSetting a = lift(row, "solver", kShear, shear_solver,
-                         fmt::format("{}; \"auto\": {:g} (V' / 0.5)^2, V' = V within [0.05, 0.5] "
+                         fmt::format("{}; \"auto\": {:g} (V' / {:g})^2, V' = V within [{:g}, {:g}] "
                                      "(docs/accuracy.md)",
-                                     row.meaning, shear_step_defaults().solver.alpha));
+                                     row.meaning, shear_step_defaults().solver.alpha,
+                                     kAlphaFullSpeed, kAlphaSlowSpeed, kAlphaFullSpeed));
     a.type = kNumberOrAuto;
     const CaseSetting bound = bind(
         CaseSetting{}, [](auto& c) -> auto& { return c.alpha; });

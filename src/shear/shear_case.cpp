@@ -13,9 +13,7 @@ double default_time_step(const ShearCase& c) {
 }
 
 double default_alpha(double velocity) {
-  constexpr double kFullSpeed = 0.5;   // [d/t] from here up, alpha_fast
-  constexpr double kSlowSpeed = 0.05;  // [d/t] below it, the value there (the slowest measured)
-  const double v = std::clamp(velocity, kSlowSpeed, kFullSpeed) / kFullSpeed;
+  const double v = std::clamp(velocity, kAlphaSlowSpeed, kAlphaFullSpeed) / kAlphaFullSpeed;
   return shear_step_defaults().solver.alpha * v * v;
 }
 

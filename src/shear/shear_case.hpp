@@ -107,6 +107,9 @@ double default_time_step(const ShearCase& c);
 /// V = 0.4 a step moves the walls 0.005 V (dt_max), so the impulses change less per step as V
 /// falls, while the relative change per sweep that alpha bounds does not scale with it.
 double default_alpha(double velocity);
+/// default_alpha's speeds [d/t]: alpha_fast from kAlphaFullSpeed up, its value at kAlphaSlowSpeed
+/// below that one (the slowest measured).
+inline constexpr double kAlphaFullSpeed = 0.5, kAlphaSlowSpeed = 0.05;
 
 /// The case's "auto" settings made numbers: c.step.dt from c.dt or the default rule, and
 /// c.step.solver.alpha from c.alpha or default_alpha; returns a warning (empty if none) when the
