@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `cdshear sweep` end to end on a tiny campaign of system 1 (the fixture's packing, no
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
-# redoes nothing (and refuses a final state copied from another run); a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
+# redoes nothing (and refuses a final state copied from another run), nor does one in a folder
+# kept as git keeps it (summaries, no final states); a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
 # untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
 # finishes all; a run killed between its last step and its analysis is analysed, not run again;
 # a changed campaign for the same folder is refused; `--progress-every` prints a progress line
@@ -77,6 +78,21 @@ grep -q "1 finished earlier (1 to analyse)" ended.out || fail "ended run: $(cat 
 test -f $ended/summary.json || fail "the ended run was not analysed"
 ls $ended/figures/*.png > /dev/null 2>&1 || fail "the ended run's figures were not made"
 ls $ended/run_info_resume_*.json > /dev/null 2>&1 && fail "the ended run was resumed"
+
+# 1c. A campaign folder as git keeps it (each run's case.toml, run_info*.json and summary.json;
+# no final state, run.h5 or checkpoint) counts its runs finished and leaves them untouched; a
+# summary of another case does not pass for this run's end.
+cp -r measured kept
+find kept/runs -type f ! -name case.toml ! -name 'run_info*.json' ! -name summary.json -delete
+rm -r kept/runs/*/figures
+kept_sums=$(md5sum kept/runs/*/*)
+"$exe" sweep measured.toml -o kept > kept.out 2>&1 || fail "kept: $(cat kept.out)"
+grep -q "1 finished earlier" kept.out || fail "kept runs: $(cat kept.out)"
+[ "$kept_sums" = "$(md5sum kept/runs/*/*)" ] || fail "a run kept as its summary was redone"
+sed -i 's/"velocity": 1.0/"velocity": 0.5/' kept/runs/s1_seed1_V1/summary.json
+"$exe" sweep measured.toml -o kept > kept2.out 2>&1 && fail "another run's summary was accepted"
+grep -q "summary.json is of another run (velocity = 0.5, its case.toml says 1.0)" kept2.out ||
+  fail "another run's summary: $(cat kept2.out)"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 campaign three "[0.25, 0.5, 1.0]"

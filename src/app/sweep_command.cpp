@@ -70,16 +70,23 @@ const char* state_name(RunState s) {
   return "?";
 }
 
+/// The "case" object of a run folder's summary.json; empty when there is none or it cannot be
+/// read.
+nlohmann::json summary_case(const fs::path& dir);
+
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
 /// done, and resuming it would be refused (it reached its end), so it counts as finished.
 /// Blown up: blowup_state.json (a resume would repeat the same steps). Interrupted: a
-/// checkpoint to resume from. Otherwise new.
+/// checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
+/// reached its end (a campaign folder cloned from git keeps its summaries, not its final states).
+/// Otherwise new.
 RunState run_state(const fs::path& dir) {
   if (!fs::is_directory(dir)) return RunState::kNew;
   if (fs::exists(dir / "final_state.json")) return RunState::kFinished;
   if (fs::exists(dir / "blowup_state.json")) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
+  if (summary_case(dir).value("finished", nlohmann::json()) == true) return RunState::kFinished;
   return RunState::kNew;
 }
 
@@ -125,12 +132,52 @@ std::optional<std::string> read_run_file(const fs::path& path, const std::string
   return text;
 }
 
+nlohmann::json summary_case(const fs::path& dir) {
+  const std::optional<std::string> text = read_run_file(dir / "summary.json", "a run's summary");
+  if (!text) return nlohmann::json::object();
+  const nlohmann::json summary = nlohmann::json::parse(*text, nullptr, false);
+  if (summary.is_discarded() || !summary.is_object() || !summary.contains("case") ||
+      !summary["case"].is_object())
+    return nlohmann::json::object();
+  return summary["case"];
+}
+
+/// Empty when a finished run without its final state (only its summary.json) is of the run's
+/// case.toml: the summary's grain count, height, wall speed, normal stress and duration match.
+/// Otherwise why not: a summary copied from another run must not make the sweep skip this one.
+std::string summary_problem(const fs::path& run_dir) {
+  const nlohmann::json summary = summary_case(run_dir);
+  CaseSource source;
+  source.file = (run_dir / "case.toml").string();
+  ShearCase c;
+  try {
+    c = load_case(source);
+  } catch (const ConfigError& e) {
+    return std::string("its case.toml cannot be read: ") + e.what();
+  }
+  const nlohmann::json wanted = {{"n", c.n},
+                                 {"height", c.height},
+                                 {"velocity", c.velocity},
+                                 {"normal_stress", c.normal_stress},
+                                 {"duration", c.duration}};
+  for (const auto& [key, value] : wanted.items())
+    if (summary.value(key, nlohmann::json()) != value)
+      return fmt::format(
+          "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one "
+          "again",
+          (run_dir / "summary.json").string(), key, summary.value(key, nlohmann::json()).dump(),
+          value.dump());
+  return "";
+}
+
 /// Empty when the final state of a finished run belongs to the run's case.toml (the case
 /// identity it carries matches); otherwise why not: a final_state.json copied from another run
 /// must not make the sweep skip this one as finished. A final state without an identity
-/// (written by an earlier cdshear) is taken as it is.
+/// (written by an earlier cdshear) is taken as it is. A finished run kept only as its summary
+/// is checked by summary_problem.
 std::string final_state_problem(const fs::path& run_dir) {
   const fs::path file = run_dir / "final_state.json";
+  if (!fs::exists(file)) return summary_problem(run_dir);
   const std::optional<std::string> text = read_run_file(file, "a run's final state");
   if (!text) return file.string() + " cannot be read";
   const nlohmann::json state = nlohmann::json::parse(*text, nullptr, false);
