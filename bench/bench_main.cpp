@@ -127,6 +127,8 @@ each option overrides one of them.
                       coloured order only (solver.slab_correction_period, 8; 0: off); where
                       it runs, the mix runs every 2 anderson-period sweeps
   --max-sweeps N      sweep cap (solver.max_sweeps, 200)
+  --no-plain-finish   stop an over-relaxed step at the cap instead of going on with
+                      relaxation 1 for up to max-sweeps more (SolverOptions::plain_finish)
   --relaxation W      over-relaxation of each update, 1 <= W < 2 (solver.relaxation, 1.6)
   --alpha A           convergence tolerance (solver.alpha; default: the shear phase's rule,
                       1e-5 (V' / 0.5)^2 with V' = V within [0.05, 0.5], 1e-5 in the static
@@ -208,6 +210,8 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--plain") {
       s.solver = one_thread(cdshear::SolverOptions{});
       s.alpha_given = true;
+    } else if (a == "--no-plain-finish") {
+      s.solver.plain_finish = false;
     } else if (a == "--newton") {
       s.solver.newton_iterations = std::stoi(value());
       if (s.solver.newton_iterations < 0 ||
@@ -360,7 +364,8 @@ struct Measurement {
   double sum_sweeps = 0.0, sum_contacts = 0.0, sum_active = 0.0;
   double sum_dormant = 0.0, sum_woken = 0.0;
   std::uint64_t capped = 0, displacement_warnings = 0;
-  double best_block_ns = 0.0;  // lowest ns per update over blocks of about 1/6 of the run
+  std::uint64_t finished_plain = 0;  // steps that went on with relaxation 1 after the cap
+  double best_block_ns = 0.0;        // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
   double observer_s = 0.0;           // time in the measurement layer (shear cases)
   std::vector<int> sweeps;           // of every measured step
@@ -457,6 +462,7 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     else
       m.residual_rms.push_back(r.velocity_residual.rms_carrying);
     m.capped += r.solver.hit_cap;
+    m.finished_plain += r.solver.finished_plain;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
     // What `cdshear run` adds to every step: the observers of model.md section 7.
@@ -688,6 +694,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.anderson_period = 2;
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
   tight.solver.newton_iterations = 0;
+  tight.solver.plain_finish = false;  // a reference at its cap is flagged as such
   std::vector<double> l2, wall, velocity;
   std::vector<double> polished, between;  // --polish: tested to polished, polished to reference
   const bool sheared = world.walls[cdshear::kBoxTopWall].velocity.x != 0.0;
@@ -885,9 +892,10 @@ int run(const Settings& s) {
           static_cast<unsigned long long>(m.steps), m.steps / m.wall_s,
           1e9 * m.stages.solve / m.updates, m.sum_sweeps / m.steps, m.sum_contacts / m.steps,
           m.displacement_warnings ? " (displacement bound exceeded)" : "");
-      std::fprintf(stderr, "  sweeps per step: %s; capped %.1f%%\n",
+      std::fprintf(stderr, "  sweeps per step: %s; capped %.1f%% (finished plain %.1f%%)\n",
                    sweep_distribution(m.sweeps).c_str(),
-                   100.0 * static_cast<double>(m.capped) / static_cast<double>(m.steps));
+                   100.0 * static_cast<double>(m.capped) / static_cast<double>(m.steps),
+                   100.0 * static_cast<double>(m.finished_plain) / static_cast<double>(m.steps));
       if (m.cpu_s < 0.9 * m.wall_s)
         std::fprintf(stderr,
                      "  warning: the process ran only %.0f%% of the wall time (load average "

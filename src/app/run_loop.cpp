@@ -65,6 +65,7 @@ void add_step(RunSummary& summary, const StepReport& r) {
   summary.seconds.integrate += r.seconds.integrate;
   summary.seconds.measure += r.seconds.measure;
   summary.capped_steps += r.solver.hit_cap ? 1 : 0;
+  summary.plain_finish_steps += r.solver.finished_plain ? 1 : 0;
 }
 
 /// The progress bar on stderr: the share `done` of the run, the time reached, and the wall time
@@ -200,6 +201,7 @@ nlohmann::json summary_to_json(const RunSummary& s) {
           {"largest_sweeps", s.largest_sweeps},
           {"mean_contacts", s.mean_contacts},
           {"capped_steps", s.capped_steps},
+          {"plain_finish_steps", s.plain_finish_steps},
           {"displacement_warnings", s.displacement_warnings},
           {"largest_overlap", s.largest_overlap},
           {"velocity_residual",

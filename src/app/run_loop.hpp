@@ -68,6 +68,8 @@ struct RunSummary {
   double wall_seconds = 0.0;
   std::uint64_t capped_steps = 0;  ///< steps whose solver hit the sweep cap (per interval: the
                                    ///< time series and the status lines)
+  std::uint64_t plain_finish_steps = 0;     ///< steps that reached the cap over-relaxed and went
+                                            ///< on with relaxation 1 (SolverReport::finished_plain)
   std::uint64_t displacement_warnings = 0;  ///< steps above displacement_bound
   double largest_overlap = 0.0;
   double mean_sweeps = 0.0;

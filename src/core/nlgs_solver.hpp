@@ -54,9 +54,11 @@
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
 // and, if residual_tolerance > 0, the force-carrying rows' root mean square contact-law violation
 // over the step (e dt) is at most residual_tolerance,
-// or when `max_sweeps` is reached (reported as hit_cap). The last change underestimates the error
-// left 30 to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on dense
-// packings: docs/accuracy.md, which measures the error itself).
+// or when `max_sweeps` is reached. With relaxation > 1 and `plain_finish`, a step at the cap then
+// goes on with relaxation 1 for up to `max_sweeps` more (reported as finished_plain), and only a
+// step that meets the criterion in neither is reported as hit_cap. The last change underestimates
+// the error left 30 to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on
+// dense packings: docs/accuracy.md, which measures the error itself).
 #pragma once
 
 #include <array>
@@ -117,6 +119,12 @@ struct SolverOptions {
   /// closed contact, slip of a sticking one) must also be at most this, or the sweeps go on.
   /// 0: no such test. Steps at the cap are reported as before.
   double residual_tolerance = 0.0;
+  /// A solve with relaxation > 1 that reaches max_sweeps without meeting the criterion goes on
+  /// from where it stands with relaxation 1 (plain Gauss-Seidel updates; the mix and the slab
+  /// correction as before) for up to max_sweeps more sweeps: over-relaxed projected updates can
+  /// cycle in a frictional step, which the plain ones then end (docs/performance.md, "Plain
+  /// finish"). false: stop at the cap.
+  bool plain_finish = true;
   /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
   /// sweep phase; no effect on the results). `cdshear_bench --profile`.
   bool profile = false;
@@ -169,8 +177,9 @@ struct SolverProfile {
 };
 
 struct SolverReport {
-  int sweeps = 0;
-  bool hit_cap = false;
+  int sweeps = 0;               ///< over-relaxed and plain-finish sweeps together
+  bool hit_cap = false;         ///< the criterion not met after the last sweep allowed
+  bool finished_plain = false;  ///< reached max_sweeps over-relaxed and went on with relaxation 1
   /// (sum |dR| / sum |R|)^2 of the last sweep; 1 when every force vanished in it (sum |R| = 0
   /// after a change: the whole force changed)
   double residual = 0.0;

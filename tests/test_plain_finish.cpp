@@ -1,0 +1,83 @@
+// The plain finish (SolverOptions::plain_finish, nlgs_solver.hpp): an over-relaxed solve that
+// reaches its cap goes on from the impulses it reached with relaxation 1, and ends most of the
+// steps the over-relaxed sweeps left at the cap, closer to the contact laws; steps that met the
+// criterion are untouched, and the result does not depend on the thread count.
+#include <gtest/gtest.h>
+
+#include "test_support.hpp"
+
+namespace cdshear {
+namespace {
+
+/// The shear phase's solver at a slow wall speed (coloured order, over-relaxation, the mix,
+/// dormant contacts skipped, alpha 1e-7 as "auto" gives at V = 0.05).
+StepOptions slow_shear_options() {
+  StepOptions o;
+  o.dt = 0.005;
+  o.solver.order = ContactOrder::kColoured;
+  o.solver.relaxation = 1.6;
+  o.solver.anderson_depth = 5;
+  o.solver.anderson_period = 4;
+  o.solver.skip_dormant = true;
+  o.solver.alpha = 1e-7;
+  return o;
+}
+
+TEST(PlainFinish, EndsTheStepsOverRelaxationLeavesAtTheCapCloserToTheContactLaws) {
+  testing::ShearedBox box = testing::sheared_dense_box(300, 12.0, 0.05);
+  ASSERT_TRUE(box.dense);
+  StepOptions stop_at_cap = slow_shear_options();
+  stop_at_cap.solver.plain_finish = false;
+  StepOptions finish = slow_shear_options();
+  int capped = 0, ended = 0, closer = 0;
+  for (int k = 0; k < 200; ++k) {
+    // The same step from the same state, with the finish (a copy) and without (the trajectory).
+    World w = box.world;
+    ContactDynamics d = box.dynamics;
+    const StepReport with = d.step(w, finish);
+    const StepReport without = box.dynamics.step(box.world, stop_at_cap);
+    ASSERT_FALSE(without.blown_up);
+    if (!without.solver.hit_cap) {
+      EXPECT_FALSE(with.solver.finished_plain) << "step " << k;
+      EXPECT_EQ(with.solver.sweeps, without.solver.sweeps) << "step " << k;
+      EXPECT_EQ(with.velocity_residual.rms_carrying, without.velocity_residual.rms_carrying);
+      continue;
+    }
+    ++capped;
+    EXPECT_TRUE(with.solver.finished_plain) << "step " << k;
+    EXPECT_GT(with.solver.sweeps, without.solver.sweeps);
+    EXPECT_LE(with.solver.sweeps, 2 * finish.solver.max_sweeps);
+    ended += !with.solver.hit_cap;
+    closer += with.velocity_residual.rms_carrying < without.velocity_residual.rms_carrying;
+  }
+  EXPECT_GE(capped, 5) << "steps at the cap without the finish, of 200";
+  EXPECT_GE(4 * ended, 3 * capped) << ended << " of " << capped << " ended by the finish";
+  EXPECT_GE(4 * closer, 3 * capped)
+      << closer << " of " << capped << " closer to the contact laws with the finish";
+}
+
+TEST(PlainFinish, GivesTheSameStateOnAnyNumberOfThreads) {
+  testing::ShearedBox one = testing::sheared_dense_box(300, 12.0, 0.05);
+  ASSERT_TRUE(one.dense);
+  testing::ShearedBox two = one;
+  StepOptions o1 = slow_shear_options();
+  StepOptions o2 = o1;
+  o2.solver.threads = 2;
+  o2.solver.min_rows_per_thread = 1;
+  int finished = 0;
+  for (int k = 0; k < 120; ++k) {
+    const StepReport r1 = one.dynamics.step(one.world, o1);
+    const StepReport r2 = two.dynamics.step(two.world, o2);
+    ASSERT_EQ(r1.solver.sweeps, r2.solver.sweeps) << "step " << k;
+    finished += r1.solver.finished_plain;
+  }
+  EXPECT_GE(finished, 3) << "steps that went on with relaxation 1, of 120";
+  for (std::size_t i = 0; i < one.world.disks.size(); ++i) {
+    EXPECT_EQ(one.world.disks.position[i].x, two.world.disks.position[i].x);
+    EXPECT_EQ(one.world.disks.position[i].y, two.world.disks.position[i].y);
+    EXPECT_EQ(one.world.disks.omega[i], two.world.disks.omega[i]);
+  }
+}
+
+}  // namespace
+}  // namespace cdshear
