@@ -123,7 +123,7 @@ struct SolverOptions {
   /// from where it stands with relaxation 1 (plain Gauss-Seidel updates; the mix and the slab
   /// correction as before) for up to max_sweeps more sweeps: over-relaxed projected updates can
   /// cycle in a frictional step, which the plain ones then end (docs/performance.md, "Plain
-  /// finish"). false: stop at the cap.
+  /// finish"). false: stop at the cap. Never with alpha 0 (exactly max_sweeps sweeps).
   bool plain_finish = true;
   /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
   /// sweep phase; no effect on the results). `cdshear_bench --profile`.
