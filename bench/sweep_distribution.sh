@@ -40,7 +40,7 @@ for k in $systems; do
   for v in $speeds; do
     log=$("$bench" --packing "$packing" --velocity "$v" --warmup "$warmup" --seconds "$seconds" \
           "${extra[@]}" 2>&1 >/dev/null)
-    dist=$(sed -n 's/^  sweeps per step: \(.*\); capped \(.*\)$/\1|\2/p' <<<"$log")
+    dist=$(sed -n 's/^  sweeps per step: \(.*\); capped \([0-9.]*%\).*$/\1|\2/p' <<<"$log")
     rate=$(sed -n 's/.*\.\.\. [0-9]* steps, \([0-9.]*\) steps\/s, [0-9.]* ns\/update, \([0-9.]*\) sweeps.*/\1|\2/p' <<<"$log")
     printf '%-6s %-6s %-44s %-8s %-9s %s\n' "$k" "$v" "${dist%%|*}" "${dist##*|}" "${rate%%|*}" \
            "${rate##*|}"

@@ -93,6 +93,13 @@ sed -i 's/"velocity": 1.0/"velocity": 0.5/' kept/runs/s1_seed1_V1/summary.json
 "$exe" sweep measured.toml -o kept > kept2.out 2>&1 && fail "another run's summary was accepted"
 grep -q "summary.json is of another run (velocity = 0.5, its case.toml says 1.0)" kept2.out ||
   fail "another run's summary: $(cat kept2.out)"
+# The same case, another seed's folder: refused by the folder the summary names.
+sed -i 's/"velocity": 0.5/"velocity": 1.0/; s|"run_dir": "\(.*\)/s1_seed1_V1"|"run_dir": "\1/s1_seed2_V1"|' \
+  kept/runs/s1_seed1_V1/summary.json
+grep -q '"run_dir": ".*/s1_seed2_V1"' kept/runs/s1_seed1_V1/summary.json || fail "run_dir not edited"
+"$exe" sweep measured.toml -o kept > kept3.out 2>&1 && fail "another seed's summary was accepted"
+grep -q "summary.json is of another run (run_dir .*s1_seed2_V1\")" kept3.out ||
+  fail "another seed's summary: $(cat kept3.out)"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 campaign three "[0.25, 0.5, 1.0]"

@@ -70,9 +70,15 @@ const char* state_name(RunState s) {
   return "?";
 }
 
-/// The "case" object of a run folder's summary.json; empty when there is none or it cannot be
-/// read.
-nlohmann::json summary_case(const fs::path& dir);
+/// A run folder's summary.json; an empty object when there is none or it cannot be read.
+nlohmann::json run_summary(const fs::path& dir);
+
+/// The summary's "case" object; empty when there is none.
+nlohmann::json summary_case(const fs::path& dir) {
+  const nlohmann::json summary = run_summary(dir);
+  const auto it = summary.find("case");
+  return it != summary.end() && it->is_object() ? *it : nlohmann::json::object();
+}
 
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
@@ -132,21 +138,26 @@ std::optional<std::string> read_run_file(const fs::path& path, const std::string
   return text;
 }
 
-nlohmann::json summary_case(const fs::path& dir) {
+nlohmann::json run_summary(const fs::path& dir) {
   const std::optional<std::string> text = read_run_file(dir / "summary.json", "a run's summary");
   if (!text) return nlohmann::json::object();
   const nlohmann::json summary = nlohmann::json::parse(*text, nullptr, false);
-  if (summary.is_discarded() || !summary.is_object() || !summary.contains("case") ||
-      !summary["case"].is_object())
-    return nlohmann::json::object();
-  return summary["case"];
+  return summary.is_object() ? summary : nlohmann::json::object();
 }
 
 /// Empty when a finished run without its final state (only its summary.json) is of the run's
-/// case.toml: the summary's grain count, height, wall speed, normal stress and duration match.
-/// Otherwise why not: a summary copied from another run must not make the sweep skip this one.
+/// case.toml: the summary's grain count, height, wall speed, normal stress and duration match,
+/// and the folder it names (`run_dir`) has this folder's name (a campaign's run names carry the
+/// system, seed and speed). Otherwise why not: a summary copied from another run must not make
+/// the sweep skip this one.
 std::string summary_problem(const fs::path& run_dir) {
   const nlohmann::json summary = summary_case(run_dir);
+  const nlohmann::json written_in = run_summary(run_dir).value("run_dir", nlohmann::json());
+  fs::path written_path = written_in.is_string() ? written_in.get<std::string>() : "";
+  if (written_path.filename().empty()) written_path = written_path.parent_path();  // "DIR/"
+  if (written_in.is_string() && written_path.filename() != run_dir.filename())
+    return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
+                       (run_dir / "summary.json").string(), written_in.dump());
   CaseSource source;
   source.file = (run_dir / "case.toml").string();
   ShearCase c;

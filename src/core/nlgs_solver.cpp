@@ -1106,7 +1106,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
       ContactSolve(contacts, all_bodies, first_wall, dt, plain, step, workspace).run();
   finish.finished_plain = true;
   finish.sweeps += report.sweeps;
-  finish.dormant_contacts = report.dormant_contacts;
+  finish.dormant_contacts += report.dormant_contacts;
   finish.woken_contacts += report.woken_contacts;
   finish.slab_corrections += report.slab_corrections;
   finish.anderson_mixes += report.anderson_mixes;

@@ -183,16 +183,18 @@ struct SolverReport {
   /// (sum |dR| / sum |R|)^2 of the last sweep; 1 when every force vanished in it (sum |R| = 0
   /// after a change: the whole force changed)
   double residual = 0.0;
-  double converged_fraction = 1.0;   ///< share of force-carrying contacts meeting it, last sweep
-  int active_contacts = 0;           ///< contacts with R_n > 0 at the end
-  std::size_t colours = 0;           ///< parallel phases of a coloured sweep (0 for the others)
-  std::size_t dormant_contacts = 0;  ///< open and separating at the start: left out of sweeps
-  std::size_t woken_contacts = 0;    ///< dormant ones that started to close and were woken
-  int slab_corrections = 0;          ///< slab corrections applied (solved and scaled)
-  int anderson_mixes = 0;            ///< Anderson mix passes, restarts included
-  int residual_refusals = 0;         ///< sweeps whose criterion held but not residual_tolerance
-  int threads = 1;                   ///< threads used
-  SolverProfile profile;             ///< options.profile only
+  double converged_fraction = 1.0;  ///< share of force-carrying contacts meeting it, last sweep
+  int active_contacts = 0;          ///< contacts with R_n > 0 at the end
+  std::size_t colours = 0;          ///< parallel phases of a coloured sweep (0 for the others)
+  /// Open and separating at the start: left out of sweeps; and the dormant ones that started to
+  /// close and were woken. A plain finish adds its own start's to the first solve's.
+  std::size_t dormant_contacts = 0;
+  std::size_t woken_contacts = 0;
+  int slab_corrections = 0;   ///< slab corrections applied (solved and scaled)
+  int anderson_mixes = 0;     ///< Anderson mix passes, restarts included
+  int residual_refusals = 0;  ///< sweeps whose criterion held but not residual_tolerance
+  int threads = 1;            ///< threads used
+  SolverProfile profile;      ///< options.profile only
 };
 
 /// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive

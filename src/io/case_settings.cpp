@@ -226,7 +226,9 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
       bind(
           S{.key = "max_sweeps",
             .type = kInteger,
-            .meaning = "most sweeps per step (the cap)",
+            .meaning =
+                "most sweeps per step (the cap); with relaxation > 1, up to as many more with "
+                "relaxation 1 (the plain finish)",
             .lo = 1,
             .hi = static_cast<double>(kMaxSweeps)},
           [](auto& o) -> auto& { return o.max_sweeps; }),
