@@ -73,9 +73,8 @@ const char* state_name(RunState s) {
 /// A run folder's summary.json; an empty object when there is none or it cannot be read.
 nlohmann::json run_summary(const fs::path& dir);
 
-/// The summary's "case" object; empty when there is none.
-nlohmann::json summary_case(const fs::path& dir) {
-  const nlohmann::json summary = run_summary(dir);
+/// A summary's "case" object; empty when there is none.
+nlohmann::json case_of(const nlohmann::json& summary) {
   const auto it = summary.find("case");
   return it != summary.end() && it->is_object() ? *it : nlohmann::json::object();
 }
@@ -92,7 +91,8 @@ RunState run_state(const fs::path& dir) {
   if (fs::exists(dir / "final_state.json")) return RunState::kFinished;
   if (fs::exists(dir / "blowup_state.json")) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
-  if (summary_case(dir).value("finished", nlohmann::json()) == true) return RunState::kFinished;
+  if (case_of(run_summary(dir)).value("finished", nlohmann::json()) == true)
+    return RunState::kFinished;
   return RunState::kNew;
 }
 
@@ -151,8 +151,9 @@ nlohmann::json run_summary(const fs::path& dir) {
 /// system, seed and speed). Otherwise why not: a summary copied from another run must not make
 /// the sweep skip this one.
 std::string summary_problem(const fs::path& run_dir) {
-  const nlohmann::json summary = summary_case(run_dir);
-  const nlohmann::json written_in = run_summary(run_dir).value("run_dir", nlohmann::json());
+  const nlohmann::json whole = run_summary(run_dir);
+  const nlohmann::json summary = case_of(whole);
+  const nlohmann::json written_in = whole.value("run_dir", nlohmann::json());
   fs::path written_path = written_in.is_string() ? written_in.get<std::string>() : "";
   if (written_path.filename().empty()) written_path = written_path.parent_path();  // "DIR/"
   if (written_in.is_string() && written_path.filename() != run_dir.filename())

@@ -56,12 +56,6 @@ struct Triplets {
   }
 };
 
-/// Applies (dn, dt) to the two bodies of contact k (apply_row_impulse, solver_rows.hpp).
-void apply_impulse(const Contact& k, std::vector<SolverBody>& bodies, double dn, double dt) {
-  apply_row_impulse(k, bodies[static_cast<std::size_t>(k.key.body_a)],
-                    bodies[static_cast<std::size_t>(k.key.body_b)], dn, dt);
-}
-
 /// Natural-map residual of the contact problem: sum over contacts of |R - proj_C(R - D^-1 u)|^2,
 /// D = diag(w_nn, w_tt) (the change each contact's exact local update, decoupled_update of
 /// local_solve.hpp, would make if it were updated now with the others held: zero exactly at a
@@ -213,7 +207,7 @@ struct ActiveSetSolver::Impl {
       } else if (status[k] != kStick) {
         r_t = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
       }
-      apply_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
+      apply_contact_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
       c.impulse_n = r_n;
       c.impulse_t = r_t;
     }
@@ -328,7 +322,7 @@ struct ActiveSetSolver::Impl {
       const double dn = r_n - c.impulse_n, dtt = r_t - c.impulse_t;
       change2 += dn * dn + dtt * dtt;
       force2 += r_n * r_n + r_t * r_t;
-      apply_impulse(c, bodies, dn, dtt);
+      apply_contact_impulse(c, bodies, dn, dtt);
       c.impulse_n = r_n;
       c.impulse_t = r_t;
     }

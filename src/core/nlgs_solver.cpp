@@ -1097,9 +1097,7 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   // order: the same on any thread count), and the solve starts again with relaxation 1,
   // warm-started from the impulses reached.
   for (const Contact& c : contacts)
-    apply_row_impulse(c, all_bodies[static_cast<std::size_t>(c.key.body_a)],
-                      all_bodies[static_cast<std::size_t>(c.key.body_b)], -c.impulse_n,
-                      -c.impulse_t);
+    apply_contact_impulse(c, all_bodies, -c.impulse_n, -c.impulse_t);
   SolverOptions plain = options;
   plain.relaxation = 1.0;
   SolverReport finish =

@@ -3,6 +3,7 @@
 // and the slab correction (slab_correction.hpp), which gathers its sums in the sweep before it.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -63,6 +64,15 @@ inline void apply_row_impulse(const Row& r, SolverBody& a, SolverBody& b, double
   b.velocity.y -= b.inv_mass.y * py;
   a.omega += a.inv_inertia * r.lever_a * dt;
   b.omega += b.inv_inertia * r.lever_b * dt;
+}
+
+/// Applies impulse (dn, dt) to the two bodies of a contact (a Contact: its key names the bodies
+/// by their index in `bodies`), as apply_row_impulse does to a row's.
+template <class ContactLike>
+inline void apply_contact_impulse(const ContactLike& c, std::vector<SolverBody>& bodies, double dn,
+                                  double dt) {
+  apply_row_impulse(c, bodies[static_cast<std::size_t>(c.key.body_a)],
+                    bodies[static_cast<std::size_t>(c.key.body_b)], dn, dt);
 }
 
 /// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
