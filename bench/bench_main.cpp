@@ -76,6 +76,9 @@ struct Settings {
   // Neither --alpha nor --plain: the shear case takes the shear phase's rule, alpha =
   // default_alpha(V) (shear_case.hpp), the static case shear_step_defaults()' alpha.
   bool alpha_given = false;
+  // Neither --residual-tolerance nor --plain: the shear case takes the shear phase's rule,
+  // default_residual_tolerance(V, dt), the static case none.
+  bool residual_given = false;
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   int step_error_samples = 0;
@@ -140,7 +143,8 @@ each option overrides one of them.
                       0: off; active_set_solve.hpp)
   --residual-tolerance L  stop only once the force-carrying contacts' root mean square
                       contact-law violation over the step, e dt, is at most L [d]
-                      (solver.residual_tolerance, 0: off)
+                      (solver.residual_tolerance; default: the shear phase's rule,
+                      1e-4 max(V, 0.05) dt, none in the static case; 0: off)
   --profile           time the solver's stages on its first thread (set-up, sweeps, waits at
                       the phases' barriers, convergence test, slab correction, mix,
                       write-back) and print their shares of the solve
@@ -210,6 +214,7 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--plain") {
       s.solver = one_thread(cdshear::SolverOptions{});
       s.alpha_given = true;
+      s.residual_given = true;
     } else if (a == "--no-plain-finish") {
       s.solver.plain_finish = false;
     } else if (a == "--newton") {
@@ -247,6 +252,7 @@ Settings parse(int argc, char** argv) {
       s.solver.residual_tolerance = std::stod(value());
       if (!(s.solver.residual_tolerance >= 0.0))
         throw std::invalid_argument("--residual-tolerance must be >= 0");
+      s.residual_given = true;
     } else if (a == "--profile") {
       s.solver.profile = true;
     } else if (a == "--alpha") {
@@ -371,6 +377,7 @@ struct Measurement {
   std::vector<int> sweeps;           // of every measured step
   cdshear::SolverProfile profile;    // --profile: the solver's first thread, summed over steps
   std::uint64_t held_back = 0;       // steps whose residual test refused a stop at least once
+  double sweeps_held_back = 0.0;     // their sweeps after the first refusal
   std::vector<double> residual_rms;  // the check's rms_carrying of every step not at the cap
   double residual_rms_capped = 0.0;  // its largest over the steps at the cap
 };
@@ -402,9 +409,11 @@ void print_residual(const Measurement& m, double dt, double velocity) {
                   largest / velocity, m.residual_rms_capped / velocity);
   std::fprintf(stderr,
                "  velocity residual, e dt [d]: median %.2e, largest %.2e off the cap, largest "
-               "%.2e at it%s; held back by the residual test: %.2f%% of the steps\n",
+               "%.2e at it%s; held back by the residual test: %.2f%% of the steps, %.2f%% of "
+               "the sweeps\n",
                median * dt, largest * dt, m.residual_rms_capped * dt, per_v,
-               100.0 * static_cast<double>(m.held_back) / static_cast<double>(m.steps));
+               100.0 * static_cast<double>(m.held_back) / static_cast<double>(m.steps),
+               100.0 * m.sweeps_held_back / m.sum_sweeps);
 }
 
 /// --profile: the shares of the solver's stages on its first thread, and the part of the solve
@@ -457,6 +466,8 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     m.sum_woken += static_cast<double>(r.solver.woken_contacts);
     m.profile += r.solver.profile;
     m.held_back += r.solver.residual_refusals > 0;
+    if (r.solver.first_refusal_sweep > 0)
+      m.sweeps_held_back += r.solver.sweeps - r.solver.first_refusal_sweep;
     if (r.solver.hit_cap)
       m.residual_rms_capped = std::max(m.residual_rms_capped, r.velocity_residual.rms_carrying);
     else
@@ -872,7 +883,11 @@ int run(const Settings& s) {
       StepOptions trajectory = options;
       if (s.paired) {
         trajectory.solver = one_thread(cdshear::shear_step_defaults().solver);
-        if (velocity > 0.0) trajectory.solver.alpha = cdshear::default_alpha(velocity);
+        if (velocity > 0.0) {
+          trajectory.solver.alpha = cdshear::default_alpha(velocity);
+          trajectory.solver.residual_tolerance =
+              cdshear::default_residual_tolerance(velocity, options.dt);
+        }
         trajectory.solver.profile = options.solver.profile;
       }
       std::fprintf(stderr, "  %s%s: %llu warm-up steps, then ", name.c_str(),
@@ -919,6 +934,9 @@ int run(const Settings& s) {
       if (s.packing.empty()) start_shear(box.world, s.velocity);
       options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
       if (!s.alpha_given) options.solver.alpha = cdshear::default_alpha(s.velocity);
+      if (!s.residual_given)
+        options.solver.residual_tolerance =
+            cdshear::default_residual_tolerance(s.velocity, options.dt);
       const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
                             box.world.walls[cdshear::kBoxBottomWall].point.y;
       cdshear::ShearMeasurement observer(cdshear::MeasureOptions{},

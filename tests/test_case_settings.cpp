@@ -2,9 +2,11 @@
 // and what `cdshear settings` prints reads back as the same case.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "case_file.hpp"
 #include "case_settings.hpp"
@@ -146,13 +148,14 @@ TEST(CaseSettings, PrintedSettingsReadBackAsTheSameCase) {
 
 TEST(CaseSettings, SceneSolverRowsAreTheCaseSolverRows) {
   // Scene files and case files read [solver] through the same rows: the same keys and ranges,
-  // except that a case's alpha may also be "auto" (the rule of the wall speed, default_alpha).
+  // except that a case's alpha and residual_tolerance may also be "auto" (the rules of the wall
+  // speed, default_alpha and default_residual_tolerance).
   std::set<std::string> scene, cases;
   for (const auto& row : solver_settings()) scene.insert(row.key + " " + range_text(row));
   for (const CaseSetting& s : case_settings()) {
     if (s.table != "solver") continue;
     std::string range = range_text(s);
-    if (s.key == "alpha") {
+    if (s.key == "alpha" || s.key == "residual_tolerance") {
       EXPECT_EQ(s.type, SettingType::kNumberOrAuto);
       const std::string or_auto = ", or \"auto\"";
       ASSERT_NE(range.find(or_auto), std::string::npos) << range;
@@ -188,6 +191,30 @@ TEST(CaseSettings, AlphaFollowsTheWallSpeedUnlessTheCaseGivesIt) {
   }
   // A case file keeps the word, so that a resumed or rerun case follows its own V.
   EXPECT_NE(resolved_text(with({"shear.velocity=0.05"})).find("alpha = 'auto'"), std::string::npos);
+}
+
+TEST(CaseSettings, ResidualToleranceFollowsTheWallSpeedAndTimeStepUnlessTheCaseGivesIt) {
+  // "auto" (the default): e dt at most kResidualPerSpeed V' dt, V' = max(V, 0.05), with the
+  // step's own dt (the default rule's or the case's).
+  const auto resolved = [](const std::vector<std::string>& overrides) {
+    ShearCase c = with(overrides);
+    resolve_step_rules(c);
+    return std::pair{c.step.solver.residual_tolerance, c.step.dt};
+  };
+  for (const double v : {0.01, 0.05, 0.1, 0.5, 2.0}) {
+    const auto [tolerance, dt] = resolved({"shear.velocity=" + std::to_string(v)});
+    EXPECT_DOUBLE_EQ(tolerance, kResidualPerSpeed * std::max(v, 0.05) * dt) << "V = " << v;
+  }
+  // From V = 0.4 up the default dt moves the walls 0.002 d per step: the same bound on e dt.
+  EXPECT_DOUBLE_EQ(resolved({"shear.velocity=0.5"}).first, resolved({"shear.velocity=2"}).first);
+  const auto [own_dt, dt] = resolved({"shear.velocity=0.5", "step.dt=0.001"});
+  EXPECT_DOUBLE_EQ(dt, 0.001);
+  EXPECT_DOUBLE_EQ(own_dt, kResidualPerSpeed * 0.5 * 0.001);
+  EXPECT_EQ(resolved({"solver.residual_tolerance=0"}).first, 0.0);  // off
+  EXPECT_EQ(resolved({"solver.residual_tolerance=2e-7"}).first, 2e-7);
+  EXPECT_NE(resolved_text(with({})).find("residual_tolerance = 'auto'"), std::string::npos);
+  EXPECT_NE(resolved_text(with({"solver.residual_tolerance=0"})).find("residual_tolerance = 0.0"),
+            std::string::npos);
 }
 
 TEST(CaseSettings, KeysNoLongerReadAreAcceptedAtTheValueNowUsedOnly) {

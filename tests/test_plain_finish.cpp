@@ -4,6 +4,10 @@
 // criterion are untouched, and the result does not depend on the thread count.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
 #include "test_support.hpp"
 
 namespace cdshear {
@@ -54,6 +58,63 @@ TEST(PlainFinish, EndsTheStepsOverRelaxationLeavesAtTheCapCloserToTheContactLaws
   EXPECT_GE(4 * ended, 3 * capped) << ended << " of " << capped << " ended by the finish";
   EXPECT_GE(4 * closer, 3 * capped)
       << closer << " of " << capped << " closer to the contact laws with the finish";
+}
+
+TEST(PlainFinish, EndsTheStepsTheResidualTestHoldsBackSoonerThanOverRelaxation) {
+  // A step whose changes meet alpha while its contact-law violation is above residual_tolerance
+  // goes on with relaxation 1 (the finish) rather than over-relaxed. From the same states, with
+  // the tolerance at the median violation of the steps without it: the held-back steps end
+  // within it, and the finish takes fewer sweeps after the refusal than over-relaxation does.
+  testing::ShearedBox box = testing::sheared_dense_box(300, 12.0, 0.05);
+  ASSERT_TRUE(box.dense);
+  std::vector<double> violations;
+  {
+    testing::ShearedBox probe = box;
+    const StepOptions o = slow_shear_options();
+    for (int k = 0; k < 100; ++k) {
+      const StepReport r = probe.dynamics.step(probe.world, o);
+      if (!r.solver.hit_cap) violations.push_back(r.velocity_residual.rms_carrying * o.dt);
+    }
+  }
+  std::sort(violations.begin(), violations.end());
+  StepOptions finish = slow_shear_options();
+  finish.solver.residual_tolerance = violations[violations.size() / 2];
+  StepOptions over_relaxed = finish;
+  over_relaxed.solver.plain_finish = false;
+  over_relaxed.solver.max_sweeps = 2 * finish.solver.max_sweeps;  // the same sweeps at most
+  int held = 0, finished = 0, ended = 0, paired = 0;
+  long sweeps_finish = 0, sweeps_over_relaxed = 0;
+  for (int k = 0; k < 200; ++k) {
+    World w = box.world;
+    ContactDynamics d = box.dynamics;
+    const StepReport other = d.step(w, over_relaxed);
+    const StepReport r = box.dynamics.step(box.world, finish);
+    ASSERT_FALSE(r.blown_up);
+    if (r.solver.residual_refusals == 0) continue;
+    ++held;
+    finished += r.solver.finished_plain;
+    if (!r.solver.hit_cap) {
+      ++ended;
+      EXPECT_LE(r.velocity_residual.rms_carrying * finish.dt,
+                finish.solver.residual_tolerance * (1.0 + 1e-9));
+    }
+    // Refused in the over-relaxed sweeps (not in a finish after the cap): the other solve did
+    // the same sweeps up to there (their dormant looks differ from one before the cap on).
+    if (r.solver.first_refusal_sweep >= finish.solver.max_sweeps - 1) continue;
+    ++paired;
+    EXPECT_EQ(other.solver.first_refusal_sweep, r.solver.first_refusal_sweep) << "step " << k;
+    sweeps_finish += r.solver.sweeps - r.solver.first_refusal_sweep;
+    sweeps_over_relaxed += other.solver.sweeps - other.solver.first_refusal_sweep;
+  }
+  std::printf(
+      "held back %d of 200 steps (%d ended, %d refused over-relaxed); sweeps after the "
+      "refusal: %ld finishing plain, %ld over-relaxed\n",
+      held, ended, paired, sweeps_finish, sweeps_over_relaxed);
+  EXPECT_GE(held, 10);
+  EXPECT_GE(paired, 5);
+  EXPECT_EQ(finished, held);
+  EXPECT_GE(4 * ended, 3 * held);
+  EXPECT_LT(sweeps_finish, sweeps_over_relaxed);
 }
 
 TEST(PlainFinish, GivesTheSameStateOnAnyNumberOfThreads) {

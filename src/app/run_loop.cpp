@@ -58,6 +58,9 @@ void add_step(RunSummary& summary, const StepReport& r) {
       std::max(summary.velocity_residual_rms_largest, r.velocity_residual.rms_carrying);
   summary.velocity_residual_largest =
       std::max(summary.velocity_residual_largest, r.velocity_residual.largest);
+  if (!r.solver.hit_cap)
+    summary.velocity_residual_rms_largest_off_cap =
+        std::max(summary.velocity_residual_rms_largest_off_cap, r.velocity_residual.rms_carrying);
   summary.seconds.detect += r.seconds.detect;
   summary.seconds.prepare += r.seconds.prepare;
   summary.seconds.solve += r.seconds.solve;
@@ -66,6 +69,7 @@ void add_step(RunSummary& summary, const StepReport& r) {
   summary.seconds.measure += r.seconds.measure;
   summary.capped_steps += r.solver.hit_cap ? 1 : 0;
   summary.plain_finish_steps += r.solver.finished_plain ? 1 : 0;
+  summary.held_back_steps += r.solver.residual_refusals > 0 ? 1 : 0;
 }
 
 /// The progress bar on stderr: the share `done` of the run, the time reached, and the wall time
@@ -202,11 +206,13 @@ nlohmann::json summary_to_json(const RunSummary& s) {
           {"mean_contacts", s.mean_contacts},
           {"capped_steps", s.capped_steps},
           {"plain_finish_steps", s.plain_finish_steps},
+          {"held_back_steps", s.held_back_steps},
           {"displacement_warnings", s.displacement_warnings},
           {"largest_overlap", s.largest_overlap},
           {"velocity_residual",
            {{"rms_mean", s.velocity_residual_rms_mean},
             {"rms_largest", s.velocity_residual_rms_largest},
+            {"rms_largest_off_cap", s.velocity_residual_rms_largest_off_cap},
             {"largest", s.velocity_residual_largest}}},
           {"stage_seconds",
            {{"detect", s.seconds.detect},

@@ -70,16 +70,20 @@ struct RunSummary {
                                    ///< time series and the status lines)
   std::uint64_t plain_finish_steps = 0;     ///< steps that reached the cap over-relaxed and went
                                             ///< on with relaxation 1 (SolverReport::finished_plain)
+  std::uint64_t held_back_steps = 0;        ///< steps the residual test held back at least once
+                                            ///< (SolverOptions::residual_tolerance)
   std::uint64_t displacement_warnings = 0;  ///< steps above displacement_bound
   double largest_overlap = 0.0;
   double mean_sweeps = 0.0;
   int largest_sweeps = 0;
   double mean_contacts = 0.0;
   /// The steps' velocity residuals (velocity_residual.hpp) [length/time]: the mean and the
-  /// largest of each step's root mean square over its force-carrying contacts, and the largest
-  /// of one contact.
+  /// largest of each step's root mean square over its force-carrying contacts, that largest over
+  /// the steps that ended off the cap (at most residual_tolerance / dt), and the largest of one
+  /// contact.
   double velocity_residual_rms_mean = 0.0;
   double velocity_residual_rms_largest = 0.0;
+  double velocity_residual_rms_largest_off_cap = 0.0;
   double velocity_residual_largest = 0.0;
   StageSeconds seconds;  ///< summed over the steps
 };

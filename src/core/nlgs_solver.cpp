@@ -444,6 +444,13 @@ bool contact_order_from_name(std::string_view name, ContactOrder& order) {
 
 namespace {
 
+/// Whether a solve that stops short of the criterion goes on with relaxation 1
+/// (SolverOptions::plain_finish): only an over-relaxed one, and never with alpha 0, which asks for
+/// exactly max_sweeps sweeps (a criterion never met).
+bool finishes_plain(const SolverOptions& o) {
+  return o.plain_finish && o.relaxation > 1.0 && o.alpha > 0.0;
+}
+
 /// One call of solve_contacts as an object: what its phases share (every member is shared by the
 /// team's threads), and the phases as member functions in the order a step runs them. Each phase
 /// is called by every thread of the team unless it says otherwise; the work-sharing constructs
@@ -518,6 +525,7 @@ class ContactSolve {
     std::size_t tallied_groups = 0;
     bool any_dormant = false;
     double residual = 0.0;        ///< of the last sweep whose sums were taken
+    bool refused = false;         ///< the residual test refused to stop after this sweep
     StageClock* clock = nullptr;  ///< this thread's (SolverOptions::profile)
   };
 
@@ -887,6 +895,12 @@ class ContactSolve {
       if (!done && sweep == options.max_sweeps) report.hit_cap = true;
     }
     if (done) return true;  // a gathering for a correction is dropped (the next reset clears it)
+    if (st.refused && finishes_plain(options)) {
+      // The changes are small but the contact laws not met: over-relaxed updates circling a
+      // solution, which plain ones end sooner (solve_contacts goes on with them).
+      if (st.first_thread) report.hit_cap = true;
+      return true;
+    }
     correct_and_mix(sweep, corrects, st);
     return false;
   }
@@ -956,7 +970,11 @@ class ContactSolve {
     }
     if (done && options.residual_tolerance > 0.0 && !meets_residual_tolerance(tallies, st)) {
       done = false;
-      if (st.first_thread) ++report.residual_refusals;
+      st.refused = true;
+      if (st.first_thread) {
+        ++report.residual_refusals;
+        if (report.first_refusal_sweep == 0) report.first_refusal_sweep = sweep;
+      }
     }
     return done;
   }
@@ -1085,17 +1103,18 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
                                 std::to_string(options.relaxation));
   SolverReport report =
       ContactSolve(contacts, all_bodies, first_wall, dt, options, step, workspace).run();
-  // alpha 0 asks for exactly max_sweeps sweeps (a criterion never met): nothing to finish.
-  if (!report.hit_cap || !options.plain_finish || options.relaxation == 1.0 || options.alpha <= 0.0)
-    return report;
+  if (!report.hit_cap || !finishes_plain(options)) return report;
 
   // Plain finish. Projected over-relaxed updates of frictional contacts can cycle without
   // meeting the criterion (system 1 at V = 0.05: a fifth of the steps at the cap of 200, the
   // worst RMS contact-law violation among them 30 times the other steps' worst), where plain
-  // Gauss-Seidel updates from the same impulses end most of them within tens of sweeps. The bodies
-  // go back to their free velocities (the impulses taken off again, contact by contact in a fixed
-  // order: the same on any thread count), and the solve starts again with relaxation 1,
-  // warm-started from the impulses reached.
+  // Gauss-Seidel updates from the same impulses end most of them within tens of sweeps. The same
+  // for a step whose changes met alpha while its contact-law violation did not meet
+  // residual_tolerance: from the same states, the plain updates took a third of the sweeps that
+  // over-relaxed ones took after the refusal (tests/test_plain_finish.cpp). The bodies go back
+  // to their free velocities (the impulses taken off again, contact by contact in a fixed order:
+  // the same on any thread count), and the solve starts again with relaxation 1, warm-started
+  // from the impulses reached.
   for (const Contact& c : contacts)
     apply_contact_impulse(c, all_bodies, -c.impulse_n, -c.impulse_t);
   SolverOptions plain = options;
@@ -1109,6 +1128,10 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   finish.slab_corrections += report.slab_corrections;
   finish.anderson_mixes += report.anderson_mixes;
   finish.residual_refusals += report.residual_refusals;
+  if (report.first_refusal_sweep > 0)
+    finish.first_refusal_sweep = report.first_refusal_sweep;
+  else if (finish.first_refusal_sweep > 0)
+    finish.first_refusal_sweep += report.sweeps;
   finish.profile += report.profile;
   return finish;
 }

@@ -54,11 +54,12 @@
 //   - (sum_k |dR_k| / sum_k |R_k|)^2 <= alpha  (the mean force; true when every R_k is zero),
 // and, if residual_tolerance > 0, the force-carrying rows' root mean square contact-law violation
 // over the step (e dt) is at most residual_tolerance,
-// or when `max_sweeps` is reached. With relaxation > 1 and `plain_finish`, a step at the cap then
-// goes on with relaxation 1 for up to `max_sweeps` more (reported as finished_plain), and only a
-// step that meets the criterion in neither is reported as hit_cap. The last change underestimates
-// the error left 30 to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on
-// dense packings: docs/accuracy.md, which measures the error itself).
+// or when `max_sweeps` is reached. With relaxation > 1 and `plain_finish`, a step at the cap, or
+// one whose first two parts held while the residual test did not, then goes on with relaxation 1
+// for up to `max_sweeps` more (reported as finished_plain), and only a step that meets the
+// criterion in neither is reported as hit_cap. The last change underestimates the error left 30
+// to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on dense packings:
+// docs/accuracy.md, which measures the error itself).
 #pragma once
 
 #include <array>
@@ -117,13 +118,15 @@ struct SolverOptions {
   /// the criterion above holds, the root mean square over the force-carrying contacts of e dt
   /// (e the velocity residual of velocity_residual.hpp: interpenetration, separation of a
   /// closed contact, slip of a sticking one) must also be at most this, or the sweeps go on.
-  /// 0: no such test. Steps at the cap are reported as before.
+  /// 0: no such test. Steps at the cap are reported as before. The shear phase sets it from the
+  /// wall speed (shear_case.hpp, default_residual_tolerance).
   double residual_tolerance = 0.0;
-  /// A solve with relaxation > 1 that reaches max_sweeps without meeting the criterion goes on
-  /// from where it stands with relaxation 1 (plain Gauss-Seidel updates; the mix and the slab
-  /// correction as before) for up to max_sweeps more sweeps: over-relaxed projected updates can
-  /// cycle in a frictional step, which the plain ones then end (docs/performance.md, "Plain
-  /// finish"). false: stop at the cap. Never with alpha 0 (exactly max_sweeps sweeps).
+  /// A solve with relaxation > 1 that reaches max_sweeps without meeting the criterion, or whose
+  /// change criterion holds while residual_tolerance does not, goes on from where it stands with
+  /// relaxation 1 (plain Gauss-Seidel updates; the mix and the slab correction as before) for up
+  /// to max_sweeps more sweeps: over-relaxed projected updates can cycle in a frictional step,
+  /// which the plain ones then end (docs/performance.md, "Plain finish"). false: stop at the cap.
+  /// Never with alpha 0 (exactly max_sweeps sweeps).
   bool plain_finish = true;
   /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
   /// sweep phase; no effect on the results). `cdshear_bench --profile`.
@@ -193,8 +196,11 @@ struct SolverReport {
   int slab_corrections = 0;   ///< slab corrections applied (solved and scaled)
   int anderson_mixes = 0;     ///< Anderson mix passes, restarts included
   int residual_refusals = 0;  ///< sweeps whose criterion held but not residual_tolerance
-  int threads = 1;            ///< threads used
-  SolverProfile profile;      ///< options.profile only
+  /// Sweeps done when the residual test first refused to stop (0: never refused); the sweeps
+  /// after it are what the test cost the step.
+  int first_refusal_sweep = 0;
+  int threads = 1;        ///< threads used
+  SolverProfile profile;  ///< options.profile only
 };
 
 /// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive

@@ -461,24 +461,36 @@ std::vector<CaseSetting> make_case_settings() {
   const auto shear_solver = [](auto& c) -> auto& {
     return c.step.solver;
   };
-  for (const auto& row : solver_settings()) {
-    if (row.key != "alpha") {
-      rows.push_back(lift(row, "solver", kShear, shear_solver, ""));
-      continue;
-    }
-    // alpha: a number, or "auto" for the rule of the wall speed (shear_case.hpp, default_alpha),
-    // which resolve_step_rules applies.
+  // alpha and residual_tolerance: a number, or "auto" for the rule of the wall speed
+  // (shear_case.hpp, default_alpha and default_residual_tolerance), which resolve_step_rules
+  // applies; `bound` reads and writes the case's own optional field.
+  const auto number_or_auto = [&](const Setting<SolverOptions>& row, const std::string& rule,
+                                  const CaseSetting& bound) {
     CaseSetting a = lift(row, "solver", kShear, shear_solver,
-                         fmt::format("{}; \"auto\": {:g} (V' / {:g})^2, V' = V within [{:g}, {:g}] "
-                                     "(docs/accuracy.md)",
-                                     row.meaning, shear_step_defaults().solver.alpha,
-                                     kAlphaFullSpeed, kAlphaSlowSpeed, kAlphaFullSpeed));
+                         fmt::format("{}; \"auto\": {} (docs/accuracy.md)", row.meaning, rule));
     a.type = kNumberOrAuto;
-    const CaseSetting bound = bind(
-        CaseSetting{}, [](auto& c) -> auto& { return c.alpha; });
     a.get = bound.get;
     a.set = bound.set;
-    rows.push_back(std::move(a));
+    return a;
+  };
+  for (const auto& row : solver_settings()) {
+    if (row.key == "alpha")
+      rows.push_back(number_or_auto(row,
+                                    fmt::format("{:g} (V' / {:g})^2, V' = V within [{:g}, {:g}]",
+                                                shear_step_defaults().solver.alpha, kAlphaFullSpeed,
+                                                kAlphaSlowSpeed, kAlphaFullSpeed),
+                                    bind(
+                                        CaseSetting{}, [](auto& c) -> auto& { return c.alpha; })));
+    else if (row.key == "residual_tolerance")
+      rows.push_back(number_or_auto(
+          row,
+          fmt::format("{:g} V' dt, V' = max(V, {:g}): a root mean square violation of at most "
+                      "{:g} V'",
+                      kResidualPerSpeed, kAlphaSlowSpeed, kResidualPerSpeed),
+          bind(
+              CaseSetting{}, [](auto& c) -> auto& { return c.residual_tolerance; })));
+    else
+      rows.push_back(lift(row, "solver", kShear, shear_solver, ""));
   }
   // [preparation]: the protocol of model.md section 5 and its solver.
   const auto more = std::vector<CaseSetting>{

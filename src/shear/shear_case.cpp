@@ -17,9 +17,16 @@ double default_alpha(double velocity) {
   return shear_step_defaults().solver.alpha * v * v;
 }
 
+double default_residual_tolerance(double velocity, double dt) {
+  return kResidualPerSpeed * std::max(velocity, kAlphaSlowSpeed) * dt;
+}
+
 std::string resolve_step_rules(ShearCase& c) {
   c.step.solver.alpha = c.alpha ? *c.alpha : default_alpha(c.velocity);
   c.step.dt = c.dt ? *c.dt : default_time_step(c);
+  c.step.solver.residual_tolerance = c.residual_tolerance
+                                         ? *c.residual_tolerance
+                                         : default_residual_tolerance(c.velocity, c.step.dt);
   const double per_step = c.velocity * c.step.dt;
   if (per_step > c.step.displacement_bound)
     return "step.dt = " + std::to_string(c.step.dt) +
