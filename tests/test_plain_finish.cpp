@@ -27,6 +27,18 @@ StepOptions slow_shear_options() {
   return o;
 }
 
+/// The median contact-law violation over a step, e dt [d], of `steps` steps from `box` (a copy)
+/// that end off the cap: a tolerance that holds back about half of such steps.
+double median_violation(testing::ShearedBox box, const StepOptions& o, int steps) {
+  std::vector<double> violations;
+  for (int k = 0; k < steps; ++k) {
+    const StepReport r = box.dynamics.step(box.world, o);
+    if (!r.solver.hit_cap) violations.push_back(r.velocity_residual.rms_carrying * o.dt);
+  }
+  std::sort(violations.begin(), violations.end());
+  return violations.empty() ? 0.0 : violations[violations.size() / 2];
+}
+
 TEST(PlainFinish, EndsTheStepsOverRelaxationLeavesAtTheCapCloserToTheContactLaws) {
   testing::ShearedBox box = testing::sheared_dense_box(300, 12.0, 0.05);
   ASSERT_TRUE(box.dense);
@@ -67,18 +79,8 @@ TEST(PlainFinish, EndsTheStepsTheResidualTestHoldsBackSoonerThanOverRelaxation) 
   // within it, and the finish takes fewer sweeps after the refusal than over-relaxation does.
   testing::ShearedBox box = testing::sheared_dense_box(300, 12.0, 0.05);
   ASSERT_TRUE(box.dense);
-  std::vector<double> violations;
-  {
-    testing::ShearedBox probe = box;
-    const StepOptions o = slow_shear_options();
-    for (int k = 0; k < 100; ++k) {
-      const StepReport r = probe.dynamics.step(probe.world, o);
-      if (!r.solver.hit_cap) violations.push_back(r.velocity_residual.rms_carrying * o.dt);
-    }
-  }
-  std::sort(violations.begin(), violations.end());
   StepOptions finish = slow_shear_options();
-  finish.solver.residual_tolerance = violations[violations.size() / 2];
+  finish.solver.residual_tolerance = median_violation(box, finish, 100);
   StepOptions over_relaxed = finish;
   over_relaxed.solver.plain_finish = false;
   over_relaxed.solver.max_sweeps = 2 * finish.solver.max_sweeps;  // the same sweeps at most
@@ -118,21 +120,26 @@ TEST(PlainFinish, EndsTheStepsTheResidualTestHoldsBackSoonerThanOverRelaxation) 
 }
 
 TEST(PlainFinish, GivesTheSameStateOnAnyNumberOfThreads) {
+  // Both ways into the finish: the cap, and a contact-law bound that holds steps back.
   testing::ShearedBox one = testing::sheared_dense_box(300, 12.0, 0.05);
   ASSERT_TRUE(one.dense);
   testing::ShearedBox two = one;
   StepOptions o1 = slow_shear_options();
+  o1.solver.residual_tolerance = median_violation(one, o1, 40);
   StepOptions o2 = o1;
   o2.solver.threads = 2;
   o2.solver.min_rows_per_thread = 1;
-  int finished = 0;
+  int finished = 0, held = 0;
   for (int k = 0; k < 120; ++k) {
     const StepReport r1 = one.dynamics.step(one.world, o1);
     const StepReport r2 = two.dynamics.step(two.world, o2);
     ASSERT_EQ(r1.solver.sweeps, r2.solver.sweeps) << "step " << k;
+    ASSERT_EQ(r1.solver.residual_refusals, r2.solver.residual_refusals) << "step " << k;
     finished += r1.solver.finished_plain;
+    held += r1.solver.residual_refusals > 0;
   }
   EXPECT_GE(finished, 3) << "steps that went on with relaxation 1, of 120";
+  EXPECT_GE(held, 1) << "steps the bound held back, of 120";
   for (std::size_t i = 0; i < one.world.disks.size(); ++i) {
     EXPECT_EQ(one.world.disks.position[i].x, two.world.disks.position[i].x);
     EXPECT_EQ(one.world.disks.position[i].y, two.world.disks.position[i].y);
