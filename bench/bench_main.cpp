@@ -370,7 +370,7 @@ struct Measurement {
   double sum_sweeps = 0.0, sum_contacts = 0.0, sum_active = 0.0;
   double sum_dormant = 0.0, sum_woken = 0.0;
   std::uint64_t capped = 0, displacement_warnings = 0;
-  std::uint64_t finished_plain = 0;  // steps that went on with relaxation 1 after the cap
+  std::uint64_t finished_plain = 0;  // went on with relaxation 1 (the cap or the residual test)
   double best_block_ns = 0.0;        // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
   double observer_s = 0.0;           // time in the measurement layer (shear cases)

@@ -68,8 +68,9 @@ struct RunSummary {
   double wall_seconds = 0.0;
   std::uint64_t capped_steps = 0;  ///< steps whose solver hit the sweep cap (per interval: the
                                    ///< time series and the status lines)
-  std::uint64_t plain_finish_steps = 0;     ///< steps that reached the cap over-relaxed and went
-                                            ///< on with relaxation 1 (SolverReport::finished_plain)
+  std::uint64_t plain_finish_steps = 0;     ///< steps that went on with relaxation 1 after the
+                                            ///< cap or the residual test
+                                            ///< (SolverReport::finished_plain)
   std::uint64_t held_back_steps = 0;        ///< steps the residual test held back at least once
                                             ///< (SolverOptions::residual_tolerance)
   std::uint64_t displacement_warnings = 0;  ///< steps above displacement_bound

@@ -180,9 +180,11 @@ struct SolverProfile {
 };
 
 struct SolverReport {
-  int sweeps = 0;               ///< over-relaxed and plain-finish sweeps together
-  bool hit_cap = false;         ///< the criterion not met after the last sweep allowed
-  bool finished_plain = false;  ///< reached max_sweeps over-relaxed and went on with relaxation 1
+  int sweeps = 0;        ///< over-relaxed and plain-finish sweeps together
+  bool hit_cap = false;  ///< the criterion not met after the last sweep allowed
+  /// stopped over-relaxed (at max_sweeps, or held back by residual_tolerance) and went on with
+  /// relaxation 1
+  bool finished_plain = false;
   /// (sum |dR| / sum |R|)^2 of the last sweep; 1 when every force vanished in it (sum |R| = 0
   /// after a change: the whole force changed)
   double residual = 0.0;
