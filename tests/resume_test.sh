@@ -2,7 +2,8 @@
 # A shear run stopped (at a chosen time, and by SIGTERM at an arbitrary moment) and resumed ends
 # in exactly the same state, with the same run.h5 (series, windows, snapshot), as the same run
 # done in one go; and a run without the measurement observers ends in the same state. Its
-# progress.json follows the stop and the resume.
+# progress.json follows the stop and the resume, and its steps meet the shear defaults'
+# contact-law bound.
 # Usage: resume_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -13,7 +14,21 @@ common=(-q --no-analyze --packing "$packing" --set shear.duration=6
         --set output.checkpoint_interval=0.5 --set output.snapshot_interval=1
         --set measure.window=0.8 --set measure.sample_interval=0.1)
 
-"$exe" run "${common[@]}" -o "$work/straight" > /dev/null
+"$exe" run "${common[@]}" -o "$work/straight" > "$work/straight.out"
+# The shear defaults' contact-law bound (solver.residual_tolerance "auto", printed on the first
+# line as e dt in d): every step that ended off the cap met it.
+/usr/bin/python3 - "$work/straight.out" "$work/straight/run_info.json" <<'PY' ||
+import json, re, sys
+line = open(sys.argv[1]).readline()
+dt = float(re.search(r" dt ([0-9.eE+-]+),", line).group(1))
+tolerance = float(re.search(r"residual tolerance ([0-9.eE+-]+) d", line).group(1))
+s = json.load(open(sys.argv[2]))["summary"]
+assert tolerance > 0, line
+assert s["held_back_steps"] >= 0 and s["steps"] > s["capped_steps"], s
+worst = s["velocity_residual"]["rms_largest_off_cap"] * dt
+assert 0 < worst <= tolerance * (1 + 1e-9), (worst, tolerance)
+PY
+  { echo "FAIL: a step of the default run ended off the cap above its contact-law bound"; exit 1; }
 
 # Stopped at t = 1.2 (between checkpoints: the stop itself writes one), then resumed.
 "$exe" run "${common[@]}" --stop-at 1.2 -o "$work/stopped" > /dev/null
