@@ -27,6 +27,7 @@
 #include <fstream>
 #include <iostream>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,19 @@ using Clock = std::chrono::steady_clock;
 cdshear::SolverOptions one_thread(cdshear::SolverOptions s) {
   s.threads = 1;
   return s;
+}
+
+/// The step options of a shear case at wall speed V as `cdshear run` resolves them
+/// (resolve_step_rules, shear_case.hpp): the time-step rule, and alpha and the contact-law bound
+/// from their rules unless given.
+cdshear::StepOptions shear_step_rules(double velocity, std::optional<double> alpha,
+                                      std::optional<double> residual_tolerance) {
+  cdshear::ShearCase c;
+  c.velocity = velocity;
+  c.alpha = alpha;
+  c.residual_tolerance = residual_tolerance;
+  cdshear::resolve_step_rules(c);
+  return c.step;
 }
 
 struct Settings {
@@ -882,12 +896,8 @@ int run(const Settings& s) {
       // --paired: the ordinary steps with the shear defaults (one thread), the line theirs.
       StepOptions trajectory = options;
       if (s.paired) {
-        trajectory.solver = one_thread(cdshear::shear_step_defaults().solver);
-        if (velocity > 0.0) {
-          trajectory.solver.alpha = cdshear::default_alpha(velocity);
-          trajectory.solver.residual_tolerance =
-              cdshear::default_residual_tolerance(velocity, options.dt);
-        }
+        trajectory.solver = one_thread(velocity > 0.0 ? shear_step_rules(velocity, {}, {}).solver
+                                                      : cdshear::shear_step_defaults().solver);
         trajectory.solver.profile = options.solver.profile;
       }
       std::fprintf(stderr, "  %s%s: %llu warm-up steps, then ", name.c_str(),
@@ -932,11 +942,12 @@ int run(const Settings& s) {
     if (s.run_static && s.packing.empty()) report("static", 0.0, options);
     if (s.run_shear) {
       if (s.packing.empty()) start_shear(box.world, s.velocity);
-      options.dt = std::min(5e-3, 2e-3 / s.velocity);  // the shear cases' default rule
-      if (!s.alpha_given) options.solver.alpha = cdshear::default_alpha(s.velocity);
-      if (!s.residual_given)
-        options.solver.residual_tolerance =
-            cdshear::default_residual_tolerance(s.velocity, options.dt);
+      const StepOptions rules = shear_step_rules(
+          s.velocity, s.alpha_given ? std::optional(s.solver.alpha) : std::nullopt,
+          s.residual_given ? std::optional(s.solver.residual_tolerance) : std::nullopt);
+      options.dt = rules.dt;
+      options.solver.alpha = rules.solver.alpha;
+      options.solver.residual_tolerance = rules.solver.residual_tolerance;
       const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
                             box.world.walls[cdshear::kBoxBottomWall].point.y;
       cdshear::ShearMeasurement observer(cdshear::MeasureOptions{},
