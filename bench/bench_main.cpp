@@ -103,6 +103,7 @@ struct Settings {
   bool paired = false;
   bool polish = false;          // a third solve: the reference's settings from the tested end
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
+  bool error_locality = false;  // where in the packing each sample's error lies
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
   std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
@@ -179,6 +180,10 @@ Reference solve of --step-error:
                       to that exact solution (an upper bound on its distance to the step's
                       solution set) and that solution's distance to the reference (another
                       exact solution of the step where it is not small)
+  --error-locality    where each sample's impulse error lies: its shares on the contacts whose
+                      status differs from the reference's and on the 1% of contacts most
+                      off, and the run of three bands of 4 d (by height) holding most of it,
+                      with the relative error there
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
@@ -255,6 +260,8 @@ Settings parse(int argc, char** argv) {
       if (s.min_steps == 0) throw std::invalid_argument("--steps must be >= 1");
     } else if (a == "--error-spectrum") {
       s.error_spectrum = true;
+    } else if (a == "--error-locality") {
+      s.error_locality = true;
     } else if (a == "--max-sweeps") {
       s.solver.max_sweeps = std::stoi(value());
       if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
@@ -681,6 +688,56 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
                share[5] / total2, open2 / total2, lowest, n);
 }
 
+/// --error-locality: where a sample's impulse error e = R - R_ref lies. Its shares of |e|^2 on the
+/// contacts open, sticking or sliding unlike the reference, and on the 1% of contacts with the
+/// largest |e|; the three consecutive bands of kLocalityBand (by the height of the contact's first
+/// disk) holding the largest share, and |e| / |R_ref| over those bands' contacts.
+void error_locality(const std::vector<cdshear::Contact>& a, const std::vector<cdshear::Contact>& b,
+                    const World& world) {
+  constexpr double kLocalityBand = 4.0;  // [d], the coloured order's band height
+  std::vector<double> e2, band_e2, band_r2;
+  double total2 = 0.0, mismatch2 = 0.0;
+  const double y0 = world.walls[cdshear::kBoxBottomWall].point.y;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const double dn = a[i].impulse_n - b[i].impulse_n, dt = a[i].impulse_t - b[i].impulse_t;
+    const double here = dn * dn + dt * dt;
+    e2.push_back(here);
+    total2 += here;
+    if (cdshear::impulse_status(a[i]) != cdshear::impulse_status(b[i])) mismatch2 += here;
+    const double y = world.disks.position[static_cast<std::size_t>(b[i].key.body_a)].y - y0;
+    const auto band = static_cast<std::size_t>(std::max(0.0, y / kLocalityBand));
+    if (band >= band_e2.size()) {
+      band_e2.resize(band + 1, 0.0);
+      band_r2.resize(band + 1, 0.0);
+    }
+    band_e2[band] += here;
+    band_r2[band] += b[i].impulse_n * b[i].impulse_n + b[i].impulse_t * b[i].impulse_t;
+  }
+  if (!(total2 > 0.0)) return;
+  std::sort(e2.begin(), e2.end(), std::greater<>());
+  double top2 = 0.0;
+  for (std::size_t i = 0; i < std::max<std::size_t>(e2.size() / 100, 1); ++i) top2 += e2[i];
+  std::size_t first = 0;
+  double best = -1.0;
+  for (std::size_t k = 0; k < band_e2.size(); ++k) {
+    double sum = 0.0;
+    for (std::size_t j = k; j < std::min(k + 3, band_e2.size()); ++j) sum += band_e2[j];
+    if (sum > best) {
+      best = sum;
+      first = k;
+    }
+  }
+  double run_r2 = 0.0;
+  const std::size_t last = std::min(first + 3, band_e2.size());
+  for (std::size_t j = first; j < last; ++j) run_r2 += band_r2[j];
+  std::fprintf(stderr,
+               "    error locality: status differences %.3f of |e|^2, the 1%% of contacts most off "
+               "%.3f; heights %.0f to %.0f d (of %.0f) %.3f, off by %.1e there\n",
+               mismatch2 / total2, top2 / total2, kLocalityBand * first, kLocalityBand * last,
+               kLocalityBand * band_e2.size(), best / total2,
+               run_r2 > 0.0 ? std::sqrt(best / run_r2) : 0.0);
+}
+
 /// |R_a - R_b| / |R_b| over both impulse components of contacts listed alike (one step's
 /// candidates from one state); not a number where every impulse of b vanishes.
 double relative_impulse_distance(const std::vector<cdshear::Contact>& a,
@@ -779,6 +836,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         r_opt.velocity_residual.largest * options.dt, r_ref.velocity_residual.largest * options.dt,
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
+    if (s.error_locality) error_locality(a, b, world);
     if (s.polish) {
       // The tested solve's impulses as the warm start of a solve to round-off from the state
       // before the step. Keys renamed for disks that crossed x = 0 in the tested step

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Paired check of two executables from the same states (docs/accuracy.md, "Paired copies"; a use in
-# "Builds"): for each run folder given, copies its checkpoint twice, resumes one copy with
-# $CDSHEAR_A and the other with $CDSHEAR_B for DURATION time units, and prints, over all the runs,
-# the mean difference B - A of each series' mean after the checkpoint, with its standard error from
-# the runs' scatter. Both copies start from one state, so the difference is the executables' own (a
-# build, an instruction set, a code change), free of the state-to-state scatter that dominates
-# ensembles of whole runs; the flows diverge after a few time units, which the pairing over many
-# runs averages out.
+# Paired check of two executables from the same states (docs/accuracy-methods.md, "Paired
+# copies"; a use in docs/accuracy.md, "Builds"): for each run folder given, copies its checkpoint
+# twice, resumes one copy with $CDSHEAR_A and the other with $CDSHEAR_B for DURATION time units,
+# and prints, over all the runs, the mean difference B - A of each series' mean after the
+# checkpoint, with its standard error from the runs' scatter. Both copies start from one state,
+# so the difference is the executables' own (a build, an instruction set, a code change), free of
+# the state-to-state scatter that dominates ensembles of whole runs; the flows diverge after a few
+# time units, which the pairing over many runs averages out.
 #
 #   CDSHEAR_A=old/cdshear CDSHEAR_B=new/cdshear scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
 #

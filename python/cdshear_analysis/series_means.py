@@ -8,7 +8,7 @@ the analysis' own method), since neighbouring samples are correlated: as if they
 independent it was up to 2.5 times too small on the solver checks of docs/accuracy.md. When the
 blocks find no plateau (a short window) the largest error over the levels is given and the
 output says so: then it is still a lower bound. It serves
-scripts/solver_check.sh (docs/accuracy.md, "Checkpoint copies"), which resumes copies of a run's
+scripts/solver_check.sh (docs/accuracy-methods.md, "Checkpoint copies"), which resumes copies of a run's
 checkpoint with other solver settings and compares, for example, the force-carrying contacts.
 
 `paired_differences(check_dir, keys)` serves scripts/paired_check.sh: copies of several runs'
