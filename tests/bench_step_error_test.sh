@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# cdshear_bench --step-error solves one step twice from the same state and warm start: with the
+# reference's own settings the tested solve is the reference's, bit for bit (every error exactly
+# 0), and with the shear defaults it is not (a median impulse error above 0, --error-locality's
+# shares within [0, 1]).
+# Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
+set -uo pipefail
+bench=$1; work=$2
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fails=0
+common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
+        --error-locality)
+reference=(--alpha 1e-20 --converged-fraction 1 --max-sweeps 200000 --no-skip-dormant
+           --slab-correction 0 --no-plain-finish --anderson 0 --relaxation 1
+           --residual-tolerance 0)
+if ! "$bench" "${common[@]}" "${reference[@]}" > same.csv 2> same.txt; then
+  echo "FAIL: cdshear_bench with the reference's settings failed"; cat same.txt; exit 1
+fi
+if ! grep -qF "median impulse error 0.00e+00 (largest 0.00e+00), median top-wall error 0.00e+00 (largest 0.00e+00), median velocity error 0.00e+00 V (largest 0.00e+00 V)" same.txt; then
+  echo "FAIL: the reference's settings did not give the reference's step"; cat same.txt
+  fails=$((fails + 1))
+fi
+if ! "$bench" "${common[@]}" > defaults.csv 2> defaults.txt; then
+  echo "FAIL: cdshear_bench with the shear defaults failed"; cat defaults.txt; exit 1
+fi
+median=$(sed -n 's/.*median impulse error \([^ ]*\) .*/\1/p' defaults.txt)
+if ! awk -v m="$median" 'BEGIN { exit !(m + 0 > 0) }'; then
+  echo "FAIL: the shear defaults' step equals the reference's (median impulse error '$median')"
+  fails=$((fails + 1))
+fi
+lines=$(grep -c "error locality:" defaults.txt)
+bad=$(sed -n 's/.*status differences \([^ ]*\) of |e|^2, the 1% of contacts most off \([^;]*\);.*) \([^,]*\), off by.*/\1 \2 \3/p' \
+        defaults.txt | awk '{ for (i = 1; i <= 3; ++i) if (!($i >= 0 && $i <= 1)) n++ } END { print n + 0 }')
+if [[ "$lines" != 2 || "$bad" != 0 ]]; then
+  echo "FAIL: expected 2 error-locality lines with shares in [0, 1], got $lines ($bad out of range)"
+  grep "error locality:" defaults.txt; fails=$((fails + 1))
+fi
+echo "bench_step_error_test: $fails failures"
+exit $((fails > 0))
