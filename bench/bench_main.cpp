@@ -104,6 +104,8 @@ struct Settings {
   bool polish = false;          // a third solve: the reference's settings from the tested end
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool error_locality = false;  // where in the packing each sample's error lies
+  bool stress_error = false;    // what each sample's error does to the contact stress
+  int stress_window = 1;        // steps --stress-error sums, along both solves' own paths
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
   std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
@@ -184,6 +186,14 @@ Reference solve of --step-error:
                       status differs from the reference's and on the 1% of contacts most
                       off, and the run of three bands of 4 d (by height) holding most of it,
                       with the relative error there
+  --stress-error      what each sample's impulse error does to the contact stress (the sum
+                      of R (x) branch vector): relative errors of sigma_yy and of
+                      sigma_xy / sigma_yy over the bulk (beyond 10 d from both walls; the
+                      middle half of a cell under 40 d), and the largest over bands of 4 d
+                      and of 1 d (by the contact point's height)
+  --stress-window K   with --stress-error, also the errors of the sums over K steps, each
+                      solve going on along its own path from the sample (default 1: none);
+                      the paths' own divergence included
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
@@ -262,6 +272,11 @@ Settings parse(int argc, char** argv) {
       s.error_spectrum = true;
     } else if (a == "--error-locality") {
       s.error_locality = true;
+    } else if (a == "--stress-error") {
+      s.stress_error = true;
+    } else if (a == "--stress-window") {
+      s.stress_window = std::stoi(value());
+      if (s.stress_window < 1) throw std::invalid_argument("--stress-window must be at least 1");
     } else if (a == "--max-sweeps") {
       s.solver.max_sweeps = std::stoi(value());
       if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
@@ -738,6 +753,92 @@ void error_locality(const std::vector<cdshear::Contact>& a, const std::vector<cd
                run_r2 > 0.0 ? std::sqrt(best / run_r2) : 0.0);
 }
 
+/// --stress-error: what a sample's impulse error does to the contact stress, the Love sum
+/// S = sum over contacts of R (x) l (R = R_n n + R_t t the impulse on the first disk, l = -(lever_a
+/// + lever_b) n its branch vector: centre to centre for two disks, contact point to centre against
+/// a wall), which the stripe profiles spread over the grains (src/measure/shear_measurement.hpp).
+/// Tallied over regions by the contact point's height above the bottom wall: the bulk (farther
+/// than kBulkMargin from both walls, or than a quarter of the height in a cell under 4
+/// kBulkMargin tall, such as system 1's) and bands of 4 d and of 1 d (a profile's stripe);
+/// summed over the steps of a window, a time average's. A self-stress error (forces balanced on
+/// every grain, none on the walls) sums to zero over any region it lies in: the soft modes'
+/// impulse error reaches a region's stress only through the forces across its boundary, that is
+/// through the momentum the grains beyond it gain, which later steps give back.
+class StressTally {
+ public:
+  static constexpr double kBulkMargin = 10.0;  // [d], the boundary layers' h
+
+  /// Adds one step: its contacts (geometry of the step's start) and the world before the step.
+  void add(const std::vector<cdshear::Contact>& contacts, const World& world) {
+    const double y0 = world.walls[cdshear::kBoxBottomWall].point.y;
+    const double y1 = world.walls[cdshear::kBoxTopWall].point.y;
+    const double margin = std::min(kBulkMargin, (y1 - y0) / 4.0);
+    for (const cdshear::Contact& c : contacts) {
+      const auto ia = static_cast<std::size_t>(c.key.body_a);
+      const double y = world.disks.position[ia].y + c.arm_a.y - y0;
+      const double length = -(c.lever_a + c.lever_b);
+      const cdshear::Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent;
+      const Sums here{r.y * length * c.normal.y, r.x * length * c.normal.y};
+      if (y >= margin && y1 - y0 - y >= margin) bulk_ += here;
+      add_to(band4_, y / 4.0, here);
+      add_to(band1_, y, here);
+    }
+  }
+
+  /// Relative errors of this tally against the reference's: S_yy's, and mu = S_xy / S_yy's to
+  /// first order, |dS_xy - mu_ref dS_yy| / S_yy,ref; over the bulk, and the largest over the
+  /// bands of 4 d and of 1 d holding at least a tenth of the mean band's S_yy.
+  void print_against(const StressTally& reference, int steps) const {
+    double b4_yy = 0.0, b4_mu = 0.0, b1_yy = 0.0, b1_mu = 0.0;
+    worst(band4_, reference.band4_, b4_yy, b4_mu);
+    worst(band1_, reference.band1_, b1_yy, b1_mu);
+    const Sums& r = reference.bulk_;
+    const double d_yy = bulk_.yy - r.yy, d_xy = bulk_.xy - r.xy;
+    const double mu = r.yy != 0.0 ? r.xy / r.yy : 0.0;
+    std::fprintf(stderr,
+                 "    stress error%s: bulk sigma_yy %+.1e, mu %+.1e (mu %.3f); largest of bands of "
+                 "4 d %.1e, %.1e; of 1 d %.1e, %.1e\n",
+                 steps > 1 ? (" over " + std::to_string(steps) + " steps").c_str() : "",
+                 r.yy != 0.0 ? d_yy / r.yy : 0.0, r.yy != 0.0 ? (d_xy - mu * d_yy) / r.yy : 0.0,
+                 std::abs(mu), b4_yy, b4_mu, b1_yy, b1_mu);
+  }
+
+ private:
+  struct Sums {
+    double yy = 0.0, xy = 0.0;
+    Sums& operator+=(const Sums& o) {
+      yy += o.yy;
+      xy += o.xy;
+      return *this;
+    }
+  };
+
+  static void add_to(std::vector<Sums>& bands, double position, const Sums& here) {
+    const auto k = static_cast<std::size_t>(std::max(0.0, position));
+    if (k >= bands.size()) bands.resize(k + 1);
+    bands[k] += here;
+  }
+
+  static void worst(const std::vector<Sums>& tested, const std::vector<Sums>& reference,
+                    double& worst_yy, double& worst_mu) {
+    double mean_yy = 0.0;
+    for (const Sums& r : reference) mean_yy += std::abs(r.yy);
+    mean_yy /= static_cast<double>(std::max<std::size_t>(reference.size(), 1));
+    worst_yy = worst_mu = 0.0;
+    for (std::size_t k = 0; k < reference.size(); ++k) {
+      const Sums& r = reference[k];
+      if (!(std::abs(r.yy) > 0.1 * mean_yy)) continue;
+      const Sums t = k < tested.size() ? tested[k] : Sums{};
+      const double d_yy = t.yy - r.yy, d_xy = t.xy - r.xy;
+      worst_yy = std::max(worst_yy, std::abs(d_yy / r.yy));
+      worst_mu = std::max(worst_mu, std::abs((d_xy - r.xy / r.yy * d_yy) / r.yy));
+    }
+  }
+
+  Sums bulk_;
+  std::vector<Sums> band4_, band1_;
+};
+
 /// |R_a - R_b| / |R_b| over both impulse components of contacts listed alike (one step's
 /// candidates from one state); not a number where every impulse of b vanishes.
 double relative_impulse_distance(const std::vector<cdshear::Contact>& a,
@@ -837,6 +938,26 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
     if (s.error_locality) error_locality(a, b, world);
+    if (s.stress_error) {
+      StressTally tested, reference;
+      tested.add(a, world);
+      reference.add(b, world);
+      tested.print_against(reference, 1);
+      if (s.stress_window > 1) {
+        // Both solves go on along their own paths for the rest of the window: a tested step's
+        // error in the grains' momentum is given back in the steps after it.
+        World w_t = w_opt, w_r = w_ref;
+        ContactDynamics d_t = d_opt, d_r = d_ref;
+        for (int j = 1; j < s.stress_window; ++j) {
+          const World before_t = w_t, before_r = w_r;
+          d_t.step(w_t, options);
+          d_r.step(w_r, tight);
+          tested.add(d_t.contacts(), before_t);
+          reference.add(d_r.contacts(), before_r);
+        }
+        tested.print_against(reference, s.stress_window);
+      }
+    }
     if (s.polish) {
       // The tested solve's impulses as the warm start of a solve to round-off from the state
       // before the step. Keys renamed for disks that crossed x = 0 in the tested step

@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
 # cdshear_bench --step-error solves one step twice from the same state and warm start: with the
 # reference's own settings the tested solve is the reference's, bit for bit (every error exactly
-# 0), and with the shear defaults it is not (a median impulse error above 0, --error-locality's
-# shares within [0, 1]).
+# 0, --stress-error's too), and with the shear defaults it is not (a median impulse error above
+# 0, --error-locality's shares within [0, 1], a stress error in some stripe).
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
-        --error-locality)
+        --error-locality --stress-error)
 reference=(--alpha 1e-20 --converged-fraction 1 --max-sweeps 200000 --no-skip-dormant
            --slab-correction 0 --no-plain-finish --anderson 0 --relaxation 1
            --residual-tolerance 0)
@@ -18,6 +18,12 @@ if ! "$bench" "${common[@]}" "${reference[@]}" > same.csv 2> same.txt; then
 fi
 if ! grep -qF "median impulse error 0.00e+00 (largest 0.00e+00), median top-wall error 0.00e+00 (largest 0.00e+00), median velocity error 0.00e+00 V (largest 0.00e+00 V)" same.txt; then
   echo "FAIL: the reference's settings did not give the reference's step"; cat same.txt
+  fails=$((fails + 1))
+fi
+zero="stress error: bulk sigma_yy +0.0e+00, mu +0.0e+00 (mu "
+if [[ $(grep -c "stress error:" same.txt) != 2 || $(grep "stress error:" same.txt | grep -F "$zero" |
+      grep -cF "largest of bands of 4 d 0.0e+00, 0.0e+00; of 1 d 0.0e+00, 0.0e+00") != 2 ]]; then
+  echo "FAIL: the reference's settings gave a stress error"; grep "stress error:" same.txt
   fails=$((fails + 1))
 fi
 if ! "$bench" "${common[@]}" > defaults.csv 2> defaults.txt; then
@@ -34,6 +40,12 @@ bad=$(sed -n 's/.*status differences \([^ ]*\) of |e|^2, the 1% of contacts most
 if [[ "$lines" != 2 || "$bad" != 0 ]]; then
   echo "FAIL: expected 2 error-locality lines with shares in [0, 1], got $lines ($bad out of range)"
   grep "error locality:" defaults.txt; fails=$((fails + 1))
+fi
+stripes=$(sed -n 's/.*stress error: .* of 1 d \([^,]*\), \(.*\)$/\1 \2/p' defaults.txt |
+            awk '$1 + $2 > 0 { n++ } END { print n + 0 }')
+if [[ "$stripes" == 0 ]]; then
+  echo "FAIL: the shear defaults' steps gave no stress error in any stripe"
+  grep "stress error:" defaults.txt; fails=$((fails + 1))
 fi
 echo "bench_step_error_test: $fails failures"
 exit $((fails > 0))
