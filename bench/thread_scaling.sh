@@ -13,7 +13,7 @@
 set -euo pipefail
 
 if [[ $# -lt 4 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 run=$1 duration=$2 repeats=$3

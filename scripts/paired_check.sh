@@ -15,7 +15,7 @@
 set -euo pipefail
 
 if [[ $# -lt 3 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 out=$1 duration=$2
