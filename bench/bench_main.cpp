@@ -923,8 +923,11 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     if (s.error_spectrum) error_spectrum(a, b, d_ref.bodies());
     if (options.solver.newton_iterations > 0)
       std::fprintf(
-          stderr, "    newton %d it, %zu unknowns, %zu changed, last %.2e, residual %.2e -> %.2e\n",
-          r_opt.active_set.iterations, r_opt.active_set.unknowns, r_opt.active_set.changed,
+          stderr,
+          "    newton %d it (%d factorised, %d by GMRES), %zu unknowns, %zu changed, last %.2e, "
+          "residual %.2e -> %.2e\n",
+          r_opt.active_set.iterations, r_opt.active_set.factorisations,
+          r_opt.active_set.krylov_solves, r_opt.active_set.unknowns, r_opt.active_set.changed,
           r_opt.active_set.correction, r_opt.active_set.initial_residual,
           r_opt.active_set.residual);
     // The largest contact-law violation over the step, e dt [length], of each solve

@@ -1,6 +1,7 @@
 // The active-set Newton refinement (active_set_solve.hpp): a column's statics exactly after one
 // sweep, a sheared dense packing's step solved to round-off (the solution that Gauss-Seidel
-// reaches after thousands of sweeps), a residual that never grows, and the same result twice.
+// reaches after thousands of sweeps) with one factorisation and GMRES on it for the later
+// iterations, a residual that never grows, and the same result twice.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -139,6 +140,10 @@ TEST(ActiveSet, SolvesASlowShearStepToRoundOff) {
   const double newton_error = relative_difference(newton, reference, 0, ni);
   EXPECT_LT(refined_report.active_set.residual, 1e-12)
       << refined_report.active_set.iterations << " iterations";
+  // The later iterations reuse the first one's factorisation (GMRES): the comparison with the
+  // reference covers them.
+  EXPECT_EQ(refined_report.active_set.factorisations, 1);
+  EXPECT_GE(refined_report.active_set.krylov_solves, 1);
   EXPECT_LT(newton_error, 1e-7) << "the sweeps alone: " << plain_error;
   EXPECT_GT(plain_error, 1e3 * newton_error);
   // The velocities, which the step's physics is, agree as closely.
@@ -163,6 +168,7 @@ TEST(ActiveSet, SolvesMostStepsOfAShearAndRepeatsOnAnyNumberOfThreads) {
     EXPECT_GE(r.active_set.iterations, 1);
     EXPECT_EQ(r.active_set.residual, t.active_set.residual);
     solved += r.active_set.residual < 1e-12;  // the refinement's tolerance: round-off
+    EXPECT_EQ(r.active_set.krylov_solves, t.active_set.krylov_solves);
   }
   EXPECT_GE(solved, 30) << "steps solved to round-off, of 40";
   for (std::size_t i = 0; i < box.world.disks.size(); ++i) {

@@ -21,6 +21,16 @@ namespace {
 constexpr int kRegularisationAttempts = 4;
 constexpr double kSmallestStep = 1.0 / 64.0;
 
+/// The Krylov solve of a later iteration (reusing the step's last factorisation): at most this
+/// many GMRES iterations, and the relative residual it must reach; otherwise B is factorised
+/// anew.
+constexpr int kKrylovIterations = 30;
+constexpr double kKrylovTolerance = 1e-13;
+/// Each status changed since the factorisation changes up to two rows and columns of B: GMRES
+/// then needs about twice as many iterations plus one, each about 1/20 of a factorisation.
+/// Beyond this many changed statuses B is factorised anew.
+constexpr std::size_t kKrylovChangedStatuses = 8;
+
 enum Status : std::int8_t { kOpen = 0, kStick = 1, kSlidePositive = 2, kSlideNegative = 3 };
 
 /// A sparse matrix being built entry by entry: one row per unknown, one column per body degree
@@ -100,12 +110,37 @@ struct ActiveSetSolver::Impl {
   Triplets velocities, impulses;
   std::vector<double> rhs;
 
+  /// The step's last factorisation of B, kept as the preconditioner of later iterations' Krylov
+  /// solves, and the statuses and numbering it was made with.
+  struct Factorisation {
+    klu_common kc;
+    klu_symbolic* symbolic = nullptr;
+    klu_numeric* numeric = nullptr;
+    std::vector<std::int8_t> status;
+    std::vector<std::int64_t> unknown;
+    std::size_t size = 0;
+    double beta = 0.0;
+    bool valid() const { return numeric != nullptr; }
+    void release() {
+      if (numeric) klu_free_numeric(&numeric, &kc);
+      if (symbolic) klu_free_symbolic(&symbolic, &kc);
+    }
+  } factorisation, regularised;  ///< ... and a larger regularisation's, not kept
+  /// The Krylov solve's scratch: bodies holding M^-1 H_cols^T x, the basis and its
+  /// preconditioned images, the Hessenberg matrix and its rotations.
+  std::vector<SolverBody> product_bodies;
+  std::vector<double> basis, images, hessenberg, cosines, sines, projected, work, mapped;
+
   Impl() {
     cholmod_start(&common);
     common.print = 0;  // CHOLMOD forms B (sparse products); KLU factorises it
     common.error_handler = nullptr;
   }
-  ~Impl() { cholmod_finish(&common); }
+  ~Impl() {
+    factorisation.release();
+    regularised.release();
+    cholmod_finish(&common);
+  }
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
 
@@ -114,6 +149,9 @@ struct ActiveSetSolver::Impl {
              double dt) {
     nc = contacts.size();
     inv_dt = 1.0 / dt;
+    factorisation.release();
+    regularised.release();
+    product_bodies = bodies;
     status.assign(nc, kOpen);
     unknown.assign(nc, -1);
     inv_w_nn.resize(nc);
@@ -214,17 +252,30 @@ struct ActiveSetSolver::Impl {
     return changed;
   }
 
+  /// Phase 3: the right-hand side, minus the constrained velocities (u_n, and u_t of sticking
+  /// contacts) of the iterate.
+  void constrained_velocities(const std::vector<Contact>& contacts,
+                              const std::vector<SolverBody>& bodies, std::size_t unknowns) {
+    rhs.assign(unknowns, 0.0);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const ContactVelocity u = contact_velocity(contacts[k], bodies, inv_dt);
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      rhs[row] = -u.n;
+      if (status[k] == kStick) rhs[row + 1] = -u.t;
+    }
+  }
+
   /// Phase 3: B = H_rows M^-1 H_cols^T (the regularisation is added by the solves), H_rows: the
-  /// constrained velocities (u_n, and u_t of sticking contacts), H_cols: the impulse directions
-  /// of the unknowns (n and t of a sticking contact; n + s mu t of a sliding one, whose R_t
-  /// follows s mu R_n); rhs: minus those velocities. Null where CHOLMOD runs out of memory or
-  /// the system exceeds the int indices CHOLMOD and KLU use here (then the sweeps' result
-  /// stands).
+  /// constrained velocities, H_cols: the impulse directions of the unknowns (n and t of a
+  /// sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n). B depends on
+  /// the statuses and the geometry only, not on the iterate. Null where CHOLMOD runs out of
+  /// memory or the system exceeds the int indices CHOLMOD and KLU use here (then the sweeps'
+  /// result stands).
   cholmod_sparse* delassus_matrix(const std::vector<Contact>& contacts,
                                   const std::vector<SolverBody>& bodies, std::size_t unknowns) {
     velocities.clear();
     impulses.clear();
-    rhs.assign(unknowns, 0.0);
     for (std::size_t k = 0; k < nc; ++k) {
       if (unknown[k] < 0) continue;
       const Contact& c = contacts[k];
@@ -234,18 +285,15 @@ struct ActiveSetSolver::Impl {
       const SolverBody& b = bodies[ib];
       const Vec2 n = c.normal, t{-n.y, n.x};
       const auto row = static_cast<std::size_t>(unknown[k]);
-      const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
       velocities.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
       if (status[k] == kStick) {
         impulses.add_row(row, ia, a, ib, b, n, 0.0, 0.0);
         velocities.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
         impulses.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
-        rhs[row + 1] = -u.t;
       } else {
         const double st = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
         impulses.add_row(row, ia, a, ib, b, n + st * t, st * c.lever_a, st * c.lever_b);
       }
-      rhs[row] = -u.n;
     }
     constexpr auto kMaxIndex = static_cast<std::size_t>(std::numeric_limits<int>::max());
     if (3 * bodies.size() > kMaxIndex || unknowns > kMaxIndex ||
@@ -329,37 +377,212 @@ struct ActiveSetSolver::Impl {
     return force2 > 0.0 ? std::sqrt(change2 / force2) : 0.0;
   }
 
-  /// Phases 4 and 5: solve B dR = rhs (KLU), R + dR on the cone, applied; then a line search on
-  /// the merit between the iterate this iteration started from and that one. Without descent,
-  /// again with a regularisation 1000 times larger (Levenberg-Marquardt): where the statuses
-  /// are wrong the system can be singular with a right-hand side outside its range, and its
-  /// exact solution is useless. True when the merit went down (`current` then holds it).
-  bool solve_and_search(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
-                        cholmod_sparse* b_matrix, std::size_t unknowns,
-                        const ActiveSetOptions& options, double& current, ActiveSetReport& report) {
+  /// y = (B + beta I) x without forming B: the impulses x applied to bodies at rest (M^-1
+  /// H_cols^T x), their constrained velocities read back (H_rows ...). O(contacts).
+  void multiply(const std::vector<Contact>& contacts, const double* x, double* y, double beta) {
+    for (SolverBody& b : product_bodies) {
+      b.velocity = Vec2{};
+      b.omega = 0.0;
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const double st = status[k] == kSlidePositive   ? contacts[k].friction
+                        : status[k] == kSlideNegative ? -contacts[k].friction
+                                                      : 0.0;
+      apply_contact_impulse(contacts[k], product_bodies, x[row],
+                            status[k] == kStick ? x[row + 1] : st * x[row]);
+    }
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const ContactVelocity u = contact_velocity(contacts[k], product_bodies, 0.0);
+      y[row] = u.n + beta * x[row];
+      if (status[k] == kStick) y[row + 1] = u.t + beta * x[row + 1];
+    }
+  }
+
+  /// z = P^-1 v, P: the step's last factorisation, read through the statuses it was made with.
+  /// A constrained velocity that both numberings hold (u_n of a contact closed in both, u_t of
+  /// one sticking in both) goes through the factorisation; an unknown whose status changed
+  /// since is scaled by its diagonal Delassus entry instead. A fixed linear map, so GMRES may
+  /// use it; where few statuses changed, P^-1 B is the identity plus a low-rank term.
+  void precondition(const double* v, double* z) {
+    Factorisation& f = factorisation;
+    mapped.assign(f.size, 0.0);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0 || f.unknown[k] < 0) continue;
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const auto old = static_cast<std::size_t>(f.unknown[k]);
+      mapped[old] = v[row];
+      if (status[k] == kStick && f.status[k] == kStick) mapped[old + 1] = v[row + 1];
+    }
+    klu_solve(f.symbolic, f.numeric, static_cast<int>(f.size), 1, mapped.data(), &f.kc);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0) continue;
+      const auto row = static_cast<std::size_t>(unknown[k]);
+      const bool stick = status[k] == kStick;
+      if (f.unknown[k] >= 0 && f.status[k] == status[k]) {
+        const auto old = static_cast<std::size_t>(f.unknown[k]);
+        z[row] = mapped[old];
+        if (stick) z[row + 1] = mapped[old + 1];
+      } else {
+        z[row] = v[row] * inv_w_nn[k];
+        if (stick) z[row + 1] = v[row + 1] * inv_w_tt[k];
+      }
+    }
+  }
+
+  /// (B + beta I) dR = rhs by right-preconditioned GMRES (modified Gram-Schmidt, Givens
+  /// rotations, no restart) with the step's last factorisation as the preconditioner. True when
+  /// the residual fell below kKrylovTolerance |rhs| within kKrylovIterations iterations.
+  bool krylov_solve(const std::vector<Contact>& contacts, std::size_t unknowns, double beta) {
+    const std::size_t n = unknowns;
+    constexpr int m = kKrylovIterations;
+    const auto m_size = static_cast<std::size_t>(m);
+    basis.resize((m_size + 1) * n);
+    images.resize(m_size * n);
+    hessenberg.assign((m_size + 1) * m_size, 0.0);
+    cosines.assign(m_size, 0.0);
+    sines.assign(m_size, 0.0);
+    projected.assign(m_size + 1, 0.0);
+    const auto h = [&](std::size_t i, std::size_t j) -> double& {
+      return hessenberg[i * m_size + j];
+    };
+    const auto dot = [n](const double* a, const double* b) {
+      double sum = 0.0;
+      for (std::size_t i = 0; i < n; ++i) sum += a[i] * b[i];
+      return sum;
+    };
+    solution.assign(n, 0.0);
+    const double norm_b = std::sqrt(dot(rhs.data(), rhs.data()));
+    if (norm_b == 0.0) return true;
+    for (std::size_t i = 0; i < n; ++i) basis[i] = rhs[i] / norm_b;
+    projected[0] = norm_b;
+    std::size_t done = 0;
+    bool converged = false;
+    for (std::size_t j = 0; j < m_size && !converged; ++j) {
+      double* z = &images[j * n];
+      double* w = &basis[(j + 1) * n];
+      precondition(&basis[j * n], z);
+      multiply(contacts, z, w, beta);
+      for (int pass = 0; pass < 2; ++pass) {  // twice: B is badly conditioned
+        for (std::size_t i = 0; i <= j; ++i) {
+          const double* vi = &basis[i * n];
+          const double c = dot(w, vi);
+          h(i, j) += c;
+          for (std::size_t q = 0; q < n; ++q) w[q] -= c * vi[q];
+        }
+      }
+      const double norm_w = std::sqrt(dot(w, w));
+      h(j + 1, j) = norm_w;
+      if (norm_w > 0.0)
+        for (std::size_t q = 0; q < n; ++q) w[q] /= norm_w;
+      for (std::size_t i = 0; i < j; ++i) {
+        const double a = h(i, j), b = h(i + 1, j);
+        h(i, j) = cosines[i] * a + sines[i] * b;
+        h(i + 1, j) = -sines[i] * a + cosines[i] * b;
+      }
+      const double r = std::hypot(h(j, j), h(j + 1, j));
+      if (r == 0.0) break;
+      cosines[j] = h(j, j) / r;
+      sines[j] = h(j + 1, j) / r;
+      h(j, j) = r;
+      h(j + 1, j) = 0.0;
+      projected[j + 1] = -sines[j] * projected[j];
+      projected[j] *= cosines[j];
+      done = j + 1;
+      converged = std::abs(projected[j + 1]) <= kKrylovTolerance * norm_b || norm_w == 0.0;
+    }
+    if (!converged) return false;
+    // y from the triangular system, dR = sum y_j z_j.
+    std::vector<double>& y = work;
+    y.assign(done, 0.0);
+    for (std::size_t i = done; i-- > 0;) {
+      double sum = projected[i];
+      for (std::size_t j = i + 1; j < done; ++j) sum -= h(i, j) * y[j];
+      y[i] = sum / h(i, i);
+    }
+    for (std::size_t j = 0; j < done; ++j)
+      for (std::size_t q = 0; q < n; ++q) solution[q] += y[j] * images[j * n + q];
+    return true;
+  }
+
+  /// How many contacts' statuses differ from those the kept factorisation was made with.
+  std::size_t changed_since_factorisation() const {
+    std::size_t changed = 0;
+    for (std::size_t k = 0; k < nc; ++k) changed += status[k] != factorisation.status[k];
+    return changed;
+  }
+
+  /// (B + beta I) dR = rhs by KLU into `f`. `added`: the regularisation already in B's values;
+  /// `analysed`: whether f's symbolic analysis is B's (then only the numeric factorisation is
+  /// redone).
+  bool factorise_and_solve(Factorisation& f, cholmod_sparse* b_matrix, std::size_t unknowns,
+                           double beta, double& added, bool& analysed) {
     auto* bp = static_cast<int*>(b_matrix->p);
     auto* bi = static_cast<int*>(b_matrix->i);
     auto* bx = static_cast<double*>(b_matrix->x);
-    diagonal.assign(unknowns, -1);
-    for (std::size_t j = 0; j < unknowns; ++j)
-      for (int q = bp[j]; q < bp[j + 1]; ++q)
-        if (static_cast<std::size_t>(bi[q]) == j) diagonal[j] = q;
-    klu_common kc;
-    klu_defaults(&kc);
     const int nu = static_cast<int>(unknowns);
-    klu_symbolic* symbolic = klu_analyze(nu, bp, bi, &kc);
-    save(contacts, bodies, start_bodies, start_impulses);  // where every solve starts from
-    bool descended = false, any_solved = false;
-    double beta = options.regularisation * mean_diagonal, added = 0.0;
-    for (int attempt = 0; attempt < kRegularisationAttempts && symbolic != nullptr;
-         ++attempt, beta *= 1e3) {
+    if (!analysed) {
+      f.release();
+      klu_defaults(&f.kc);
+      f.symbolic = klu_analyze(nu, bp, bi, &f.kc);
+      if (f.symbolic == nullptr) return false;
+      analysed = true;
+      diagonal.assign(unknowns, -1);
       for (std::size_t j = 0; j < unknowns; ++j)
-        if (diagonal[j] >= 0) bx[diagonal[j]] += beta - added;
-      added = beta;
-      klu_numeric* numeric = klu_factor(bp, bi, bx, symbolic, &kc);
-      solution = rhs;
-      const bool solved = numeric && klu_solve(symbolic, numeric, nu, 1, solution.data(), &kc);
-      if (numeric) klu_free_numeric(&numeric, &kc);
+        for (int q = bp[j]; q < bp[j + 1]; ++q)
+          if (static_cast<std::size_t>(bi[q]) == j) diagonal[j] = q;
+    } else if (f.numeric) {
+      klu_free_numeric(&f.numeric, &f.kc);
+    }
+    for (std::size_t j = 0; j < unknowns; ++j)
+      if (diagonal[j] >= 0) bx[diagonal[j]] += beta - added;
+    added = beta;
+    f.numeric = klu_factor(bp, bi, bx, f.symbolic, &f.kc);
+    if (f.numeric == nullptr) return false;
+    f.status = status;
+    f.unknown = unknown;
+    f.size = unknowns;
+    f.beta = beta;
+    solution = rhs;
+    return klu_solve(f.symbolic, f.numeric, nu, 1, solution.data(), &f.kc) != 0;
+  }
+
+  /// Phases 4 and 5: solve (B + beta I) dR = rhs, R + dR on the cone, applied; then a line
+  /// search on the merit between the iterate this iteration started from and that one. The
+  /// first iteration of a step factorises B (KLU); a later one solves by GMRES with that
+  /// factorisation as its preconditioner, where only a few statuses changed since (most
+  /// iterations: B is then factorised anew only if GMRES does not converge). Without descent,
+  /// again with a regularisation 1000 times larger (Levenberg-Marquardt, factorised): where the
+  /// statuses are wrong the system can be singular with a right-hand side outside its range,
+  /// and its exact solution is useless. True when the merit went down (`current` then holds
+  /// it); false also where B is too large to form (report.factorised then false).
+  bool solve_and_search(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
+                        std::size_t unknowns, const ActiveSetOptions& options, double& current,
+                        ActiveSetReport& report) {
+    constrained_velocities(contacts, bodies, unknowns);
+    save(contacts, bodies, start_bodies, start_impulses);  // where every solve starts from
+    cholmod_sparse* b_matrix = nullptr;
+    bool descended = false, any_solved = false, analysed = false, analysed_regularised = false;
+    double beta = options.regularisation * mean_diagonal, added = 0.0;
+    const bool reuse = factorisation.valid() && factorisation.beta == beta &&
+                       changed_since_factorisation() <= kKrylovChangedStatuses;
+    for (int attempt = 0; attempt < kRegularisationAttempts; ++attempt, beta *= 1e3) {
+      bool solved = attempt == 0 && reuse && krylov_solve(contacts, unknowns, beta);
+      report.krylov_solves += solved;
+      if (!solved) {
+        if (b_matrix == nullptr) b_matrix = delassus_matrix(contacts, bodies, unknowns);
+        if (b_matrix == nullptr) break;
+        // The first attempt's factorisation is kept for the later iterations; a larger
+        // regularisation's is not (its B is another matrix).
+        solved = attempt == 0
+                     ? factorise_and_solve(factorisation, b_matrix, unknowns, beta, added, analysed)
+                     : factorise_and_solve(regularised, b_matrix, unknowns, beta, added,
+                                           analysed_regularised);
+        ++report.factorisations;
+      }
       if (!solved) continue;
       any_solved = true;
       restore(contacts, bodies, start_bodies, start_impulses);
@@ -381,8 +604,9 @@ struct ActiveSetSolver::Impl {
         descended = true;
         break;
       }
+      restore(contacts, bodies, start_bodies, start_impulses);
     }
-    if (symbolic) klu_free_symbolic(&symbolic, &kc);
+    cholmod_free_sparse(&b_matrix, &common);  // a no-op on a null pointer
     if (!descended) report.factorised = any_solved;
     return descended;
   }
@@ -419,15 +643,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
         s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
     }
-    cholmod_sparse* b_matrix = s.delassus_matrix(contacts, bodies, unknowns);
-    if (b_matrix == nullptr) {  // too large, or out of memory: the sweeps' result stands
-      s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
-      report.factorised = false;
-      break;
-    }
-    const bool descended =
-        s.solve_and_search(contacts, bodies, b_matrix, unknowns, options, current, report);
-    cholmod_free_sparse(&b_matrix, &s.common);
+    const bool descended = s.solve_and_search(contacts, bodies, unknowns, options, current, report);
     if (!descended) {  // back to the iterate this iteration started from
       s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
