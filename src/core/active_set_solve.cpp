@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
 #include <tuple>
 
@@ -20,6 +21,15 @@ namespace {
 /// shortest step of the line search.
 constexpr int kRegularisationAttempts = 4;
 constexpr double kSmallestStep = 1.0 / 64.0;
+
+/// A non-monotone line search (Grippo, Lampariello and Lucidi 1986): an iteration is kept where
+/// it lowers the merit below the largest of the last kMeritMemory iterates' (1: below the
+/// current one's). The ratio test lets each iteration fix one or two statuses; where the merit
+/// must rise on the way to the solution a monotone search stops there. The best iterate is
+/// returned. System 5, 8 paired steps: at V = 0.1 all 8 end at round-off instead of 5 (at 0.5, 6
+/// either way), and a step costs half as much (fewer steps stall at the iteration cap); memory
+/// 10 gave the same as 5 (docs/performance.md).
+constexpr std::size_t kMeritMemory = 5;
 
 /// The Krylov solve of a later iteration (reusing the step's last factorisation): at most this
 /// many GMRES iterations, and the relative residual it must reach; otherwise B is factorised
@@ -102,8 +112,8 @@ struct ActiveSetSolver::Impl {
   std::vector<std::int8_t> status;
   std::vector<std::int64_t> unknown;       ///< first unknown of each contact, -1 for an open one
   std::vector<double> inv_w_nn, inv_w_tt;  ///< 1 / the diagonal Delassus entries
-  std::vector<SolverBody> base_bodies, start_bodies, full_bodies;
-  Impulses base_impulses, start_impulses, full_impulses;
+  std::vector<SolverBody> base_bodies, start_bodies, full_bodies, best_bodies;
+  Impulses base_impulses, start_impulses, full_impulses, best_impulses;
   std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
   std::vector<double> solution;
   /// H_rows M^-1/2 (the velocities held at 0) and H_cols M^-1/2 (the unknowns' impulses)
@@ -125,7 +135,7 @@ struct ActiveSetSolver::Impl {
       if (numeric) klu_free_numeric(&numeric, &kc);
       if (symbolic) klu_free_symbolic(&symbolic, &kc);
     }
-  } factorisation, regularised;  ///< ... and a larger regularisation's, not kept
+  } factorisation;
   /// The Krylov solve's scratch: bodies holding M^-1 H_cols^T x, the basis and its
   /// preconditioned images, the Hessenberg matrix and its rotations.
   std::vector<SolverBody> product_bodies;
@@ -138,7 +148,6 @@ struct ActiveSetSolver::Impl {
   }
   ~Impl() {
     factorisation.release();
-    regularised.release();
     cholmod_finish(&common);
   }
   Impl(const Impl&) = delete;
@@ -150,7 +159,6 @@ struct ActiveSetSolver::Impl {
     nc = contacts.size();
     inv_dt = 1.0 / dt;
     factorisation.release();
-    regularised.release();
     product_bodies = bodies;
     status.assign(nc, kOpen);
     unknown.assign(nc, -1);
@@ -515,11 +523,14 @@ struct ActiveSetSolver::Impl {
     return changed;
   }
 
-  /// (B + beta I) dR = rhs by KLU into `f`. `added`: the regularisation already in B's values;
-  /// `analysed`: whether f's symbolic analysis is B's (then only the numeric factorisation is
-  /// redone).
-  bool factorise_and_solve(Factorisation& f, cholmod_sparse* b_matrix, std::size_t unknowns,
-                           double beta, double& added, bool& analysed) {
+  /// (B + beta I) dR = rhs by KLU. The factorisation is kept as the preconditioner of later
+  /// iterations, a larger regularisation's too (so the next iteration factorises anew: keeping
+  /// the first attempt's instead measured slower, 20 against 32 steps per CPU second on system
+  /// 5 at V = 0.5). `added`: the regularisation already in B's values; `analysed`: whether the
+  /// kept symbolic analysis is B's (then only the numeric factorisation is redone).
+  bool factorise_and_solve(cholmod_sparse* b_matrix, std::size_t unknowns, double beta,
+                           double& added, bool& analysed) {
+    Factorisation& f = factorisation;
     auto* bp = static_cast<int*>(b_matrix->p);
     auto* bi = static_cast<int*>(b_matrix->i);
     auto* bx = static_cast<double*>(b_matrix->x);
@@ -557,15 +568,16 @@ struct ActiveSetSolver::Impl {
   /// iterations: B is then factorised anew only if GMRES does not converge). Without descent,
   /// again with a regularisation 1000 times larger (Levenberg-Marquardt, factorised): where the
   /// statuses are wrong the system can be singular with a right-hand side outside its range,
-  /// and its exact solution is useless. True when the merit went down (`current` then holds
-  /// it); false also where B is too large to form (report.factorised then false).
+  /// and its exact solution is useless. True when the merit went below `accept` (the
+  /// non-monotone search's bound; `current` then holds it); false also where B is too large to
+  /// form (report.factorised then false).
   bool solve_and_search(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
                         std::size_t unknowns, const ActiveSetOptions& options, double& current,
-                        ActiveSetReport& report) {
+                        double accept, ActiveSetReport& report) {
     constrained_velocities(contacts, bodies, unknowns);
     save(contacts, bodies, start_bodies, start_impulses);  // where every solve starts from
     cholmod_sparse* b_matrix = nullptr;
-    bool descended = false, any_solved = false, analysed = false, analysed_regularised = false;
+    bool descended = false, any_solved = false, analysed = false;
     double beta = options.regularisation * mean_diagonal, added = 0.0;
     const bool reuse = factorisation.valid() && factorisation.beta == beta &&
                        changed_since_factorisation() <= kKrylovChangedStatuses;
@@ -575,12 +587,7 @@ struct ActiveSetSolver::Impl {
       if (!solved) {
         if (b_matrix == nullptr) b_matrix = delassus_matrix(contacts, bodies, unknowns);
         if (b_matrix == nullptr) break;
-        // The first attempt's factorisation is kept for the later iterations; a larger
-        // regularisation's is not (its B is another matrix).
-        solved = attempt == 0
-                     ? factorise_and_solve(factorisation, b_matrix, unknowns, beta, added, analysed)
-                     : factorise_and_solve(regularised, b_matrix, unknowns, beta, added,
-                                           analysed_regularised);
+        solved = factorise_and_solve(b_matrix, unknowns, beta, added, analysed);
         ++report.factorisations;
       }
       if (!solved) continue;
@@ -591,15 +598,15 @@ struct ActiveSetSolver::Impl {
         for (double& x : solution) x *= step;
       report.correction = apply_solution(contacts, bodies);
       double next = merit(contacts, bodies);
-      if (!(next < current)) {
+      if (!(next < accept)) {
         save(contacts, bodies, full_bodies, full_impulses);
         for (double lambda = 0.5; lambda >= kSmallestStep; lambda *= 0.5) {
           blend(lambda, contacts, bodies);
           next = merit(contacts, bodies);
-          if (next < current) break;
+          if (next < accept) break;
         }
       }
-      if (next < current) {
+      if (next < accept) {
         current = next;
         descended = true;
         break;
@@ -628,10 +635,19 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
   s.begin(contacts, bodies, dt);
   double current = s.merit(contacts, bodies);
   report.initial_residual = current;
+  std::deque<double> history{current};  // the merits of the last kMeritMemory iterates
+  double best = current;
+  bool best_saved = false;
   for (int iteration = 1; iteration <= options.max_iterations && current > options.tolerance;
        ++iteration) {
     report.iterations = iteration;
     s.save(contacts, bodies, s.base_bodies, s.base_impulses);
+    if (current <= best) {  // the best iterate so far: returned if the last is worse
+      best = current;
+      s.best_bodies = s.base_bodies;
+      s.best_impulses = s.base_impulses;
+      best_saved = true;
+    }
     std::size_t unknowns = 0;
     report.changed = s.classify(contacts, bodies, iteration == 1, unknowns);
     report.unknowns = unknowns;
@@ -643,11 +659,19 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
         s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
     }
-    const bool descended = s.solve_and_search(contacts, bodies, unknowns, options, current, report);
+    const double accept = *std::max_element(history.begin(), history.end());
+    const bool descended =
+        s.solve_and_search(contacts, bodies, unknowns, options, current, accept, report);
     if (!descended) {  // back to the iterate this iteration started from
       s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;
     }
+    history.push_back(current);
+    if (history.size() > kMeritMemory) history.pop_front();
+  }
+  if (best_saved && best < current) {
+    s.restore(contacts, bodies, s.best_bodies, s.best_impulses);
+    current = best;
   }
   report.residual = current;
   return report;

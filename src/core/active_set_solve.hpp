@@ -36,12 +36,13 @@
 //      next iteration), projected on the cone and applied.
 //   5. A line search on the natural-map residual |R - proj_C(R - D^-1 u)| / |R| (D the diagonal
 //      of W: zero exactly at a solution) between the iterate the iteration started from and
-//      the new one: the step if it lowers the residual, else 1/2, 1/4 ... 1/64 of it. If none
-//      lowers it, steps 3 to 5 again with beta 1000 times larger and the full step
-//      (Levenberg-Marquardt; up to 1e-1 W); if still none, the iteration is undone and the
-//      refinement stops.
-// Repeated until the residual is below the tolerance or the iterations run out. The result is
-// never worse than the sweeps' by this residual. Works on the solver bodies (free velocity
+//      the new one: the step if it brings the residual below the largest of the last five
+//      iterates' (non-monotone), else 1/2, 1/4 ... 1/64 of it. If none does, steps 3 to 5
+//      again with beta 1000 times larger and the full step (Levenberg-Marquardt; up to 1e-1 W);
+//      if still none, the iteration is undone and the refinement stops.
+// Repeated until the residual is below the tolerance or the iterations run out; the best
+// iterate is returned, never worse than the sweeps' by this residual. Works on the solver bodies
+// (free velocity
 // + M^-1 H^T R on entry, and on exit) and the contacts' impulses.
 //
 // Why the ratio test: in a hyperstatic packing the gaps of a loop of closed contacts are in
