@@ -41,9 +41,8 @@
 //      again with beta 1000 times larger and the full step (Levenberg-Marquardt; up to 1e-1 W);
 //      if still none, the iteration is undone and the refinement stops.
 // Repeated until the residual is below the tolerance or the iterations run out; the best
-// iterate is returned, never worse than the sweeps' by this residual. Works on the solver bodies
-// (free velocity
-// + M^-1 H^T R on entry, and on exit) and the contacts' impulses.
+// iterate is returned, never worse than the sweeps' by this residual. Works on the solver
+// bodies (free velocity + M^-1 H^T R on entry, and on exit) and the contacts' impulses.
 //
 // Why the ratio test: in a hyperstatic packing the gaps of a loop of closed contacts are in
 // general closed by no motion, so B is singular with a right-hand side outside its range, and
