@@ -95,6 +95,7 @@ struct Settings {
   bool residual_given = false;
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
+  int reference_newton = 0;           // active-set iterations ending it (and --polish's)
   int step_error_samples = 0;
   int step_error_spacing = 20;  // ordinary steps before each sample
   bool from_reference = false;  // after each sample, go on from the reference's step
@@ -170,6 +171,12 @@ Reference solve of --step-error:
   --reference-relaxation W
                       its relaxation (default 1: Gauss-Seidel; every relaxation has the same
                       fixed point)
+  --reference-newton N
+                      N active-set Newton iterations after its sweeps (default 0), which end it
+                      at round-off where the sweeps stop at their cap; with --polish, that solve
+                      is 1 sweep and the N iterations from the tested impulses, ending on a
+                      solution near the tested solve: its distance measures the tested solve's
+                      error where the step has several solutions
   --step-error-spacing S  ordinary steps between two samples of --step-error (default 20)
   --from-reference    after each sample of --step-error, go on from the reference's step
                       instead of the tested one: how fast exact steps lose their accuracy
@@ -307,6 +314,11 @@ Settings parse(int argc, char** argv) {
       s.solver.skip_dormant = true;
     } else if (a == "--no-skip-dormant") {
       s.solver.skip_dormant = false;
+    } else if (a == "--reference-newton") {
+      s.reference_newton = std::stoi(value());
+      if (s.reference_newton < 0 || s.reference_newton > cdshear::kMaxNewtonIterations)
+        throw std::invalid_argument("--reference-newton must be in 0.." +
+                                    std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--reference-anderson") {
       s.reference_anderson = std::stoi(value());
       if (s.reference_anderson < 0 || s.reference_anderson > cdshear::kMaxAndersonDepth)
@@ -876,8 +888,12 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   tight.solver.anderson_depth = s.reference_anderson;  // not the tested settings' own
   tight.solver.anderson_period = 2;
   tight.solver.slab_correction_period = 0;  // plain Gauss-Seidel's own solution
-  tight.solver.newton_iterations = 0;
+  tight.solver.newton_iterations = s.reference_newton;
   tight.solver.plain_finish = false;  // a reference at its cap is flagged as such
+  // --polish with --reference-newton: the active-set iterations from the tested impulses after
+  // one sweep, so that the solution it ends on is one near the tested solve.
+  StepOptions polish = tight;
+  if (s.reference_newton > 0) polish.solver.max_sweeps = 1;
   std::vector<double> l2, wall, velocity;
   std::vector<double> polished, between;  // --polish: tested to polished, polished to reference
   const bool sheared = world.walls[cdshear::kBoxTopWall].velocity.x != 0.0;
@@ -919,7 +935,10 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     const double wall_speed = std::abs(w_ref.walls[top].velocity.x);
     velocity.push_back(std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
                        (wall_speed > 0.0 ? wall_speed : 1.0));
-    const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps;
+    // At its cap and, with --reference-newton, not brought to round-off by the iterations.
+    const bool ref_capped = r_ref.solver.sweeps >= tight.solver.max_sweeps &&
+                            !(s.reference_newton > 0 &&
+                              r_ref.active_set.residual <= cdshear::ActiveSetOptions{}.tolerance);
     if (s.error_spectrum) error_spectrum(a, b, d_ref.bodies());
     if (options.solver.newton_iterations > 0)
       std::fprintf(
@@ -980,19 +999,26 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
       World w_pol = world;
       ContactDynamics d_pol = dynamics;
       d_pol.set_contacts(std::move(start));
-      const StepReport r_pol = d_pol.step(w_pol, tight);
+      const StepReport r_pol = d_pol.step(w_pol, polish);
       const auto& p = d_pol.contacts();
       const double to_polished = relative_impulse_distance(a, p),
                    polished_to_reference = relative_impulse_distance(p, b);
       polished.push_back(to_polished);
       between.push_back(polished_to_reference);
+      char newton_residual[64] = "";
+      if (s.reference_newton > 0)
+        std::snprintf(newton_residual, sizeof newton_residual, ", natural-map residual %.2e",
+                      r_pol.active_set.residual);
       std::fprintf(stderr,
                    "      polish: %d sweeps%s, tested to polished %.2e, polished to reference "
-                   "%.2e, status changes %zu and %zu, largest e dt %.2e\n",
+                   "%.2e, status changes %zu and %zu, largest e dt %.2e%s\n",
                    r_pol.solver.sweeps,
-                   r_pol.solver.sweeps >= tight.solver.max_sweeps ? " (at its cap)" : "",
+                   r_pol.solver.sweeps >= polish.solver.max_sweeps && s.reference_newton == 0
+                       ? " (at its cap)"
+                       : "",
                    to_polished, polished_to_reference, status_differences(a, p),
-                   status_differences(p, b), r_pol.velocity_residual.largest * options.dt);
+                   status_differences(p, b), r_pol.velocity_residual.largest * options.dt,
+                   newton_residual);
     }
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.

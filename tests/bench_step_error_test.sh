@@ -2,7 +2,8 @@
 # cdshear_bench --step-error solves one step twice from the same state and warm start: with the
 # reference's own settings the tested solve is the reference's, bit for bit (every error exactly
 # 0, --stress-error's too), and with the shear defaults it is not (a median impulse error above
-# 0, --error-locality's shares within [0, 1], a stress error in some stripe).
+# 0, --error-locality's shares within [0, 1], a stress error in some stripe); --reference-newton
+# with --polish ends each sample's polish on a solution.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -46,6 +47,18 @@ stripes=$(sed -n 's/.*stress error: .* of 1 d \([^,]*\), \(.*\)$/\1 \2/p' defaul
 if [[ "$stripes" == 0 ]]; then
   echo "FAIL: the shear defaults' steps gave no stress error in any stripe"
   grep "stress error:" defaults.txt; fails=$((fails + 1))
+fi
+# --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
+# tested impulses, and ends on a solution (natural-map residual and contact-law violation at
+# round-off) on every sample.
+if ! "$bench" "${common[@]}" --reference-newton 8 --polish > polish.csv 2> polish.txt; then
+  echo "FAIL: cdshear_bench --reference-newton --polish failed"; cat polish.txt; exit 1
+fi
+solved=$(sed -n 's/.*polish: 1 sweeps, .*largest e dt \([^,]*\), natural-map residual \(.*\)$/\1 \2/p' \
+           polish.txt | awk '$1 + 0 < 1e-12 && $2 + 0 < 1e-10 { n++ } END { print n + 0 }')
+if [[ "$solved" != 2 ]]; then
+  echo "FAIL: expected 2 polish lines of 1 sweep ending on a solution, got $solved"
+  grep "polish:" polish.txt; fails=$((fails + 1))
 fi
 echo "bench_step_error_test: $fails failures"
 exit $((fails > 0))
