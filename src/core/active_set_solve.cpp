@@ -43,6 +43,11 @@ constexpr std::size_t kKrylovChangedStatuses = 8;
 
 enum Status : std::int8_t { kOpen = 0, kStick = 1, kSlidePositive = 2, kSlideNegative = 3 };
 
+/// s mu of a sliding contact, whose R_t follows s mu R_n; 0 for any other status.
+double sliding_slope(std::int8_t status, double friction) {
+  return status == kSlidePositive ? friction : status == kSlideNegative ? -friction : 0.0;
+}
+
 /// A sparse matrix being built entry by entry: one row per unknown, one column per body degree
 /// of freedom (x, y, rotation of each body), scaled by M^-1/2.
 struct Triplets {
@@ -251,7 +256,7 @@ struct ActiveSetSolver::Impl {
       if (status[k] == kOpen) {
         r_n = r_t = 0.0;
       } else if (status[k] != kStick) {
-        r_t = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+        r_t = sliding_slope(status[k], c.friction) * r_n;
       }
       apply_contact_impulse(c, bodies, r_n - c.impulse_n, r_t - c.impulse_t);
       c.impulse_n = r_n;
@@ -299,7 +304,7 @@ struct ActiveSetSolver::Impl {
         velocities.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
         impulses.add_row(row + 1, ia, a, ib, b, t, c.lever_a, c.lever_b);
       } else {
-        const double st = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction;
+        const double st = sliding_slope(status[k], c.friction);
         impulses.add_row(row, ia, a, ib, b, n + st * t, st * c.lever_a, st * c.lever_b);
       }
     }
@@ -373,7 +378,7 @@ struct ActiveSetSolver::Impl {
         const double limit = c.friction * r_n;
         r_t = std::clamp(c.impulse_t + solution[row + 1], -limit, limit);
       } else {
-        r_t = (status[k] == kSlidePositive ? 1.0 : -1.0) * c.friction * r_n;
+        r_t = sliding_slope(status[k], c.friction) * r_n;
       }
       const double dn = r_n - c.impulse_n, dtt = r_t - c.impulse_t;
       change2 += dn * dn + dtt * dtt;
@@ -395,11 +400,10 @@ struct ActiveSetSolver::Impl {
     for (std::size_t k = 0; k < nc; ++k) {
       if (unknown[k] < 0) continue;
       const auto row = static_cast<std::size_t>(unknown[k]);
-      const double st = status[k] == kSlidePositive   ? contacts[k].friction
-                        : status[k] == kSlideNegative ? -contacts[k].friction
-                                                      : 0.0;
       apply_contact_impulse(contacts[k], product_bodies, x[row],
-                            status[k] == kStick ? x[row + 1] : st * x[row]);
+                            status[k] == kStick
+                                ? x[row + 1]
+                                : sliding_slope(status[k], contacts[k].friction) * x[row]);
     }
     for (std::size_t k = 0; k < nc; ++k) {
       if (unknown[k] < 0) continue;
@@ -611,7 +615,6 @@ struct ActiveSetSolver::Impl {
         descended = true;
         break;
       }
-      restore(contacts, bodies, start_bodies, start_impulses);
     }
     cholmod_free_sparse(&b_matrix, &common);  // a no-op on a null pointer
     if (!descended) report.factorised = any_solved;
@@ -636,8 +639,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
   double current = s.merit(contacts, bodies);
   report.initial_residual = current;
   std::deque<double> history{current};  // the merits of the last kMeritMemory iterates
-  double best = current;
-  bool best_saved = false;
+  double best = current;                // lowered only together with best_bodies, best_impulses
   for (int iteration = 1; iteration <= options.max_iterations && current > options.tolerance;
        ++iteration) {
     report.iterations = iteration;
@@ -646,7 +648,6 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
       best = current;
       s.best_bodies = s.base_bodies;
       s.best_impulses = s.base_impulses;
-      best_saved = true;
     }
     std::size_t unknowns = 0;
     report.changed = s.classify(contacts, bodies, iteration == 1, unknowns);
@@ -669,7 +670,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     history.push_back(current);
     if (history.size() > kMeritMemory) history.pop_front();
   }
-  if (best_saved && best < current) {
+  if (best < current) {
     s.restore(contacts, bodies, s.best_bodies, s.best_impulses);
     current = best;
   }
