@@ -443,7 +443,7 @@ std::string sweep_distribution(std::vector<int> sweeps) {
   return buf;
 }
 
-/// The steps' velocity residual (the check; docs/accuracy.md, "Per-step check") as the
+/// The steps' velocity residual (the check; docs/step-error.md, "Per-step check") as the
 /// contact-law violation over a step, e dt [d]: median and largest over the steps not at the cap,
 /// largest over those at it; and the steps that the residual test held back.
 void print_residual(const Measurement& m, double dt, double velocity) {
@@ -626,7 +626,7 @@ std::string csv_line(const std::string& date, const std::string& host, const std
 /// Gauss-Seidel's fixed points, so a converged reference is the same solution where the solution
 /// is unique; where it is not, a corrected solve may end on another one). A reference that stops
 /// at its cap is flagged: in the 200 d tall cell most do, whatever the relaxation. Both:
-/// docs/accuracy.md, "Tall cells". The world goes on with `options`, or, `from_reference`, from
+/// docs/step-error.md, "Tall cells". The world goes on with `options`, or, `from_reference`, from
 /// the reference's step (its positions, velocities and impulses as the next warm start): the
 /// samples then measure how fast a step solved to round-off loses that accuracy, `spacing`
 /// ordinary steps later. --paired: the ordinary steps use `trajectory` (the shear defaults) and

@@ -1,35 +1,49 @@
 #!/usr/bin/env bash
-# Paired check of two executables from the same states (docs/accuracy-methods.md, "Paired
-# copies"; a use in docs/accuracy.md, "Builds"): for each run folder given, copies its checkpoint
-# twice, resumes one copy with $CDSHEAR_A and the other with $CDSHEAR_B for DURATION time units,
-# and prints, over all the runs, the mean difference B - A of each series' mean after the
-# checkpoint, with its standard error from the runs' scatter. Both copies start from one state,
-# so the difference is the executables' own (a build, an instruction set, a code change), free of
-# the state-to-state scatter that dominates ensembles of whole runs; the flows diverge after a few
+# Paired check of two executables or two settings from the same states
+# (docs/accuracy-methods.md, "Paired copies"; uses in docs/accuracy.md, "Builds" and "System 5,
+# V = 0.1, against steps solved to round-off"): for each run folder given, copies its checkpoint
+# twice, resumes one copy as side A and the other as side B for DURATION time units, and prints,
+# over all the runs, the mean difference B - A of each series' mean after the checkpoint, with
+# its standard error from the runs' scatter. Both copies start from one state, so the difference
+# is the sides' own (a build, an instruction set, a code change, a setting), free of the
+# state-to-state scatter that dominates ensembles of whole runs; the flows diverge after a few
 # time units, which the pairing over many runs averages out.
 #
 #   CDSHEAR_A=old/cdshear CDSHEAR_B=new/cdshear scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
+#   SET_B="solver.newton_iterations=16" scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
 #
 # OUT_DIR/<k>_<run>/{a,b}: the resumed copies (a folder already done is kept: rerun to finish
-# an interrupted check). Environment: THREADS [1].
+# an interrupted check). Environment: CDSHEAR_A, CDSHEAR_B [both $CDSHEAR, else build/cdshear];
+# SET_A, SET_B [none]: KEY=VALUE case settings, separated by spaces, set on that side's resume;
+# THREADS [1].
 set -euo pipefail
 
 if [[ $# -lt 3 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 out=$1 duration=$2
 shift 2
 repo=$(cd "$(dirname "$0")/.." && pwd)
 source "$repo/scripts/checkpoint_copy.sh"
-declare -A bin
+declare -A bin sets
 for side in A B; do
   var=CDSHEAR_$side
-  [[ -n "${!var:-}" ]] ||
-    { echo "error: $var: not set (the executable of side $side)" >&2; exit 2; }
-  [[ -x "${!var}" ]] || { echo "error: $var=${!var}: not an executable" >&2; exit 2; }
-  bin[$side]=${!var}
+  if [[ -n "${!var:-}" ]]; then
+    [[ -x "${!var}" ]] || { echo "error: $var=${!var}: not an executable" >&2; exit 2; }
+    bin[$side]=${!var}
+  else
+    bin[$side]=$(checkpoint_cdshear)
+  fi
+  var=SET_$side
+  sets[$side]=""
+  for kv in ${!var:-}; do
+    [[ "$kv" == ?*=* ]] || { echo "error: $var: '$kv': expected KEY=VALUE" >&2; exit 2; }
+    sets[$side]+=" --set $kv"
+  done
 done
+[[ "${bin[A]}" != "${bin[B]}" || "${sets[A]}" != "${sets[B]}" ]] ||
+  { echo "error: sides A and B are the same executable with the same settings" >&2; exit 2; }
 for run in "$@"; do require_checkpoint_run "$run"; done
 mkdir -p "$out"
 
@@ -44,8 +58,9 @@ for run in "$@"; do
     copy_checkpoint "$run" "$dir"
     start=$(checkpoint_time "${bin[$side]}" "$dir" "$run")
     stop=$(/usr/bin/python3 -c "print($start + $duration)")
+    # shellcheck disable=SC2086  # sets: "--set KEY=VALUE" words, split on purpose
     "${bin[$side]}" run --resume "$dir" --threads "${THREADS:-1}" --no-analyze -q \
-      --set shear.duration="$stop" --stop-at "$stop" > "$dir/paired_check.log" 2>&1 ||
+      --set shear.duration="$stop" ${sets[$side]} --stop-at "$stop" > "$dir/paired_check.log" 2>&1 ||
       { echo "error: $dir: the resume failed (see $dir/paired_check.log)" >&2; exit 1; }
     echo "$start" > "$dir/paired_check.start"
     touch "$dir/paired_check.done"

@@ -3,7 +3,8 @@
 # in exactly the same state, with the same run.h5 (series, windows, snapshot), as the same run
 # done in one go; and a run without the measurement observers ends in the same state. Its
 # progress.json follows the stop and the resume, and its steps meet the shear defaults'
-# contact-law bound.
+# contact-law bound. With the active-set refinement on, run_info.json counts the steps it
+# brought to round-off.
 # Usage: resume_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -29,6 +30,23 @@ worst = s["velocity_residual"]["rms_largest_off_cap"] * dt
 assert 0 < worst <= tolerance * (1 + 1e-9), (worst, tolerance)
 PY
   { echo "FAIL: a step of the default run ended off the cap above its contact-law bound"; exit 1; }
+
+# The refinement's account (run_info.json summary.refinement): every step refined, most of this
+# system's to its tolerance, each iteration counted; a run without it has no such entry.
+"$exe" run "${common[@]}" --set shear.duration=0.5 --set solver.newton_iterations=4 \
+  -o "$work/refined" > "$work/refined.out"
+/usr/bin/python3 - "$work/refined/run_info.json" "$work/straight/run_info.json" <<'PY' ||
+import json, sys
+s = json.load(open(sys.argv[1]))["summary"]
+r = s["refinement"]
+assert r["steps"] == s["steps"] > 0, (r, s["steps"])
+assert s["steps"] / 2 < r["steps_to_tolerance"] <= s["steps"], r
+assert 0 < r["mean_iterations"] <= 4 and r["largest_residual"] >= 0, r
+assert "refinement" not in json.load(open(sys.argv[2]))["summary"]
+PY
+  { echo "FAIL: run_info.json's refinement summary"; exit 1; }
+grep -q "^refinement: [0-9]* of [0-9]* steps to its tolerance" "$work/refined.out" ||
+  { echo "FAIL: the run's last lines do not report the refinement"; exit 1; }
 
 # Stopped at t = 1.2 (between checkpoints: the stop itself writes one), then resumed.
 "$exe" run "${common[@]}" --stop-at 1.2 -o "$work/stopped" > /dev/null

@@ -353,7 +353,8 @@ def switch_time_figure(path, switch_predictions):
 
 
 def profile_figures(fig_dir, rows):
-    """Per system, the steady profiles of every V: v_x / V and mu_eff against y / L_y.
+    """Per system, the profiles of every V (steady part; last half of a run not steady): v_x / V
+    and mu_eff against y / L_y.
     Returns the file names."""
     names = []
     systems = sorted({r["system"] for r in rows if r.get("system") is not None})
@@ -377,7 +378,8 @@ def profile_figures(fig_dir, rows):
         axes[0].axvline(0, color="0.7", lw=0.6)
         axes[1].set_xlabel("mu_eff")
         axes[0].legend(fontsize=6)
-        fig.suptitle(f"system {system}: steady velocity and mu_eff profiles", fontsize=9)
+        fig.suptitle(f"system {system}: velocity and mu_eff profiles (steady part; not steady: "
+                     "last half of the run)", fontsize=9)
         fig.tight_layout()
         name = f"profiles_s{system}.png"
         fig.savefig(os.path.join(fig_dir, name), dpi=110)

@@ -384,7 +384,7 @@ def format_report(summary, summary_path):
 # slow phase without the slab correction, 27% (alpha 1e-5) and 79% (1e-6) of the steps at the cap
 # of 200 left 2.6% and 4.3% of the force-carrying contacts open against a converged solve; with
 # it (a shear default in cells of 20 bands or more) they come within 0.3 to 1.1%
-# (docs/accuracy.md, "Tall cells"). System 1's runs, with 2 to 10% at the cap, gave the same Z at
+# (docs/step-error.md, "Tall cells"). System 1's runs, with 2 to 10% at the cap, gave the same Z at
 # both tolerances. Those shares were measured before the plain finish (docs/performance.md), which
 # leaves 0 to 2% of the steps at the cap where they had up to 81%: a run written since counts only
 # the steps capped after it.

@@ -70,6 +70,13 @@ void add_step(RunSummary& summary, const StepReport& r) {
   summary.capped_steps += r.solver.hit_cap ? 1 : 0;
   summary.plain_finish_steps += r.solver.finished_plain ? 1 : 0;
   summary.held_back_steps += r.solver.residual_refusals > 0 ? 1 : 0;
+  if (r.active_set.ran) {
+    ++summary.refined_steps;
+    summary.refined_converged_steps += r.active_set.converged ? 1 : 0;
+    summary.refinement_iterations += static_cast<std::uint64_t>(r.active_set.iterations);
+    summary.refinement_residual_largest =
+        std::max(summary.refinement_residual_largest, r.active_set.residual);
+  }
 }
 
 /// The progress bar on stderr: the share `done` of the run, the time reached, and the wall time
@@ -196,31 +203,38 @@ nlohmann::json summary_to_json(const RunSummary& s) {
   const char* outcome = s.outcome == RunOutcome::kFinished      ? "finished"
                         : s.outcome == RunOutcome::kInterrupted ? "interrupted"
                                                                 : "blown_up";
-  return {{"outcome", outcome},
-          {"steps", s.steps},
-          {"wall_seconds", s.wall_seconds},
-          {"steps_per_second",
-           s.wall_seconds > 0 ? static_cast<double>(s.steps) / s.wall_seconds : 0.0},
-          {"mean_sweeps", s.mean_sweeps},
-          {"largest_sweeps", s.largest_sweeps},
-          {"mean_contacts", s.mean_contacts},
-          {"capped_steps", s.capped_steps},
-          {"plain_finish_steps", s.plain_finish_steps},
-          {"held_back_steps", s.held_back_steps},
-          {"displacement_warnings", s.displacement_warnings},
-          {"largest_overlap", s.largest_overlap},
-          {"velocity_residual",
-           {{"rms_mean", s.velocity_residual_rms_mean},
-            {"rms_largest", s.velocity_residual_rms_largest},
-            {"rms_largest_off_cap", s.velocity_residual_rms_largest_off_cap},
-            {"largest", s.velocity_residual_largest}}},
-          {"stage_seconds",
-           {{"detect", s.seconds.detect},
-            {"prepare", s.seconds.prepare},
-            {"solve", s.seconds.solve},
-            {"check", s.seconds.check},
-            {"integrate", s.seconds.integrate},
-            {"measure", s.seconds.measure}}},
-          {"problem", s.last.problem}};
+  nlohmann::json j = {{"outcome", outcome},
+                      {"steps", s.steps},
+                      {"wall_seconds", s.wall_seconds},
+                      {"steps_per_second",
+                       s.wall_seconds > 0 ? static_cast<double>(s.steps) / s.wall_seconds : 0.0},
+                      {"mean_sweeps", s.mean_sweeps},
+                      {"largest_sweeps", s.largest_sweeps},
+                      {"mean_contacts", s.mean_contacts},
+                      {"capped_steps", s.capped_steps},
+                      {"plain_finish_steps", s.plain_finish_steps},
+                      {"held_back_steps", s.held_back_steps},
+                      {"displacement_warnings", s.displacement_warnings},
+                      {"largest_overlap", s.largest_overlap},
+                      {"velocity_residual",
+                       {{"rms_mean", s.velocity_residual_rms_mean},
+                        {"rms_largest", s.velocity_residual_rms_largest},
+                        {"rms_largest_off_cap", s.velocity_residual_rms_largest_off_cap},
+                        {"largest", s.velocity_residual_largest}}},
+                      {"stage_seconds",
+                       {{"detect", s.seconds.detect},
+                        {"prepare", s.seconds.prepare},
+                        {"solve", s.seconds.solve},
+                        {"check", s.seconds.check},
+                        {"integrate", s.seconds.integrate},
+                        {"measure", s.seconds.measure}}},
+                      {"problem", s.last.problem}};
+  if (s.refined_steps > 0)
+    j["refinement"] = {{"steps", s.refined_steps},
+                       {"steps_to_tolerance", s.refined_converged_steps},
+                       {"mean_iterations", static_cast<double>(s.refinement_iterations) /
+                                               static_cast<double>(s.refined_steps)},
+                       {"largest_residual", s.refinement_residual_largest}};
+  return j;
 }
 }  // namespace cdshear

@@ -634,6 +634,8 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
                                         const ActiveSetOptions& options) {
   Impl& s = *impl_;
   ActiveSetReport report;
+  report.ran = true;
+  report.converged = contacts.empty();
   if (contacts.empty()) return report;
   s.begin(contacts, bodies, dt);
   double current = s.merit(contacts, bodies);
@@ -675,6 +677,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
     current = best;
   }
   report.residual = current;
+  report.converged = current <= options.tolerance;
   return report;
 }
 

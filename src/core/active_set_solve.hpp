@@ -71,6 +71,8 @@ struct ActiveSetOptions {
 };
 
 struct ActiveSetReport {
+  bool ran = false;        ///< the refinement ran on this step
+  bool converged = false;  ///< it ended with the residual at or below the tolerance
   int iterations = 0;
   std::size_t unknowns = 0;       ///< of the last system solved
   std::size_t changed = 0;        ///< contacts whose status changed in the last iteration

@@ -1,5 +1,5 @@
 // Slab correction: a coarse correction of the Gauss-Seidel iterate across the height of a tall
-// packing (docs/performance.md, "Slab correction"; docs/accuracy.md, "Tall cells").
+// packing (docs/performance.md, "Slab correction"; docs/step-error.md, "Tall cells").
 //
 // Why. A Gauss-Seidel sweep carries a change of force a few contacts further, so the force
 // profile over the height of a tall packing relaxes over hundreds of sweeps. On system 7 (200 d

@@ -1,5 +1,5 @@
 // How far a solved step is from the contact laws, in velocities: the per-step check of the
-// solver's accuracy (docs/accuracy.md, "Per-step check"). The sweeps stop on the last sweep's
+// solver's accuracy (docs/step-error.md, "Per-step check"). The sweeps stop on the last sweep's
 // change, which underestimates the error left 30 to 300 times; this residual is read from the
 // step's result itself.
 //

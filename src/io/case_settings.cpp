@@ -285,7 +285,7 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
           S{.key = "residual_tolerance",
             .meaning = "largest root mean square contact-law violation over a step, e dt "
                        "[d], of the force-carrying contacts at which the sweeps may stop, "
-                       "once alpha's test holds (0: no such test; docs/accuracy.md, \"Per-step "
+                       "once alpha's test holds (0: no such test; docs/step-error.md, \"Per-step "
                        "check\")",
             .lo = 0.0},
           [](auto& o) -> auto& { return o.residual_tolerance; }),

@@ -106,7 +106,7 @@ double default_time_step(const ShearCase& c);
 /// 1e-7 at 0.05 and below (the slowest measured). Measured: at one alpha the per-step error
 /// grows as V falls (system 1 at 1e-5: median 0.11% at V = 0.5, 1.3% at 0.2, 2.2% at 0.1, 3.2% at
 /// 0.05); with the rule it stays below 1% (0.11, 0.58, 0.56, 0.35%), for 1.2, 1.4 and 1.6 times
-/// the sweeps at 0.2, 0.1 and 0.05 (docs/accuracy.md, "Per-step error"). A likely reason: below
+/// the sweeps at 0.2, 0.1 and 0.05 (docs/step-error.md). A likely reason: below
 /// V = 0.4 a step moves the walls 0.005 V (dt_max), so the impulses change less per step as V
 /// falls, while the relative change per sweep that alpha bounds does not scale with it.
 double default_alpha(double velocity);
@@ -121,7 +121,7 @@ inline constexpr double kAlphaFullSpeed = 0.5, kAlphaSlowSpeed = 0.05;
 /// Every step that ends off the cap meets it (without the Newton refinement, off by default, which
 /// runs after the test). The defaults' steps leave a median e of about 1e-5 V and up to 1.4e-4 to
 /// 5.5e-4 V without it, so it holds back the worst 0.2 to 1.5% of the steps, which take 0.00 to
-/// 0.18% of the sweeps after it (docs/accuracy.md, "Per-step check").
+/// 0.18% of the sweeps after it (docs/step-error.md, "Per-step check").
 double default_residual_tolerance(double velocity, double dt);
 /// default_residual_tolerance's bound on e, per unit of wall speed.
 inline constexpr double kResidualPerSpeed = 1e-4;
