@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Solver check from a checkpoint (docs/accuracy-methods.md, "Checkpoint copies"; its use on tall
-# cells in docs/step-error.md, "Tall cells"): copies a run's checkpoint, resumes the copy for DURATION
-# time units with solver keys set (--set) and prints the means of its series over them
+# cells in docs/step-error.md, "Tall cells"): copies a run's checkpoint, resumes the copy for
+# DURATION time units with solver keys set (--set) and prints the means of its series over them
 # (force-carrying contacts, sweeps, capped steps). Copies of the same checkpoint with different
 # settings start from the same state, so their means compare the settings (the flows diverge after
 # a while: use a few time units).

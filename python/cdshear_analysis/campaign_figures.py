@@ -353,8 +353,8 @@ def switch_time_figure(path, switch_predictions):
 
 
 def profile_figures(fig_dir, rows):
-    """Per system, the profiles of every V (steady part; last half of a run not steady): v_x / V
-    and mu_eff against y / L_y.
+    """Per system, the profiles of every V (the steady part; for a run that is not steady, its
+    last half): v_x / V and mu_eff against y / L_y.
     Returns the file names."""
     names = []
     systems = sorted({r["system"] for r in rows if r.get("system") is not None})

@@ -74,8 +74,9 @@ void add_step(RunSummary& summary, const StepReport& r) {
     ++summary.refined_steps;
     summary.refined_converged_steps += r.active_set.converged ? 1 : 0;
     summary.refinement_iterations += static_cast<std::uint64_t>(r.active_set.iterations);
-    summary.refinement_residual_largest =
-        std::max(summary.refinement_residual_largest, r.active_set.residual);
+    // not std::max: a NaN residual must show
+    if (!(r.active_set.residual <= summary.refinement_residual_largest))
+      summary.refinement_residual_largest = r.active_set.residual;
   }
 }
 

@@ -634,9 +634,8 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
                                         const ActiveSetOptions& options) {
   Impl& s = *impl_;
   ActiveSetReport report;
-  report.ran = true;
-  report.converged = contacts.empty();
   if (contacts.empty()) return report;
+  report.ran = true;
   s.begin(contacts, bodies, dt);
   double current = s.merit(contacts, bodies);
   report.initial_residual = current;

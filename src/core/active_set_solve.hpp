@@ -71,7 +71,7 @@ struct ActiveSetOptions {
 };
 
 struct ActiveSetReport {
-  bool ran = false;        ///< the refinement ran on this step
+  bool ran = false;        ///< the refinement ran on this step (it had contacts)
   bool converged = false;  ///< it ended with the residual at or below the tolerance
   int iterations = 0;
   std::size_t unknowns = 0;       ///< of the last system solved

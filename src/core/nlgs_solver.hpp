@@ -59,7 +59,7 @@
 // for up to `max_sweeps` more (reported as finished_plain), and only a step that meets the
 // criterion in neither is reported as hit_cap. The last change underestimates the error left 30
 // to 300 times (Gauss-Seidel contracts the error by 0.97 to 0.999 per sweep on dense packings:
-// docs/accuracy.md, which measures the error itself).
+// docs/step-error.md, which measures the error itself).
 #pragma once
 
 #include <array>
