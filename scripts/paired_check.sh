@@ -1,13 +1,12 @@
 #!/usr/bin/env bash
-# Paired check of two executables or two settings from the same states
-# (docs/accuracy-methods.md, "Paired copies"; uses in docs/accuracy.md, "Builds" and "System 5,
-# V = 0.1"): for each run folder given, copies its checkpoint twice, resumes one copy as side A
-# and the other as side B for DURATION time units, and prints,
-# over all the runs, the mean difference B - A of each series' mean after the checkpoint, with
-# its standard error from the runs' scatter. Both copies start from one state, so the difference
-# is the sides' own (a build, an instruction set, a code change, a setting), free of the
-# state-to-state scatter that dominates ensembles of whole runs; the flows diverge after a few
-# time units, which the pairing over many runs averages out.
+# Paired check of two executables or two settings from the same states (docs/accuracy-methods.md,
+# "Paired copies"; uses in docs/accuracy.md, "Builds" and "System 5, V = 0.1"): for each run
+# folder given, copies its checkpoint twice, resumes one copy as side A and the other as side B
+# for DURATION time units, and prints, over all the runs, the mean difference B - A of each
+# series' mean after the checkpoint, with its standard error from the runs' scatter. Both copies
+# start from one state, so the difference is the sides' own (a build, an instruction set, a code
+# change, a setting), free of the state-to-state scatter that dominates ensembles of whole runs;
+# the flows diverge after a few time units, which the pairing over many runs averages out.
 #
 #   CDSHEAR_A=old/cdshear CDSHEAR_B=new/cdshear scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
 #   SET_B="solver.newton_iterations=16" scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
