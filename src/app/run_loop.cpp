@@ -233,8 +233,7 @@ nlohmann::json summary_to_json(const RunSummary& s) {
   if (s.refined_steps > 0)
     j["refinement"] = {{"steps", s.refined_steps},
                        {"steps_to_tolerance", s.refined_converged_steps},
-                       {"mean_iterations", static_cast<double>(s.refinement_iterations) /
-                                               static_cast<double>(s.refined_steps)},
+                       {"mean_iterations", s.refinement_mean_iterations()},
                        {"largest_residual", s.refinement_residual_largest}};
   return j;
 }

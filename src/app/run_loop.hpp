@@ -94,6 +94,11 @@ struct RunSummary {
   std::uint64_t refined_converged_steps = 0;
   std::uint64_t refinement_iterations = 0;
   double refinement_residual_largest = 0.0;
+  double refinement_mean_iterations() const {
+    return refined_steps > 0
+               ? static_cast<double>(refinement_iterations) / static_cast<double>(refined_steps)
+               : 0.0;
+  }
   StageSeconds seconds;  ///< summed over the steps
 };
 

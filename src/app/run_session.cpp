@@ -295,9 +295,7 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
         "residual %.3g\n",
         static_cast<unsigned long long>(summary.refined_converged_steps),
         static_cast<unsigned long long>(summary.refined_steps),
-        static_cast<double>(summary.refinement_iterations) /
-            static_cast<double>(summary.refined_steps),
-        summary.refinement_residual_largest);
+        summary.refinement_mean_iterations(), summary.refinement_residual_largest);
   if (summary.outcome == RunOutcome::kBlownUp) {
     std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
                  static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),
