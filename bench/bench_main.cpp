@@ -34,6 +34,7 @@
 #include <utility>
 #include <vector>
 
+#include "checkpoint.hpp"
 #include "contact_dynamics.hpp"
 #include "packing_file.hpp"
 #include "scene_presets.hpp"
@@ -110,6 +111,7 @@ struct Settings {
   bool save = false;
   std::string save_path;  // empty: bench/results/<hostname>.csv in the source tree
   std::string packing;    // a prepared packing (cdshear prepare -o FILE) instead of the sizes
+  std::string state;      // a run's checkpoint (checkpoint.cbor) instead of the sizes
 };
 
 struct System {
@@ -159,6 +161,11 @@ each option overrides one of them.
                       (solver.converged_fraction, 0.9, as in docs/model.md section 3)
   --newton N          active-set Newton iterations after the sweeps (solver.newton_iterations,
                       0: off; active_set_solve.hpp)
+  --newton-history    with --step-error, print each tested solve's refinement iterations:
+                      statuses changed, unknowns, contacts open / sticking / sliding,
+                      |dR| / |R| of the linear solve, the ratio test's step and the contacts
+                      blocking it, the line search's fraction, the regularisations raised,
+                      GMRES or factorised, the residual after it
   --residual-tolerance L  stop only once the force-carrying contacts' root mean square
                       contact-law violation over the step, e dt, is at most L [d]
                       (solver.residual_tolerance; default: the shear phase's rule,
@@ -210,6 +217,10 @@ Reference solve of --step-error:
   --packing FILE      shear a prepared packing (`cdshear prepare --system K -o FILE`: the
                       study's cells, e.g. system 7) instead of compressed boxes of --sizes;
                       the shear case only, walls as `cdshear run` builds them
+  --state FILE        go on from a shear run's checkpoint (its checkpoint.cbor: world, walls
+                      and contact memory) instead of compressed boxes of --sizes; the shear
+                      case only, at the state's own wall speed (--velocity is ignored); to
+                      test the solver on an old, dense flow rather than a fresh packing
   --no-static         skip the static cases
   --no-shear          skip the shear cases
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
@@ -247,12 +258,16 @@ Settings parse(int argc, char** argv) {
         throw std::invalid_argument("--order must be random or coloured");
     } else if (a == "--packing") {
       s.packing = value();
+    } else if (a == "--state") {
+      s.state = value();
     } else if (a == "--plain") {
       s.solver = one_thread(cdshear::SolverOptions{});
       s.alpha_given = true;
       s.residual_given = true;
     } else if (a == "--no-plain-finish") {
       s.solver.plain_finish = false;
+    } else if (a == "--newton-history") {
+      s.solver.newton_history = true;
     } else if (a == "--newton") {
       s.solver.newton_iterations = std::stoi(value());
       if (s.solver.newton_iterations < 0 ||
@@ -355,6 +370,8 @@ Settings parse(int argc, char** argv) {
     }
   }
   if (!(s.velocity > 0.0)) throw std::invalid_argument("--velocity must be > 0");
+  if (!s.state.empty() && !s.packing.empty())
+    throw std::invalid_argument("--state and --packing exclude each other");
   return s;
 }
 
@@ -428,6 +445,10 @@ struct Measurement {
   double sweeps_held_back = 0.0;     // their sweeps after the first refusal
   std::vector<double> residual_rms;  // the check's rms_carrying of every step not at the cap
   double residual_rms_capped = 0.0;  // its largest over the steps at the cap
+  // The active-set refinement (--newton): steps it ran on, those it ended at its tolerance, its
+  // iterations, and the largest natural-map residual it left.
+  std::uint64_t refined = 0, refined_to_tolerance = 0;
+  double refinement_iterations = 0.0, refinement_largest = 0.0;
 };
 
 /// "p10 a, p50 b, p90 c, p99 d, max e" of the sweeps per step.
@@ -521,6 +542,12 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     else
       m.residual_rms.push_back(r.velocity_residual.rms_carrying);
     m.capped += r.solver.hit_cap;
+    if (r.active_set.ran) {
+      ++m.refined;
+      m.refined_to_tolerance += r.active_set.converged;
+      m.refinement_iterations += r.active_set.iterations;
+      m.refinement_largest = std::max(m.refinement_largest, r.active_set.residual);
+    }
     m.finished_plain += r.solver.finished_plain;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
@@ -948,6 +975,16 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
           r_opt.active_set.krylov_solves, r_opt.active_set.unknowns, r_opt.active_set.changed,
           r_opt.active_set.correction, r_opt.active_set.initial_residual,
           r_opt.active_set.residual);
+    for (std::size_t i = 0; i < r_opt.active_set.history.size(); ++i) {
+      const cdshear::ActiveSetIteration& h = r_opt.active_set.history[i];
+      std::fprintf(stderr,
+                   "      it %2zu: changed %5zu, unknowns %6zu (open %zu, stick %zu, slide %zu), "
+                   "|dR|/|R| %.1e, ratio %.2e (%zu blocking), line %.4f, regularised %d, "
+                   "%s, residual %.2e\n",
+                   i + 1, h.changed, h.unknowns, h.open, h.stick, h.slide, h.newton_norm,
+                   h.ratio_step, h.blocking, h.line_step, h.attempt, h.by_krylov ? "GMRES" : "LU",
+                   h.residual);
+    }
     // The largest contact-law violation over the step, e dt [length], of each solve
     // (velocity_residual.hpp): a tested step can meet the contact law closely while its
     // impulses are far from the reference's (the error in the soft modes).
@@ -1066,12 +1103,27 @@ int run(const Settings& s) {
   std::cerr << "warning: assertions are on (not a Release build); figures are not representative\n";
 #endif
   // One pass per size, or one for the prepared packing.
-  const std::vector<std::size_t> sizes = s.packing.empty() ? s.sizes : std::vector<std::size_t>{0};
+  const bool prepared = !s.packing.empty() || !s.state.empty();
+  const std::vector<std::size_t> sizes = prepared ? std::vector<std::size_t>{0} : s.sizes;
   for (const std::size_t size : sizes) {
     cdshear::DenseBox box;
     System sys{size, 0.0};
+    double velocity = s.velocity;  // the state's own with --state
     const auto t0 = Clock::now();
-    if (!s.packing.empty()) {
+    if (!s.state.empty()) {
+      cdshear::Checkpoint cp = cdshear::read_checkpoint(s.state);
+      box.world = std::move(cp.world);
+      const auto& walls = box.world.walls;
+      if (walls.size() <= cdshear::kBoxTopWall || walls[cdshear::kBoxTopWall].velocity.x == 0.0)
+        throw std::invalid_argument(s.state + ": not a shear run's state (top wall at rest)");
+      velocity = walls[cdshear::kBoxTopWall].velocity.x;
+      box.dynamics.set_contacts(std::move(cp.contacts));
+      sys = {box.world.disks.size(), box.world.domain.length_x};
+      std::fprintf(stderr, "%s: %zu disks, L_x %.2f, L_y %.2f, t = %g, sheared at V = %g\n",
+                   s.state.c_str(), sys.disks, sys.width,
+                   walls[cdshear::kBoxTopWall].point.y - walls[cdshear::kBoxBottomWall].point.y,
+                   box.world.time, velocity);
+    } else if (!s.packing.empty()) {
       const cdshear::Packing packing = cdshear::read_packing(s.packing);
       cdshear::ShearCase c;
       c.velocity = s.velocity;
@@ -1138,6 +1190,14 @@ int run(const Settings& s) {
             stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       print_residual(m, options.dt, velocity);
+      if (m.refined > 0)
+        std::fprintf(stderr,
+                     "  refinement: %llu of %llu steps to its tolerance, %.2f iterations per "
+                     "step, largest residual %.2e\n",
+                     static_cast<unsigned long long>(m.refined_to_tolerance),
+                     static_cast<unsigned long long>(m.refined),
+                     m.refinement_iterations / static_cast<double>(m.refined),
+                     m.refinement_largest);
       if (trajectory.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
@@ -1146,11 +1206,11 @@ int run(const Settings& s) {
 
     StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3
     options.solver = s.solver;
-    if (s.run_static && s.packing.empty()) report("static", 0.0, options);
+    if (s.run_static && !prepared) report("static", 0.0, options);
     if (s.run_shear) {
-      if (s.packing.empty()) start_shear(box.world, s.velocity);
+      if (!prepared) start_shear(box.world, velocity);
       const StepOptions rules = shear_step_rules(
-          s.velocity, s.alpha_given ? std::optional(s.solver.alpha) : std::nullopt,
+          velocity, s.alpha_given ? std::optional(s.solver.alpha) : std::nullopt,
           s.residual_given ? std::optional(s.solver.residual_tolerance) : std::nullopt);
       options.dt = rules.dt;
       options.solver.alpha = rules.solver.alpha;
@@ -1158,8 +1218,8 @@ int run(const Settings& s) {
       const double height = box.world.walls[cdshear::kBoxTopWall].point.y -
                             box.world.walls[cdshear::kBoxBottomWall].point.y;
       cdshear::ShearMeasurement observer(cdshear::MeasureOptions{},
-                                         {options.dt, s.velocity, 0.25, height}, box.world);
-      report("shear", s.velocity, options, &observer);
+                                         {options.dt, velocity, 0.25, height}, box.world);
+      report("shear", velocity, options, &observer);
     }
   }
 

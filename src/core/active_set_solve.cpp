@@ -343,26 +343,41 @@ struct ActiveSetSolver::Impl {
   /// loop opens, as the exact solution has it.
   double ratio_step(const std::vector<Contact>& contacts) const {
     double step = 1.0;
-    for (std::size_t k = 0; k < nc; ++k) {
-      if (unknown[k] < 0) continue;
-      const Contact& c = contacts[k];
-      const auto row = static_cast<std::size_t>(unknown[k]);
-      const double dn = solution[row];
-      // A closed contact without force that the step would pull: let it open (projection).
-      if (c.impulse_n <= 0.0) continue;
-      if (dn < 0.0) step = std::min(step, c.impulse_n / -dn);
-      if (status[k] == kStick) {
-        const double d_t = solution[row + 1];
-        const double upper = c.friction * c.impulse_n - c.impulse_t;
-        const double lower = c.friction * c.impulse_n + c.impulse_t;
-        const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
-        // A contact on its cone's edge (the sweeps leave many) that the step pushes out is
-        // projected back: it would otherwise stop the step at 0.
-        if (d_upper < 0.0 && upper > 0.0) step = std::min(step, upper / -d_upper);
-        if (d_lower < 0.0 && lower > 0.0) step = std::min(step, lower / -d_lower);
-      }
-    }
+    for (std::size_t k = 0; k < nc; ++k) step = std::min(step, contact_bound(contacts, k));
     return step;
+  }
+
+  /// The longest step along dR that keeps contact k inside its cone (infinite for an open
+  /// contact, or one the step does not push out).
+  double contact_bound(const std::vector<Contact>& contacts, std::size_t k) const {
+    double bound = std::numeric_limits<double>::infinity();
+    if (unknown[k] < 0) return bound;
+    const Contact& c = contacts[k];
+    const auto row = static_cast<std::size_t>(unknown[k]);
+    const double dn = solution[row];
+    // A closed contact without force that the step would pull: let it open (projection).
+    if (c.impulse_n <= 0.0) return bound;
+    if (dn < 0.0) bound = std::min(bound, c.impulse_n / -dn);
+    if (status[k] == kStick) {
+      const double d_t = solution[row + 1];
+      const double upper = c.friction * c.impulse_n - c.impulse_t;
+      const double lower = c.friction * c.impulse_n + c.impulse_t;
+      const double d_upper = c.friction * dn - d_t, d_lower = c.friction * dn + d_t;
+      // A contact on its cone's edge (the sweeps leave many) that the step pushes out is
+      // projected back: it would otherwise stop the step at 0.
+      if (d_upper < 0.0 && upper > 0.0) bound = std::min(bound, upper / -d_upper);
+      if (d_lower < 0.0 && lower > 0.0) bound = std::min(bound, lower / -d_lower);
+    }
+    return bound;
+  }
+
+  /// The contacts whose bound is within a relative 1e-9 of `step` (step < 1): those that the
+  /// ratio test stops at.
+  std::size_t blocking_contacts(const std::vector<Contact>& contacts, double step) const {
+    if (!(step < 1.0)) return 0;
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < nc; ++k) count += contact_bound(contacts, k) <= step * (1 + 1e-9);
+    return count;
   }
 
   /// R + dR projected on the cone, applied to the bodies. Returns |dR| / |R + dR|.
@@ -577,7 +592,7 @@ struct ActiveSetSolver::Impl {
   /// form (report.factorised then false).
   bool solve_and_search(std::vector<Contact>& contacts, std::vector<SolverBody>& bodies,
                         std::size_t unknowns, const ActiveSetOptions& options, double& current,
-                        double accept, ActiveSetReport& report) {
+                        double accept, ActiveSetReport& report, ActiveSetIteration* record) {
     constrained_velocities(contacts, bodies, unknowns);
     save(contacts, bodies, start_bodies, start_impulses);  // where every solve starts from
     cholmod_sparse* b_matrix = nullptr;
@@ -587,6 +602,7 @@ struct ActiveSetSolver::Impl {
                        changed_since_factorisation() <= kKrylovChangedStatuses;
     for (int attempt = 0; attempt < kRegularisationAttempts; ++attempt, beta *= 1e3) {
       bool solved = attempt == 0 && reuse && krylov_solve(contacts, unknowns, beta);
+      const bool solved_by_krylov = solved;
       report.krylov_solves += solved;
       if (!solved) {
         if (b_matrix == nullptr) b_matrix = delassus_matrix(contacts, bodies, unknowns);
@@ -598,14 +614,27 @@ struct ActiveSetSolver::Impl {
       any_solved = true;
       restore(contacts, bodies, start_bodies, start_impulses);
       // The ratio test on the first attempt only.
-      if (const double step = ratio_step(contacts); attempt == 0 && step > 0.0 && step < 1.0)
+      const double step = ratio_step(contacts);
+      if (record != nullptr && attempt == 0) {
+        double solution2 = 0.0, force2 = 0.0;
+        for (const double x : solution) solution2 += x * x;
+        for (const Contact& c : contacts)
+          force2 += c.impulse_n * c.impulse_n + c.impulse_t * c.impulse_t;
+        record->newton_norm = force2 > 0.0 ? std::sqrt(solution2 / force2) : 0.0;
+      }
+      if (attempt == 0 && step > 0.0 && step < 1.0) {
+        if (record != nullptr) {
+          record->ratio_step = step;
+          record->blocking = blocking_contacts(contacts, step);
+        }
         for (double& x : solution) x *= step;
+      }
       report.correction = apply_solution(contacts, bodies);
-      double next = merit(contacts, bodies);
+      double next = merit(contacts, bodies), line_step = 1.0;
       if (!(next < accept)) {
         save(contacts, bodies, full_bodies, full_impulses);
-        for (double lambda = 0.5; lambda >= kSmallestStep; lambda *= 0.5) {
-          blend(lambda, contacts, bodies);
+        for (line_step = 0.5; line_step >= kSmallestStep; line_step *= 0.5) {
+          blend(line_step, contacts, bodies);
           next = merit(contacts, bodies);
           if (next < accept) break;
         }
@@ -613,6 +642,11 @@ struct ActiveSetSolver::Impl {
       if (next < accept) {
         current = next;
         descended = true;
+        if (record != nullptr) {
+          record->line_step = line_step;
+          record->attempt = attempt;
+          record->by_krylov = solved_by_krylov;
+        }
         break;
       }
     }
@@ -659,11 +693,33 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
         current = open;
       else
         s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
+      if (options.record_history) {
+        ActiveSetIteration record;
+        record.changed = report.changed;
+        record.open = s.nc;
+        record.residual = current;
+        report.history.push_back(record);
+      }
       break;
     }
     const double accept = *std::max_element(history.begin(), history.end());
-    const bool descended =
-        s.solve_and_search(contacts, bodies, unknowns, options, current, accept, report);
+    ActiveSetIteration record;
+    if (options.record_history) {
+      record.changed = report.changed;
+      record.unknowns = unknowns;
+      for (std::size_t k = 0; k < s.nc; ++k) {
+        record.open += s.status[k] == kOpen;
+        record.stick += s.status[k] == kStick;
+      }
+      record.slide = s.nc - record.open - record.stick;
+    }
+    const bool descended = s.solve_and_search(contacts, bodies, unknowns, options, current, accept,
+                                              report, options.record_history ? &record : nullptr);
+    if (options.record_history) {
+      if (!descended) record.line_step = 0.0;
+      record.residual = descended ? current : history.back();
+      report.history.push_back(record);
+    }
     if (!descended) {  // back to the iterate this iteration started from
       s.restore(contacts, bodies, s.base_bodies, s.base_impulses);
       break;

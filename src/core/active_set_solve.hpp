@@ -51,8 +51,13 @@
 //
 // Measured (docs/performance.md, "Active-set Newton refinement"): where the sweeps' statuses
 // are nearly right (system 1) two to four iterations solve a step to round-off; in the tall
-// cells (system 5) the iterations fix one or two statuses at a time (the ratio test), and with
-// 16 iterations most steps reach round-off, each later iteration by a few GMRES iterations.
+// cells (system 5) early in the shear the iterations fix one or two statuses at a time (the
+// ratio test), and with 16 iterations most steps reach round-off, each later iteration by a few
+// GMRES iterations. On an old, dense flow (system 5 after 4000 t) they seldom do: the system for
+// the sweeps' statuses is nearly singular with a right-hand side mostly outside its range (|dR|
+// 1e4 to 1e5 times |R|), the ratio test stops each step at 1e-10 to 1e-7 of it on a contact
+// carrying almost no force, and the residual falls by a third in 126 iterations
+// (`cdshear_bench --state ... --newton-history`).
 #pragma once
 
 #include <cstddef>
@@ -68,6 +73,21 @@ struct ActiveSetOptions {
   int max_iterations = 4;         ///< Newton iterations at most
   double regularisation = 1e-10;  ///< beta, as a fraction of the mean w_nn
   double tolerance = 1e-12;       ///< stop when the natural-map residual / |R| is below this
+  bool record_history = false;    ///< fill ActiveSetReport::history
+};
+
+/// One refinement iteration, as ActiveSetOptions::record_history records it.
+struct ActiveSetIteration {
+  std::size_t changed = 0;                     ///< statuses changed by its classification
+  std::size_t unknowns = 0;                    ///< of the system it solved
+  std::size_t open = 0, stick = 0, slide = 0;  ///< contacts of each status
+  double ratio_step = 1.0;                     ///< the ratio test's step (1: none limited it)
+  std::size_t blocking = 0;                    ///< contacts within 1e-9 of the ratio step's bound
+  double newton_norm = 0.0;  ///< |dR| / |R| of its first solve (beta), before the ratio test
+  double line_step = 1.0;    ///< the line search's fraction of that step (0: no descent)
+  int attempt = 0;           ///< regularisations raised before it descended (0: beta itself)
+  bool by_krylov = false;    ///< solved by GMRES on a kept factorisation
+  double residual = 0.0;     ///< natural-map residual / |R on entry| after it
 };
 
 struct ActiveSetReport {
@@ -82,6 +102,7 @@ struct ActiveSetReport {
   int krylov_solves = 0;          ///< systems solved by GMRES on a kept factorisation instead
   double initial_residual = 0.0;  ///< natural-map residual / |R on entry| on entry
   double residual = 0.0;          ///< ... on exit, / |R on entry| too
+  std::vector<ActiveSetIteration> history;  ///< with ActiveSetOptions::record_history
 };
 
 class ActiveSetSolver {

@@ -131,6 +131,7 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   if (options.solver.newton_iterations > 0) {
     ActiveSetOptions o;
     o.max_iterations = options.solver.newton_iterations;
+    o.record_history = options.solver.newton_history;
     report.active_set = active_set_.refine(contacts_, bodies_, options.dt, o);
   }
   report.seconds.solve = seconds_since(t0);

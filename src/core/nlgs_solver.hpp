@@ -131,6 +131,9 @@ struct SolverOptions {
   /// Time the first thread's stages into SolverReport::profile (two clock reads per stage and
   /// sweep phase; no effect on the results). `cdshear_bench --profile`.
   bool profile = false;
+  /// Record each refinement iteration into ActiveSetReport::history (no effect on the results).
+  /// `cdshear_bench --newton-history`.
+  bool newton_history = false;
 };
 
 /// Whether the options ask for the slab correction: the coloured order only (the others have no

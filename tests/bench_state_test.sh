@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# cdshear_bench --state goes on from a shear run's checkpoint: it reads the run's disks and wall
+# speed, and --newton-history lists each refinement iteration of a sample, as many as the sample
+# reports, the residual it returns being the lowest of its entry's and the iterations'. A file
+# that is not a checkpoint is refused, by name.
+# Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
+set -uo pipefail
+exe=$1; bench=$2; packing=$3; work=$4
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fails=0
+if ! "$exe" run -q --no-analyze --packing "$packing" --system 1 -V 0.3 \
+     --set shear.duration=0.5 --set output.checkpoint_interval=0.25 -o run > run.out 2>&1; then
+  echo "FAIL: the shear run failed"; cat run.out; exit 1
+fi
+if ! "$bench" --state run/checkpoint.cbor --steps 2 --warmup 0 --newton 6 --newton-history \
+     --step-error 2 --step-error-spacing 1 > state.csv 2> state.txt; then
+  echo "FAIL: cdshear_bench --state failed"; cat state.txt; exit 1
+fi
+disks=$(/usr/bin/python3 -c "import json, sys; print(len(json.load(open(sys.argv[1]))['disks_xyr']))" \
+          "$packing")
+if ! grep -qE "checkpoint.cbor: $disks disks, .* t = 0.5, sheared at V = 0.3\$" state.txt; then
+  echo "FAIL: expected the run's $disks disks at t = 0.5 and V = 0.3"; head -3 state.txt
+  fails=$((fails + 1))
+fi
+/usr/bin/python3 - state.txt <<'PY' || fails=$((fails + 1))
+import re, sys
+samples = []
+for line in open(sys.argv[1]):
+    m = re.search(r"newton (\d+) it .* residual (\S+) -> (\S+)$", line)
+    if m:
+        samples.append([int(m[1]), float(m[2]), float(m[3]), []])
+        continue
+    m = re.search(r"^ +it +\d+: .* residual (\S+)$", line)
+    if m:
+        samples[-1][3].append(float(m[1]))
+assert len(samples) == 2, f"FAIL: expected 2 samples with a refinement line, got {len(samples)}"
+for iterations, entry, returned, history in samples:
+    assert len(history) == iterations, f"FAIL: {iterations} iterations, {len(history)} listed"
+    lowest = min([entry] + history)
+    assert abs(returned - lowest) <= 0.01 * lowest, f"FAIL: returned {returned}, lowest {lowest}"
+PY
+if "$bench" --state "$packing" --steps 1 > bad.csv 2> bad.txt ||
+   ! grep -qF "$packing" bad.txt; then
+  echo "FAIL: a packing file as --state was not refused by name"; cat bad.txt
+  fails=$((fails + 1))
+fi
+echo "bench_state_test: $fails failures"
+exit $((fails > 0))
