@@ -55,8 +55,8 @@
 // ratio test), and with 16 iterations most steps reach round-off, each later iteration by a few
 // GMRES iterations. On an old, dense flow (system 5 after 4000 t) they seldom do: the system for
 // the sweeps' statuses is nearly singular with a right-hand side mostly outside its range (|dR|
-// 1e4 to 1e5 times |R|), the ratio test stops each step at 1e-10 to 1e-7 of it on a contact
-// carrying almost no force, and the residual falls by a third in 126 iterations
+// 4e3 to 2e5 times |R|), the ratio test stops each step at 1e-11 to 1e-6 of it, where the first
+// contact reaches its cone's boundary, and the residual falls by a third in 126 iterations
 // (`cdshear_bench --state ... --newton-history`).
 #pragma once
 
