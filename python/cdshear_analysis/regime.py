@@ -49,7 +49,10 @@ model.md section 8; a change that rests at 0 (B) on the way is one switch lastin
 rest (intermittent runs). delta_mu is taken over the stretch of the old plateau before the switch, while the block
 still moves at its plateau velocity: the stretch ends at the last sample before the start with u
 at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back, or to the
-previous switch's end if that is nearer (summary.switch_friction_difference).
+previous switch's end if that is nearer (summary.switch_friction_difference). Switches are found
+over the whole series (a switch's delta_mu stretch stops at the previous one's end), but a run
+counts only those starting in its averaged span (switches_in): the summary's switches, their
+statistics and the regime test's dwell criterion are all over that span.
 """
 import numpy as np
 
@@ -317,10 +320,18 @@ def band_switches(time, u, velocity, plateaus=None):
     return switches
 
 
+def switches_in(switches, t0, t1):
+    """The switches starting in [t0, t1], the averaged span: the ones a run's regime, its
+    switch count and its switch statistics are about. Before t0 the block is still in the
+    transient (model.md section 8: every average over steady state only), where it may wander
+    from one wall's velocity to the other's before any band has formed."""
+    return [sw for sw in switches if t0 <= sw["start_time"] <= t1]
+
+
 def switch_statistics(switches, t0, t1):
-    """Switches starting in [t0, t1]: count, mean duration, and mean dwell = (t1 - t0 - their
-    durations) / (count + 1), the mean time on a plateau."""
-    sel = [sw for sw in switches if t0 <= sw["start_time"] <= t1]
+    """Switches starting in [t0, t1] (switches_in): count, mean duration, and mean dwell =
+    (t1 - t0 - their durations) / (count + 1), the mean time on a plateau."""
+    sel = switches_in(switches, t0, t1)
     durations = [sw["duration"] for sw in sel]
     dwell = (t1 - t0 - sum(durations)) / (len(sel) + 1) if t1 > t0 else np.nan
     return dict(count=len(sel), mean_duration=float(np.mean(durations)) if sel else np.nan,

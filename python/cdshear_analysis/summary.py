@@ -197,10 +197,14 @@ def analyze(run):
 
     # regime: window states, the block velocity, band switches (regime.py)
     table = rg.window_table(w, sel, lo, hi, time, u, V)
-    switches = rg.band_switches(time, u, V, rg.plateau_velocities(u, V, u_source))
+    span = (float(st["averaging_start_time"]), float(time[-1]))
+    # found over the whole series (each delta_mu stretch stops at the previous switch's end),
+    # kept over the averaged span only, as the regime test counts them: before it the block
+    # may still wander between the walls' velocities with no band formed
+    switches = rg.switches_in(rg.band_switches(time, u, V, rg.plateau_velocities(u, V, u_source)),
+                              *span)
     for sw in switches:
         sw["delta_mu"] = switch_friction_difference(s, time, sw)
-    span = (float(st["averaging_start_time"]), float(time[-1]))
     regime, confidence, criteria = rg.classify_run(table, u[after], switches, V, span, u_source)
     if no_window:
         regime, confidence = None, np.nan

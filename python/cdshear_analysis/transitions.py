@@ -176,7 +176,10 @@ def switch_predictions(rows, boundary=None):
         sw = r.get("_switches") or []
         starts = sorted(s["start_time"] for s in sw if isinstance(s, dict)
                         and s.get("start_time") is not None)
-        observed = r.get("time_reached")
+        # the switches are those of the averaged span (summary.json): the time they cover
+        averaged = r.get("_averaged_time")
+        observed = (averaged if isinstance(averaged, (int, float)) and math.isfinite(averaged)
+                    and averaged > 0 else r.get("time_reached"))
         e.update(switch_count=len(sw), observed_time=observed,
                  switch_duration=r.get("switch_duration"),
                  switch_duration_err=r.get("switch_duration_err"),

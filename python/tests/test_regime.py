@@ -14,6 +14,7 @@ V = 0.5                                    # synthetic runs' wall velocity
 MASS = 511 * np.pi / 4 * (1 - 0.8 ** 3) / (3 * 0.2)   # synthetic grains' mass (rho = 1)
 SIGMA, LX = 0.25, 20.0
 SWITCH_TIMES = [500.25, 1000.25, 1500.25]  # between samples (every 0.5 t)
+SETTLING_SWITCH_TIMES = [100.25, 300.25, 1200.25]
 RUNS = {
     "A": dict(kind="A"), "B": dict(kind="B"), "C": dict(kind="C"), "noise": dict(kind="noise"),
     "transient": dict(kind="transient"), "rest": dict(kind="rest"),
@@ -25,6 +26,9 @@ RUNS = {
     "C_aligned": dict(kind="C", switch_times=[480.0, 960.0, 1440.0], switch_duration=2.0),
     "C_forces": dict(kind="C", switch_times=SWITCH_TIMES, switch_forces=True),
     "C_held": dict(kind="C", switch_times=SWITCH_TIMES, pre_switch_delta_mu=0.04),
+    # the block goes from one wall's velocity to the other's and back, slowly, while the run
+    # settles (the steady-state test truncates it), then switches once in the averaged span
+    "C_settling": dict(kind="C", switch_times=SETTLING_SWITCH_TIMES, switch_duration=100.0),
 }
 
 
@@ -215,6 +219,29 @@ class Classifier(unittest.TestCase):
             self.assertAlmostEqual(sw["delta_mu"], 0.04 * held, delta=0.001)
             self.assertGreater(sw["delta_mu"], 0.038)
         self.assertAlmostEqual(s["switch_delta_mu"]["mean"], 0.04, delta=0.002)
+
+    def test_switches_are_counted_over_the_averaged_span_only(self):
+        # The summary's switches, their statistics and the regime test's count are the same
+        # switches: those that start in the averaged span, none from the transient before it.
+        s, args = self.summaries["C_settling"], RUNS["C_settling"]
+        series = self.runs["C_settling"]["series"]
+        t0 = s["averaging_start_time"]
+        found = rg.band_switches(series["time"], series["block_vx"], V)
+        self.assertEqual(len(found), 3)
+        # the first two switches start before the averaged span, the last one in it
+        self.assertEqual([sw["start_time"] < t0 for sw in found], [True, True, False])
+        self.assertEqual(s["regime"], "C", s["regime_criteria"]["reason"])
+        self.assertEqual(s["regime_criteria"]["switch_count"], 1)
+        self.assertEqual(len(s["switches"]), s["regime_criteria"]["switch_count"])
+        (sw,) = s["switches"]
+        self.assertGreaterEqual(sw["start_time"], t0)
+        ts, ramp = args["switch_times"][-1], args["switch_duration"]
+        self.assertAlmostEqual(sw["start_time"], ts + 0.1 * ramp, delta=5.0)
+        self.assertAlmostEqual(s["switch_duration"]["mean"], rg.SWITCH_FRACTION * ramp,
+                               delta=5.0)
+        self.assertEqual(s["switch_duration"]["mean"], sw["duration"])
+        # its delta_mu stretch still stops where the switch before it ended
+        self.assertGreaterEqual(sw["delta_mu_start_time"], found[1]["end_time"])
 
     def test_transient_end_found_in_run(self):
         self.assertGreater(self.summaries["transient"]["transient_end_time"], 150.0)

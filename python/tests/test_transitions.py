@@ -156,6 +156,17 @@ class PredictionTest(unittest.TestCase):
         # 2 * 0.8 * 0.8 * 0.01 * 20 / (30 * 0.25) = 0.256 / 7.5 (plateau to plateau: 1.6 V)
         self.assertAlmostEqual(e["delta_mu_implied"], 0.256 / 7.5)
 
+    def test_switches_are_timed_over_the_averaged_span(self):
+        # summary.json keeps the switches of the averaged span: the time per switch is over it
+        (e,) = tr.switch_predictions([self.c_row(_averaged_time=4500.0)])
+        self.assertAlmostEqual(e["observed_time"], 4500.0)
+        self.assertAlmostEqual(e["time_per_switch"], 4500.0 / 3)
+        (e,) = tr.switch_predictions([self.c_row(_averaged_time=4500.0, _switches=[])])
+        self.assertIn("no switch in 4500 time units", e["measured_note"])
+        # without the averaged time (NaN: the summary does not say), the time reached
+        (e,) = tr.switch_predictions([self.c_row(_averaged_time=math.nan)])
+        self.assertAlmostEqual(e["time_per_switch"], 5000.0 / 3)
+
     def test_switch_time_without_wall_frictions_says_what_is_missing(self):
         (e,) = tr.switch_predictions([self.c_row(switch_delta_mu=None, _switches=[],
                                                  switch_duration=None)])
