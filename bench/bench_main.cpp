@@ -104,6 +104,7 @@ struct Settings {
   // samples' tested solves with `solver`: runs that differ in `solver` sample the same states.
   bool paired = false;
   bool polish = false;          // a third solve: the reference's settings from the tested end
+  double state_jitter = 0.0;    // a fourth: the reference from disks moved by up to this [d]
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool error_locality = false;  // where in the packing each sample's error lies
   bool stress_error = false;    // what each sample's error does to the contact stress
@@ -196,6 +197,11 @@ Reference solve of --step-error:
                       to that exact solution (an upper bound on its distance to the step's
                       solution set) and that solution's distance to the reference (another
                       exact solution of the step where it is not small)
+  --state-jitter EPS  a fourth solve of each sample: the reference's settings from the same
+                      state with every disk moved by a fixed pseudo-random displacement of up
+                      to EPS along each axis [length]; prints how far that moves the step's
+                      solution (impulses matched by contact, top wall force, velocities):
+                      how well the state defines the step's solution
   --error-locality    where each sample's impulse error lies: its shares on the contacts whose
                       status differs from the reference's and on the 1% of contacts most
                       off, and the run of three bands of 4 d (by height) holding most of it,
@@ -286,6 +292,10 @@ Settings parse(int argc, char** argv) {
       s.paired = true;
     } else if (a == "--polish") {
       s.polish = true;
+    } else if (a == "--state-jitter") {
+      s.state_jitter = std::stod(value());
+      if (!(s.state_jitter >= 0.0 && s.state_jitter < 1e-2))
+        throw std::invalid_argument("--state-jitter must be in [0, 0.01)");
     } else if (a == "--steps") {
       s.min_steps = std::stoull(value());
       s.seconds = 0.0;
@@ -891,6 +901,51 @@ double relative_impulse_distance(const std::vector<cdshear::Contact>& a,
   return std::sqrt(diff2 / ref2);
 }
 
+/// |a - b| / |b| over the impulses of two contact lists sorted by key (ContactDynamics keeps
+/// them so), matched by key: a contact in one list only counts with a zero impulse in the other.
+/// Two solves from slightly different states may have different candidates.
+double keyed_impulse_distance(const std::vector<cdshear::Contact>& a,
+                              const std::vector<cdshear::Contact>& b) {
+  double diff2 = 0.0, ref2 = 0.0;
+  std::size_t i = 0, j = 0;
+  while (i < a.size() || j < b.size()) {
+    double an = 0.0, at = 0.0, bn = 0.0, bt = 0.0;
+    if (j == b.size() || (i < a.size() && a[i].key < b[j].key)) {
+      an = a[i].impulse_n, at = a[i].impulse_t;
+      ++i;
+    } else if (i == a.size() || b[j].key < a[i].key) {
+      bn = b[j].impulse_n, bt = b[j].impulse_t;
+      ++j;
+    } else {
+      an = a[i].impulse_n, at = a[i].impulse_t, bn = b[j].impulse_n, bt = b[j].impulse_t;
+      ++i, ++j;
+    }
+    diff2 += (an - bn) * (an - bn) + (at - bt) * (at - bt);
+    ref2 += bn * bn + bt * bt;
+  }
+  return std::sqrt(diff2 / ref2);
+}
+
+/// Every disk of `world` moved by a fixed pseudo-random displacement in [-eps, eps] along each
+/// axis (splitmix64 of the disk's index and axis: the same on every machine); a periodic x
+/// that would leave [0, L_x) is not moved.
+void jitter_disks(World& world, double eps) {
+  auto uniform = [](std::uint64_t z) {
+    z += 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * 0x1.0p-53 * 2.0 - 1.0;  // [-1, 1)
+  };
+  for (std::size_t i = 0; i < world.disks.size(); ++i) {
+    cdshear::Vec2& x = world.disks.position[i];
+    const double dx = eps * uniform(2 * i), dy = eps * uniform(2 * i + 1);
+    if (!world.domain.periodic_x || (x.x + dx >= 0.0 && x.x + dx < world.domain.length_x))
+      x.x += dx;
+    x.y += dy;
+  }
+}
+
 /// The contacts open, sticking or sliding in one list only.
 std::size_t status_differences(const std::vector<cdshear::Contact>& a,
                                const std::vector<cdshear::Contact>& b) {
@@ -923,6 +978,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   if (s.reference_newton > 0) polish.solver.max_sweeps = 1;
   std::vector<double> l2, wall, velocity;
   std::vector<double> polished, between;  // --polish: tested to polished, polished to reference
+  std::vector<double> jittered, jittered_wall, jittered_velocity;  // --state-jitter
   const bool sheared = world.walls[cdshear::kBoxTopWall].velocity.x != 0.0;
   std::fprintf(stderr,
                "  step error (this step's settings against a solve to round-off):\n"
@@ -1056,6 +1112,31 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                    status_differences(p, b), r_pol.velocity_residual.largest * options.dt,
                    newton_residual);
     }
+    if (s.state_jitter > 0.0) {
+      // The reference's solve from the state moved by up to state_jitter: how far the step's
+      // exact solution moves when the state does (its conditioning), to set beside the tested
+      // solve's distance to the reference.
+      World w_jit = world;
+      jitter_disks(w_jit, s.state_jitter);
+      ContactDynamics d_jit = dynamics;
+      const StepReport r_jit = d_jit.step(w_jit, tight);
+      jittered.push_back(keyed_impulse_distance(d_jit.contacts(), b));
+      jittered_wall.push_back(
+          cdshear::length(w_jit.walls[top].contact_force - w_ref.walls[top].contact_force) /
+          cdshear::length(w_ref.walls[top].contact_force));
+      double dj2 = 0.0;
+      for (std::size_t i = 0; i < n; ++i)
+        dj2 += cdshear::length_squared(w_jit.disks.velocity[i] - w_ref.disks.velocity[i]);
+      jittered_velocity.push_back(
+          std::sqrt(dj2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
+          (wall_speed > 0.0 ? wall_speed : 1.0));
+      std::fprintf(stderr,
+                   "      state moved by up to %.1e: reference moved by %.2e (impulses), %.2e "
+                   "(top wall), %.2e (velocities%s), %d sweeps%s\n",
+                   s.state_jitter, jittered.back(), jittered_wall.back(), jittered_velocity.back(),
+                   wall_speed > 0.0 ? " / V" : "", r_jit.solver.sweeps,
+                   r_jit.solver.sweeps >= tight.solver.max_sweeps ? " (at its cap)" : "");
+    }
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.
     if (from_reference) {
@@ -1068,6 +1149,18 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
   }
   std::sort(sweeps.begin(), sweeps.end());
   std::sort(polished.begin(), polished.end());
+  if (!jittered.empty()) {
+    std::sort(jittered.begin(), jittered.end());
+    std::sort(jittered_wall.begin(), jittered_wall.end());
+    std::sort(jittered_velocity.begin(), jittered_velocity.end());
+    std::fprintf(stderr,
+                 "    state moved by up to %.1e: the reference moved by median %.2e (largest "
+                 "%.2e) in its impulses, %.2e (%.2e) in the top wall force, %.2e (%.2e) in "
+                 "velocities\n",
+                 s.state_jitter, jittered[jittered.size() / 2], jittered.back(),
+                 jittered_wall[jittered_wall.size() / 2], jittered_wall.back(),
+                 jittered_velocity[jittered_velocity.size() / 2], jittered_velocity.back());
+  }
   std::sort(between.begin(), between.end());
   if (!polished.empty())
     std::fprintf(stderr,

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # cdshear_bench --state goes on from a shear run's checkpoint: it reads the run's disks and wall
 # speed, and --newton-history lists each refinement iteration of a sample, as many as the sample
-# reports, the residual it returns being the lowest of its entry's and the iterations'. A file
-# that is not a checkpoint is refused, by name.
+# reports, the residual it returns being the lowest of its entry's and the iterations'.
+# --state-jitter solves each sample again from the state moved by up to EPS: it prints how far
+# that moves the reference, a distance above 0 that a 1e-7 d move keeps far below 1% of V in the
+# velocities, and refuses a jitter out of range by name. A file that is not a checkpoint is
+# refused, by name.
 # Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
 set -uo pipefail
 exe=$1; bench=$2; packing=$3; work=$4
@@ -39,6 +42,25 @@ for iterations, entry, returned, history in samples:
     lowest = min([entry] + history)
     assert abs(returned - lowest) <= 0.01 * lowest, f"FAIL: returned {returned}, lowest {lowest}"
 PY
+if ! "$bench" --state run/checkpoint.cbor --steps 1 --warmup 0 --step-error 2 \
+     --step-error-spacing 1 --state-jitter 1e-7 > jitter.csv 2> jitter.txt; then
+  echo "FAIL: cdshear_bench --state-jitter failed"; cat jitter.txt; exit 1
+fi
+/usr/bin/python3 - jitter.txt <<'PY' || fails=$((fails + 1))
+import re, sys
+moved = [[float(x) for x in m.groups()] for m in re.finditer(
+    r"state moved by up to 1\.0e-07: reference moved by (\S+) \(impulses\), (\S+) \(top wall\), "
+    r"(\S+) \(velocities / V\)", open(sys.argv[1]).read())]
+assert len(moved) == 2, f"FAIL: expected 2 samples with the jittered reference, got {len(moved)}"
+for impulses, wall, velocities in moved:
+    assert impulses > 0.0, "FAIL: the jitter did not move the reference's impulses"
+    assert velocities < 1e-2, f"FAIL: a 1e-7 move changed velocities by {velocities} V"
+PY
+if "$bench" --state run/checkpoint.cbor --steps 1 --step-error 1 --state-jitter 0.5 \
+     > bad.csv 2> bad.txt || ! grep -qF -- "--state-jitter" bad.txt; then
+  echo "FAIL: --state-jitter 0.5 was not refused by name"; cat bad.txt
+  fails=$((fails + 1))
+fi
 if "$bench" --state "$packing" --steps 1 > bad.csv 2> bad.txt ||
    ! grep -qF "$packing" bad.txt; then
   echo "FAIL: a packing file as --state was not refused by name"; cat bad.txt
