@@ -104,7 +104,7 @@ struct Settings {
   // samples' tested solves with `solver`: runs that differ in `solver` sample the same states.
   bool paired = false;
   bool polish = false;          // a third solve: the reference's settings from the tested end
-  double state_jitter = 0.0;    // a fourth: the reference from disks moved by up to this [d]
+  double state_jitter = 0.0;    // one more: the reference from disks moved by up to this [d]
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool error_locality = false;  // where in the packing each sample's error lies
   bool stress_error = false;    // what each sample's error does to the contact stress
@@ -197,9 +197,9 @@ Reference solve of --step-error:
                       to that exact solution (an upper bound on its distance to the step's
                       solution set) and that solution's distance to the reference (another
                       exact solution of the step where it is not small)
-  --state-jitter EPS  a fourth solve of each sample: the reference's settings from the same
-                      state with every disk moved by a fixed pseudo-random displacement of up
-                      to EPS along each axis [length]; prints how far that moves the step's
+  --state-jitter EPS  one more solve of each --step-error sample: the reference's settings
+                      from the same state with every disk moved by a fixed pseudo-random
+                      displacement of up to EPS [d] (below 1e-4) along each axis; prints how far that moves the step's
                       solution (impulses matched by contact, top wall force, velocities):
                       how well the state defines the step's solution
   --error-locality    where each sample's impulse error lies: its shares on the contacts whose
@@ -294,8 +294,10 @@ Settings parse(int argc, char** argv) {
       s.polish = true;
     } else if (a == "--state-jitter") {
       s.state_jitter = std::stod(value());
-      if (!(s.state_jitter >= 0.0 && s.state_jitter < 1e-2))
-        throw std::invalid_argument("--state-jitter must be in [0, 0.01)");
+      // Small enough that no disk crosses x = 0 in one of the two solves only (its contacts'
+      // keys would then differ between them): the chance is about N EPS / L_x per sample.
+      if (!(s.state_jitter >= 0.0 && s.state_jitter < 1e-4))
+        throw std::invalid_argument("--state-jitter must be in [0, 1e-4)");
     } else if (a == "--steps") {
       s.min_steps = std::stoull(value());
       s.seconds = 0.0;
@@ -380,6 +382,8 @@ Settings parse(int argc, char** argv) {
     }
   }
   if (!(s.velocity > 0.0)) throw std::invalid_argument("--velocity must be > 0");
+  if (s.state_jitter > 0.0 && s.step_error_samples == 0)
+    throw std::invalid_argument("--state-jitter needs --step-error");
   if (!s.state.empty() && !s.packing.empty())
     throw std::invalid_argument("--state and --packing exclude each other");
   return s;
@@ -448,17 +452,14 @@ struct Measurement {
   std::uint64_t finished_plain = 0;  // went on with relaxation 1 (the cap or the residual test)
   double best_block_ns = 0.0;        // lowest ns per update over blocks of about 1/6 of the run
   double largest_overlap = 0.0;
-  double observer_s = 0.0;           // time in the measurement layer (shear cases)
-  std::vector<int> sweeps;           // of every measured step
-  cdshear::SolverProfile profile;    // --profile: the solver's first thread, summed over steps
-  std::uint64_t held_back = 0;       // steps whose residual test refused a stop at least once
-  double sweeps_held_back = 0.0;     // their sweeps after the first refusal
-  std::vector<double> residual_rms;  // the check's rms_carrying of every step not at the cap
-  double residual_rms_capped = 0.0;  // its largest over the steps at the cap
-  // The active-set refinement (--newton): steps it ran on, those it ended at its tolerance, its
-  // iterations, and the largest natural-map residual it left.
-  std::uint64_t refined = 0, refined_to_tolerance = 0;
-  double refinement_iterations = 0.0, refinement_largest = 0.0;
+  double observer_s = 0.0;              // time in the measurement layer (shear cases)
+  std::vector<int> sweeps;              // of every measured step
+  cdshear::SolverProfile profile;       // --profile: the solver's first thread, summed over steps
+  std::uint64_t held_back = 0;          // steps whose residual test refused a stop at least once
+  double sweeps_held_back = 0.0;        // their sweeps after the first refusal
+  std::vector<double> residual_rms;     // the check's rms_carrying of every step not at the cap
+  double residual_rms_capped = 0.0;     // its largest over the steps at the cap
+  cdshear::RefinementTally refinement;  // the active-set refinement (--newton)
 };
 
 /// "p10 a, p50 b, p90 c, p99 d, max e" of the sweeps per step.
@@ -552,12 +553,7 @@ Measurement measure(World& world, ContactDynamics& dynamics, const StepOptions& 
     else
       m.residual_rms.push_back(r.velocity_residual.rms_carrying);
     m.capped += r.solver.hit_cap;
-    if (r.active_set.ran) {
-      ++m.refined;
-      m.refined_to_tolerance += r.active_set.converged;
-      m.refinement_iterations += r.active_set.iterations;
-      m.refinement_largest = std::max(m.refinement_largest, r.active_set.residual);
-    }
+    m.refinement.add(r.active_set);
     m.finished_plain += r.solver.finished_plain;
     m.displacement_warnings += r.displacement_exceeded;
     m.largest_overlap = std::max(m.largest_overlap, r.max_overlap);
@@ -1135,7 +1131,9 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                    "(top wall), %.2e (velocities%s), %d sweeps%s\n",
                    s.state_jitter, jittered.back(), jittered_wall.back(), jittered_velocity.back(),
                    wall_speed > 0.0 ? " / V" : "", r_jit.solver.sweeps,
-                   r_jit.solver.sweeps >= tight.solver.max_sweeps ? " (at its cap)" : "");
+                   r_jit.solver.sweeps >= tight.solver.max_sweeps && !r_jit.active_set.converged
+                       ? " (at its cap)"
+                       : "");
     }
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.
@@ -1283,14 +1281,13 @@ int run(const Settings& s) {
             stderr, "  measurement observers: %.2f%% of the step time (%.1f us per step)\n",
             100.0 * m.observer_s / (m.wall_s - m.observer_s), 1e6 * m.observer_s / m.steps);
       print_residual(m, options.dt, velocity);
-      if (m.refined > 0)
+      if (m.refinement.steps > 0)
         std::fprintf(stderr,
                      "  refinement: %llu of %llu steps to its tolerance, %.2f iterations per "
                      "step, largest residual %.2e\n",
-                     static_cast<unsigned long long>(m.refined_to_tolerance),
-                     static_cast<unsigned long long>(m.refined),
-                     m.refinement_iterations / static_cast<double>(m.refined),
-                     m.refinement_largest);
+                     static_cast<unsigned long long>(m.refinement.steps_to_tolerance),
+                     static_cast<unsigned long long>(m.refinement.steps),
+                     m.refinement.mean_iterations(), m.refinement.largest_residual);
       if (trajectory.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);

@@ -1,13 +1,16 @@
 // The active-set Newton refinement (active_set_solve.hpp): a column's statics exactly after one
 // sweep, a sheared dense packing's step solved to round-off (the solution that Gauss-Seidel
 // reaches after thousands of sweeps) with one factorisation and GMRES on it for the later
-// iterations, a residual that never grows, and the same result twice.
+// iterations, a residual that never grows, and the same result twice; the tally of a run's
+// refinement.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
+#include "active_set_solve.hpp"
 #include "scene_presets.hpp"
 #include "test_support.hpp"
 
@@ -175,6 +178,34 @@ TEST(ActiveSet, SolvesMostStepsOfAShearAndRepeatsOnAnyNumberOfThreads) {
     EXPECT_EQ(box.world.disks.position[i].x, twin.world.disks.position[i].x);
     EXPECT_EQ(box.world.disks.position[i].y, twin.world.disks.position[i].y);
   }
+}
+
+// The tally counts the steps the refinement ran on, those at its tolerance and their mean
+// iterations, and keeps the largest residual, a NaN included (std::max would drop it).
+TEST(RefinementTally, CountsTheRefinedStepsAndKeepsANaNResidual) {
+  RefinementTally tally;
+  tally.add(ActiveSetReport{});  // a step without contacts: not refined
+  EXPECT_EQ(tally.steps, 0u);
+  EXPECT_EQ(tally.mean_iterations(), 0.0);
+  ActiveSetReport solved, stalled;
+  solved.ran = stalled.ran = true;
+  solved.converged = true;
+  solved.iterations = 3;
+  solved.residual = 1e-13;
+  stalled.iterations = 6;
+  stalled.residual = 2e-5;
+  tally.add(solved);
+  tally.add(stalled);
+  EXPECT_EQ(tally.steps, 2u);
+  EXPECT_EQ(tally.steps_to_tolerance, 1u);
+  EXPECT_DOUBLE_EQ(tally.mean_iterations(), 4.5);
+  EXPECT_EQ(tally.largest_residual, 2e-5);
+  ActiveSetReport broken = stalled;
+  broken.residual = std::numeric_limits<double>::quiet_NaN();
+  tally.add(broken);
+  tally.add(solved);
+  EXPECT_TRUE(std::isnan(tally.largest_residual));
+  EXPECT_EQ(tally.steps, 4u);
 }
 
 }  // namespace

@@ -70,14 +70,7 @@ void add_step(RunSummary& summary, const StepReport& r) {
   summary.capped_steps += r.solver.hit_cap ? 1 : 0;
   summary.plain_finish_steps += r.solver.finished_plain ? 1 : 0;
   summary.held_back_steps += r.solver.residual_refusals > 0 ? 1 : 0;
-  if (r.active_set.ran) {
-    ++summary.refined_steps;
-    summary.refined_converged_steps += r.active_set.converged ? 1 : 0;
-    summary.refinement_iterations += static_cast<std::uint64_t>(r.active_set.iterations);
-    // not std::max: a NaN residual must show
-    if (!(r.active_set.residual <= summary.refinement_residual_largest))
-      summary.refinement_residual_largest = r.active_set.residual;
-  }
+  summary.refinement.add(r.active_set);
 }
 
 /// The progress bar on stderr: the share `done` of the run, the time reached, and the wall time
@@ -230,11 +223,11 @@ nlohmann::json summary_to_json(const RunSummary& s) {
                         {"integrate", s.seconds.integrate},
                         {"measure", s.seconds.measure}}},
                       {"problem", s.last.problem}};
-  if (s.refined_steps > 0)
-    j["refinement"] = {{"steps", s.refined_steps},
-                       {"steps_to_tolerance", s.refined_converged_steps},
-                       {"mean_iterations", s.refinement_mean_iterations()},
-                       {"largest_residual", s.refinement_residual_largest}};
+  if (s.refinement.steps > 0)
+    j["refinement"] = {{"steps", s.refinement.steps},
+                       {"steps_to_tolerance", s.refinement.steps_to_tolerance},
+                       {"mean_iterations", s.refinement.mean_iterations()},
+                       {"largest_residual", s.refinement.largest_residual}};
   return j;
 }
 }  // namespace cdshear

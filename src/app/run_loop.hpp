@@ -86,19 +86,8 @@ struct RunSummary {
   double velocity_residual_rms_largest = 0.0;
   double velocity_residual_rms_largest_off_cap = 0.0;
   double velocity_residual_largest = 0.0;
-  /// The active-set refinement (SolverOptions::newton_iterations > 0; active_set_solve.hpp): the
-  /// steps with contacts it ran on, those it ended at its tolerance (a solution to round-off), its
-  /// iterations summed, and the largest natural-map residual it left (relative to the step's
-  /// impulses).
-  std::uint64_t refined_steps = 0;
-  std::uint64_t refined_converged_steps = 0;
-  std::uint64_t refinement_iterations = 0;
-  double refinement_residual_largest = 0.0;
-  double refinement_mean_iterations() const {
-    return refined_steps > 0
-               ? static_cast<double>(refinement_iterations) / static_cast<double>(refined_steps)
-               : 0.0;
-  }
+  /// The active-set refinement (SolverOptions::newton_iterations > 0; active_set_solve.hpp).
+  RefinementTally refinement;
   StageSeconds seconds;  ///< summed over the steps
 };
 

@@ -289,13 +289,13 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
       summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
       summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
       summary.largest_overlap);
-  if (summary.refined_steps > 0)
+  if (summary.refinement.steps > 0)
     std::printf(
         "refinement: %llu of %llu steps to its tolerance, %.2f iterations per step, largest "
         "residual %.3g\n",
-        static_cast<unsigned long long>(summary.refined_converged_steps),
-        static_cast<unsigned long long>(summary.refined_steps),
-        summary.refinement_mean_iterations(), summary.refinement_residual_largest);
+        static_cast<unsigned long long>(summary.refinement.steps_to_tolerance),
+        static_cast<unsigned long long>(summary.refinement.steps),
+        summary.refinement.mean_iterations(), summary.refinement.largest_residual);
   if (summary.outcome == RunOutcome::kBlownUp) {
     std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
                  static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),

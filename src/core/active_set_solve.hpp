@@ -60,7 +60,9 @@
 // (`cdshear_bench --state ... --newton-history`).
 #pragma once
 
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -103,6 +105,30 @@ struct ActiveSetReport {
   double initial_residual = 0.0;  ///< natural-map residual / |R on entry| on entry
   double residual = 0.0;          ///< ... on exit, / |R on entry| too
   std::vector<ActiveSetIteration> history;  ///< with ActiveSetOptions::record_history
+};
+
+/// The refinement over many steps (a run's summary, a benchmark's): the steps it ran on, those it
+/// ended at its tolerance (a solution to round-off), its iterations summed, and the largest
+/// natural-map residual it left (relative to the step's impulses; a NaN shows and stays, which
+/// std::max would drop).
+struct RefinementTally {
+  std::uint64_t steps = 0;
+  std::uint64_t steps_to_tolerance = 0;
+  std::uint64_t iterations = 0;
+  double largest_residual = 0.0;
+
+  void add(const ActiveSetReport& r) {
+    if (!r.ran) return;
+    ++steps;
+    steps_to_tolerance += r.converged ? 1 : 0;
+    iterations += static_cast<std::uint64_t>(r.iterations);
+    // a NaN, once there, stays: NaN <= x is false either way round
+    if (!std::isnan(largest_residual) && !(r.residual <= largest_residual))
+      largest_residual = r.residual;
+  }
+  double mean_iterations() const {
+    return steps > 0 ? static_cast<double>(iterations) / static_cast<double>(steps) : 0.0;
+  }
 };
 
 class ActiveSetSolver {
