@@ -3,9 +3,9 @@
 # speed, and --newton-history lists each refinement iteration of a sample, as many as the sample
 # reports, the residual it returns being the lowest of its entry's and the iterations'.
 # --state-jitter solves each sample again from the state moved by up to EPS: it prints how far
-# that moves the reference, a distance above 0 that a 1e-7 d move keeps far below 1% of V in the
-# velocities, and refuses a jitter out of range by name. A file that is not a checkpoint is
-# refused, by name.
+# that moves the reference, a distance above 0 that a 1e-7 d move keeps below 10% in the impulses
+# and the top wall force and below 1% of V in the velocities, and refuses a jitter out of range
+# by name. A file that is not a checkpoint is refused, by name.
 # Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
 set -uo pipefail
 exe=$1; bench=$2; packing=$3; work=$4
@@ -54,6 +54,9 @@ moved = [[float(x) for x in m.groups()] for m in re.finditer(
 assert len(moved) == 2, f"FAIL: expected 2 samples with the jittered reference, got {len(moved)}"
 for impulses, wall, velocities in moved:
     assert impulses > 0.0, "FAIL: the jitter did not move the reference's impulses"
+    # contacts unmatched between the two solves would count their whole impulse
+    assert impulses < 0.1 and wall < 0.1, f"FAIL: a 1e-7 move changed impulses by {impulses}, " \
+        f"the top wall force by {wall}"
     assert velocities < 1e-2, f"FAIL: a 1e-7 move changed velocities by {velocities} V"
 PY
 if "$bench" --state run/checkpoint.cbor --steps 1 --step-error 1 --state-jitter 0.5 \
