@@ -199,9 +199,10 @@ Reference solve of --step-error:
                       exact solution of the step where it is not small)
   --state-jitter EPS  one more solve of each --step-error sample: the reference's settings
                       from the same state with every disk moved by a fixed pseudo-random
-                      displacement of up to EPS [d] (below 1e-4) along each axis; prints how far that moves the step's
-                      solution (impulses matched by contact, top wall force, velocities):
-                      how well the state defines the step's solution
+                      displacement of up to EPS [d] (below 1e-4) along each axis; prints
+                      how far that moves the step's solution (impulses matched by contact,
+                      top wall force, velocities): how well the state defines the step's
+                      solution
   --error-locality    where each sample's impulse error lies: its shares on the contacts whose
                       status differs from the reference's and on the 1% of contacts most
                       off, and the run of three bands of 4 d (by height) holding most of it,
@@ -942,6 +943,25 @@ void jitter_disks(World& world, double eps) {
   }
 }
 
+/// |F_a - F_b| / |F_b| of the top wall's contact force after two solves of the same step.
+double top_wall_distance(const World& a, const World& b) {
+  const auto top = cdshear::kBoxTopWall;
+  return cdshear::length(a.walls[top].contact_force - b.walls[top].contact_force) /
+         cdshear::length(b.walls[top].contact_force);
+}
+
+/// RMS over the disks of |v_a - v_b| after two solves of the same step, in units of b's top wall
+/// speed (absolute, length / time, in the static case, where V = 0).
+double velocity_distance(const World& a, const World& b) {
+  double dv2 = 0.0;
+  const std::size_t n = b.disks.size();
+  for (std::size_t i = 0; i < n; ++i)
+    dv2 += cdshear::length_squared(a.disks.velocity[i] - b.disks.velocity[i]);
+  const double wall_speed = std::abs(b.walls[cdshear::kBoxTopWall].velocity.x);
+  return std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
+         (wall_speed > 0.0 ? wall_speed : 1.0);
+}
+
 /// The contacts open, sticking or sliding in one list only.
 std::size_t status_differences(const std::vector<cdshear::Contact>& a,
                                const std::vector<cdshear::Contact>& b) {
@@ -1000,20 +1020,10 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
       worst = std::max(worst, std::hypot(dn, dt));
     }
     const double mean = ref_sum / static_cast<double>(std::max<std::size_t>(b.size(), 1));
-    const auto top = cdshear::kBoxTopWall;
-    const double wall_error =
-        cdshear::length(w_opt.walls[top].contact_force - w_ref.walls[top].contact_force) /
-        cdshear::length(w_ref.walls[top].contact_force);
+    const double wall_error = top_wall_distance(w_opt, w_ref);
     l2.push_back(relative_impulse_distance(a, b));
     wall.push_back(wall_error);
-    double dv2 = 0.0;
-    const std::size_t n = w_ref.disks.size();
-    for (std::size_t i = 0; i < n; ++i)
-      dv2 += cdshear::length_squared(w_opt.disks.velocity[i] - w_ref.disks.velocity[i]);
-    // In units of the wall speed; absolute (length / time) in the static case, where V = 0.
-    const double wall_speed = std::abs(w_ref.walls[top].velocity.x);
-    velocity.push_back(std::sqrt(dv2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
-                       (wall_speed > 0.0 ? wall_speed : 1.0));
+    velocity.push_back(velocity_distance(w_opt, w_ref));
     // At its cap and, with --reference-newton, not brought to round-off by the iterations.
     const bool ref_capped =
         r_ref.solver.sweeps >= tight.solver.max_sweeps && !r_ref.active_set.converged;
@@ -1117,20 +1127,13 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
       ContactDynamics d_jit = dynamics;
       const StepReport r_jit = d_jit.step(w_jit, tight);
       jittered.push_back(keyed_impulse_distance(d_jit.contacts(), b));
-      jittered_wall.push_back(
-          cdshear::length(w_jit.walls[top].contact_force - w_ref.walls[top].contact_force) /
-          cdshear::length(w_ref.walls[top].contact_force));
-      double dj2 = 0.0;
-      for (std::size_t i = 0; i < n; ++i)
-        dj2 += cdshear::length_squared(w_jit.disks.velocity[i] - w_ref.disks.velocity[i]);
-      jittered_velocity.push_back(
-          std::sqrt(dj2 / static_cast<double>(std::max<std::size_t>(n, 1))) /
-          (wall_speed > 0.0 ? wall_speed : 1.0));
+      jittered_wall.push_back(top_wall_distance(w_jit, w_ref));
+      jittered_velocity.push_back(velocity_distance(w_jit, w_ref));
       std::fprintf(stderr,
                    "      state moved by up to %.1e: reference moved by %.2e (impulses), %.2e "
                    "(top wall), %.2e (velocities%s), %d sweeps%s\n",
                    s.state_jitter, jittered.back(), jittered_wall.back(), jittered_velocity.back(),
-                   wall_speed > 0.0 ? " / V" : "", r_jit.solver.sweeps,
+                   sheared ? " / V" : "", r_jit.solver.sweeps,
                    r_jit.solver.sweeps >= tight.solver.max_sweeps && !r_jit.active_set.converged
                        ? " (at its cap)"
                        : "");
