@@ -64,14 +64,16 @@ cdshear::SolverOptions one_thread(cdshear::SolverOptions s) {
 }
 
 /// The step options of a shear case at wall speed V as `cdshear run` resolves them
-/// (resolve_step_rules, shear_case.hpp): the time-step rule, and alpha and the contact-law bound
-/// from their rules unless given.
+/// (resolve_step_rules, shear_case.hpp): the time step, alpha and the contact-law bound from
+/// their rules unless given.
 cdshear::StepOptions shear_step_rules(double velocity, std::optional<double> alpha,
-                                      std::optional<double> residual_tolerance) {
+                                      std::optional<double> residual_tolerance,
+                                      std::optional<double> dt) {
   cdshear::ShearCase c;
   c.velocity = velocity;
   c.alpha = alpha;
   c.residual_tolerance = residual_tolerance;
+  c.dt = dt;
   cdshear::resolve_step_rules(c);
   return c.step;
 }
@@ -94,6 +96,7 @@ struct Settings {
   // Neither --residual-tolerance nor --plain: the shear case takes the shear phase's rule,
   // default_residual_tolerance(V, dt), the static case none.
   bool residual_given = false;
+  std::optional<double> dt;  // --dt: the shear time step [t]; none: the rule (step.dt "auto")
   double reference_relaxation = 1.0;  // relaxation of --step-error's reference solve
   int reference_anderson = 0;         // Anderson depth of that reference solve (0: off)
   int reference_newton = 0;           // active-set iterations ending it (and --polish's)
@@ -137,6 +140,8 @@ void usage() {
                       same settings, the same states whatever the machine's speed
   --warmup N          untimed steps before each measurement (default 100)
   --velocity V        shear wall speed (default 0.5)
+  --dt DT             shear time step [t] (default: the rule of `cdshear run`, step.dt
+                      "auto": min(0.005, 0.002 / V)); the contact-law bound follows it
 Solver settings: the shear phase's defaults (shear_case.hpp, docs/case-files.md) on one thread;
 each option overrides one of them.
   --plain             start from the engine's plain defaults instead (random order, no
@@ -260,6 +265,9 @@ Settings parse(int argc, char** argv) {
       s.warmup_steps = std::stoull(value());
     } else if (a == "--velocity") {
       s.velocity = std::stod(value());
+    } else if (a == "--dt") {
+      s.dt = std::stod(value());
+      if (!(*s.dt > 0.0)) throw std::invalid_argument("--dt must be > 0");
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.solver.order))
         throw std::invalid_argument("--order must be random or coloured");
@@ -1249,8 +1257,9 @@ int run(const Settings& s) {
       // --paired: the ordinary steps with the shear defaults (one thread), the line theirs.
       StepOptions trajectory = options;
       if (s.paired) {
-        trajectory.solver = one_thread(velocity > 0.0 ? shear_step_rules(velocity, {}, {}).solver
-                                                      : cdshear::shear_step_defaults().solver);
+        trajectory.solver =
+            one_thread(velocity > 0.0 ? shear_step_rules(velocity, {}, {}, s.dt).solver
+                                      : cdshear::shear_step_defaults().solver);
         trajectory.solver.profile = options.solver.profile;
       }
       std::fprintf(stderr, "  %s%s: %llu warm-up steps, then ", name.c_str(),
@@ -1304,7 +1313,7 @@ int run(const Settings& s) {
       if (!prepared) start_shear(box.world, velocity);
       const StepOptions rules = shear_step_rules(
           velocity, s.alpha_given ? std::optional(s.solver.alpha) : std::nullopt,
-          s.residual_given ? std::optional(s.solver.residual_tolerance) : std::nullopt);
+          s.residual_given ? std::optional(s.solver.residual_tolerance) : std::nullopt, s.dt);
       options.dt = rules.dt;
       options.solver.alpha = rules.solver.alpha;
       options.solver.residual_tolerance = rules.solver.residual_tolerance;

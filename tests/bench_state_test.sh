@@ -5,7 +5,8 @@
 # --state-jitter solves each sample again from the state moved by up to EPS: it prints how far
 # that moves the reference, a distance above 0 that a 1e-7 d move keeps below 10% in the impulses
 # and the top wall force and below 1% of V in the velocities, and refuses a jitter out of range
-# by name. A file that is not a checkpoint is refused, by name.
+# by name. --dt steps with the time step given instead of the rule's, and refuses one that is not
+# positive. A file that is not a checkpoint is refused, by name.
 # Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
 set -uo pipefail
 exe=$1; bench=$2; packing=$3; work=$4
@@ -62,6 +63,21 @@ PY
 if "$bench" --state run/checkpoint.cbor --steps 1 --step-error 1 --state-jitter 0.5 \
      > bad.csv 2> bad.txt || ! grep -qF -- "--state-jitter" bad.txt; then
   echo "FAIL: --state-jitter 0.5 was not refused by name"; cat bad.txt
+  fails=$((fails + 1))
+fi
+if ! "$bench" --state run/checkpoint.cbor --steps 1 --warmup 0 --dt 0.0025 > dt.csv 2> dt.txt; then
+  echo "FAIL: cdshear_bench --dt failed"; cat dt.txt; exit 1
+fi
+/usr/bin/python3 - dt.csv <<'PY' || fails=$((fails + 1))
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert len(rows) == 1, f"FAIL: expected one case with --dt, got {len(rows)}"
+# The rule gives min(0.005, 0.002 / 0.3) = 0.005 at this state's V = 0.3.
+assert rows[0]["dt"] == "0.0025", f"FAIL: --dt 0.0025 stepped with dt = {rows[0]['dt']}"
+PY
+if "$bench" --state run/checkpoint.cbor --steps 1 --dt 0 > bad.csv 2> bad.txt ||
+   ! grep -qF -- "--dt" bad.txt; then
+  echo "FAIL: --dt 0 was not refused by name"; cat bad.txt
   fails=$((fails + 1))
 fi
 if "$bench" --state "$packing" --steps 1 > bad.csv 2> bad.txt ||
