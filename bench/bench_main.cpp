@@ -951,6 +951,12 @@ void jitter_disks(World& world, double eps) {
   }
 }
 
+/// A reference solve that stopped at its sweep cap and, with --reference-newton, was not brought
+/// to round-off by the iterations either.
+bool reference_not_converged(const StepReport& r, const StepOptions& reference) {
+  return r.solver.sweeps >= reference.solver.max_sweeps && !r.active_set.converged;
+}
+
 /// |F_a - F_b| / |F_b| of the top wall's contact force after two solves of the same step.
 double top_wall_distance(const World& a, const World& b) {
   const auto top = cdshear::kBoxTopWall;
@@ -1032,9 +1038,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
     l2.push_back(relative_impulse_distance(a, b));
     wall.push_back(wall_error);
     velocity.push_back(velocity_distance(w_opt, w_ref));
-    // At its cap and, with --reference-newton, not brought to round-off by the iterations.
-    const bool ref_capped =
-        r_ref.solver.sweeps >= tight.solver.max_sweeps && !r_ref.active_set.converged;
+    const bool ref_capped = reference_not_converged(r_ref, tight);
     if (s.error_spectrum) error_spectrum(a, b, d_ref.bodies());
     if (options.solver.newton_iterations > 0)
       std::fprintf(
@@ -1142,9 +1146,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
                    "(top wall), %.2e (velocities%s), %d sweeps%s\n",
                    s.state_jitter, jittered.back(), jittered_wall.back(), jittered_velocity.back(),
                    sheared ? " / V" : "", r_jit.solver.sweeps,
-                   r_jit.solver.sweeps >= tight.solver.max_sweeps && !r_jit.active_set.converged
-                       ? " (at its cap)"
-                       : "");
+                   reference_not_converged(r_jit, tight) ? " (at its cap)" : "");
     }
     // The step, not solved again; --paired without --from-reference: the trajectory's own
     // steps go on from the state before the sample.
