@@ -363,7 +363,7 @@ def profile_figures(fig_dir, rows):
                      key=lambda r: r["V"] or 0)
         if not sel:
             continue
-        plt, fig, axes = _figure((9.0, 4.0), columns=2)
+        plt, fig, axes = _figure((11.0, 4.0), columns=2)
         cmap = plt.get_cmap("viridis")
         for k, r in enumerate(sel):
             p = r["_profiles"]
@@ -371,16 +371,21 @@ def profile_figures(fig_dir, rows):
             colour = cmap(k / max(1, len(sel) - 1))
             label = f"V = {r['V']:g} ({r['regime'] or '?'}{'' if r['steady'] else ', not steady'})"
             y = np.asarray(p["y"], float) / height
-            axes[0].plot(np.asarray(p["vx"], float) / r["V"], y, "-", color=colour, label=label)
-            axes[1].plot(p["mu_eff"], y, "-", color=colour)
+            # Stripes centred above the mean top wall hold grains only while the wall is above
+            # its mean: left out, so that y / L_y ends at 1.
+            inside = y <= 1.0
+            axes[0].plot((np.asarray(p["vx"], float) / r["V"])[inside], y[inside], "-",
+                         color=colour, label=label)
+            axes[1].plot(np.asarray(p["mu_eff"], float)[inside], y[inside], "-", color=colour)
         axes[0].set_xlabel("v_x / V")
         axes[0].set_ylabel("y / L_y")
         axes[0].axvline(0, color="0.7", lw=0.6)
         axes[1].set_xlabel("mu_eff")
-        axes[0].legend(fontsize=6)
         fig.suptitle(f"system {system}: velocity and mu_eff profiles (steady part; not steady: "
                      "last half of the run)", fontsize=9)
-        fig.tight_layout()
+        fig.tight_layout(rect=(0.0, 0.0, 0.8, 1.0))  # the legend beside the curves, not on them
+        fig.legend(*axes[0].get_legend_handles_labels(), fontsize=6, loc="center left",
+                   bbox_to_anchor=(0.8, 0.5))
         name = f"profiles_s{system}.png"
         fig.savefig(os.path.join(fig_dir, name), dpi=110)
         plt.close(fig)
