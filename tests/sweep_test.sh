@@ -2,11 +2,12 @@
 # `cdshear sweep` end to end on a tiny campaign of system 1 (the fixture's packing, no
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
 # redoes nothing (and refuses a final state copied from another run), nor does one in a folder
-# kept as git keeps it (summaries, no final states); a sweep stopped by SIGTERM exits 130, and the next one keeps the finished runs
-# untouched (run_info.json unchanged), resumes the interrupted one from its checkpoint and
-# finishes all; a run killed between its last step and its analysis is analysed, not run again;
-# a changed campaign for the same folder is refused; `--progress-every` prints a progress line
-# with an estimate before any run has finished.
+# kept as git keeps it (summaries, no final states); a sweep stopped by SIGTERM exits 130, and
+# the next one keeps the finished runs untouched (run_info.json unchanged), resumes the
+# interrupted one from its checkpoint and finishes all; a run killed between its last step and
+# its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
+# longer duration extends finished runs; `--progress-every` prints a progress line with an
+# estimate before any run has finished.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -137,6 +138,39 @@ rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
 
+# 3b. A longer duration (--force) extends the finished runs from their last checkpoint, to the
+# state a run asked for the longer duration from the start reaches; an extension stopped before
+# its new end is resumed, not taken as finished; a finished run without its checkpoint is
+# reported, not started again.
+campaign grow "[1.0]"
+"$exe" sweep grow.toml -o grown > grow.out 2>&1 || fail "grow: $(cat grow.out)"
+sed -i 's/^duration = 4/duration = 6/' grow.toml
+"$exe" sweep grow.toml -o grown --force > grown.out 2>&1 || fail "grown: $(cat grown.out)"
+grep -q "0 finished earlier, 0 to resume, 1 to extend, 0 to start" grown.out ||
+  fail "the longer campaign did not extend the run: $(cat grown.out)"
+ls grown/runs/s1_seed1_V1/run_info_resume_*.json > /dev/null 2>&1 || fail "not extended by a resume"
+campaign whole "[1.0]"
+sed -i 's/^duration = 4/duration = 6/' whole.toml
+"$exe" sweep whole.toml -o whole > whole.out 2>&1 || fail "whole: $(cat whole.out)"
+cmp -s grown/runs/s1_seed1_V1/final_state.json whole/runs/s1_seed1_V1/final_state.json ||
+  fail "the extended run differs from the run asked for 6 t from the start"
+"$exe" run --resume grown/runs/s1_seed1_V1 --set shear.duration=8 --stop-at 7 -q > stop.out 2>&1 ||
+  fail "the stopped extension exited $?: $(cat stop.out)"
+sed -i 's/^duration = 6/duration = 8/' grow.toml
+"$exe" sweep grow.toml -o grown --force > regrown.out 2>&1 || fail "regrown: $(cat regrown.out)"
+grep -q "0 finished earlier, 1 to resume, 0 to start" regrown.out ||
+  fail "a stopped extension was not resumed: $(cat regrown.out)"
+grep -q '"state": "finished"' grown/runs/s1_seed1_V1/progress.json &&
+  grep -q '"duration": 8.0' grown/runs/s1_seed1_V1/progress.json ||
+  fail "the extension did not reach 8 t: $(cat grown/runs/s1_seed1_V1/progress.json)"
+rm grown/runs/s1_seed1_V1/checkpoint.cbor
+sed -i 's/^duration = 8/duration = 10/' grow.toml
+rc=0; "$exe" sweep grow.toml -o grown --force > lost.out 2>&1 || rc=$?
+[ $rc -eq 1 ] || fail "a run that cannot be extended exited $rc, not 1: $(cat lost.out)"
+grep -q "s1_seed1_V1: finished at 8 t where the campaign asks for 10 t; extending it needs its checkpoint.cbor" \
+  lost.out || fail "the run without its checkpoint: $(cat lost.out)"
+test -f grown/runs/s1_seed1_V1/final_state.json || fail "the run without its checkpoint was touched"
+
 # 4. One sweep per folder: a second one started while the first works there is refused.
 campaign long "[0.5]"
 sed -i 's/^duration = 4/duration = 400/' long.toml
@@ -205,5 +239,5 @@ rc=0; "$exe" sweep ticks.toml -o ticks --progress-every -1 > bad_every.out 2>&1 
 [ $rc -eq 2 ] || fail "--progress-every -1 exited $rc, not 2: $(cat bad_every.out)"
 
 echo "sweep_test: campaigns run, skip finished runs (analysing one killed before its analysis),"\
-  "resume interrupted ones, refuse changes, a busy folder and runs beyond the limits;"\
+  "resume interrupted ones, extend finished ones, refuse changes, a busy folder and runs beyond the limits;"\
   "periodic progress lines with an estimate before any run has finished"

@@ -6,9 +6,9 @@ run's `hK_bottom_*` and `hK_top_*` columns (report.read_run), with I_boundary > 
 only the sheared layer counts: the `hK_sheared_layer_*` columns (the layer that carries the
 band in each window; summaries without them: the wall whose mean velocity jump is the larger);
 the other layer moves with its wall and is not sheared (its I_boundary is noise about 0), so it
-is no point of a flow law. The two walls of an A or B run give two points (they share the run's shear stress). A run
-with any other regime label (undecided, intermittent, ...) or none gives no point: which of its
-layers is sheared, and how, is not known.
+is no point of a flow law. The two walls of an A or B run give two points (they share the run's
+shear stress). A run with any other regime label (undecided, intermittent, ...) or none gives no
+point: which of its layers is sheared, and how, is not known.
 
 Fits (fitting.py, weighted by the error bars; the seeds of one (system, V) give one point per
 h and layer, fitting.combine), fits.json `boundary`:
@@ -124,7 +124,7 @@ def layer_points(rows, h):
 
 
 def _points(points, x, y):
-    """fitting.fit points (x, y, err, "run:side", group, averaged_time): the seeds of one
+    """fitting.fit points (x, y, err, "run:side:hK", group, averaged_time): the seeds of one
     (system, V), h, regime and layer are one point (the sheared layer of C runs, whichever wall
     it is at), weighted by averaged_time (fitting.combine)."""
     out = []
@@ -132,7 +132,7 @@ def _points(points, x, y):
         key = fitting.group_key(p)
         if key is not None:
             key += (p["h"], p["regime"], "sheared" if p["regime"] == "C" else p["side"])
-        out.append((p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}", key,
+        out.append((p[x], p[y], p[y + "_err"], f"{p['run']}:{p['side']}:{h_label(p['h'])}", key,
                     p.get("averaged_time")))
     return out
 

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -79,16 +80,26 @@ nlohmann::json case_of(const nlohmann::json& summary) {
   return it != summary.end() && it->is_object() ? *it : nlohmann::json::object();
 }
 
+/// True when the run's progress.json says its last sitting ended before its end step (`step` <
+/// `end_step`). A finished run being extended (`run --resume --set shear.duration=T`) keeps its
+/// earlier final_state.json until it reaches the new end; a run that ends writes its progress
+/// ("finished", step = end_step) before its final state.
+bool stopped_before_its_end(const fs::path& dir);
+
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
-/// done, and resuming it would be refused (it reached its end), so it counts as finished.
-/// Blown up: blowup_state.json (a resume would repeat the same steps). Interrupted: a
-/// checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
+/// done, and resuming it would be refused (it reached its end), so it counts as finished; unless
+/// an extension of it stopped before its new end (stopped_before_its_end, with a checkpoint):
+/// interrupted. Blown up: blowup_state.json (a resume would repeat the same steps). Interrupted:
+/// a checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
 /// reached its end (a campaign folder cloned from git keeps its summaries, not its final states).
 /// Otherwise new.
 RunState run_state(const fs::path& dir) {
   if (!fs::is_directory(dir)) return RunState::kNew;
-  if (fs::exists(dir / "final_state.json")) return RunState::kFinished;
+  if (fs::exists(dir / "final_state.json"))
+    return fs::exists(dir / "checkpoint.cbor") && stopped_before_its_end(dir)
+               ? RunState::kInterrupted
+               : RunState::kFinished;
   if (fs::exists(dir / "blowup_state.json")) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
   if (case_of(run_summary(dir)).value("finished", nlohmann::json()) == true)
@@ -136,6 +147,18 @@ std::optional<std::string> read_run_file(const fs::path& path, const std::string
     text.append(buffer, static_cast<std::size_t>(got));
   ::close(fd);
   return text;
+}
+
+bool stopped_before_its_end(const fs::path& dir) {
+  const std::optional<std::string> text =
+      read_run_file(dir / "progress.json", "a run's progress file");
+  if (!text) return false;
+  const nlohmann::json j = nlohmann::json::parse(*text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return false;
+  const auto step = j.find("step");
+  const auto end = j.find("end_step");
+  return step != j.end() && end != j.end() && step->is_number_unsigned() &&
+         end->is_number_unsigned() && step->get<std::uint64_t>() < end->get<std::uint64_t>();
 }
 
 nlohmann::json run_summary(const fs::path& dir) {
@@ -210,6 +233,24 @@ std::string final_state_problem(const fs::path& run_dir) {
           "this one again",
           file.string(), key, state["case"].value(key, nlohmann::json()).dump(), value.dump());
   return "";
+}
+
+/// The duration [t] in a run folder's case.toml; none when it cannot be read.
+std::optional<double> folder_duration(const fs::path& run_dir) {
+  CaseSource source;
+  source.file = (run_dir / "case.toml").string();
+  try {
+    return load_case(source).duration;
+  } catch (const ConfigError&) {
+    return std::nullopt;
+  }
+}
+
+/// True when the campaign asks a run for a longer duration than its folder's case.toml (the
+/// campaign file's duration was raised after the run started or finished).
+bool asks_for_longer(const CampaignRun& r, const fs::path& run_dir) {
+  const std::optional<double> had = folder_duration(run_dir);
+  return had && r.duration > *had * (1.0 + 1e-12);
 }
 
 /// Where a running run stands in its current sitting, from its progress.json (written by `cdshear
@@ -402,15 +443,19 @@ class Sweep {
     return true;
   }
 
-  /// The job of a run that is to be started or resumed.
+  /// The job of a run that is to be started, resumed or extended (a finished run whose
+  /// campaign now asks for a longer duration: `state` kFinished). A resume asks for the
+  /// campaign's duration where the folder's case.toml has a shorter one.
   Job run_job(const CampaignRun& r, RunState state, const fs::path& packing) const {
     const fs::path rdir = dir_ / "runs" / r.name;
     Job j;
     j.name = r.name;
     j.log = dir_ / "logs" / (r.name + ".log");
     j.cost = r.cost();
-    if (state == RunState::kInterrupted) {
+    if (state == RunState::kInterrupted || state == RunState::kFinished) {
       j.argv = {exe_.string(), "run", "--resume", rdir.string(), "--threads", threads_};
+      if (asks_for_longer(r, rdir))
+        j.argv.insert(j.argv.end(), {"--set", fmt::format("shear.duration={}", r.duration)});
     } else {
       j.argv = {exe_.string(), "run",
                 "--system",    std::to_string(r.system),
@@ -436,6 +481,22 @@ class Sweep {
       if (state == RunState::kFinished) {
         if (const std::string problem = final_state_problem(rdir); !problem.empty()) {
           failed_.push_back(fmt::format("{}: {}", r.name, problem));
+          continue;
+        }
+        if (asks_for_longer(r, rdir)) {
+          // The campaign's duration grew: the run goes on from its last checkpoint, bit for
+          // bit as if it had been asked for the longer duration from the start.
+          if (!fs::exists(rdir / "checkpoint.cbor")) {
+            failed_.push_back(fmt::format(
+                "{}: finished at {:g} t where the campaign asks for {:g} t; extending it needs "
+                "its checkpoint.cbor, which the folder no longer holds (remove {} to run it "
+                "again from the start)",
+                r.name, *folder_duration(rdir), r.duration, rdir.string()));
+            continue;
+          }
+          duration_of_.push_back(r.duration);
+          jobs_list_.push_back(run_job(r, RunState::kFinished, {}));
+          planned_.push_back({&r, RunState::kFinished});
           continue;
         }
         ++finished_before_;
@@ -471,15 +532,21 @@ class Sweep {
     }
     if (args_.quiet) return;
     std::size_t resumed = 0;
-    for (const Planned& p : planned_) resumed += p.before == RunState::kInterrupted;
+    std::size_t extended = 0;
+    for (const Planned& p : planned_) {
+      resumed += p.before == RunState::kInterrupted;
+      extended += p.before == RunState::kFinished;
+    }
     std::printf(
-        "sweep %s: %zu runs: %zu finished earlier%s, %zu to resume, %zu to start; up to %d "
+        "sweep %s: %zu runs: %zu finished earlier%s, %zu to resume, %s%zu to start; up to %d "
         "at once%s, %s thread%s each -> %s\n",
         c_.name.c_str(), c_.runs.size(), finished_before_,
         analysis_jobs_.empty() ? ""
                                : fmt::format(" ({} to analyse)", analysis_jobs_.size()).c_str(),
-        resumed, planned_.size() - resumed, jobs_, remote_ != nullptr ? " (MPI: one per rank)" : "",
-        threads_.c_str(), args_.threads == 1 ? "" : "s", dir_.c_str());
+        resumed, extended == 0 ? "" : fmt::format("{} to extend, ", extended).c_str(),
+        planned_.size() - resumed - extended, jobs_,
+        remote_ != nullptr ? " (MPI: one per rank)" : "", threads_.c_str(),
+        args_.threads == 1 ? "" : "s", dir_.c_str());
     std::fflush(stdout);
   }
 
