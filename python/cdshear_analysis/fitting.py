@@ -270,6 +270,52 @@ def fit(spec, points):
     return out
 
 
+def fit_with_offsets(spec, points, system_of, pooled):
+    """The law of `pooled` (a fit of `spec` to the same points, status fitted) with one more
+    parameter per system but one, an offset added to y: y = law(x) + delta_s. points as for
+    `fit`; system_of: {label: system} for every label of the points. The reference (offset 0) is
+    the system with the most points (the lowest of those tied). Returns (chi2, dof, offsets
+    {system: {value, err}}, the reference) or None where it does not converge or leaves no dof.
+    Used by report.system_dependence."""
+    from scipy.optimize import OptimizeWarning, curve_fit
+    family = MODELS[spec["model"]]
+    k = len(spec["params"])
+    kept, _ = select(points, spec["range"])
+    count = {}
+    for p in kept:
+        count[system_of[p[3][0]]] = count.get(system_of[p[3][0]], 0) + 1
+    systems = sorted(count, key=lambda sy: (-count[sy], str(sy)))
+    m = len(systems)
+    dof = len(kept) - k - (m - 1)
+    if m < 2 or dof <= 0:
+        return None
+    x, y, e = (np.array([p[i] for p in kept], float) for i in range(3))
+    which = np.array([systems.index(system_of[p[3][0]]) for p in kept])
+
+    def model(index, *params):
+        index = np.asarray(index, int)
+        shift = np.concatenate([[0.0], params[k:]])
+        return family["model"](x[index], *params[:k]) + shift[which[index]]
+
+    lo, hi = (np.broadcast_to(b, (k,)) for b in family["bounds"])
+    bounds = (np.concatenate([lo, np.full(m - 1, -np.inf)]),
+              np.concatenate([hi, np.full(m - 1, np.inf)]))
+    p0 = np.concatenate([[v["value"] for v in pooled["parameters"].values()], np.zeros(m - 1)])
+    p0 = np.clip(p0, bounds[0], bounds[1])
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", OptimizeWarning)
+            p, cov = curve_fit(model, np.arange(len(x)), y, p0=p0, sigma=e, absolute_sigma=True,
+                               bounds=bounds, maxfev=20000)
+    except (RuntimeError, ValueError):
+        return None
+    chi2 = float(np.sum(((y - model(np.arange(len(x)), *p)) / e) ** 2))
+    errs = np.sqrt(np.abs(np.diag(np.asarray(cov, float))))
+    offsets = {str(systems[j]): {"value": float(p[k + j - 1]), "err": finite(errs[k + j - 1])}
+               for j in range(1, m)}
+    return chi2, dof, offsets, str(systems[0])
+
+
 def _g(v):
     return f"{v:.3g}"
 

@@ -406,6 +406,68 @@ def fit_laws_per_system(rows):
     return {str(s): fit_laws([r for r in rows if r.get("system") == s]) for s in systems}
 
 
+# P below which system_dependence says a law depends on the system (the F test's tail).
+P_DEPENDS = 0.01
+
+
+def system_dependence(rows, fits):
+    """fits.json `system_dependence`: per law of FITS fitted over every system (`fits`, status
+    fitted), whether the systems follow one law (claim 1 of docs/validation.md: "does the law
+    depend on the system?"). The law is fitted again with an offset of y per system but the
+    reference (fitting.fit_with_offsets: y = law(x) + delta_s, the same points), which needs one
+    point per system, not a fit per system. chi2 falls by dchi2 = chi2 - chi2_offsets for ddof
+    = (systems - 1) more parameters; F = (dchi2 / ddof) / (chi2_offsets / dof_offsets) compares
+    that fall with the scatter left, so error bars wrong by a common factor cancel; p_F is its
+    tail (F law with ddof and dof_offsets degrees of freedom): "depends on the system" below
+    P_DEPENDS, "no dependence detected" otherwise. p_chi2: the tail of dchi2 (chi2 law, ddof),
+    which trusts the error bars. offsets: each system's delta (y units) against the system with
+    the most points (`reference`). "not tested" with its reason where the law has points of one system
+    only, was not fitted, or no dof is left."""
+    from scipy.stats import chi2 as chi2_law, f as f_law
+    out = {}
+    bulk = [r for r in bulk_rows(rows) if r.get("system") is not None]
+    system_of = {r["run"]: r["system"] for r in bulk}
+    for name, spec in FITS.items():
+        pooled = fits[name]
+        systems = sorted({system_of[run] for run in pooled.get("runs") or []
+                          if run in system_of})
+        entry = {"systems": [str(x) for x in systems], "verdict": "not tested", "reason": None,
+                 "reference": None, "offsets": None, "chi2": pooled.get("chi2"),
+                 "dof": pooled.get("dof"), "chi2_offsets": None, "dof_offsets": None,
+                 "F": None, "p_F": None, "p_chi2": None}
+        out[name] = entry
+        if not fitting.fitted(pooled):
+            entry["reason"] = f"the law is {pooled['status']}: {pooled['reason']}"
+            continue
+        if len(systems) < 2:
+            entry["reason"] = "its points are of one system"
+            continue
+        regimes = spec.get("regimes")
+        points = [(r.get(spec["x"]), r.get(spec["y"]), r.get(spec["y"] + "_err"), r["run"],
+                   fitting.group_key(r), r.get("_averaged_time"))
+                  for r in bulk if r.get("steady") is True
+                  and (not regimes or r.get("regime") in regimes)]
+        result = fitting.fit_with_offsets(spec, points, system_of, pooled)
+        if result is None:
+            entry["reason"] = ("no degree of freedom left with an offset per system, or the fit "
+                               "did not converge")
+            continue
+        chi2_off, dof_off, offsets, reference = result
+        ddof = pooled["dof"] - dof_off
+        dchi2 = max(0.0, pooled["chi2"] - chi2_off)
+        entry.update(reference=reference, offsets=offsets, chi2_offsets=chi2_off,
+                     dof_offsets=dof_off)
+        if chi2_off <= 0:
+            entry["reason"] = "the offsets fit every point exactly: nothing left to compare with"
+            continue
+        F = (dchi2 / ddof) / (chi2_off / dof_off)
+        entry.update(F=float(F), p_F=float(f_law.sf(F, ddof, dof_off)),
+                     p_chi2=float(chi2_law.sf(dchi2, ddof)))
+        entry["verdict"] = ("depends on the system" if entry["p_F"] < P_DEPENDS
+                            else "no dependence detected")
+    return out
+
+
 # ---------------------------------------------------------------------------------------------
 # Output
 
@@ -653,7 +715,7 @@ def _html_run_figures(run_figures):
 
 
 def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
-          run_figures=None, per_system=None):
+          run_figures=None, per_system=None, system_dependence_of=None):
     rows = report["rows"]
     name = html.escape(report["campaign"])
     shown = ["I_bulk", "mu_eff_bulk", "mu_eff_wall", "nu_bulk", "Z_bulk", "slip_bottom",
@@ -707,6 +769,7 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
                    "systems, above): do the systems agree?</p>")
         out += _fit_table([(f"system {s}: {name}", f) for s, laws in per_system.items()
                            for name, f in laws.items()])
+        out += _html_system_dependence(system_dependence_of or {})
     if boundary is not None:
         out += _html_boundary(boundary)
     if transitions is not None:
@@ -762,6 +825,34 @@ def copy_run_figures(report, out_dir):
     return out
 
 
+def _html_system_dependence(dependence):
+    """The table of system_dependence: does each bulk law depend on the system?"""
+    if not dependence:
+        return []
+    out = ["<p>Does each law depend on the system? The law over every system against the same "
+           "law with an offset of y per system (but the one with the most points, the "
+           "reference): F compares the fall in chi2 "
+           "with the scatter left (error bars wrong by a common factor cancel); below p_F = "
+           f"{P_DEPENDS:g} the law depends on the system (fits.json "
+           "<code>system_dependence</code>).</p><table><tr><th>law</th><th>systems</th>"
+           "<th>chi2 / dof</th><th>with offsets</th><th>offsets against the reference</th>"
+           "<th>F</th><th>p_F</th><th>p_chi2</th><th>verdict</th></tr>"]
+    for name, e in dependence.items():
+        def ratio(c, d):
+            return f"{c:.4g} / {d}" if c is not None and d is not None else ""
+        offsets = ", ".join(f"{s}: {_fmt(o['value'], 3)} &plusmn; {_fmt(o['err'], 2)}"
+                            for s, o in (e.get("offsets") or {}).items())
+        verdict = e["verdict"] + (f" ({e['reason']})" if e.get("reason") else "")
+        systems = ", ".join(f"{x} (reference)" if x == e.get("reference") else x
+                            for x in e["systems"])
+        cells = [name, systems, ratio(e["chi2"], e["dof"]),
+                 ratio(e["chi2_offsets"], e["dof_offsets"]), offsets, _fmt(e["F"]),
+                 _fmt(e["p_F"], 2), _fmt(e["p_chi2"], 2), html.escape(verdict)]
+        out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    out.append("</table>")
+    return out
+
+
 def all_fits(fits, per_system, boundary):
     """Every fit of a report as (name, fits.json fit) pairs: the bulk laws, per system, per h
     (the layers and the bulk of that h) and pooled over h."""
@@ -783,13 +874,18 @@ def status_counts(fit_items):
     return {st: sum(1 for _, f in fit_items if f["status"] == st) for st in fitting.STATUSES}
 
 
-def printed_lines(report, fits, per_system, boundary):
+def printed_lines(report, fits, per_system, boundary, dependence=None):
     """What `cdshear report` prints after the paths and the runs left out: the runs re-analysed,
-    each bulk law's status and reason, every other fit that is poor or undetermined, and the
-    count of each status."""
+    each bulk law's status and reason and, where tested, whether it depends on the system
+    (system_dependence), every other fit that is poor or undetermined, and the count of each
+    status."""
     lines = [f"re-analysed {name}: {why}" for name, why in report.get("reanalysed", [])]
     for name, f in fits.items():
         lines.append(f"fit {name}: {fitting.status_text(f)}")
+        e = (dependence or {}).get(name)
+        if e and e["p_F"] is not None:
+            lines.append(f"fit {name} per system ({', '.join(e['systems'])}): {e['verdict']} "
+                         f"(F = {e['F']:.3g}, p_F = {e['p_F']:.2g})")
     items = all_fits(fits, per_system, boundary)
     for name, f in items[len(fits):]:
         if f["status"] in ("poor", "undetermined"):
@@ -819,6 +915,7 @@ def write_report(report, out_dir):
 
     fits = fit_laws(rows)
     per_system = fit_laws_per_system(rows)
+    dependence = system_dependence(rows, fits)
     transitions = find_transitions(rows)
     boundary = fit_boundary(rows, FITS)
     preds = predictions(rows, fits, boundary, transitions)
@@ -836,7 +933,7 @@ def write_report(report, out_dir):
                    "bulk_not_reference": [{"run": r["run"], "reason": r.get("bulk_h_note")}
                                           for r in rows if r.get("bulk_h_reference") is not True],
                    "software": report.get("software"), "fits": fits,
-                   "fits_per_system": per_system,
+                   "fits_per_system": per_system, "system_dependence": dependence,
                    "boundary": boundary, "transitions": transitions, "predictions": preds},
                   f, indent=1, allow_nan=False)
     paths.append(fits_path)
@@ -848,9 +945,9 @@ def write_report(report, out_dir):
     index = os.path.join(out_dir, "index.html")
     with open(index, "w", encoding="utf-8") as f:
         f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures,
-                      per_system))
+                      per_system, dependence))
     paths.append(index)
-    report["printed"] = printed_lines(report, fits, per_system, boundary)
+    report["printed"] = printed_lines(report, fits, per_system, boundary, dependence)
     notes = report.setdefault("notes", [])
     notes += [n for n in report["printed"] if n not in notes]
     return paths

@@ -1,5 +1,5 @@
 """Seeds of one (system, V) combined into one point of a fit, the bulk laws fitted per system,
-and delta_mu of a regime-C switch from the boundary law, on synthetic campaigns with known
+whether a law depends on the system, and delta_mu of a regime-C switch from the boundary law, on synthetic campaigns with known
 parameters (report.py, fitting.py, boundary_laws.py, transitions.py)."""
 import json
 import math
@@ -285,6 +285,10 @@ class PerSystemTest(unittest.TestCase):
         self.assertEqual((pooled["status"], pooled["n_points"]), ("poor", 26))
         self.assertGreater(pooled["chi2_dof"], 10.0)
         self.assertLess(pooled["chi2_p"], fitting.P_POOR)
+        # and the test of one law against an offset per system says so
+        dep = self.fits["system_dependence"]["mu_power"]
+        self.assertEqual((dep["systems"], dep["verdict"]), (["1", "2", "3"],
+                                                             "depends on the system"))
 
     def test_a_system_with_too_few_points_is_skipped_with_the_reason(self):
         s3 = self.fits["fits_per_system"]["3"]
@@ -303,6 +307,59 @@ class PerSystemTest(unittest.TestCase):
         self.assertIn("<td>system 3: mu_power</td>", text)
         self.assertIn("<td>system 1: nu_linear</td>", text)
         self.assertIn("<b>skipped</b><br><small>too few points: 2", text)
+
+
+class SystemDependenceTest(unittest.TestCase):
+    """report.system_dependence: three systems on one law mu = 0.25 + 0.5 I^0.6, nu = 0.82 -
+    0.35 I with scatter at their error bars, then the same with system 2 shifted by SHIFT in
+    mu and nu: no dependence detected, then the dependence found with system 2's offset."""
+    SHIFT = {"mu": 0.02, "nu": -0.008}
+
+    def fits_of(self, shift):
+        rng = np.random.default_rng(5)
+        runs = []
+        for system in (1, 2, 3):
+            dy = shift if system == 2 else {"mu": 0.0, "nu": 0.0}
+            for V in np.geomspace(0.5, 4.0, 8) * (1 + 0.03 * system):
+                I = 0.05 * float(V)
+                runs.append(dict(system=system, seed=1, V=float(V), I=I,
+                                 mu=mu_law(I, 0.25, 0.5, 0.6) + dy["mu"]
+                                 + 0.003 * rng.standard_normal(),
+                                 nu=0.82 - 0.35 * I + dy["nu"] + 0.002 * rng.standard_normal(),
+                                 Z=3.0 - I))
+        with tempfile.TemporaryDirectory() as d:
+            write_campaign(d, runs, "dependence")
+            self.assertEqual(main(["report", d]), 0)
+            with open(os.path.join(d, "report", "fits.json")) as f:
+                fits = json.load(f)
+            with open(os.path.join(d, "report", "index.html")) as f:
+                self.html = f.read()
+        return fits["system_dependence"]
+
+    def test_one_law_is_not_split_by_system(self):
+        dep = self.fits_of({"mu": 0.0, "nu": 0.0})
+        for name in ("mu_power", "nu_linear"):
+            e = dep[name]
+            self.assertEqual(e["systems"], ["1", "2", "3"])
+            self.assertEqual(e["verdict"], "no dependence detected", (name, e))
+            self.assertGreater(e["p_F"], 0.01)
+            self.assertEqual(e["dof"] - e["dof_offsets"], 2)   # one offset per system but one
+            for system, o in e["offsets"].items():
+                self.assertLess(abs(o["value"]), 3 * o["err"], (name, system, o))
+        self.assertIn("Does each law depend on the system?", self.html)
+
+    def test_a_shifted_system_is_found_with_its_offset(self):
+        dep = self.fits_of(self.SHIFT)
+        for name, y in (("mu_power", "mu"), ("nu_linear", "nu")):
+            e = dep[name]
+            self.assertEqual(e["verdict"], "depends on the system", (name, e))
+            self.assertLess(e["p_F"], 1e-3)
+            self.assertLess(e["chi2_offsets"], e["chi2"])
+            # systems tied at 8 points: the reference is the lowest, system 1
+            self.assertEqual(e["reference"], "1")
+            o2, o3 = e["offsets"]["2"], e["offsets"]["3"]
+            self.assertLess(abs(o2["value"] - self.SHIFT[y]), 3 * o2["err"], (name, o2))
+            self.assertLess(abs(o3["value"]), 3 * o3["err"], (name, o3))
 
 
 class DeltaMuFromTheLawTest(unittest.TestCase):
