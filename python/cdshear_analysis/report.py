@@ -10,7 +10,7 @@ summary.json) or, without run.h5, left out; a summary of another format or of a 
 left out. Every run re-analysed or left out is listed with its reason. `fit_laws(rows)` fits the
 bulk laws of docs/model.md section 8 over the steady runs in regime A of every system (fitting.py;
 the seeds of one (system, V) are one point), `fit_laws_per_system(rows)` the same laws over each
-system alone; `write_report(report, out_dir)` writes runs.csv, fits.json, figures/*.png
+system alone; `write_report(report, out_dir)` writes runs.csv, runs.md, fits.json, figures/*.png
 (campaign_figures.py) and index.html, with the boundary-layer laws of boundary_laws.py and the
 transition velocities and model.md section 8 predictions of transitions.py (docs/reports.md
 documents every column and key), and adds to report["notes"] the lines that `cdshear
@@ -24,6 +24,7 @@ import math
 import os
 import re
 import shutil
+import textwrap
 import tomllib
 
 from . import fitting
@@ -479,6 +480,50 @@ def _fmt(v, digits=4):
     return html.escape(str(v))
 
 
+def _pm_text(v, e):
+    """v +- e as plain text, the error to two significant digits and the value to the same
+    decimal place (0.4156 +- 0.0011, 1.3e-04 +- 2.0e-05 below 1e-3); "" without a value."""
+    v, e = _finite(v), _finite(e)
+    if v is None:
+        return ""
+    if e is None or e <= 0:
+        return f"{v:.4g}"
+    if abs(v) < 1e-3 and v != 0:
+        return f"{v:.1e} +- {e:.1e}"
+    digits = max(0, 1 - math.floor(math.log10(e)))
+    return f"{v:.{digits}f} +- {e:.{digits}f}"
+
+
+# runs.md: (header, runs.csv column) of each quantity with its error
+RUNS_MD_COLUMNS = (("I_bulk", "I_bulk"), ("mu_eff bulk", "mu_eff_bulk"),
+                   ("mu_eff walls", "mu_eff_wall"), ("nu bulk", "nu_bulk"), ("Z bulk", "Z_bulk"))
+
+
+def runs_markdown(rows, campaign):
+    """runs.md: the runs table of docs/validation.md as Markdown, made from the same rows as
+    runs.csv (sorted by system, V, seed): run, regime, steady, the bulk's h where it is not
+    the h = 10 of model.md section 7, the bulk and wall quantities with their errors, and the
+    transient's end of steady runs (t)."""
+    intro = ("Made by `cdshear report` from each run's `summary.json` (every column, with more "
+             "digits: `runs.csv`). Bulk at h = 10 unless the row says otherwise; mean +- error "
+             "over the steady windows, or over the last half for runs that are not steady; T_ss: "
+             "the transient's end of steady runs [t].")
+    out = [f"# Runs of the campaign {campaign}", "", *textwrap.wrap(intro, 100), "",
+           "| run | regime | steady | " + " | ".join(h for h, _ in RUNS_MD_COLUMNS) + " | T_ss |",
+           "|" + "---|" * (len(RUNS_MD_COLUMNS) + 4)]
+    key = lambda r: (r.get("system") or 0, r.get("V") or 0, r.get("seed") or 0)
+    for r in sorted(rows, key=key):
+        name = r["run"]
+        if r.get("bulk_h_reference") is not True and r.get("bulk_h") is not None:
+            name += f" (bulk at h = {r['bulk_h']:g})"
+        t_ss = _finite(r.get("transient_end_time")) if r.get("steady") else None
+        cells = [name, r.get("regime") or "", "yes" if r.get("steady") else "no"]
+        cells += [_pm_text(r.get(c), r.get(c + "_err")) for _, c in RUNS_MD_COLUMNS]
+        cells.append(f"{t_ss:.0f}" if t_ss is not None else "")
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
+
+
 def _pm(row, col):
     v, e = row.get(col), row.get(col + "_err")
     if v is None:
@@ -897,7 +942,8 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
 
 
 def write_report(report, out_dir):
-    """runs.csv, fits.json, figures/*.png and index.html in out_dir; returns their paths. Adds
+    """runs.csv, runs.md, fits.json, figures/*.png and index.html in out_dir; returns their
+    paths. Adds
     `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them in
     report["printed"] (index.html gives them in its own sections, not as notes)."""
     rows = report["rows"]
@@ -912,6 +958,10 @@ def write_report(report, out_dir):
         for r in rows:
             w.writerow([_cell(r.get(c)) for c in cols])
     paths.append(csv_path)
+    md_path = os.path.join(out_dir, "runs.md")
+    with open(md_path, "w", encoding="utf-8") as f:
+        f.write(runs_markdown(rows, report["campaign"]))
+    paths.append(md_path)
 
     fits = fit_laws(rows)
     per_system = fit_laws_per_system(rows)

@@ -290,6 +290,26 @@ class PerSystemTest(unittest.TestCase):
         self.assertEqual((dep["systems"], dep["verdict"]), (["1", "2", "3"],
                                                              "depends on the system"))
 
+    def test_runs_md_lists_every_run_with_its_errors(self):
+        with open(os.path.join(self.d, "report", "runs.md")) as f:
+            lines = f.read().splitlines()
+        rows = [line for line in lines if line.startswith("| s")]
+        self.assertEqual(len(rows), 12 + 24 + 4 + 3)   # every run, seeds not combined
+        cells = rows[0].strip("| ").split(" | ")
+        self.assertEqual(cells[:3], ["s1_seed1_V0.06", "A", "yes"])
+        # the fake summaries' mu error is 0.003: two significant digits, the value to match
+        self.assertRegex(cells[4], r"^0\.\d{4} \+- 0\.0030$")
+        self.assertEqual(cells[-1], "100")   # the transient's end of a steady run
+        self.assertIn("| s3_seed1_V0.01 | B | yes |", "\n".join(rows))
+
+    def test_plus_minus_text_rounds_the_value_to_its_error(self):
+        self.assertEqual(report._pm_text(0.41559, 0.001094), "0.4156 +- 0.0011")
+        self.assertEqual(report._pm_text(2.51273, 0.0036), "2.5127 +- 0.0036")
+        self.assertEqual(report._pm_text(1.31e-4, 1.7e-5), "1.3e-04 +- 1.7e-05")
+        self.assertEqual(report._pm_text(880.0, 25.0), "880 +- 25")
+        self.assertEqual(report._pm_text(0.5, None), "0.5")
+        self.assertEqual(report._pm_text(None, 0.1), "")
+
     def test_a_system_with_too_few_points_is_skipped_with_the_reason(self):
         s3 = self.fits["fits_per_system"]["3"]
         for name, (points, needed) in {"mu_power": (2, 4), "Z_power": (2, 4),
