@@ -37,6 +37,7 @@ sqrt(chi2/dof) when that exceeds 1 (the scatter is larger than the error bars sa
 """
 import math
 import warnings
+from collections import Counter
 
 import numpy as np
 
@@ -281,9 +282,7 @@ def fit_with_offsets(spec, points, system_of, pooled):
     family = MODELS[spec["model"]]
     k = len(spec["params"])
     kept, _ = select(points, spec["range"])
-    count = {}
-    for p in kept:
-        count[system_of[p[3][0]]] = count.get(system_of[p[3][0]], 0) + 1
+    count = Counter(system_of[p[3][0]] for p in kept)
     systems = sorted(count, key=lambda sy: (-count[sy], str(sy)))
     m = len(systems)
     dof = len(kept) - k - (m - 1)
@@ -377,12 +376,18 @@ def fit_columns(spec, rows, x=None, y=None):
     and y (default: the law's own), the error of y from the column y + "_err"; the seeds of one
     (system, V) are one point (`combine`)."""
     x, y = x or spec["x"], y or spec["y"]
-    regimes = spec.get("regimes")
-    spec = dict(law(spec["model"], spec["params"], y, x, spec["range"], regimes))
-    return fit(spec, [(r.get(x), r.get(y), r.get(y + "_err"), r["run"], group_key(r),
-                       r.get("_averaged_time"))
-                      for r in rows if r.get("steady") is True
-                      and (not regimes or r.get("regime") in regimes)])
+    spec = dict(law(spec["model"], spec["params"], y, x, spec["range"], spec.get("regimes")))
+    return fit(spec, column_points(spec, rows))
+
+
+def column_points(spec, rows):
+    """The points of `fit` for a law from the steady rows of its regimes: (x, y, err, run,
+    group_key, averaged_time) with the law's columns x, y and y + "_err"."""
+    x, y, regimes = spec["x"], spec["y"], spec.get("regimes")
+    return [(r.get(x), r.get(y), r.get(y + "_err"), r["run"], group_key(r),
+             r.get("_averaged_time"))
+            for r in rows if r.get("steady") is True
+            and (not regimes or r.get("regime") in regimes)]
 
 
 def curve(result, x):

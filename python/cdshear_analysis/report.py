@@ -411,10 +411,11 @@ def fit_laws_per_system(rows):
 P_DEPENDS = 0.01
 
 
-def system_dependence(rows, fits):
-    """fits.json `system_dependence`: per law of FITS fitted over every system (`fits`, status
-    fitted), whether the systems follow one law (claim 1 of docs/validation.md: "does the law
-    depend on the system?"). The law is fitted again with an offset of y per system but the
+def system_dependence(rows):
+    """fits.json `system_dependence`: per law of FITS, whether the systems follow one law (claim
+    1 of docs/validation.md: "does the law depend on the system?"). The law, fitted over the runs
+    that name their system (every campaign run: then it is `fits`' law), is fitted again with an
+    offset of y per system but the
     reference (fitting.fit_with_offsets: y = law(x) + delta_s, the same points), which needs one
     point per system, not a fit per system. chi2 falls by dchi2 = chi2 - chi2_offsets for ddof
     = (systems - 1) more parameters; F = (dchi2 / ddof) / (chi2_offsets / dof_offsets) compares
@@ -422,17 +423,14 @@ def system_dependence(rows, fits):
     tail (F law with ddof and dof_offsets degrees of freedom): "depends on the system" below
     P_DEPENDS, "no dependence detected" otherwise. p_chi2: the tail of dchi2 (chi2 law, ddof),
     which trusts the error bars. offsets: each system's delta (y units) against the system with
-    the most points (`reference`). "not tested" with its reason where the law has points of one system
-    only, was not fitted, or no dof is left."""
+    the most points (`reference`). "not tested" with its reason where the law has points of one
+    system only, was not fitted, or no dof is left."""
     from scipy.stats import chi2 as chi2_law, f as f_law
     out = {}
     bulk = [r for r in bulk_rows(rows) if r.get("system") is not None]
     system_of = {r["run"]: r["system"] for r in bulk}
     for name, spec in FITS.items():
-        # the law over the runs that name their system (campaign runs all do): the same points
-        # as the fit with offsets
-        pooled = fits[name] if all(r.get("system") is not None for r in bulk_rows(rows)) \
-            else fit_law(name, bulk)
+        pooled = fit_law(name, bulk)   # the same points as the fit with offsets
         systems = sorted({system_of[run] for run in pooled.get("runs") or []
                           if run in system_of})
         entry = {"systems": [str(x) for x in systems], "verdict": "not tested", "reason": None,
@@ -446,12 +444,8 @@ def system_dependence(rows, fits):
         if len(systems) < 2:
             entry["reason"] = "its points are of one system"
             continue
-        regimes = spec.get("regimes")
-        points = [(r.get(spec["x"]), r.get(spec["y"]), r.get(spec["y"] + "_err"), r["run"],
-                   fitting.group_key(r), r.get("_averaged_time"))
-                  for r in bulk if r.get("steady") is True
-                  and (not regimes or r.get("regime") in regimes)]
-        result = fitting.fit_with_offsets(spec, points, system_of, pooled)
+        result = fitting.fit_with_offsets(spec, fitting.column_points(spec, bulk), system_of,
+                                          pooled)
         if result is None:
             entry["reason"] = ("no degree of freedom left with an offset per system, or the fit "
                                "did not converge")
@@ -879,8 +873,8 @@ def _html_system_dependence(dependence):
         return []
     out = ["<p>Does each law depend on the system? The law over every system against the same "
            "law with an offset of y per system (but the one with the most points, the "
-           "reference): F compares the fall in chi2 "
-           "with the scatter left (error bars wrong by a common factor cancel); below p_F = "
+           "reference): F compares the fall in chi2 with the scatter left (error bars wrong by "
+           "a common factor cancel); below p_F = "
            f"{P_DEPENDS:g} the law depends on the system (fits.json "
            "<code>system_dependence</code>).</p><table><tr><th>law</th><th>systems</th>"
            "<th>chi2 / dof</th><th>with offsets</th><th>offsets against the reference</th>"
@@ -946,9 +940,8 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
 
 def write_report(report, out_dir):
     """runs.csv, runs.md, fits.json, figures/*.png and index.html in out_dir; returns their
-    paths. Adds
-    `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them in
-    report["printed"] (index.html gives them in its own sections, not as notes)."""
+    paths. Adds `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them
+    in report["printed"] (index.html gives them in its own sections, not as notes)."""
     rows = report["rows"]
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
@@ -968,7 +961,7 @@ def write_report(report, out_dir):
 
     fits = fit_laws(rows)
     per_system = fit_laws_per_system(rows)
-    dependence = system_dependence(rows, fits)
+    dependence = system_dependence(rows)
     transitions = find_transitions(rows)
     boundary = fit_boundary(rows, FITS)
     preds = predictions(rows, fits, boundary, transitions)

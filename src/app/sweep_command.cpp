@@ -246,11 +246,13 @@ std::optional<double> folder_duration(const fs::path& run_dir) {
   }
 }
 
-/// True when the campaign asks a run for a longer duration than its folder's case.toml (the
-/// campaign file's duration was raised after the run started or finished).
-bool asks_for_longer(const CampaignRun& r, const fs::path& run_dir) {
+/// The duration [t] of the run's folder (its case.toml) when the campaign asks the run for a
+/// longer one (the campaign file's duration was raised after the run started or finished); none
+/// otherwise.
+std::optional<double> asks_for_longer(const CampaignRun& r, const fs::path& run_dir) {
   const std::optional<double> had = folder_duration(run_dir);
-  return had && r.duration > *had * (1.0 + 1e-12);
+  if (had && r.duration > *had * (1.0 + 1e-12)) return had;
+  return std::nullopt;
 }
 
 /// Where a running run stands in its current sitting, from its progress.json (written by `cdshear
@@ -444,8 +446,8 @@ class Sweep {
   }
 
   /// The job of a run that is to be started, resumed or extended (a finished run whose
-  /// campaign now asks for a longer duration: `state` kFinished). A resume asks for the
-  /// campaign's duration where the folder's case.toml has a shorter one.
+  /// campaign now asks for a longer duration: `state` kFinished, planned only then). A resume
+  /// asks for the campaign's duration where the folder's case.toml has a shorter one.
   Job run_job(const CampaignRun& r, RunState state, const fs::path& packing) const {
     const fs::path rdir = dir_ / "runs" / r.name;
     Job j;
@@ -454,7 +456,7 @@ class Sweep {
     j.cost = r.cost();
     if (state == RunState::kInterrupted || state == RunState::kFinished) {
       j.argv = {exe_.string(), "run", "--resume", rdir.string(), "--threads", threads_};
-      if (asks_for_longer(r, rdir))
+      if (state == RunState::kFinished || asks_for_longer(r, rdir))
         j.argv.insert(j.argv.end(), {"--set", fmt::format("shear.duration={}", r.duration)});
     } else {
       j.argv = {exe_.string(), "run",
@@ -483,7 +485,7 @@ class Sweep {
           failed_.push_back(fmt::format("{}: {}", r.name, problem));
           continue;
         }
-        if (asks_for_longer(r, rdir)) {
+        if (const std::optional<double> had = asks_for_longer(r, rdir)) {
           // The campaign's duration grew: the run goes on from its last checkpoint, bit for
           // bit as if it had been asked for the longer duration from the start.
           if (!fs::exists(rdir / "checkpoint.cbor")) {
@@ -491,7 +493,7 @@ class Sweep {
                 "{}: finished at {:g} t where the campaign asks for {:g} t; extending it needs "
                 "its checkpoint.cbor, which the folder no longer holds (remove {} to run it "
                 "again from the start)",
-                r.name, *folder_duration(rdir), r.duration, rdir.string()));
+                r.name, *had, r.duration, rdir.string()));
             continue;
           }
           duration_of_.push_back(r.duration);
