@@ -348,6 +348,11 @@ def switch_time_figure(path, switch_predictions):
                 xs += [p[0] for p in pts]
                 ax.plot(*zip(*pts), marker, color=c, mfc="none" if marker == "s" else c,
                         label=f"system {system}: {label}")
+    if xs and max(xs) < 10 * min(xs):
+        # T / V grows in proportion to L_y: both axes from 0 (on a linear L_y axis), so that the
+        # runs of one height are not spread over the whole axis by their L_y's small scatter
+        ax.set_xlim(0, 1.1 * max(xs))
+        ax.set_ylim(bottom=0)
     _finish(plt, fig, ax, path, "regime C: band switch time / V against L_y", "L_y [d]",
             "time / V [t^2 / d]", xs)
 
