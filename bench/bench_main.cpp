@@ -110,6 +110,7 @@ struct Settings {
   double state_jitter = 0.0;    // one more: the reference from disks moved by up to this [d]
   bool error_spectrum = false;  // split each sample's error over the modes of M^-1/2 H^T
   bool error_locality = false;  // where in the packing each sample's error lies
+  std::string dump_samples;     // folder: each sample's contacts, bodies and both solves
   bool stress_error = false;    // what each sample's error does to the contact stress
   int stress_window = 1;        // steps --stress-error sums, along both solves' own paths
   bool save = false;
@@ -223,6 +224,8 @@ Reference solve of --step-error:
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
+  --dump-samples DIR  write each --step-error sample to DIR as text: its contacts with the
+                      tested and reference impulses, its bodies (bench/coarse_space.py)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the impulse, wall-force
                       and velocity errors (stderr)
@@ -315,6 +318,8 @@ Settings parse(int argc, char** argv) {
       s.error_spectrum = true;
     } else if (a == "--error-locality") {
       s.error_locality = true;
+    } else if (a == "--dump-samples") {
+      s.dump_samples = value();
     } else if (a == "--stress-error") {
       s.stress_error = true;
     } else if (a == "--stress-window") {
@@ -757,6 +762,47 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
                share[5] / total2, open2 / total2, lowest, n);
 }
 
+/// --dump-samples DIR: each sample as text for offline study, DIR/sample_K_contacts.txt (one line
+/// per contact: bodies, normal, levers, arm, gap, friction, tested and reference impulses) and
+/// DIR/sample_K_bodies.txt (position, inverse masses and inertia; walls after the disks, at
+/// their points), with the periodic length and the walls' heights on each file's first line.
+void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Contact>& a,
+                 const std::vector<cdshear::Contact>& b,
+                 const std::vector<cdshear::SolverBody>& bodies, const World& world) {
+  std::filesystem::create_directories(folder);
+  const std::string stem = folder + "/sample_" + std::to_string(k);
+  const auto open = [](const std::string& path) {
+    std::FILE* file = std::fopen(path.c_str(), "w");
+    if (file == nullptr) throw std::runtime_error("--dump-samples: cannot write " + path);
+    return file;
+  };
+  const double lx = world.domain.length_x;
+  const double y0 = world.walls[cdshear::kBoxBottomWall].point.y;
+  const double y1 = world.walls[cdshear::kBoxTopWall].point.y;
+  std::FILE* f = open(stem + "_contacts.txt");
+  std::fprintf(f, "# %.17g %.17g %.17g\n", lx, y0, y1);
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+    const cdshear::Contact& c = b[i];
+    std::fprintf(
+        f, "%d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
+        c.key.body_a, c.key.body_b, c.normal.x, c.normal.y, c.lever_a, c.lever_b, c.arm_a.x,
+        c.arm_a.y, c.gap, c.friction, a[i].impulse_n, a[i].impulse_t, c.impulse_n, c.impulse_t);
+  }
+  std::fclose(f);
+  f = open(stem + "_bodies.txt");
+  std::fprintf(f, "# %.17g %.17g %.17g\n", lx, y0, y1);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    cdshear::Vec2 p{0.0, 0.0};
+    if (i < world.disks.size())
+      p = world.disks.position[i];
+    else if (i - world.disks.size() < world.walls.size())
+      p = world.walls[i - world.disks.size()].point;
+    std::fprintf(f, "%.17g %.17g %.17g %.17g %.17g\n", p.x, p.y, bodies[i].inv_mass.x,
+                 bodies[i].inv_mass.y, bodies[i].inv_inertia);
+  }
+  std::fclose(f);
+}
+
 /// --error-locality: where a sample's impulse error e = R - R_ref lies. Its shares of |e|^2 on the
 /// contacts open, sticking or sliding unlike the reference, and on the 1% of contacts with the
 /// largest |e|; the three consecutive bands of kLocalityBand (by the height of the contact's first
@@ -1070,6 +1116,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
     if (s.error_locality) error_locality(a, b, world);
+    if (!s.dump_samples.empty()) dump_sample(s.dump_samples, k, a, b, d_ref.bodies(), world);
     if (s.stress_error) {
       StressTally tested, reference;
       tested.add(a, world);

@@ -1,0 +1,161 @@
+#!/usr/bin/python3
+"""How much of a step's impulse error a coarse space could remove (docs/step-error.md, "What a
+coarse correction could reach").
+
+Reads the samples that `cdshear_bench --step-error N --dump-samples DIR` writes (each sample's
+contacts with the tested and the reference impulses, and the bodies) and, on the reference's
+force-carrying contacts, with e = R_tested - R_reference and A = M^-1/2 H^T (|A R|^2 is twice the
+kinetic energy R gives; W = A^T A is the Delassus operator), prints the share of |e| left after
+the Galerkin correction on a space P, that is after removing its W-orthogonal projection
+P (P^T W P)^+ P^T W e (what one exact coarse solve of the linearised step would remove):
+
+- stress CELL: smooth stress fields, three per node (sigma_xx, sigma_yy, sigma_xy) of a grid of
+  CELL x CELL cells (periodic in x, nodes on both walls) with bilinear hats: a contact's impulse
+  is phi_K(contact point) E l, E the stress component's unit tensor, l the branch vector;
+- scale CELL: one per node, the reference impulses scaled by phi_K (a per-node scaling of the
+  impulses, as the slab correction does per band, given the answer's own pattern: its best case);
+- lowest K: the K eigenvectors of W with the smallest eigenvalues (the best K-dimensional space;
+  what it leaves here is e's part outside it, its null-space part included);
+- with --stale: the first sample's lowest K eigenvectors, carried over to each later sample's
+  contacts by their pair of bodies (a space computed once and reused).
+
+  cdshear_bench --packing P --velocity V --no-static --steps 100 --warmup 2000 --step-error 6 \
+      --reference-relaxation 1.6 --reference-anderson 5 --dump-samples DIR
+  /usr/bin/python3 bench/coarse_space.py DIR --cells 8,4,2 --lowest 30,100,300 [--stale]
+"""
+
+import argparse
+import glob
+
+import numpy as np
+import scipy.sparse as sp
+
+# Columns of sample_K_contacts.txt (cdshear_bench's dump_sample).
+BODY_A, BODY_B, NX, NY, LEVER_A, LEVER_B, ARM_X, ARM_Y = 0, 1, 2, 3, 4, 5, 6, 7
+TESTED_N, TESTED_T, REFERENCE_N, REFERENCE_T = 10, 11, 12, 13
+
+
+class Sample:
+    def __init__(self, stem):
+        with open(stem + "_contacts.txt") as f:
+            self.length_x, self.y_bottom, self.y_top = map(float, f.readline()[2:].split())
+        contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
+        bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
+        self.c = contacts[contacts[:, REFERENCE_N] > 0.0]  # force-carrying in the reference
+        self.bodies = bodies
+        self.error = np.stack([self.c[:, TESTED_N] - self.c[:, REFERENCE_N],
+                               self.c[:, TESTED_T] - self.c[:, REFERENCE_T]], 1).ravel()
+        self.reference = self.c[:, [REFERENCE_N, REFERENCE_T]].ravel()
+        self.a = self.operator()
+        self.keys = {(int(r[BODY_A]), int(r[BODY_B])): k for k, r in enumerate(self.c)}
+
+    def operator(self):
+        """A = M^-1/2 H^T: column 2k the normal impulse of contact k, 2k + 1 its tangential one."""
+        rows, cols, vals = [], [], []
+        for k, r in enumerate(self.c):
+            n = r[[NX, NY]]
+            t = np.array([-n[1], n[0]])
+            for body, sign, lever in ((int(r[BODY_A]), 1.0, r[LEVER_A]),
+                                      (int(r[BODY_B]), -1.0, r[LEVER_B])):
+                sx, sy, si = np.sqrt(self.bodies[body, 2:5])
+                rows += [3 * body, 3 * body + 1, 3 * body, 3 * body + 1, 3 * body + 2]
+                cols += [2 * k, 2 * k, 2 * k + 1, 2 * k + 1, 2 * k + 1]
+                vals += [sign * n[0] * sx, sign * n[1] * sy, sign * t[0] * sx, sign * t[1] * sy,
+                         lever * si]
+        return sp.csr_matrix((vals, (rows, cols)), shape=(3 * len(self.bodies), 2 * len(self.c)))
+
+    def grid_space(self, cell, kind):
+        """The stress or scale space on a grid of cell x cell hats (columns never empty)."""
+        c, m = self.c, len(self.c)
+        a = c[:, BODY_A].astype(int)
+        n = c[:, [NX, NY]]
+        t = np.stack([-n[:, 1], n[:, 0]], 1)
+        x = (self.bodies[a, 0] + c[:, ARM_X]) % self.length_x
+        y = np.clip(self.bodies[a, 1] + c[:, ARM_Y] - self.y_bottom, 0.0, None)
+        height = self.y_top - self.y_bottom
+        cells_x = max(1, round(self.length_x / cell))
+        cells_y = max(1, round(height / cell))
+        fx = x / (self.length_x / cells_x)
+        ix = np.floor(fx).astype(int)
+        fx -= ix
+        fy = np.clip(y / (height / cells_y), 0.0, cells_y - 1e-12)
+        iy = np.floor(fy).astype(int)
+        fy -= iy
+        corners = [(ix % cells_x, 1 - fx), ((ix + 1) % cells_x, fx)]
+        levels = [(iy, 1 - fy), (iy + 1, fy)]
+        if kind == "stress":
+            branch = np.abs(c[:, LEVER_A]) + np.abs(c[:, LEVER_B])
+            units = [np.array([[1, 0], [0, 0]]), np.array([[0, 0], [0, 1]]),
+                     np.array([[0, 1], [1, 0]])]
+            patterns = []
+            for e in units:
+                force = branch[:, None] * (n @ e.T)  # E l with l = |l| n
+                patterns.append(np.stack([np.sum(force * n, 1), np.sum(force * t, 1)], 1))
+        else:
+            patterns = [c[:, [REFERENCE_N, REFERENCE_T]]]
+        rows, cols, vals = [], [], []
+        for node_x, wx in corners:
+            for node_y, wy in levels:
+                node = node_y * cells_x + node_x
+                for q, pattern in enumerate(patterns):
+                    for d in range(2):
+                        rows.append(2 * np.arange(m) + d)
+                        cols.append(node * len(patterns) + q)
+                        vals.append(wx * wy * pattern[:, d])
+        columns = cells_x * (cells_y + 1) * len(patterns)
+        p = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(2 * m, columns)).toarray()
+        return p[:, np.abs(p).sum(0) > 0.0]
+
+    def left_after(self, p):
+        """|e - P y| / |e| with y the Galerkin (W-orthogonal) projection's coefficients."""
+        ap = self.a @ p
+        y, *_ = np.linalg.lstsq(ap, self.a @ self.error, rcond=1e-12)
+        return np.linalg.norm(self.error - p @ y) / np.linalg.norm(self.error)
+
+    def eigenvectors(self):
+        return np.linalg.eigh((self.a.T @ self.a).toarray())[1]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder")
+    parser.add_argument("--cells", default="8,4,2", help="grid cells [d], comma-separated")
+    parser.add_argument("--lowest", default="", help="eigenvector counts, comma-separated")
+    parser.add_argument("--stale", action="store_true")
+    args = parser.parse_args()
+    cells = [float(v) for v in args.cells.split(",") if v]
+    lowest = [int(v) for v in args.lowest.split(",") if v]
+    stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
+                   key=lambda s: int(s.split("_")[-2]))
+    first = None
+    for stem in stems:
+        s = Sample(stem[: -len("_contacts.txt")])
+        line = [f"{stem.split('/')[-1][:-len('_contacts.txt')]}: {len(s.c)} force-carrying, "
+                f"|e| / |R| {np.linalg.norm(s.error) / np.linalg.norm(s.reference):.2e}; left:"]
+        for cell in cells:
+            for kind in ("stress", "scale"):
+                p = s.grid_space(cell, kind)
+                line.append(f"{kind} {cell:g} ({p.shape[1]}) {s.left_after(p):.3f}")
+        if lowest:
+            vectors = s.eigenvectors()
+            for k in lowest:
+                along = vectors[:, :k].T @ s.error
+                left = np.sqrt(max(0.0, 1.0 - along @ along / (s.error @ s.error)))
+                line.append(f"lowest {k} {left:.3f}")
+            if args.stale and first is None:
+                first = (s, vectors)
+            elif args.stale:
+                s0, v0 = first
+                for k in lowest:
+                    p = np.zeros((len(s.error), k))
+                    for key, j in s.keys.items():
+                        if key in s0.keys:
+                            i = s0.keys[key]
+                            p[2 * j:2 * j + 2] = v0[2 * i:2 * i + 2, :k]
+                    line.append(f"first sample's lowest {k} {s.left_after(p):.3f}")
+        print(", ".join(line), flush=True)
+
+
+if __name__ == "__main__":
+    main()
