@@ -1,6 +1,8 @@
 // Campaign files (`cdshear sweep`): a good file is resolved into the right runs (names, V,
 // durations from strain, time steps), velocity ranges are spaced as asked, the resolved campaign
 // reads back to itself, and every bad file is refused naming the file and the key.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -157,14 +159,39 @@ TEST(CampaignFile, GroupsGiveEachPurposeItsOwnRuns) {
   expect_same_runs(back, c);
   EXPECT_EQ(back.groups[0].purpose, c.groups[0].purpose);
   EXPECT_TRUE(campaign_differences(resolved, campaign_to_toml(back)).empty());
-  // adding a group is a change that names the groups
+  // adding a group is a change that names the group
   Campaign more = c;
   more.groups.push_back(c.groups[1]);
   more.groups.back().systems = {3};
   const auto diff = campaign_differences(resolved, campaign_to_toml(more));
-  ASSERT_FALSE(diff.empty());
-  for (const std::string& line : diff)  // one line per key, named within its group
-    EXPECT_EQ(line.rfind("campaign.group[2].", 0), 0u) << line;
+  ASSERT_EQ(diff.size(), 1u);
+  EXPECT_EQ(diff[0], "campaign.group[2]: added");
+}
+
+TEST(CampaignFile, DifferencesPairGroupsByContentNotByPlace) {
+  // A group inserted first renumbers the others: only it is named. A group whose velocities
+  // changed is paired with its old self by its purpose and named by the key that changed; a group
+  // gone is named by its place in the folder's campaign.
+  const Campaign c = parse(
+      "[campaign]\nname = \"g\"\n"
+      "[[campaign.group]]\npurpose = \"transition\"\nsystems = [1]\n"
+      "velocities = [0.1, 0.2]\nduration = 50\n"
+      "[[campaign.group]]\nsystems = [2]\nvelocities = [1]\nduration = 20\n"
+      "[[campaign.group]]\npurpose = \"fast\"\nsystems = [3]\nvelocities = [2]\nduration = 9\n");
+  const toml::table resolved = campaign_to_toml(c);
+  Campaign changed = c;
+  CampaignGroup extended = c.groups[0];
+  extended.purpose = "transition, extended";
+  extended.velocities = {0.2};
+  extended.duration = 80.0;
+  changed.groups[0].velocities = {0.1};                     // same purpose: paired
+  changed.groups.insert(changed.groups.begin(), extended);  // new purpose: added
+  changed.groups.pop_back();                                // "fast" removed
+  const auto diff = campaign_differences(resolved, campaign_to_toml(changed));
+  ASSERT_EQ(diff.size(), 3u) << fmt::format("{}", fmt::join(diff, "\n"));
+  EXPECT_EQ(diff[0], "campaign.group[0]: added (purpose \"transition, extended\")");
+  EXPECT_EQ(diff[1], "campaign.group[1].velocities: [0.1, 0.2] -> [0.1]");
+  EXPECT_EQ(diff[2], "campaign.group[2] of the folder's campaign: removed (purpose \"fast\")");
 }
 
 TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {

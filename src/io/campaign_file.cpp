@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -30,8 +31,15 @@ const std::map<std::string, std::string> kOwnedKeys = {
     {"measure.boundary_thickness", "give [campaign] boundary_thickness"},
     {"preparation.packing", "give [campaign.packing] per system"}};
 
-/// A TOML value as the text of its right-hand side (`0.5`, `'random'`, `[5.0, 10.0]`).
+/// A TOML value as the text of its right-hand side (`0.5`, `'random'`, `[5, 10]`); numbers in
+/// their shortest form that reads back to the same double (0.42, not 0.41999999999999998).
 std::string value_text(const toml::node& node) {
+  if (const auto* x = node.as_floating_point()) return fmt::format("{}", x->get());
+  if (const toml::array* array = node.as_array()) {
+    std::vector<std::string> items;
+    for (const toml::node& item : *array) items.push_back(value_text(item));
+    return fmt::format("[{}]", fmt::join(items, ", "));
+  }
   toml::table t;
   t.insert("v", node);
   std::ostringstream out;
@@ -442,20 +450,89 @@ std::string campaign_file_text(const Campaign& c) {
   return text.str();
 }
 
-std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after) {
-  std::map<std::string, std::string> a, b;
-  flatten(before, "", a);
-  flatten(after, "", b);
+namespace {
+
+using FlatTable = std::map<std::string, std::string>;
+
+/// "key: OLD -> NEW" for every key of either table whose value differs, keys prefixed.
+void add_key_differences(const FlatTable& a, const FlatTable& b, const std::string& prefix,
+                         std::vector<std::string>& out) {
   std::set<std::string> keys;
   for (const auto& [k, v] : a) keys.insert(k);
   for (const auto& [k, v] : b) keys.insert(k);
-  std::vector<std::string> out;
   for (const std::string& k : keys) {
     const auto ia = a.find(k), ib = b.find(k);
     const std::string va = ia == a.end() ? "(absent)" : ia->second;
     const std::string vb = ib == b.end() ? "(absent)" : ib->second;
-    if (va != vb) out.push_back(k + ": " + va + " -> " + vb);
+    if (va != vb) out.push_back(prefix + k + ": " + va + " -> " + vb);
   }
+}
+
+/// The [[campaign.group]] tables of a resolved campaign, each flattened.
+std::vector<FlatTable> flat_groups(const toml::table& resolved) {
+  std::vector<FlatTable> groups;
+  if (const toml::array* array = resolved["campaign"]["group"].as_array()) {
+    for (const toml::node& node : *array) {
+      groups.emplace_back();
+      if (const toml::table* group = node.as_table()) flatten(*group, "", groups.back());
+    }
+  }
+  return groups;
+}
+
+/// The groups' differences, named by the new campaign's group index. A group that is in both
+/// campaigns unchanged is no difference wherever it moved (a group inserted before it renumbers
+/// it); one whose purpose is in both is paired by it and its keys compared; the rest are added or
+/// removed groups.
+void add_group_differences(const std::vector<FlatTable>& before,
+                           const std::vector<FlatTable>& after, std::vector<std::string>& out) {
+  std::vector<bool> used(before.size(), false);
+  std::vector<std::optional<std::size_t>> pair(after.size());
+  for (std::size_t i = 0; i < after.size(); ++i)
+    for (std::size_t j = 0; j < before.size() && !pair[i]; ++j)
+      if (!used[j] && before[j] == after[i]) {
+        used[j] = true;
+        pair[i] = j;
+      }
+  const auto purpose = [](const FlatTable& g) {
+    const auto it = g.find("purpose");
+    return it == g.end() ? std::string() : it->second;
+  };
+  for (std::size_t i = 0; i < after.size(); ++i)
+    for (std::size_t j = 0; j < before.size() && !pair[i] && !purpose(after[i]).empty(); ++j)
+      if (!used[j] && purpose(before[j]) == purpose(after[i])) {
+        used[j] = true;
+        pair[i] = j;
+      }
+  for (std::size_t i = 0; i < after.size(); ++i) {
+    const std::string name = fmt::format("campaign.group[{}]", i);
+    if (pair[i])
+      add_key_differences(before[*pair[i]], after[i], name + ".", out);
+    else
+      out.push_back(name + ": added" +
+                    (purpose(after[i]).empty() ? "" : " (purpose " + purpose(after[i]) + ")"));
+  }
+  for (std::size_t j = 0; j < before.size(); ++j)
+    if (!used[j])
+      out.push_back(fmt::format("campaign.group[{}] of the folder's campaign: removed", j) +
+                    (purpose(before[j]).empty() ? "" : " (purpose " + purpose(before[j]) + ")"));
+}
+
+}  // namespace
+
+std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after) {
+  FlatTable a, b;
+  flatten(before, "", a);
+  flatten(after, "", b);
+  const auto not_group = [](const FlatTable& t) {
+    FlatTable out;
+    for (const auto& [k, v] : t)
+      if (k.rfind("campaign.group[", 0) != 0) out.emplace(k, v);
+    return out;
+  };
+  std::vector<std::string> out;
+  add_key_differences(not_group(a), not_group(b), "", out);
+  add_group_differences(flat_groups(before), flat_groups(after), out);
   return out;
 }
 
