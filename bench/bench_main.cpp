@@ -224,8 +224,9 @@ Reference solve of --step-error:
   --error-spectrum    split each sample's impulse error over the singular vectors of
                       M^-1/2 H^T on the reference's force-carrying contacts (a dense SVD:
                       up to a few thousand contacts)
-  --dump-samples DIR  write each --step-error sample to DIR as text: its contacts with the
-                      tested and reference impulses, its bodies (bench/coarse_space.py)
+  --dump-samples DIR  write each --step-error sample as text to DIR/<case>_n<disks>/ (emptied
+                      first): its contacts with the tested and reference impulses, its bodies
+                      (bench/coarse_space.py)
   --step-error N      after each case, N times: solve one step with the case's settings and
                       again to round-off from the same state; print the impulse, wall-force
                       and velocity errors (stderr)
@@ -398,6 +399,8 @@ Settings parse(int argc, char** argv) {
   if (!(s.velocity > 0.0)) throw std::invalid_argument("--velocity must be > 0");
   if (s.state_jitter > 0.0 && s.step_error_samples == 0)
     throw std::invalid_argument("--state-jitter needs --step-error");
+  if (!s.dump_samples.empty() && s.step_error_samples == 0)
+    throw std::invalid_argument("--dump-samples needs --step-error");
   if (!s.state.empty() && !s.packing.empty())
     throw std::invalid_argument("--state and --packing exclude each other");
   return s;
@@ -762,9 +765,9 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
                share[5] / total2, open2 / total2, lowest, n);
 }
 
-/// --dump-samples DIR: each sample as text for offline study, DIR/sample_K_contacts.txt (one line
+/// --dump-samples: each sample as text for offline study, FOLDER/sample_K_contacts.txt (one line
 /// per contact: bodies, normal, levers, arm, gap, friction, tested and reference impulses) and
-/// DIR/sample_K_bodies.txt (position, inverse masses and inertia; walls after the disks, at
+/// FOLDER/sample_K_bodies.txt (position, inverse masses and inertia; walls after the disks, at
 /// their points), with the periodic length and the walls' heights on each file's first line.
 void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Contact>& a,
                  const std::vector<cdshear::Contact>& b,
@@ -775,6 +778,11 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
     std::FILE* file = std::fopen(path.c_str(), "w");
     if (file == nullptr) throw std::runtime_error("--dump-samples: cannot write " + path);
     return file;
+  };
+  const auto close = [](std::FILE* file, const std::string& path) {
+    const bool failed = std::ferror(file) != 0;
+    if (std::fclose(file) != 0 || failed)
+      throw std::runtime_error("--dump-samples: could not write all of " + path);
   };
   const double lx = world.domain.length_x;
   const double y0 = world.walls[cdshear::kBoxBottomWall].point.y;
@@ -788,7 +796,7 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
         c.key.body_a, c.key.body_b, c.normal.x, c.normal.y, c.lever_a, c.lever_b, c.arm_a.x,
         c.arm_a.y, c.gap, c.friction, a[i].impulse_n, a[i].impulse_t, c.impulse_n, c.impulse_t);
   }
-  std::fclose(f);
+  close(f, stem + "_contacts.txt");
   f = open(stem + "_bodies.txt");
   std::fprintf(f, "# %.17g %.17g %.17g\n", lx, y0, y1);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
@@ -800,7 +808,7 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
     std::fprintf(f, "%.17g %.17g %.17g %.17g %.17g\n", p.x, p.y, bodies[i].inv_mass.x,
                  bodies[i].inv_mass.y, bodies[i].inv_inertia);
   }
-  std::fclose(f);
+  close(f, stem + "_bodies.txt");
 }
 
 /// --error-locality: where a sample's impulse error e = R - R_ref lies. Its shares of |e|^2 on the
@@ -1032,7 +1040,7 @@ std::size_t status_differences(const std::vector<cdshear::Contact>& a,
 }
 
 void step_error(World& world, ContactDynamics& dynamics, const StepOptions& options,
-                const StepOptions& trajectory, const Settings& s) {
+                const StepOptions& trajectory, const Settings& s, const std::string& dump_folder) {
   const int samples = s.step_error_samples, spacing = s.step_error_spacing;
   const bool from_reference = s.from_reference;
   // --paired: the reference from the trajectory's settings too, so that it is the same solve
@@ -1116,7 +1124,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
     if (s.error_locality) error_locality(a, b, world);
-    if (!s.dump_samples.empty()) dump_sample(s.dump_samples, k, a, b, d_ref.bodies(), world);
+    if (!dump_folder.empty()) dump_sample(dump_folder, k, a, b, d_ref.bodies(), world);
     if (s.stress_error) {
       StressTally tested, reference;
       tested.add(a, world);
@@ -1352,7 +1360,15 @@ int run(const Settings& s) {
       if (trajectory.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);
-      if (s.step_error_samples > 0) step_error(box.world, box.dynamics, options, trajectory, s);
+      // --dump-samples: a folder per case, emptied first, so that no sample of another case or
+      // of an earlier run is read with this one's.
+      std::string dump_folder;
+      if (!s.dump_samples.empty()) {
+        dump_folder = s.dump_samples + "/" + name + "_n" + std::to_string(box.world.disks.size());
+        std::filesystem::remove_all(dump_folder);
+      }
+      if (s.step_error_samples > 0)
+        step_error(box.world, box.dynamics, options, trajectory, s, dump_folder);
     };
 
     StepOptions options;  // the defaults of a run (model.md section 3, item 5), dt = 1e-3

@@ -5,23 +5,29 @@ coarse correction could reach").
 Reads the samples that `cdshear_bench --step-error N --dump-samples DIR` writes (each sample's
 contacts with the tested and the reference impulses, and the bodies) and, on the reference's
 force-carrying contacts, with e = R_tested - R_reference and A = M^-1/2 H^T (|A R|^2 is twice the
-kinetic energy R gives; W = A^T A is the Delassus operator), prints the share of |e| left after
-the Galerkin correction on a space P, that is after removing its W-orthogonal projection
-P (P^T W P)^+ P^T W e (what one exact coarse solve of the linearised step would remove):
+kinetic energy R gives; W = A^T A is the Delassus operator), prints for a space P two shares of
+|e|, as "galerkin / span": what is left after the Galerkin correction, that is after removing
+e's W-orthogonal projection P (P^T W P)^+ P^T W e (what one exact coarse solve of the step
+linearised with every force-carrying contact's two rows as equalities would remove; sliding
+contacts are not), and what lies outside span P (e less its orthogonal projection: what the best
+correction within P could leave, by any method):
 
 - stress CELL: smooth stress fields, three per node (sigma_xx, sigma_yy, sigma_xy) of a grid of
   CELL x CELL cells (periodic in x, nodes on both walls) with bilinear hats: a contact's impulse
   is phi_K(contact point) E l, E the stress component's unit tensor, l the branch vector;
 - scale CELL: one per node, the reference impulses scaled by phi_K (a per-node scaling of the
   impulses, as the slab correction does per band, given the answer's own pattern: its best case);
-- lowest K: the K eigenvectors of W with the smallest eigenvalues (the best K-dimensional space;
-  what it leaves here is e's part outside it, its null-space part included);
+- lowest K: the K eigenvectors of W with the smallest eigenvalues (the null space first: a
+  Galerkin correction leaves e's null-space part, which only the span share counts as removable;
+  printed first, the share of |e| in the null space, eigenvalues below 1e-10 of the largest);
 - with --stale: the first sample's lowest K eigenvectors, carried over to each later sample's
   contacts by their pair of bodies (a space computed once and reused).
 
+DIR is one case's folder, DIR_GIVEN/<case>_n<disks> (`shear_n2047` for a prepared packing).
+
   cdshear_bench --packing P --velocity V --no-static --steps 100 --warmup 2000 --step-error 6 \
       --reference-relaxation 1.6 --reference-anderson 5 --dump-samples DIR
-  /usr/bin/python3 bench/coarse_space.py DIR --cells 8,4,2 --lowest 30,100,300 [--stale]
+  /usr/bin/python3 bench/coarse_space.py DIR/shear_nN --cells 8,4,2 --lowest 30,100,300 [--stale]
 """
 
 import argparse
@@ -29,10 +35,13 @@ import glob
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as sla
 
 # Columns of sample_K_contacts.txt (cdshear_bench's dump_sample).
 BODY_A, BODY_B, NX, NY, LEVER_A, LEVER_B, ARM_X, ARM_Y = 0, 1, 2, 3, 4, 5, 6, 7
 TESTED_N, TESTED_T, REFERENCE_N, REFERENCE_T = 10, 11, 12, 13
+# W's null space: eigenvalues below this share of its largest (self-stresses, to round-off).
+NULL_LEVEL = 1e-10
 
 
 class Sample:
@@ -48,6 +57,7 @@ class Sample:
         self.reference = self.c[:, [REFERENCE_N, REFERENCE_T]].ravel()
         self.a = self.operator()
         self.keys = {(int(r[BODY_A]), int(r[BODY_B])): k for k, r in enumerate(self.c)}
+        self._largest = None
 
     def operator(self):
         """A = M^-1/2 H^T: column 2k the normal impulse of contact k, 2k + 1 its tangential one."""
@@ -108,13 +118,27 @@ class Sample:
         return p[:, np.abs(p).sum(0) > 0.0]
 
     def left_after(self, p):
-        """|e - P y| / |e| with y the Galerkin (W-orthogonal) projection's coefficients."""
-        ap = self.a @ p
-        y, *_ = np.linalg.lstsq(ap, self.a @ self.error, rcond=1e-12)
-        return np.linalg.norm(self.error - p @ y) / np.linalg.norm(self.error)
+        """"galerkin / span": |e - P y| / |e| with y the Galerkin (W-orthogonal) projection's
+        coefficients, and with y the orthogonal projection's."""
+        norm = np.linalg.norm(self.error)
+        # The Galerkin system restricted to the directions that W does not treat as its null
+        # space (singular values of A P below NULL_LEVEL^(1/2) of A's largest): a coarse solve
+        # cannot find e's components along self-stresses, nor divide by round-off.
+        u, sigma, vt = np.linalg.svd(self.a @ p, full_matrices=False)
+        keep = sigma > np.sqrt(NULL_LEVEL) * self.largest_singular_value()
+        y = vt[keep].T @ ((u[:, keep].T @ (self.a @ self.error)) / sigma[keep])
+        z, *_ = np.linalg.lstsq(p, self.error, rcond=1e-12)
+        return (f"{np.linalg.norm(self.error - p @ y) / norm:.3f} / "
+                f"{np.linalg.norm(self.error - p @ z) / norm:.3f}")
 
-    def eigenvectors(self):
-        return np.linalg.eigh((self.a.T @ self.a).toarray())[1]
+    def largest_singular_value(self):
+        if self._largest is None:
+            self._largest = sla.svds(self.a, k=1, return_singular_vectors=False)[0]
+        return self._largest
+
+    def eigen(self):
+        """W's eigenvalues (ascending) and eigenvectors."""
+        return np.linalg.eigh((self.a.T @ self.a).toarray())
 
 
 def main():
@@ -124,6 +148,8 @@ def main():
     parser.add_argument("--lowest", default="", help="eigenvector counts, comma-separated")
     parser.add_argument("--stale", action="store_true")
     args = parser.parse_args()
+    if args.stale and not args.lowest:
+        parser.error("--stale needs --lowest")
     cells = [float(v) for v in args.cells.split(",") if v]
     lowest = [int(v) for v in args.lowest.split(",") if v]
     stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
@@ -132,29 +158,31 @@ def main():
     for stem in stems:
         s = Sample(stem[: -len("_contacts.txt")])
         line = [f"{stem.split('/')[-1][:-len('_contacts.txt')]}: {len(s.c)} force-carrying, "
-                f"|e| / |R| {np.linalg.norm(s.error) / np.linalg.norm(s.reference):.2e}; left:"]
+                f"|e| / |R| {np.linalg.norm(s.error) / np.linalg.norm(s.reference):.2e}; "
+                f"left (galerkin / span):"]
         for cell in cells:
             for kind in ("stress", "scale"):
                 p = s.grid_space(cell, kind)
-                line.append(f"{kind} {cell:g} ({p.shape[1]}) {s.left_after(p):.3f}")
+                line.append(f"{kind} {cell:g} ({p.shape[1]}) {s.left_after(p)}")
         if lowest:
-            vectors = s.eigenvectors()
+            values, vectors = s.eigen()
+            null = vectors[:, values < NULL_LEVEL * values[-1]]
+            in_null = np.linalg.norm(null.T @ s.error) / np.linalg.norm(s.error)
+            line.append(f"null space ({null.shape[1]}) holds {in_null:.3f}")
             for k in lowest:
-                along = vectors[:, :k].T @ s.error
-                left = np.sqrt(max(0.0, 1.0 - along @ along / (s.error @ s.error)))
-                line.append(f"lowest {k} {left:.3f}")
+                line.append(f"lowest {k} {s.left_after(vectors[:, :k])}")
             if args.stale and first is None:
                 first = (s, vectors)
             elif args.stale:
                 s0, v0 = first
-                for k in lowest:
+                for k in (min(k, v0.shape[1]) for k in lowest):
                     p = np.zeros((len(s.error), k))
                     for key, j in s.keys.items():
                         if key in s0.keys:
                             i = s0.keys[key]
                             p[2 * j:2 * j + 2] = v0[2 * i:2 * i + 2, :k]
-                    line.append(f"first sample's lowest {k} {s.left_after(p):.3f}")
-        print(", ".join(line), flush=True)
+                    line.append(f"first sample's lowest {k} {s.left_after(p)}")
+        print(line[0] + " " + ", ".join(line[1:]), flush=True)
 
 
 if __name__ == "__main__":

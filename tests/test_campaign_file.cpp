@@ -5,6 +5,7 @@
 #include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -192,6 +193,28 @@ TEST(CampaignFile, DifferencesPairGroupsByContentNotByPlace) {
   EXPECT_EQ(diff[0], "campaign.group[0]: added (purpose \"transition, extended\")");
   EXPECT_EQ(diff[1], "campaign.group[1].velocities: [0.1, 0.2] -> [0.1]");
   EXPECT_EQ(diff[2], "campaign.group[2] of the folder's campaign: removed (purpose \"fast\")");
+  // a group without a purpose changed in place is named by its keys; floats stay floats
+  Campaign longer = c;
+  longer.groups[1].duration = 30.0;
+  const auto in_place = campaign_differences(resolved, campaign_to_toml(longer));
+  ASSERT_EQ(in_place.size(), 1u) << fmt::format("{}", fmt::join(in_place, "\n"));
+  EXPECT_EQ(in_place[0], "campaign.group[1].duration: 20.0 -> 30.0");
+}
+
+TEST(CampaignFile, SetValuesKeepTheirTypeWhenPassedToTheRuns) {
+  // [set] values reach each run as --set KEY=VALUE text: a whole-number float stays a float, so
+  // an integer key given one is refused as on the command line.
+  EXPECT_THROW(parse("[campaign]\nname = \"s\"\nsystems = [1]\nvelocities = [0.5]\n"
+                     "duration = 10\n[set]\nsolver.max_sweeps = 300.0\n"),
+               ConfigError);
+  const Campaign c = parse(
+      "[campaign]\nname = \"s\"\nsystems = [1]\nvelocities = [0.5]\nduration = 10\n"
+      "[set]\nstep.dt_max = 1.0\nsolver.alpha = 1e-07\n");
+  const std::vector<std::string> set = run_case_overrides(c, c.runs.at(0));
+  EXPECT_NE(std::find(set.begin(), set.end(), "step.dt_max=1.0"), set.end())
+      << fmt::format("{}", fmt::join(set, " "));
+  EXPECT_NE(std::find(set.begin(), set.end(), "solver.alpha=1e-07"), set.end())
+      << fmt::format("{}", fmt::join(set, " "));
 }
 
 TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {

@@ -31,10 +31,15 @@ const std::map<std::string, std::string> kOwnedKeys = {
     {"measure.boundary_thickness", "give [campaign] boundary_thickness"},
     {"preparation.packing", "give [campaign.packing] per system"}};
 
-/// A TOML value as the text of its right-hand side (`0.5`, `'random'`, `[5, 10]`); numbers in
-/// their shortest form that reads back to the same double (0.42, not 0.41999999999999998).
+/// A TOML value as the text of its right-hand side (`0.5`, `"random"`, `[5.0, 10.0]`), as TOML
+/// reads it back: a float in its shortest form that gives the same double (0.42, not
+/// 0.41999999999999998) and stays a float (`2.0`, not `2`: [set] values are passed on as --set).
 std::string value_text(const toml::node& node) {
-  if (const auto* x = node.as_floating_point()) return fmt::format("{}", x->get());
+  if (const auto* x = node.as_floating_point()) {
+    std::string text = fmt::format("{}", x->get());
+    if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // n: inf, nan
+    return text;
+  }
   if (const toml::array* array = node.as_array()) {
     std::vector<std::string> items;
     for (const toml::node& item : *array) items.push_back(value_text(item));
@@ -482,8 +487,8 @@ std::vector<FlatTable> flat_groups(const toml::table& resolved) {
 
 /// The groups' differences, named by the new campaign's group index. A group that is in both
 /// campaigns unchanged is no difference wherever it moved (a group inserted before it renumbers
-/// it); one whose purpose is in both is paired by it and its keys compared; the rest are added or
-/// removed groups.
+/// it); one whose purpose is in both is paired by it, and one without a purpose with the group at
+/// its place, and their keys compared; the rest are added or removed groups.
 void add_group_differences(const std::vector<FlatTable>& before,
                            const std::vector<FlatTable>& after, std::vector<std::string>& out) {
   std::vector<bool> used(before.size(), false);
@@ -504,6 +509,11 @@ void add_group_differences(const std::vector<FlatTable>& before,
         used[j] = true;
         pair[i] = j;
       }
+  for (std::size_t i = 0; i < after.size() && i < before.size(); ++i)
+    if (!pair[i] && !used[i] && (purpose(after[i]).empty() || purpose(before[i]).empty())) {
+      used[i] = true;  // a group without a purpose, changed in place
+      pair[i] = i;
+    }
   for (std::size_t i = 0; i < after.size(); ++i) {
     const std::string name = fmt::format("campaign.group[{}]", i);
     if (pair[i])
