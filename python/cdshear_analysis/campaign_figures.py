@@ -329,8 +329,9 @@ def bulk_by_h_figure(path, rows, boundary):
 def switch_time_figure(path, switch_predictions):
     """Regime C: switch time / V against L_y. Measured: the switch duration (plateau to plateau,
     the block from +-0.8 V to -+0.8 V: regime.SWITCH_FRACTION of T) / (SWITCH_FRACTION V),
-    comparable to the predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), and the mean
-    interval between switches / V."""
+    comparable to the predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), the mean interval
+    between switches / V, and for a run without a switch the time it was watched / V (open
+    triangles: the interval lies above)."""
     plt, fig, ax = _figure()
     xs = []
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -348,11 +349,18 @@ def switch_time_figure(path, switch_predictions):
                 xs += [p[0] for p in pts]
                 ax.plot(*zip(*pts), marker, color=c, mfc="none" if marker == "s" else c,
                         label=f"system {system}: {label}")
+        # A run without a switch bounds the interval from below: the time it was watched.
+        bounds = [(e["L_y"], e["observed_time"] / e["V"]) for e in sel
+                  if e.get("switch_count") == 0 and e.get("observed_time")]
+        if bounds:
+            xs += [p[0] for p in bounds]
+            ax.plot(*zip(*bounds), "^", color=c, mfc="none",
+                    label=f"system {system}: no switch in time / V (interval above)")
     if xs and max(xs) < 10 * min(xs):
         # T / V grows in proportion to L_y: both axes from 0 (on a linear L_y axis), so that the
         # runs of one height are not spread over the whole axis by their L_y's small scatter
         ax.set_xlim(0, 1.1 * max(xs))
-        ax.set_ylim(bottom=0)
+        ax.set_ylim(0, 1.35 * ax.get_ylim()[1])  # room for the legend above the points
     _finish(plt, fig, ax, path, "regime C: band switch time / V against L_y", "L_y [d]",
             "time / V [t^2 / d]", xs)
 
