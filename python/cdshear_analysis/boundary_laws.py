@@ -21,9 +21,16 @@ h and layer, fitting.combine), fits.json `boundary`:
     with `collapse`: per group the chi2/dof of the two fits; the variable with the smaller one
     collapses the thicknesses (model.md section 8 expects h I for B and C, I for A). Needs two h
     at least and both fits fitted (whatever their status: the one that does not collapse is "poor").
+    Beside them `mu_hI_BC_log`, mu_b = a + b ln(h I_b): the limit of mu_0 + A x^B as B -> 0 with
+    A B = b and mu_0 + A = a, the form the power law takes when its points fix only its slope in
+    ln x (the power law's three parameters then trade off without bound).
 
 The predictions take the laws whose parameters are determined (fitting.usable: status "ok" or
-"poor"); an "undetermined" or skipped law gives a `reason` instead.
+"poor"); an "undetermined" or skipped law gives a `reason` instead. The B/C law they take,
+`boundary.prediction_law` (`bc_prediction_law`): mu_hI_BC when determined; else its B -> 0 limit
+mu_hI_BC_log when that is determined and mu_hI_BC's exponent lies within two errors (err_scaled)
+of 0 or on the lower bound of its range, that is when the points cannot tell the power law from
+its limit; else none.
 
 Predictions, fits.json `predictions`:
   V_AB: in regime B the bulk is at rest, so each layer takes the whole jump dv = V and
@@ -63,6 +70,10 @@ LAYER_LAWS = {
 POOLED = {f"mu_{x}_{g}": (fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_boundary",
                                       "I_boundary" if x == "I" else "h * I_boundary"), x, g)
           for g in ("BC", "A") for x in ("I", "hI")}
+POOLED["mu_hI_BC_log"] = (fitting.law("log_plus", ["a", "b"], "mu_eff_boundary",
+                                      "h * I_boundary"), "hI", "BC")
+# How many errors from 0 the power law's exponent may lie for its B -> 0 limit to stand in for it
+LOG_LIMIT_ERRORS = 2.0
 
 
 def h_label(h):
@@ -178,7 +189,43 @@ def fit_boundary(rows, bulk_fits):
         collapse[g] = c
     all_h["collapse"] = collapse
     out["all_h"] = all_h
+    out["prediction_law"] = bc_prediction_law(all_h)
     return out
+
+
+def bc_prediction_law(all_h):
+    """fits.json `boundary.prediction_law`: {"name", "reason"} of the pooled B/C law in h I_b
+    that the predictions take (the module's doc); name None when none is determined."""
+    power, log = all_h.get("mu_hI_BC"), all_h.get("mu_hI_BC_log")
+    if fitting.usable(power):
+        return {"name": "mu_hI_BC", "reason": "its parameters are determined"}
+    why = f"mu_hI_BC is {(power or {}).get('status', 'missing')}"
+    if not fitting.fitted(power):
+        return {"name": None, "reason": why + f": {(power or {}).get('reason')}"}
+    b = power["parameters"]["B"]
+    # the exponent on the lower bound of its range (just above 0): the fit ran into the limit
+    on_bound = bool(np.isclose(b["value"], fitting.EXPONENT_BOUNDS[0][2]))
+    near_0 = b["err_scaled"] is not None and b["value"] <= LOG_LIMIT_ERRORS * b["err_scaled"]
+    if not (on_bound or near_0):
+        return {"name": None, "reason": why + f" ({power['reason']}) and its exponent B = "
+                f"{b['value']:.3g} is more than {LOG_LIMIT_ERRORS:g} errors from 0: its "
+                "B -> 0 limit does not stand in for it"}
+    if not fitting.usable(log):
+        return {"name": None, "reason": why + f"; its B -> 0 limit mu_hI_BC_log is "
+                f"{(log or {}).get('status', 'missing')}: {(log or {}).get('reason')}"}
+    where = ("on the lower bound of its range" if on_bound else
+             f"+- {b['err_scaled']:.3g}, within {LOG_LIMIT_ERRORS:g} errors of 0")
+    return {"name": "mu_hI_BC_log", "reason": (
+        f"{why} ({power['reason']}); its exponent B = {b['value']:.3g} lies {where}, so the "
+        "predictions take its B -> 0 limit, determined")}
+
+
+def _bc_law(boundary):
+    """(name, fit) of the B/C law the predictions take, or (None, mu_hI_BC) with the reason in
+    boundary["prediction_law"] (fits made before that key: mu_hI_BC)."""
+    choice = boundary.get("prediction_law") or {"name": "mu_hI_BC"}
+    name = choice["name"]
+    return name, boundary["all_h"][name or "mu_hI_BC"]
 
 
 def _interval(values):
@@ -189,9 +236,20 @@ def _interval(values):
     return [float(lo), float(hi)], float(mid), len(v) / MONTE_CARLO
 
 
-def _crossing(law, mu_0_fit, scale):
+def pooled_widening(boundary):
+    """The factor on the covariance of a law pooled over every h for the predictions' draws: the
+    number of thicknesses. A layer measured at K thicknesses gives K points of one shear stress
+    (the momentum balance makes it uniform: its mu_eff does not depend on h) and nearly one
+    h I_b, which the fit counts as K independent points, so its covariance is K times too small."""
+    return float(max(1, len(boundary.get("thicknesses") or [])))
+
+
+def _crossing(law, mu_0_fit, scale, unavailable=None, widen=1.0):
     """(estimate, 68% interval, fraction of draws with a crossing, reason) of
-    x* / scale with law(x*) = mu_0 of the bulk."""
+    x* / scale with law(x*) = mu_0 of the bulk. unavailable: the reason when no boundary law
+    is to be taken; widen: the factor on the law's covariance for its draws."""
+    if unavailable:
+        return None, None, None, unavailable
     for name, f in (("the boundary law", law), ("the bulk law mu_power", mu_0_fit)):
         if not fitting.usable(f):
             return None, None, None, (f"{name} is {(f or {}).get('status', 'missing')}: "
@@ -202,11 +260,17 @@ def _crossing(law, mu_0_fit, scale):
         return None, None, None, (f"the boundary law does not reach the bulk mu_0 = "
                                   f"{mu_0:.4g} at any positive x")
     rng = np.random.default_rng(SEED)
-    laws = fitting.parameter_samples(law, MONTE_CARLO, rng)
+    laws = fitting.parameter_samples(law, MONTE_CARLO, rng, widen)
     mu0s = fitting.parameter_samples(mu_0_fit, MONTE_CARLO, rng)[:, 0]
     xs = [fitting.solve_for_x(law, m, params=p) for p, m in zip(laws, mu0s)]
     interval, _, frac = _interval([v / scale if v is not None else None for v in xs])
     return x / scale, interval, frac, None
+
+
+def _outside(law, x):
+    """True when x lies outside the x span of the law's points (to rounding)."""
+    span = law.get("x_span")
+    return bool(span) and not span[0] * (1 - 1e-9) <= x <= span[1] * (1 + 1e-9)
 
 
 def predict_v_ab(rows, bulk_fits, boundary):
@@ -226,9 +290,14 @@ def predict_v_ab(rows, bulk_fits, boundary):
             continue
         scale = math.sqrt(INERTIAL_MASS / sigmas.pop())
         entry = {}
-        v, iv, frac, why = _crossing(boundary["all_h"]["mu_hI_BC"], mu_fit, scale)
+        name, law = _bc_law(boundary)
+        v, iv, frac, why = _crossing(law, mu_fit, scale, None if name else
+                                     "no B/C law in h I_b is determined: "
+                                     + boundary["prediction_law"]["reason"],
+                                     pooled_widening(boundary))
         entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
-                                "reason": why}
+                                "reason": why, "law": name,
+                                "extrapolated": _outside(law, v * scale) if v else None}
         for h in boundary["thicknesses"]:
             v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
@@ -276,26 +345,31 @@ def symmetric_state_stability(rows, boundary):
 def predict_delta_mu(row, boundary):
     """The friction difference between the walls of a regime-C run from the boundary law
     (fits.json predictions `switch_time_C`, `delta_mu_law`; docs/reports.md): per h of the
-    run, the pooled B/C law mu_hI_BC (mu_eff of the sheared layers against h I_b =
-    sqrt(m / sigma_yy) dv, every h) at each wall's measured velocity jump dv (`hK_bottom_
-    velocity_jump`, `hK_top_velocity_jump`, taken >= 0), delta_mu = |mu(bottom) - mu(top)|, with
-    the 68% interval of MONTE_CARLO draws of the law's parameters (clipped to the bounds of its
-    family) and of the two jumps (Gaussian, their errors). predicted_T is filled in by the
-    caller (transitions.switch_predictions)."""
-    law = boundary["all_h"]["mu_hI_BC"]
-    out = {"law": "mu_hI_BC: " + law["law"], "law_note": law.get("note"), "status": "ok",
-           "reason": None, "by_h": {}}
+    run, the pooled B/C law the predictions take (`prediction_law`: mu_hI_BC or its B -> 0
+    limit; mu_eff of the sheared layers against h I_b = sqrt(m / sigma_yy) dv, every h) at each
+    wall's measured velocity jump dv (`hK_bottom_velocity_jump`, `hK_top_velocity_jump`, taken
+    >= 0), delta_mu = |mu(bottom) - mu(top)|, with the 68% interval of MONTE_CARLO draws of the
+    law's parameters (clipped to the bounds of its family) and of the two jumps (Gaussian, their
+    errors); the logarithmic limit gives none where a layer's h I_b lies below its points (it
+    has no intercept). predicted_T is filled in by the caller (transitions.switch_predictions)."""
+    name, law = _bc_law(boundary)
+    out = {"law": f"{name or 'mu_hI_BC'}: " + law["law"], "law_name": name,
+           "law_note": law.get("note"), "status": "ok", "reason": None, "by_h": {}}
     sigma = row.get("_sigma_yy")
+    if name is None:
+        return dict(out, status="not available", reason="no B/C law in h I_b is determined: "
+                    + boundary["prediction_law"]["reason"])
     if not fitting.usable(law):
         return dict(out, status="not available",
-                    reason=f"the boundary law mu_hI_BC is {law['status']}: {law['reason']}")
+                    reason=f"the boundary law {name} is {law['status']}: {law['reason']}")
     if sigma is None or sigma <= 0:
         return dict(out, status="not available", reason="no positive sigma_yy (normal_stress)")
     scale = math.sqrt(INERTIAL_MASS / sigma)
     model = fitting.MODELS[law["model"]]
     lo_b, hi_b = (np.broadcast_to(b, (len(law["parameters"]),)) for b in model["bounds"])
     rng = np.random.default_rng(SEED)
-    params = np.clip(fitting.parameter_samples(law, MONTE_CARLO, rng), lo_b, hi_b)
+    params = np.clip(fitting.parameter_samples(law, MONTE_CARLO, rng, pooled_widening(boundary)),
+                     lo_b, hi_b)
     span = law.get("x_span")
     for h in row.get("_layers", []):
         label = h_label(h)
@@ -319,6 +393,13 @@ def predict_delta_mu(row, boundary):
             e["reason"] = f"no velocity jump of the {' and '.join(missing)} layer for h = {h:g}"
             continue
         x = {s: scale * max(0.0, v) for s, (v, _) in dv.items()}
+        below = [f"{s} h I_b = {x[s]:.3g}" for s in x if span and x[s] < span[0] * (1 - 1e-9)]
+        if law["model"] == "log_plus" and below:
+            # no intercept: the logarithm falls without bound below the points
+            e.update(hI_bottom=x["bottom"], hI_top=x["top"], extrapolated=True,
+                     reason=f"{', '.join(below)} below the law's points (from {span[0]:.3g}): "
+                     f"{name}, a logarithm, falls without bound there and gives no delta_mu")
+            continue
         mu = {s: float(fitting.curve(law, x[s])) for s in x}
         draws = {}
         with np.errstate(all="ignore"):

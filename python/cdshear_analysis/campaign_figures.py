@@ -290,6 +290,9 @@ def boundary_collapse_figure(path, rows, boundary, fits):
                         label=f"regime {g}, h = {h:g}")
     all_h = boundary["all_h"]
     _curve(ax, all_h["mu_hI_BC"], xs["BC"], "-", "B and C: " + all_h["mu_hI_BC"]["law"])
+    if (boundary.get("prediction_law") or {}).get("name") == "mu_hI_BC_log":
+        _curve(ax, all_h["mu_hI_BC_log"], xs["BC"], "-.",
+               "B and C, its B -> 0 limit: " + all_h["mu_hI_BC_log"]["law"])
     _curve(ax, all_h["mu_hI_A"], xs["A"], "--", "A: " + all_h["mu_hI_A"]["law"])
     _mu_0_line(ax, fits)
     _finish(plt, fig, ax, path, "boundary mu_eff against h * I_boundary (= sqrt(m/sigma) dv)",

@@ -61,6 +61,12 @@ def power_minus(x, y0, c, e):
     return y0 - c * np.power(x, e)
 
 
+def log_plus(x, y1, b):
+    """y1 + b ln x: the limit of y0 + A x^B as B -> 0 with A B = b and y0 + A = y1 (x^B = 1 + B
+    ln x + O(B^2)), the form a power law takes when its points fix only its slope in ln x."""
+    return y1 + b * np.log(x)
+
+
 def linear_plus(x, y0, a):
     return y0 + a * x
 
@@ -76,6 +82,13 @@ def p0_power(x, y, sign):
     spread = float(np.ptp(y)) or 0.1
     return [(y0 - sign * 0.1 * spread, spread / max(float(np.max(x)), 1e-12) ** e, e)
             for e in (0.5, 1.0, 2.0)]
+
+
+def p0_log(x, y):
+    """(value at x = 1, slope in ln x) of the straight line through (ln x, y)."""
+    lx = np.log(x)
+    slope, icpt = np.polyfit(lx, y, 1) if len(np.unique(x)) > 1 else (0.0, float(np.mean(y)))
+    return [(float(icpt), float(slope))]
 
 
 def p0_linear(x, y, sign):
@@ -106,6 +119,8 @@ MODELS = {
                        p0=lambda x, y: p0_power(x, y, +1), bounds=EXPONENT_BOUNDS),
     "power_minus": dict(formula="Y = {0} - {1} * X^{2}", model=power_minus,
                         p0=lambda x, y: p0_power(x, y, -1), bounds=EXPONENT_BOUNDS),
+    "log_plus": dict(formula="Y = {0} + {1} * ln X", model=log_plus, p0=p0_log,
+                     bounds=(-np.inf, np.inf)),
     "linear_plus": dict(formula="Y = {0} + {1} * X", model=linear_plus,
                         p0=lambda x, y: p0_linear(x, y, +1), bounds=(-np.inf, np.inf)),
     "linear_minus": dict(formula="Y = {0} - {1} * X", model=linear_minus,
@@ -402,18 +417,21 @@ def slope(result, x):
     """d y / d x of a fit at x (power or linear family)."""
     p = [v["value"] for v in result["parameters"].values()]
     sign = -1.0 if result["model"].endswith("minus") else 1.0
+    if result["model"] == "log_plus":
+        return p[1] / x
     if result["model"].startswith("power"):
         return sign * p[1] * p[2] * x ** (p[2] - 1)
     return sign * p[1]
 
 
-def parameter_samples(result, count, rng):
+def parameter_samples(result, count, rng, widen=1.0):
     """count parameter vectors drawn from the fit's Gaussian (value, covariance), for
     propagating its uncertainty into a derived quantity; shape (count, k). The covariance of a
     "poor" fit is multiplied by chi2/dof (its error bars are too small for its scatter: the
-    err_scaled of each parameter)."""
+    err_scaled of each parameter), and by widen (> 1 where the fit counted as independent
+    points that are not)."""
     mean = np.array([v["value"] for v in result["parameters"].values()])
-    cov = np.array(result["covariance"], float)
+    cov = np.array(result["covariance"], float) * widen
     if result.get("status") == "poor" and (result.get("chi2_dof") or 0) > 1:
         cov = cov * result["chi2_dof"]
     return rng.multivariate_normal(mean, cov, size=count, check_valid="ignore")
@@ -427,7 +445,9 @@ def solve_for_x(result, target, params=None):
     sign = -1.0 if result["model"].endswith("minus") else 1.0
     if amp == 0:
         return None
-    u = sign * (target - y0) / amp   # = X^exponent (power) or X (linear)
+    u = sign * (target - y0) / amp   # = X^exponent (power), ln X (log) or X (linear)
+    if result["model"] == "log_plus":
+        return float(math.exp(u)) if u < 700 else None
     if u <= 0:
         return None
     if result["model"].startswith("power"):

@@ -532,7 +532,10 @@ def _interval_text(e):
     if e["V_AB"] is None:
         return f"<small>{html.escape(e['reason'] or '')}</small>"
     iv = e["interval"]
-    return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "")
+    notes = ([f"law {e['law']}"] if e.get("law") else []) + \
+        (["extrapolated beyond the law's points"] if e.get("extrapolated") else [])
+    return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "") + \
+        (f" <small>({html.escape('; '.join(notes))})</small>" if notes else "")
 
 
 def _html_v_ab(v_ab):
@@ -727,6 +730,11 @@ def _html_boundary(boundary):
     all_h = boundary["all_h"]
     out.append("<h3>mu_eff against I_boundary and against h I_boundary, every h together</h3>")
     out += _fit_table([(k, v) for k, v in all_h.items() if k != "collapse"])
+    choice = boundary.get("prediction_law")
+    if choice:
+        out.append(f"<p>The B/C law the predictions take: "
+                   f"<b>{html.escape(choice['name'] or 'none')}</b> "
+                   f"({html.escape(choice['reason'] or '')}).</p>")
     out.append("<ul>")
     for g, c in all_h["collapse"].items():
         verdict = (f"collapses in {html.escape(c['collapses_in'])}" if c["collapses_in"]
@@ -932,6 +940,10 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
     for name, f in items[len(fits):]:
         if f["status"] in ("poor", "undetermined"):
             lines.append(f"fit {name}: {fitting.status_text(f)}")
+    choice = (boundary or {}).get("prediction_law")
+    if choice:
+        lines.append(f"B/C law for the predictions: {choice['name'] or 'none'} "
+                     f"({choice['reason']})")
     counts = status_counts(items)
     lines.append("fits: " + ", ".join(f"{n} {st}" for st, n in counts.items())
                  + " (fits.json, index.html)")

@@ -213,8 +213,10 @@ def switch_predictions(rows, boundary=None):
             T = best["predicted_T"]
             e.update(delta_mu=best["delta_mu"], predicted_T=T,
                      predicted_T_levels=T * SWITCH_FRACTION,
-                     delta_mu_source=f"the boundary law mu_hI_BC at the layers' velocity "
-                                     f"jumps, h = {best['h']:g} (delta_mu_law)")
+                     delta_mu_source=f"the boundary law "
+                                     f"{e['delta_mu_law'].get('law_name') or 'mu_hI_BC'} at "
+                                     f"the layers' velocity jumps, h = {best['h']:g} "
+                                     "(delta_mu_law)")
         elif missing:
             e["reason"] = "not computed: missing " + ", ".join(missing)
         else:

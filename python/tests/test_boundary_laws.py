@@ -154,11 +154,82 @@ class BoundaryLawTest(unittest.TestCase):
             self.assertLess(lo - 0.5 * (hi - lo), truth)
             self.assertGreater(hi + 0.5 * (hi - lo), truth)
             self.assertGreater(e["draws_crossing"], 0.9)
+        # the power law is determined: the predictions take it, not its B -> 0 limit
+        self.assertEqual(self.boundary["prediction_law"]["name"], "mu_hI_BC")
+        self.assertEqual(p["systems"]["1"]["from_hI_law"]["law"], "mu_hI_BC")
         # by hand from the fitted parameters
         law = self.boundary["all_h"]["mu_hI_BC"]["parameters"]
         mu_0 = self.fits["mu_power"]["parameters"]["mu_0"]["value"]
         x = ((mu_0 - law["mu_0"]["value"]) / law["A"]["value"]) ** (1 / law["B"]["value"])
         self.assertAlmostEqual(p["systems"]["1"]["from_hI_law"]["V_AB"], x / SCALE)
+
+    def test_v_ab_from_the_log_limit_when_the_power_law_cannot_tell(self):
+        # B and C layers on mu = 0.33 + 0.03 ln(h I): the power law's exponent runs to 0 and its
+        # three parameters trade off; its limit a + b ln(h I) is determined and crosses the
+        # bulk mu_0 = 0.3 at h I_b* = exp(-1), inside the points (h I_b 0.018 to 0.53)
+        rows = campaign_rows(seed=7)
+        rng = np.random.default_rng(8)
+        for r in rows:
+            if r["regime"] in ("B", "C"):
+                for h in r["_layers"]:
+                    for side in ("bottom", "top"):
+                        c = f"{bl.h_label(h)}_{side}_"
+                        if r["regime"] == "C" and side == "top":
+                            continue   # the resting layer
+                        x = h * r[c + "I"]
+                        r[c + "mu_eff"] = 0.33 + 0.03 * math.log(x) + 0.004 * rng.standard_normal()
+        fits = report.fit_laws(rows)
+        boundary = bl.fit_boundary(rows, report.FITS)
+        power, log = boundary["all_h"]["mu_hI_BC"], boundary["all_h"]["mu_hI_BC_log"]
+        self.assertEqual(power["status"], "undetermined", power["reason"])
+        within(self, log, {"a": 0.33, "b": 0.03})
+        self.assertEqual(boundary["prediction_law"]["name"], "mu_hI_BC_log")
+        self.assertIn("B -> 0 limit", boundary["prediction_law"]["reason"])
+        truth = math.exp(-1.0) / SCALE
+        p = predictions(rows, fits, boundary)["V_AB"]
+        for system in ("1", "2"):
+            e = p["systems"][system]["from_hI_law"]
+            self.assertEqual(e["law"], "mu_hI_BC_log")
+            self.assertFalse(e["extrapolated"])
+            lo, hi = e["interval"]
+            self.assertTrue(lo < e["V_AB"] < hi)
+            self.assertLess(lo - 0.5 * (hi - lo), truth)
+            self.assertGreater(hi + 0.5 * (hi - lo), truth)
+        # by hand: a + b ln x* = mu_0
+        par = log["parameters"]
+        mu_0 = fits["mu_power"]["parameters"]["mu_0"]["value"]
+        x = math.exp((mu_0 - par["a"]["value"]) / par["b"]["value"])
+        self.assertAlmostEqual(p["systems"]["1"]["from_hI_law"]["V_AB"], x / SCALE)
+        # a C run's resting layer lies below the points, where the logarithm has no floor: no
+        # delta_mu, and the reason says so
+        c_run = next(r for r in rows if r["regime"] == "C")
+        d = bl.predict_delta_mu(c_run, boundary)
+        self.assertEqual(d["law_name"], "mu_hI_BC_log")
+        for e in d["by_h"].values():
+            self.assertIsNone(e["delta_mu"])
+            self.assertIn("falls without bound", e["reason"])
+        # a power law whose exponent is far from 0 but undetermined otherwise: no stand-in
+        power = dict(power, parameters=dict(power["parameters"],
+                                            B={"value": 0.5, "err": 0.01, "err_scaled": 0.01}))
+        choice = bl.bc_prediction_law(dict(boundary["all_h"], mu_hI_BC=power))
+        self.assertIsNone(choice["name"])
+        self.assertIn("more than 2 errors from 0", choice["reason"])
+
+    def test_v_ab_interval_counts_a_layer_once_whatever_its_thicknesses(self):
+        # the same layers measured at three h are three points of one stress: the draws' spread
+        # is widened by the number of thicknesses (the interval by about its square root)
+        self.assertEqual(bl.pooled_widening(self.boundary), 3.0)
+        # the bulk's mu_0 without uncertainty, so that the boundary law's alone shows
+        fits = dict(self.fits)
+        fits["mu_power"] = dict(fits["mu_power"], covariance=(
+            1e-12 * np.array(fits["mu_power"]["covariance"])).tolist())
+        wide = bl.predict_v_ab(self.rows, fits, self.boundary)["systems"]["1"]["from_hI_law"]
+        narrow = bl.predict_v_ab(self.rows, fits, dict(self.boundary, thicknesses=[3.0]))
+        narrow = narrow["systems"]["1"]["from_hI_law"]
+        self.assertAlmostEqual(wide["V_AB"], narrow["V_AB"])
+        ratio = (wide["interval"][1] - wide["interval"][0]) / \
+            (narrow["interval"][1] - narrow["interval"][0])
+        self.assertAlmostEqual(ratio, math.sqrt(3.0), delta=0.15)
 
     def test_v_ab_not_reached_says_why(self):
         fits = dict(self.fits)
@@ -208,7 +279,8 @@ class BoundaryLawTest(unittest.TestCase):
     def test_solve_for_x_inverts_the_laws(self):
         for model, params, x in (("power_plus", [0.2, 0.4, 0.5], 0.3),
                                  ("power_minus", [3.0, 2.0, 0.7], 0.1),
-                                 ("linear_minus", [0.8, 0.3], 0.2)):
+                                 ("linear_minus", [0.8, 0.3], 0.2),
+                                 ("log_plus", [0.24, 0.046], 0.8)):
             fit = {"status": "ok", "model": model,
                    "parameters": {f"p{i}": {"value": v} for i, v in enumerate(params)}}
             y = float(fitting.curve(fit, x))
