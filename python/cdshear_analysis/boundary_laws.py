@@ -23,31 +23,34 @@ h and layer, fitting.combine), fits.json `boundary`:
     at least and both fits fitted (whatever their status: the one that does not collapse is "poor").
     Beside them `mu_hI_BC_log`, mu_b = a + b ln(h I_b): the limit of mu_0 + A x^B as B -> 0 with
     A B = b and mu_0 + A = a, the form the power law takes when its points fix only its slope in
-    ln x (the power law's three parameters then trade off without bound).
+    ln x (the power law's three parameters then trade off without bound). Each pooled law also
+    has `independent_points`: its (system, V), one shear stress each (`widening`).
 
 The predictions take the laws whose parameters are determined (fitting.usable: status "ok" or
-"poor"); an "undetermined" or skipped law gives a `reason` instead. The B/C law they take,
+"poor"); an "undetermined" or skipped law gives a `reason` instead. A pooled law's covariance and
+chi2 count a run's points (both walls, every h: one stress) as independent; the predictions widen
+them by n_points / independent_points (`widening`). The B/C law they take,
 `boundary.prediction_law` (`bc_prediction_law`): mu_hI_BC when determined; else its B -> 0 limit
-mu_hI_BC_log when that is determined and mu_hI_BC's exponent lies within two errors (err_scaled)
-of 0 or on the lower bound of its range, that is when the points cannot tell the power law from
-its limit; else none.
+mu_hI_BC_log when mu_hI_BC's exponent lies within two widened errors of 0 or on the lower bound of
+its range, the limit's parameters are determined with widened errors and its widened chi2 exceeds
+the power law's by at most 4 (the points cannot tell the power law from its limit); else none.
 
 Predictions, fits.json `predictions`:
   V_AB: in regime B the bulk is at rest, so each layer takes the whole jump dv = V and
     h I_b = sqrt(m / sigma_yy) V. The bulk starts to flow when the boundary friction reaches
-    the bulk's critical friction mu_0 (mu_power of the bulk): h I_b* solves mu_hI_BC(h I_b*) =
-    mu_0, and V_AB = h I_b* / sqrt(m / sigma_yy) per system (its sigma_yy). The same from each
-    h's own law mu_power(I_b*) = mu_0: V_AB = h I_b* / sqrt(m / sigma_yy). Uncertainties: 68%
-    interval of MONTE_CARLO draws of the parameters from their covariances (bulk and boundary
-    fits taken as independent), with a fixed seed.
+    the bulk's critical friction mu_0 (mu_power of the bulk): h I_b* solves law(h I_b*) = mu_0
+    with the law of `prediction_law`, and V_AB = h I_b* / sqrt(m / sigma_yy) per system (its
+    sigma_yy). The same from each h's own law mu_power(I_b*) = mu_0: V_AB = h I_b* /
+    sqrt(m / sigma_yy). Uncertainties: 68% interval of MONTE_CARLO draws of the parameters from
+    their covariances (bulk and boundary fits taken as independent), with a fixed seed.
   symmetric_state_stability: the symmetric state (B) is unstable when the boundary friction
     decreases with the velocity jump. Per system and h, between consecutive velocities with B
     or C runs, the slope d mu_b / d (h I_b) of the sheared layers' points (mean of the two walls
     for B) with its error; "decreasing" when slope + 2 err < 0, "increasing" when slope - 2 err
     > 0, else "undetermined"; beside it the regimes observed at the two velocities.
   switch_time_C, `delta_mu_law` of each regime-C run (predict_delta_mu): the friction
-    difference between the walls that the pooled B/C law mu_hI_BC gives at the two walls'
-    measured velocity jumps (h I_b = sqrt(m / sigma_yy) dv), per h, beside the delta_mu
+    difference between the walls that the pooled B/C law of `prediction_law` gives at the two
+    walls' measured velocity jumps (h I_b = sqrt(m / sigma_yy) dv), per h, beside the delta_mu
     measured over the switches.
 """
 import math
@@ -72,8 +75,10 @@ POOLED = {f"mu_{x}_{g}": (fitting.law("power_plus", ["mu_0", "A", "B"], "mu_eff_
           for g in ("BC", "A") for x in ("I", "hI")}
 POOLED["mu_hI_BC_log"] = (fitting.law("log_plus", ["a", "b"], "mu_eff_boundary",
                                       "h * I_boundary"), "hI", "BC")
-# How many errors from 0 the power law's exponent may lie for its B -> 0 limit to stand in for it
+# How many errors from 0 the power law's exponent may lie for its B -> 0 limit to stand in for
+# it, and how much larger the limit's chi2 may be (one parameter fewer: about two errors)
 LOG_LIMIT_ERRORS = 2.0
+LOG_LIMIT_CHI2 = 4.0
 
 
 def h_label(h):
@@ -174,6 +179,9 @@ def fit_boundary(rows, bulk_fits):
     all_h = {}
     for name, (spec, x, g) in POOLED.items():
         all_h[name] = fitting.fit(spec, _points(groups[g], x, "mu"))
+        # one stress per (system, V): its walls' and thicknesses' points share it
+        all_h[name]["independent_points"] = len({fitting.group_key(p) or p["run"]
+                                                 for p in groups[g]})
     collapse = {}
     for g in groups:
         fi, fh = all_h[f"mu_I_{g}"], all_h[f"mu_hI_{g}"]
@@ -195,29 +203,48 @@ def fit_boundary(rows, bulk_fits):
 
 def bc_prediction_law(all_h):
     """fits.json `boundary.prediction_law`: {"name", "reason"} of the pooled B/C law in h I_b
-    that the predictions take (the module's doc); name None when none is determined."""
+    that the predictions take (the module's doc); name None when none is determined. The
+    errors and chi2 of both fits are read widened (`widening`)."""
     power, log = all_h.get("mu_hI_BC"), all_h.get("mu_hI_BC_log")
     if fitting.usable(power):
         return {"name": "mu_hI_BC", "reason": "its parameters are determined"}
     why = f"mu_hI_BC is {(power or {}).get('status', 'missing')}"
     if not fitting.fitted(power):
         return {"name": None, "reason": why + f": {(power or {}).get('reason')}"}
+    why += f" ({power['reason']})"
+    w = widening(power)
     b = power["parameters"]["B"]
     # the exponent on the lower bound of its range (just above 0): the fit ran into the limit
     on_bound = bool(np.isclose(b["value"], fitting.EXPONENT_BOUNDS[0][2]))
-    near_0 = b["err_scaled"] is not None and b["value"] <= LOG_LIMIT_ERRORS * b["err_scaled"]
-    if not (on_bound or near_0):
-        return {"name": None, "reason": why + f" ({power['reason']}) and its exponent B = "
-                f"{b['value']:.3g} is more than {LOG_LIMIT_ERRORS:g} errors from 0: its "
-                "B -> 0 limit does not stand in for it"}
+    err_b = b["err_scaled"] * math.sqrt(w) if b["err_scaled"] is not None else None
+    if not on_bound and err_b is None:
+        return {"name": None, "reason": why + f"; its exponent B = {b['value']:.3g} has no "
+                "error: whether it is near 0 is not known"}
+    if not on_bound and b["value"] > LOG_LIMIT_ERRORS * err_b:
+        return {"name": None, "reason": why + f"; its exponent B = {b['value']:.3g} +- "
+                f"{err_b:.3g} is more than {LOG_LIMIT_ERRORS:g} errors from 0: its B -> 0 "
+                "limit does not stand in for it"}
     if not fitting.usable(log):
         return {"name": None, "reason": why + f"; its B -> 0 limit mu_hI_BC_log is "
                 f"{(log or {}).get('status', 'missing')}: {(log or {}).get('reason')}"}
-    where = ("on the lower bound of its range" if on_bound else
-             f"+- {b['err_scaled']:.3g}, within {LOG_LIMIT_ERRORS:g} errors of 0")
+    wl = widening(log)
+    loose = [f"{n} = {v['value']:.3g} +- {v['err_scaled'] * math.sqrt(wl):.3g}"
+             for n, v in log["parameters"].items()
+             if v["err_scaled"] * math.sqrt(wl) > abs(v["value"])]
+    if loose:
+        return {"name": None, "reason": why + "; its B -> 0 limit mu_hI_BC_log is not "
+                f"determined once its points are counted once per run: {', '.join(loose)}"}
+    worse = (log["chi2"] - power["chi2"]) / w
+    if worse > LOG_LIMIT_CHI2:
+        return {"name": None, "reason": why + f"; its B -> 0 limit mu_hI_BC_log fits worse "
+                f"(chi2 {worse:.3g} higher, counted once per run, above {LOG_LIMIT_CHI2:g}): "
+                "the points tell the power law from its limit"}
+    where = ("lies on the lower bound of its range" if on_bound else
+             f"+- {err_b:.3g} lies within {LOG_LIMIT_ERRORS:g} errors of 0")
     return {"name": "mu_hI_BC_log", "reason": (
-        f"{why} ({power['reason']}); its exponent B = {b['value']:.3g} lies {where}, so the "
-        "predictions take its B -> 0 limit, determined")}
+        f"{why}; its exponent B = {b['value']:.3g} {where} and its B -> 0 limit fits as "
+        f"well (chi2 {worse:+.3g}, counted once per run) with its parameters determined, so "
+        "the predictions take the limit")}
 
 
 def _bc_law(boundary):
@@ -236,12 +263,14 @@ def _interval(values):
     return [float(lo), float(hi)], float(mid), len(v) / MONTE_CARLO
 
 
-def pooled_widening(boundary):
-    """The factor on the covariance of a law pooled over every h for the predictions' draws: the
-    number of thicknesses. A layer measured at K thicknesses gives K points of one shear stress
-    (the momentum balance makes it uniform: its mu_eff does not depend on h) and nearly one
-    h I_b, which the fit counts as K independent points, so its covariance is K times too small."""
-    return float(max(1, len(boundary.get("thicknesses") or [])))
+def widening(law):
+    """The factor on a pooled law's covariance (and chi2) for the predictions: its points over
+    its independent ones, `n_points` / `independent_points` (1 where not given). A run's layers
+    (both walls, every h) share one shear stress (the momentum balance makes it uniform: a
+    layer's mu_eff depends neither on h nor on the wall) at nearly one h I_b per wall, which the
+    fit counts as that many independent points, so its covariance is that many times too small."""
+    n, k = law.get("n_points"), law.get("independent_points")
+    return max(1.0, n / k) if n and k else 1.0
 
 
 def _crossing(law, mu_0_fit, scale, unavailable=None, widen=1.0):
@@ -294,10 +323,11 @@ def predict_v_ab(rows, bulk_fits, boundary):
         v, iv, frac, why = _crossing(law, mu_fit, scale, None if name else
                                      "no B/C law in h I_b is determined: "
                                      + boundary["prediction_law"]["reason"],
-                                     pooled_widening(boundary))
+                                     widening(law))
         entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
                                 "reason": why, "law": name,
-                                "extrapolated": _outside(law, v * scale) if v else None}
+                                "extrapolated": _outside(law, v * scale) if v is not None
+                                else None}
         for h in boundary["thicknesses"]:
             v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
@@ -368,8 +398,7 @@ def predict_delta_mu(row, boundary):
     model = fitting.MODELS[law["model"]]
     lo_b, hi_b = (np.broadcast_to(b, (len(law["parameters"]),)) for b in model["bounds"])
     rng = np.random.default_rng(SEED)
-    params = np.clip(fitting.parameter_samples(law, MONTE_CARLO, rng, pooled_widening(boundary)),
-                     lo_b, hi_b)
+    params = np.clip(fitting.parameter_samples(law, MONTE_CARLO, rng, widening(law)), lo_b, hi_b)
     span = law.get("x_span")
     for h in row.get("_layers", []):
         label = h_label(h)
@@ -401,18 +430,25 @@ def predict_delta_mu(row, boundary):
                      f"{name}, a logarithm, falls without bound there and gives no delta_mu")
             continue
         mu = {s: float(fitting.curve(law, x[s])) for s in x}
-        draws = {}
+        draws, drawn_below = {}, np.zeros(MONTE_CARLO, bool)
         with np.errstate(all="ignore"):
             for s, (v, err) in dv.items():
                 sd = fitting.finite(err)   # no usable error (None, NaN, < 0): the jump itself
                 sd = sd if sd is not None and sd > 0 else 0.0
                 xs = scale * np.maximum(0.0, rng.normal(v, sd, MONTE_CARLO))
                 draws[s] = model["model"](xs, *params.T)
+                if span:
+                    drawn_below |= xs < span[0]
             interval, _, _ = _interval(np.abs(draws["bottom"] - draws["top"]))
         delta = abs(mu["bottom"] - mu["top"])
         e.update(hI_bottom=x["bottom"], hI_top=x["top"], mu_bottom=mu["bottom"],
                  mu_top=mu["top"], delta_mu=delta, interval=interval)
-        if law.get("note"):
+        if law["model"] == "log_plus" and drawn_below.mean() > 0.02:
+            # those draws' delta_mu has no bound: the interval would be cut on its large side
+            e.update(interval=None, interval_note=(
+                f"no interval: {drawn_below.mean():.0%} of the jumps' draws fall below the "
+                "law's points, where the logarithm falls without bound"))
+        elif law.get("note"):
             # a parameter at its bound: the Gaussian of the covariance is no description of
             # the law's uncertainty (its draws give nonsense)
             e.update(interval=None, interval_note="no interval: the law has a parameter at the "

@@ -532,7 +532,7 @@ def _interval_text(e):
     if e["V_AB"] is None:
         return f"<small>{html.escape(e['reason'] or '')}</small>"
     iv = e["interval"]
-    notes = ([f"law {e['law']}"] if e.get("law") else []) + \
+    notes = ([f"law {e['law']}"] if e.get("law") not in (None, "mu_hI_BC") else []) + \
         (["extrapolated beyond the law's points"] if e.get("extrapolated") else [])
     return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "") + \
         (f" <small>({html.escape('; '.join(notes))})</small>" if notes else "")

@@ -220,9 +220,11 @@ def switch_predictions(rows, boundary=None):
         elif missing:
             e["reason"] = "not computed: missing " + ", ".join(missing)
         else:
+            first = next((v["reason"] for v in e["delta_mu_law"]["by_h"].values()
+                          if v.get("reason")), None)
             e["reason"] = ("not computed: no delta_mu from the boundary law ("
-                           + (e["delta_mu_law"].get("reason") or "no h gives a switch time")
-                           + ")")
+                           + (e["delta_mu_law"].get("reason") or first
+                              or "no h gives a switch time") + ")")
         out.append(e)
     return out
 

@@ -71,6 +71,25 @@ def within(test, fit, truth, sigmas=2.5):
                              f"{p}: {got['value']} ± {got['err']}, truth {value}")
 
 
+def log_campaign():
+    """(rows, bulk fits, boundary) of campaign_rows with the B and C layers on mu = 0.33 + 0.03
+    ln(h I): the power law's exponent runs to 0 and its three parameters trade off; its limit a +
+    b ln(h I) crosses the bulk mu_0 = 0.3 at h I_b* = exp(-1), inside the points."""
+    rows = campaign_rows(seed=7)
+    rng = np.random.default_rng(8)
+    for r in rows:
+        if r["regime"] not in ("B", "C"):
+            continue
+        for h in r["_layers"]:
+            for side in ("bottom", "top"):
+                if r["regime"] == "C" and side == "top":
+                    continue   # the resting layer
+                c = f"{bl.h_label(h)}_{side}_"
+                r[c + "mu_eff"] = 0.33 + 0.03 * math.log(h * r[c + "I"]) \
+                    + 0.004 * rng.standard_normal()
+    return rows, report.fit_laws(rows), bl.fit_boundary(rows, report.FITS)
+
+
 class BoundaryLawTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -164,22 +183,7 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertAlmostEqual(p["systems"]["1"]["from_hI_law"]["V_AB"], x / SCALE)
 
     def test_v_ab_from_the_log_limit_when_the_power_law_cannot_tell(self):
-        # B and C layers on mu = 0.33 + 0.03 ln(h I): the power law's exponent runs to 0 and its
-        # three parameters trade off; its limit a + b ln(h I) is determined and crosses the
-        # bulk mu_0 = 0.3 at h I_b* = exp(-1), inside the points (h I_b 0.018 to 0.53)
-        rows = campaign_rows(seed=7)
-        rng = np.random.default_rng(8)
-        for r in rows:
-            if r["regime"] in ("B", "C"):
-                for h in r["_layers"]:
-                    for side in ("bottom", "top"):
-                        c = f"{bl.h_label(h)}_{side}_"
-                        if r["regime"] == "C" and side == "top":
-                            continue   # the resting layer
-                        x = h * r[c + "I"]
-                        r[c + "mu_eff"] = 0.33 + 0.03 * math.log(x) + 0.004 * rng.standard_normal()
-        fits = report.fit_laws(rows)
-        boundary = bl.fit_boundary(rows, report.FITS)
+        rows, fits, boundary = log_campaign()
         power, log = boundary["all_h"]["mu_hI_BC"], boundary["all_h"]["mu_hI_BC_log"]
         self.assertEqual(power["status"], "undetermined", power["reason"])
         within(self, log, {"a": 0.33, "b": 0.03})
@@ -200,36 +204,115 @@ class BoundaryLawTest(unittest.TestCase):
         mu_0 = fits["mu_power"]["parameters"]["mu_0"]["value"]
         x = math.exp((mu_0 - par["a"]["value"]) / par["b"]["value"])
         self.assertAlmostEqual(p["systems"]["1"]["from_hI_law"]["V_AB"], x / SCALE)
+        # a bulk mu_0 far above the points: the crossing is extrapolated, and said so
+        high = dict(fits, mu_power=dict(fits["mu_power"], parameters=dict(
+            fits["mu_power"]["parameters"], mu_0={"value": 0.40, "err": 0.001})))
+        e = bl.predict_v_ab(rows, high, boundary)["systems"]["1"]["from_hI_law"]
+        self.assertAlmostEqual(e["V_AB"] * SCALE,
+                               math.exp((0.40 - par["a"]["value"]) / par["b"]["value"]))
+        self.assertTrue(e["extrapolated"])
+        self.assertIn("extrapolated", report._interval_text(e))
         # a C run's resting layer lies below the points, where the logarithm has no floor: no
-        # delta_mu, and the reason says so
+        # delta_mu, and the switch prediction says why
         c_run = next(r for r in rows if r["regime"] == "C")
         d = bl.predict_delta_mu(c_run, boundary)
         self.assertEqual(d["law_name"], "mu_hI_BC_log")
         for e in d["by_h"].values():
             self.assertIsNone(e["delta_mu"])
             self.assertIn("falls without bound", e["reason"])
-        # a power law whose exponent is far from 0 but undetermined otherwise: no stand-in
-        power = dict(power, parameters=dict(power["parameters"],
-                                            B={"value": 0.5, "err": 0.01, "err_scaled": 0.01}))
-        choice = bl.bc_prediction_law(dict(boundary["all_h"], mu_hI_BC=power))
-        self.assertIsNone(choice["name"])
-        self.assertIn("more than 2 errors from 0", choice["reason"])
+        c_run["L_y"] = 20.0
+        c = [e for e in predictions(rows, fits, boundary)["switch_time_C"]
+             if e["run"] == c_run["run"]][0]
+        self.assertIn("falls without bound", c["reason"])
 
-    def test_v_ab_interval_counts_a_layer_once_whatever_its_thicknesses(self):
-        # the same layers measured at three h are three points of one stress: the draws' spread
-        # is widened by the number of thicknesses (the interval by about its square root)
-        self.assertEqual(bl.pooled_widening(self.boundary), 3.0)
+    def test_the_log_limit_stands_in_only_where_the_points_cannot_tell(self):
+        _, _, boundary = log_campaign()
+        all_h = boundary["all_h"]
+        power = all_h["mu_hI_BC"]
+
+        def choose(B=None, log=None):
+            p = dict(power, parameters=dict(power["parameters"], B=B)) if B else power
+            return bl.bc_prediction_law(dict(all_h, mu_hI_BC=p, mu_hI_BC_log=log or
+                                             all_h["mu_hI_BC_log"]))
+        # an exponent near 0 off its bound stands in; one far from it does not
+        self.assertEqual(choose({"value": 0.05, "err": 0.04, "err_scaled": 0.04})["name"],
+                         "mu_hI_BC_log")
+        far = choose({"value": 0.5, "err": 0.01, "err_scaled": 0.01})
+        self.assertIsNone(far["name"])
+        self.assertIn("more than 2 errors from 0", far["reason"])
+        # on the lower bound of its range, whatever its error: the fit ran into the limit
+        self.assertEqual(choose({"value": 1e-3, "err": 1e-6, "err_scaled": 1e-6})["name"],
+                         "mu_hI_BC_log")
+        # near 0 only once the errors are counted once per run: n_points / independent_points
+        w = bl.widening(power)
+        self.assertGreater(w, 1.5)
+        err = 0.05 / 2 / math.sqrt(w) * 1.2    # 2 errors: 0.05 * 1.2 widened, 0.05 / 1.7 not
+        self.assertEqual(choose({"value": 0.05, "err": err, "err_scaled": err})["name"],
+                         "mu_hI_BC_log")
+        # an exponent without an error
+        none = choose({"value": 0.05, "err": None, "err_scaled": None})
+        self.assertIsNone(none["name"])
+        self.assertIn("has no error", none["reason"])
+        # a limit that fits far worse than the power law: the points tell them apart
+        worse = dict(all_h["mu_hI_BC_log"], chi2=power["chi2"] + 5 * w)
+        self.assertIn("fits worse", choose(log=worse)["reason"])
+        self.assertIsNone(choose(log=worse)["name"])
+        # a limit determined only when its points are counted as independent
+        a = dict(all_h["mu_hI_BC_log"]["parameters"]["a"])
+        a["err_scaled"] = abs(a["value"]) / math.sqrt(w) * 1.5
+        loose = dict(all_h["mu_hI_BC_log"], parameters=dict(
+            all_h["mu_hI_BC_log"]["parameters"], a=a))
+        self.assertIn("once per run", choose(log=loose)["reason"])
+        # no law: V_AB, the printed lines and the HTML say why
+        nobody = dict(boundary, prediction_law=choose(log=worse))
+        e = bl.predict_v_ab(*log_campaign()[:2], nobody)["systems"]["1"]["from_hI_law"]
+        self.assertIsNone(e["V_AB"])
+        self.assertIn("no B/C law in h I_b is determined", e["reason"])
+        self.assertIn("no B/C law", report._interval_text(e))
+        self.assertIn("B/C law for the predictions: none",
+                      "\n".join(report.printed_lines({}, {}, {}, nobody)))
+        self.assertIn("<b>none</b>", "".join(report._html_boundary(nobody)))
+
+    def test_a_boundary_without_its_prediction_law_takes_the_power_law(self):
+        # fits made before boundary.prediction_law existed
+        old = {k: v for k, v in self.boundary.items() if k != "prediction_law"}
+        e = bl.predict_v_ab(self.rows, self.fits, old)["systems"]["1"]["from_hI_law"]
+        self.assertAlmostEqual(
+            e["V_AB"], bl.predict_v_ab(self.rows, self.fits, self.boundary)["systems"]["1"][
+                "from_hI_law"]["V_AB"])
+
+    def test_predictions_count_a_run_once_whatever_its_walls_and_thicknesses(self):
+        # a B run's layers at three h and two walls are six points of one stress (a C run's
+        # three): the draws are widened by n_points / independent_points, the interval by
+        # about its square root
+        law = self.boundary["all_h"]["mu_hI_BC"]
+        runs = {p.split(":")[0] for p in law["runs"]}
+        self.assertEqual(law["independent_points"], len(runs))
+        w = bl.widening(law)
+        self.assertAlmostEqual(w, law["n_points"] / len(runs))
+        self.assertGreater(w, 4.0)
         # the bulk's mu_0 without uncertainty, so that the boundary law's alone shows
         fits = dict(self.fits)
         fits["mu_power"] = dict(fits["mu_power"], covariance=(
             1e-12 * np.array(fits["mu_power"]["covariance"])).tolist())
+        narrow_law = dict(law, independent_points=law["n_points"])
+        narrow_boundary = dict(self.boundary,
+                               all_h=dict(self.boundary["all_h"], mu_hI_BC=narrow_law))
+
+        def width(e):
+            return e["interval"][1] - e["interval"][0]
         wide = bl.predict_v_ab(self.rows, fits, self.boundary)["systems"]["1"]["from_hI_law"]
-        narrow = bl.predict_v_ab(self.rows, fits, dict(self.boundary, thicknesses=[3.0]))
-        narrow = narrow["systems"]["1"]["from_hI_law"]
+        narrow = bl.predict_v_ab(self.rows, fits, narrow_boundary)["systems"]["1"]["from_hI_law"]
         self.assertAlmostEqual(wide["V_AB"], narrow["V_AB"])
-        ratio = (wide["interval"][1] - wide["interval"][0]) / \
-            (narrow["interval"][1] - narrow["interval"][0])
-        self.assertAlmostEqual(ratio, math.sqrt(3.0), delta=0.15)
+        # (about: x* is a nonlinear function of the parameters)
+        self.assertGreater(width(wide) / width(narrow), 0.8 * math.sqrt(w))
+        self.assertLess(width(wide) / width(narrow), 1.25 * math.sqrt(w))
+        # the same for delta_mu of a C run (the jumps' own scatter adds to both)
+        c_run = next(r for r in self.rows if r["regime"] == "C")
+        wide = bl.predict_delta_mu(c_run, self.boundary)["by_h"]["h5"]
+        narrow = bl.predict_delta_mu(c_run, narrow_boundary)["by_h"]["h5"]
+        self.assertAlmostEqual(wide["delta_mu"], narrow["delta_mu"])
+        self.assertGreater(width(wide) / width(narrow), 1.5)
 
     def test_v_ab_not_reached_says_why(self):
         fits = dict(self.fits)
