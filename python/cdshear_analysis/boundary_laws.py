@@ -293,7 +293,21 @@ def _crossing(law, mu_0_fit, scale, unavailable=None, widen=1.0):
     mu0s = fitting.parameter_samples(mu_0_fit, MONTE_CARLO, rng)[:, 0]
     xs = [fitting.solve_for_x(law, m, params=p) for p, m in zip(laws, mu0s)]
     interval, _, frac = _interval([v / scale if v is not None else None for v in xs])
+    if interval and not interval[0] <= x / scale <= interval[1]:
+        # the draws' middle two thirds miss the estimate: the Gaussian of the covariance does
+        # not describe the law there (a poor or nearly degenerate fit)
+        return x / scale, None, frac, None
     return x / scale, interval, frac, None
+
+
+def _interval_note(v, interval, frac):
+    """Why a V_AB has no interval (None when it has one or has no value)."""
+    if v is None or interval is not None:
+        return None
+    if frac is not None and frac < 0.5:
+        return f"no interval: only {frac:.0%} of the parameter draws reach mu_0"
+    return ("no interval: the parameter draws do not bracket V_AB, the laws' covariances do not "
+            "describe their uncertainty")
 
 
 def _outside(law, x):
@@ -325,13 +339,14 @@ def predict_v_ab(rows, bulk_fits, boundary):
                                      + boundary["prediction_law"]["reason"],
                                      widening(law))
         entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
-                                "reason": why, "law": name,
+                                "reason": why, "interval_note": _interval_note(v, iv, frac),
+                                "law": name,
                                 "extrapolated": _outside(law, v * scale) if v is not None
                                 else None}
         for h in boundary["thicknesses"]:
             v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
-                                 "reason": why}
+                                 "reason": why, "interval_note": _interval_note(v, iv, frac)}
         out["systems"][str(system)] = entry
     return out
 

@@ -291,8 +291,13 @@ def boundary_collapse_figure(path, rows, boundary, fits):
     all_h = boundary["all_h"]
     _curve(ax, all_h["mu_hI_BC"], xs["BC"], "-", "B and C: " + all_h["mu_hI_BC"]["law"])
     if (boundary.get("prediction_law") or {}).get("name") == "mu_hI_BC_log":
-        _curve(ax, all_h["mu_hI_BC_log"], xs["BC"], "-.",
-               "B and C, its B -> 0 limit: " + all_h["mu_hI_BC_log"]["law"])
+        # drawn on to where it reaches the bulk mu_0: the crossing V_AB is read from
+        log, reach = all_h["mu_hI_BC_log"], []
+        if fitting.usable(fits.get("mu_power")):
+            x = fitting.solve_for_x(log, fits["mu_power"]["parameters"]["mu_0"]["value"])
+            reach = [x] if x is not None else []
+        _curve(ax, log, xs["BC"] + reach, "-.", "B and C, its B -> 0 limit (the predictions'): "
+               + log["law"])
     _curve(ax, all_h["mu_hI_A"], xs["A"], "--", "A: " + all_h["mu_hI_A"]["law"])
     _mu_0_line(ax, fits)
     _finish(plt, fig, ax, path, "boundary mu_eff against h * I_boundary (= sqrt(m/sigma) dv)",

@@ -533,7 +533,8 @@ def _interval_text(e):
         return f"<small>{html.escape(e['reason'] or '')}</small>"
     iv = e["interval"]
     notes = ([f"law {e['law']}"] if e.get("law") not in (None, "mu_hI_BC") else []) + \
-        (["extrapolated beyond the law's points"] if e.get("extrapolated") else [])
+        (["extrapolated beyond the law's points"] if e.get("extrapolated") else []) + \
+        ([e["interval_note"]] if e.get("interval_note") else [])
     return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "") + \
         (f" <small>({html.escape('; '.join(notes))})</small>" if notes else "")
 

@@ -314,6 +314,28 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertAlmostEqual(wide["delta_mu"], narrow["delta_mu"])
         self.assertGreater(width(wide) / width(narrow), 1.5)
 
+    def test_a_v_ab_interval_that_misses_its_estimate_is_withheld(self):
+        # mu = 0.2 + A x^0.5 reaching mu_0 = 0.3 at x* = (0.1 / A)^2. With A = 0.04 +- 0.2, 42%
+        # of the draws have A < 0 and never reach mu_0; among the others x* < x*(0.04) in 86%
+        # (0.5 / 0.58): the estimate lies above the draws' 84th percentile
+        def law(a, var_a):
+            return {"status": "ok", "model": "power_plus", "chi2_dof": 1.0,
+                    "parameters": {n: {"value": v, "err": 0.0, "err_scaled": 0.0}
+                                   for n, v in (("mu_0", 0.2), ("A", a), ("B", 0.5))},
+                    "covariance": [[1e-14, 0, 0], [0, var_a, 0], [0, 0, 1e-14]]}
+        bulk = dict(law(1.0, 1e-14), parameters={n: {"value": v, "err": 0.0, "err_scaled": 0.0}
+                                                 for n, v in (("mu_0", 0.3), ("A", 1.0),
+                                                              ("B", 1.0))})
+        v, interval, frac, why = bl._crossing(law(0.04, 0.04), bulk, 1.0)
+        self.assertAlmostEqual(v, 6.25)
+        self.assertIsNone(interval)
+        self.assertGreater(frac, 0.5)
+        self.assertIn("do not bracket", bl._interval_note(v, interval, frac))
+        # the same law well determined: an interval about the estimate
+        v, interval, frac, why = bl._crossing(law(0.4, 4e-4), bulk, 1.0)
+        self.assertTrue(interval[0] < v < interval[1])
+        self.assertIsNone(bl._interval_note(v, interval, frac))
+
     def test_v_ab_not_reached_says_why(self):
         fits = dict(self.fits)
         fits["mu_power"] = dict(fits["mu_power"])
