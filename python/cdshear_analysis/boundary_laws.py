@@ -14,8 +14,10 @@ Fits (fitting.py, weighted by the error bars; the seeds of one (system, V) give 
 h and layer, fitting.combine), fits.json `boundary`:
   per h, key "hK": `mu_power` mu_b = mu_0 + A I_b^B, `nu_linear` nu_b = nu_max - c I_b,
     `nu_ratio_linear` nu_b / nu_bulk = r_0 - c I_b (nu_bulk of the same run and h), `Z_power`
-    Z_b = Z_0 - c I_b^e, and under "bulk" the bulk laws of report.FITS with that h's bulk
-    (h < y < L_y - h): how the bulk law depends on h (creep next to the boundary layers);
+    Z_b = Z_0 - c I_b^e, `mu_hI_BC`, `mu_hI_BC_log` and `prediction_law` as under "all_h" but
+    for the B and C layers at this h alone, and under "bulk" the bulk laws of report.FITS with
+    that h's bulk (h < y < L_y - h): how the bulk law depends on h (creep next to the boundary
+    layers);
   pooled over every h, key "all_h": mu_eff against I_b and against h I_b, for the layers of runs
     in regime B or C and, separately, in regime A (`mu_I_BC`, `mu_hI_BC`, `mu_I_A`, `mu_hI_A`),
     with `collapse`: per group the chi2/dof of the two fits; the variable with the smaller one
@@ -34,6 +36,9 @@ them by n_points / independent_points (`widening`). The B/C law they take,
 mu_hI_BC_log when mu_hI_BC's exponent lies within two widened errors of 0 or on the lower bound of
 its range, the limit's parameters are determined with widened errors and its widened chi2 exceeds
 the power law's by at most 4 (the points cannot tell the power law from its limit); else none.
+Whichever it takes, `prediction_law.exponent_profile` says which exponents B the points allow
+(`exponent_profile`), and the predictions give V_AB over them (`form_range`): the uncertainty of
+the law's form, which its parameters' interval leaves out.
 
 Predictions, fits.json `predictions`:
   V_AB: in regime B the bulk is at rest, so each layer takes the whole jump dv = V and
@@ -79,6 +84,9 @@ POOLED["mu_hI_BC_log"] = (fitting.law("log_plus", ["a", "b"], "mu_eff_boundary",
 # it, and how much larger the limit's chi2 may be (one parameter fewer: about two errors)
 LOG_LIMIT_ERRORS = 2.0
 LOG_LIMIT_CHI2 = 4.0
+# The exponents of the profile over B (0: the logarithmic limit) and its 68% threshold
+PROFILE_EXPONENTS = [0.0] + [round(0.02 * k, 2) for k in range(1, 101)]
+PROFILE_DELTA_CHI2 = 1.0
 
 
 def h_label(h):
@@ -167,6 +175,15 @@ def fit_boundary(rows, bulk_fits):
             y = {"mu_power": "mu", "nu_linear": "nu", "nu_ratio_linear": "nu_ratio",
                  "Z_power": "Z"}[name]
             entry[name] = fitting.fit(spec, _points(pts, "I", y))
+        # the B/C law in h I_b at this h alone: how far the collapse holds
+        bc = [p for p in pts if p["regime"] in ("B", "C")]
+        for name in ("mu_hI_BC", "mu_hI_BC_log"):
+            entry[name] = fitting.fit(POOLED[name][0], _points(bc, "hI", "mu"))
+            entry[name]["independent_points"] = len({fitting.group_key(p) or p["run"]
+                                                     for p in bc})
+        entry["prediction_law"] = bc_prediction_law(entry)
+        entry["prediction_law"]["exponent_profile"] = exponent_profile(
+            _points(bc, "hI", "mu"), widening(entry["mu_hI_BC"]))
         bulk = {}
         for name, spec in bulk_fits.items():
             col = {"mu_eff_bulk": "mu_eff", "nu_bulk": "nu", "Z_bulk": "Z"}[spec["y"]]
@@ -198,6 +215,8 @@ def fit_boundary(rows, bulk_fits):
     all_h["collapse"] = collapse
     out["all_h"] = all_h
     out["prediction_law"] = bc_prediction_law(all_h)
+    out["prediction_law"]["exponent_profile"] = exponent_profile(
+        _points(groups["BC"], "hI", "mu"), widening(all_h["mu_hI_BC"]))
     return out
 
 
@@ -247,12 +266,58 @@ def bc_prediction_law(all_h):
         "the predictions take the limit")}
 
 
+def exponent_profile(points, widen):
+    """fits.json `prediction_law.exponent_profile`: how far the points fix the exponent B of
+    mu = mu_0 + A x^B (B = 0: its limit a + b ln x). For each B of PROFILE_EXPONENTS the two
+    other parameters are fitted (linear least squares, weighted by the error bars; points as for
+    fitting.fit), and chi2(B) is read widened (divided by widen, the law's n_points /
+    independent_points). `allowed`: the B whose widened chi2 exceeds the smallest by at most
+    PROFILE_DELTA_CHI2 (a 68% interval for one parameter), with their [c0, c1] (mu_0 and A, or a
+    and b at B = 0), from which the predictions' `form_range` follows. None with fewer than 3
+    points."""
+    kept, _ = fitting.select(points)
+    if len(kept) < 3 or len({p[0] for p in kept}) < 3:
+        return None
+    x, y, e = (np.array([p[i] for p in kept], float) for i in range(3))
+    rows = []
+    for B in PROFILE_EXPONENTS:
+        f = np.log(x) if B == 0 else x ** B
+        design = np.column_stack([np.ones_like(x), f]) / e[:, None]
+        coef, *_ = np.linalg.lstsq(design, y / e, rcond=None)
+        chi2 = float(np.sum(((y - coef[0] - coef[1] * f) / e) ** 2))
+        rows.append((float(B), chi2 / widen, [float(c) for c in coef]))
+    best = min(r[1] for r in rows)
+    allowed = [r for r in rows if r[1] - best <= PROFILE_DELTA_CHI2]
+    return {"B": [r[0] for r in rows], "chi2_widened": [r[1] for r in rows],
+            "best_B": min(rows, key=lambda r: r[1])[0],
+            "allowed_B": [allowed[0][0], allowed[-1][0]],
+            "allowed": [{"B": r[0], "params": r[2]} for r in allowed],
+            "contiguous": len(allowed) == rows.index(allowed[-1]) - rows.index(allowed[0]) + 1}
+
+
+def _form_range(profile, mu_0, scale):
+    """[smallest, largest] V_AB over the exponents the profile allows (None without them)."""
+    values = []
+    for r in (profile or {}).get("allowed", []):
+        B, (c0, c1) = r["B"], r["params"]
+        if c1 == 0:
+            continue
+        u = (mu_0 - c0) / c1
+        if B == 0:
+            values.append(math.exp(u) / scale if u < 700 else math.inf)
+        elif u > 0:
+            values.append(u ** (1.0 / B) / scale)
+    finite_values = [v for v in values if math.isfinite(v)]
+    return [min(finite_values), max(finite_values)] if finite_values else None
+
+
 def _bc_law(boundary):
     """(name, fit) of the B/C law the predictions take, or (None, mu_hI_BC) with the reason in
-    boundary["prediction_law"] (fits made before that key: mu_hI_BC)."""
+    boundary["prediction_law"] (fits made before that key: mu_hI_BC). boundary: fits.json
+    `boundary` (the laws under "all_h") or one h's entry (the laws in it)."""
     choice = boundary.get("prediction_law") or {"name": "mu_hI_BC"}
     name = choice["name"]
-    return name, boundary["all_h"][name or "mu_hI_BC"]
+    return name, boundary.get("all_h", boundary)[name or "mu_hI_BC"]
 
 
 def _interval(values):
@@ -317,7 +382,8 @@ def _outside(law, x):
 
 
 def predict_v_ab(rows, bulk_fits, boundary):
-    """fits.json predictions `V_AB`: per system, from the pooled B/C law in h I_b and from each
+    """fits.json predictions `V_AB`: per system, from the pooled B/C law in h I_b, from the B/C
+    law in h I_b at each h alone (`from_hI_law_by_h`: how far the collapse holds) and from each
     h's law in I_b, beside the measured bracket (filled in by the caller)."""
     mu_fit = bulk_fits.get("mu_power")
     out = {"status": "ok", "reason": None, "method": (
@@ -338,15 +404,32 @@ def predict_v_ab(rows, bulk_fits, boundary):
                                      "no B/C law in h I_b is determined: "
                                      + boundary["prediction_law"]["reason"],
                                      widening(law))
+        mu_0 = mu_fit["parameters"]["mu_0"]["value"]
+        profile = (boundary.get("prediction_law") or {}).get("exponent_profile")
         entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
                                 "reason": why, "interval_note": _interval_note(v, iv, frac),
                                 "law": name,
                                 "extrapolated": _outside(law, v * scale) if v is not None
-                                else None}
+                                else None,
+                                "form_range": _form_range(profile, mu_0, scale),
+                                "allowed_B": (profile or {}).get("allowed_B")}
+        by_h = {}
         for h in boundary["thicknesses"]:
             v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
                                  "reason": why, "interval_note": _interval_note(v, iv, frac)}
+            if "prediction_law" in boundary[h_label(h)]:
+                name_h, law_h = _bc_law(boundary[h_label(h)])
+                v, iv, frac, why = _crossing(
+                    law_h, mu_fit, scale, None if name_h else "no B/C law in h I_b at this h: "
+                    + boundary[h_label(h)]["prediction_law"]["reason"], widening(law_h))
+                profile = boundary[h_label(h)]["prediction_law"].get("exponent_profile")
+                by_h[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
+                                    "reason": why, "interval_note": _interval_note(v, iv, frac),
+                                    "law": name_h, "form_range": _form_range(profile, mu_0,
+                                                                             scale),
+                                    "allowed_B": (profile or {}).get("allowed_B")}
+        entry["from_hI_law_by_h"] = by_h
         out["systems"][str(system)] = entry
     return out
 

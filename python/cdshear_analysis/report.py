@@ -532,11 +532,20 @@ def _interval_text(e):
     if e["V_AB"] is None:
         return f"<small>{html.escape(e['reason'] or '')}</small>"
     iv = e["interval"]
+    fr, ab = e.get("form_range"), e.get("allowed_B")
     notes = ([f"law {e['law']}"] if e.get("law") not in (None, "mu_hI_BC") else []) + \
         (["extrapolated beyond the law's points"] if e.get("extrapolated") else []) + \
-        ([e["interval_note"]] if e.get("interval_note") else [])
+        ([e["interval_note"]] if e.get("interval_note") else []) + \
+        ([f"{_fmt(fr[0], 3)} to {_fmt(fr[1], 3)} over the exponents the points allow, B "
+          f"{_fmt(ab[0], 2)} to {_fmt(ab[1], 2)}"] if fr and ab else [])
     return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "") + \
         (f" <small>({html.escape('; '.join(notes))})</small>" if notes else "")
+
+
+def _by_h_text(by_h):
+    """h3 0.53, h5 0.57, ... (– where an h gives none)."""
+    return ", ".join(f"{h} {_fmt(e['V_AB'], 3) if e['V_AB'] is not None else '–'}"
+                     for h, e in by_h.items()) or "–"
 
 
 def _html_v_ab(v_ab):
@@ -548,6 +557,7 @@ def _html_v_ab(v_ab):
                 key=lambda k: float(k[1:]))
     out.append(f"<p>{html.escape(v_ab['method'])}.</p><table><tr><th>system</th>"
                "<th>measured V_AB (bracket)</th><th>from mu(h I_b), regimes B and C, all h</th>"
+               "<th>the same, each h alone</th>"
                + "".join(f"<th>from mu(I_b), {h}</th>" for h in hs) + "</tr>")
     for key, e in systems.items():
         m = e.get("measured")
@@ -556,6 +566,7 @@ def _html_v_ab(v_ab):
                                  f"{_fmt(m['bracket'][1]) or '–'}]")
         out.append(f"<tr><td>{html.escape(key)}</td><td>{meas}</td>"
                    f"<td>{_interval_text(e['from_hI_law'])}</td>"
+                   f"<td>{_by_h_text(e.get('from_hI_law_by_h') or {})}</td>"
                    + "".join(f"<td>{_interval_text(e[h])}</td>" for h in hs) + "</tr>")
     return out + ["</table>"]
 
@@ -727,7 +738,8 @@ def _html_boundary(boundary):
            "layer moves with its wall). Thicknesses h: "
            + (", ".join(f"{h:g}" for h in boundary["thicknesses"]) or "none") + ".</p>"]
     out += _fit_table([(f"{h} {name}", boundary[h][name]) for h in hs
-                       for name in ("mu_power", "nu_linear", "nu_ratio_linear", "Z_power")])
+                       for name in ("mu_power", "nu_linear", "nu_ratio_linear", "Z_power",
+                                    "mu_hI_BC", "mu_hI_BC_log") if name in boundary[h]])
     all_h = boundary["all_h"]
     out.append("<h3>mu_eff against I_boundary and against h I_boundary, every h together</h3>")
     out += _fit_table([(k, v) for k, v in all_h.items() if k != "collapse"])

@@ -173,6 +173,29 @@ class BoundaryLawTest(unittest.TestCase):
             self.assertLess(lo - 0.5 * (hi - lo), truth)
             self.assertGreater(hi + 0.5 * (hi - lo), truth)
             self.assertGreater(e["draws_crossing"], 0.9)
+        # the profile over the exponent: the true 0.5 allowed and little else (the points span a
+        # factor 30 in h I), so V_AB over the allowed forms (the bulk's mu_0 fixed) holds the
+        # estimate and lies inside its interval
+        e = p["systems"]["1"]["from_hI_law"]
+        lo_b, hi_b = e["allowed_B"]
+        self.assertLessEqual(lo_b, 0.5)
+        self.assertGreaterEqual(hi_b, 0.5)
+        self.assertLess(hi_b - lo_b, 0.2)
+        fr = e["form_range"]
+        self.assertTrue(fr[0] * (1 - 1e-6) <= e["V_AB"] <= fr[1] * (1 + 1e-6))
+        self.assertTrue(e["interval"][0] < fr[0] <= fr[1] < e["interval"][1])
+        profile = self.boundary["prediction_law"]["exponent_profile"]
+        self.assertAlmostEqual(profile["best_B"], 0.5, delta=0.15)
+        self.assertTrue(profile["contiguous"])
+        # each h alone: the same law (the layers collapse in h I), V_AB within its interval
+        by_h = p["systems"]["1"]["from_hI_law_by_h"]
+        self.assertEqual(set(by_h), {"h3", "h5", "h7"})
+        for e in by_h.values():
+            self.assertEqual(e["law"], "mu_hI_BC")
+            lo, hi = e["interval"]
+            self.assertLess(lo - 0.5 * (hi - lo), truth)
+            self.assertGreater(hi + 0.5 * (hi - lo), truth)
+        self.assertIn("h5 ", report._by_h_text(by_h))
         # the power law is determined: the predictions take it, not its B -> 0 limit
         self.assertEqual(self.boundary["prediction_law"]["name"], "mu_hI_BC")
         self.assertEqual(p["systems"]["1"]["from_hI_law"]["law"], "mu_hI_BC")
@@ -199,6 +222,13 @@ class BoundaryLawTest(unittest.TestCase):
             self.assertTrue(lo < e["V_AB"] < hi)
             self.assertLess(lo - 0.5 * (hi - lo), truth)
             self.assertGreater(hi + 0.5 * (hi - lo), truth)
+        # the profile over the exponent finds the logarithm (B = 0) among the allowed forms
+        profile = boundary["prediction_law"]["exponent_profile"]
+        self.assertEqual(profile["allowed_B"][0], 0.0)
+        self.assertLess(profile["best_B"], 0.1)
+        fr = p["systems"]["1"]["from_hI_law"]["form_range"]
+        self.assertLessEqual(fr[0], p["systems"]["1"]["from_hI_law"]["V_AB"] * (1 + 1e-9))
+        self.assertGreaterEqual(fr[1], p["systems"]["1"]["from_hI_law"]["V_AB"] * (1 - 1e-9))
         # by hand: a + b ln x* = mu_0
         par = log["parameters"]
         mu_0 = fits["mu_power"]["parameters"]["mu_0"]["value"]
