@@ -298,10 +298,32 @@ def boundary_collapse_figure(path, rows, boundary, fits):
             reach = [x] if x is not None else []
         _curve(ax, log, xs["BC"] + reach, "-.", "B and C, its B -> 0 limit (the predictions'): "
                + log["law"])
+    _form_edge(ax, boundary, fits, xs["BC"])
     _curve(ax, all_h["mu_hI_A"], xs["A"], "--", "A: " + all_h["mu_hI_A"]["law"])
     _mu_0_line(ax, fits)
     _finish(plt, fig, ax, path, "boundary mu_eff against h * I_boundary (= sqrt(m/sigma) dv)",
             "h * I_boundary [d]", "mu_eff (boundary layer)", xs["BC"] + xs["A"])
+
+
+def _form_edge(ax, boundary, fits, xs):
+    """The B/C law at the largest exponent its points allow (prediction_law.exponent_profile),
+    drawn on to where it reaches the bulk mu_0: the other end of V_AB's form_range."""
+    profile = (boundary.get("prediction_law") or {}).get("exponent_profile")
+    xs = [x for x in xs if x > 0]
+    if not profile or not profile.get("allowed") or not xs:
+        return
+    edge = profile["allowed"][-1]
+    B, (c0, c1) = edge["B"], edge["params"]
+    if B == 0 or c1 == 0:
+        return
+    hi = max(xs)
+    if fitting.usable(fits.get("mu_power")):
+        u = (fits["mu_power"]["parameters"]["mu_0"]["value"] - c0) / c1
+        if u > 0:
+            hi = max(hi, u ** (1.0 / B))
+    grid = np.geomspace(min(xs), hi, 200)
+    ax.plot(grid, c0 + c1 * grid ** B, ":", color="k", lw=1,
+            label=f"B and C, the largest exponent its points allow (B = {B:g})")
 
 
 def bulk_by_h_figure(path, rows, boundary):

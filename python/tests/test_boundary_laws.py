@@ -255,6 +255,21 @@ class BoundaryLawTest(unittest.TestCase):
              if e["run"] == c_run["run"]][0]
         self.assertIn("falls without bound", c["reason"])
 
+    def test_the_figure_draws_the_largest_allowed_exponent_to_its_crossing(self):
+        from cdshear_analysis import campaign_figures as cf
+        rows, fits, boundary = log_campaign()
+        plt, fig, ax = cf._figure()
+        xs = [0.05, 0.2]
+        cf._form_edge(ax, boundary, fits, xs)
+        edge = boundary["prediction_law"]["exponent_profile"]["allowed"][-1]
+        (line,) = ax.lines
+        self.assertIn(f"B = {edge['B']:g}", line.get_label())
+        x, y = line.get_data()
+        # from the points' smallest h I to where the law reaches the bulk mu_0
+        self.assertAlmostEqual(x[0], 0.05)
+        self.assertAlmostEqual(y[-1], fits["mu_power"]["parameters"]["mu_0"]["value"])
+        plt.close(fig)
+
     def test_the_log_limit_stands_in_only_where_the_points_cannot_tell(self):
         _, _, boundary = log_campaign()
         all_h = boundary["all_h"]
