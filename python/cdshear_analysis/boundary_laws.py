@@ -178,12 +178,8 @@ def fit_boundary(rows, bulk_fits):
         # the B/C law in h I_b at this h alone: how far the collapse holds
         bc = [p for p in pts if p["regime"] in ("B", "C")]
         for name in ("mu_hI_BC", "mu_hI_BC_log"):
-            entry[name] = fitting.fit(POOLED[name][0], _points(bc, "hI", "mu"))
-            entry[name]["independent_points"] = len({fitting.group_key(p) or p["run"]
-                                                     for p in bc})
-        entry["prediction_law"] = bc_prediction_law(entry)
-        entry["prediction_law"]["exponent_profile"] = exponent_profile(
-            _points(bc, "hI", "mu"), widening(entry["mu_hI_BC"]))
+            entry[name] = _pooled_fit(name, bc)
+        entry["prediction_law"] = _prediction_law(entry, bc)
         bulk = {}
         for name, spec in bulk_fits.items():
             col = {"mu_eff_bulk": "mu_eff", "nu_bulk": "nu", "Z_bulk": "Z"}[spec["y"]]
@@ -194,11 +190,8 @@ def fit_boundary(rows, bulk_fits):
     groups = {"BC": [p for p in pooled if p["regime"] in ("B", "C")],
               "A": [p for p in pooled if p["regime"] == "A"]}
     all_h = {}
-    for name, (spec, x, g) in POOLED.items():
-        all_h[name] = fitting.fit(spec, _points(groups[g], x, "mu"))
-        # one stress per (system, V): its walls' and thicknesses' points share it
-        all_h[name]["independent_points"] = len({fitting.group_key(p) or p["run"]
-                                                 for p in groups[g]})
+    for name, (_, _, g) in POOLED.items():
+        all_h[name] = _pooled_fit(name, groups[g])
     collapse = {}
     for g in groups:
         fi, fh = all_h[f"mu_I_{g}"], all_h[f"mu_hI_{g}"]
@@ -214,10 +207,27 @@ def fit_boundary(rows, bulk_fits):
         collapse[g] = c
     all_h["collapse"] = collapse
     out["all_h"] = all_h
-    out["prediction_law"] = bc_prediction_law(all_h)
-    out["prediction_law"]["exponent_profile"] = exponent_profile(
-        _points(groups["BC"], "hI", "mu"), widening(all_h["mu_hI_BC"]))
+    out["prediction_law"] = _prediction_law(all_h, groups["BC"])
     return out
+
+
+def _pooled_fit(name, points):
+    """The POOLED law `name` fitted to layer points, with `independent_points`: one stress per
+    (system, V), shared by its walls' and thicknesses' points (`widening`)."""
+    spec, x, _ = POOLED[name]
+    result = fitting.fit(spec, _points(points, x, "mu"))
+    result["independent_points"] = len({fitting.group_key(p) or p["run"] for p in points})
+    return result
+
+
+def _prediction_law(laws, bc_points):
+    """`prediction_law` of a set of B/C laws in h I_b (all_h, or one h's entry) and the B/C
+    layer points they were fitted to: the choice (bc_prediction_law) and the exponent's
+    profile (exponent_profile)."""
+    choice = bc_prediction_law(laws)
+    choice["exponent_profile"] = exponent_profile(_points(bc_points, "hI", "mu"),
+                                                  widening(laws["mu_hI_BC"]))
+    return choice
 
 
 def bc_prediction_law(all_h):
@@ -295,20 +305,20 @@ def exponent_profile(points, widen):
             "contiguous": len(allowed) == rows.index(allowed[-1]) - rows.index(allowed[0]) + 1}
 
 
+def profile_crossing(allowed, target):
+    """The x > 0 at which one `allowed` entry of an exponent profile ({"B", "params"}: the law
+    c0 + c1 x^B, or c0 + c1 ln x at B = 0) reaches target, or None (fitting.solve_for_x)."""
+    B, (c0, c1) = allowed["B"], allowed["params"]
+    law, params = ("log_plus", [c0, c1]) if B == 0 else ("power_plus", [c0, c1, B])
+    return fitting.solve_for_x({"model": law}, target, params=params)
+
+
 def _form_range(profile, mu_0, scale):
     """[smallest, largest] V_AB over the exponents the profile allows (None without them)."""
-    values = []
-    for r in (profile or {}).get("allowed", []):
-        B, (c0, c1) = r["B"], r["params"]
-        if c1 == 0:
-            continue
-        u = (mu_0 - c0) / c1
-        if B == 0:
-            values.append(math.exp(u) / scale if u < 700 else math.inf)
-        elif u > 0:
-            values.append(u ** (1.0 / B) / scale)
-    finite_values = [v for v in values if math.isfinite(v)]
-    return [min(finite_values), max(finite_values)] if finite_values else None
+    values = [x / scale for x in (profile_crossing(r, mu_0)
+                                  for r in (profile or {}).get("allowed", []))
+              if x is not None]
+    return [min(values), max(values)] if values else None
 
 
 def _bc_law(boundary):
@@ -381,6 +391,21 @@ def _outside(law, x):
     return bool(span) and not span[0] * (1 - 1e-9) <= x <= span[1] * (1 + 1e-9)
 
 
+def _bc_v_ab(laws, mu_fit, scale, none_text):
+    """V_AB from the B/C law in h I_b that `laws` (fits.json `boundary`, or one h's entry)
+    chooses in its prediction_law, with its interval and its range over the allowed exponents;
+    none_text leads the reason when it chooses none."""
+    name, law = _bc_law(laws)
+    choice = laws.get("prediction_law") or {}
+    v, iv, frac, why = _crossing(law, mu_fit, scale, None if name else
+                                 none_text + choice["reason"], widening(law))
+    profile = choice.get("exponent_profile")
+    return {"V_AB": v, "interval": iv, "draws_crossing": frac, "reason": why,
+            "interval_note": _interval_note(v, iv, frac), "law": name,
+            "form_range": _form_range(profile, mu_fit["parameters"]["mu_0"]["value"], scale),
+            "allowed_B": (profile or {}).get("allowed_B")}
+
+
 def predict_v_ab(rows, bulk_fits, boundary):
     """fits.json predictions `V_AB`: per system, from the pooled B/C law in h I_b, from the B/C
     law in h I_b at each h alone (`from_hI_law_by_h`: how far the collapse holds) and from each
@@ -398,37 +423,20 @@ def predict_v_ab(rows, bulk_fits, boundary):
         if len(sigmas) != 1:
             continue
         scale = math.sqrt(INERTIAL_MASS / sigmas.pop())
-        entry = {}
-        name, law = _bc_law(boundary)
-        v, iv, frac, why = _crossing(law, mu_fit, scale, None if name else
-                                     "no B/C law in h I_b is determined: "
-                                     + boundary["prediction_law"]["reason"],
-                                     widening(law))
-        mu_0 = mu_fit["parameters"]["mu_0"]["value"]
-        profile = (boundary.get("prediction_law") or {}).get("exponent_profile")
-        entry["from_hI_law"] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
-                                "reason": why, "interval_note": _interval_note(v, iv, frac),
-                                "law": name,
-                                "extrapolated": _outside(law, v * scale) if v is not None
-                                else None,
-                                "form_range": _form_range(profile, mu_0, scale),
-                                "allowed_B": (profile or {}).get("allowed_B")}
+        entry = {"from_hI_law": _bc_v_ab(boundary, mu_fit, scale,
+                                         "no B/C law in h I_b is determined: ")}
+        _, law = _bc_law(boundary)
+        v = entry["from_hI_law"]["V_AB"]
+        entry["from_hI_law"]["extrapolated"] = _outside(law, v * scale) if v is not None \
+            else None
         by_h = {}
         for h in boundary["thicknesses"]:
             v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
                                  "reason": why, "interval_note": _interval_note(v, iv, frac)}
             if "prediction_law" in boundary[h_label(h)]:
-                name_h, law_h = _bc_law(boundary[h_label(h)])
-                v, iv, frac, why = _crossing(
-                    law_h, mu_fit, scale, None if name_h else "no B/C law in h I_b at this h: "
-                    + boundary[h_label(h)]["prediction_law"]["reason"], widening(law_h))
-                profile = boundary[h_label(h)]["prediction_law"].get("exponent_profile")
-                by_h[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
-                                    "reason": why, "interval_note": _interval_note(v, iv, frac),
-                                    "law": name_h, "form_range": _form_range(profile, mu_0,
-                                                                             scale),
-                                    "allowed_B": (profile or {}).get("allowed_B")}
+                by_h[h_label(h)] = _bc_v_ab(boundary[h_label(h)], mu_fit, scale,
+                                            "no B/C law in h I_b at this h: ")
         entry["from_hI_law_by_h"] = by_h
         out["systems"][str(system)] = entry
     return out

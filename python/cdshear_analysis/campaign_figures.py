@@ -18,7 +18,7 @@ import textwrap
 import numpy as np
 
 from . import fitting
-from .boundary_laws import h_label, layer_points
+from .boundary_laws import h_label, layer_points, profile_crossing
 from .regime import SWITCH_FRACTION
 
 FIGURES = [
@@ -318,11 +318,10 @@ def _form_edge(ax, boundary, fits, xs):
         return
     hi = max(xs)
     if fitting.usable(fits.get("mu_power")):
-        u = (fits["mu_power"]["parameters"]["mu_0"]["value"] - c0) / c1
-        if u > 0:
-            hi = max(hi, u ** (1.0 / B))
+        x = profile_crossing(edge, fits["mu_power"]["parameters"]["mu_0"]["value"])
+        hi = max(hi, x) if x is not None else hi
     grid = np.geomspace(min(xs), hi, 200)
-    ax.plot(grid, c0 + c1 * grid ** B, ":", color="k", lw=1,
+    ax.plot(grid, fitting.power_plus(grid, c0, c1, B), ":", color="k", lw=1,
             label=f"B and C, the largest exponent its points allow (B = {B:g})")
 
 
