@@ -130,6 +130,40 @@ TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   EXPECT_DOUBLE_EQ(d.step.dt, 0.004);
 }
 
+TEST(ShearWorld, StartsAtRestWhenAskedAndTheWallsDragTheLayersNextToThem) {
+  // shear.initial_velocity = "rest": every disk at rest, the walls at -V and +V. Momentum enters
+  // from the walls only, so after a few time units the disks in the lowest fifth move with the
+  // bottom wall (against +x) and those in the highest fifth with the top wall (along +x): 0.16 V
+  // both at 5 t on this packing, the walls slipping over them.
+  ShearCase c;
+  c.velocity = 0.5;
+  c.initial_velocity = kInitialRest;
+  resolve_step_rules(c);
+  World w = build_shear_world(c, system1_packing());
+  EXPECT_EQ(w.walls[kBottomWall].velocity.x, -0.5);
+  EXPECT_EQ(w.walls[kTopWall].velocity.x, 0.5);
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    EXPECT_EQ(w.disks.velocity[i].x, 0.0);
+    EXPECT_EQ(w.disks.velocity[i].y, 0.0);
+  }
+  ContactDynamics dynamics;
+  const auto steps = static_cast<int>(std::lround(5.0 / c.step.dt));
+  for (int s = 0; s < steps; ++s) ASSERT_FALSE(dynamics.step(w, c.step).blown_up);
+  double low = 0.0, high = 0.0;
+  int n_low = 0, n_high = 0;
+  const double height = w.walls[kTopWall].point.y - w.walls[kBottomWall].point.y;
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    const double y = (w.disks.position[i].y - w.walls[kBottomWall].point.y) / height;
+    if (y < 0.2) low += w.disks.velocity[i].x, ++n_low;
+    if (y > 0.8) high += w.disks.velocity[i].x, ++n_high;
+  }
+  EXPECT_LT(low / n_low, -0.1 * c.velocity);
+  EXPECT_GT(high / n_high, 0.1 * c.velocity);
+
+  c.initial_velocity = "still";
+  EXPECT_THROW(build_shear_world(c, system1_packing()), std::invalid_argument);
+}
+
 struct ShearWindow {
   double time = 0.0;
   Vec2 impulse_bottom, impulse_top;  // integral of the contact force on each wall

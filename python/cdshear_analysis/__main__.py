@@ -11,7 +11,8 @@ of bench/peers/side_by_side.sh (cdshear_analysis/peers.py); `... series-means RU
 [--key KEY ...]` prints means of run.h5 series after time T (cdshear_analysis/series_means.py);
 `... series-pairs CHECK_DIR` the pairs of scripts/paired_check.sh; `... stress-balance
 RUN_DIR...` the interior stress against the walls' over each run's steady windows
-(cdshear_analysis/stress_balance.py).
+(cdshear_analysis/stress_balance.py); `... profile-decay RUN_DIR... --fits FITS` the decay
+time of each run's velocity profile against T_SS = L_y^2 / D (cdshear_analysis/relaxation.py).
 A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
@@ -61,6 +62,12 @@ def main(argv=None):
     p_balance = commands.add_parser(
         "stress-balance", help="interior stress against the walls' over the steady windows")
     p_balance.add_argument("run_dirs", nargs="+")
+    p_decay = commands.add_parser(
+        "profile-decay", help="each run's velocity-profile decay time against L_y^2 / D")
+    p_decay.add_argument("run_dirs", nargs="+")
+    p_decay.add_argument("--fits", required=True, help="a report's fits.json (its bulk law)")
+    p_decay.add_argument("--json", help="also write the table to this JSON file")
+    p_decay.add_argument("--plot", help="also plot each run's amplitude against t / T_SS")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
@@ -140,6 +147,36 @@ def main(argv=None):
                 return 2
             print(format_line(run_dir, balance) if balance else
                   f"{run_dir}  no complete window: nothing to compare")
+        return 0
+
+    if args.command == "profile-decay":
+        import json
+        from .relaxation import decay_against_diffusion, format_decay_table
+        summaries = []
+        for path in [os.path.join(d, "summary.json") for d in args.run_dirs] + [args.fits]:
+            try:
+                with open(path, encoding="utf-8") as f:
+                    data = json.load(f)
+            except (OSError, ValueError) as e:
+                print(f"error: {path}: {getattr(e, 'strerror', None) or e}", file=sys.stderr)
+                return 2
+            if path == args.fits:
+                if not isinstance(data.get("fits"), dict):
+                    print(f"error: {path}: no `fits` table (a report's fits.json)", file=sys.stderr)
+                    return 2
+                fits = data["fits"]
+            else:
+                data["run"] = os.path.basename(os.path.normpath(os.path.dirname(path)))
+                summaries.append(data)
+        entries, exponent = decay_against_diffusion(summaries, fits)
+        print(format_decay_table(entries, exponent))
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as f:
+                json.dump({"runs": entries, "exponent": exponent}, f, indent=1)
+        if args.plot:
+            from .plots import plot_profile_decay
+            plot_profile_decay(summaries, entries, args.plot)
+            print(args.plot)
         return 0
 
     if args.command == "series-pairs":

@@ -5,7 +5,8 @@ velocity_profiles.png     v_x / V against y for several windows, coloured by str
 com_velocity.png          com_vx / V (and block_vx / V) against strain, com_vx's histogram
 height_solid_fraction.png L_y and global solid fraction against strain, transient end marked
 steady_profiles.png       mu_eff, nu, I, Z profiles averaged over the steady windows
-Strain is 2 V t / L_y with the nominal L_y; lengths in d (largest diameter).
+Strain is 2 V t / L_y with the nominal L_y; lengths in d (largest diameter). Across runs,
+`plot_profile_decay` draws the figure of `profile-decay --plot` (relaxation.py).
 A run without any complete averaging window gets the figures of its series and snapshot; the
 two profile figures are skipped (plot_run reports them in `skipped`).
 """
@@ -277,3 +278,33 @@ def _arrays(summary):
         if k != "y":
             prof[k] = {e: np.asarray(v[e], dtype=float) for e in ("mean", "err")}
     return dict(summary, profiles=prof)
+
+
+def plot_profile_decay(summaries, entries, path):
+    """profile-decay --plot: each run's distance from its steady profile (noise floor taken out,
+    relaxation.py) against t / T_SS, on a log scale, with the slowest excited mode of a diffusion
+    from rest, exp(-4 pi^2 t / T_SS), for slope."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for s, e in zip(summaries, entries):
+        d = s.get("profile_decay") or {}
+        if not d.get("t") or e["T_SS"] is None or d.get("floor") is None:
+            continue
+        t = np.asarray(d["t"], dtype=float)
+        a = np.asarray([np.nan if v is None else v for v in d["amplitude"]], dtype=float)
+        corrected = np.sqrt(np.maximum(a ** 2 - d["floor"] ** 2, 0.0))
+        corrected[corrected <= 0] = np.nan
+        label = f"{e['run']} (L_y {e['L_y']:.0f})"
+        if e["tau"] is not None:
+            label += f": tau/T_SS {e['tau_over_T_SS']:.3f}"
+        ax.plot(t / e["T_SS"], corrected, ".", ms=3, label=label)
+    x = np.linspace(0.0, 0.15, 50)
+    ax.plot(x, 0.5 * np.exp(-4 * np.pi ** 2 * x), "k--", lw=1,
+            label="exp(-4 pi^2 t / T_SS): the slowest mode from rest")
+    ax.set_yscale("log")
+    ax.set_xlabel("t / T_SS   (T_SS = L_y^2 / D, D from the bulk law)")
+    ax.set_ylabel("distance from the steady profile / V")
+    ax.set_title("Velocity profile's decay towards steady state")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)

@@ -15,6 +15,7 @@ import tempfile
 import numpy as np
 
 from . import regime as rg
+from .relaxation import profile_decay
 from .profiles import QUANTITIES, region_quantities
 from .rundata import RunDataError
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
@@ -288,6 +289,8 @@ def analyze(run):
         "regions": regions,
         "profiles": profiles,
         "switches": switches,
+        "profile_decay": profile_decay(
+            w, V, sel, run["case"].get("shear", {}).get("initial_velocity", "linear")),
         "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
         if durations else mean_err(np.nan, np.nan),
         "switch_delta_mu": mean_err(*window_mean(np.array(delta_mus, dtype=float)))

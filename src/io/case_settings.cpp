@@ -407,6 +407,15 @@ std::vector<CaseSetting> make_case_settings() {
             .lo = 0.0,
             .lo_open = true},
           [](auto& c) -> auto& { return c.duration; }),
+      bind(
+          S{.table = "shear",
+            .key = "initial_velocity",
+            .type = kChoice,
+            .meaning = "the disks' velocity at the start: linear (from -V at the bottom wall to "
+                       "+V at the top, close to regime A's steady profile) or rest (the time to "
+                       "steady state of model.md section 8 as a diffusion across the height)",
+            .choices = {kInitialLinear, kInitialRest}},
+          [](auto& c) -> auto& { return c.initial_velocity; }),
       // [step]
       bind(
           S{.table = "step",

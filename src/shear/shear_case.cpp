@@ -90,11 +90,16 @@ World build_shear_world(const ShearCase& c, const Packing& p) {
     w.friction = c.friction_wall;
     scene.walls.push_back(w);
   }
+  const bool at_rest = c.initial_velocity == kInitialRest;
+  if (!at_rest && c.initial_velocity != kInitialLinear)
+    throw std::invalid_argument("initial_velocity must be \"" + std::string(kInitialLinear) +
+                                "\" or \"" + kInitialRest + "\", not \"" + c.initial_velocity +
+                                "\"");
   for (const PackingDisk& d : p.disks) {
     DiskSpec s;
     s.position = d.position;
     s.radius = d.radius;
-    s.velocity = {-c.velocity + 2.0 * c.velocity * d.position.y / p.height, 0.0};
+    s.velocity = {at_rest ? 0.0 : -c.velocity + 2.0 * c.velocity * d.position.y / p.height, 0.0};
     scene.disks.push_back(s);
   }
   // The packing was in equilibrium with overlaps at the solver's tolerance; accept those.

@@ -47,6 +47,10 @@ inline StepOptions shear_step_defaults() {
   return o;
 }
 
+/// The values of ShearCase::initial_velocity.
+inline constexpr const char* kInitialLinear = "linear";
+inline constexpr const char* kInitialRest = "rest";
+
 struct ShearCase {
   // System (what the packing is made of).
   std::size_t n = 511;
@@ -61,6 +65,11 @@ struct ShearCase {
   double friction_wall = 0.5;   ///< mu_w
   double wall_mass = 50.0;      ///< M_w of each wall along y
   double duration = 240.0;      ///< simulated shear time [t] (the default job: 6 windows of 40)
+  /// The disks' velocity at the shear's start: kInitialLinear ("linear"), the profile from -V at
+  /// the bottom wall to +V at the top, close to regime A's steady one; kInitialRest ("rest"), every
+  /// disk at rest, the walls already at +-V (the start from which the time to steady state of
+  /// model.md section 8 is a diffusion of momentum across the whole height).
+  std::string initial_velocity = kInitialLinear;
 
   // Time step: dt = min(dt_max, displacement_per_step / V) unless dt is given (default rule).
   std::optional<double> dt;             ///< explicit dt [t]
@@ -141,7 +150,8 @@ void sync_preparation(ShearCase& c);
 
 /// The shear world of model.md section 4 from a packing: x periodic with period L_x, walls at y = 0
 /// and y = L_y moving at -V and +V along x and free along y (mass M_w, force F_y inwards), friction
-/// mu_p and mu_w, disks given the linear velocity profile from -V (bottom) to +V (top).
+/// mu_p and mu_w, disks given the linear velocity profile from -V (bottom) to +V (top), or at rest
+/// (c.initial_velocity). Throws std::invalid_argument for another initial_velocity.
 World build_shear_world(const ShearCase& c, const Packing& packing);
 
 /// The heights L_y / nominal L_y a shear run may reach; beyond them the walls flew apart or went
