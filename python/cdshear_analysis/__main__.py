@@ -152,31 +152,42 @@ def main(argv=None):
     if args.command == "profile-decay":
         import json
         from .relaxation import decay_against_diffusion, format_decay_table
-        summaries = []
+        summaries, fits = [], None
         for path in [os.path.join(d, "summary.json") for d in args.run_dirs] + [args.fits]:
             try:
                 with open(path, encoding="utf-8") as f:
                     data = json.load(f)
-            except (OSError, ValueError) as e:
-                print(f"error: {path}: {getattr(e, 'strerror', None) or e}", file=sys.stderr)
+            except OSError as e:
+                print(f"error: {path}: cannot read: {e.strerror}", file=sys.stderr)
+                return 2
+            except ValueError as e:
+                print(f"error: {path}: not JSON: {e}", file=sys.stderr)
                 return 2
             if path == args.fits:
-                if not isinstance(data.get("fits"), dict):
-                    print(f"error: {path}: no `fits` table (a report's fits.json)", file=sys.stderr)
+                fits = data.get("fits") if isinstance(data, dict) else None
+                if not isinstance(fits, dict):
+                    print(f"error: {path}: no `fits` table (a report's fits.json)",
+                          file=sys.stderr)
                     return 2
-                fits = data["fits"]
+            elif not isinstance(data, dict) or data.get("format") != "cdshear-summary":
+                print(f"error: {path}: not a cdshear summary", file=sys.stderr)
+                return 2
             else:
                 data["run"] = os.path.basename(os.path.normpath(os.path.dirname(path)))
                 summaries.append(data)
         entries, exponent = decay_against_diffusion(summaries, fits)
         print(format_decay_table(entries, exponent))
-        if args.json:
-            with open(args.json, "w", encoding="utf-8") as f:
-                json.dump({"runs": entries, "exponent": exponent}, f, indent=1)
-        if args.plot:
-            from .plots import plot_profile_decay
-            plot_profile_decay(summaries, entries, args.plot)
-            print(args.plot)
+        try:
+            if args.json:
+                with open(args.json, "w", encoding="utf-8") as f:
+                    json.dump({"runs": entries, "exponent": exponent}, f, indent=1)
+            if args.plot:
+                from .plots import plot_profile_decay
+                plot_profile_decay(summaries, entries, args.plot)
+                print(args.plot)
+        except OSError as e:
+            print(f"error: {e.filename}: cannot write: {e.strerror}", file=sys.stderr)
+            return 2
         return 0
 
     if args.command == "series-pairs":

@@ -281,28 +281,35 @@ def _arrays(summary):
 
 
 def plot_profile_decay(summaries, entries, path):
-    """profile-decay --plot: each run's distance from its steady profile (noise floor taken out,
-    relaxation.py) against t / T_SS, on a log scale, with the slowest excited mode of a diffusion
-    from rest, exp(-4 pi^2 t / T_SS), for slope."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    """profile-decay --plot: each run's coefficient along its decaying shape, less the fitted
+    c_inf (relaxation.py), against t / T_SS on a log scale, with its fitted exponential and the
+    slopes of the two walls' slowest modes from rest, exp(-4 pi^2 t / T_SS) and exp(-pi^2 t /
+    T_SS), from the fit's start."""
+    from .relaxation import TAU_OVER_T_SS
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    bounds_drawn = False
     for s, e in zip(summaries, entries):
         d = s.get("profile_decay") or {}
-        if not d.get("t") or e["T_SS"] is None or d.get("floor") is None:
+        if d.get("c") is None or e["T_SS"] is None or d.get("c_inf") is None:
             continue
         t = np.asarray(d["t"], dtype=float)
-        a = np.asarray([np.nan if v is None else v for v in d["amplitude"]], dtype=float)
-        corrected = np.sqrt(np.maximum(a ** 2 - d["floor"] ** 2, 0.0))
-        corrected[corrected <= 0] = np.nan
+        c = np.asarray([np.nan if v is None else v for v in d["c"]], dtype=float) - d["c_inf"]
         label = f"{e['run']} (L_y {e['L_y']:.0f})"
-        if e["tau"] is not None:
-            label += f": tau/T_SS {e['tau_over_T_SS']:.3f}"
-        ax.plot(t / e["T_SS"], corrected, ".", ms=3, label=label)
-    x = np.linspace(0.0, 0.15, 50)
-    ax.plot(x, 0.5 * np.exp(-4 * np.pi ** 2 * x), "k--", lw=1,
-            label="exp(-4 pi^2 t / T_SS): the slowest mode from rest")
+        if e["tau_over_T_SS"] is not None:
+            label += f": tau / T_SS {e['tau_over_T_SS']:.3f}" + ("" if e["used"] else ", not used")
+        points = ax.plot(t / e["T_SS"], np.where(c > 0, c, np.nan), ".", ms=3, label=label)[0]
+        t0 = d["fit_range"][0]
+        x = np.linspace(t0, t[-1], 100)
+        ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / d["tau"]), "-", lw=1,
+                color=points.get_color())
+        for (mode, ratio), style in zip(TAU_OVER_T_SS.items(), (":", "--")):
+            ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / (ratio * e["T_SS"])), style,
+                    lw=0.8, color="k",
+                    label=None if bounds_drawn else f"slowest mode {mode}: tau / T_SS {ratio:.4f}")
+        bounds_drawn = True
     ax.set_yscale("log")
     ax.set_xlabel("t / T_SS   (T_SS = L_y^2 / D, D from the bulk law)")
-    ax.set_ylabel("distance from the steady profile / V")
+    ax.set_ylabel("c - c_inf: distance from the steady profile / V")
     ax.set_title("Velocity profile's decay towards steady state")
     ax.legend(fontsize=7)
     fig.tight_layout()

@@ -4,33 +4,40 @@ that shape, measured per run, against the time to steady state of model.md secti
 The prediction (model.md section 8) treats the momentum balance as a diffusion of the shear rate,
 D = (d mu_eff / d gamma_dot) sigma_yy / (rho nu), across the height: T_SS = L_y^2 / D. A profile's
 distance from the steady one then decays as a sum of modes, the slowest excited one last, as
-exp(-t / tau) with tau = L_y^2 / (k^2 pi^2 D) for the mode sin(k pi y / L_y) between walls that
-hold the grains next to them. From the bulk at rest (`shear.initial_velocity = "rest"`) that
-distance is minus the steady profile, antisymmetric about the mid-height, so its slowest mode is
-k = 2: tau = T_SS / (4 pi^2). The measured tau against L_y^2 / D tests the diffusion picture,
-whatever the walls' slip does to the constant: tau D / L_y^2 is the same for every height if it
-holds.
+exp(-t / tau). From the bulk at rest (`shear.initial_velocity = "rest"`) that distance is minus the
+steady profile, antisymmetric about the mid-height, and its slowest mode depends on what the walls
+impose: walls that hold the grains next to them (velocity fixed) leave sin(2 pi y / L_y), tau =
+T_SS / (4 pi^2); walls that slide at a fixed friction (stress fixed) leave cos(pi y / L_y), tau =
+T_SS / pi^2. The study's walls slide: a measured tau between the two bounds, and tau D / L_y^2 the
+same at every height, is what the diffusion picture predicts (a slip length that does not grow with
+L_y moves the constant from one bound towards the other as the cell grows).
 
-The measurement, per window of the run (docs/analysis.md, "Profile decay"):
-- the window's vx profile divided by V, interpolated at fixed fractions of the window's own height
-  (ETA), so that a cell that dilates is compared at the same places;
-- its distance from the reference profile (the mean over the steady windows, or over the run's
-  last half when it is not steady): the root mean square over ETA, a(t);
-- the reference windows' own root mean square distance is the noise floor f; a is corrected to
-  sqrt(a^2 - f^2);
-- ln a is fitted by a straight line over the windows from the first where the corrected amplitude
-  is below START_LEVEL (the late, near-linear decay) to the last before the raw amplitude first
-  falls below END_FACTOR f; tau = -1 / slope, its error the fit's (the windows taken as
-  independent: a lower bound).
+The measurement, per run (docs/analysis.md, "Profile decay"):
+- each window's vx profile divided by V, read at fixed fractions ETA of the window's own height,
+  so that a cell that dilates is compared at the same places;
+- its distance from the reference profile, the mean over the run's last half;
+- the distance's dominant shape over the first half (its first singular vector), and the signed
+  coefficient c(t) of every window along it, in units of V (the shape has a root mean square of 1);
+- c(t) = c_0 exp(-(t - t_0) / tau) + c_inf fitted from the first window where c has fallen to
+  START_FRACTION of its largest value (the higher modes and the start's dilation gone) to the
+  run's end: the noise averages out along the shape, and c_inf takes up what of the decay the
+  reference still holds. A tau shorter than the windows' spacing, or a c_0 within SIGNAL_TO_NOISE
+  of c's noise over the last half, is no measurement (shorter windows resolve a faster decay). tau's error is the fit's, scaled by the square root of the residuals'
+  statistical inefficiency (consecutive windows are correlated);
+- the decay counts as resolved when the fitted span is at least RESOLVED_SPANS tau long.
 """
 import math
 
 import numpy as np
 
 ETA = np.linspace(0.05, 0.95, 37)  # heights / L_y of the profile's comparison points
-START_LEVEL = 0.3   # the fit starts once the amplitude (in units of V) is below this
-END_FACTOR = 2.0    # ... and stops before the raw amplitude first falls below this many floors
-MIN_FIT_WINDOWS = 5
+START_FRACTION = 0.6   # the fit starts once c has fallen to this share of its largest value
+MIN_FIT_WINDOWS = 8
+RESOLVED_SPANS = 4.0   # a decay is resolved when the fitted span holds this many tau
+SIGNAL_TO_NOISE = 5.0  # the fitted c_0 must be this many times c's noise
+MODES = {"sin_2pi_eta": lambda eta: np.sin(2 * np.pi * eta),   # walls holding the grains
+         "cos_pi_eta": lambda eta: np.cos(np.pi * eta)}         # walls sliding at fixed stress
+TAU_OVER_T_SS = {"sin_2pi_eta": 1 / (4 * math.pi ** 2), "cos_pi_eta": 1 / math.pi ** 2}
 
 
 def window_profiles(windows, velocity):
@@ -47,75 +54,95 @@ def window_profiles(windows, velocity):
     return out
 
 
-def decay_amplitude(profiles, reference_windows):
-    """(a, floor): the root mean square over ETA of each window's distance from the mean profile of
-    reference_windows, and that distance's root mean square over the reference windows."""
-    ref = np.nanmean(profiles[reference_windows], axis=0)
-    with np.errstate(invalid="ignore"):
-        a = np.sqrt(np.nanmean((profiles - ref) ** 2, axis=1))
-    floor = float(np.sqrt(np.nanmean(a[reference_windows] ** 2)))
-    return a, floor
+def statistical_inefficiency(r):
+    """1 + 2 sum of the autocorrelations of r up to the first that is not positive: the factor by
+    which correlated residuals inflate a fit's variance."""
+    r = np.asarray(r, dtype=float) - np.mean(r)
+    var = float(r @ r)
+    if len(r) < 3 or var == 0:
+        return 1.0
+    g = 1.0
+    for k in range(1, len(r) // 2):
+        rho = float(r[:-k] @ r[k:]) / var
+        if rho <= 0:
+            break
+        g += 2 * rho
+    return g
 
 
-def fit_decay(t, a, floor):
-    """The decay time of a(t) (see the module's text). Returns a dict: tau, tau_err, fit_range
-    [t_first, t_last], fit_windows, reason (None when tau is measured)."""
-    out = {"tau": None, "tau_err": None, "fit_range": None, "fit_windows": 0, "reason": None}
-    corrected = np.sqrt(np.maximum(a ** 2 - floor ** 2, 0.0))
-    below = np.flatnonzero(np.isfinite(a) & (corrected < START_LEVEL))
-    if len(below) == 0:
-        out["reason"] = f"the amplitude never falls below {START_LEVEL} V"
+def _exponential(t, c0, tau, c_inf):
+    return c0 * np.exp(-t / tau) + c_inf
+
+
+def fit_decay(t, c, noise):
+    """c(t) = c_0 exp(-(t - t_0) / tau) + c_inf from the first t where c <= START_FRACTION max(c).
+    Refused (tau None, with the reason) when tau is shorter than the windows' spacing or c_0 is
+    within SIGNAL_TO_NOISE of the noise (c's scatter over the run's last half). Returns a dict: tau,
+    tau_err, c_0, c_inf, fit_range, fit_windows, statistical_inefficiency, resolved, reason (None
+    when tau is measured)."""
+    from scipy.optimize import curve_fit
+    out = {"tau": None, "tau_err": None, "c_0": None, "c_inf": None, "fit_range": None,
+           "fit_windows": 0, "statistical_inefficiency": None, "resolved": False, "reason": None}
+    start = int(np.flatnonzero(c <= START_FRACTION * np.max(c))[0])
+    x, z = t[start:] - t[start], c[start:]
+    out["fit_windows"] = len(x)
+    if len(x) < MIN_FIT_WINDOWS:
+        out["reason"] = (f"{len(x)} windows after c fell to {START_FRACTION} of its largest "
+                         f"value; {MIN_FIT_WINDOWS} needed (shorter windows, measure.window)")
         return out
-    first = int(below[0])
-    end = first
-    while end < len(a) and np.isfinite(a[end]) and a[end] >= END_FACTOR * floor:
-        end += 1
-    fit = np.arange(first, end)
-    fit = fit[corrected[fit] > 0]
-    out["fit_windows"] = len(fit)
-    if len(fit) < MIN_FIT_WINDOWS:
-        out["reason"] = (f"{len(fit)} windows between the amplitude's fall below {START_LEVEL} V "
-                         f"and its reaching {END_FACTOR} x the noise floor ({floor:.3g} V); "
-                         f"{MIN_FIT_WINDOWS} needed (shorter windows, measure.window, resolve a "
-                         f"faster decay)")
+    below = np.flatnonzero(z <= z[0] / math.e)
+    guess = x[below[0]] if len(below) and x[below[0]] > 0 else x[-1] / 4
+    try:
+        p, cov = curve_fit(_exponential, x, z, p0=(z[0], guess, 0.0),
+                           bounds=([-np.inf, 1e-9 * x[-1], -np.inf], [np.inf, np.inf, np.inf]))
+    except (RuntimeError, ValueError) as e:
+        out["reason"] = f"the exponential fit did not converge ({e})"
         return out
-    x, z = t[fit], np.log(corrected[fit])
-    A = np.vstack([x, np.ones_like(x)]).T
-    coef, *_ = np.linalg.lstsq(A, z, rcond=None)
-    residual = z - A @ coef
-    s2 = float(residual @ residual) / (len(x) - 2)
-    slope_err = math.sqrt(s2 / float(np.sum((x - x.mean()) ** 2)))
-    slope = float(coef[0])
-    out["fit_range"] = [float(x[0]), float(x[-1])]
-    if slope >= 0:
-        out["reason"] = f"the amplitude does not decay over {out['fit_range']} (slope {slope:.3g})"
+    spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if p[1] < spacing or abs(p[0]) < SIGNAL_TO_NOISE * noise:
+        out["reason"] = (f"the decay is not resolved by the windows (tau {p[1]:.3g} t against "
+                         f"windows {spacing:.3g} t apart; c_0 {p[0]:.3g} against the noise "
+                         f"{noise:.3g}): shorter windows (measure.window)")
         return out
-    out["tau"] = -1.0 / slope
-    out["tau_err"] = slope_err / slope ** 2
+    g = statistical_inefficiency(z - _exponential(x, *p))
+    out.update(tau=float(p[1]), tau_err=float(math.sqrt(cov[1, 1] * g)), c_0=float(p[0]),
+               c_inf=float(p[2]), fit_range=[float(t[start]), float(t[-1])],
+               statistical_inefficiency=g)
+    out["resolved"] = bool(x[-1] >= RESOLVED_SPANS * p[1] and math.isfinite(out["tau_err"]))
+    if not out["resolved"]:
+        out["reason"] = (f"not resolved: the fitted span ({x[-1]:.0f} t) is shorter than "
+                         f"{RESOLVED_SPANS:g} tau ({p[1]:.0f} t), or tau's error is unknown: a "
+                         f"longer run")
     return out
 
 
-def profile_decay(windows, velocity, steady_windows, initial_velocity):
-    """summary.json `profile_decay` of a run: the amplitude series, its floor, the reference and the
-    fitted decay time (fit_decay)."""
-    n = len(windows["t_start"])
-    t = 0.5 * (np.asarray(windows["t_start"], float) + np.asarray(windows["t_end"], float))
-    out = {"initial_velocity": initial_velocity, "t": t, "amplitude": np.full(n, np.nan),
-           "floor": None, "reference": None}
-    if n == 0:
-        out.update(fit_decay(t, np.zeros(0), 0.0), reason="no complete window")
+def profile_decay(windows, velocity, initial_velocity):
+    """summary.json `profile_decay` of a run (see the module's text): the coefficient series c
+    along the decaying shape, the shape's overlaps with the two walls' slowest modes, the noise
+    and the fitted decay (fit_decay)."""
+    t_all = 0.5 * (np.asarray(windows["t_start"], float) + np.asarray(windows["t_end"], float))
+    profiles = window_profiles(windows, velocity)
+    ok = np.all(np.isfinite(profiles), axis=1)
+    t, profiles = t_all[ok], profiles[ok]
+    out = {"initial_velocity": initial_velocity, "t": t, "c": None, "shape_overlap": None,
+           "noise": None, "reference": "the last half of the run"}
+    late = t >= 0.5 * (t[-1] if len(t) else 0.0)
+    if len(t) < 2 * MIN_FIT_WINDOWS or late.sum() < 2 or (~late).sum() < 2:
+        out.update(tau=None, tau_err=None, resolved=False, fit_range=None, fit_windows=0,
+                   reason=f"{len(t)} complete windows with a whole profile; "
+                          f"{2 * MIN_FIT_WINDOWS} needed")
         return out
-    if len(steady_windows) >= 2:
-        reference, out["reference"] = np.asarray(steady_windows), "the steady windows"
-    else:
-        reference = np.flatnonzero(t >= 0.5 * t[-1])
-        out["reference"] = "the last half of the run (not steady)"
-    if len(reference) < 2:
-        out.update(fit_decay(t, np.zeros(0), 0.0), reason="fewer than two reference windows")
-        return out
-    a, floor = decay_amplitude(window_profiles(windows, velocity), reference)
-    out.update(amplitude=a, floor=floor)
-    out.update(fit_decay(t, a, floor))
+    distance = profiles - profiles[late].mean(axis=0)
+    shape = np.linalg.svd(distance[~late], full_matrices=False)[2][0]
+    shape /= math.sqrt(np.mean(shape ** 2))
+    c = distance @ shape / len(ETA)
+    if c[np.argmax(np.abs(c))] < 0:
+        shape, c = -shape, -c
+    out.update(c=c, noise=float(np.std(c[late], ddof=1)),
+               shape_overlap={name: float(abs(shape @ f(ETA)) / (np.linalg.norm(shape) *
+                                                                  np.linalg.norm(f(ETA))))
+                              for name, f in MODES.items()})
+    out.update(fit_decay(t, c, out["noise"]))
     return out
 
 
@@ -130,49 +157,64 @@ def _mean(summary, *keys):
 def decay_against_diffusion(summaries, fits):
     """One entry per run (summary.json dicts with "run" added): the measured tau beside T_SS =
     L_y^2 / D (D from the bulk law `mu_power` of fits.json's `fits`, or `mu_linear`, at the run's
-    steady I_bulk and nu_bulk) and tau / T_SS; and, over the runs with a tau, the exponent p of
-    tau D proportional to L_y^p (2 if the diffusion picture holds), fitted to the logarithms with
-    tau's errors. Returns (entries, exponent dict or None)."""
+    steady I_bulk and nu_bulk) and tau / T_SS; `used` for runs started at rest, in regime A, steady,
+    with a resolved tau (T_SS is a regime-A prediction; `reason` says why another is not). Over the
+    used runs, the exponent p of tau D proportional to L_y^p (2 for a diffusion with the same
+    boundary condition at every height), fitted to the logarithms weighted by tau's errors (the
+    bulk law's own errors not propagated). Returns (entries, exponent dict or None)."""
     from . import fitting
     from .transitions import steady_state_time
     law = next((k for k in ("mu_power", "mu_linear") if fitting.usable(fits.get(k))), None)
     entries = []
     for s in summaries:
-        d = s.get("profile_decay") or {}
+        d = s.get("profile_decay") if isinstance(s.get("profile_decay"), dict) else {}
         e = {"run": s["run"], "initial_velocity": d.get("initial_velocity"),
+             "regime": s.get("regime"), "steady": s.get("steady"),
              "L_y": _mean(s, "height"), "I_bulk": _mean(s, "bulk", "inertial_number"),
              "nu_bulk": _mean(s, "bulk", "solid_fraction"),
              "sigma_yy": _mean(s, "case", "normal_stress"), "tau": d.get("tau"),
-             "tau_err": d.get("tau_err"), "fit_range": d.get("fit_range"), "law": law,
-             "D": None, "T_SS": None, "tau_over_T_SS": None,
-             "reason": d.get("reason") if d else "no profile_decay in summary.json (analyze "
-                                                  "the run again)"}
+             "tau_err": d.get("tau_err"), "fit_range": d.get("fit_range"),
+             "shape_overlap": d.get("shape_overlap"), "law": law, "D": None, "T_SS": None,
+             "tau_over_T_SS": None, "used": False, "reason": None}
         missing = [k for k in ("L_y", "I_bulk", "nu_bulk", "sigma_yy") if e[k] is None]
-        if law is None:
-            e["reason"] = e["reason"] or "no bulk law whose parameters are determined"
+        if not d:
+            e["reason"] = "no profile_decay in summary.json (analyze the run again)"
+        elif law is None:
+            e["reason"] = "no bulk law whose parameters are determined"
         elif missing:
-            e["reason"] = e["reason"] or "missing " + ", ".join(missing)
-        elif fitting.slope(fits[law], e["I_bulk"]) > 0:
+            e["reason"] = "missing " + ", ".join(missing)
+        elif fitting.slope(fits[law], e["I_bulk"]) <= 0:
+            e["reason"] = f"d mu / d I <= 0 at I_bulk = {e['I_bulk']:.3g}: no diffusion"
+        else:
             e["T_SS"], e["D"] = steady_state_time(fits[law], e["I_bulk"], e["L_y"], e["nu_bulk"],
                                                   e["sigma_yy"])
             if e["tau"] is not None:
                 e["tau_over_T_SS"] = e["tau"] / e["T_SS"]
+            if d.get("reason"):
+                e["reason"] = d["reason"]
+            elif e["initial_velocity"] != "rest":
+                e["reason"] = "not started at rest"
+            elif e["regime"] != "A" or not e["steady"]:
+                e["reason"] = f"not steady regime A (regime {e['regime']}, steady {e['steady']})"
+            else:
+                e["used"] = True
         entries.append(e)
-    use = [e for e in entries if e["tau"] is not None and e["D"] is not None]
+    use = [e for e in entries if e["used"]]
     exponent = None
     if len({round(e["L_y"]) for e in use}) >= 2:
         x = np.log([e["L_y"] for e in use])
         z = np.log([e["tau"] * e["D"] for e in use])
-        w = np.array([(e["tau"] / e["tau_err"]) ** 2 if e["tau_err"] else 1.0 for e in use])
+        w = np.array([(e["tau"] / e["tau_err"]) ** 2 for e in use])
         A = np.vstack([x, np.ones_like(x)]).T * np.sqrt(w)[:, None]
-        coef, *_ = np.linalg.lstsq(A, z * np.sqrt(w), rcond=None)
+        coef = np.linalg.lstsq(A, z * np.sqrt(w), rcond=None)[0]
         cov = np.linalg.inv(A.T @ A)
         dof = len(use) - 2
         chi2 = float(np.sum(w * (z - coef[0] * x - coef[1]) ** 2))
-        scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
-        exponent = {"p": float(coef[0]), "p_err": float(math.sqrt(cov[0, 0] * scale)),
-                    "runs": len(use), "chi2_per_dof": chi2 / dof if dof > 0 else None,
-                    "note": "errors scaled by sqrt(chi2/dof) when above 1"}
+        exponent = {"p": float(coef[0]), "runs": len(use), "dof": dof,
+                    "chi2_per_dof": chi2 / dof if dof > 0 else None,
+                    "p_err": float(math.sqrt(cov[0, 0] * max(1.0, chi2 / dof if dof else 1.0))),
+                    "note": "error from tau's errors alone, scaled by sqrt(chi2/dof) when above 1"
+                            + ("" if dof > 0 else "; no degree of freedom left to check it")}
     return entries, exponent
 
 
@@ -180,18 +222,25 @@ def format_decay_table(entries, exponent):
     """The table `profile-decay` prints."""
     def f(v, spec):
         return format(v, spec) if v is not None else "-"
-    lines = [f"{'run':<16} {'start':<7} {'L_y':>6} {'I_bulk':>7} {'D':>7} {'T_SS':>8} "
-             f"{'tau':>14} {'tau/T_SS':>9}  fit range"]
+    lines = [f"{'run':<16} {'start':<7} {'regime':<12} {'L_y':>6} {'I_bulk':>7} {'D':>7} "
+             f"{'T_SS':>7} {'tau':>14} {'tau/T_SS':>9} {'sin2':>5} {'cos1':>5}  fit / reason"]
     for e in entries:
-        tau = f"{e['tau']:.1f} +- {e['tau_err']:.1f}" if e["tau"] is not None else "-"
-        fr = f"{e['fit_range'][0]:.0f}-{e['fit_range'][1]:.0f} t" if e["fit_range"] else \
-            (e["reason"] or "")
-        lines.append(f"{e['run']:<16} {str(e['initial_velocity']):<7} {f(e['L_y'], '6.2f')} "
-                     f"{f(e['I_bulk'], '7.4f')} {f(e['D'], '7.3f')} {f(e['T_SS'], '8.0f')} "
-                     f"{tau:>14} {f(e['tau_over_T_SS'], '9.4f')}  {fr}")
-    lines.append(f"the slowest mode of a diffusion between walls that hold the grains, from rest: "
-                 f"tau / T_SS = 1 / (4 pi^2) = {1 / (4 * math.pi ** 2):.4f}")
+        tau = f"{e['tau']:.1f} +- {e['tau_err']:.1f}" if e["tau"] is not None and \
+            e["tau_err"] is not None else "-"
+        ov = e["shape_overlap"] or {}
+        note = (f"{e['fit_range'][0]:.0f}-{e['fit_range'][1]:.0f} t" if e["fit_range"] else "") \
+            + ("" if e["used"] else f" (not used: {e['reason']})")
+        lines.append(f"{e['run']:<16} {str(e['initial_velocity']):<7} {str(e['regime']):<12} "
+                     f"{f(e['L_y'], '6.2f')} {f(e['I_bulk'], '7.4f')} {f(e['D'], '7.3f')} "
+                     f"{f(e['T_SS'], '7.0f')} {tau:>14} {f(e['tau_over_T_SS'], '9.4f')} "
+                     f"{f(ov.get('sin_2pi_eta'), '5.2f')} {f(ov.get('cos_pi_eta'), '5.2f')} "
+                     f" {note.strip()}")
+    lines.append(f"slowest mode from rest: tau / T_SS = 1 / (4 pi^2) = "
+                 f"{TAU_OVER_T_SS['sin_2pi_eta']:.4f} (sin(2 pi y / L_y), walls holding the "
+                 f"grains) to 1 / pi^2 = {TAU_OVER_T_SS['cos_pi_eta']:.4f} (cos(pi y / L_y), "
+                 f"walls sliding); sin2, cos1: the decaying shape's overlap with each")
     if exponent:
         lines.append(f"tau D proportional to L_y^p: p = {exponent['p']:.2f} +- "
-                     f"{exponent['p_err']:.2f} over {exponent['runs']} runs (2 for a diffusion)")
+                     f"{exponent['p_err']:.2f} over {exponent['runs']} runs (2 for a diffusion; "
+                     f"{exponent['note']})")
     return "\n".join(lines)

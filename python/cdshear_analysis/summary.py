@@ -290,7 +290,7 @@ def analyze(run):
         "profiles": profiles,
         "switches": switches,
         "profile_decay": profile_decay(
-            w, V, sel, run["case"].get("shear", {}).get("initial_velocity", "linear")),
+            w, V, run["case"].get("shear", {}).get("initial_velocity", "linear")),
         "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
         if durations else mean_err(np.nan, np.nan),
         "switch_delta_mu": mean_err(*window_mean(np.array(delta_mus, dtype=float)))

@@ -1,103 +1,161 @@
 """The profile's decay time (relaxation.py) on synthetic windows whose decay is known."""
+import contextlib
+import io
+import json
 import math
+import os
+import tempfile
 import unittest
 
 import numpy as np
 
 from cdshear_analysis import relaxation
+from cdshear_analysis.__main__ import main
+from cdshear_analysis.synthetic import write_synthetic_run
+
+LAW = {"model": "power_plus", "status": "ok",
+       "parameters": {"mu_0": {"value": 0.24}, "A": {"value": 0.89}, "B": {"value": 0.81}}}
 
 
-def synthetic_windows(tau, window=4.0, duration=400.0, noise=0.01, height=20.0, dilation=0.0,
-                      dilation_tau=None, seed=1):
-    """Windows of a cell whose vx / V is the steady 0.8 (2 eta - 1) plus a decaying mode
-    -0.6 sin(2 pi eta) exp(-t / tau) (eta = y / L_y), with Gaussian noise per stripe; the height
-    grows from height to height (1 + dilation) with the time constant dilation_tau (tau if
-    None)."""
+def synthetic_windows(tau, window=4.0, duration=600.0, noise=0.01, height=20.0, dilation=0.0,
+                      dilation_tau=None, mode="sin", ar_noise=0.0, seed=1):
+    """Windows of a cell whose vx / V is the steady 0.3 (2 eta - 1) plus a decaying mode
+    -0.3 f(eta) exp(-t / tau) (eta = y / L_y; f = sin(2 pi eta) or cos(pi eta)), with Gaussian
+    noise per stripe and, with ar_noise, a noise along the mode correlated from window to window
+    (AR(1), 0.8); the height grows from height to height (1 + dilation) with the time constant
+    dilation_tau (tau if None)."""
     rng = np.random.default_rng(seed)
     t_start = np.arange(0.0, duration, window)
     t_mid = t_start + window / 2
     dy = 0.5
     y = np.arange(dy / 2, 1.5 * height * (1 + dilation), dy)
     H = height * (1 + dilation * (1 - np.exp(-t_mid / (dilation_tau or tau))))
+    f = (lambda e: np.sin(2 * np.pi * e)) if mode == "sin" else (lambda e: np.cos(np.pi * e))
     V = 2.0
     vx = np.full((len(t_start), len(y)), np.nan)
+    ar = 0.0
     for k, (t, h) in enumerate(zip(t_mid, H)):
+        ar = 0.8 * ar + ar_noise * math.sqrt(1 - 0.8 ** 2) * rng.standard_normal()
         inside = y < h
         eta = y[inside] / h
-        vx[k, inside] = V * (0.8 * (2 * eta - 1) - 0.6 * np.sin(2 * np.pi * eta) * np.exp(-t / tau)
+        vx[k, inside] = V * (0.3 * (2 * eta - 1) - (0.3 * np.exp(-t / tau) + ar) * f(eta)
                              + noise * rng.standard_normal(inside.sum()))
     return {"t_start": t_start, "t_end": t_start + window, "y": y, "height": H, "vx": vx}, V
 
 
 class ProfileDecay(unittest.TestCase):
-    def test_recovers_the_decay_time_of_a_known_mode(self):
-        for tau in (20.0, 60.0):
-            w, V = synthetic_windows(tau)
-            steady = np.flatnonzero(w["t_start"] >= 300.0)
-            out = relaxation.profile_decay(w, V, steady, "rest")
+    def test_recovers_the_decay_time_and_the_shape_of_a_known_mode(self):
+        for tau, mode, other in ((20.0, "sin", "cos_pi_eta"), (60.0, "cos", "sin_2pi_eta")):
+            w, V = synthetic_windows(tau, mode=mode)
+            out = relaxation.profile_decay(w, V, "rest")
             self.assertIsNone(out["reason"])
-            self.assertAlmostEqual(out["tau"] / tau, 1.0, delta=0.08)
-            self.assertLess(abs(out["tau"] - tau), 4 * out["tau_err"] + 0.02 * tau)
-            self.assertGreaterEqual(out["fit_windows"], relaxation.MIN_FIT_WINDOWS)
-            # the noise floor is the stripes' noise seen through the interpolation: about 0.01
-            self.assertGreater(out["floor"], 0.003)
-            self.assertLess(out["floor"], 0.02)
+            self.assertTrue(out["resolved"])
+            self.assertLess(abs(out["tau"] / tau - 1), 0.05)
+            self.assertLess(abs(out["tau"] - tau), 3 * out["tau_err"])
+            name = "sin_2pi_eta" if mode == "sin" else "cos_pi_eta"
+            self.assertGreater(out["shape_overlap"][name], 0.99)
+            # the two shapes are close over 0.05 to 0.95 of the height (overlap 0.90)
+            self.assertLess(out["shape_overlap"][other], 0.95)
+            f = relaxation.MODES[name](relaxation.ETA)
+            expected = 0.3 * math.sqrt(np.mean(f ** 2)) * math.exp(-out["fit_range"][0] / tau)
+            self.assertLess(abs(out["c_0"] / expected - 1), 0.05)
 
     def test_a_dilating_cell_is_compared_at_the_same_fractions_of_its_height(self):
         # the cell grows by 20% three times more slowly than the profile decays: compared at
         # fixed heights, the steady profile's stretch would read as a slower decay
         w, V = synthetic_windows(40.0, dilation=0.2, dilation_tau=120.0)
-        steady = np.flatnonzero(w["t_start"] >= 300.0)
-        out = relaxation.profile_decay(w, V, steady, "rest")
-        self.assertAlmostEqual(out["tau"] / 40.0, 1.0, delta=0.08)
+        self.assertLess(abs(relaxation.profile_decay(w, V, "rest")["tau"] / 40.0 - 1), 0.05)
         w["height"] = np.full_like(w["height"], w["height"][-1])
-        self.assertGreater(relaxation.profile_decay(w, V, steady, "rest")["tau"] / 40.0, 1.2)
+        self.assertGreater(relaxation.profile_decay(w, V, "rest")["tau"] / 40.0, 1.2)
 
-    def test_the_last_half_is_the_reference_of_a_run_that_is_not_steady(self):
+    def test_a_reference_that_still_holds_part_of_the_decay_is_taken_up_by_c_inf(self):
+        # the last half starts at 2.5 tau: the reference holds 8% of the mode
+        w, V = synthetic_windows(80.0, duration=400.0)
+        out = relaxation.profile_decay(w, V, "rest")
+        self.assertLess(abs(out["tau"] / 80.0 - 1), 0.05)
+        self.assertLess(out["c_inf"], -0.005)
+
+    def test_correlated_noise_widens_the_error_as_much_as_it_moves_tau(self):
+        pulls = []
+        for seed in range(30):
+            w, V = synthetic_windows(40.0, ar_noise=0.015, seed=seed)
+            out = relaxation.profile_decay(w, V, "rest")
+            pulls.append((out["tau"] - 40.0) / out["tau_err"])
+            self.assertGreater(out["statistical_inefficiency"], 2.0)
+        self.assertLess(np.std(pulls), 1.6)
+        self.assertLess(abs(np.mean(pulls)), 0.8)
+
+    def test_windows_without_a_whole_profile_are_left_out(self):
         w, V = synthetic_windows(30.0)
-        out = relaxation.profile_decay(w, V, [], "rest")
-        self.assertEqual(out["reference"], "the last half of the run (not steady)")
-        self.assertAlmostEqual(out["tau"] / 30.0, 1.0, delta=0.08)
+        w["vx"][5] = np.nan
+        w["height"][9] = np.nan
+        out = relaxation.profile_decay(w, V, "rest")
+        self.assertEqual(len(out["t"]), len(w["t_start"]) - 2)
+        self.assertLess(abs(out["tau"] / 30.0 - 1), 0.05)
+
+    def test_a_decay_longer_than_the_run_is_not_resolved_and_says_why(self):
+        w, V = synthetic_windows(200.0, duration=400.0)
+        out = relaxation.profile_decay(w, V, "rest")
+        self.assertFalse(out["resolved"])
+        self.assertIn("a longer run", out["reason"])
 
     def test_a_decay_faster_than_the_windows_is_not_measured_and_says_why(self):
-        w, V = synthetic_windows(3.0, window=8.0)
-        out = relaxation.profile_decay(w, V, np.flatnonzero(w["t_start"] >= 300.0), "rest")
+        w, V = synthetic_windows(2.0, window=8.0, duration=400.0)
+        out = relaxation.profile_decay(w, V, "rest")
         self.assertIsNone(out["tau"])
         self.assertIn("measure.window", out["reason"])
 
     def test_a_run_without_windows_has_no_decay(self):
         w, V = synthetic_windows(30.0)
         empty = {k: v[:0] if k != "y" else v for k, v in w.items()}
-        out = relaxation.profile_decay(empty, V, [], "linear")
+        out = relaxation.profile_decay(empty, V, "linear")
         self.assertIsNone(out["tau"])
-        self.assertEqual(out["reason"], "no complete window")
+        self.assertIn("complete windows", out["reason"])
 
 
-if __name__ == "__main__":
-    unittest.main()
+def summary_of(run, L_y, I, tau, start="rest", regime="A", steady=True):
+    return {"run": run, "regime": regime, "steady": steady, "height": {"mean": L_y},
+            "bulk": {"inertial_number": {"mean": I}, "solid_fraction": {"mean": 0.8}},
+            "case": {"normal_stress": 0.25},
+            "profile_decay": {"initial_velocity": start, "tau": tau, "tau_err": 0.02 * tau,
+                              "resolved": True, "reason": None, "fit_range": [10.0, 900.0]}}
+
+
+class AgainstDiffusion(unittest.TestCase):
+    def test_a_decay_time_as_l_squared_over_d_gives_the_exponent_two(self):
+        from cdshear_analysis.transitions import steady_state_time
+        runs = []
+        for L, I in ((22.0, 0.10), (43.0, 0.05), (84.0, 0.025)):
+            T, _ = steady_state_time(LAW, I, L, 0.8, 0.25)
+            runs.append(summary_of(f"L{L:g}", L, I, 0.06 * T))
+        runs.append(summary_of("linear", 22.0, 0.1, 5.0, start="linear"))
+        runs.append(summary_of("slow", 22.0, 0.01, 5.0, regime="B"))
+        entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
+        self.assertEqual([e["used"] for e in entries], [True, True, True, False, False])
+        self.assertEqual(entries[3]["reason"], "not started at rest")
+        self.assertIn("not steady regime A", entries[4]["reason"])
+        for e in entries[:3]:
+            self.assertAlmostEqual(e["tau_over_T_SS"], 0.06, places=12)
+        self.assertAlmostEqual(exponent["p"], 2.0, places=9)
+        self.assertEqual(exponent["runs"], 3)
+        # tau as L_y^1.5 / D: the exponent says so
+        for r, L in zip(runs, (22.0, 43.0, 84.0)):
+            r["profile_decay"]["tau"] *= (22.0 / L) ** 0.5
+            r["profile_decay"]["tau_err"] = 0.02 * r["profile_decay"]["tau"]
+        self.assertAlmostEqual(
+            relaxation.decay_against_diffusion(runs, {"mu_power": LAW})[1]["p"], 1.5, places=9)
 
 
 class ProfileDecayCommand(unittest.TestCase):
-    def test_prints_each_run_against_the_bulk_law_and_refuses_a_file_without_fits(self):
-        import contextlib
-        import io
-        import json
-        import os
-        import tempfile
-
-        from cdshear_analysis.__main__ import main
-        from cdshear_analysis.synthetic import write_synthetic_run
+    def test_prints_each_run_against_the_bulk_law_and_refuses_bad_files(self):
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "s1_seed1_V2")
             write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
             with contextlib.redirect_stdout(io.StringIO()):
                 self.assertEqual(main(["analyze", run, "--quiet"]), 0)
             fits = os.path.join(d, "fits.json")
-            law = {"model": "power_plus", "status": "ok",
-                   "parameters": {"mu_0": {"value": 0.24}, "A": {"value": 0.89},
-                                  "B": {"value": 0.81}}}
             with open(fits, "w") as f:
-                json.dump({"fits": {"mu_power": law}}, f)
+                json.dump({"fits": {"mu_power": LAW}}, f)
             out, table = io.StringIO(), os.path.join(d, "decay.json")
             with contextlib.redirect_stdout(out):
                 self.assertEqual(main(["profile-decay", run, "--fits", fits, "--json", table]),
@@ -105,13 +163,26 @@ class ProfileDecayCommand(unittest.TestCase):
             self.assertIn("s1_seed1_V2", out.getvalue())
             with open(table) as f:
                 entry = json.load(f)["runs"][0]
-            # T_SS = L_y^2 / D with D = A B I^(B-1) sqrt(m / sigma) sigma / (rho nu)
-            I, nu, L = entry["I_bulk"], entry["nu_bulk"], entry["L_y"]
-            D = 0.89 * 0.81 * I ** -0.19 * math.sqrt(math.pi / 4 / 0.25) * 0.25 / nu
-            self.assertAlmostEqual(entry["T_SS"], L ** 2 / D, delta=1e-9 * L ** 2 / D)
+            self.assertEqual(entry["initial_velocity"], "linear")
+            self.assertFalse(entry["used"])
+            self.assertGreater(entry["T_SS"], 0)
+            for content in ({"runs": []}, [1, 2], "{"):
+                with open(fits, "w") as f:
+                    f.write(content if isinstance(content, str) else json.dumps(content))
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err):
+                    self.assertEqual(main(["profile-decay", run, "--fits", fits]), 2)
+                self.assertIn(fits, err.getvalue())
             with open(fits, "w") as f:
-                json.dump({"runs": []}, f)
+                json.dump({"fits": {"mu_power": LAW}}, f)
             err = io.StringIO()
             with contextlib.redirect_stderr(err):
-                self.assertEqual(main(["profile-decay", run, "--fits", fits]), 2)
-            self.assertIn(fits, err.getvalue())
+                self.assertEqual(main(["profile-decay", d, "--fits", fits]), 2)
+                self.assertEqual(main(["profile-decay", run, "--fits", fits, "--json",
+                                       os.path.join(d, "none", "x.json")]), 2)
+            self.assertIn(os.path.join(d, "summary.json"), err.getvalue())
+            self.assertIn(os.path.join(d, "none", "x.json"), err.getvalue())
+
+
+if __name__ == "__main__":
+    unittest.main()
