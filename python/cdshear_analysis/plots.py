@@ -287,7 +287,7 @@ def plot_profile_decay(summaries, entries, path):
     T_SS), from the fit's start."""
     from .relaxation import TAU_OVER_T_SS
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    bounds_drawn = False
+    bounds_drawn, low, high = False, np.inf, 0.0
     for s, e in zip(summaries, entries):
         d = s.get("profile_decay") or {}
         if d.get("c") is None or e["T_SS"] is None or d.get("c_inf") is None:
@@ -297,7 +297,10 @@ def plot_profile_decay(summaries, entries, path):
         label = f"{e['run']} (L_y {e['L_y']:.0f})"
         if e["tau_over_T_SS"] is not None:
             label += f": tau / T_SS {e['tau_over_T_SS']:.3f}" + ("" if e["used"] else ", not used")
-        points = ax.plot(t / e["T_SS"], np.where(c > 0, c, np.nan), ".", ms=3, label=label)[0]
+        positive = np.where(c > 0, c, np.nan)
+        points = ax.plot(t / e["T_SS"], positive, ".", ms=3, label=label)[0]
+        if np.isfinite(positive).any():
+            low, high = min(low, np.nanmin(positive)), max(high, np.nanmax(positive))
         t0 = d["fit_range"][0]
         x = np.linspace(t0, t[-1], 100)
         ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / d["tau"]), "-", lw=1,
@@ -308,6 +311,8 @@ def plot_profile_decay(summaries, entries, path):
                     label=None if bounds_drawn else f"slowest mode {mode}: tau / T_SS {ratio:.4f}")
         bounds_drawn = True
     ax.set_yscale("log")
+    if high > 0:
+        ax.set_ylim(low / 3, high * 2)
     ax.set_xlabel("t / T_SS   (T_SS = L_y^2 / D, D from the bulk law)")
     ax.set_ylabel("c - c_inf: distance from the steady profile / V")
     ax.set_title("Velocity profile's decay towards steady state")
