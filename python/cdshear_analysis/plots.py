@@ -284,7 +284,7 @@ def plot_profile_decay(summaries, entries, path):
     """profile-decay --plot: each run's coefficient along its decaying shape, less the fitted
     c_inf (relaxation.py), against t / T_SS on a log scale, with its fitted exponential and the
     slopes of the two walls' slowest modes from rest, exp(-4 pi^2 t / T_SS) and exp(-pi^2 t /
-    T_SS), from the fit's start."""
+    T_SS), over the fit's range."""
     from .relaxation import TAU_OVER_T_SS
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     bounds_drawn, low, high = False, np.inf, 0.0
@@ -302,7 +302,7 @@ def plot_profile_decay(summaries, entries, path):
         if np.isfinite(positive).any():
             low, high = min(low, np.nanmin(positive)), max(high, np.nanmax(positive))
         t0 = d["fit_range"][0]
-        x = np.linspace(t0, t[-1], 100)
+        x = np.linspace(t0, d["fit_range"][1], 100)
         ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / d["tau"]), "-", lw=1,
                 color=points.get_color())
         for (mode, ratio), style in zip(TAU_OVER_T_SS.items(), (":", "--")):

@@ -19,12 +19,14 @@ The measurement, per run (docs/analysis.md, "Profile decay"):
 - the distance's dominant shape over the first half (its first singular vector), and the signed
   coefficient c(t) of every window along it, in units of V (the shape has a root mean square of 1);
 - c(t) = c_0 exp(-(t - t_0) / tau) + c_inf fitted from the first window where c has fallen to
-  START_FRACTION of its largest value (the higher modes and the start's dilation gone) to the
-  run's end: the noise averages out along the shape, and c_inf takes up what of the decay the
-  reference still holds. A tau shorter than the windows' spacing, or a c_0 within SIGNAL_TO_NOISE
+  START_FRACTION of its largest value (the higher modes and the start's dilation gone) over
+  FIT_SPANS tau (found again from each fit's tau until the span stays; the rest of the run holds
+  only the steady flow's slow fluctuations): the noise averages out along the shape, and c_inf
+  takes up what of the decay the reference still holds. A tau shorter than the windows' spacing, or a c_0 within SIGNAL_TO_NOISE
   of c's noise over the last half, is no measurement (shorter windows resolve a faster decay). tau's error is the fit's, scaled by the square root of the residuals'
   statistical inefficiency (consecutive windows are correlated);
-- the decay counts as resolved when the fitted span is at least RESOLVED_SPANS tau long.
+- the decay counts as resolved when the run after the fit's start is at least RESOLVED_SPANS tau
+  long.
 """
 import math
 
@@ -33,7 +35,8 @@ import numpy as np
 ETA = np.linspace(0.05, 0.95, 37)  # heights / L_y of the profile's comparison points
 START_FRACTION = 0.6   # the fit starts once c has fallen to this share of its largest value
 MIN_FIT_WINDOWS = 8
-RESOLVED_SPANS = 4.0   # a decay is resolved when the fitted span holds this many tau
+FIT_SPANS = 5.0        # the fit spans this many tau from its start (or the whole run)
+RESOLVED_SPANS = 4.0   # a decay is resolved when the run after the fit's start holds this many tau
 SIGNAL_TO_NOISE = 5.0  # the fitted c_0 must be this many times c's noise
 MODES = {"sin_2pi_eta": lambda eta: np.sin(2 * np.pi * eta),   # walls holding the grains
          "cos_pi_eta": lambda eta: np.cos(np.pi * eta)}         # walls sliding at fixed stress
@@ -92,12 +95,22 @@ def fit_decay(t, c, noise):
         return out
     below = np.flatnonzero(z <= z[0] / math.e)
     guess = x[below[0]] if len(below) and x[below[0]] > 0 else x[-1] / 4
-    try:
-        p, cov = curve_fit(_exponential, x, z, p0=(z[0], guess, 0.0),
-                           bounds=([-np.inf, 1e-9 * x[-1], -np.inf], [np.inf, np.inf, np.inf]))
-    except (RuntimeError, ValueError) as e:
-        out["reason"] = f"the exponential fit did not converge ({e})"
-        return out
+    # Fitted over FIT_SPANS tau from the start (the rest holds no more of the decay, only the
+    # steady flow's slow fluctuations), the span found again from each fit's tau.
+    n, tried = len(x), set()
+    while n not in tried:
+        tried.add(n)
+        try:
+            p, cov = curve_fit(_exponential, x[:n], z[:n], p0=(z[0], guess, 0.0),
+                               bounds=([-np.inf, 1e-9 * x[-1], -np.inf],
+                                       [np.inf, np.inf, np.inf]))
+        except (RuntimeError, ValueError) as e:
+            out["reason"] = f"the exponential fit did not converge ({e})"
+            return out
+        guess = p[1]
+        n = max(MIN_FIT_WINDOWS, int(np.searchsorted(x, FIT_SPANS * p[1], side="right")))
+    x, z = x[:n], z[:n]
+    out["fit_windows"] = n
     spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if p[1] < spacing or abs(p[0]) < SIGNAL_TO_NOISE * noise:
         out["reason"] = (f"the decay is not resolved by the windows (tau {p[1]:.3g} t against "
@@ -106,13 +119,14 @@ def fit_decay(t, c, noise):
         return out
     g = statistical_inefficiency(z - _exponential(x, *p))
     out.update(tau=float(p[1]), tau_err=float(math.sqrt(cov[1, 1] * g)), c_0=float(p[0]),
-               c_inf=float(p[2]), fit_range=[float(t[start]), float(t[-1])],
+               c_inf=float(p[2]), fit_range=[float(t[start]), float(t[start] + x[-1])],
                statistical_inefficiency=g)
-    out["resolved"] = bool(x[-1] >= RESOLVED_SPANS * p[1] and math.isfinite(out["tau_err"]))
+    after = t[-1] - t[start]
+    out["resolved"] = bool(after >= RESOLVED_SPANS * p[1] and math.isfinite(out["tau_err"]))
     if not out["resolved"]:
-        out["reason"] = (f"not resolved: the fitted span ({x[-1]:.0f} t) is shorter than "
-                         f"{RESOLVED_SPANS:g} tau ({p[1]:.0f} t), or tau's error is unknown: a "
-                         f"longer run")
+        out["reason"] = (f"not resolved: the run's span after the fit's start ({after:.0f} t) is "
+                         f"shorter than {RESOLVED_SPANS:g} tau ({p[1]:.0f} t), or tau's error is "
+                         f"unknown: a longer run")
     return out
 
 
