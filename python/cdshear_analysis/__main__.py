@@ -67,7 +67,7 @@ def main(argv=None):
     p_decay.add_argument("run_dirs", nargs="+")
     p_decay.add_argument("--fits", required=True, help="a report's fits.json (its bulk law)")
     p_decay.add_argument("--json", help="also write the table to this JSON file")
-    p_decay.add_argument("--plot", help="also plot each run's amplitude against t / T_SS")
+    p_decay.add_argument("--plot", help="also plot each run's decay against t / T_SS")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")

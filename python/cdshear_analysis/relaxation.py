@@ -29,6 +29,7 @@ The measurement, per run (docs/analysis.md, "Profile decay"):
   long.
 """
 import math
+import warnings
 
 import numpy as np
 
@@ -86,6 +87,9 @@ def fit_decay(t, c, noise):
     from scipy.optimize import curve_fit
     out = {"tau": None, "tau_err": None, "c_0": None, "c_inf": None, "fit_range": None,
            "fit_windows": 0, "statistical_inefficiency": None, "resolved": False, "reason": None}
+    if not np.max(np.abs(c)) > 0:
+        out["reason"] = "the profile does not change from window to window"
+        return out
     start = int(np.flatnonzero(c <= START_FRACTION * np.max(c))[0])
     x, z = t[start:] - t[start], c[start:]
     out["fit_windows"] = len(x)
@@ -101,9 +105,11 @@ def fit_decay(t, c, noise):
     while n not in tried:
         tried.add(n)
         try:
-            p, cov = curve_fit(_exponential, x[:n], z[:n], p0=(z[0], guess, 0.0),
-                               bounds=([-np.inf, 1e-9 * x[-1], -np.inf],
-                                       [np.inf, np.inf, np.inf]))
+            with warnings.catch_warnings():   # a covariance it cannot estimate is inf: no error
+                warnings.simplefilter("ignore")
+                p, cov = curve_fit(_exponential, x[:n], z[:n], p0=(z[0], guess, 0.0),
+                                   bounds=([-np.inf, 1e-9 * x[-1], -np.inf],
+                                           [np.inf, np.inf, np.inf]))
         except (RuntimeError, ValueError) as e:
             out["reason"] = f"the exponential fit did not converge ({e})"
             return out

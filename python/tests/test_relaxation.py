@@ -106,6 +106,13 @@ class ProfileDecay(unittest.TestCase):
         self.assertIsNone(out["tau"])
         self.assertIn("measure.window", out["reason"])
 
+    def test_a_profile_that_never_changes_has_no_decay(self):
+        w, V = synthetic_windows(30.0, noise=0.0)
+        w["vx"] = np.where(np.isfinite(w["vx"]), 0.5, np.nan)
+        out = relaxation.profile_decay(w, V, "rest")
+        self.assertIsNone(out["tau"])
+        self.assertEqual(out["reason"], "the profile does not change from window to window")
+
     def test_a_run_without_windows_has_no_decay(self):
         w, V = synthetic_windows(30.0)
         empty = {k: v[:0] if k != "y" else v for k, v in w.items()}
