@@ -78,6 +78,11 @@ def _exponential(t, c0, tau, c_inf):
     return c0 * np.exp(-t / tau) + c_inf
 
 
+def _no_fit():
+    return {"tau": None, "tau_err": None, "c_0": None, "c_inf": None, "fit_range": None,
+            "fit_windows": 0, "statistical_inefficiency": None, "resolved": False, "reason": None}
+
+
 def fit_decay(t, c, noise):
     """c(t) = c_0 exp(-(t - t_0) / tau) + c_inf from the first t where c <= START_FRACTION max(c).
     Refused (tau None, with the reason) when tau is shorter than the windows' spacing or c_0 is
@@ -85,8 +90,7 @@ def fit_decay(t, c, noise):
     tau_err, c_0, c_inf, fit_range, fit_windows, statistical_inefficiency, resolved, reason (None
     when tau is measured)."""
     from scipy.optimize import curve_fit
-    out = {"tau": None, "tau_err": None, "c_0": None, "c_inf": None, "fit_range": None,
-           "fit_windows": 0, "statistical_inefficiency": None, "resolved": False, "reason": None}
+    out = _no_fit()
     if not np.max(np.abs(c)) > 0:
         out["reason"] = "the profile does not change from window to window"
         return out
@@ -100,21 +104,25 @@ def fit_decay(t, c, noise):
     below = np.flatnonzero(z <= z[0] / math.e)
     guess = x[below[0]] if len(below) and x[below[0]] > 0 else x[-1] / 4
     # Fitted over FIT_SPANS tau from the start (the rest holds no more of the decay, only the
-    # steady flow's slow fluctuations), the span found again from each fit's tau.
-    n, tried = len(x), set()
-    while n not in tried:
-        tried.add(n)
-        try:
-            with warnings.catch_warnings():   # a covariance it cannot estimate is inf: no error
-                warnings.simplefilter("ignore")
-                p, cov = curve_fit(_exponential, x[:n], z[:n], p0=(z[0], guess, 0.0),
-                                   bounds=([-np.inf, 1e-9 * x[-1], -np.inf],
-                                           [np.inf, np.inf, np.inf]))
-        except (RuntimeError, ValueError) as e:
-            out["reason"] = f"the exponential fit did not converge ({e})"
-            return out
-        guess = p[1]
-        n = max(MIN_FIT_WINDOWS, int(np.searchsorted(x, FIT_SPANS * p[1], side="right")))
+    # steady flow's slow fluctuations), the span found again from each fit's tau until it repeats;
+    # the last fit is over the span kept.
+    def fit(count, tau_guess):
+        with warnings.catch_warnings():   # a covariance it cannot estimate is inf: no error
+            warnings.simplefilter("ignore")
+            return curve_fit(_exponential, x[:count], z[:count], p0=(z[0], tau_guess, 0.0),
+                             bounds=([-np.inf, 1e-9 * x[-1], -np.inf], [np.inf, np.inf, np.inf]))
+    n, fitted, tried = len(x), None, set()
+    try:
+        while n not in tried:
+            tried.add(n)
+            (p, cov), fitted = fit(n, guess), n
+            guess = p[1]
+            n = max(MIN_FIT_WINDOWS, int(np.searchsorted(x, FIT_SPANS * p[1], side="right")))
+        if n != fitted:
+            p, cov = fit(n, guess)
+    except (RuntimeError, ValueError) as e:
+        out["reason"] = f"the exponential fit did not converge ({e})"
+        return out
     x, z = x[:n], z[:n]
     out["fit_windows"] = n
     spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
@@ -148,9 +156,8 @@ def profile_decay(windows, velocity, initial_velocity):
            "noise": None, "reference": "the last half of the run"}
     late = t >= 0.5 * (t[-1] if len(t) else 0.0)
     if len(t) < 2 * MIN_FIT_WINDOWS or late.sum() < 2 or (~late).sum() < 2:
-        out.update(tau=None, tau_err=None, resolved=False, fit_range=None, fit_windows=0,
-                   reason=f"{len(t)} complete windows with a whole profile; "
-                          f"{2 * MIN_FIT_WINDOWS} needed")
+        out.update(_no_fit(), reason=f"{len(t)} complete windows with a whole profile; "
+                                     f"{2 * MIN_FIT_WINDOWS} needed")
         return out
     distance = profiles - profiles[late].mean(axis=0)
     shape = np.linalg.svd(distance[~late], full_matrices=False)[2][0]

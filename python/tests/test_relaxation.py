@@ -118,6 +118,8 @@ class ProfileDecay(unittest.TestCase):
         empty = {k: v[:0] if k != "y" else v for k, v in w.items()}
         out = relaxation.profile_decay(empty, V, "linear")
         self.assertIsNone(out["tau"])
+        # the same keys as a measured decay's, for summary.json's readers
+        self.assertEqual(set(out), set(relaxation.profile_decay(w, V, "rest")))
         self.assertIn("complete windows", out["reason"])
 
 
