@@ -152,29 +152,28 @@ def main(argv=None):
     if args.command == "profile-decay":
         import json
         from .relaxation import decay_against_diffusion, format_decay_table
-        summaries, fits = [], None
-        for path in [os.path.join(d, "summary.json") for d in args.run_dirs] + [args.fits]:
-            try:
-                with open(path, encoding="utf-8") as f:
-                    data = json.load(f)
-            except OSError as e:
-                print(f"error: {path}: cannot read: {e.strerror}", file=sys.stderr)
-                return 2
-            except ValueError as e:
-                print(f"error: {path}: not JSON: {e}", file=sys.stderr)
-                return 2
-            if path == args.fits:
-                fits = data.get("fits") if isinstance(data, dict) else None
-                if not isinstance(fits, dict):
-                    print(f"error: {path}: no `fits` table (a report's fits.json)",
-                          file=sys.stderr)
-                    return 2
-            elif not isinstance(data, dict) or data.get("format") != "cdshear-summary":
-                print(f"error: {path}: not a cdshear summary", file=sys.stderr)
-                return 2
-            else:
-                data["run"] = os.path.basename(os.path.normpath(os.path.dirname(path)))
+        from .report import ReportError, read_summary
+        from .rundata import open_regular
+        summaries = []
+        try:
+            for run_dir in args.run_dirs:
+                data = read_summary(run_dir)
+                path = os.path.join(run_dir, "summary.json")
+                if not isinstance(data, dict) or data.get("format") != "cdshear-summary":
+                    raise ReportError(path, "not a cdshear summary")
+                data["run"] = os.path.basename(os.path.normpath(run_dir))
                 summaries.append(data)
+            try:
+                with open_regular(args.fits, encoding="utf-8") as f:
+                    fits = json.load(f)
+            except (OSError, ValueError) as e:
+                raise ReportError(args.fits, f"cannot read: {e}") from None
+            fits = fits.get("fits") if isinstance(fits, dict) else None
+            if not isinstance(fits, dict):
+                raise ReportError(args.fits, "no `fits` table (a report's fits.json)")
+        except ReportError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
         entries, exponent = decay_against_diffusion(summaries, fits)
         print(format_decay_table(entries, exponent))
         try:

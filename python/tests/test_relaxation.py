@@ -183,6 +183,12 @@ class ProfileDecayCommand(unittest.TestCase):
                 with contextlib.redirect_stderr(err):
                     self.assertEqual(main(["profile-decay", run, "--fits", fits]), 2)
                 self.assertIn(fits, err.getvalue())
+            fifo = os.path.join(d, "fifo.json")
+            os.mkfifo(fifo)   # refused, not waited on (docs/reliability.md)
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                self.assertEqual(main(["profile-decay", run, "--fits", fifo]), 2)
+            self.assertIn(fifo, err.getvalue())
             with open(fits, "w") as f:
                 json.dump({"fits": {"mu_power": LAW}}, f)
             err = io.StringIO()
