@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Two threads against the machine's own parallel capacity (docs/benchmarks.md, "Threads"). Each
+# round shears the packing for DURATION time units three ways, in turn: one thread alone, two
+# threads, and two one-thread copies side by side. The capacity is what two independent processes
+# get from the machine, 2 x (one alone) / (the slower of the pair); the share is the two-thread
+# speed-up over that capacity. Every run does the same work: the state hashes must all be equal.
+#
+#   bench/thread_capacity.sh PACKING SYSTEM VELOCITY DURATION ROUNDS
+#
+# Environment: CDSHEAR [build/cdshear]; extra variables (OMP_PROC_BIND, ...) pass through.
+# Example (system 5, 20 t at V = 0.5, three rounds):
+#   bench/thread_capacity.sh campaigns/validation/packings/s5_seed1.json 5 0.5 20 3
+set -euo pipefail
+
+if [[ $# -ne 5 || "$1" == -h || "$1" == --help ]]; then
+  sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+  exit 2
+fi
+packing=$1 system=$2 velocity=$3 duration=$4 rounds=$5
+repo=$(cd "$(dirname "$0")/.." && pwd)
+cdshear=${CDSHEAR:-$repo/build/cdshear}
+[[ -x "$cdshear" ]] || { echo "error: $cdshear: not built (scripts/setup.sh)" >&2; exit 2; }
+[[ -f "$packing" ]] || { echo "error: PACKING '$packing': no such file" >&2; exit 2; }
+[[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
+
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+
+# One run in folder $1 on $2 threads; its state hash to $1/hash.
+shear() {
+  rm -rf "$1"
+  "$cdshear" run --packing "$packing" --system "$system" -V "$velocity" --threads "$2" \
+    --set shear.duration="$duration" --set measure.enabled=false --no-analyze -q -o "$1" \
+    > "$1.log" 2>&1 || { echo "error: the run on $2 threads failed:" >&2; tail -n 5 "$1.log" >&2; exit 1; }
+  grep -o '"state_hash": *"[0-9a-f]*"' "$1/run_info.json" | grep -o '[0-9a-f]\{16\}' > "$1/hash"
+}
+seconds_since() { /usr/bin/python3 -c "import sys; print(f'{(int(sys.argv[2]) - int(sys.argv[1])) / 1e9:.2f}')" "$1" "$(date +%s%N)"; }
+
+echo "# system $system, $packing, V = $velocity, $duration t; $(nproc) processors; $cdshear"
+echo "round one_thread_s two_threads_s pair_s pair_s speed_up capacity share"
+table="$scratch/table"
+: > "$table"
+for ((round = 1; round <= rounds; ++round)); do
+  t0=$(date +%s%N); shear "$scratch/one" 1; one=$(seconds_since "$t0")
+  t0=$(date +%s%N); shear "$scratch/two" 2; two=$(seconds_since "$t0")
+  t0=$(date +%s%N)
+  (t=$(date +%s%N); shear "$scratch/a" 1; seconds_since "$t" > "$scratch/a.s") &
+  (t=$(date +%s%N); shear "$scratch/b" 1; seconds_since "$t" > "$scratch/b.s") &
+  wait
+  pair_a=$(cat "$scratch/a.s") pair_b=$(cat "$scratch/b.s")
+  hashes=$(cat "$scratch"/{one,two,a,b}/hash | sort -u | wc -l)
+  /usr/bin/python3 - "$round" "$one" "$two" "$pair_a" "$pair_b" "$hashes" <<'EOF' | tee -a "$table"
+import sys
+r, one, two, a, b, hashes = sys.argv[1], *map(float, sys.argv[2:6]), int(sys.argv[6])
+speed_up, capacity = one / two, 2 * one / max(a, b)
+print(f"{r} {one:.2f} {two:.2f} {a:.2f} {b:.2f} {speed_up:.3f} {capacity:.3f} "
+      f"{speed_up / capacity:.3f} {'same-hash' if hashes == 1 else 'HASHES-DIFFER'}")
+EOF
+done
+/usr/bin/python3 - "$table" <<'EOF'
+import statistics, sys
+rows = [line.split() for line in open(sys.argv[1])]
+col = lambda k: [float(r[k]) for r in rows]
+print(f"median: speed-up {statistics.median(col(5)):.3f}, capacity {statistics.median(col(6)):.3f}, "
+      f"share {statistics.median(col(7)):.3f}")
+same = all(r[8] == "same-hash" for r in rows)
+print("state hashes:", "all equal" if same else "DIFFER")
+sys.exit(0 if same else 1)
+EOF
