@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -31,6 +32,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -79,6 +81,7 @@ cdshear::StepOptions shear_step_rules(double velocity, std::optional<double> alp
 }
 
 struct Settings {
+  bool core_round_trip = false;  // --core-round-trip: measure it and stop
   std::vector<std::size_t> sizes{500, 5000};
   bool run_static = true;
   bool run_shear = true;
@@ -239,6 +242,11 @@ Reference solve of --step-error:
                       test the solver on an old, dense flow rather than a fresh packing
   --no-static         skip the static cases
   --no-shear          skip the shear cases
+  --core-round-trip   only measure how long a cache line takes to go from one core to another
+                      and back (two threads handing a counter to each other; median of 5
+                      times 100000 hand-overs, in ns) and stop: on a virtual machine it
+                      changes with where the host places the two processors, and the
+                      solver's two-thread speed with it (docs/benchmarks.md, "Threads")
   --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
   --help              this text
 CSV lines go to stdout, progress to stderr. See docs/benchmarks.md.
@@ -340,6 +348,8 @@ Settings parse(int argc, char** argv) {
       s.residual_given = true;
     } else if (a == "--profile") {
       s.solver.profile = true;
+    } else if (a == "--core-round-trip") {
+      s.core_round_trip = true;
     } else if (a == "--alpha") {
       s.solver.alpha = std::stod(value());
       s.alpha_given = true;
@@ -1254,7 +1264,38 @@ double solid_fraction(const World& world) {
   return area / (world.domain.length_x * h);
 }
 
+/// Nanoseconds for one round trip of a cache line between two threads: each waits for the
+/// counter to reach its turn and moves it on. The median of 5 runs of `hand_overs` round trips.
+double core_round_trip_ns(int hand_overs) {
+  std::vector<double> runs;
+  for (int run = 0; run < 5; ++run) {
+    alignas(64) std::atomic<int> counter{0};
+    std::thread partner([&] {
+      for (int i = 0; i < hand_overs; ++i) {
+        while (counter.load(std::memory_order_acquire) != 2 * i + 1) {
+        }
+        counter.store(2 * i + 2, std::memory_order_release);
+      }
+    });
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < hand_overs; ++i) {
+      counter.store(2 * i + 1, std::memory_order_release);
+      while (counter.load(std::memory_order_acquire) != 2 * i + 2) {
+      }
+    }
+    const auto end = std::chrono::steady_clock::now();
+    partner.join();
+    runs.push_back(std::chrono::duration<double, std::nano>(end - start).count() / hand_overs);
+  }
+  std::sort(runs.begin(), runs.end());
+  return runs[runs.size() / 2];
+}
+
 int run(const Settings& s) {
+  if (s.core_round_trip) {
+    std::cout << "core round trip: " << std::lround(core_round_trip_ns(100000)) << " ns\n";
+    return 0;
+  }
   const std::string host = hostname(), date = utc_now();
   std::vector<std::string> lines;
   std::cout << kHeader << '\n' << std::flush;

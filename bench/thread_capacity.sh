@@ -4,22 +4,29 @@
 # threads, and two one-thread copies side by side. The capacity is what two independent processes
 # get from the machine, 2 x (one alone) / (the slower of the pair); the share is the two-thread
 # speed-up over that capacity. Every run does the same work: the state hashes must all be equal.
+# Before and after the two-thread run, `cdshear_bench --core-round-trip` times a cache line's round
+# trip between the cores: on a virtual machine it changes with where the host places the two
+# processors (about 100 or about 450 ns on the 2-core machines of docs/benchmarks.md), and the
+# two-thread speed with it.
 #
 #   bench/thread_capacity.sh PACKING SYSTEM VELOCITY DURATION ROUNDS
 #
-# Environment: CDSHEAR [build/cdshear]; extra variables (OMP_PROC_BIND, ...) pass through.
+# Environment: CDSHEAR [build/cdshear], CDSHEAR_BENCH [build/bench/cdshear_bench]; extra variables (OMP_PROC_BIND, ...) pass through.
 # Example (system 5, 20 t at V = 0.5, three rounds):
 #   bench/thread_capacity.sh campaigns/validation/packings/s5_seed1.json 5 0.5 20 3
 set -euo pipefail
 
 if [[ $# -ne 5 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 packing=$1 system=$2 velocity=$3 duration=$4 rounds=$5
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cdshear=${CDSHEAR:-$repo/build/cdshear}
-[[ -x "$cdshear" ]] || { echo "error: $cdshear: not built (scripts/setup.sh)" >&2; exit 2; }
+bench=${CDSHEAR_BENCH:-$repo/build/bench/cdshear_bench}
+for exe in "$cdshear" "$bench"; do
+  [[ -x "$exe" ]] || { echo "error: $exe: not built (scripts/setup.sh)" >&2; exit 2; }
+done
 [[ -f "$packing" ]] || { echo "error: PACKING '$packing': no such file" >&2; exit 2; }
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
 
@@ -37,24 +44,26 @@ shear() {
 seconds_since() { /usr/bin/python3 -c "import sys; print(f'{(int(sys.argv[2]) - int(sys.argv[1])) / 1e9:.2f}')" "$1" "$(date +%s%N)"; }
 
 echo "# system $system, $packing, V = $velocity, $duration t; $(nproc) processors; $cdshear"
-echo "round one_thread_s two_threads_s pair_s pair_s speed_up capacity share"
+echo "round one_thread_s two_threads_s pair_s pair_s speed_up capacity share hashes round_trip_ns"
 table="$scratch/table"
 : > "$table"
 for ((round = 1; round <= rounds; ++round)); do
   t0=$(date +%s%N); shear "$scratch/one" 1; one=$(seconds_since "$t0")
+  trip_before=$("$bench" --core-round-trip | grep -o '[0-9]* ns' | grep -o '[0-9]*')
   t0=$(date +%s%N); shear "$scratch/two" 2; two=$(seconds_since "$t0")
+  trip_after=$("$bench" --core-round-trip | grep -o '[0-9]* ns' | grep -o '[0-9]*')
   t0=$(date +%s%N)
   (t=$(date +%s%N); shear "$scratch/a" 1; seconds_since "$t" > "$scratch/a.s") &
   (t=$(date +%s%N); shear "$scratch/b" 1; seconds_since "$t" > "$scratch/b.s") &
   wait
   pair_a=$(cat "$scratch/a.s") pair_b=$(cat "$scratch/b.s")
   hashes=$(cat "$scratch"/{one,two,a,b}/hash | sort -u | wc -l)
-  /usr/bin/python3 - "$round" "$one" "$two" "$pair_a" "$pair_b" "$hashes" <<'EOF' | tee -a "$table"
+  /usr/bin/python3 - "$round" "$one" "$two" "$pair_a" "$pair_b" "$hashes" "$trip_before/$trip_after" <<'EOF' | tee -a "$table"
 import sys
-r, one, two, a, b, hashes = sys.argv[1], *map(float, sys.argv[2:6]), int(sys.argv[6])
+r, one, two, a, b, hashes, trips = sys.argv[1], *map(float, sys.argv[2:6]), int(sys.argv[6]), sys.argv[7]
 speed_up, capacity = one / two, 2 * one / max(a, b)
 print(f"{r} {one:.2f} {two:.2f} {a:.2f} {b:.2f} {speed_up:.3f} {capacity:.3f} "
-      f"{speed_up / capacity:.3f} {'same-hash' if hashes == 1 else 'HASHES-DIFFER'}")
+      f"{speed_up / capacity:.3f} {'same-hash' if hashes == 1 else 'HASHES-DIFFER'} {trips}")
 EOF
 done
 /usr/bin/python3 - "$table" <<'EOF'

@@ -518,7 +518,6 @@ class ContactSolve {
   struct SweepState {
     TeamPlace place;
     bool first_thread = false;
-    Share my_groups;  ///< this thread's groups in the passes over every group (sums, wake-ups)
     bool slab_corrections = false;
     int period = 1;  ///< sweeps between two Anderson mixes
     bool serial_rows = false;
@@ -611,11 +610,9 @@ class ContactSolve {
         ws.order[next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
     }
     team_barrier();
-    {
-      const Share mine = groups_share(ws.group_start, place);
-      for (std::size_t g = mine.first; g < mine.last; ++g) shuffle_group(g, options, step, ws);
-      team_barrier();
-    }
+    for_each_own_group(ws.phases, groups - 1, place,
+                       [&](std::size_t g) { shuffle_group(g, options, step, ws); });
+    team_barrier();
     renumber_bodies(place, my_contacts);
   }
 
@@ -698,30 +695,29 @@ class ContactSolve {
   template <class ForGroup>
   void each_group_by_phase(const ForGroup& for_group) {
     for_each_phased_group(ws.phases, for_group);
-#if defined(_OPENMP)
-#pragma omp single
-#endif
-    for_group(groups - 1);
+    if (team_place().thread == 0) for_group(groups - 1);  // its owner (for_each_own_group)
+    team_barrier();
   }
 
   /// Set-up of the rows: the rows in visit order (the sweeps then read them front to back) and
   /// their Delassus entries, then the warm start (apply the carried-over impulses), then the
   /// dormant rows.
   void prepare_rows() {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t i = 0; i < nc; ++i) {
-      const Contact& c = contacts[ws.order[i]];
-      const auto global_a = static_cast<std::size_t>(c.key.body_a);
-      const auto global_b = static_cast<std::size_t>(c.key.body_b);
-      const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
-      const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
-      fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt,
-               options.relaxation);  // the decoupled rows' factors carry the over-relaxation
-      rows[i].body_a = static_cast<std::uint32_t>(ia);
-      rows[i].body_b = static_cast<std::uint32_t>(ib);
-    }
+    const TeamPlace place = team_place();
+    for_each_own_group(ws.phases, groups - 1, place, [&](std::size_t g) {
+      for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+        const Contact& c = contacts[ws.order[i]];
+        const auto global_a = static_cast<std::size_t>(c.key.body_a);
+        const auto global_b = static_cast<std::size_t>(c.key.body_b);
+        const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
+        const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
+        fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt,
+                 options.relaxation);  // the decoupled rows' factors carry the over-relaxation
+        rows[i].body_a = static_cast<std::uint32_t>(ia);
+        rows[i].body_b = static_cast<std::uint32_t>(ib);
+      }
+    });
+    team_barrier();
     each_group_by_phase([&](std::size_t g) {
       for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
         const SolverRow& r = rows[i];
@@ -731,11 +727,10 @@ class ContactSolve {
     // Dormant rows: open (R = 0) and separating (u_n + gap/dt > 0) once the warm start is
     // applied. The sweeps leave them out; every kDormantCheckInterval sweeps, and before the
     // sweeps stop, those that would now close are woken (nlgs_solver.hpp).
-    const Share my_groups = groups_share(ws.group_start, team_place());
     // Without a branch: each row is written at the end of both lists, and the list it belongs
     // to moves on. About half of the rows are dormant, in no pattern a predictor can learn, and
     // the mispredicted branch cost about 1% of a system-1 step.
-    for (std::size_t g = my_groups.first; g < my_groups.last; ++g) {
+    for_each_own_group(ws.phases, groups - 1, place, [&](std::size_t g) {
       const std::size_t first = ws.group_start[g], last = ws.group_start[g + 1];
       auto& awake = ws.awake[g];
       auto& dormant = ws.dormant_of_group[g];
@@ -754,7 +749,7 @@ class ContactSolve {
       }
       awake.resize(awake_count);
       dormant.resize(dormant_count);
-    }
+    });
     team_barrier();
   }
 
@@ -766,25 +761,21 @@ class ContactSolve {
   /// them).
   void gather_mixed_impulses(std::vector<double>& v, bool scale_rows) {
     const std::size_t phased_groups = groups - 1;  // all but the serial group
-    if (scale_rows) {
-      const Share mine = groups_share(ws.group_start, team_place());
-      for (std::size_t g = mine.first; g < std::min(mine.last, phased_groups); ++g) {
+    for_each_own_group(ws.phases, phased_groups, team_place(), [&](std::size_t g) {
+      const bool scale_here = scale_rows && g < phased_groups;
+      if (scale_here) {
         const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
         for (std::size_t k = mixed_here; k < ws.awake[g].size(); ++k)
           ws.slab_correction.scale_row(rows[ws.awake[g][k]]);
       }
-    }
-    const std::size_t mixed = ws.anderson_rows.size();
-    const std::size_t phased_mixed = ws.anderson_group_start[phased_groups];
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t k = 0; k < mixed; ++k) {
-      SolverRow& r = rows[ws.anderson_rows[k]];
-      if (scale_rows && k < phased_mixed) ws.slab_correction.scale_row(r);
-      v[2 * k] = r.impulse_n;
-      v[2 * k + 1] = r.impulse_t;
-    }
+      for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
+        SolverRow& r = rows[ws.anderson_rows[k]];
+        if (scale_here) ws.slab_correction.scale_row(r);
+        v[2 * k] = r.impulse_n;
+        v[2 * k + 1] = r.impulse_t;
+      }
+    });
+    team_barrier();  // the mix reads v
   }
 
   /// Acceleration: the mixed impulses of group g's rows, projected on the Signorini-Coulomb set;
@@ -846,7 +837,6 @@ class ContactSolve {
     st.first_thread = st.place.thread == 0;
     if (coloured) arrange_coloured_rows();
     prepare_rows();
-    st.my_groups = groups_share(ws.group_start, st.place);
 #if defined(_OPENMP)
 #pragma omp single
 #endif
@@ -908,23 +898,19 @@ class ContactSolve {
   /// Sweeps: every group of every phase (the groups of a phase in parallel), then the serial
   /// group.
   void sweep_groups(SweepTally* tallies, bool corrects, const SweepState& st) {
-    // Each phase's `omp for` without its barrier, then the barrier on its own: the same
-    // synchronisation, with the wait timed apart from the work.
+    // Each thread its phase_share of each phase, then the phase's barrier, the wait timed
+    // apart from the work.
     for (const SolverPhase& phase : ws.phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static) nowait
-#endif
-      for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+      const Share mine = phase_share(phase, st.place);
+      for (std::size_t g = mine.first; g < mine.last; ++g)
         sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
       st.clock->lap(report.profile.sweeps);
       team_barrier();
       st.clock->lap(report.profile.phase_waits);
     }
     if (st.serial_rows) {
-#if defined(_OPENMP)
-#pragma omp single nowait
-#endif
-      sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
+      if (st.first_thread)  // the thread that owns the serial group (for_each_own_group)
+        sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
       st.clock->lap(report.profile.sweeps);
       team_barrier();
       st.clock->lap(report.profile.phase_waits);
@@ -947,9 +933,9 @@ class ContactSolve {
     const bool fraction_met = converged_fraction >= options.converged_fraction;
     bool done = false;
     if (fraction_met || sweep == options.max_sweeps) {
-      for (std::size_t g = st.my_groups.first; g < std::min(st.my_groups.last, st.tallied_groups);
-           ++g)
-        sum_group_lengths(g, ws, tallies);
+      for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
+        if (g < st.tallied_groups) sum_group_lengths(g, ws, tallies);
+      });
       team_barrier();
       double sum_change = 0.0, sum_force = 0.0;
       for (std::size_t g = 0; g < st.tallied_groups; ++g) {
@@ -983,7 +969,7 @@ class ContactSolve {
   /// e dt over the force-carrying rows, each thread its groups' sums, added in group order.
   /// Dormant rows carry no force and are not counted, as in the step's check.
   bool meets_residual_tolerance(SweepTally* tallies, const SweepState& st) {
-    for (std::size_t g = st.my_groups.first; g < st.my_groups.last; ++g) {
+    for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
       double sum2 = 0.0;
       std::size_t carrying = 0;
       for (const std::uint32_t i : ws.awake[g]) {
@@ -995,7 +981,7 @@ class ContactSolve {
       }
       tallies[g].violation2 = sum2;
       tallies[g].carrying_rows = carrying;
-    }
+    });
     team_barrier();
     double sum2 = 0.0;
     std::size_t carrying = 0;
@@ -1014,8 +1000,9 @@ class ContactSolve {
     std::size_t woken = 0;
     if (st.any_dormant &&
         (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
-      for (std::size_t g = st.my_groups.first; g < st.my_groups.last; ++g)
+      for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
         ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
+      });
       team_barrier();
       for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
     }
@@ -1046,15 +1033,14 @@ class ContactSolve {
   /// has its own body).
   void write_back() {
     int active_here = 0;
-#if defined(_OPENMP)
-#pragma omp for schedule(static) nowait
-#endif
-    for (std::size_t i = 0; i < nc; ++i) {
-      Contact& c = contacts[ws.order[i]];
-      c.impulse_n = rows[i].impulse_n;
-      c.impulse_t = rows[i].impulse_t;
-      active_here += rows[i].impulse_n > 0.0;
-    }
+    for_each_own_group(ws.phases, groups - 1, team_place(), [&](std::size_t g) {
+      for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
+        Contact& c = contacts[ws.order[i]];
+        c.impulse_n = rows[i].impulse_n;
+        c.impulse_t = rows[i].impulse_t;
+        active_here += rows[i].impulse_n > 0.0;
+      }
+    });
 #if defined(_OPENMP)
 #pragma omp atomic
 #endif

@@ -208,13 +208,6 @@ struct SolverReport {
   SolverProfile profile;  ///< options.profile only
 };
 
-/// The groups thread p takes in a pass over every group at once (not phase by phase): consecutive
-/// groups with about an equal share of the rows. The slabs, most of the rows, come first: an
-/// `omp for` over the groups gave nearly all of them to the first thread.
-inline Share groups_share(const std::vector<std::size_t>& group_start, TeamPlace p) {
-  return weighted_share_of(group_start, p);
-}
-
 /// What one group of rows adds to the convergence test. The sums are filled only in the sweeps
 /// whose decision needs them (solve_contacts: they cost a square root per update).
 struct SweepTally {

@@ -211,13 +211,12 @@ void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
 
 void SlabCorrection::scale_gathered_rows(std::vector<SolverRow>& rows) {
   // 5. The rows' impulses, scaled.
-  // Each thread its consecutive groups with an equal share of the rows (groups_share): an omp
-  // for over the groups gave the first thread nearly all the slabs.
-  const Share mine = groups_share(*layout_.group_start, team_place());
-  for (std::size_t g = mine.first; g < mine.last; ++g) {
-    if (group_low_[g] == kNoNode) continue;  // no row to scale (or the serial group)
+  // Each thread the groups it sweeps (for_each_own_group).
+  const std::size_t serial_group = layout_.group_start->size() - 2;
+  for_each_own_group(*layout_.phases, serial_group, team_place(), [&](std::size_t g) {
+    if (group_low_[g] == kNoNode) return;  // no row to scale (or the serial group)
     for (const std::uint32_t i : (*layout_.awake)[g]) scale_row(rows[i]);
-  }
+  });
 }
 
 bool SlabCorrection::solve() {

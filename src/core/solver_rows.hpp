@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "threads.hpp"
 #include "vec2.hpp"
 
 namespace cdshear {
@@ -104,18 +105,43 @@ struct SolverPhase {
   std::size_t first_group = 0, last_group = 0;
 };
 
+/// The groups of `phase` that thread p takes: its share_of the phase's groups (consecutive
+/// groups, the same split in every pass). Every pass over the groups splits them so (the
+/// sweeps, the warm start, the mix, the sums, the dormant rows' look, the slab correction), so
+/// that a thread reads the rows and bodies it wrote itself: a row or body handed from one core
+/// to another costs cache-line transfers every step. Against passes split by rows over all
+/// groups at once, 4 to 5% less solve time on system 5 on two threads (docs/performance.md,
+/// "Threads").
+inline Share phase_share(const SolverPhase& phase, TeamPlace p) {
+  const Share s = share_of(phase.last_group - phase.first_group, p);
+  return {phase.first_group + s.first, phase.first_group + s.last};
+}
+
 /// Runs `for_group(g)` over the groups of every phase, phase by phase, each phase's groups
-/// shared among the calling OpenMP team (an orphaned `omp for`, with its barrier; one thread
-/// outside a parallel region runs them all). The serial group, in no phase, is left out.
-/// Groups of a phase share no body, so each body meets the groups' changes in group order.
+/// shared among the calling OpenMP team (phase_share, then a barrier; one thread outside a
+/// parallel region runs them all). The serial group, in no phase, is left out. Groups of a
+/// phase share no body, so each body meets the groups' changes in group order.
 template <class ForGroup>
 void for_each_phased_group(const std::vector<SolverPhase>& phases, const ForGroup& for_group) {
+  const TeamPlace place = team_place();
   for (const SolverPhase& phase : phases) {
-#if defined(_OPENMP)
-#pragma omp for schedule(static)
-#endif
-    for (std::size_t g = phase.first_group; g < phase.last_group; ++g) for_group(g);
+    const Share mine = phase_share(phase, place);
+    for (std::size_t g = mine.first; g < mine.last; ++g) for_group(g);
+    team_barrier();
   }
+}
+
+/// Runs `for_group(g)` over the groups thread p takes in the passes over every group at once:
+/// its phase_share of each phase, then the serial group (the last, `serial_group`) on thread 0.
+/// No barrier.
+template <class ForGroup>
+void for_each_own_group(const std::vector<SolverPhase>& phases, std::size_t serial_group,
+                        TeamPlace p, const ForGroup& for_group) {
+  for (const SolverPhase& phase : phases) {
+    const Share mine = phase_share(phase, p);
+    for (std::size_t g = mine.first; g < mine.last; ++g) for_group(g);
+  }
+  if (p.thread == 0) for_group(serial_group);
 }
 
 }  // namespace cdshear
