@@ -10,7 +10,9 @@ kinetic energy R gives; W = A^T A is the Delassus operator), prints for a space 
 e's W-orthogonal projection P (P^T W P)^+ P^T W e (what one exact coarse solve of the step
 linearised with every force-carrying contact's two rows as equalities would remove; sliding
 contacts are not), and what lies outside span P (e less its orthogonal projection: what the best
-correction within P could leave, by any method):
+correction within P could leave, by any method); then, after "v", the share of the error's
+velocities |A e| (what the grains feel; |A e|^2 = e^T W e) left after the Galerkin correction,
+which of all corrections within P leaves the least of it:
 
 - stress CELL: smooth stress fields, three per node (sigma_xx, sigma_yy, sigma_xy) of a grid of
   CELL x CELL cells (periodic in x, nodes on both walls) with bilinear hats: a contact's impulse
@@ -118,8 +120,9 @@ class Sample:
         return p[:, np.abs(p).sum(0) > 0.0]
 
     def left_after(self, p):
-        """"galerkin / span": |e - P y| / |e| with y the Galerkin (W-orthogonal) projection's
-        coefficients, and with y the orthogonal projection's."""
+        """"galerkin / span v velocities": |e - P y| / |e| with y the Galerkin (W-orthogonal)
+        projection's coefficients, and with y the orthogonal projection's; |A (e - P y)| / |A e|
+        with the Galerkin y."""
         norm = np.linalg.norm(self.error)
         # The Galerkin system restricted to the directions that W does not treat as its null
         # space (singular values of A P below NULL_LEVEL^(1/2) of A's largest): a coarse solve
@@ -128,8 +131,10 @@ class Sample:
         keep = sigma > np.sqrt(NULL_LEVEL) * self.largest_singular_value()
         y = vt[keep].T @ ((u[:, keep].T @ (self.a @ self.error)) / sigma[keep])
         z, *_ = np.linalg.lstsq(p, self.error, rcond=1e-12)
+        velocity = self.a @ self.error
+        velocity_left = np.linalg.norm(velocity - self.a @ (p @ y)) / np.linalg.norm(velocity)
         return (f"{np.linalg.norm(self.error - p @ y) / norm:.3f} / "
-                f"{np.linalg.norm(self.error - p @ z) / norm:.3f}")
+                f"{np.linalg.norm(self.error - p @ z) / norm:.3f} v {velocity_left:.3f}")
 
     def largest_singular_value(self):
         if self._largest is None:
@@ -159,7 +164,7 @@ def main():
         s = Sample(stem[: -len("_contacts.txt")])
         line = [f"{stem.split('/')[-1][:-len('_contacts.txt')]}: {len(s.c)} force-carrying, "
                 f"|e| / |R| {np.linalg.norm(s.error) / np.linalg.norm(s.reference):.2e}; "
-                f"left (galerkin / span):"]
+                f"left (galerkin / span v velocities):"]
         for cell in cells:
             for kind in ("stress", "scale"):
                 p = s.grid_space(cell, kind)
