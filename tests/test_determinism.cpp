@@ -129,8 +129,9 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   const testing::ShearedBox box = testing::sheared_dense_box(600, 12.0, 0.5);
   ASSERT_TRUE(box.dense);
   std::vector<std::size_t> woken;
-  SolverProfile profile;       // of the last call, summed over its steps
-  double solve_seconds = 0.0;  // its solve stages
+  std::vector<double> residuals;  // each step's check: RMS and largest e (shared by the threads)
+  SolverProfile profile;          // of the last call, summed over its steps
+  double solve_seconds = 0.0;     // its solve stages
   const auto hash = [&](int threads, bool profiled = false) {
     World world = box.world;
     ContactDynamics dynamics = box.dynamics;
@@ -149,6 +150,7 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     int most_threads = 0, most_phases = 0;
     std::size_t most_contacts = 0;
     woken.clear();
+    residuals.clear();
     for (int k = 0; k < 200; ++k) {
       const StepReport r = dynamics.step(world, o);
       EXPECT_FALSE(r.blown_up);
@@ -156,6 +158,8 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
       most_phases = std::max(most_phases, static_cast<int>(r.solver.colours));
       most_contacts = std::max<std::size_t>(most_contacts, r.solver.active_contacts);
       woken.push_back(r.solver.woken_contacts);
+      residuals.push_back(r.velocity_residual.rms_carrying);
+      residuals.push_back(r.velocity_residual.largest);
       profile += r.solver.profile;
       solve_seconds += r.seconds.solve;
     }
@@ -170,9 +174,13 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   EXPECT_EQ(profile.total(), 0.0);  // nothing timed unless asked
   const std::vector<std::size_t> woken_one = woken;
   EXPECT_GT(*std::max_element(woken_one.begin(), woken_one.end()), 0u);  // rows did wake
+  const std::vector<double> residuals_one = residuals;
+  EXPECT_GT(residuals_one.front(), 0.0);
   EXPECT_EQ(hash(2), one);
   EXPECT_EQ(woken, woken_one);
+  EXPECT_EQ(residuals, residuals_one);  // bit for bit: the check adds its chunks in order
   EXPECT_EQ(hash(3), one);
+  EXPECT_EQ(residuals, residuals_one);
   // Timing the solver's stages (cdshear_bench --profile) changes no result; the stages it
   // fills lie within the step's solve stage.
   EXPECT_EQ(hash(2, true), one);

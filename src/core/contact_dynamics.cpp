@@ -136,8 +136,11 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   }
   report.seconds.solve = seconds_since(t0);
 
-  // 4. check: the solved step against the contact laws
-  report.velocity_residual = velocity_residual(contacts_, bodies_, options.dt);
+  // 4. check: the solved step against the contact laws (on the solver's threads where it has
+  // rows enough to share)
+  report.velocity_residual = velocity_residual(
+      contacts_, bodies_, options.dt,
+      threads_for(contacts_.size(), options.solver.min_rows_per_thread, options.solver.threads));
   report.seconds.check = seconds_since(t0);
 
   // 5. integrate

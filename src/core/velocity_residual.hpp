@@ -76,8 +76,10 @@ struct VelocityResidual {
 };
 
 /// The residual of a solved step: `bodies` hold the end-of-step velocities of the solver (walls
-/// included), `contacts` the step's impulses and start-of-step gaps.
+/// included), `contacts` the step's impulses and start-of-step gaps. Shared among `threads`
+/// threads (a team of its own), the same figures on any number.
 VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
-                                   const std::vector<SolverBody>& bodies, double dt);
+                                   const std::vector<SolverBody>& bodies, double dt,
+                                   int threads = 1);
 
 }  // namespace cdshear
