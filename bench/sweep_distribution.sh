@@ -22,12 +22,7 @@ dir=$1 systems=$2 speeds=$3 warmup=$4 seconds=$5
 shift 5
 [[ $# -gt 0 && "$1" == -- ]] && shift
 extra=("$@")
-repo=$(cd "$(dirname "$0")/.." && pwd)
-cdshear=${CDSHEAR:-$repo/build/cdshear}
-bench=${CDSHEAR_BENCH:-$repo/build/bench/cdshear_bench}
-for exe in "$cdshear" "$bench"; do
-  [[ -x "$exe" ]] || { echo "error: $exe: not built (scripts/setup.sh)" >&2; exit 2; }
-done
+source "$(dirname "$0")/binaries.sh"
 [[ "$warmup" =~ ^[0-9]+$ ]] || { echo "error: WARMUP '$warmup': expected a whole number" >&2; exit 2; }
 mkdir -p "$dir"
 printf '%-6s %-6s %-44s %-8s %-9s %s\n' system V "sweeps per step" capped "steps/s" "mean sweeps"

@@ -21,12 +21,7 @@ if [[ $# -ne 5 || "$1" == -h || "$1" == --help ]]; then
   exit 2
 fi
 packing=$1 system=$2 velocity=$3 duration=$4 rounds=$5
-repo=$(cd "$(dirname "$0")/.." && pwd)
-cdshear=${CDSHEAR:-$repo/build/cdshear}
-bench=${CDSHEAR_BENCH:-$repo/build/bench/cdshear_bench}
-for exe in "$cdshear" "$bench"; do
-  [[ -x "$exe" ]] || { echo "error: $exe: not built (scripts/setup.sh)" >&2; exit 2; }
-done
+source "$(dirname "$0")/binaries.sh"
 [[ -f "$packing" ]] || { echo "error: PACKING '$packing': no such file" >&2; exit 2; }
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
 

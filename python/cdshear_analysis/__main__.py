@@ -152,22 +152,18 @@ def main(argv=None):
     if args.command == "profile-decay":
         import json
         from .relaxation import decay_against_diffusion, format_decay_table
-        from .report import ReportError, read_summary
-        from .rundata import open_regular
+        from .report import ReportError, read_json, read_summary
+        from .summary import SUMMARY_FORMAT
         summaries = []
         try:
             for run_dir in args.run_dirs:
                 data = read_summary(run_dir)
                 path = os.path.join(run_dir, "summary.json")
-                if not isinstance(data, dict) or data.get("format") != "cdshear-summary":
+                if not isinstance(data, dict) or data.get("format") != SUMMARY_FORMAT:
                     raise ReportError(path, "not a cdshear summary")
                 data["run"] = os.path.basename(os.path.normpath(run_dir))
                 summaries.append(data)
-            try:
-                with open_regular(args.fits, encoding="utf-8") as f:
-                    fits = json.load(f)
-            except (OSError, ValueError) as e:
-                raise ReportError(args.fits, f"cannot read: {e}") from None
+            fits = read_json(args.fits)
             fits = fits.get("fits") if isinstance(fits, dict) else None
             if not isinstance(fits, dict):
                 raise ReportError(args.fits, "no `fits` table (a report's fits.json)")

@@ -21,10 +21,11 @@ The measurement, per run (docs/analysis.md, "Profile decay"):
 - c(t) = c_0 exp(-(t - t_0) / tau) + c_inf fitted from the first window where c has fallen to
   START_FRACTION of its largest value (the higher modes and the start's dilation gone) over
   FIT_SPANS tau (found again from each fit's tau until the span stays; the rest of the run holds
-  only the steady flow's slow fluctuations): the noise averages out along the shape, and c_inf
-  takes up what of the decay the reference still holds. A tau shorter than the windows' spacing, or a c_0 within SIGNAL_TO_NOISE
-  of c's noise over the last half, is no measurement (shorter windows resolve a faster decay). tau's error is the fit's, scaled by the square root of the residuals'
-  statistical inefficiency (consecutive windows are correlated);
+  only the steady flow's slow fluctuations): the noise averages out along the shape, and c_inf takes
+  up what of the decay the reference still holds. A tau shorter than the windows' spacing, or a c_0
+  within SIGNAL_TO_NOISE of c's noise over the last half, is no measurement (shorter windows resolve
+  a faster decay). tau's error is the fit's, scaled by the square root of the residuals' statistical
+  inefficiency (consecutive windows are correlated);
 - the decay counts as resolved when the run after the fit's start is at least RESOLVED_SPANS tau
   long.
 """

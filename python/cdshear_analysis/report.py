@@ -109,15 +109,20 @@ def _profiles(profiles):
     return out if len(out["y"]) == len(out["vx"]) == len(out["mu_eff"]) > 0 else None
 
 
-def read_summary(run_dir):
-    """The parsed RUN_DIR/summary.json (any JSON value); ReportError when it cannot be read or
-    parsed."""
-    path = os.path.join(run_dir, "summary.json")
+def read_json(path):
+    """The parsed JSON file at path (any JSON value; a FIFO or device refused, not waited on);
+    ReportError when it cannot be read or parsed."""
     try:
         with open_regular(path, encoding="utf-8") as f:
             return json.load(f)
     except (OSError, ValueError) as e:
         raise ReportError(path, f"cannot read: {e}") from None
+
+
+def read_summary(run_dir):
+    """The parsed RUN_DIR/summary.json (any JSON value); ReportError when it cannot be read or
+    parsed."""
+    return read_json(os.path.join(run_dir, "summary.json"))
 
 
 def summary_state(s):

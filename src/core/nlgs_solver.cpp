@@ -610,8 +610,7 @@ class ContactSolve {
         ws.order[next[ws.group_of[i]]++] = static_cast<std::uint32_t>(i);
     }
     team_barrier();
-    for_each_own_group(ws.phases, groups - 1, place,
-                       [&](std::size_t g) { shuffle_group(g, options, step, ws); });
+    each_own_group(place, [&](std::size_t g) { shuffle_group(g, options, step, ws); });
     team_barrier();
     renumber_bodies(place, my_contacts);
   }
@@ -699,12 +698,19 @@ class ContactSolve {
     team_barrier();
   }
 
+  /// Runs `for_group(g)` over the groups thread `place` takes in the passes over every group at
+  /// once (for_each_own_group: the same groups as in the sweeps), with no barrier.
+  template <class ForGroup>
+  void each_own_group(const TeamPlace& place, const ForGroup& for_group) const {
+    for_each_own_group(ws.phases, groups - 1, place, for_group);
+  }
+
   /// Set-up of the rows: the rows in visit order (the sweeps then read them front to back) and
   /// their Delassus entries, then the warm start (apply the carried-over impulses), then the
   /// dormant rows.
   void prepare_rows() {
     const TeamPlace place = team_place();
-    for_each_own_group(ws.phases, groups - 1, place, [&](std::size_t g) {
+    each_own_group(place, [&](std::size_t g) {
       for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
         const Contact& c = contacts[ws.order[i]];
         const auto global_a = static_cast<std::size_t>(c.key.body_a);
@@ -730,7 +736,7 @@ class ContactSolve {
     // Without a branch: each row is written at the end of both lists, and the list it belongs
     // to moves on. About half of the rows are dormant, in no pattern a predictor can learn, and
     // the mispredicted branch cost about 1% of a system-1 step.
-    for_each_own_group(ws.phases, groups - 1, place, [&](std::size_t g) {
+    each_own_group(place, [&](std::size_t g) {
       const std::size_t first = ws.group_start[g], last = ws.group_start[g + 1];
       auto& awake = ws.awake[g];
       auto& dormant = ws.dormant_of_group[g];
@@ -761,7 +767,7 @@ class ContactSolve {
   /// them).
   void gather_mixed_impulses(std::vector<double>& v, bool scale_rows) {
     const std::size_t phased_groups = groups - 1;  // all but the serial group
-    for_each_own_group(ws.phases, phased_groups, team_place(), [&](std::size_t g) {
+    each_own_group(team_place(), [&](std::size_t g) {
       const bool scale_here = scale_rows && g < phased_groups;
       if (scale_here) {
         const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
@@ -933,7 +939,7 @@ class ContactSolve {
     const bool fraction_met = converged_fraction >= options.converged_fraction;
     bool done = false;
     if (fraction_met || sweep == options.max_sweeps) {
-      for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
+      each_own_group(st.place, [&](std::size_t g) {
         if (g < st.tallied_groups) sum_group_lengths(g, ws, tallies);
       });
       team_barrier();
@@ -969,7 +975,7 @@ class ContactSolve {
   /// e dt over the force-carrying rows, each thread its groups' sums, added in group order.
   /// Dormant rows carry no force and are not counted, as in the step's check.
   bool meets_residual_tolerance(SweepTally* tallies, const SweepState& st) {
-    for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
+    each_own_group(st.place, [&](std::size_t g) {
       double sum2 = 0.0;
       std::size_t carrying = 0;
       for (const std::uint32_t i : ws.awake[g]) {
@@ -1000,7 +1006,7 @@ class ContactSolve {
     std::size_t woken = 0;
     if (st.any_dormant &&
         (done || sweep % kDormantCheckInterval == 0 || sweep + 1 == options.max_sweeps)) {
-      for_each_own_group(ws.phases, groups - 1, st.place, [&](std::size_t g) {
+      each_own_group(st.place, [&](std::size_t g) {
         ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
       });
       team_barrier();
@@ -1033,7 +1039,7 @@ class ContactSolve {
   /// has its own body).
   void write_back() {
     int active_here = 0;
-    for_each_own_group(ws.phases, groups - 1, team_place(), [&](std::size_t g) {
+    each_own_group(team_place(), [&](std::size_t g) {
       for (std::size_t i = ws.group_start[g]; i < ws.group_start[g + 1]; ++i) {
         Contact& c = contacts[ws.order[i]];
         c.impulse_n = rows[i].impulse_n;

@@ -13,34 +13,35 @@ VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
   // added in chunk order, so that the figures do not depend on the threads (a maximum and a
   // count are exact in any order).
   constexpr std::size_t kChunk = 512;
-  const std::size_t chunks = (contacts.size() + kChunk - 1) / kChunk;
-  std::vector<VelocityResidual> parts(chunks);
-  std::vector<double> sums2(chunks, 0.0);
+  struct ChunkSums {
+    double largest = 0.0, sum2 = 0.0;  ///< largest e, sum of e^2 over the force-carrying ones
+    std::size_t carrying = 0;
+  };
+  std::vector<ChunkSums> chunk_sums((contacts.size() + kChunk - 1) / kChunk);
   const double inv_dt = 1.0 / dt;
-  for_shares(threads, chunks, [&](std::size_t first, std::size_t last, std::size_t) {
+  for_shares(threads, chunk_sums.size(), [&](std::size_t first, std::size_t last, std::size_t) {
     for (std::size_t chunk = first; chunk < last; ++chunk) {
-      VelocityResidual& part = parts[chunk];
-      double sum2 = 0.0;
+      ChunkSums sums;
       const std::size_t end = std::min(contacts.size(), (chunk + 1) * kChunk);
       for (std::size_t i = chunk * kChunk; i < end; ++i) {
         const Contact& c = contacts[i];
         const auto [u_n, u_t] = contact_velocity(c, bodies, inv_dt);
         const double e2 = contact_law_violation2(u_n, u_t, c.impulse_n, c.impulse_t, c.friction);
-        part.largest = std::max(part.largest, std::sqrt(e2));
+        sums.largest = std::max(sums.largest, std::sqrt(e2));
         if (impulse_status(c) != ImpulseStatus::kOpen) {
-          sum2 += e2;
-          ++part.carrying;
+          sums.sum2 += e2;
+          ++sums.carrying;
         }
       }
-      sums2[chunk] = sum2;
+      chunk_sums[chunk] = sums;
     }
   });
   VelocityResidual r;
   double sum2 = 0.0;
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    r.largest = std::max(r.largest, parts[chunk].largest);
-    r.carrying += parts[chunk].carrying;
-    sum2 += sums2[chunk];
+  for (const ChunkSums& sums : chunk_sums) {
+    r.largest = std::max(r.largest, sums.largest);
+    r.carrying += sums.carrying;
+    sum2 += sums.sum2;
   }
   if (r.carrying > 0) r.rms_carrying = std::sqrt(sum2 / static_cast<double>(r.carrying));
   return r;
