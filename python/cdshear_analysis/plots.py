@@ -316,7 +316,8 @@ def plot_profile_decay(summaries, entries, path):
     ax.set_xlabel("t / T_SS   (T_SS = L_y^2 / D, D from the bulk law)")
     ax.set_ylabel("c - c_inf: distance from the steady profile / V")
     ax.set_title("Velocity profile's decay towards steady state")
-    ax.legend(fontsize=7)
+    # Below the axes: inside, it covered the thin cells' late points.
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)
