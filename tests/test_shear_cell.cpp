@@ -49,6 +49,18 @@ TEST(Preparation, System1HasNominalSizeAndDenseRandomSolidFraction) {
   }
 }
 
+TEST(Preparation, NumbersTheDisksByHeight) {
+  // The packing lists its disks by height (y, then x): the solver's threads own bands of height
+  // and detection lists contacts by disk number (docs/performance.md, "Disk numbers"). The
+  // random placement numbers them in no spatial order, so this fails unless the preparation
+  // sorts them.
+  const Packing& p = system1_packing();
+  for (std::size_t i = 1; i < p.n(); ++i) {
+    const Vec2 a = p.disks[i - 1].position, b = p.disks[i].position;
+    ASSERT_TRUE(a.y < b.y || (a.y == b.y && a.x <= b.x)) << "disks " << i - 1 << " and " << i;
+  }
+}
+
 TEST(Preparation, System1HasNoOverlapAboveTolerance) {
   // In the periodic shear cell built from the packing (which also checks pairs across x = 0),
   // the largest overlap is that of a converged rigid packing: the solver removes overlaps each

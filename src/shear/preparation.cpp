@@ -155,6 +155,14 @@ Packing prepare_packing(const PreparationOptions& o,
   packing.preparation_time = elapsed;
   for (std::size_t i = 0; i < world.disks.size(); ++i)
     packing.disks.push_back({world.disks.position[i], world.disks.radius[i]});
+  // Numbered by height (y, then x): the solver's threads own bands of height, and contacts are
+  // listed by the number of their lower disk, so numbers that follow the height keep a thread's
+  // disks and contacts together in memory (docs/performance.md, "Disk numbers").
+  std::stable_sort(packing.disks.begin(), packing.disks.end(),
+                   [](const PackingDisk& a, const PackingDisk& b) {
+                     return a.position.y != b.position.y ? a.position.y < b.position.y
+                                                         : a.position.x < b.position.x;
+                   });
   packing.solid_fraction = solid_fraction(packing.disks, packing.length_x, packing.height);
   return packing;
 }
