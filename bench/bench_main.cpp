@@ -732,8 +732,8 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
     // (u_t = t . (v_a - v_b) + lever_a omega_a + lever_b omega_b, H's rows).
     add(ia, col, c.normal, 0.0);
     add(ib, col, -c.normal, 0.0);
-    add(ia, col + 1, c.tangent, c.lever_a);
-    add(ib, col + 1, -c.tangent, c.lever_b);
+    add(ia, col + 1, c.tangent(), c.lever_a);
+    add(ib, col + 1, -c.tangent(), c.lever_b);
     e[2 * k] = a[carrying[k]].impulse_n - c.impulse_n;
     e[2 * k + 1] = a[carrying[k]].impulse_t - c.impulse_t;
   }
@@ -803,8 +803,8 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
     const cdshear::Contact& c = b[i];
     std::fprintf(
         f, "%d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
-        c.key.body_a, c.key.body_b, c.normal.x, c.normal.y, c.lever_a, c.lever_b, c.arm_a.x,
-        c.arm_a.y, c.gap, c.friction, a[i].impulse_n, a[i].impulse_t, c.impulse_n, c.impulse_t);
+        c.key.body_a, c.key.body_b, c.normal.x, c.normal.y, c.lever_a, c.lever_b, c.arm_a().x,
+        c.arm_a().y, c.gap, c.friction, a[i].impulse_n, a[i].impulse_t, c.impulse_n, c.impulse_t);
   }
   close(f, stem + "_contacts.txt");
   f = open(stem + "_bodies.txt");
@@ -893,9 +893,9 @@ class StressTally {
     const double margin = std::min(kBulkMargin, (y1 - y0) / 4.0);
     for (const cdshear::Contact& c : contacts) {
       const auto ia = static_cast<std::size_t>(c.key.body_a);
-      const double y = world.disks.position[ia].y + c.arm_a.y - y0;
+      const double y = world.disks.position[ia].y + c.arm_a().y - y0;
       const double length = -(c.lever_a + c.lever_b);
-      const cdshear::Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent;
+      const cdshear::Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent();
       const Sums here{r.y * length * c.normal.y, r.x * length * c.normal.y};
       if (y >= margin && y1 - y0 - y >= margin) bulk_ += here;
       add_to(band4_, y / 4.0, here);

@@ -374,7 +374,6 @@ TEST(VelocityResidual, ReadsEachContactLaw) {
     c.key.body_a = 0;
     c.key.body_b = 1;
     c.normal = {0.0, 1.0};
-    c.tangent = {-1.0, 0.0};
     c.friction = friction;
     c.impulse_n = 1.0;
     c.impulse_t = r_t;

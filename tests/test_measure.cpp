@@ -218,7 +218,6 @@ TEST(Stress, OneGrainSqueezedBetweenTheWallsCarriesThePressure) {
     Contact& c = contacts[static_cast<std::size_t>(k)];
     c.key = {0, 1 + k, 0};
     c.normal = w.walls[static_cast<std::size_t>(k)].normal;
-    c.tangent = perp(c.normal);
     c.lever_a = -0.5;
     c.impulse_n = rn;
     c.impulse_t = rt;  // opposite tangential forces from the two walls (tangents opposite)

@@ -33,14 +33,20 @@ struct ContactKey {
 struct Contact {
   ContactKey key;
   Vec2 normal;             ///< unit, from b to a
-  Vec2 tangent;            ///< perp(normal)
-  Vec2 arm_a;              ///< contact point minus centre of a [length]
   double lever_a = 0.0;    ///< -(r_a + gap/2) against a disk, -r_a against a wall
   double lever_b = 0.0;    ///< -(r_b + gap/2) for a disk, 0 for a wall
   double gap = 0.0;        ///< signed distance at the start of the step (< 0: overlap) [length]
   double friction = 0.0;   ///< Coulomb coefficient of this pair
   double impulse_n = 0.0;  ///< R_n over the step [force time]
   double impulse_t = 0.0;  ///< R_t over the step [force time]
+
+  /// The tangent t = perp(normal). Computed, not stored (nor is the arm): detection writes,
+  /// the warm start reads and the solver's set-up reads every contact of every step, and 80
+  /// bytes per contact instead of 112 are that much less memory to move.
+  Vec2 tangent() const { return perp(normal); }
+  /// Contact point minus centre of a [length]: lever_a n (the point lies |lever_a| from a's
+  /// centre against n).
+  Vec2 arm_a() const { return lever_a * normal; }
 };
 
 }  // namespace cdshear

@@ -140,14 +140,12 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       c.key = {static_cast<std::int32_t>(i), j, -static_cast<std::int32_t>(shift)};
       // Normal from b (= j) to a (= i): -delta / |delta|.
       c.normal = dist > 0.0 ? (-1.0 / dist) * delta : Vec2{0.0, 1.0};
-      c.tangent = perp(c.normal);
       c.gap = dist - d.radius[i] - d.radius[j];
       // One contact point for both disks, in the middle of the gap (or overlap): then R on a and
       // -R on b act at the same point and conserve angular momentum. Taking each disk's own
       // surface point (-r_a n and +r_b n, which are `gap` apart) would add a spurious couple
       // gap * R_t whenever a contact carries friction before it has closed.
       const double half_gap = 0.5 * c.gap;
-      c.arm_a = -(d.radius[i] + half_gap) * c.normal;
       c.lever_a = -(d.radius[i] + half_gap);
       c.lever_b = -(d.radius[j] + half_gap);
       c.friction = world.friction_disk_disk;
@@ -160,8 +158,6 @@ void ContactDetector::list_candidates(const World& world, double margin, std::si
       Contact& c = out.emplace_back();
       c.key = {static_cast<std::int32_t>(i), static_cast<std::int32_t>(n + w), 0};
       c.normal = wall.normal;
-      c.tangent = perp(wall.normal);
-      c.arm_a = -d.radius[i] * c.normal;
       c.lever_a = -d.radius[i];
       c.lever_b = 0.0;
       c.gap = gap;
