@@ -32,8 +32,9 @@ struct alignas(64) SolverBody {
 /// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
 /// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
 /// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt > 0).
-/// On system 7's shape the rows of a step (about 11000) are 1.2 MB at 112 bytes, more than this
-/// machine's 1 MB L2 per core: each sweep streams them from L3, so their size is time.
+/// On system 7's shape the rows of a step (about 11000) are about 1 MB, the size of a core's L2
+/// on the 2-core machines: each sweep streams them from L3, so their size is time (and the awake
+/// ones come first: put_awake_rows_first).
 struct SolverRow {
   std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
   Vec2 normal;                           ///< unit, from b to a
