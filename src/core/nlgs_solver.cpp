@@ -538,6 +538,7 @@ class ContactSolve {
     rows.resize(nc);
     ws.delassus.resize(nc);
     ws.row_lengths2.resize(nc);
+    ws.team_moved_rows.resize(static_cast<std::size_t>(threads));
     if (!coloured) {
       order_rows_serially(nc, options, step, ws);
       size_group_scratch();
@@ -755,7 +756,7 @@ class ContactSolve {
       }
       awake.resize(awake_count);
       dormant.resize(dormant_count);
-      if (dormant_count > 0) put_awake_rows_first(first, last, awake, dormant);
+      if (dormant_count > 0) put_awake_rows_first(place, first, last, awake, dormant);
     });
     team_barrier();
   }
@@ -764,12 +765,12 @@ class ContactSolve {
   /// its dormant rows after them: a sweep then streams through its rows without the dormant ones'
   /// cache lines between them. The rows keep their contact (ws.order) and Delassus entries; the
   /// visit order, and so every result, is unchanged.
-  void put_awake_rows_first(std::size_t first, std::size_t last, std::vector<std::uint32_t>& awake,
-                            std::vector<DormantRow>& dormant) {
-    // Scratch of the calling thread, kept across steps (no allocation once warmed up).
-    thread_local std::vector<SolverRow> moved_rows;
-    thread_local std::vector<DelassusEntries> moved_delassus;
-    thread_local std::vector<std::uint32_t> moved_order;
+  void put_awake_rows_first(const TeamPlace& place, std::size_t first, std::size_t last,
+                            std::vector<std::uint32_t>& awake, std::vector<DormantRow>& dormant) {
+    SolverWorkspace::MovedRows& moved = ws.team_moved_rows[place.thread];
+    auto& moved_rows = moved.rows;
+    auto& moved_delassus = moved.delassus;
+    auto& moved_order = moved.order;
     const std::size_t n = last - first;
     moved_rows.resize(n);
     moved_delassus.resize(n);

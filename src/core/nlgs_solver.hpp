@@ -267,6 +267,14 @@ struct SolverWorkspace {
   /// Per thread and body, the last call's stamp in which the thread's rows used the body.
   std::vector<std::uint32_t> team_seen;
   std::uint32_t seen_stamp = 0;
+  /// Per thread of the team: a group's rows, Delassus entries and contacts while they are put in
+  /// their awake-first order (ContactSolve::put_awake_rows_first).
+  struct MovedRows {
+    std::vector<SolverRow> rows;
+    std::vector<DelassusEntries> delassus;
+    std::vector<std::uint32_t> order;
+  };
+  std::vector<MovedRows> team_moved_rows;
   /// Slab correction (options.slab_correction_period > 0): its scratch, and the band of each
   /// local body (a wall: its disks' band, or SlabCorrection::kNoNode if they are in several).
   SlabCorrection slab_correction;
