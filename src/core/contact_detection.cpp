@@ -38,9 +38,14 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
     // Plain variables, not a structured binding: clang 14 rejects one used inside `omp single`.
     const TeamPlace place = team_place();
     const std::size_t t = place.thread, size = place.size;
-    std::vector<T>& part = parts[t];
+    // The thread lists into a vector of its own, moved out of `parts` and back: the headers of
+    // parts[0] and parts[1] share a cache line, so appending to them in place made every
+    // append of one thread take the line from the other (false sharing: each thread then
+    // listed its half in more time than one thread took for all).
+    std::vector<T> part = std::move(parts[t]);
     part.clear();
     list_run(run_start(t, size), run_start(t + 1, size), part);
+    parts[t] = std::move(part);
 #pragma omp barrier
 #pragma omp single
     {
@@ -48,7 +53,8 @@ void list_in_runs(int team, std::size_t n, std::vector<std::vector<T>>& parts,
       for (std::size_t k = 0; k < size; ++k) offsets[k + 1] = offsets[k] + parts[k].size();
       out.resize(offsets[size]);
     }
-    std::copy(part.begin(), part.end(), out.begin() + static_cast<std::ptrdiff_t>(offsets[t]));
+    std::copy(parts[t].begin(), parts[t].end(),
+              out.begin() + static_cast<std::ptrdiff_t>(offsets[t]));
   }
 #else
   (void)parts;  // team is 1 without OpenMP
