@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "threads.hpp"
+
 namespace cdshear {
 
 namespace {
@@ -275,7 +277,7 @@ void AndersonMixer::store_differences(const std::vector<double>& x, const std::v
   // and what was written there is never read. |f|^2 only decides the restart.
   const std::size_t chunks = chunk_f2_.size();
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
@@ -283,11 +285,12 @@ void AndersonMixer::store_differences(const std::vector<double>& x, const std::v
         store_chunk_differences(x.data(), g.data(), column(delta_f_, c), column(delta_g_, c),
                                 last_f_.data(), last_g_.data(), begin, end);
   }
+  team_barrier();
 }
 
 void AndersonMixer::update_history(int c) {
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
   {
     const double f2 = sum_in_chunk_order(chunk_f2_.data(), 1, chunk_f2_.size());
@@ -309,6 +312,7 @@ void AndersonMixer::update_history(int c) {
     }
     update_pending_ = false;
   }
+  team_barrier();
 }
 
 void AndersonMixer::add_gram_row(int c) {
@@ -322,7 +326,7 @@ void AndersonMixer::add_gram_row(int c) {
   const double* df = column(delta_f_, c);
   const double* f = last_f_.data();
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
@@ -330,8 +334,9 @@ void AndersonMixer::add_gram_row(int c) {
     dot_columns(df + begin, f + begin, columns.data(), begin, m, end - begin, sums,
                 sums + kMaxDepth);
   }
+  team_barrier();
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
   {
     for (int j = 0; j < m; ++j) {
@@ -342,6 +347,7 @@ void AndersonMixer::add_gram_row(int c) {
     }
     update_pending_ = solve_for_gamma();
   }
+  team_barrier();
 }
 
 void AndersonMixer::subtract_mixes(std::vector<double>& g) {
@@ -351,12 +357,13 @@ void AndersonMixer::subtract_mixes(std::vector<double>& g) {
   std::array<const double*, kMaxDepth> dg_columns{};
   for (int j = 0; j < m; ++j) dg_columns[j] = column(delta_g_, j);
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     const std::size_t begin = chunk * kChunk, end = std::min(n_, begin + kChunk);
     subtract_chunk_mixes(g.data(), dg_columns.data(), gamma_.data(), m, begin, end);
   }
+  team_barrier();
 }
 
 bool AndersonMixer::solve_for_gamma() {

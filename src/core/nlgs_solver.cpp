@@ -454,7 +454,8 @@ bool finishes_plain(const SolverOptions& o) {
 /// One call of solve_contacts as an object: what its phases share (every member is shared by the
 /// team's threads), and the phases as member functions in the order a step runs them. Each phase
 /// is called by every thread of the team unless it says otherwise; the work-sharing constructs
-/// inside (omp for, omp single, and those of AndersonMixer::mix) bind to whatever team calls it.
+/// inside (omp for, omp single, and those of AndersonMixer::mix and the slab correction) bind to
+/// whatever team calls it, each `nowait` and followed by team_barrier() where one is needed.
 class ContactSolve {
  public:
   ContactSolve(std::vector<Contact>& contacts, std::vector<SolverBody>& all_bodies,
@@ -498,8 +499,12 @@ class ContactSolve {
     set_up();
 #if defined(_OPENMP)
     if (threads > 1) {
+      SpinBarrier barrier;
 #pragma omp parallel num_threads(threads)
-      solve_rows();
+      {
+        const SpinBarrierScope scope(barrier);
+        solve_rows();
+      }
     } else {
       solve_rows();
     }
@@ -580,13 +585,14 @@ class ContactSolve {
     coloured_groups_share(contacts, all_bodies, first_wall, place, ws);
     team_barrier();
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
     {
       cg = coloured_groups_merge(walls, place.size, ws);
       ws.group_of.resize(nc);
       ws.team_count.assign(place.size * (cg.serial + 1), 0);
     }
+    team_barrier();
     // Each contact's group, counted by the thread that finds it.
     {
       std::size_t* count = ws.team_count.data() + place.thread * (cg.serial + 1);
@@ -598,12 +604,13 @@ class ContactSolve {
     }
     team_barrier();
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
     {
       coloured_groups_end(cg, place.size, ws);
       size_group_scratch();
     }
+    team_barrier();
     // Each thread places its contacts, in contact order, from its offsets in each group.
     {
       std::size_t* next = ws.team_count.data() + place.thread * (cg.serial + 1);
@@ -658,7 +665,7 @@ class ContactSolve {
       team_barrier();
     }
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
     {
       ws.team_body_offset[0] = 0;
@@ -669,6 +676,7 @@ class ContactSolve {
       ws.global_of.resize(touched);
       if (corrects_slabs()) ws.node_of_body.resize(touched);
     }
+    team_barrier();
     {
       const auto& mine = ws.team_new_bodies[place.thread];
       std::size_t k = ws.team_body_offset[place.thread];
@@ -877,7 +885,7 @@ class ContactSolve {
     if (coloured) arrange_coloured_rows();
     prepare_rows();
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
     {
       count_dormant_and_list_mixed_rows();
@@ -885,6 +893,7 @@ class ContactSolve {
         ws.slab_correction.reset(
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
     }
+    team_barrier();
     st.slab_corrections = corrects_slabs();
     st.period =
         st.slab_corrections ? kMixPeriodFactorWithSlabCorrection * plain_period : plain_period;
@@ -1086,7 +1095,7 @@ class ContactSolve {
     active_contacts += active_here;
     if (coloured) {
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait  // the region's end is the barrier
 #endif
       for (std::size_t k = 0; k < ws.global_of.size(); ++k)
         all_bodies[ws.global_of[k]] = ws.local_bodies[k];

@@ -97,9 +97,10 @@ bool SlabCorrection::apply_gathered(std::vector<SolverRow>& rows, std::vector<So
   add_body_sums(bodies);  // pass 2
   // 3. On one thread: add the shares in order, solve A s = -r, bound s.
 #if defined(_OPENMP)
-#pragma omp single
+#pragma omp single nowait
 #endif
   solved_ = solve();
+  team_barrier();
   move_bodies(bodies);  // pass 4
   if (!solved_) return false;
   if (!scale_rows) return true;  // the caller scales them (pass 4's loop ended on a barrier)
@@ -115,7 +116,7 @@ void SlabCorrection::add_body_sums(const std::vector<SolverBody>& bodies) {
   //    r(band_p): summed over the bodies, test . v is the sum over the rows of w R_n u_n (a
   //    row's test vector is +R_n n on a and -R_n n on b, and u_n = (v_a - v_b) . n).
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
   for (std::size_t chunk = 0; chunk < chunks_; ++chunk) {
     double* m = &chunk_matrix_[chunk * bands * kChunkEntries];
@@ -162,6 +163,7 @@ void SlabCorrection::add_body_sums(const std::vector<SolverBody>& bodies) {
     }
     if (window_band != kNoNode) store_window();
   }
+  team_barrier();
 }
 
 void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
@@ -179,7 +181,7 @@ void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
     const double* const scales = scale_.data();
     SolverBody* const body_data = bodies.data();
 #if defined(_OPENMP)
-#pragma omp for schedule(static)
+#pragma omp for schedule(static) nowait
 #endif
     for (std::size_t k = 0; k < body_count; ++k) {
       const unsigned used = marks[k];
@@ -207,6 +209,7 @@ void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
       marks[k] = 0;  // the slots themselves are reset by their next first row (pass 1)
     }
   }
+  team_barrier();
 }
 
 void SlabCorrection::scale_gathered_rows(std::vector<SolverRow>& rows) {

@@ -1,8 +1,10 @@
-// OpenMP teams: how many threads a piece of work gets, and fixed splits of a pass among a team
-// (shared by the solver, contact detection and the step's per-disk passes).
+// OpenMP teams: how many threads a piece of work gets, fixed splits of a pass among a team (shared
+// by the solver, contact detection and the step's per-disk passes), and the barrier the solver's
+// team meets at.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <vector>
 
@@ -61,9 +63,48 @@ inline Share weighted_share_of(const std::vector<std::size_t>& start, TeamPlace 
   return {first_at(p.thread), first_at(p.thread + 1)};
 }
 
+/// A barrier for one team's threads that costs no system call while they arrive close together.
+/// libgomp's barrier makes its last thread wake the others with a futex system call at every
+/// barrier, sleeping or not (about 0.25 us on the 2-core virtual machines, where this one takes
+/// about 0.04 us in a loop of barriers); the solver meets 300 to 400 barriers per step. A thread
+/// that waits spins for a while (kSpins pauses, about 0.5 ms on those machines) and then sleeps on
+/// the generation (std::atomic::wait), so that a team sharing its processors with other work still
+/// makes progress; the last thread wakes the sleepers only when there are any
+/// (docs/performance.md, "Threads").
+class SpinBarrier {
+ public:
+  /// Waits until `team` threads (every thread of the caller's team) have arrived.
+  void wait(unsigned team);
+
+ private:
+  static constexpr int kSpins = 20000;
+  alignas(64) std::atomic<unsigned> arrived_{0};
+  alignas(64) std::atomic<unsigned> generation_{0};
+  std::atomic<unsigned> sleepers_{0};
+};
+
+/// Makes team_barrier() use `barrier` on the calling thread while it lives: each thread of a
+/// parallel region makes one, for the region's barrier.
+class SpinBarrierScope {
+ public:
+  explicit SpinBarrierScope(SpinBarrier& barrier);
+  ~SpinBarrierScope();
+  SpinBarrierScope(const SpinBarrierScope&) = delete;
+  SpinBarrierScope& operator=(const SpinBarrierScope&) = delete;
+};
+
+namespace detail {
+/// The barrier of the caller's team (SpinBarrierScope), or null: then OpenMP's.
+extern thread_local SpinBarrier* team_spin_barrier;
+}  // namespace detail
+
 /// A barrier of the team running the caller (nothing outside a parallel region).
 inline void team_barrier() {
 #if defined(_OPENMP)
+  if (SpinBarrier* b = detail::team_spin_barrier) {
+    b->wait(static_cast<unsigned>(omp_get_num_threads()));
+    return;
+  }
 #pragma omp barrier
 #endif
 }
