@@ -895,7 +895,7 @@ class StressTally {
       const auto ia = static_cast<std::size_t>(c.key.body_a);
       const double y = world.disks.position[ia].y + c.arm_a().y - y0;
       const double length = -(c.lever_a + c.lever_b);
-      const cdshear::Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent();
+      const cdshear::Vec2 r = c.impulse();
       const Sums here{r.y * length * c.normal.y, r.x * length * c.normal.y};
       if (y >= margin && y1 - y0 - y >= margin) bulk_ += here;
       add_to(band4_, y / 4.0, here);

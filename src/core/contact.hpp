@@ -47,6 +47,8 @@ struct Contact {
   /// Contact point minus centre of a [length]: lever_a n (the point lies |lever_a| from a's
   /// centre against n).
   Vec2 arm_a() const { return lever_a * normal; }
+  /// The impulse on a, R = R_n n + R_t t (-R on b) [force time].
+  Vec2 impulse() const { return impulse_n * normal + impulse_t * tangent(); }
 };
 
 }  // namespace cdshear

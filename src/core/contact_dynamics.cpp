@@ -267,8 +267,7 @@ void ContactDynamics::measure(World& world, const StepOptions& options, int team
   for (const Contact& c : contacts_) {
     const std::size_t b = static_cast<std::size_t>(c.key.body_b);
     if (b >= n) {  // force on the wall is minus the impulse on the disk, per unit time
-      world.walls[b - n].contact_force -=
-          (1.0 / dt) * (c.impulse_n * c.normal + c.impulse_t * c.tangent());
+      world.walls[b - n].contact_force -= (1.0 / dt) * c.impulse();
     }
   }
   if (integrated.finite) {  // each thread the largest of its share, then the largest of those

@@ -126,7 +126,7 @@ void ShearMeasurement::add_contact_moments(std::size_t n, const std::vector<Cont
     const Contact& c = contacts[loaded_[k]];
     // Impulse R on a, -R on b; a's arm is lever_a n, b's is -lever_b n (contact.hpp), so both
     // moments are R (x) (lever n).
-    const Vec2 r = c.impulse_n * c.normal + c.impulse_t * c.tangent();
+    const Vec2 r = c.impulse();
     const auto add = [&r, &c](Tensor2& m, double lever) {
       const Vec2 arm = lever * c.normal;
       m.xx += r.x * arm.x;
