@@ -33,9 +33,12 @@ import glob
 
 import numpy as np
 
-# Columns of sample_K_contacts.txt (cdshear_bench's dump_sample) and sample_K_bodies.txt.
-BODY_A, BODY_B, NX, NY, LEVER_A, LEVER_B, FRICTION = 0, 1, 2, 3, 4, 5, 9
-TESTED_N, TESTED_T, REFERENCE_N, REFERENCE_T = 10, 11, 12, 13
+from coarse_space import (BODY_A, BODY_B, LEVER_A, LEVER_B, NX, NY, REFERENCE_N, REFERENCE_T,
+                          TESTED_N, TESTED_T)
+
+# The columns coarse_space.py does not name: a contact's friction coefficient, and the bodies'
+# height and inverse masses (sample_K_bodies.txt: x, y, 1/m along x, along y, 1/I).
+FRICTION = 9
 Y, INV_MASS_X, INV_MASS_Y, INV_INERTIA = 1, 2, 3, 4
 
 
@@ -70,10 +73,10 @@ def modes(stem, band, velocity):
     in_bands = {"band x": 0.0, "band y": 0.0, "band spin": 0.0}
     for k in np.unique(level[disk]):
         s = disk & (level == k)
-        for key, weight, column in (("band x", mass, 0), ("band y", mass, 1),
-                                    ("band spin", inertia, 2)):
-            total = weight[s].sum()
-            mean = (weight[s] * dv[s, column]).sum() / total
+        for key, per_body, column in (("band x", mass, 0), ("band y", mass, 1),
+                                      ("band spin", inertia, 2)):
+            total = per_body[s].sum()
+            mean = (per_body[s] * dv[s, column]).sum() / total
             in_bands[key] += total * mean * mean
 
     relative = dv[a_of, :2] - dv[b_of, :2]
@@ -84,7 +87,7 @@ def modes(stem, band, velocity):
     between_disks = carrying & disk[a_of] & disk[b_of]
     spin_a, spin_b = dv[a_of[between_disks], 2], dv[b_of[between_disks], 2]
     u_n, u_t = u_n_all[carrying], u_t_all[carrying]
-    either = (c[:, REFERENCE_N] > 0.0) | (c[:, TESTED_N] > 0.0)
+    either = carrying | (c[:, TESTED_N] > 0.0)
     differs = either & (status(c[:, TESTED_N], c[:, TESTED_T], c[:, FRICTION]) !=
                         status(c[:, REFERENCE_N], c[:, REFERENCE_T], c[:, FRICTION]))
     reference = np.hypot(c[:, REFERENCE_N], c[:, REFERENCE_T])
