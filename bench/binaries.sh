@@ -1,4 +1,4 @@
-# Shared by bench/sweep_distribution.sh and bench/thread_capacity.sh (sourced, not run): sets
+# Shared by the bench/*.sh scripts that run the binaries (sourced, not run): sets
 # `cdshear` and `bench` to the binaries they run (CDSHEAR [build/cdshear], CDSHEAR_BENCH
 # [build/bench/cdshear_bench]) and exits 2 unless both are built.
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
