@@ -30,14 +30,7 @@ source "$(dirname "$0")/binaries.sh"
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
 [[ -n "${systems// /}" ]] || { echo "error: SYSTEMS: expected at least one system" >&2; exit 2; }
 mkdir -p "$dir"
-for k in $systems; do
-  packing=$dir/system$k.json
-  if [[ ! -f "$packing" ]]; then
-    echo "# preparing $packing (cdshear prepare --system $k)" >&2
-    "$cdshear" prepare --system "$k" -o "$packing" -q \
-      || { echo "error: preparing system $k failed" >&2; exit 1; }
-  fi
-done
+for k in $systems; do prepare_packing "$dir" "$k"; done
 
 scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT

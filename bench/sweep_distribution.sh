@@ -27,11 +27,8 @@ source "$(dirname "$0")/binaries.sh"
 mkdir -p "$dir"
 printf '%-6s %-6s %-44s %-8s %-9s %s\n' system V "sweeps per step" capped "steps/s" "mean sweeps"
 for k in $systems; do
+  prepare_packing "$dir" "$k"
   packing=$dir/system$k.json
-  if [[ ! -s "$packing" ]]; then
-    echo "preparing system $k -> $packing" >&2
-    "$cdshear" prepare -q --system "$k" -o "$packing" >&2
-  fi
   for v in $speeds; do
     log=$("$bench" --packing "$packing" --velocity "$v" --warmup "$warmup" --seconds "$seconds" \
           "${extra[@]}" 2>&1 >/dev/null)
