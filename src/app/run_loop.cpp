@@ -116,6 +116,7 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
       break;
     }
     if (choosing) step_options.solver.threads = chooser.threads();
+    if (choosing && chooser.threads() == chooser.most()) ++summary.steps_on_all_threads;
     const auto step_start = Clock::now();
     StepReport r = dynamics.step(world, step_options);
     if (chooser.after_step(std::chrono::duration<double>(Clock::now() - step_start).count()) &&
@@ -178,6 +179,9 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   if (settings.progress_bar) std::fputs("\r\033[K", stderr);
   const auto end = Clock::now();
   summary.wall_seconds = std::chrono::duration<double>(end - start).count();
+  summary.threads_chosen = choosing;
+  summary.thread_trials = chooser.trials();
+  summary.thread_watch_trials = chooser.watch_trials();
   report_progress(end, true);
   if (summary.steps > 0) {
     summary.mean_sweeps = sum_sweeps / static_cast<double>(summary.steps);
@@ -223,6 +227,10 @@ nlohmann::json summary_to_json(const RunSummary& s) {
                         {"integrate", s.seconds.integrate},
                         {"measure", s.seconds.measure}}},
                       {"problem", s.last.problem}};
+  if (s.threads_chosen)
+    j["threads_chosen_by_speed"] = {{"trials", s.thread_trials},
+                                    {"watch_trials", s.thread_watch_trials},
+                                    {"steps_on_all_threads", s.steps_on_all_threads}};
   if (s.refinement.steps > 0)
     j["refinement"] = {{"steps", s.refinement.steps},
                        {"steps_to_tolerance", s.refinement.steps_to_tolerance},

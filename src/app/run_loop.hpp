@@ -89,6 +89,11 @@ struct RunSummary {
   /// The active-set refinement (SolverOptions::newton_iterations > 0; active_set_solve.hpp).
   RefinementTally refinement;
   StageSeconds seconds;  ///< summed over the steps
+  /// Threads chosen by speed (thread_chooser.hpp), when the run may use more than one: its
+  /// trials, those of them its watch started, and the steps taken on all threads.
+  bool threads_chosen = false;
+  int thread_trials = 0, thread_watch_trials = 0;
+  std::uint64_t steps_on_all_threads = 0;
 };
 
 /// Set by the SIGINT/SIGTERM handler; the loop stops after the current step.

@@ -12,6 +12,7 @@ ThreadChooser::ThreadChooser(int most, std::uint64_t trial_steps, std::uint64_t 
 }
 
 void ThreadChooser::start_trial() {
+  ++trials_;
   trying_ = true;
   block_ = 0;
   in_block_ = 0;
@@ -22,7 +23,12 @@ void ThreadChooser::start_trial() {
 bool ThreadChooser::after_step(double seconds) {
   if (most_ == 1) return false;
   if (!trying_) {
-    if (recheck_steps_ > 0 && ++since_choice_ >= recheck_steps_) start_trial();
+    if (current_ == most_ && watch(seconds)) {
+      ++watch_trials_;
+      start_trial();
+    } else if (recheck_steps_ > 0 && ++since_choice_ >= recheck_steps_) {
+      start_trial();
+    }
     return false;
   }
   (current_ == 1 ? sum_one_ : sum_most_) += seconds;
@@ -38,7 +44,19 @@ bool ThreadChooser::after_step(double seconds) {
   current_ = last_most_ < last_one_ ? most_ : 1;
   trying_ = false;
   since_choice_ = 0;
+  watched_ = 0;
+  sum_watched_ = 0.0;
   return true;
+}
+
+bool ThreadChooser::watch(double seconds) {
+  sum_watched_ += seconds;
+  const std::uint64_t block = 2 * trial_steps_;
+  if (++watched_ < block) return false;
+  const double mean = sum_watched_ / static_cast<double>(block);
+  watched_ = 0;
+  sum_watched_ = 0.0;
+  return mean > last_one_;
 }
 
 }  // namespace cdshear

@@ -9,7 +9,12 @@
 // more than one thread times its steps on both counts, in alternating blocks (one thread, all,
 // one, all: a slow drift of the step's cost weighs on both alike), keeps the faster, and
 // measures again every `recheck_steps` steps, as the packing and the machine's load change.
-// Ties go to one thread. Plain logic on the durations it is given: the run loop times the steps.
+// Ties go to one thread. While it runs on all threads it also watches their speed: when the mean
+// over a watch block (two trial blocks' steps) is slower than one thread was at the last trial, it
+// measures again at once: on a 2-core virtual machine the host may move the two processors
+// apart in the middle of a run, and two threads may then be slower than one (docs/performance.md,
+// "Where the host places the two processors"). One thread runs as fast wherever it is: nothing is
+// watched there. Plain logic on the durations it is given: the run loop times the steps.
 #pragma once
 
 #include <cstdint>
@@ -32,6 +37,9 @@ class ThreadChooser {
   /// Mean seconds per step of the last trial on `threads` (1 or most; 0 before any trial).
   double seconds_per_step(int threads) const { return threads == 1 ? last_one_ : last_most_; }
   int most() const { return most_; }
+  /// Trials so far, and those started by the watch on all threads (not by recheck_steps).
+  int trials() const { return trials_; }
+  int watch_trials() const { return watch_trials_; }
 
  private:
   static constexpr int kBlocks = 4;  // one, most, one, most
@@ -44,6 +52,13 @@ class ThreadChooser {
   std::uint64_t since_choice_ = 0;
   double sum_one_ = 0.0, sum_most_ = 0.0;
   double last_one_ = 0.0, last_most_ = 0.0;
+  std::uint64_t watched_ = 0;  // steps of the watch block under way (on all threads)
+  double sum_watched_ = 0.0;
+  int trials_ = 0, watch_trials_ = 0;
+
+  /// After a step on all threads outside a trial: true when its watch block ended slower than
+  /// one thread's last measured speed.
+  bool watch(double seconds);
 
   void start_trial();
 };
