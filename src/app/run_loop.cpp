@@ -179,7 +179,6 @@ RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions&
   if (settings.progress_bar) std::fputs("\r\033[K", stderr);
   const auto end = Clock::now();
   summary.wall_seconds = std::chrono::duration<double>(end - start).count();
-  summary.threads_chosen = choosing;
   summary.thread_trials = chooser.trials();
   summary.thread_watch_trials = chooser.watch_trials();
   report_progress(end, true);
@@ -227,7 +226,7 @@ nlohmann::json summary_to_json(const RunSummary& s) {
                         {"integrate", s.seconds.integrate},
                         {"measure", s.seconds.measure}}},
                       {"problem", s.last.problem}};
-  if (s.threads_chosen)
+  if (s.thread_trials > 0)
     j["threads_chosen_by_speed"] = {{"trials", s.thread_trials},
                                     {"watch_trials", s.thread_watch_trials},
                                     {"steps_on_all_threads", s.steps_on_all_threads}};

@@ -89,9 +89,8 @@ struct RunSummary {
   /// The active-set refinement (SolverOptions::newton_iterations > 0; active_set_solve.hpp).
   RefinementTally refinement;
   StageSeconds seconds;  ///< summed over the steps
-  /// Threads chosen by speed (thread_chooser.hpp), when the run may use more than one: its
-  /// trials, those of them its watch started, and the steps taken on all threads.
-  bool threads_chosen = false;
+  /// Threads chosen by speed (thread_chooser.hpp): its trials (none when the run uses one
+  /// thread or a fixed count), those of them its watch started, and the steps on all threads.
   int thread_trials = 0, thread_watch_trials = 0;
   std::uint64_t steps_on_all_threads = 0;
 };
