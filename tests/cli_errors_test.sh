@@ -148,11 +148,25 @@ expect_error "key 'solver.max_sweeps': must be between 1 and 1000000, got 429496
   "$exe" run -q --set solver.max_sweeps=4294967296
 expect_error "exceed the limit of 1e+07" "$exe" run -q --set measure.sample_interval=1e-5 \
   --set shear.duration=1000
+expect_error "exceed the limit of 1e+07 profile points" "$exe" run -q \
+  --set measure.stripe_thickness=1e-9
+expect_error "exceed the limit of 1e+07 profile points" "$exe" run -q \
+  --set measure.stripe_thickness=1e-300
 expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
 expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
 expect_error "--threads: must be a whole number from 1 to 1024, got 0" "$exe" run -q --threads 0
 expect_error "--threads = abc" "$exe" run -q --threads abc
 expect_error "--threads: must be a whole number from 1 to 1024, got -2" "$exe" scene "$scene" --threads -2 -o never
+# A packing's destination is checked before the preparation: a FIFO, a device or a folder in
+# its place is left as it is, a name ending in a slash is refused.
+mkfifo fifo.json
+expect_error "fifo.json: exists and is not a regular file" "$exe" prepare -q -o fifo.json
+[[ -p fifo.json ]] || { echo "FAIL: prepare -o replaced a FIFO"; fails=$((fails + 1)); }
+mkdir -p a_folder
+expect_error "a_folder: exists and is not a regular file" "$exe" prepare -q -o a_folder
+expect_error "new/: names a folder" "$exe" prepare -q -o new/
+expect_error "key 'shear': a table value would replace every key" "$exe" run -q \
+  --set 'shear={velocity=0.4}'
 # A malformed command line is bad input: exit status 2, like every other.
 checks=$((checks + 1))
 "$exe" run -q --threads abc > /dev/null 2>&1

@@ -16,6 +16,7 @@
 #include "cdshear_git.hpp"
 #include "checkpoint.hpp"
 #include "config_error.hpp"
+#include "packing_file.hpp"
 #include "scene_file.hpp"
 #include "test_support.hpp"
 
@@ -197,6 +198,54 @@ TEST(BadInput, OverrideWithUnknownKeyIsRefused) {
   }
   // A valid override is applied.
   EXPECT_EQ(load_scene_file(path, {"solver.seed=4"}).step.solver.seed, 4u);
+}
+
+TEST(BadInput, OverrideWithATableValueIsRefusedNotAppliedAsAWholeTable) {
+  // `--set solver={seed=4}` would replace the whole [solver] table, the file's keys included.
+  TempDir dir("override_table");
+  std::string text = scene_text();
+  const std::string solver = "[solver]\nseed = 3\n";
+  text.replace(text.find(solver), solver.size(), solver + "relaxation = 1.5\n");
+  const std::string path = dir.write("scene.toml", text);
+  try {
+    load_scene_file(path, {"solver={seed=4}"});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "solver");
+    EXPECT_NE(e.problem().find("one key per --set"), std::string::npos) << e.what();
+  }
+  const SolverOptions s = load_scene_file(path, {"solver.seed=4"}).step.solver;
+  EXPECT_EQ(s.seed, 4u);
+  EXPECT_EQ(s.relaxation, 1.5);  // the file's key kept beside the override
+}
+
+TEST(BadInput, APackingDestinationIsCheckedBeforeAnythingIsPrepared) {
+  const TempDir dir("packing_destination");
+  const auto expect_refused = [](const std::filesystem::path& path, const std::string& words) {
+    try {
+      check_packing_destination(path);
+      ADD_FAILURE() << path << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  const auto fifo = dir.path() / "fifo.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expect_refused(fifo, "not a regular file");
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));                      // left as it was
+  expect_refused(dir.path(), "not a regular file");                 // a folder
+  expect_refused(dir.path().string() + "/new/", "names a folder");  // a trailing slash
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "new"));
+  const std::string plain = dir.write("plain.txt", "text");
+  expect_refused(std::filesystem::path(plain) / "p.json", "cannot make the packing's folder");
+  // A new folder is made, a regular file may be replaced, and no probe is left behind.
+  check_packing_destination(dir.path() / "sub" / "p.json");
+  EXPECT_TRUE(std::filesystem::is_directory(dir.path() / "sub"));
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path() / "sub"));
+  check_packing_destination(plain);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()),
+                          std::filesystem::directory_iterator()),
+            3);  // fifo.json, plain.txt, sub
 }
 
 TEST(BadInput, RelaxationOutsideZeroToTwoIsRefused) {

@@ -107,6 +107,7 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
     std::printf("reusing packing %s\n", cached.c_str());
     return {read_packing(cached, tolerance), cached};
   }
+  check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
@@ -138,6 +139,9 @@ void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path&
 /// The most samples a measured run may ask for (docs/reliability.md): run.h5 holds about 150
 /// bytes per sample, kept in memory and rewritten at every checkpoint.
 constexpr double kMaxSamples = 1e7;
+/// The most profile points (stripes times windows) a measured run may ask for: each window keeps
+/// about 150 bytes per stripe in run.h5, in memory and on disk.
+constexpr double kMaxProfilePoints = 1e7;
 
 struct RunArgs {
   CaseArgs c;
@@ -201,6 +205,17 @@ void plan_run(ShearSession& s) {
                       fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
                                   "(run.h5 would grow beyond 1.5 GB): sample less often",
                                   c.duration / c.measure.sample_interval, c.duration, kMaxSamples));
+  if (c.measure.enabled) {
+    const double stripes = c.measure.stripe_span * c.height / c.measure.stripe_thickness;
+    const double windows = std::max(1.0, std::ceil(c.duration / c.measure.window));
+    if (!(stripes * windows <= kMaxProfilePoints))
+      throw ConfigError(
+          s.case_source, "measure.stripe_thickness",
+          fmt::format("{:.3g} stripes (stripe_span x L_y / stripe_thickness) over {:.3g} windows "
+                      "exceed the limit of {:.0e} profile points (run.h5 would grow beyond 1.5 "
+                      "GB): thicker stripes or longer windows",
+                      stripes, windows, kMaxProfilePoints));
+  }
 }
 
 /// A case.toml written by an earlier cdshear lacks the parameters added since: the resume runs
@@ -635,10 +650,11 @@ struct PrepareArgs {
 
 int run_prepare(const PrepareArgs& args) {
   const ShearCase c = load_case(to_source(args.c));
-  const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
   const fs::path out = args.output.empty()
                            ? fs::path("packings") / packing_cache_name(c.preparation)
                            : fs::path(args.output);
+  check_packing_destination(out);  // before the preparation, not after it
+  const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
   write_packing(out, p);
   std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
               p.solid_fraction);

@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -32,6 +36,35 @@ void write_packing(const std::filesystem::path& path, const Packing& p) {
                             {"disks_xyr", disks}};
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
   write_file_atomic(path, j.dump(1) + "\n");
+}
+
+void check_packing_destination(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  const std::string file = path.string();
+  const fs::path name = path.filename();
+  if (name.empty() || name == "." || name == "..")
+    throw ConfigError(file, "", "names a folder: give the packing file's name (e.g. packing.json)");
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (fs::exists(status) && !fs::is_regular_file(status))
+    throw ConfigError(file, "",
+                      "exists and is not a regular file (a folder, a FIFO or a device): remove it "
+                      "or give another name");
+  if (path.has_parent_path()) {
+    fs::create_directories(path.parent_path(), ec);
+    if (ec)
+      throw ConfigError(path.parent_path().string(), "",
+                        "cannot make the packing's folder (" + ec.message() + ")");
+  }
+  // The temporary write_file_atomic writes first, made and removed now.
+  const fs::path probe = file + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(probe, std::ios::binary | std::ios::trunc);
+    if (!out)
+      throw ConfigError(file, "",
+                        std::string("cannot be written there (") + std::strerror(errno) + ")");
+  }
+  fs::remove(probe, ec);
 }
 
 Packing read_packing(const std::filesystem::path& path, double overlap_tolerance) {

@@ -10,6 +10,12 @@
 namespace cdshear {
 
 void write_packing(const std::filesystem::path& path, const Packing& packing);
+/// Checks, before a packing is prepared (minutes to hours), that write_packing will be able to
+/// write it to `path`: a file name, not a folder; nothing but a regular file in its place (a FIFO
+/// or a device would be replaced by the packing); a folder that exists, or is made now, and takes
+/// a new file. Throws ConfigError naming the path and the problem. An existing packing there is
+/// replaced, as `-o` asks.
+void check_packing_destination(const std::filesystem::path& path);
 /// Throws ConfigError naming the file and the key for a missing file, a wrong format, or
 /// inconsistent content (non-positive sizes or radii, a disk crossing a horizontal wall by more
 /// than `overlap_tolerance`). Overlaps between disks are checked when the shear world is built.

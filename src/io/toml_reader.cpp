@@ -83,6 +83,13 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
                               "); strings other than single words need quotes: key='\"text\"'");
       parsed = toml::parse("v = \"" + value + "\"");  // a bare word: --set solver.order=random
     }
+    // A TOML inline table defines the whole table: `--set shear={velocity=0.4}` would drop the
+    // case file's other shear keys back to their defaults, unseen. One key per --set instead.
+    if (parsed.get("v")->is_table())
+      throw ConfigError("--set " + item, key,
+                        "a table value would replace every key of '" + key +
+                            "' (the case file's included); give one key per --set: --set " + key +
+                            ".KEY=VALUE");
     if (sources != nullptr) (*sources)[key] = "--set " + item;
     toml::table* at = &root;
     std::string rest = key;
