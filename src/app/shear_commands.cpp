@@ -206,7 +206,7 @@ void plan_run(ShearSession& s) {
                                   "(run.h5 would grow beyond 1.5 GB): sample less often",
                                   c.duration / c.measure.sample_interval, c.duration, kMaxSamples));
   if (c.measure.enabled) {
-    const double stripes = c.measure.stripe_span * c.height / c.measure.stripe_thickness;
+    const double stripes = stripe_count(c.measure, c.height);
     const double windows = std::max(1.0, std::ceil(c.duration / c.measure.window));
     if (!(stripes * windows <= kMaxProfilePoints))
       throw ConfigError(

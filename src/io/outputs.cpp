@@ -11,9 +11,12 @@
 
 namespace cdshear {
 
+std::filesystem::path temporary_path(const std::filesystem::path& path) {
+  return path.string() + ".tmp." + std::to_string(::getpid());
+}
+
 void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
-  // Unique per process: two runs sharing a folder or a packing cache never share a temporary.
-  const std::filesystem::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
+  const std::filesystem::path tmp = temporary_path(path);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error(tmp.string() + ": cannot open for writing");

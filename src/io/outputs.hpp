@@ -16,7 +16,11 @@
 
 namespace cdshear {
 
-/// Writes `text` to `path` atomically (temporary file in the same folder, then rename).
+/// The temporary file a write to `path` goes through before its rename: `path`.tmp.<pid>, in the
+/// same folder, unique per process (two runs sharing a folder or a packing cache never share one).
+std::filesystem::path temporary_path(const std::filesystem::path& path);
+
+/// Writes `text` to `path` atomically (temporary_path, then rename).
 void write_file_atomic(const std::filesystem::path& path, const std::string& text);
 
 /// Every disk's position (wrapped and unwrapped), velocity, angular velocity, radius; every

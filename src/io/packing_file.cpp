@@ -2,8 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -57,7 +55,7 @@ void check_packing_destination(const std::filesystem::path& path) {
                         "cannot make the packing's folder (" + ec.message() + ")");
   }
   // The temporary write_file_atomic writes first, made and removed now.
-  const fs::path probe = file + ".tmp." + std::to_string(::getpid());
+  const fs::path probe = temporary_path(path);
   {
     std::ofstream out(probe, std::ios::binary | std::ios::trunc);
     if (!out)

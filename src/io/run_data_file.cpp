@@ -4,7 +4,6 @@
 
 #include <fmt/format.h>
 #include <hdf5.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <cmath>
@@ -16,6 +15,7 @@
 
 #include "build_info.hpp"
 #include "config_error.hpp"
+#include "outputs.hpp"
 #include "toml_reader.hpp"
 
 namespace cdshear {
@@ -501,7 +501,7 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
 void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMeasurement& m,
                     const World& world, const std::vector<Contact>& contacts) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported as ConfigError
-  const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid());
+  const fs::path tmp = temporary_path(path);
   const H5Context ctx{tmp.string()};
   try {
     // The first kUserBlock bytes are HDF5's user block: it holds the seal (CRC-32 of the rest).

@@ -69,8 +69,7 @@ ShearMeasurement::ShearMeasurement(MeasureOptions options, MeasureContext contex
       1, static_cast<std::uint64_t>(
              std::llround(options_.window / (static_cast<double>(sample_every_) * context_.dt))));
   const double dy = options_.stripe_thickness;
-  const auto stripes =
-      static_cast<std::size_t>(std::ceil(options_.stripe_span * context_.nominal_height / dy));
+  const auto stripes = static_cast<std::size_t>(stripe_count(options_, context_.nominal_height));
   for (std::size_t k = 0; k < stripes; ++k)
     stripe_centres_.push_back((static_cast<double>(k) + 0.5) * dy);
   state_.grain_moment.assign(world.disks.size(), Tensor2{});

@@ -48,6 +48,7 @@
 // mean R_n of the contacts with R_n > 0 at the sample step.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -70,6 +71,12 @@ struct MeasureOptions {
   double force_threshold = 0.01;  ///< force-carrying: R_n > this * mean R_n (of R_n > 0)
   double contact_gap = 1e-4;      ///< closed contact (Z, slip): gap <= this at the sample [d]
 };
+
+/// The stripes of the profiles: stripe_span x nominal L_y / stripe_thickness, rounded up (a
+/// double: a run that would ask for more than a size can hold is refused with this figure).
+inline double stripe_count(const MeasureOptions& o, double nominal_height) {
+  return std::ceil(o.stripe_span * nominal_height / o.stripe_thickness);
+}
 
 /// What the measurement needs to know beyond the state.
 struct MeasureContext {
