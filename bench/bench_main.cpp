@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -33,6 +34,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -253,12 +255,45 @@ CSV lines go to stdout, progress to stderr. See docs/benchmarks.md.
 )";
 }
 
+/// Bad command-line input: exit status 2, as for `cdshear`.
+struct UsageError : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+
+/// The value of `option` as a whole number that T holds (no sign for an unsigned T, nothing after
+/// the digits).
+template <class T>
+T whole(const std::string& option, const std::string& text) {
+  T v{};
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, v);
+  if (text.empty() || error != std::errc() || stop != end)
+    throw UsageError(option + ": '" + text + "' is not a whole number" +
+                     (std::is_unsigned_v<T> ? " >= 0" : "") +
+                     (error == std::errc::result_out_of_range ? " this program can hold" : ""));
+  return v;
+}
+
+/// The value of `option` as a finite number (nothing after it).
+double number(const std::string& option, const std::string& text) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (text.empty() || used != text.size() || !std::isfinite(v))
+    throw UsageError(option + ": '" + text + "' is not a finite number");
+  return v;
+}
+
 Settings parse(int argc, char** argv) {
   Settings s;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     auto value = [&]() -> std::string {
-      if (k + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      if (k + 1 >= argc) throw UsageError(a + " needs a value");
       return argv[++k];
     };
     if (a == "--quick") {
@@ -268,21 +303,22 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--sizes") {
       s.sizes.clear();
       std::stringstream list(value());
-      for (std::string item; std::getline(list, item, ',');) s.sizes.push_back(std::stoul(item));
+      for (std::string item; std::getline(list, item, ',');)
+        s.sizes.push_back(whole<std::size_t>(a, item));
     } else if (a == "--width") {
-      s.width = std::stod(value());
+      s.width = number(a, value());
     } else if (a == "--seconds") {
-      s.seconds = std::stod(value());
+      s.seconds = number(a, value());
     } else if (a == "--warmup") {
-      s.warmup_steps = std::stoull(value());
+      s.warmup_steps = whole<std::uint64_t>(a, value());
     } else if (a == "--velocity") {
-      s.velocity = std::stod(value());
+      s.velocity = number(a, value());
     } else if (a == "--dt") {
-      s.dt = std::stod(value());
-      if (!(*s.dt > 0.0)) throw std::invalid_argument("--dt must be > 0");
+      s.dt = number(a, value());
+      if (!(*s.dt > 0.0)) throw UsageError("--dt must be > 0");
     } else if (a == "--order") {
       if (!cdshear::contact_order_from_name(value(), s.solver.order))
-        throw std::invalid_argument("--order must be random or coloured");
+        throw UsageError("--order must be random or coloured");
     } else if (a == "--packing") {
       s.packing = value();
     } else if (a == "--state") {
@@ -296,17 +332,15 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--newton-history") {
       s.solver.newton_history = true;
     } else if (a == "--newton") {
-      s.solver.newton_iterations = std::stoi(value());
+      s.solver.newton_iterations = whole<int>(a, value());
       if (s.solver.newton_iterations < 0 ||
           s.solver.newton_iterations > cdshear::kMaxNewtonIterations)
-        throw std::invalid_argument("--newton must be in 0.." +
-                                    std::to_string(cdshear::kMaxNewtonIterations));
+        throw UsageError("--newton must be in 0.." + std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--step-error") {
-      s.step_error_samples = std::stoi(value());
+      s.step_error_samples = whole<int>(a, value());
     } else if (a == "--step-error-spacing") {
-      s.step_error_spacing = std::stoi(value());
-      if (s.step_error_spacing < 0)
-        throw std::invalid_argument("--step-error-spacing must be at least 0");
+      s.step_error_spacing = whole<int>(a, value());
+      if (s.step_error_spacing < 0) throw UsageError("--step-error-spacing must be at least 0");
     } else if (a == "--from-reference") {
       s.from_reference = true;
     } else if (a == "--paired") {
@@ -314,15 +348,15 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--polish") {
       s.polish = true;
     } else if (a == "--state-jitter") {
-      s.state_jitter = std::stod(value());
+      s.state_jitter = number(a, value());
       // Small enough that no disk crosses x = 0 in one of the two solves only (its contacts'
       // keys would then differ between them): the chance is about N EPS / L_x per sample.
       if (!(s.state_jitter >= 0.0 && s.state_jitter < 1e-4))
-        throw std::invalid_argument("--state-jitter must be in [0, 1e-4)");
+        throw UsageError("--state-jitter must be in [0, 1e-4)");
     } else if (a == "--steps") {
-      s.min_steps = std::stoull(value());
+      s.min_steps = whole<std::uint64_t>(a, value());
       s.seconds = 0.0;
-      if (s.min_steps == 0) throw std::invalid_argument("--steps must be >= 1");
+      if (s.min_steps == 0) throw UsageError("--steps must be >= 1");
     } else if (a == "--error-spectrum") {
       s.error_spectrum = true;
     } else if (a == "--error-locality") {
@@ -332,64 +366,62 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--stress-error") {
       s.stress_error = true;
     } else if (a == "--stress-window") {
-      s.stress_window = std::stoi(value());
-      if (s.stress_window < 1) throw std::invalid_argument("--stress-window must be at least 1");
+      s.stress_window = whole<int>(a, value());
+      if (s.stress_window < 1) throw UsageError("--stress-window must be at least 1");
     } else if (a == "--max-sweeps") {
-      s.solver.max_sweeps = std::stoi(value());
-      if (s.solver.max_sweeps < 1) throw std::invalid_argument("--max-sweeps must be at least 1");
+      s.solver.max_sweeps = whole<int>(a, value());
+      if (s.solver.max_sweeps < 1) throw UsageError("--max-sweeps must be at least 1");
     } else if (a == "--converged-fraction") {
-      s.solver.converged_fraction = std::stod(value());
+      s.solver.converged_fraction = number(a, value());
       if (!(s.solver.converged_fraction >= 0.0 && s.solver.converged_fraction <= 1.0))
-        throw std::invalid_argument("--converged-fraction must be in [0, 1]");
+        throw UsageError("--converged-fraction must be in [0, 1]");
     } else if (a == "--residual-tolerance") {
-      s.solver.residual_tolerance = std::stod(value());
+      s.solver.residual_tolerance = number(a, value());
       if (!(s.solver.residual_tolerance >= 0.0))
-        throw std::invalid_argument("--residual-tolerance must be >= 0");
+        throw UsageError("--residual-tolerance must be >= 0");
       s.residual_given = true;
     } else if (a == "--profile") {
       s.solver.profile = true;
     } else if (a == "--core-round-trip") {
       s.core_round_trip = true;
     } else if (a == "--alpha") {
-      s.solver.alpha = std::stod(value());
+      s.solver.alpha = number(a, value());
       s.alpha_given = true;
-      if (!(s.solver.alpha >= 0.0)) throw std::invalid_argument("--alpha must be >= 0");
+      if (!(s.solver.alpha >= 0.0)) throw UsageError("--alpha must be >= 0");
     } else if (a == "--reference-relaxation") {
-      s.reference_relaxation = std::stod(value());
+      s.reference_relaxation = number(a, value());
       if (!(s.reference_relaxation >= 1.0 && s.reference_relaxation < 2.0))
-        throw std::invalid_argument("--reference-relaxation must be in [1, 2)");
+        throw UsageError("--reference-relaxation must be in [1, 2)");
     } else if (a == "--relaxation") {
-      s.solver.relaxation = std::stod(value());
+      s.solver.relaxation = number(a, value());
       if (!(s.solver.relaxation >= 1.0 && s.solver.relaxation < 2.0))
-        throw std::invalid_argument("--relaxation must be in [1, 2)");
+        throw UsageError("--relaxation must be in [1, 2)");
     } else if (a == "--skip-dormant") {
       s.solver.skip_dormant = true;
     } else if (a == "--no-skip-dormant") {
       s.solver.skip_dormant = false;
     } else if (a == "--reference-newton") {
-      s.reference_newton = std::stoi(value());
+      s.reference_newton = whole<int>(a, value());
       if (s.reference_newton < 0 || s.reference_newton > cdshear::kMaxNewtonIterations)
-        throw std::invalid_argument("--reference-newton must be in 0.." +
-                                    std::to_string(cdshear::kMaxNewtonIterations));
+        throw UsageError("--reference-newton must be in 0.." +
+                         std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--reference-anderson") {
-      s.reference_anderson = std::stoi(value());
+      s.reference_anderson = whole<int>(a, value());
       if (s.reference_anderson < 0 || s.reference_anderson > cdshear::kMaxAndersonDepth)
-        throw std::invalid_argument("--reference-anderson must be in 0..16");
+        throw UsageError("--reference-anderson must be in 0..16");
     } else if (a == "--anderson") {
-      s.solver.anderson_depth = std::stoi(value());
+      s.solver.anderson_depth = whole<int>(a, value());
       if (s.solver.anderson_depth < 0 || s.solver.anderson_depth > cdshear::kMaxAndersonDepth)
-        throw std::invalid_argument("--anderson must be in 0..16");
+        throw UsageError("--anderson must be in 0..16");
     } else if (a == "--slab-correction") {
-      s.solver.slab_correction_period = std::stoi(value());
-      if (s.solver.slab_correction_period < 0)
-        throw std::invalid_argument("--slab-correction must be >= 0");
+      s.solver.slab_correction_period = whole<int>(a, value());
+      if (s.solver.slab_correction_period < 0) throw UsageError("--slab-correction must be >= 0");
     } else if (a == "--anderson-period") {
-      s.solver.anderson_period = std::stoi(value());
-      if (s.solver.anderson_period < 1)
-        throw std::invalid_argument("--anderson-period must be >= 1");
+      s.solver.anderson_period = whole<int>(a, value());
+      if (s.solver.anderson_period < 1) throw UsageError("--anderson-period must be >= 1");
     } else if (a == "--threads") {
-      s.solver.threads = std::stoi(value());
-      if (s.solver.threads < 1) throw std::invalid_argument("--threads must be at least 1");
+      s.solver.threads = whole<int>(a, value());
+      if (s.solver.threads < 1) throw UsageError("--threads must be at least 1");
     } else if (a == "--no-static") {
       s.run_static = false;
     } else if (a == "--no-shear") {
@@ -403,16 +435,16 @@ Settings parse(int argc, char** argv) {
       usage();
       std::exit(0);
     } else {
-      throw std::invalid_argument("unknown option " + a);
+      throw UsageError("unknown option " + a);
     }
   }
-  if (!(s.velocity > 0.0)) throw std::invalid_argument("--velocity must be > 0");
+  if (!(s.velocity > 0.0)) throw UsageError("--velocity must be > 0");
   if (s.state_jitter > 0.0 && s.step_error_samples == 0)
-    throw std::invalid_argument("--state-jitter needs --step-error");
+    throw UsageError("--state-jitter needs --step-error");
   if (!s.dump_samples.empty() && s.step_error_samples == 0)
-    throw std::invalid_argument("--dump-samples needs --step-error");
+    throw UsageError("--dump-samples needs --step-error");
   if (!s.state.empty() && !s.packing.empty())
-    throw std::invalid_argument("--state and --packing exclude each other");
+    throw UsageError("--state and --packing exclude each other");
   return s;
 }
 
@@ -1452,6 +1484,9 @@ int run(const Settings& s) {
 int main(int argc, char** argv) {
   try {
     return run(parse(argc, argv));
+  } catch (const UsageError& e) {
+    std::cerr << "cdshear_bench: " << e.what() << " (--help lists the options)\n";
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "cdshear_bench: " << e.what() << '\n';
     return 1;

@@ -85,5 +85,12 @@ if "$bench" --state "$packing" --steps 1 > bad.csv 2> bad.txt ||
   echo "FAIL: a packing file as --state was not refused by name"; cat bad.txt
   fails=$((fails + 1))
 fi
+# A negative or malformed number is bad input (exit 2), not wrapped around.
+for bad in "--sizes -5" "--steps -1" "--alpha 1e-5x"; do
+  "$bench" $bad > /dev/null 2> bad.txt; rc=$?
+  if [ $rc -ne 2 ] || ! grep -qF -- "${bad%% *}: '${bad#* }'" bad.txt; then
+    echo "FAIL: cdshear_bench $bad: exit $rc"; cat bad.txt; fails=$((fails + 1))
+  fi
+done
 echo "bench_state_test: $fails failures"
 exit $((fails > 0))

@@ -177,6 +177,41 @@ expect_error "already reached t = 0.2" "$exe" run -q --no-analyze --resume done
 [ -e runs ] && { echo "FAIL: a refused run left a folder behind: $(ls -R runs)"; fails=$((fails + 1)); }
 checks=$((checks + 1))
 
+# Empty numbers are refused, not read as 0; a --stop-at at the run's own time, an unknown key on
+# --resume and an emptied case.toml are named as what they are.
+expect_status2 "--stop-at: is empty" "$exe" run -q --resume done --stop-at ''
+expect_status2 "--velocity: is empty" "$exe" run -q -V ''
+expect_status2 "--threads: is empty" "$exe" run -q --threads ''
+expect_error "key 'shear.velocty': unknown key" "$exe" run -q --resume done --set shear.velocty=0.3
+expect_error "--stop-at: 0.2 is not later than the run's time 0.2 (step 50" \
+  "$exe" run -q --no-analyze --resume done --set shear.duration=1 --stop-at 0.2
+cp -r done emptied && : > emptied/case.toml
+expect_error "emptied/case.toml: is empty" "$exe" run -q --no-analyze --resume emptied
+
+# A damaged or foreign packing is refused naming its key, in a run and in a campaign's dry run.
+sed 's/"version": 1/"version": 7/' "$packing" > v7.json
+expect_error "v7.json: key 'version': is 7; this cdshear reads version 1" \
+  "$exe" run -q --packing v7.json
+sed 's/"n": 511,/"n": 40,/' "$packing" > n40.json
+expect_error "n40.json: key 'n': is 40, but disks_xyr lists 511 disks" \
+  "$exe" run -q --packing n40.json
+sed 's/"length_x": [0-9.e+-]*,/"length_x": 1000.0,/' "$packing" > wide.json
+expect_error "wide.json: key 'length_x': the disks fill a fraction" "$exe" run -q --packing wide.json
+sed '0,/{/s/{/{"height": 5.0,/' "$packing" > twice.json
+expect_error "twice.json: key 'height': is given twice" "$exe" run -q --packing twice.json
+/usr/bin/python3 - "$packing" << 'EOF_PY'
+import json, sys
+p = json.load(open(sys.argv[1]))
+p["disks_xyr"][3] = p["disks_xyr"][3] + [1.0]
+json.dump(p, open("four.json", "w"))
+EOF_PY
+expect_error "four.json: key 'disks_xyr[3]': must be [x, y, r], three numbers" \
+  "$exe" run -q --packing four.json
+printf '[campaign]\nname = "w"\nsystems = [1]\nvelocities = [0.5]\nseeds = [1]\nduration = 1.0\n[campaign.packing]\n1 = "%s"\n' \
+  "$work/v7.json" > foreign.toml
+expect_status2 "foreign.toml: key 'campaign.packing.1': $work/v7.json: key 'version'" \
+  "$exe" sweep --dry-run foreign.toml
+
 # Errors name their true source: the --set that gave the value, never the case file.
 expect_error "--set shear.velocity=abc: key 'shear.velocity': must be a number" \
   "$exe" run -q --set shear.velocity=abc

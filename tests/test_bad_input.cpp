@@ -185,6 +185,13 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   r.region_max = {3.0, 3.0};  // cannot hold 100 disks
   s.random_disks = {r};
   EXPECT_EQ(key_of(s), "random_disks[0].count");
+  s = {};
+  r = {};
+  r.count = 3;
+  r.region_min = {0.0, -1e308};
+  r.region_max = {10.0, 1e308};  // each finite, the height not
+  s.random_disks = {r};
+  EXPECT_EQ(key_of(s), "random_disks[0].region");
 }
 
 TEST(BadInput, OverrideWithUnknownKeyIsRefused) {

@@ -11,6 +11,8 @@
 
 #include "campaign_file.hpp"
 #include "config_error.hpp"
+#include "packing_file.hpp"
+#include "shear_case.hpp"
 #include "test_support.hpp"
 
 namespace cdshear {
@@ -20,6 +22,27 @@ using testing::TempDir;
 
 Campaign parse(const std::string& text) {
   return campaign_from_toml(toml::parse(text), "test.toml", "/tmp");
+}
+
+/// A packing file that system `system`'s runs accept (its n, L_y and diameters; disks on a grid,
+/// for the campaign reader, which never builds the cell), written to `dir`/`name`.
+std::string write_packing_of_system(const TempDir& dir, const std::string& name, int system) {
+  ShearCase c;
+  apply_system_preset(c, system);
+  Packing p;
+  p.height = c.height;
+  p.diameter_min = c.diameter_min;
+  p.diameter_max = c.diameter_max;
+  const auto columns = static_cast<std::size_t>(std::ceil(std::sqrt(static_cast<double>(c.n))));
+  const double spacing = (c.height - 1.0) / static_cast<double>(columns);
+  p.length_x = spacing * static_cast<double>(columns);
+  for (std::size_t i = 0; i < c.n; ++i)
+    p.disks.push_back({{(static_cast<double>(i % columns) + 0.5) * spacing,
+                        0.5 + (static_cast<double>(i / columns) + 0.5) * spacing},
+                       0.45});
+  const std::filesystem::path path = dir.path() / name;
+  write_packing(path, p);
+  return path.string();
 }
 
 /// `back` (a campaign read back from its resolved form) has the same runs as `c`: names,
@@ -114,7 +137,7 @@ TEST(CampaignFile, DurationsPerSystem) {
 
 TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
   TempDir dir("campaign");
-  const std::string packing = dir.write("p.json", "{}");
+  const std::string packing = write_packing_of_system(dir, "p.json", 1);
   const Campaign c = campaign_from_toml(
       toml::parse("[campaign]\nname = \"x\"\nsystems = [1]\nstrain = 3\nanalyze = false\n"
                   "packing = { 1 = \"p.json\" }\n"
@@ -219,7 +242,7 @@ TEST(CampaignFile, SetValuesKeepTheirTypeWhenPassedToTheRuns) {
 
 TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {
   TempDir dir("campaign_packing");
-  const std::string packing = dir.write("p.json", "{}");
+  const std::string packing = write_packing_of_system(dir, "p.json", 1);
   const std::string head = "[campaign]\nname = \"p\"\npacking = { 1 = \"" + packing + "\" }\n";
   const std::string group =
       "[[campaign.group]]\nsystems = [1]\nvelocities = [0.5]\nduration = 10\n";
@@ -233,6 +256,22 @@ TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.key(), "campaign.packing.1");
     EXPECT_NE(std::string(e.what()).find("serves one seed"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CampaignFile, GivenPackingOfAnotherSystemIsRefusedBeforeAnyRun) {
+  TempDir dir("campaign_foreign_packing");
+  const std::string packing = write_packing_of_system(dir, "p.json", 2);
+  try {
+    campaign_from_toml(toml::parse("[campaign]\nname = \"p\"\nsystems = [1]\nvelocities = "
+                                   "[0.5]\nduration = 10\npacking = { 1 = \"p.json\" }\n"),
+                       "p.toml", dir.path().string());
+    FAIL() << "a packing of system 2 was taken for system 1";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "p.toml");
+    EXPECT_EQ(e.key(), "campaign.packing.1");
+    EXPECT_NE(std::string(e.what()).find(packing + ": key 'n': packing has"), std::string::npos)
+        << e.what();
   }
 }
 

@@ -14,6 +14,20 @@ namespace cdshear {
 /// Largest --threads accepted.
 inline constexpr int kMaxThreads = 1024;
 
+/// A file or folder argument: an empty one (an unset shell variable, `--resume "$RUN"`) is bad
+/// input, not the absence of the option (which would start the default job instead of the
+/// resume, or write to the default folder).
+inline CLI::Validator non_empty(const std::string& type_name) {
+  return CLI::Validator(
+      [](std::string& value) {
+        return value.empty() ? std::string("is empty (an unset shell variable?)") : std::string();
+      },
+      type_name);
+}
+inline const CLI::Validator kNonEmptyPath = non_empty("PATH");
+/// A number argument: an empty one is refused, not read as 0.
+inline const CLI::Validator kNonEmptyNumber = non_empty("");
+
 /// An option NAME taking a whole number from 1 to kMaxThreads (threads, jobs); a value outside
 /// is bad input naming the option.
 inline CLI::Option* add_count_option(CLI::App* cmd, const std::string& name, int& value,
@@ -29,17 +43,9 @@ inline CLI::Option* add_count_option(CLI::App* cmd, const std::string& name, int
             value = n;
           },
           description)
+      ->check(kNonEmptyNumber)
       ->type_name("N");
 }
-
-/// A file or folder argument: an empty one (an unset shell variable, `--resume "$RUN"`) is bad
-/// input, not the absence of the option (which would start the default job instead of the
-/// resume, or write to the default folder).
-inline const CLI::Validator kNonEmptyPath(
-    [](std::string& value) {
-      return value.empty() ? std::string("is empty (an unset shell variable?)") : std::string();
-    },
-    "PATH");
 
 /// CASE, `--system K`, `-V/--velocity V` and `--set key=value`: the options that choose a shear
 /// case (docs/case-files.md, "Precedence"), shared by `prepare`, `run` and `settings`.
@@ -49,11 +55,13 @@ inline void add_case_choice_options(CLI::App* cmd, std::string& file, std::optio
   cmd->add_option("case", file, "case file (TOML); default: the built-in case (system 1)")
       ->check(kNonEmptyPath);
   cmd->add_option_function<int>(
-      "--system", [&system](int k) { system = k; },
-      "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)");
+         "--system", [&system](int k) { system = k; },
+         "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)")
+      ->check(kNonEmptyNumber);
   cmd->add_option_function<double>(
-      "-V,--velocity", [&velocity](double v) { velocity = v; },
-      "wall velocity V (bottom -V, top +V)");
+         "-V,--velocity", [&velocity](double v) { velocity = v; },
+         "wall velocity V (bottom -V, top +V)")
+      ->check(kNonEmptyNumber);
   cmd->add_option("--set", overrides, "override a case key: --set shear.duration=50 (repeatable)");
 }
 

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -17,6 +18,7 @@
 
 #include "analysis_command.hpp"
 #include "case_file.hpp"
+#include "case_settings.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "measurement_state.hpp"
@@ -100,7 +102,7 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
 
 /// The packing of a case: its packing file, or the cache entry (prepared if absent).
 std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
-  const double tolerance = c.step.abort_overlap * 0.1;
+  const double tolerance = packing_wall_tolerance(c);
   if (!c.packing_file.empty()) return {read_packing(c.packing_file, tolerance), c.packing_file};
   const fs::path cached = fs::path("packings") / packing_cache_name(c.preparation);
   if (fs::exists(cached)) {
@@ -117,19 +119,7 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
 /// A packing made for another system would silently give another experiment.
 void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path& path) {
   const std::string file = path.string();
-  if (p.n() != c.n)
-    throw ConfigError(
-        file, "n",
-        fmt::format("packing has {} disks, the case asks for {} (system.n)", p.n(), c.n));
-  if (std::abs(p.height - c.height) > 1e-9 * c.height)
-    throw ConfigError(file, "height",
-                      fmt::format("packing has L_y = {}, the case asks for {} (system.height)",
-                                  p.height, c.height));
-  if (std::abs(p.diameter_min - c.diameter_min) > 1e-12 ||
-      std::abs(p.diameter_max - c.diameter_max) > 1e-12)
-    throw ConfigError(file, "diameter_min",
-                      fmt::format("packing diameters [{}, {}] differ from the case's [{}, {}]",
-                                  p.diameter_min, p.diameter_max, c.diameter_min, c.diameter_max));
+  check_packing_fits_case(c, p, file);
   if (p.seed != c.seed)
     std::fprintf(stderr, "warning: packing %s was placed with seed %llu, the case says %llu\n",
                  file.c_str(), static_cast<unsigned long long>(p.seed),
@@ -155,10 +145,19 @@ struct RunArgs {
 
 /// On resume only these may change: how long, what is written, and numerics of later steps.
 /// Physics (system, shear, preparation) and the measurement's layout come from the checkpoint.
+bool changeable_on_resume(const std::string& key) {
+  for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
+    if (key.rfind(allowed, 0) == 0) return true;
+  return false;
+}
+
 void check_resume_override(const std::string& item) {
   const std::string key = override_key(item);
-  for (const char* allowed : {"shear.duration", "output.", "step.", "solver."})
-    if (key.rfind(allowed, 0) == 0) return;
+  const std::vector<CaseSetting>& known = case_settings();
+  if (std::none_of(known.begin(), known.end(),
+                   [&](const CaseSetting& s) { return s.dotted() == key; }))
+    throw ConfigError("--set " + item, key, "unknown key (`cdshear settings` lists them)");
+  if (changeable_on_resume(key)) return;
   throw ConfigError("--set " + item, key,
                     "cannot be changed on --resume (the physics and the measurement windows come "
                     "from the checkpoint); only shear.duration, output.*, step.* and solver.* can");
@@ -228,14 +227,19 @@ void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
   } catch (const toml::parse_error&) {
     return;  // load_case has read it already; nothing to compare if it cannot be read again
   }
+  if (written.empty())
+    throw ConfigError(file, "", "is empty: a run's case.toml holds its whole case (restore it)");
   const toml::table resolved = case_to_toml(c);
   for (const std::string& key : keys_missing_from(written, resolved)) {
     std::ostringstream value;
     value << resolved.at_path(key);
     std::fprintf(stderr,
                  "warning: %s does not set %s (written by an earlier cdshear): this resume runs "
-                 "with today's value %s; give --set %s=... to choose another\n",
-                 file.c_str(), key.c_str(), value.str().c_str(), key.c_str());
+                 "with today's value %s%s\n",
+                 file.c_str(), key.c_str(), value.str().c_str(),
+                 changeable_on_resume(key)
+                     ? ("; give --set " + key + "=... to choose another").c_str()
+                     : " (a resume cannot change it)");
   }
 }
 
@@ -510,10 +514,12 @@ RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
   loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
   loop.end_step = s.end_step;
   if (args.stop_at) {
-    if (!(*args.stop_at * (1.0 + 1e-12) > s.world.time))
+    // In steps, as the loop counts: a time within half a step of the run's is no later.
+    if (steps_of(*args.stop_at, dt) <= s.world.step)
       throw ConfigError("--stop-at", "",
-                        fmt::format("{} is not later than the run's time {}: nothing to do",
-                                    *args.stop_at, s.world.time));
+                        fmt::format("{} is not later than the run's time {:.6g} (step {}, "
+                                    "dt {}): nothing to do",
+                                    *args.stop_at, s.world.time, s.world.step, dt));
     loop.end_step = std::min(s.end_step, steps_of(*args.stop_at, dt));
   }
   const std::uint64_t status = steps_of(c.status_interval, dt);
@@ -693,13 +699,14 @@ void register_shear_commands(CLI::App& app) {
   r->add_flag("--no-analyze", run->no_analyze,
               "do not run `cdshear analyze` and `cdshear plot` at the end");
   r->add_option_function<double>(
-      "--stop-at",
-      [run](double t) {
-        if (!(t > 0.0) || !std::isfinite(t))
-          throw ConfigError("--stop-at", "", "must be a time > 0, got " + std::to_string(t));
-        run->stop_at = t;
-      },
-      "stop (with a checkpoint) once simulated time reaches this; resume later");
+       "--stop-at",
+       [run](double t) {
+         if (!(t > 0.0) || !std::isfinite(t))
+           throw ConfigError("--stop-at", "", "must be a time > 0, got " + std::to_string(t));
+         run->stop_at = t;
+       },
+       "stop (with a checkpoint) once simulated time reaches this; resume later")
+      ->check(kNonEmptyNumber);
   r->callback([run]() {
     if (const int rc = run_shear(*run); rc != 0) throw CLI::RuntimeError(rc);
   });

@@ -144,6 +144,11 @@ void validate_scene(const SceneDefinition& s) {
       throw SceneError(indexed("random_disks", i, "diameter_max"), "must be >= diameter_min");
     if (!(r.region_max.x > r.region_min.x) || !(r.region_max.y > r.region_min.y))
       throw SceneError(indexed("random_disks", i, "region"), "max must exceed min on both axes");
+    if (!std::isfinite(r.region_max.x - r.region_min.x) ||
+        !std::isfinite(r.region_max.y - r.region_min.y))
+      throw SceneError(indexed("random_disks", i, "region"),
+                       "its width and height must be finite numbers (region_max - region_min "
+                       "overflows)");
     largest_diameter = std::max(largest_diameter, r.diameter_max);
   }
   if (s.domain.periodic_x && s.domain.length_x < 3.0 * largest_diameter)

@@ -15,6 +15,7 @@
 
 #include "case_file.hpp"
 #include "config_error.hpp"
+#include "packing_file.hpp"
 #include "shear_case.hpp"
 #include "toml_reader.hpp"
 
@@ -202,7 +203,8 @@ CampaignGroup read_group(TomlReader& t) {
 /// `cdshear run` with the overrides it will get: its n, L_y, duration and dt, every problem named
 /// by its campaign key.
 void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr,
-                 const TomlReader& t, CampaignRun& run, int system, std::uint64_t seed, double v) {
+                 const TomlReader& t, CampaignRun& run, int system, std::uint64_t seed, double v,
+                 std::set<int>& packings_checked) {
   const std::string& file = c.file;
   run.system = system;
   run.velocity = v;
@@ -227,6 +229,16 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
     t.fail("analyze",
            "is true, but the runs measure nothing ([set] measure.enabled = false): there "
            "would be no analysis; give analyze = false, or let the runs measure");
+  // A given packing is read as the run will read it, once per system: one made for another
+  // system, or a damaged one, is refused now rather than in every run.
+  if (const auto it = c.packings.find(system);
+      it != c.packings.end() && packings_checked.insert(system).second) {
+    try {
+      check_packing_fits_case(sc, read_packing(it->second, packing_wall_tolerance(sc)), it->second);
+    } catch (const ConfigError& e) {
+      throw ConfigError(file, "campaign.packing." + std::to_string(system), e.what());
+    }
+  }
   run.n = sc.n;
   run.height = sc.height;
   run.duration = g.duration                      ? *g.duration
@@ -360,6 +372,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
 
   // Every run, resolved by the case loader of `cdshear run`.
   std::map<std::string, std::size_t> group_of_run;  // run name -> its group
+  std::set<int> packings_checked;                   // systems whose given packing was read
   for (std::size_t gi = 0; gi < c.groups.size(); ++gi) {
     const CampaignGroup& g = c.groups[gi];
     const TomlReader& gr = group_readers[gi];
@@ -373,7 +386,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                    fmt::format("lists run {} again: it is in campaign.group[{}] already (a run "
                                "belongs to one group)",
                                run.name, it->second));
-          resolve_run(c, g, gr, t, run, system, seed, v);
+          resolve_run(c, g, gr, t, run, system, seed, v, packings_checked);
           c.runs.push_back(run);
         }
   }

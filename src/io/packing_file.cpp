@@ -2,10 +2,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <vector>
 
 #include "config_error.hpp"
 #include "outputs.hpp"
@@ -65,37 +69,110 @@ void check_packing_destination(const std::filesystem::path& path) {
   fs::remove(probe, ec);
 }
 
+namespace {
+
+/// The keys write_packing writes, the only ones a packing may hold.
+constexpr const char* kPackingKeys[] = {"format",
+                                        "version",
+                                        "program_version",
+                                        "n",
+                                        "height",
+                                        "length_x",
+                                        "diameter_min",
+                                        "diameter_max",
+                                        "seed",
+                                        "solid_fraction",
+                                        "piston_stress",
+                                        "preparation_time",
+                                        "preparation_steps",
+                                        "capped_steps",
+                                        "displacement_warnings",
+                                        "largest_overlap",
+                                        "disks_xyr"};
+constexpr int kPackingVersion = 1;
+
+/// Parses JSON, refusing a key given twice in one object (the JSON library keeps the last one
+/// silently). Throws ConfigError naming the file.
+nlohmann::json parse_without_duplicate_keys(std::istream& in, const std::string& file) {
+  using Event = nlohmann::json::parse_event_t;
+  std::vector<std::set<std::string>> keys_by_depth;  // one set per open object
+  std::string duplicate;
+  auto watch = [&](int, Event event, nlohmann::json& parsed) {
+    if (event == Event::object_start) {
+      keys_by_depth.emplace_back();
+    } else if (event == Event::object_end) {
+      keys_by_depth.pop_back();
+    } else if (event == Event::key && duplicate.empty() &&
+               !keys_by_depth.back().insert(parsed.get<std::string>()).second) {
+      duplicate = parsed.get<std::string>();
+    }
+    return true;
+  };
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in, watch);
+  } catch (const nlohmann::json::exception& e) {  // syntax, or a number out of range
+    throw ConfigError(file, "", std::string("not valid JSON: ") + e.what());
+  }
+  if (!duplicate.empty()) throw ConfigError(file, duplicate, "is given twice");
+  return j;
+}
+
+}  // namespace
+
 Packing read_packing(const std::filesystem::path& path, double overlap_tolerance) {
   const std::string file = path.string();
   if (std::filesystem::exists(path) && !std::filesystem::is_regular_file(path))
     throw ConfigError(file, "", "is not a regular file (a folder?)");
   std::ifstream in(path);
   if (!in) throw ConfigError(file, "", "packing file not found (run `cdshear prepare` first)");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {  // syntax, or a number out of range
-    throw ConfigError(file, "", std::string("not valid JSON: ") + e.what());
-  }
+  const nlohmann::json j = parse_without_duplicate_keys(in, file);
+  if (!j.is_object()) throw ConfigError(file, "", "not a packing file (not a JSON object)");
   auto need = [&](const char* key) -> const nlohmann::json& {
     if (!j.contains(key)) throw ConfigError(file, key, "is missing");
     return j.at(key);
   };
   if (need("format") != "cdshear-packing") throw ConfigError(file, "format", "not a packing file");
+  for (const auto& [key, value] : j.items())
+    if (std::find(std::begin(kPackingKeys), std::end(kPackingKeys), key) == std::end(kPackingKeys))
+      throw ConfigError(file, key,
+                        "unknown key (a packing holds the keys `cdshear prepare` writes)");
+  if (j.contains("version") && j.at("version") != kPackingVersion)
+    throw ConfigError(file, "version",
+                      fmt::format("is {}; this cdshear reads version {}", j.at("version").dump(),
+                                  kPackingVersion));
+  auto number = [&](const char* key) {
+    const nlohmann::json& v = need(key);
+    if (!v.is_number()) throw ConfigError(file, key, "must be a number, not " + v.dump());
+    return v.get<double>();
+  };
   Packing p;
-  try {
-    p.height = need("height").get<double>();
-    p.length_x = need("length_x").get<double>();
-    p.diameter_min = need("diameter_min").get<double>();
-    p.diameter_max = need("diameter_max").get<double>();
-    p.seed = need("seed").get<std::uint64_t>();
-    p.piston_stress = need("piston_stress").get<double>();
-    p.preparation_time = j.value("preparation_time", 0.0);
-    for (const auto& d : need("disks_xyr"))
-      p.disks.push_back({{d.at(0).get<double>(), d.at(1).get<double>()}, d.at(2).get<double>()});
-  } catch (const nlohmann::json::exception& e) {
-    throw ConfigError(file, "", std::string("malformed packing: ") + e.what());
+  p.height = number("height");
+  p.length_x = number("length_x");
+  p.diameter_min = number("diameter_min");
+  p.diameter_max = number("diameter_max");
+  if (!need("seed").is_number_unsigned())
+    throw ConfigError(file, "seed", "must be a whole number >= 0, not " + j.at("seed").dump());
+  p.seed = j.at("seed").get<std::uint64_t>();
+  p.piston_stress = number("piston_stress");
+  p.preparation_time = j.contains("preparation_time") ? number("preparation_time") : 0.0;
+  const nlohmann::json& list = need("disks_xyr");
+  if (!list.is_array()) throw ConfigError(file, "disks_xyr", "must be a list of [x, y, r]");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const nlohmann::json& d = list[i];
+    if (!d.is_array() || d.size() != 3 || !d[0].is_number() || !d[1].is_number() ||
+        !d[2].is_number()) {
+      std::string shown = d.dump();
+      if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
+      throw ConfigError(file, fmt::format("disks_xyr[{}]", i),
+                        "must be [x, y, r], three numbers, not " + shown);
+    }
+    p.disks.push_back({{d[0].get<double>(), d[1].get<double>()}, d[2].get<double>()});
   }
+  if (j.contains("n") && (!j.at("n").is_number_unsigned() || j.at("n") != p.disks.size()))
+    throw ConfigError(
+        file, "n",
+        fmt::format("is {}, but disks_xyr lists {} disks", j.at("n").dump(), p.disks.size()));
   if (!(p.height > 0) || !(p.length_x > 0))
     throw ConfigError(file, "length_x", "cell sizes must be > 0");
   for (std::size_t i = 0; i < p.disks.size(); ++i) {
@@ -104,12 +181,39 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     if (!(d.radius > 0)) throw ConfigError(file, key, "radius must be > 0");
     if (d.position.y - d.radius < -overlap_tolerance ||
         d.position.y + d.radius > p.height + overlap_tolerance)
-      throw ConfigError(file, key,
-                        fmt::format("disk crosses a wall (y = {}, r = {}, L_y = {})", d.position.y,
-                                    d.radius, p.height));
+      throw ConfigError(
+          file, key,
+          fmt::format("disk crosses a wall (y = {}, r = {}, L_y = {}) by more than the "
+                      "tolerance {:.3g} (in a shear run, a tenth of step.abort_overlap)",
+                      d.position.y, d.radius, p.height, overlap_tolerance));
   }
   p.solid_fraction = solid_fraction(p.disks, p.length_x, p.height);
+  // The walls rest on the grains: in a cell far wider than its disks fill, the piston's load
+  // (sigma_yy L_x) falls on a few grains, and a period typed wrong gives no clearer sign than this.
+  if (!p.disks.empty() &&
+      !(p.solid_fraction >= kSmallestPackingSolidFraction && p.solid_fraction <= 1.0))
+    throw ConfigError(
+        file, "length_x",
+        fmt::format("the disks fill a fraction {:.3g} of the cell L_x x L_y = {} x "
+                    "{}; a packing fills between {} and 1 (is length_x right?)",
+                    p.solid_fraction, p.length_x, p.height, kSmallestPackingSolidFraction));
   return p;
+}
+
+void check_packing_fits_case(const ShearCase& c, const Packing& p, const std::string& file) {
+  if (p.n() != c.n)
+    throw ConfigError(
+        file, "n",
+        fmt::format("packing has {} disks, the case asks for {} (system.n)", p.n(), c.n));
+  if (std::abs(p.height - c.height) > 1e-9 * c.height)
+    throw ConfigError(file, "height",
+                      fmt::format("packing has L_y = {}, the case asks for {} (system.height)",
+                                  p.height, c.height));
+  if (std::abs(p.diameter_min - c.diameter_min) > 1e-12 ||
+      std::abs(p.diameter_max - c.diameter_max) > 1e-12)
+    throw ConfigError(file, "diameter_min",
+                      fmt::format("packing diameters [{}, {}] differ from the case's [{}, {}]",
+                                  p.diameter_min, p.diameter_max, c.diameter_min, c.diameter_max));
 }
 
 std::string packing_cache_name(const PreparationOptions& o) {

@@ -6,6 +6,7 @@
 
 #include "packing.hpp"
 #include "preparation.hpp"
+#include "shear_case.hpp"
 
 namespace cdshear {
 
@@ -16,10 +17,27 @@ void write_packing(const std::filesystem::path& path, const Packing& packing);
 /// a new file. Throws ConfigError naming the path and the problem. An existing packing there is
 /// replaced, as `-o` asks.
 void check_packing_destination(const std::filesystem::path& path);
-/// Throws ConfigError naming the file and the key for a missing file, a wrong format, or
-/// inconsistent content (non-positive sizes or radii, a disk crossing a horizontal wall by more
-/// than `overlap_tolerance`). Overlaps between disks are checked when the shear world is built.
+/// The least solid fraction a packing file may have: the walls must rest on a packing, not on a
+/// few grains in a cell far wider than its disks fill.
+inline constexpr double kSmallestPackingSolidFraction = 0.1;
+
+/// Throws ConfigError naming the file and the key for a missing file, a wrong format (not JSON, a
+/// key given twice, an unknown key, another version, a disk that is not three numbers, a count
+/// `n` that disagrees with the list) or inconsistent content (non-positive sizes or radii, a disk
+/// crossing a horizontal wall by more than `overlap_tolerance`, a solid fraction outside
+/// [kSmallestPackingSolidFraction, 1]). Overlaps between disks are checked when the shear world
+/// is built.
 Packing read_packing(const std::filesystem::path& path, double overlap_tolerance = 1e-3);
+
+/// How far a disk may cross a wall in a packing read for case `c` (read_packing's
+/// `overlap_tolerance`): a tenth of the overlap at which the case's steps abort.
+inline double packing_wall_tolerance(const ShearCase& c) {
+  return 0.1 * c.step.abort_overlap;
+}
+
+/// Throws ConfigError naming `file` and the key when the packing was made for another system than
+/// the case's: another number of disks, height or diameter range.
+void check_packing_fits_case(const ShearCase& c, const Packing& p, const std::string& file);
 
 /// Cache name of a packing prepared with these options, for example
 /// "n511_h20_d0.8-1_seed1_s0.25_1a2b3c4d.json" (the last part hashes every option of the
