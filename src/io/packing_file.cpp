@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -16,26 +15,38 @@
 
 namespace cdshear {
 
-void write_packing(const std::filesystem::path& path, const Packing& p) {
+namespace {
+
+constexpr int kPackingVersion = 1;
+
+/// A packing file's content: every key a packing holds is written here, and read_packing refuses
+/// any other.
+nlohmann::json packing_json(const Packing& p) {
   nlohmann::json disks = nlohmann::json::array();
   for (const PackingDisk& d : p.disks) disks.push_back({d.position.x, d.position.y, d.radius});
-  const nlohmann::json j = {{"format", "cdshear-packing"},
-                            {"version", 1},
-                            {"program_version", CDSHEAR_VERSION},
-                            {"n", p.n()},
-                            {"height", p.height},
-                            {"length_x", p.length_x},
-                            {"diameter_min", p.diameter_min},
-                            {"diameter_max", p.diameter_max},
-                            {"seed", p.seed},
-                            {"solid_fraction", p.solid_fraction},
-                            {"piston_stress", p.piston_stress},
-                            {"preparation_time", p.preparation_time},
-                            {"preparation_steps", p.preparation_steps},
-                            {"capped_steps", p.capped_steps},
-                            {"displacement_warnings", p.displacement_warnings},
-                            {"largest_overlap", p.largest_overlap},
-                            {"disks_xyr", disks}};
+  return {{"format", "cdshear-packing"},
+          {"version", kPackingVersion},
+          {"program_version", CDSHEAR_VERSION},
+          {"n", p.n()},
+          {"height", p.height},
+          {"length_x", p.length_x},
+          {"diameter_min", p.diameter_min},
+          {"diameter_max", p.diameter_max},
+          {"seed", p.seed},
+          {"solid_fraction", p.solid_fraction},
+          {"piston_stress", p.piston_stress},
+          {"preparation_time", p.preparation_time},
+          {"preparation_steps", p.preparation_steps},
+          {"capped_steps", p.capped_steps},
+          {"displacement_warnings", p.displacement_warnings},
+          {"largest_overlap", p.largest_overlap},
+          {"disks_xyr", disks}};
+}
+
+}  // namespace
+
+void write_packing(const std::filesystem::path& path, const Packing& p) {
+  const nlohmann::json j = packing_json(p);
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
   write_file_atomic(path, j.dump(1) + "\n");
 }
@@ -70,26 +81,6 @@ void check_packing_destination(const std::filesystem::path& path) {
 }
 
 namespace {
-
-/// The keys write_packing writes, the only ones a packing may hold.
-constexpr const char* kPackingKeys[] = {"format",
-                                        "version",
-                                        "program_version",
-                                        "n",
-                                        "height",
-                                        "length_x",
-                                        "diameter_min",
-                                        "diameter_max",
-                                        "seed",
-                                        "solid_fraction",
-                                        "piston_stress",
-                                        "preparation_time",
-                                        "preparation_steps",
-                                        "capped_steps",
-                                        "displacement_warnings",
-                                        "largest_overlap",
-                                        "disks_xyr"};
-constexpr int kPackingVersion = 1;
 
 /// Parses JSON, refusing a key given twice in one object (the JSON library keeps the last one
 /// silently). Throws ConfigError naming the file.
@@ -133,8 +124,9 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     return j.at(key);
   };
   if (need("format") != "cdshear-packing") throw ConfigError(file, "format", "not a packing file");
+  const nlohmann::json known = packing_json(Packing{});
   for (const auto& [key, value] : j.items())
-    if (std::find(std::begin(kPackingKeys), std::end(kPackingKeys), key) == std::end(kPackingKeys))
+    if (!known.contains(key))
       throw ConfigError(file, key,
                         "unknown key (a packing holds the keys `cdshear prepare` writes)");
   if (j.contains("version") && j.at("version") != kPackingVersion)
