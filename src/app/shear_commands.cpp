@@ -18,7 +18,6 @@
 
 #include "analysis_command.hpp"
 #include "case_file.hpp"
-#include "case_settings.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "measurement_state.hpp"
@@ -153,10 +152,6 @@ bool changeable_on_resume(const std::string& key) {
 
 void check_resume_override(const std::string& item) {
   const std::string key = override_key(item);
-  const std::vector<CaseSetting>& known = case_settings();
-  if (std::none_of(known.begin(), known.end(),
-                   [&](const CaseSetting& s) { return s.dotted() == key; }))
-    throw ConfigError("--set " + item, key, "unknown key (`cdshear settings` lists them)");
   if (changeable_on_resume(key)) return;
   throw ConfigError("--set " + item, key,
                     "cannot be changed on --resume (the physics and the measurement windows come "
@@ -255,12 +250,12 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
   // Before anything is read: a run still writing this folder would overwrite the resume's files.
   s.lock = FolderLock::take(s.dir);
-  for (const std::string& item : args.c.overrides) check_resume_override(item);
   CaseSource src;
   src.file = (s.dir / "case.toml").string();
   src.overrides = args.c.overrides;
   src.threads = args.c.threads;
-  s.c = load_case(src);
+  s.c = load_case(src);  // refuses an unknown or retired key as any run does
+  for (const std::string& item : args.c.overrides) check_resume_override(item);
   s.case_source = src.file + (args.c.overrides.empty() ? "" : " (with --set overrides)");
   warn_of_new_defaults(src.file, s.c);
   // The step counter, the end of the run and every schedule count steps of one dt: a resume
@@ -515,12 +510,13 @@ RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
   loop.end_step = s.end_step;
   if (args.stop_at) {
     // In steps, as the loop counts: a time within half a step of the run's is no later.
-    if (steps_of(*args.stop_at, dt) <= s.world.step)
+    const std::uint64_t stop_step = steps_of(*args.stop_at, dt);
+    if (stop_step <= s.world.step)
       throw ConfigError("--stop-at", "",
                         fmt::format("{} is not later than the run's time {:.6g} (step {}, "
                                     "dt {}): nothing to do",
                                     *args.stop_at, s.world.time, s.world.step, dt));
-    loop.end_step = std::min(s.end_step, steps_of(*args.stop_at, dt));
+    loop.end_step = std::min(s.end_step, stop_step);
   }
   const std::uint64_t status = steps_of(c.status_interval, dt);
   loop.status_every = args.c.quiet ? 0
