@@ -165,6 +165,9 @@ each option overrides one of them.
   --no-plain-finish   stop an over-relaxed step at the cap instead of going on with
                       relaxation 1 for up to max-sweeps more (SolverOptions::plain_finish)
   --relaxation W      over-relaxation of each update, 1 <= W < 2 (solver.relaxation, 1.6)
+  --normal-compliance K  normal compliance, 0 <= K < 1, a fraction of each contact's w_nn
+                      (solver.normal_compliance, 0: rigid); --step-error's reference solves
+                      the same compliant step
   --alpha A           convergence tolerance (solver.alpha; default: the shear phase's rule,
                       1e-5 (V' / 0.5)^2 with V' = V within [0.05, 0.5], 1e-5 in the static
                       case; 0: every step sweeps max-sweeps times, to compare settings at
@@ -396,6 +399,11 @@ Settings parse(int argc, char** argv) {
       s.solver.relaxation = number(a, value());
       if (!(s.solver.relaxation >= 1.0 && s.solver.relaxation < 2.0))
         throw UsageError("--relaxation must be in [1, 2)");
+    } else if (a == "--normal-compliance") {
+      s.solver.normal_compliance = number(a, value());
+      if (!(s.solver.normal_compliance >= 0.0 &&
+            s.solver.normal_compliance < cdshear::kNormalComplianceBound))
+        throw UsageError("--normal-compliance must be in [0, 1)");
     } else if (a == "--skip-dormant") {
       s.solver.skip_dormant = true;
     } else if (a == "--no-skip-dormant") {

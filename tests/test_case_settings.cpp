@@ -33,7 +33,9 @@ SettingValue other_value(const CaseSetting& s, const SettingValue& now) {
   switch (s.type) {
     case SettingType::kNumber: {
       const double v = std::get<double>(now);
-      return v != 0.0 ? 0.9 * v : 1.0;
+      if (v != 0.0) return 0.9 * v;
+      const bool one_allowed = s.hi > 1.0 || (s.hi == 1.0 && !s.hi_open);
+      return one_allowed ? 1.0 : 0.5 * s.hi;  // a range that ends at or below 1
     }
     case SettingType::kInteger: {
       const std::int64_t v = std::get<std::int64_t>(now);

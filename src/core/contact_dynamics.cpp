@@ -129,6 +129,9 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.solver =
       solve_contacts(contacts_, bodies_, n, options.dt, options.solver, world.step, workspace_);
   if (options.solver.newton_iterations > 0) {
+    if (options.solver.normal_compliance != 0.0)
+      throw std::invalid_argument(
+          "the active-set refinement solves the rigid contact laws: not with a normal compliance");
     ActiveSetOptions o;
     o.max_iterations = options.solver.newton_iterations;
     o.record_history = options.solver.newton_history;
@@ -140,7 +143,8 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   // rows enough to share)
   report.velocity_residual = velocity_residual(
       contacts_, bodies_, options.dt,
-      threads_for(contacts_.size(), options.solver.min_rows_per_thread, options.solver.threads));
+      threads_for(contacts_.size(), options.solver.min_rows_per_thread, options.solver.threads),
+      options.solver.normal_compliance);
   report.seconds.check = seconds_since(t0);
 
   // 5. integrate

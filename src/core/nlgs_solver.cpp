@@ -31,8 +31,11 @@ namespace {
 /// (update_row), computed here once per step instead of in every update. omega x (1 / w) is
 /// the product the update formed before, so the update is the same bit for bit; with omega = 1
 /// the product is 1 / w itself.
+///
+/// `compliance` is SolverOptions::normal_compliance, kappa: the normal inverse is that of w_nn
+/// (1 + kappa), the diagonal of the compliant problem (update_row); w_nn (1 + 0) is w_nn.
 void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const SolverBody& a,
-              const SolverBody& b, double inv_dt, double step_scale) {
+              const SolverBody& b, double inv_dt, double step_scale, double compliance) {
   row.body_a = static_cast<std::uint32_t>(c.key.body_a);
   row.body_b = static_cast<std::uint32_t>(c.key.body_b);
   row.normal = c.normal;
@@ -43,7 +46,8 @@ void fill_row(SolverRow& row, DelassusEntries& w, const Contact& c, const Solver
   row.impulse_n = c.impulse_n;
   row.impulse_t = c.impulse_t;
   w = delassus_entries(c, a, b);
-  row.inv_w_nn = step_scale * (1.0 / w.w_nn);
+  w.compliance_n = compliance * w.w_nn;
+  row.inv_w_nn = step_scale * (1.0 / (w.w_nn * (1.0 + compliance)));
   row.inv_w_tt = w.w_nt == 0.0 ? step_scale * (1.0 / w.w_tt) : kCoupledRow;
 }
 
@@ -100,6 +104,13 @@ class TallyAccumulator {
 /// inv_w_tt = kCoupledRow, so the test reads a value the update loads anyway) go through the
 /// general case analysis of solve_local.
 ///
+/// Normal compliance (SolverOptions::normal_compliance, kappa; c = kappa w_nn): the condition is
+/// u_n + gap/dt + c R_n >= 0, so the local problem's normal diagonal is w_nn + c and its normal
+/// velocity u_n + gap/dt + c R_n (R_n the old impulse). The decoupled update is then
+///   R_n - omega (u_n + gap/dt + c R_n) / (w_nn + c)
+///     = (1 - omega kappa / (1 + kappa)) R_n - omega (u_n + gap/dt) / ((1 + kappa) w_nn),
+/// the rigid update of the old impulse scaled by `keep_n` (SolverWorkspace::keep_n) with the
+/// inverse fill_row stores; at kappa = 0, keep_n = 1 and the update is the rigid one bit for bit.
 /// Relaxation (a template parameter, one sweep loop each): the update moves omega times as far
 /// as the exact local solution and is projected back on the cone (projected SOR).
 ///   kNone (omega = 1): plain Gauss-Seidel, its own arithmetic (R + 1 (R_GS - R) is not always
@@ -117,7 +128,7 @@ enum class Relaxation { kNone, kOver };
 template <Relaxation kRelax>
 [[gnu::always_inline]] inline void update_row(SolverRow& r, const DelassusEntries& w,
                                               SolverBody* bodies, double alpha, double omega,
-                                              TallyAccumulator& tally,
+                                              double keep_n, TallyAccumulator& tally,
                                               std::array<double, 2>& lengths2) {
   SolverBody& a = bodies[r.body_a];
   SolverBody& b = bodies[r.body_b];
@@ -139,10 +150,17 @@ template <Relaxation kRelax>
     // kOver: the row's inverses are scaled by omega already (fill_row), so decoupled_update's
     // own factor is 1 (1 x (omega / w) is omega / w exactly) and this is the one-stage
     // over-relaxed update. kNone: plain Gauss-Seidel.
-    next = decoupled_update(old, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
+    // The old R_n scaled only in a compliant step: a select, not a product by 1, so that the
+    // compiler cannot fuse the product into the update's multiply-add and a rigid step keeps
+    // its rounding bit for bit.
+    LocalImpulse start = old;
+    if (keep_n != 1.0) start.n = keep_n * old.n;
+    next = decoupled_update(start, u_n + r.bias_n, u_t, r.inv_w_nn, r.inv_w_tt, r.friction);
   } else {
+    // b with the rigid entries (u less the row's own share W R); the compliance adds c to the
+    // normal diagonal only.
     LocalProblem p;
-    p.w_nn = w.w_nn;
+    p.w_nn = w.w_nn + w.compliance_n;
     p.w_nt = w.w_nt;
     p.w_tt = w.w_tt;
     p.b_n = u_n - (w.w_nn * r.impulse_n + w.w_nt * r.impulse_t) + r.bias_n;
@@ -343,8 +361,9 @@ void sweep_rows(std::size_t g, SolverWorkspace& ws, std::vector<SolverBody>& bod
   const DelassusEntries* const delassus = ws.delassus.data();
   SolverBody* const body = bodies.data();
   std::array<double, 2>* const lengths2 = ws.row_lengths2.data();
+  const double keep_n = ws.keep_n;
   for (const std::uint32_t i : ws.awake[g]) {
-    update_row<kRelax>(rows[i], delassus[i], body, alpha, omega, tally, lengths2[i]);
+    update_row<kRelax>(rows[i], delassus[i], body, alpha, omega, keep_n, tally, lengths2[i]);
     if constexpr (kGather) ws.slab_correction.gather_row(rows[i], gathered);
   }
   if constexpr (kGather) ws.slab_correction.finish_group(g, gathered);
@@ -485,7 +504,10 @@ class ContactSolve {
         inv_dt(1.0 / dt),
         // Slab correction (slab_correction.hpp); whether the packing has the bands for it is
         // known once the groups are (coloured_groups_begin sets cg.bands), read after a barrier.
-        slab_period(asks_for_slab_correction(options) ? options.slab_correction_period : 0),
+        // Not with a compliance: its target is the rigid condition.
+        slab_period(asks_for_slab_correction(options) && options.normal_compliance == 0.0
+                        ? options.slab_correction_period
+                        : 0),
         walls(all_bodies.size() - std::min(first_wall, all_bodies.size())),
         // Anderson acceleration mixes the rows awake at the start (the others are open and
         // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve
@@ -496,6 +518,8 @@ class ContactSolve {
   /// The whole solve: the team (one parallel region per step), then the report.
   SolverReport run() {
     if (nc == 0) return report;
+    ws.keep_n =
+        1.0 - options.relaxation * options.normal_compliance / (1.0 + options.normal_compliance);
     set_up();
 #if defined(_OPENMP)
     if (threads > 1) {
@@ -726,8 +750,9 @@ class ContactSolve {
         const auto global_b = static_cast<std::size_t>(c.key.body_b);
         const std::size_t ia = coloured ? ws.local_of[global_a] : global_a;
         const std::size_t ib = coloured ? ws.local_of[global_b] : global_b;
-        fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt,
-                 options.relaxation);  // the decoupled rows' factors carry the over-relaxation
+        // The decoupled rows' factors carry the over-relaxation and the compliance.
+        fill_row(rows[i], ws.delassus[i], c, bodies[ia], bodies[ib], inv_dt, options.relaxation,
+                 options.normal_compliance);
         rows[i].body_a = static_cast<std::uint32_t>(ia);
         rows[i].body_b = static_cast<std::uint32_t>(ib);
       }
@@ -1024,7 +1049,8 @@ class ContactSolve {
         const SolverRow& r = rows[i];
         if (!(r.impulse_n > 0.0)) continue;
         const auto [u_n, u_t] = row_velocity(r, bodies);
-        sum2 += contact_law_violation2(u_n, u_t, r.impulse_n, r.impulse_t, r.friction);
+        sum2 += contact_law_violation2(u_n + ws.delassus[i].compliance_n * r.impulse_n, u_t,
+                                       r.impulse_n, r.impulse_t, r.friction);
         ++carrying;
       }
       tallies[g].violation2 = sum2;
@@ -1135,6 +1161,9 @@ SolverReport solve_contacts(std::vector<Contact>& contacts, std::vector<SolverBo
   if (!(options.relaxation >= 1.0 && options.relaxation < 2.0))
     throw std::invalid_argument("solver relaxation must be in [1, 2), got " +
                                 std::to_string(options.relaxation));
+  if (!(options.normal_compliance >= 0.0 && options.normal_compliance < kNormalComplianceBound))
+    throw std::invalid_argument("solver normal compliance must be in [0, 1), got " +
+                                std::to_string(options.normal_compliance));
   SolverReport report =
       ContactSolve(contacts, all_bodies, first_wall, dt, options, step, workspace).run();
   if (!report.hit_cap || !finishes_plain(options)) return report;

@@ -110,6 +110,16 @@ struct SolverOptions {
   /// rescaled so that the bands' mean normal velocity errors vanish together. 0 = off. Same
   /// fixed points (docs/performance.md, "Slab correction").
   int slab_correction_period = 0;
+  /// Normal compliance kappa >= 0, a fraction of each contact's w_nn (the Delassus diagonal):
+  /// the step solves 0 <= R_n _|_ u_n + gap/dt + kappa w_nn R_n >= 0 instead of the rigid
+  /// Signorini condition (kappa = 0), so a contact carrying R_n ends the step overlapping by
+  /// kappa w_nn R_n dt, and the tangential law is Coulomb's as before. It bounds the Delassus
+  /// operator's smallest eigenvalues from below by about kappa w_nn: the impulse patterns that
+  /// barely move the grains (a rigid step's soft, poorly defined directions) become well
+  /// defined and the sweeps converge on them (docs/performance.md, "Normal compliance"). With
+  /// kappa > 0 the slab correction does not run (its target is the rigid condition) and the
+  /// active-set refinement is refused (it solves the rigid laws).
+  double normal_compliance = 0.0;
   /// Active-set Newton iterations after the sweeps (active_set_solve.hpp; 0: off): each solves
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,
   /// and is kept only where it lowers the natural-map residual. Applied by ContactDynamics::step.
@@ -141,6 +151,10 @@ struct SolverOptions {
 inline bool asks_for_slab_correction(const SolverOptions& o) {
   return o.order == ContactOrder::kColoured && o.slab_correction_period > 0;
 }
+
+/// SolverOptions::normal_compliance is below this: at kappa = 1 a contact is as compliant as
+/// its two bodies are mobile, far from a rigid contact.
+inline constexpr double kNormalComplianceBound = 1.0;
 
 /// Largest SolverOptions::newton_iterations.
 inline constexpr int kMaxNewtonIterations = 50;
@@ -233,8 +247,11 @@ struct SolverWorkspace {
   std::vector<std::uint32_t> order;  ///< row i solves contacts[order[i]]
   std::vector<SolverRow> rows;
   std::vector<DelassusEntries> delassus;  ///< of rows[i], read by coupled rows only
-  std::vector<std::size_t> group_start;   ///< rows of group g: [group_start[g], group_start[g+1])
-  std::vector<SolverPhase> phases;        ///< parallel phases; the last group is solved after
+  /// The factor of a decoupled row's old R_n in its update, 1 - omega kappa / (1 + kappa)
+  /// (update_row; 1 for a rigid step), set by each solve.
+  double keep_n = 1.0;
+  std::vector<std::size_t> group_start;  ///< rows of group g: [group_start[g], group_start[g+1])
+  std::vector<SolverPhase> phases;       ///< parallel phases; the last group is solved after
   /// One per group and sweep, added in group order; consecutive sweeps use the two halves in
   /// turn (solve_contacts).
   std::vector<SweepTally> group_tallies;

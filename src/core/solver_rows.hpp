@@ -80,6 +80,9 @@ inline void apply_contact_impulse(const ContactLike& c, std::vector<SolverBody>&
 /// Local Delassus matrix of a row [1/mass] (local_solve.hpp), for the coupled rows' solve.
 struct DelassusEntries {
   double w_nn = 0.0, w_nt = 0.0, w_tt = 0.0;
+  /// kappa w_nn [1/mass]: the normal compliance of the row (SolverOptions::normal_compliance),
+  /// added to w_nn in its local problem and times R_n to its normal velocity; 0 for a rigid one
+  double compliance_n = 0.0;
 };
 
 /// The Delassus entries of a contact between bodies a and b: W = sum over its two bodies of

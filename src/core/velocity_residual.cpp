@@ -8,7 +8,8 @@
 namespace cdshear {
 
 VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
-                                   const std::vector<SolverBody>& bodies, double dt, int threads) {
+                                   const std::vector<SolverBody>& bodies, double dt, int threads,
+                                   double normal_compliance) {
   // Chunks of kChunk contacts whatever the thread count: each chunk's sums, then the chunks'
   // added in chunk order, so that the figures do not depend on the threads (a maximum and a
   // count are exact in any order).
@@ -25,7 +26,12 @@ VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
       const std::size_t end = std::min(contacts.size(), (chunk + 1) * kChunk);
       for (std::size_t i = chunk * kChunk; i < end; ++i) {
         const Contact& c = contacts[i];
-        const auto [u_n, u_t] = contact_velocity(c, bodies, inv_dt);
+        auto [u_n, u_t] = contact_velocity(c, bodies, inv_dt);
+        if (normal_compliance != 0.0 && c.impulse_n != 0.0)
+          u_n += normal_compliance * c.impulse_n *
+                 delassus_entries(c, bodies[static_cast<std::size_t>(c.key.body_a)],
+                                  bodies[static_cast<std::size_t>(c.key.body_b)])
+                     .w_nn;
         const double e2 = contact_law_violation2(u_n, u_t, c.impulse_n, c.impulse_t, c.friction);
         sums.largest = std::max(sums.largest, std::sqrt(e2));
         if (impulse_status(c) != ImpulseStatus::kOpen) {

@@ -13,6 +13,8 @@
 //         max(0, u_t sign(R_t)) where |R_t| = mu R_n (sliding with the friction force),
 //         0 where mu = 0;
 //   e = sqrt(e_n^2 + e_t^2)  [length/time].
+// With a normal compliance (SolverOptions::normal_compliance, kappa) u_n also holds kappa w_nn R_n:
+// the residual is that of the law the step solves.
 // Zero at a solution of the step. It measures what the motion feels: in a hyperstatic packing
 // the impulses of a step are not unique and the sweeps relax their self-stress part slowest, but
 // a residual velocity moves grains. One pass over the contacts, about a sweep's cost.
@@ -77,9 +79,10 @@ struct VelocityResidual {
 
 /// The residual of a solved step: `bodies` hold the end-of-step velocities of the solver (walls
 /// included), `contacts` the step's impulses and start-of-step gaps. Shared among `threads`
-/// threads (a team of its own), the same figures on any number.
+/// threads (a team of its own), the same figures on any number. `normal_compliance`: the
+/// step's kappa (0: the rigid laws).
 VelocityResidual velocity_residual(const std::vector<Contact>& contacts,
                                    const std::vector<SolverBody>& bodies, double dt,
-                                   int threads = 1);
+                                   int threads = 1, double normal_compliance = 0.0);
 
 }  // namespace cdshear

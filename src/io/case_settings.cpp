@@ -290,6 +290,18 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
             .lo = 0.0},
           [](auto& o) -> auto& { return o.residual_tolerance; }),
       bind(
+          S{.key = "normal_compliance",
+            .meaning = "normal compliance kappa, a fraction of each contact's w_nn: a contact "
+                       "carrying R_n ends a step overlapping by kappa w_nn R_n dt (0: rigid; "
+                       "no slab correction and no active-set refinement with it; "
+                       "docs/performance.md, \"Normal compliance\")",
+            .lo = 0.0,
+            .hi = kNormalComplianceBound,
+            .hi_open = true,
+            .range_reason = "at 1 a contact is as compliant as its two bodies are mobile",
+            .constraint = "0 when newton_iterations > 0"},
+          [](auto& o) -> auto& { return o.normal_compliance; }),
+      bind(
           S{.key = "newton_iterations",
             .type = kInteger,
             .meaning = "active-set Newton iterations after the sweeps (0: off; "

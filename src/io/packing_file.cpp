@@ -227,6 +227,7 @@ std::string packing_cache_name(const PreparationOptions& o) {
   if (s.order != ContactOrder::kRandom) added += fmt::format(" o{}", contact_order_name(s.order));
   if (s.skip_dormant) added += " sd";
   if (s.slab_correction_period != 0) added += fmt::format(" sc{}", s.slab_correction_period);
+  if (s.normal_compliance != 0.0) added += fmt::format(" nc{}", s.normal_compliance);
   std::uint32_t h = 2166136261u;  // FNV-1a
   for (const unsigned char ch : all + added) h = (h ^ ch) * 16777619u;
   return fmt::format("n{}_h{}_d{}-{}_seed{}_s{}_{:08x}.json", o.n, o.height, o.diameter_min,
