@@ -111,6 +111,7 @@ class TallyAccumulator {
 ///     = (1 - omega kappa / (1 + kappa)) R_n - omega (u_n + gap/dt) / ((1 + kappa) w_nn),
 /// the rigid update of the old impulse scaled by `keep_n` (SolverWorkspace::keep_n) with the
 /// inverse fill_row stores; at kappa = 0, keep_n = 1 and the update is the rigid one bit for bit.
+///
 /// Relaxation (a template parameter, one sweep loop each): the update moves omega times as far
 /// as the exact local solution and is projected back on the cone (projected SOR).
 ///   kNone (omega = 1): plain Gauss-Seidel, its own arithmetic (R + 1 (R_GS - R) is not always

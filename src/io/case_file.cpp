@@ -52,11 +52,7 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
                                     ") in the longest run the step limit allows (" +
                                     format_number(longest) + " time units); give at least " +
                                     format_number(c.diameter_max / longest));
-  if (c.step.solver.normal_compliance != 0.0 && c.step.solver.newton_iterations > 0)
-    t["solver"].fail("normal_compliance",
-                     "must be 0 when solver.newton_iterations > 0 (the active-set refinement "
-                     "solves the rigid contact laws), got " +
-                         format_number(c.step.solver.normal_compliance));
+  check_solver_constraints(t["solver"], c.step.solver);
   const MeasureOptions& mo = c.measure;
   TomlReader& m = t["measure"];
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step

@@ -803,6 +803,14 @@ void read_retired_solver_keys(TomlReader& reader, const std::string& table,
                              "; remove the key (docs/case-files.md, \"Keys no longer read\")");
 }
 
+void check_solver_constraints(TomlReader& reader, const SolverOptions& options) {
+  if (options.normal_compliance != 0.0 && options.newton_iterations > 0)
+    reader.fail("normal_compliance",
+                "must be 0 when solver.newton_iterations > 0 (the active-set refinement solves "
+                "the rigid contact laws), got " +
+                    format_number(options.normal_compliance));
+}
+
 template <class T>
 std::string range_text(const Setting<T>& s) {
   std::string text;
