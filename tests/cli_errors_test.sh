@@ -26,10 +26,9 @@ expect_error "key 'n': packing has 511 disks" "$exe" run -q --set system.n=100 -
 expect_error "key 'shear.duraton': unknown key" "$exe" run -q --set shear.duraton=5
 expect_error "missing.toml: file not found" "$exe" run -q missing.toml
 expect_error "--system: system must be 1..7" "$exe" run -q --system 9
-expect_error "key 'solver.normal_compliance': must be 0 when solver.newton_iterations > 0" "$exe" run -q --set solver.normal_compliance=0.01 --set solver.newton_iterations=2 --packing "$packing"
 expect_error "key 'solver.normal_compliance': must be >= 0 and < 1, got 1" "$exe" run -q --set solver.normal_compliance=1 --packing "$packing"
-sed 's/^\[solver\]$/[solver]\nnormal_compliance = 0.01\nnewton_iterations = 2/' "$scene" > compliant_newton_scene.toml
-expect_error "compliant_newton_scene.toml: key 'solver.normal_compliance': must be 0 when solver.newton_iterations > 0" "$exe" scene compliant_newton_scene.toml -o never
+sed 's/^\[solver\]$/[solver]\nnormal_compliance = 1.5/' "$scene" > compliant_scene.toml
+expect_error "compliant_scene.toml: key 'solver.normal_compliance': must be >= 0 and < 1, got 1.5" "$exe" scene compliant_scene.toml -o never
 expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.

@@ -153,6 +153,38 @@ TEST(ActiveSet, SolvesASlowShearStepToRoundOff) {
   EXPECT_LT(relative_difference(newton, reference, ni, ni + nv), 1e-7);
 }
 
+TEST(ActiveSet, SolvesACompliantShearStepToRoundOff) {
+  // The same with a normal compliance: the refinement must reach the compliant step's solution
+  // (Gauss-Seidel run to its end on the compliant law), not the rigid one, which is far from it.
+  ShearedBox box(0.05, 150);
+  constexpr double kKappa = 0.01;
+  box.options.solver.normal_compliance = kKappa;
+  SolverOptions exact;
+  exact.alpha = 1e-24;
+  exact.converged_fraction = 1.0;
+  exact.max_sweeps = 400000;
+  exact.normal_compliance = kKappa;
+  StepReport reference_report;
+  const std::vector<double> reference = box.impulses(exact, &reference_report);
+  ASSERT_FALSE(reference_report.solver.hit_cap);
+  SolverOptions refined = box.options.solver;
+  refined.newton_iterations = 12;
+  StepReport refined_report;
+  const std::vector<double> newton = box.impulses(refined, &refined_report);
+  SolverOptions rigid = refined;
+  rigid.normal_compliance = 0.0;
+  const std::vector<double> rigid_newton = box.impulses(rigid);
+  ASSERT_EQ(newton.size(), reference.size());
+  const std::size_t nv = 3 * box.world.disks.size(), ni = reference.size() - nv;
+  EXPECT_LT(refined_report.active_set.residual, 1e-12)
+      << refined_report.active_set.iterations << " iterations";
+  EXPECT_LT(refined_report.velocity_residual.largest, 1e-12);
+  const double newton_error = relative_difference(newton, reference, 0, ni);
+  EXPECT_LT(newton_error, 1e-7);
+  EXPECT_LT(relative_difference(newton, reference, ni, ni + nv), 1e-7);
+  EXPECT_GT(relative_difference(rigid_newton, reference, 0, ni), 1e3 * newton_error);
+}
+
 TEST(ActiveSet, SolvesMostStepsOfAShearAndRepeatsOnAnyNumberOfThreads) {
   // The sweeps run on one thread in one copy and on two in the other (the coloured order's
   // result does not depend on it); the refinement then starts from the same impulses and must

@@ -96,6 +96,20 @@ TEST(NormalCompliance, OverRelaxedUpdatesReachTheSameCompliantSolution) {
   EXPECT_EQ(c.capped, 0);
 }
 
+TEST(NormalCompliance, ActiveSetRefinementReachesTheCompliantSolution) {
+  // One sweep a step, then the active-set refinement, which must solve the compliant law: a
+  // refinement of the rigid laws would hold the disks at their rigid places (no sink at all).
+  SolverOptions o;
+  o.max_sweeps = 1;
+  o.newton_iterations = 4;
+  o.normal_compliance = 0.01;
+  const CompliantColumn c = run_compliant_column(o, 1000);
+  EXPECT_NEAR(c.largest_sink, 0.01 * kG * kDt * kDt * kDisks * kDisks, 1e-12);
+  EXPECT_LT(c.sink_error, 1e-6);
+  EXPECT_LT(c.force_error, 1e-6);
+  EXPECT_LT(c.residual, 1e-12);
+}
+
 TEST(NormalCompliance, RigidColumnDoesNotSink) {
   // The same column at kappa 0: the rigid statics, no sink at all (the check that the sinks
   // above come from the compliance, not from the solve).

@@ -81,20 +81,28 @@ struct Triplets {
   }
 };
 
+/// The velocity of contact k that its normal law holds non-negative: u_n + gap/dt, plus c R_n
+/// with a normal compliance (c = kappa w_nn; 0 for rigid contacts).
+double law_velocity_n(const Contact& c, const ContactVelocity& u, double compliance) {
+  return u.n + compliance * c.impulse_n;
+}
+
 /// Natural-map residual of the contact problem: sum over contacts of |R - proj_C(R - D^-1 u)|^2,
-/// D = diag(w_nn, w_tt) (the change each contact's exact local update, decoupled_update of
-/// local_solve.hpp, would make if it were updated now with the others held: zero exactly at a
-/// solution), and sum |R|^2.
+/// D = diag(w_nn, w_tt), u_n the law's velocity (law_velocity_n) (the change each contact's
+/// exact local update, decoupled_update of local_solve.hpp, would make if it were updated now
+/// with the others held: zero exactly at a solution), and sum |R|^2.
 std::pair<double, double> natural_residual(const std::vector<Contact>& contacts,
                                            const std::vector<SolverBody>& bodies, double inv_dt,
                                            const std::vector<double>& inv_w_nn,
-                                           const std::vector<double>& inv_w_tt) {
+                                           const std::vector<double>& inv_w_tt,
+                                           const std::vector<double>& compliance) {
   double residual2 = 0.0, force2 = 0.0;
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const Contact& c = contacts[k];
     const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
-    const LocalImpulse next = decoupled_update({c.impulse_n, c.impulse_t}, u.n, u.t, inv_w_nn[k],
-                                               inv_w_tt[k], c.friction);
+    const LocalImpulse next =
+        decoupled_update({c.impulse_n, c.impulse_t}, law_velocity_n(c, u, compliance[k]), u.t,
+                         inv_w_nn[k], inv_w_tt[k], c.friction);
     const double dn = next.n - c.impulse_n, dt = next.t - c.impulse_t;
     residual2 += dn * dn + dt * dt;
     force2 += c.impulse_n * c.impulse_n + c.impulse_t * c.impulse_t;
@@ -117,6 +125,7 @@ struct ActiveSetSolver::Impl {
   std::vector<std::int8_t> status;
   std::vector<std::int64_t> unknown;       ///< first unknown of each contact, -1 for an open one
   std::vector<double> inv_w_nn, inv_w_tt;  ///< 1 / the diagonal Delassus entries
+  std::vector<double> compliance;          ///< c = kappa w_nn of each contact [1/mass]
   std::vector<SolverBody> base_bodies, start_bodies, full_bodies, best_bodies;
   Impulses base_impulses, start_impulses, full_impulses, best_impulses;
   std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
@@ -158,9 +167,10 @@ struct ActiveSetSolver::Impl {
   Impl(const Impl&) = delete;
   Impl& operator=(const Impl&) = delete;
 
-  /// Sizes the scratch and reads the diagonal Delassus entries and the residual's scale.
-  void begin(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies,
-             double dt) {
+  /// Sizes the scratch and reads the diagonal Delassus entries, the compliances (kappa: the
+  /// normal compliance) and the residual's scale.
+  void begin(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies, double dt,
+             double kappa) {
     nc = contacts.size();
     inv_dt = 1.0 / dt;
     factorisation.release();
@@ -169,6 +179,7 @@ struct ActiveSetSolver::Impl {
     unknown.assign(nc, -1);
     inv_w_nn.resize(nc);
     inv_w_tt.resize(nc);
+    compliance.resize(nc);
     mean_diagonal = 0.0;
     for (std::size_t k = 0; k < nc; ++k) {
       const Contact& c = contacts[k];
@@ -176,18 +187,21 @@ struct ActiveSetSolver::Impl {
                                                  bodies[static_cast<std::size_t>(c.key.body_b)]);
       inv_w_nn[k] = 1.0 / w.w_nn;
       inv_w_tt[k] = 1.0 / w.w_tt;
+      compliance[k] = kappa * w.w_nn;
       mean_diagonal += w.w_nn;
     }
     mean_diagonal /= static_cast<double>(nc);
     // The residual relative to |R| on entry, a fixed scale (relative to the current |R|, a step
     // could lower it by inflating the forces along a self-stress); absolute where every impulse
     // was 0.
-    entry_force2 = natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt).second;
+    entry_force2 =
+        natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt, compliance).second;
   }
 
   /// The merit of the current iterate: its natural-map residual on the fixed scale.
   double merit(const std::vector<Contact>& contacts, const std::vector<SolverBody>& bodies) const {
-    const double r2 = natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt).first;
+    const double r2 =
+        natural_residual(contacts, bodies, inv_dt, inv_w_nn, inv_w_tt, compliance).first;
     return entry_force2 > 0.0 ? std::sqrt(r2 / entry_force2) : std::sqrt(r2);
   }
 
@@ -232,7 +246,7 @@ struct ActiveSetSolver::Impl {
     for (std::size_t k = 0; k < nc; ++k) {
       Contact& c = contacts[k];
       const ContactVelocity u = contact_velocity(c, bodies, inv_dt);
-      const double sigma_n = c.impulse_n - u.n * inv_w_nn[k];
+      const double sigma_n = c.impulse_n - law_velocity_n(c, u, compliance[k]) * inv_w_nn[k];
       std::int8_t next = kOpen;
       if (sigma_n >= 0.0) {
         const double sigma_t = c.impulse_t - u.t * inv_w_tt[k];
@@ -265,8 +279,8 @@ struct ActiveSetSolver::Impl {
     return changed;
   }
 
-  /// Phase 3: the right-hand side, minus the constrained velocities (u_n, and u_t of sticking
-  /// contacts) of the iterate.
+  /// Phase 3: the right-hand side, minus the constrained velocities (the law's u_n, and u_t of
+  /// sticking contacts) of the iterate.
   void constrained_velocities(const std::vector<Contact>& contacts,
                               const std::vector<SolverBody>& bodies, std::size_t unknowns) {
     rhs.assign(unknowns, 0.0);
@@ -274,15 +288,16 @@ struct ActiveSetSolver::Impl {
       if (unknown[k] < 0) continue;
       const ContactVelocity u = contact_velocity(contacts[k], bodies, inv_dt);
       const auto row = static_cast<std::size_t>(unknown[k]);
-      rhs[row] = -u.n;
+      rhs[row] = -law_velocity_n(contacts[k], u, compliance[k]);
       if (status[k] == kStick) rhs[row + 1] = -u.t;
     }
   }
 
-  /// Phase 3: B = H_rows M^-1 H_cols^T (the regularisation is added by the solves), H_rows: the
-  /// constrained velocities, H_cols: the impulse directions of the unknowns (n and t of a
-  /// sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n). B depends on
-  /// the statuses and the geometry only, not on the iterate. Null where CHOLMOD runs out of
+  /// Phase 3: B = H_rows M^-1 H_cols^T + C (the regularisation is added by the solves), H_rows:
+  /// the constrained velocities, H_cols: the impulse directions of the unknowns (n and t of a
+  /// sticking contact; n + s mu t of a sliding one, whose R_t follows s mu R_n), C: each closed
+  /// contact's compliance c on its normal unknown's diagonal. B depends on the statuses and the
+  /// geometry only, not on the iterate. Null where CHOLMOD runs out of
   /// memory or the system exceeds the int indices CHOLMOD and KLU use here (then the sweeps'
   /// result stands).
   cholmod_sparse* delassus_matrix(const std::vector<Contact>& contacts,
@@ -332,7 +347,23 @@ struct ActiveSetSolver::Impl {
     cholmod_free_sparse(&h_rows, &common);  // each a no-op on a null pointer
     cholmod_free_sparse(&h_cols, &common);
     cholmod_free_sparse(&h_cols_t, &common);
+    if (b_matrix != nullptr) add_compliance(b_matrix);
     return b_matrix;
+  }
+
+  /// C of delassus_matrix: c_k added to B's diagonal entry of contact k's normal unknown. The
+  /// product always holds that entry (the normal row and the unknown's column act on the same
+  /// bodies), kept even where its value cancels.
+  void add_compliance(cholmod_sparse* b_matrix) const {
+    auto* bp = static_cast<int*>(b_matrix->p);
+    auto* bi = static_cast<int*>(b_matrix->i);
+    auto* bx = static_cast<double*>(b_matrix->x);
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (unknown[k] < 0 || compliance[k] == 0.0) continue;
+      const auto j = static_cast<int>(unknown[k]);
+      for (int q = bp[j]; q < bp[j + 1]; ++q)
+        if (bi[q] == j) bx[q] += compliance[k];
+    }
   }
 
   /// Ratio test: the longest step along the solution dR, at most 1, that keeps every closed
@@ -406,7 +437,7 @@ struct ActiveSetSolver::Impl {
   }
 
   /// y = (B + beta I) x without forming B: the impulses x applied to bodies at rest (M^-1
-  /// H_cols^T x), their constrained velocities read back (H_rows ...). O(contacts).
+  /// H_cols^T x), their constrained velocities read back (H_rows ...), plus C x. O(contacts).
   void multiply(const std::vector<Contact>& contacts, const double* x, double* y, double beta) {
     for (SolverBody& b : product_bodies) {
       b.velocity = Vec2{};
@@ -424,7 +455,7 @@ struct ActiveSetSolver::Impl {
       if (unknown[k] < 0) continue;
       const auto row = static_cast<std::size_t>(unknown[k]);
       const ContactVelocity u = contact_velocity(contacts[k], product_bodies, 0.0);
-      y[row] = u.n + beta * x[row];
+      y[row] = u.n + (beta + compliance[k]) * x[row];
       if (status[k] == kStick) y[row + 1] = u.t + beta * x[row + 1];
     }
   }
@@ -670,7 +701,7 @@ ActiveSetReport ActiveSetSolver::refine(std::vector<Contact>& contacts,
   ActiveSetReport report;
   if (contacts.empty()) return report;
   report.ran = true;
-  s.begin(contacts, bodies, dt);
+  s.begin(contacts, bodies, dt, options.normal_compliance);
   double current = s.merit(contacts, bodies);
   report.initial_residual = current;
   std::deque<double> history{current};  // the merits of the last kMeritMemory iterates

@@ -44,6 +44,14 @@
 // iterate is returned, never worse than the sweeps' by this residual. Works on the solver
 // bodies (free velocity + M^-1 H^T R on entry, and on exit) and the contacts' impulses.
 //
+// With a normal compliance (ActiveSetOptions::normal_compliance, kappa; c = kappa w_nn per
+// contact) the normal law is that of the compliant velocity u_n + c R_n (nlgs_solver.cpp,
+// update_row): the classification, the right-hand side and the merit read u_n + c R_n where the
+// rigid laws read u_n, and B gains c on the diagonal of each closed contact's normal unknown
+// (d(u_n + c R_n) / dR_n = w_nn + c for a sticking contact; w_nn + s mu w_nt + c for a sliding
+// one). Everything else is unchanged. Where every closed contact sticks, B is then W + C,
+// positive definite: no loop of closed contacts leaves it singular.
+//
 // Why the ratio test: in a hyperstatic packing the gaps of a loop of closed contacts are in
 // general closed by no motion, so B is singular with a right-hand side outside its range, and
 // dR runs along the loop's self-stress without bound; the exact solution opens one contact of
@@ -75,7 +83,10 @@ struct ActiveSetOptions {
   int max_iterations = 4;         ///< Newton iterations at most
   double regularisation = 1e-10;  ///< beta, as a fraction of the mean w_nn
   double tolerance = 1e-12;       ///< stop when the natural-map residual / |R| is below this
-  bool record_history = false;    ///< fill ActiveSetReport::history
+  /// kappa (SolverOptions::normal_compliance): the compliant normal law u_n + gap/dt + kappa
+  /// w_nn R_n >= 0 instead of the rigid one (0)
+  double normal_compliance = 0.0;
+  bool record_history = false;  ///< fill ActiveSetReport::history
 };
 
 /// One refinement iteration, as ActiveSetOptions::record_history records it.

@@ -129,11 +129,9 @@ StepReport ContactDynamics::step(World& world, const StepOptions& options) {
   report.solver =
       solve_contacts(contacts_, bodies_, n, options.dt, options.solver, world.step, workspace_);
   if (options.solver.newton_iterations > 0) {
-    if (options.solver.normal_compliance != 0.0)
-      throw std::invalid_argument(
-          "the active-set refinement solves the rigid contact laws: not with a normal compliance");
     ActiveSetOptions o;
     o.max_iterations = options.solver.newton_iterations;
+    o.normal_compliance = options.solver.normal_compliance;
     o.record_history = options.solver.newton_history;
     report.active_set = active_set_.refine(contacts_, bodies_, options.dt, o);
   }

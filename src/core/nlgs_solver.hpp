@@ -117,8 +117,8 @@ struct SolverOptions {
   /// operator's smallest eigenvalues from below by about kappa w_nn: the impulse patterns that
   /// barely move the grains (a rigid step's soft, poorly defined directions) become well
   /// defined and the sweeps converge on them (docs/performance.md, "Normal compliance"). With
-  /// kappa > 0 the slab correction does not run (its target is the rigid condition) and the
-  /// active-set refinement is refused (it solves the rigid laws).
+  /// kappa > 0 the slab correction does not run (its target is the rigid condition); the
+  /// active-set refinement solves the compliant laws (active_set_solve.hpp).
   double normal_compliance = 0.0;
   /// Active-set Newton iterations after the sweeps (active_set_solve.hpp; 0: off): each solves
   /// the step's linear system for the statuses the sweeps found, by a sparse LU factorisation,

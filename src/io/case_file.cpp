@@ -52,7 +52,6 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
                                     ") in the longest run the step limit allows (" +
                                     format_number(longest) + " time units); give at least " +
                                     format_number(c.diameter_max / longest));
-  check_solver_constraints(t["solver"], c.step.solver);
   const MeasureOptions& mo = c.measure;
   TomlReader& m = t["measure"];
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step

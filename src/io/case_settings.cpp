@@ -293,13 +293,12 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
           S{.key = "normal_compliance",
             .meaning = "normal compliance kappa, a fraction of each contact's w_nn: a contact "
                        "carrying R_n ends a step overlapping by kappa w_nn R_n dt (0: rigid; "
-                       "no slab correction and no active-set refinement with it; "
-                       "docs/performance.md, \"Normal compliance\")",
+                       "no slab correction with it; docs/performance.md, \"Normal "
+                       "compliance\")",
             .lo = 0.0,
             .hi = kNormalComplianceBound,
             .hi_open = true,
-            .range_reason = "at 1 a contact is as compliant as its two bodies are mobile",
-            .constraint = "0 when newton_iterations > 0"},
+            .range_reason = "at 1 a contact is as compliant as its two bodies are mobile"},
           [](auto& o) -> auto& { return o.normal_compliance; }),
       bind(
           S{.key = "newton_iterations",
@@ -801,14 +800,6 @@ void read_retired_solver_keys(TomlReader& reader, const std::string& table,
     if (table == k.table && reader.has(k.key) && !k.accepts(reader, k.key, options))
       reader.fail(k.key, std::string("is no longer a setting: ") + k.now +
                              "; remove the key (docs/case-files.md, \"Keys no longer read\")");
-}
-
-void check_solver_constraints(TomlReader& reader, const SolverOptions& options) {
-  if (options.normal_compliance != 0.0 && options.newton_iterations > 0)
-    reader.fail("normal_compliance",
-                "must be 0 when solver.newton_iterations > 0 (the active-set refinement solves "
-                "the rigid contact laws), got " +
-                    format_number(options.normal_compliance));
 }
 
 template <class T>

@@ -77,10 +77,6 @@ const std::vector<Setting<SolverOptions>>& solver_settings();
 void read_retired_solver_keys(TomlReader& reader, const std::string& table,
                               const SolverOptions& options);
 
-/// The conditions between the keys of a [solver] table (each key's own range is checked as it is
-/// read), refused through `reader`, naming the key: shared by case and scene files.
-void check_solver_constraints(TomlReader& reader, const SolverOptions& options);
-
 /// Reads `s` from `reader` (which is positioned at s.table) into `target` when the key is
 /// present, checking its type and range; an absent key leaves `target` as it is.
 template <class T>

@@ -14,7 +14,6 @@ AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
 SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
   for (const Setting<SolverOptions>& row : solver_settings()) read_setting(row, solver, s);
   read_retired_solver_keys(solver, "solver", s);
-  check_solver_constraints(solver, s);
   solver.finish();
   return s;
 }
