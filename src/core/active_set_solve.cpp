@@ -128,7 +128,8 @@ struct ActiveSetSolver::Impl {
   std::vector<double> compliance;          ///< c = kappa w_nn of each contact [1/mass]
   std::vector<SolverBody> base_bodies, start_bodies, full_bodies, best_bodies;
   Impulses base_impulses, start_impulses, full_impulses, best_impulses;
-  std::vector<std::int64_t> diagonal;  ///< where B's diagonal entries are in its values
+  /// where the diagonal entries of the B last formed (delassus_matrix) are in its values
+  std::vector<std::int64_t> diagonal;
   std::vector<double> solution;
   /// H_rows M^-1/2 (the velocities held at 0) and H_cols M^-1/2 (the unknowns' impulses)
   Triplets velocities, impulses;
@@ -347,22 +348,33 @@ struct ActiveSetSolver::Impl {
     cholmod_free_sparse(&h_rows, &common);  // each a no-op on a null pointer
     cholmod_free_sparse(&h_cols, &common);
     cholmod_free_sparse(&h_cols_t, &common);
-    if (b_matrix != nullptr) add_compliance(b_matrix);
+    if (b_matrix != nullptr) {
+      find_diagonal(b_matrix, unknowns);
+      add_compliance(b_matrix);
+    }
     return b_matrix;
+  }
+
+  /// Where B's diagonal entries are in its values (`diagonal`, -1 for an entry the product does
+  /// not hold), for the compliance and the regularisation added to them.
+  void find_diagonal(const cholmod_sparse* b_matrix, std::size_t unknowns) {
+    const auto* bp = static_cast<const int*>(b_matrix->p);
+    const auto* bi = static_cast<const int*>(b_matrix->i);
+    diagonal.assign(unknowns, -1);
+    for (std::size_t j = 0; j < unknowns; ++j)
+      for (int q = bp[j]; q < bp[j + 1]; ++q)
+        if (static_cast<std::size_t>(bi[q]) == j) diagonal[j] = q;
   }
 
   /// C of delassus_matrix: c_k added to B's diagonal entry of contact k's normal unknown. The
   /// product always holds that entry (the normal row and the unknown's column act on the same
   /// bodies), kept even where its value cancels.
   void add_compliance(cholmod_sparse* b_matrix) const {
-    auto* bp = static_cast<int*>(b_matrix->p);
-    auto* bi = static_cast<int*>(b_matrix->i);
     auto* bx = static_cast<double*>(b_matrix->x);
     for (std::size_t k = 0; k < nc; ++k) {
       if (unknown[k] < 0 || compliance[k] == 0.0) continue;
-      const auto j = static_cast<int>(unknown[k]);
-      for (int q = bp[j]; q < bp[j + 1]; ++q)
-        if (bi[q] == j) bx[q] += compliance[k];
+      const std::int64_t q = diagonal[static_cast<std::size_t>(unknown[k])];
+      if (q >= 0) bx[q] += compliance[k];
     }
   }
 
@@ -591,10 +603,6 @@ struct ActiveSetSolver::Impl {
       f.symbolic = klu_analyze(nu, bp, bi, &f.kc);
       if (f.symbolic == nullptr) return false;
       analysed = true;
-      diagonal.assign(unknowns, -1);
-      for (std::size_t j = 0; j < unknowns; ++j)
-        for (int q = bp[j]; q < bp[j + 1]; ++q)
-          if (static_cast<std::size_t>(bi[q]) == j) diagonal[j] = q;
     } else if (f.numeric) {
       klu_free_numeric(&f.numeric, &f.kc);
     }
