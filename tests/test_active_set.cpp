@@ -17,9 +17,6 @@
 namespace cdshear {
 namespace {
 
-using testing::disk;
-using testing::fixed_wall;
-
 constexpr double kR = 0.5, kG = 1.0, kDt = 1e-3;
 
 TEST(ActiveSet, ColumnCarriesItsWeightAfterOneSweep) {
@@ -28,10 +25,7 @@ TEST(ActiveSet, ColumnCarriesItsWeightAfterOneSweep) {
   // carries a disk's weight down only as far as the shuffled order happens to visit the contacts
   // below it in turn.
   constexpr int n = 12;
-  SceneDefinition s;
-  s.gravity = {0.0, -kG};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
-  for (int k = 0; k < n; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
+  const SceneDefinition s = testing::disk_column(n, kR, kG);
   StepOptions o;
   o.dt = kDt;
   o.solver.max_sweeps = 1;

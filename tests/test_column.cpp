@@ -35,11 +35,7 @@ struct ColumnRun {
 
 /// n disks of radius kR stacked on a floor under gravity, touching.
 SceneDefinition column_scene(int n) {
-  SceneDefinition s;
-  s.gravity = {0.0, -kG};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
-  for (int k = 0; k < n; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
-  return s;
+  return testing::disk_column(n, kR, kG);
 }
 
 ColumnRun run_column(int n, const SolverOptions& solver, int steps, int checked_steps) {

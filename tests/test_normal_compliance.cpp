@@ -13,9 +13,6 @@
 namespace cdshear {
 namespace {
 
-using testing::disk;
-using testing::fixed_wall;
-
 constexpr double kR = 0.5, kG = 1.0, kDt = 1e-3;
 constexpr int kDisks = 10;
 
@@ -29,10 +26,7 @@ struct CompliantColumn {
 
 /// kDisks disks of radius kR stacked on a floor, stepped `steps` times with `solver`.
 CompliantColumn run_compliant_column(const SolverOptions& solver, int steps) {
-  SceneDefinition s;
-  s.gravity = {0.0, -kG};
-  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
-  for (int k = 0; k < kDisks; ++k) s.disks.push_back(disk({0.0, kR + 2.0 * kR * k}, kR));
+  const SceneDefinition s = testing::disk_column(kDisks, kR, kG);
   StepOptions o;
   o.dt = kDt;
   o.solver = solver;

@@ -74,6 +74,16 @@ inline DiskSpec disk(Vec2 position, double radius, Vec2 velocity = {}, double om
   return d;
 }
 
+/// `count` disks of radius `radius` stacked on a fixed floor (y = 0) under gravity `g`, touching,
+/// at rest: disk k at y = radius (2k + 1).
+inline SceneDefinition disk_column(int count, double radius, double g) {
+  SceneDefinition s;
+  s.gravity = {0.0, -g};
+  s.walls.push_back(fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}));
+  for (int k = 0; k < count; ++k) s.disks.push_back(disk({0.0, radius + 2.0 * radius * k}, radius));
+  return s;
+}
+
 /// A world built from a scene definition, with its stepper and the reports of its steps.
 struct Simulation {
   World world;
