@@ -11,24 +11,34 @@
 #
 #   bench/cost_per_grain.sh PACKING_DIR "SYSTEMS" "SPEEDS" DURATION ROUNDS [-- RUN_OPTIONS]
 #
-# PACKING_DIR holds systemK.json for each system K; a missing one is prepared with
-# `cdshear prepare --system K` (system 7: about ten minutes on two cores).
+# DURATION is one value for all systems or one per system in the order of SYSTEMS ("100 20": the
+# small system runs longer, for a time that a start-up does not weigh on). PACKING_DIR holds
+# systemK.json for each system K; a missing one is prepared with `cdshear prepare --system K`
+# (system 7: about ten minutes on two cores).
 # Environment: CDSHEAR [build/cdshear], CDSHEAR_BENCH [build/bench/cdshear_bench].
 # Example (systems 1 and 7 at V = 0.5 and 0.05, 20 t, three rounds):
 #   bench/cost_per_grain.sh packings/study "1 7" "0.5 0.05" 20 3
 set -euo pipefail
 
 if [[ $# -lt 5 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
-dir=$1 systems=$2 speeds=$3 duration=$4 rounds=$5
+dir=$1 systems=$2 speeds=$3 duration_arg=$4 durations=($4) rounds=$5
 shift 5
 [[ $# -gt 0 && "$1" == -- ]] && shift
 extra=("$@")
 source "$(dirname "$0")/binaries.sh"
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
 [[ -n "${systems// /}" ]] || { echo "error: SYSTEMS: expected at least one system" >&2; exit 2; }
+system_list=($systems)
+if [[ ${#durations[@]} -eq 1 ]]; then
+  for ((i = 1; i < ${#system_list[@]}; ++i)); do durations+=("${durations[0]}"); done
+fi
+[[ ${#durations[@]} -eq ${#system_list[@]} ]] \
+  || { echo "error: DURATION '$duration_arg': expected one value or one per system (${#system_list[@]})" >&2; exit 2; }
+declare -A duration_of
+for ((i = 0; i < ${#system_list[@]}; ++i)); do duration_of[${system_list[i]}]=${durations[i]}; done
 mkdir -p "$dir"
 for k in $systems; do prepare_packing "$dir" "$k"; done
 
@@ -37,11 +47,12 @@ trap 'rm -rf "$scratch"' EXIT
 table=$scratch/table
 : > "$table"
 
-echo "# $duration t per run, one thread, $rounds rounds; $cdshear ${extra[*]}"
+echo "# ${durations[*]} t per run (systems $systems), one thread, $rounds rounds; $cdshear ${extra[*]}"
 echo "round system V core_s_per_t_grain mean_sweeps candidates_per_grain wall_s state_hash"
 for ((round = 1; round <= rounds; ++round)); do
   for v in $speeds; do
     for k in $systems; do
+      duration=${duration_of[$k]}
       out=$scratch/run
       rm -rf "$out"
       "$cdshear" run --system "$k" -V "$v" --packing "$dir/system$k.json" \

@@ -9,18 +9,23 @@
 # processors (about 100 or about 450 ns on the 2-core machines of docs/benchmarks.md), and the
 # two-thread speed with it.
 #
-#   bench/thread_capacity.sh PACKING SYSTEM VELOCITY DURATION ROUNDS
+#   bench/thread_capacity.sh PACKING SYSTEM VELOCITY DURATION ROUNDS [-- RUN_OPTIONS]
 #
+# Extra `cdshear run` options (after --) apply to every run, e.g. `-- --set
+# solver.normal_compliance=0.01`.
 # Environment: CDSHEAR [build/cdshear], CDSHEAR_BENCH [build/bench/cdshear_bench]; extra variables (OMP_PROC_BIND, ...) pass through.
 # Example (system 5, 20 t at V = 0.5, three rounds):
 #   bench/thread_capacity.sh campaigns/validation/packings/s5_seed1.json 5 0.5 20 3
 set -euo pipefail
 
-if [[ $# -ne 5 || "$1" == -h || "$1" == --help ]]; then
-  sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'
+if [[ $# -lt 5 || "$1" == -h || "$1" == --help ]]; then
+  sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 packing=$1 system=$2 velocity=$3 duration=$4 rounds=$5
+shift 5
+[[ $# -gt 0 && "$1" == -- ]] && shift
+extra=("$@")
 source "$(dirname "$0")/binaries.sh"
 [[ -f "$packing" ]] || { echo "error: PACKING '$packing': no such file" >&2; exit 2; }
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
@@ -33,12 +38,12 @@ shear() {
   rm -rf "$1"
   "$cdshear" run --packing "$packing" --system "$system" -V "$velocity" --threads "$2" \
     --set shear.duration="$duration" --set measure.enabled=false --no-analyze -q -o "$1" \
-    > "$1.log" 2>&1 || { echo "error: the run on $2 threads failed:" >&2; tail -n 5 "$1.log" >&2; exit 1; }
+    "${extra[@]}" > "$1.log" 2>&1 || { echo "error: the run on $2 threads failed:" >&2; tail -n 5 "$1.log" >&2; exit 1; }
   grep -o '"state_hash": *"[0-9a-f]*"' "$1/run_info.json" | grep -o '[0-9a-f]\{16\}' > "$1/hash"
 }
 seconds_since() { /usr/bin/python3 -c "import sys; print(f'{(int(sys.argv[2]) - int(sys.argv[1])) / 1e9:.2f}')" "$1" "$(date +%s%N)"; }
 
-echo "# system $system, $packing, V = $velocity, $duration t; $(nproc) processors; $cdshear"
+echo "# system $system, $packing, V = $velocity, $duration t; $(nproc) processors; $cdshear ${extra[*]}"
 echo "round one_thread_s two_threads_s pair_s pair_s speed_up capacity share hashes round_trip_ns"
 table="$scratch/table"
 : > "$table"
