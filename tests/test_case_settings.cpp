@@ -247,6 +247,8 @@ TEST(CaseSettings, KeysNoLongerReadAreAcceptedAtTheValueNowUsedOnly) {
   // Where the key has no effect (no slab correction), any value.
   EXPECT_NO_THROW(with({"solver.slab_correction_period=0", "solver.slab_correction_min_bands=2",
                         "solver.anderson_period_with_slab_correction=4"}));
+  EXPECT_NO_THROW(with({"solver.normal_compliance=0.01", "solver.slab_correction_min_bands=2",
+                        "solver.anderson_period_with_slab_correction=4"}));
   // The mix period follows anderson_period.
   EXPECT_NO_THROW(
       with({"solver.anderson_period=3", "solver.anderson_period_with_slab_correction=6"}));

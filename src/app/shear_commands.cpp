@@ -609,11 +609,13 @@ int run_shear(const RunArgs& args) {
   const int threads = c.step.solver.order == ContactOrder::kColoured ? c.step.solver.threads : 1;
   std::printf(
       "cdshear run: n %zu, L_x %.4f, L_y %g, V %g, sigma_yy %g, dt %g, steps %llu..%llu, "
-      "%s order, alpha %g, residual tolerance %g d, up to %d thread%s -> %s\n",
+      "%s order, alpha %g, residual tolerance %g d, normal compliance %g, up to %d thread%s -> "
+      "%s\n",
       s.world.disks.size(), s.world.domain.length_x, c.height, c.velocity, c.normal_stress, dt,
       static_cast<unsigned long long>(s.world.step), static_cast<unsigned long long>(loop.end_step),
       contact_order_name(c.step.solver.order), c.step.solver.alpha,
-      c.step.solver.residual_tolerance, threads, threads == 1 ? "" : "s", s.dir.c_str());
+      c.step.solver.residual_tolerance, c.step.solver.normal_compliance, threads,
+      threads == 1 ? "" : "s", s.dir.c_str());
   std::fflush(stdout);
   RunProgress last_progress;
   loop.on_progress = [&](const RunProgress& p) {

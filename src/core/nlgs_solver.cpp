@@ -506,9 +506,7 @@ class ContactSolve {
         // Slab correction (slab_correction.hpp); whether the packing has the bands for it is
         // known once the groups are (coloured_groups_begin sets cg.bands), read after a barrier.
         // Not with a compliance: its target is the rigid condition.
-        slab_period(asks_for_slab_correction(options) && options.normal_compliance == 0.0
-                        ? options.slab_correction_period
-                        : 0),
+        slab_period(asks_for_slab_correction(options) ? options.slab_correction_period : 0),
         walls(all_bodies.size() - std::min(first_wall, all_bodies.size())),
         // Anderson acceleration mixes the rows awake at the start (the others are open and
         // separating: their impulse stays 0 unless they wake, and then the sweeps alone solve

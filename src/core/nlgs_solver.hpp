@@ -26,11 +26,11 @@
 // vector's length, anderson.hpp), and the mixed impulses are applied phase by phase like a
 // sweep: the result is the same on any number of threads. So are the rows' set-up, the warm start
 // (applied phase by phase too) and the copy-back of the impulses.
-// Slab correction (options.slab_correction_period > 0, coloured order, packings of at least
-// kSlabCorrectionMinBands bands, slab_correction.hpp): every slab_correction_period sweeps, before
-// any mix of that sweep and never after the last, the force-carrying rows of each band are
-// rescaled so that the bands' force-weighted mean normal-velocity errors vanish together: the
-// force profile over the height, which the sweeps relax over thousands of sweeps in a tall
+// Slab correction (options.slab_correction_period > 0, coloured order, rigid contacts, packings
+// of at least kSlabCorrectionMinBands bands, slab_correction.hpp): every slab_correction_period
+// sweeps, before any mix of that sweep and never after the last, the force-carrying rows of each
+// band are rescaled so that the bands' force-weighted mean normal-velocity errors vanish together:
+// the force profile over the height, which the sweeps relax over thousands of sweeps in a tall
 // packing, in one banded solve. Same fixed points, same
 // result on any number of threads. In the steps where it runs, the Anderson mix runs every
 // 2 anderson_period sweeps (kMixPeriodFactorWithSlabCorrection).
@@ -147,9 +147,11 @@ struct SolverOptions {
 };
 
 /// Whether the options ask for the slab correction: the coloured order only (the others have no
-/// bands), and then, in each step, only in packings of kSlabCorrectionMinBands bands or more.
+/// bands) and rigid contacts only (its target is the rigid condition u_n + gap/dt = 0), and then,
+/// in each step, only in packings of kSlabCorrectionMinBands bands or more.
 inline bool asks_for_slab_correction(const SolverOptions& o) {
-  return o.order == ContactOrder::kColoured && o.slab_correction_period > 0;
+  return o.order == ContactOrder::kColoured && o.slab_correction_period > 0 &&
+         o.normal_compliance == 0.0;
 }
 
 /// SolverOptions::normal_compliance is below this: at kappa = 1 a contact is as compliant as
