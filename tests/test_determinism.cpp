@@ -119,6 +119,21 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
   EXPECT_NE(one, run_hash(1, ContactOrder::kColoured));  // the mix changes the trajectory
 }
 
+/// The shear phase's sweeps for testing::sheared_dense_box on `threads` (every row may go to any
+/// thread): the coloured order, dormant rows left out, over-relaxation, Anderson mixing, alpha
+/// 1e-5.
+StepOptions sheared_box_options(int threads) {
+  StepOptions o = options(3, ContactOrder::kColoured);
+  o.solver.threads = threads;
+  o.solver.min_rows_per_thread = 1;
+  o.solver.skip_dormant = true;
+  o.solver.relaxation = 1.6;
+  o.solver.anderson_depth = 5;
+  o.solver.anderson_period = 4;
+  o.solver.alpha = 1e-5;
+  return o;
+}
+
 TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   // A dense box periodic in x, sheared by its top wall, like the shear cell: each wall touches
   // one band only and goes with that slab, so the serial group is empty and no thread waits for
@@ -135,14 +150,7 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   const auto hash = [&](int threads, bool profiled = false) {
     World world = box.world;
     ContactDynamics dynamics = box.dynamics;
-    StepOptions o = options(3, ContactOrder::kColoured);
-    o.solver.threads = threads;
-    o.solver.min_rows_per_thread = 1;
-    o.solver.skip_dormant = true;
-    o.solver.relaxation = 1.6;
-    o.solver.anderson_depth = 5;
-    o.solver.anderson_period = 4;
-    o.solver.alpha = 1e-5;
+    StepOptions o = sheared_box_options(threads);
     o.solver.slab_correction_period = 4;
     o.solver.profile = profiled;
     profile = {};
@@ -203,14 +211,7 @@ TEST(Determinism, CompliantShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads)
   const auto hash = [&](int threads, double compliance) {
     World world = box.world;
     ContactDynamics dynamics = box.dynamics;
-    StepOptions o = options(3, ContactOrder::kColoured);
-    o.solver.threads = threads;
-    o.solver.min_rows_per_thread = 1;
-    o.solver.skip_dormant = true;
-    o.solver.relaxation = 1.6;
-    o.solver.anderson_depth = 5;
-    o.solver.anderson_period = 4;
-    o.solver.alpha = 1e-5;
+    StepOptions o = sheared_box_options(threads);
     o.solver.normal_compliance = compliance;
     residuals.clear();
     double most_overlap = 0.0;

@@ -275,9 +275,8 @@ std::vector<Setting<SolverOptions>> make_solver_settings() {
             .meaning =
                 "the slab correction every this many sweeps (0: off; coloured order, rigid "
                 "contacts, packings of 20 bands of 4 largest diameters or more, L_y >= 80 d): "
-                "the force-carrying "
-                "contacts of each band of height rescaled so that every band's mean "
-                "normal-velocity error vanishes; the mix then runs every 2 anderson_period "
+                "the force-carrying contacts of each band of height rescaled so that every band's "
+                "mean normal-velocity error vanishes; the mix then runs every 2 anderson_period "
                 "sweeps (docs/performance.md)",
             .lo = 0,
             .hi = 1000},
