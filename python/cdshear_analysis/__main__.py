@@ -47,6 +47,11 @@ def main(argv=None):
     p_side.add_argument("--cdshear-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--lammps-seconds", type=float, required=True, help="its wall time")
     p_side.add_argument("--json", help="also write the figures to this JSON file")
+    p_lcompare = commands.add_parser(
+        "lammps-compare", help="the LAMMPS runs of bench/peers/lammps_campaign.sh against "
+        "their campaign's runs, paired by run (docs/benchmarks.md, \"Regime C beside LAMMPS\")")
+    p_lcompare.add_argument("campaign", help="the campaign folder (cdshear sweep)")
+    p_lcompare.add_argument("lammps_folder", help="the folder of lammps_campaign.sh's runs")
     p_ccompare = commands.add_parser(
         "campaign-compare", help="the runs two campaigns share, quantity by quantity, in "
         "combined errors (a solver setting's effect: docs/validation.md)")
@@ -93,6 +98,23 @@ def main(argv=None):
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
+        return 0
+
+    if args.command == "lammps-compare":
+        from .campaign import compare_campaigns, format_comparison as format_campaigns
+        from .campaign import load_campaign
+        from .peers import PeerError, lammps_campaign
+        from .report import ReportError
+        try:   # both errors name a path and its problem
+            campaign = load_campaign(args.campaign)
+            peers = lammps_campaign(args.lammps_folder, campaign)
+            items = compare_campaigns(campaign, peers)
+        except (ReportError, PeerError) as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        for run, why in peers.skipped:
+            print(f"left out: {run}: {why}")
+        print(format_campaigns(items, args.campaign, "LAMMPS"))
         return 0
 
     if args.command == "campaign-compare":

@@ -183,16 +183,21 @@ def cdshear_series(run_dir):
 
 def second_half_estimates(series, duration):
     """mu_eff and solid fraction over the samples with time > duration / 2, same estimator for
-    both codes:
+    both codes (`estimates_after`)."""
+    return estimates_after(series, 0.5 * duration)
+
+
+def estimates_after(series, start_time):
+    """mu_eff, solid fraction and height over the samples with time > start_time:
       mu_eff = <|f_x^bottom| + |f_x^top|> / <|f_y^bottom| + |f_y^top|> (ratio of the time
       averaged tangential and normal wall forces), error err(a - mu b) / <b> with a, b the
       two sums per sample (first-order propagation; err = block averaging);
       solid fraction: block average of the series; height likewise.
     """
     t = series["time"]
-    keep = t > 0.5 * duration
+    keep = t > start_time
     if np.count_nonzero(keep) < 16:
-        raise PeerError("series", f"only {np.count_nonzero(keep)} samples in the second half")
+        raise PeerError("series", f"only {np.count_nonzero(keep)} samples after t = {start_time:g}")
     a = np.abs(series["bottom_fx"][keep]) + np.abs(series["top_fx"][keep])
     b = np.abs(series["bottom_fy"][keep]) + np.abs(series["top_fy"][keep])
     mu = float(a.mean() / b.mean())
@@ -321,3 +326,122 @@ def format_side_by_side(result):
                      f"per-snapshot largest {lm['mean_max_overlap']:.2e}; cdshear: largest "
                      "after a step, every step)")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# LAMMPS runs beside a campaign (bench/peers/lammps_campaign.sh)
+
+def read_vars(path):
+    """The include file of `write_lammps_packing` as {name: float}."""
+    out = {}
+    try:
+        with open_regular(path, encoding="utf-8") as f:
+            for line in f:
+                words = line.split()
+                if len(words) == 4 and words[0] == "variable" and words[2] == "equal":
+                    out[words[1]] = float(words[3])
+    except (OSError, ValueError) as e:
+        raise PeerError(path, f"cannot read LAMMPS variables: {e}") from e
+    return out
+
+
+def wall_lines(rows, wall_radius):
+    """(bottom, top) wall lines of one dump snapshot: the mean height of the bottom row's disk
+    centres plus R_w, of the top row's minus R_w (in.shear's height is their distance)."""
+    kind = rows[:, 1].astype(int)
+    bottom, top = rows[kind == BOTTOM_TYPE, 3], rows[kind == TOP_TYPE, 3]
+    if not len(bottom) or not len(top):
+        raise PeerError("dump", "a snapshot without both walls' disks")
+    return float(bottom.mean()) + wall_radius, float(top.mean()) - wall_radius
+
+
+def segment_area(radius, lower, upper):
+    """Area of a disk of the given radius, centred at height 0, between the heights lower <=
+    upper (arrays): A(z) = z sqrt(r^2 - z^2) + r^2 asin(z / r) + pi r^2 / 2 is the area below z,
+    z clipped to [-r, r]."""
+    def below(z):
+        z = np.clip(z, -radius, radius)
+        return (z * np.sqrt(np.maximum(radius * radius - z * z, 0.0))
+                + radius * radius * np.arcsin(z / radius) + 0.5 * np.pi * radius * radius)
+    return below(upper) - below(lower)
+
+
+def stripe_solid_fraction(rows, lx, lower, upper):
+    """Grain area fraction of one snapshot between the heights lower < upper: each grain's exact
+    circular segment in the stripe over lx (upper - lower), as cdshear's stripes count it
+    (src/measure/shear_measurement.hpp)."""
+    grains = rows[rows[:, 1].astype(int) == GRAIN_TYPE]
+    y, r = grains[:, 3], grains[:, 4]
+    return float(segment_area(r, lower - y, upper - y).sum() / (lx * (upper - lower)))
+
+
+def lammps_run_row(run_dir, start_time, bulk_h):
+    """One LAMMPS run of bench/peers/lammps_campaign.sh (RUN_DIR/run.json, packing.data.vars,
+    lammps/series.txt and lammps/dump.txt) as a runs.csv-like row averaged over t > start_time:
+    mu_eff_wall, L_y and solid_fraction from the series (`estimates_after`), nu_bulk from the
+    dump's snapshots, the grain area between bulk_h above the bottom wall line and bulk_h below
+    the top one (docs/model.md section 7), block-averaged over the snapshots (errors `_err`)."""
+    meta_path = os.path.join(run_dir, "run.json")
+    try:
+        with open_regular(meta_path, encoding="utf-8") as f:
+            meta = json.load(f)
+    except (OSError, ValueError) as e:
+        raise PeerError(meta_path, f"cannot read the run's record: {e}") from e
+    wall_radius = read_vars(os.path.join(run_dir, "packing.data.vars")).get("wall_radius")
+    if wall_radius is None:
+        raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
+    series = lammps_series(os.path.join(run_dir, "lammps", "series.txt"))
+    est = estimates_after(series, start_time)
+    row = {"run": meta.get("run", os.path.basename(run_dir)), "V": meta.get("velocity"),
+           "kappa": meta.get("kappa"), "mu_eff_wall": est["mu_eff"],
+           "mu_eff_wall_err": est["mu_eff_err"], "L_y": est["height"],
+           "L_y_err": est["height_err"], "solid_fraction": est["solid_fraction"],
+           "solid_fraction_err": est["solid_fraction_err"]}
+    if bulk_h is not None:
+        snaps, lx = read_dump(os.path.join(run_dir, "lammps", "dump.txt"))
+        # over the whole series: the times are rounded in the file; a snapshot within 1e-9
+        # of the start counts as at it
+        steps_per_time = ((series["step"][-1] - series["step"][0])
+                          / (series["time"][-1] - series["time"][0]))
+        values = []
+        for step, rows in snaps:
+            if step / steps_per_time <= start_time + 1e-9 * max(1.0, start_time):
+                continue
+            bottom, top = wall_lines(rows, wall_radius)
+            values.append(stripe_solid_fraction(rows, lx, bottom + bulk_h, top - bulk_h))
+        if len(values) >= 16:
+            b = block_average(np.array(values))
+            row["nu_bulk"], row["nu_bulk_err"] = float(b["mean"]), float(b["err"])
+    return row
+
+
+def lammps_campaign(lammps_folder, campaign):
+    """The LAMMPS runs under lammps_folder (one folder per campaign run, named as the run) as a
+    campaign.Campaign whose rows average each run as its namesake in `campaign` (a Campaign or
+    a folder) is averaged: from its averaging start (summary.json's averaging_start_time, else
+    the second half) and with its bulk's h. Runs without a finished LAMMPS run are left out
+    (listed in `skipped`)."""
+    from .campaign import Campaign, _column, load_campaign
+    campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
+    rows, skipped = [], []
+    for ref in campaign.rows:
+        run_dir = os.path.join(lammps_folder, ref["run"])
+        if not os.path.exists(os.path.join(run_dir, "run.json")):
+            skipped.append((ref["run"], "no finished LAMMPS run"))
+            continue
+        start = None
+        try:
+            with open_regular(os.path.join(campaign.folder, "runs", ref["run"], "summary.json"),
+                              encoding="utf-8") as f:
+                start = json.load(f).get("averaging_start_time")
+        except (OSError, ValueError):
+            pass
+        if not isinstance(start, (int, float)) or not math.isfinite(start):
+            start = 0.5 * float(ref["duration"])
+        row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"))
+        row.update(system=ref.get("system"), seed=ref.get("seed"), regime="not classified")
+        rows.append(row)
+    keys = sorted({k for r in rows for k in r})
+    columns = {k: _column([r.get(k) for r in rows]) for k in keys}
+    return Campaign(name=f"LAMMPS beside {campaign.name}", folder=lammps_folder, rows=rows,
+                    columns=columns, skipped=skipped)

@@ -1,6 +1,7 @@
 """The LAMMPS peer's Python half (cdshear_analysis/peers.py): packing -> data file (counts, box,
-diameters, masses, wall rows), overlaps of a snapshot, the common second-half estimator.
-No LAMMPS needed."""
+diameters, masses, wall rows), overlaps of a snapshot, the common second-half estimator, a
+LAMMPS run's bulk solid fraction from exact circular segments and its pairing with a campaign's
+runs. No LAMMPS needed."""
 import json
 import math
 import os
@@ -11,8 +12,11 @@ import unittest
 
 import numpy as np
 
-from cdshear_analysis.peers import (PeerError, lammps_series, max_overlap, packing_to_lammps,
-                                    ripple, second_half_estimates, write_lammps_packing)
+from cdshear_analysis.campaign import Campaign, compare_campaigns, paired_differences
+from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_run_row, lammps_series,
+                                    max_overlap, packing_to_lammps, ripple, second_half_estimates,
+                                    segment_area, stripe_solid_fraction, wall_lines,
+                                    write_lammps_packing)
 
 PYTHON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -178,6 +182,90 @@ class Estimates(unittest.TestCase):
                 f.write("477 0.25 1\n")
             with self.assertRaises(PeerError):
                 lammps_series(path)
+
+
+def write_lammps_run(folder, name, velocity, bulk_rows, heights, mu):
+    """A finished LAMMPS run of lammps_campaign.sh: run.json, the variables, a series of 10
+    samples per time unit over 100 t (walls' force ratio mu, height from `heights(t)`) and a dump
+    every time unit whose snapshot k holds `bulk_rows(k)` between walls at 0 and 20."""
+    run_dir = os.path.join(folder, name)
+    os.makedirs(os.path.join(run_dir, "lammps"))
+    with open(os.path.join(run_dir, "run.json"), "w") as f:
+        json.dump({"run": name, "velocity": velocity, "duration": 100.0, "kappa": 2e4}, f)
+    with open(os.path.join(run_dir, "packing.data.vars"), "w") as f:
+        f.write("# test\nvariable wall_radius equal 0.5\nvariable length_x equal 10.0\n")
+    with open(os.path.join(run_dir, "lammps", "series.txt"), "w") as f:
+        f.write("# Time-averaged data\n# TimeStep v_now ...\n")
+        for k in range(1, 1001):
+            t = 0.1 * k
+            f.write(f"{100 * k} {t - 0.05} {mu * 5} -5 {-mu * 5} 5 {heights(t)} 0.8 0.0\n")
+    with open(os.path.join(run_dir, "lammps", "dump.txt"), "w") as f:
+        for k in range(101):
+            rows = bulk_rows(k)
+            walls = [[900, 2, 5.0, -0.5, 0.5], [901, 3, 5.0, 20.5, 0.5]]
+            f.write(f"ITEM: TIMESTEP\n{1000 * k}\nITEM: NUMBER OF ATOMS\n{len(rows) + 2}\n"
+                    "ITEM: BOX BOUNDS pp ff pp\n0 10\n-6 26\n-0.5 0.5\n"
+                    "ITEM: ATOMS id type x y radius\n")
+            for r in list(rows) + walls:
+                f.write(" ".join(f"{v:g}" for v in r) + "\n")
+    return run_dir
+
+
+class BesideACampaign(unittest.TestCase):
+    def test_segment_areas_are_exact(self):
+        r = np.array([0.5, 0.5, 0.5, 0.4])
+        whole = segment_area(r, np.full(4, -1.0), np.full(4, 1.0))
+        np.testing.assert_allclose(whole, np.pi * r * r, rtol=1e-14)
+        half = segment_area(r, np.zeros(4), np.full(4, 2.0))
+        np.testing.assert_allclose(half, 0.5 * np.pi * r * r, rtol=1e-14)
+        # a cap of height r / 2: r^2 acos(1 / 2) - (r / 2) sqrt(r^2 - r^2 / 4)
+        cap = segment_area(np.array([0.5]), np.array([0.25]), np.array([1.0]))[0]
+        self.assertAlmostEqual(cap, 0.25 * math.acos(0.5) - 0.25 * math.sqrt(0.25 - 0.0625), 14)
+
+    def test_stripe_solid_fraction_and_wall_lines(self):
+        rows = np.array([[1, 1, 2.0, 10.0, 0.5],     # inside: pi / 4
+                         [2, 1, 6.0, 15.0, 0.5],     # cut in half by y = 15
+                         [3, 1, 8.0, 3.0, 0.5],      # outside
+                         [4, 2, 5.0, -0.4, 0.5], [5, 2, 6.0, -0.6, 0.5],
+                         [6, 3, 5.0, 20.5, 0.5]])
+        self.assertEqual(wall_lines(rows, 0.5), (0.0, 20.0))
+        nu = stripe_solid_fraction(rows, 10.0, 5.0, 15.0)
+        self.assertAlmostEqual(nu, (0.25 * math.pi + 0.125 * math.pi) / 100.0, places=14)
+
+    def test_a_run_row_averages_after_the_start_and_pairs_with_its_namesake(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            # before t = 50 everything is off; after it the bulk holds one disk of radius 0.5
+            # (pi / 4 in 10 x 10), mu = 0.3 and L_y = 20
+            def bulk(k):
+                if k <= 50:
+                    return [[1, 1, 5.0, 10.0, 0.5], [2, 1, 2.0, 12.0, 0.5]]
+                return [[1, 1, 5.0, 10.0, 0.5], [2, 1, 2.0, 2.0, 0.5]]
+            def height(t):
+                return 25.0 if t <= 50 else 20.0
+            write_lammps_run(tmp, "s1_seed1_V0.05", 0.05, bulk, height, 0.3)
+            row = lammps_run_row(os.path.join(tmp, "s1_seed1_V0.05"), 50.0, 5.0)
+            self.assertAlmostEqual(row["mu_eff_wall"], 0.3, places=12)
+            self.assertAlmostEqual(row["L_y"], 20.0, places=12)
+            self.assertAlmostEqual(row["nu_bulk"], 0.25 * math.pi / 100.0, places=12)
+            self.assertLess(row["nu_bulk_err"], 1e-12)
+            write_lammps_run(tmp, "s1_seed2_V0.05", 0.05, bulk, height, 0.4)
+            cd_rows = [{"run": f"s1_seed{k}_V0.05", "system": 1, "seed": k, "V": 0.05,
+                        "duration": 100.0, "bulk_h": 5.0, "regime": "C",
+                        "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
+                        "L_y_err": 0.01, "nu_bulk": 0.007, "nu_bulk_err": 0.001}
+                       for k in (1, 2, 3)]
+            campaign = Campaign(name="fake", folder=os.path.join(tmp, "no-campaign"),
+                                rows=cd_rows)
+            peers = lammps_campaign(tmp, campaign)
+            self.assertEqual([r["run"] for r in peers.rows], ["s1_seed1_V0.05",
+                                                              "s1_seed2_V0.05"])
+            self.assertEqual(peers.skipped, [("s1_seed3_V0.05", "no finished LAMMPS run")])
+            paired = paired_differences(compare_campaigns(campaign, peers))[0]
+            self.assertEqual(paired["runs"], 2)
+            self.assertAlmostEqual(paired["mu_eff_wall"]["mean"], 0.10, places=12)
+            self.assertAlmostEqual(paired["L_y"]["mean"], -0.1, places=10)
+            self.assertAlmostEqual(paired["nu_bulk"]["mean"], 0.25 * math.pi / 100 - 0.007,
+                                   places=12)
 
 
 if __name__ == "__main__":
