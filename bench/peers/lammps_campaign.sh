@@ -13,13 +13,16 @@
 # dump.txt and log.lammps, run.json written when LAMMPS has finished); --kappa: LAMMPS' stiffness
 # level k_n / sigma_yy (default 2e4, as in "Side by side with LAMMPS"); --jobs: LAMMPS runs at
 # once, one core each (default 1); --runs: only these runs. A run with its run.json is not run
-# again, so the script resumes a stopped series run by run (an interrupted LAMMPS run starts over).
+# again (one made with another kappa is an error), so the script resumes a stopped series run by
+# run (an interrupted LAMMPS run starts over). in.shear holds the physics of docs/model.md: a run
+# whose case.toml sets another normal stress, friction, wall mass or initial velocity is refused.
 # Environment: LMP (default lmp; Debian's lammps package).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 die() { echo "lammps_campaign.sh: error: $*" >&2; exit 2; }
 
-[[ $# -ge 1 && "$1" != -h && "$1" != --help ]] || { sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
+[[ $# -ge 1 && "$1" != -h && "$1" != --help ]] ||
+  { sed -n '2,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 2; }
 campaign="$1"; shift
 out="" kappa=2e4 jobs=1 only=""
 while [ $# -gt 0 ]; do
@@ -43,16 +46,36 @@ mkdir -p "$out"
 out="$(cd "$out" && pwd)"
 campaign="$(cd "$campaign" && pwd)"
 
-# the value of KEY in the [shear] or [preparation] table of a case.toml
-case_value() { sed -n "s/^$2 = '\{0,1\}\([^']*\)'\{0,1\}$/\1/p" "$1" | head -1; }
+# the value of KEY (a number or a quoted string) in case.toml, its first line `KEY = VALUE`
+case_value() { sed -n "s/^$2 = '\{0,1\}\([^'#]*\)'\{0,1\}[[:space:]]*\r\{0,1\}$/\1/p" "$1" | head -1; }
+# whether two numbers are equal (awk reads 0.050000000000000003 as 0.05)
+same_number() { awk -v a="$1" -v b="$2" 'BEGIN{exit !(a + 0 == b + 0 && a != "")}'; }
 
 one_run() {
   local name="$1" case_file="$campaign/runs/$1/case.toml" dir="$out/$1"
-  [ -f "$dir/run.json" ] && { echo "$name: done before"; return 0; }
-  local packing velocity duration
+  if [ -f "$dir/run.json" ]; then
+    local made
+    made="$(sed -n 's/.*"kappa": \([^,]*\),.*/\1/p' "$dir/run.json")"
+    same_number "$made" "$kappa" \
+      || { echo "$name: $dir/run.json was made with kappa $made, not $kappa" >&2; return 1; }
+    echo "$name: done before"; return 0
+  fi
+  local packing velocity duration key want got
   packing="$(case_value "$case_file" packing)"
   velocity="$(case_value "$case_file" velocity)"
   duration="$(case_value "$case_file" duration)"
+  for key in velocity duration; do
+    [[ "$(case_value "$case_file" $key)" =~ ^[0-9.eE+-]+$ ]] \
+      || { echo "$name: $case_file: no number for shear.$key" >&2; return 1; }
+  done
+  for want in normal_stress=0.25 friction_grain=0.5 friction_wall=0.5 wall_mass=50; do
+    key="${want%=*}"; got="$(case_value "$case_file" "$key")"
+    [ -z "$got" ] || same_number "$got" "${want#*=}" \
+      || { echo "$name: $case_file: $key = $got; in.shear runs ${want#*=} only" >&2; return 1; }
+  done
+  got="$(case_value "$case_file" initial_velocity)"
+  [ -z "$got" ] || [ "$got" = linear ] \
+    || { echo "$name: $case_file: initial_velocity = '$got'; in.shear starts linear only" >&2; return 1; }
   # a campaign moved since its runs were made: its own packings/ folder
   [ -f "$packing" ] || packing="$campaign/packings/$(basename "$packing")"
   [ -f "$packing" ] || { echo "$name: packing '$packing' not found" >&2; return 1; }
@@ -71,7 +94,7 @@ one_run() {
     "$(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.3f", b - a}')" >"$dir/run.json"
   echo "$name: LAMMPS done ($(awk -v a="$t0" -v b="$t1" 'BEGIN{printf "%.0f", b - a}') s)"
 }
-export -f one_run case_value
+export -f one_run case_value same_number
 export campaign out kappa lmp python root
 
 names=()
@@ -82,7 +105,9 @@ for d in "$campaign"/runs/*/; do
   names+=("$name")
 done
 [ ${#names[@]} -gt 0 ] || die "no run with a case.toml in $campaign/runs"
-failed=0
-printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c 'one_run "$@"' _ {} || failed=1
-PYTHONPATH="$root/python" "$python" -m cdshear_analysis lammps-compare "$campaign" "$out"
+failed=0 compared=0
+printf '%s\0' "${names[@]}" | xargs -0 -n 1 -P "$jobs" bash -c 'one_run "$1"' _ || failed=1
+PYTHONPATH="$root/python" "$python" -m cdshear_analysis lammps-compare "$campaign" "$out" \
+  || compared=1
 [ "$failed" = 0 ] || die "some LAMMPS runs failed (above); the table holds the others"
+[ "$compared" = 0 ] || die "lammps-compare failed (above)"

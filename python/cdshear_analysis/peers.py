@@ -28,11 +28,12 @@ m = pi r^2 (2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for 
 import json
 import math
 import os
+import tomllib
 
 import numpy as np
 
 from .rundata import open_regular
-from .statistics import block_average
+from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
 WALL_MASS = 50.0        # M_w of model.md section 4, mass of each wall
@@ -375,18 +376,34 @@ def stripe_solid_fraction(rows, lx, lower, upper):
     return float(segment_area(r, lower - y, upper - y).sum() / (lx * (upper - lower)))
 
 
-def lammps_run_row(run_dir, start_time, bulk_h):
+def bulk_stripes(height, bulk_h, stripe_thickness):
+    """(lower, upper) heights above the bottom wall line of the bulk as cdshear takes it: the
+    stripes of thickness dy from the bottom wall line whose centres (k + 1/2) dy lie in bulk_h <
+    y < height - bulk_h (python/cdshear_analysis/profiles.py, region_quantities), all of them
+    (None where there is none)."""
+    dy = stripe_thickness
+    first = math.floor(bulk_h / dy - 0.5) + 1
+    last = math.ceil((height - bulk_h) / dy - 0.5) - 1
+    return (first * dy, (last + 1) * dy) if last >= first else None
+
+
+def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.0):
     """One LAMMPS run of bench/peers/lammps_campaign.sh (RUN_DIR/run.json, packing.data.vars,
     lammps/series.txt and lammps/dump.txt) as a runs.csv-like row averaged over t > start_time:
-    mu_eff_wall, L_y and solid_fraction from the series (`estimates_after`), nu_bulk from the
-    dump's snapshots, the grain area between bulk_h above the bottom wall line and bulk_h below
-    the top one (docs/model.md section 7), block-averaged over the snapshots (errors `_err`)."""
+    mu_eff_wall, L_y and solid_fraction from the series (`estimates_after`); nu_bulk from the
+    dump's snapshots as cdshear measures it (docs/model.md section 7): the snapshots in windows
+    of `window` time units, [k window, (k + 1) window], each whole and after start_time; in each,
+    the grain area in the bulk's stripes (`bulk_stripes` of the window's mean wall distance);
+    the mean over the windows and its standard error (`nu_bulk_err`). No nu_bulk where bulk_h
+    is None or fewer than two windows hold a bulk."""
     meta_path = os.path.join(run_dir, "run.json")
     try:
         with open_regular(meta_path, encoding="utf-8") as f:
             meta = json.load(f)
     except (OSError, ValueError) as e:
         raise PeerError(meta_path, f"cannot read the run's record: {e}") from e
+    if not isinstance(meta, dict):
+        raise PeerError(meta_path, "the run's record is not a JSON object")
     wall_radius = read_vars(os.path.join(run_dir, "packing.data.vars")).get("wall_radius")
     if wall_radius is None:
         raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
@@ -397,21 +414,34 @@ def lammps_run_row(run_dir, start_time, bulk_h):
            "mu_eff_wall_err": est["mu_eff_err"], "L_y": est["height"],
            "L_y_err": est["height_err"], "solid_fraction": est["solid_fraction"],
            "solid_fraction_err": est["solid_fraction_err"]}
-    if bulk_h is not None:
-        snaps, lx = read_dump(os.path.join(run_dir, "lammps", "dump.txt"))
-        # over the whole series: the times are rounded in the file; a snapshot within 1e-9
-        # of the start counts as at it
-        steps_per_time = ((series["step"][-1] - series["step"][0])
-                          / (series["time"][-1] - series["time"][0]))
-        values = []
-        for step, rows in snaps:
-            if step / steps_per_time <= start_time + 1e-9 * max(1.0, start_time):
-                continue
-            bottom, top = wall_lines(rows, wall_radius)
-            values.append(stripe_solid_fraction(rows, lx, bottom + bulk_h, top - bulk_h))
-        if len(values) >= 16:
-            b = block_average(np.array(values))
-            row["nu_bulk"], row["nu_bulk_err"] = float(b["mean"]), float(b["err"])
+    if bulk_h is None:
+        return row
+    snaps, lx = read_dump(os.path.join(run_dir, "lammps", "dump.txt"))
+    # the series' times are printed to six digits: steps per time unit from its whole span,
+    # and a snapshot's window from its time to within a thousandth of a time unit
+    steps_per_time = ((series["step"][-1] - series["step"][0])
+                      / (series["time"][-1] - series["time"][0]))
+    last_time = snaps[-1][0] / steps_per_time
+    first_window = math.ceil(start_time / window - 1e-6)
+    windows = {}
+    for step, rows in snaps:
+        t = step / steps_per_time
+        k = math.ceil(t / window - 1e-6) - 1          # (k window, (k + 1) window]
+        if k < first_window or (k + 1) * window > last_time + 1e-3:
+            continue
+        bottom, top = wall_lines(rows, wall_radius)
+        windows.setdefault(k, []).append((bottom, top - bottom, rows))
+    values = []
+    for k in sorted(windows):
+        snapshots = windows[k]
+        stripes = bulk_stripes(float(np.mean([h for _, h, _ in snapshots])), bulk_h,
+                               stripe_thickness)
+        if stripes is not None:
+            values.append(np.mean([stripe_solid_fraction(rows, lx, bottom + stripes[0],
+                                                         bottom + stripes[1])
+                                   for bottom, _, rows in snapshots]))
+    if len(values) >= 2:
+        row["nu_bulk"], row["nu_bulk_err"] = window_mean(np.array(values))
     return row
 
 
@@ -419,8 +449,9 @@ def lammps_campaign(lammps_folder, campaign):
     """The LAMMPS runs under lammps_folder (one folder per campaign run, named as the run) as a
     campaign.Campaign whose rows average each run as its namesake in `campaign` (a Campaign or
     a folder) is averaged: from its averaging start (summary.json's averaging_start_time, else
-    the second half) and with its bulk's h. Runs without a finished LAMMPS run are left out
-    (listed in `skipped`)."""
+    the second half), with its bulk's h, its stripes' thickness and its window (case.toml's
+    measure.stripe_thickness and measure.window, else 1 and 80). Runs without a finished LAMMPS
+    run are left out (listed in `skipped`)."""
     from .campaign import Campaign, _column, load_campaign
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     rows, skipped = [], []
@@ -429,19 +460,43 @@ def lammps_campaign(lammps_folder, campaign):
         if not os.path.exists(os.path.join(run_dir, "run.json")):
             skipped.append((ref["run"], "no finished LAMMPS run"))
             continue
-        start = None
+        ref_dir = os.path.join(campaign.folder, "runs", ref["run"])
+        summary = _json_object(os.path.join(ref_dir, "summary.json"))
+        measure = {}
         try:
-            with open_regular(os.path.join(campaign.folder, "runs", ref["run"], "summary.json"),
-                              encoding="utf-8") as f:
-                start = json.load(f).get("averaging_start_time")
+            with open_regular(os.path.join(ref_dir, "case.toml"), encoding="utf-8") as f:
+                measure = tomllib.loads(f.read()).get("measure", {})
         except (OSError, ValueError):
             pass
-        if not isinstance(start, (int, float)) or not math.isfinite(start):
+        start = summary.get("averaging_start_time")
+        if not _positive_number(start, zero=True):
+            if not _positive_number(ref.get("duration")):
+                skipped.append((ref["run"], "neither an averaging start nor a duration"))
+                continue
             start = 0.5 * float(ref["duration"])
-        row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"))
+        dy, window = measure.get("stripe_thickness"), measure.get("window")
+        row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"),
+                             float(dy) if _positive_number(dy) else 1.0,
+                             float(window) if _positive_number(window) else 80.0)
         row.update(system=ref.get("system"), seed=ref.get("seed"), regime="not classified")
         rows.append(row)
     keys = sorted({k for r in rows for k in r})
     columns = {k: _column([r.get(k) for r in rows]) for k in keys}
     return Campaign(name=f"LAMMPS beside {campaign.name}", folder=lammps_folder, rows=rows,
                     columns=columns, skipped=skipped)
+
+
+def _json_object(path):
+    """The JSON object in path, or {} where it is missing, unreadable or not an object."""
+    try:
+        with open_regular(path, encoding="utf-8") as f:
+            value = json.load(f)
+    except (OSError, ValueError):
+        return {}
+    return value if isinstance(value, dict) else {}
+
+
+def _positive_number(value, zero=False):
+    """Whether value is a finite number above 0 (at or above it with zero=True)."""
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and (value >= 0 if zero else value > 0))

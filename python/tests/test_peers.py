@@ -15,7 +15,8 @@ import numpy as np
 from cdshear_analysis.campaign import Campaign, compare_campaigns, paired_differences
 from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_run_row, lammps_series,
                                     max_overlap, packing_to_lammps, ripple, second_half_estimates,
-                                    segment_area, stripe_solid_fraction, wall_lines,
+                                    bulk_stripes, segment_area, stripe_solid_fraction,
+                                    wall_lines,
                                     write_lammps_packing)
 
 PYTHON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -184,26 +185,27 @@ class Estimates(unittest.TestCase):
                 lammps_series(path)
 
 
-def write_lammps_run(folder, name, velocity, bulk_rows, heights, mu):
-    """A finished LAMMPS run of lammps_campaign.sh: run.json, the variables, a series of 10
-    samples per time unit over 100 t (walls' force ratio mu, height from `heights(t)`) and a dump
-    every time unit whose snapshot k holds `bulk_rows(k)` between walls at 0 and 20."""
+def write_lammps_run(folder, name, bulk_rows, mu, top_line=20.0):
+    """A finished LAMMPS run of lammps_campaign.sh over 100 t: run.json, the variables, a series
+    of 10 samples per time unit (the walls' force ratio mu(t), the height top_line, times
+    printed to six digits as LAMMPS' %g does) and a dump every time unit whose snapshot k holds
+    `bulk_rows(k)` between wall lines at 0 and top_line."""
     run_dir = os.path.join(folder, name)
     os.makedirs(os.path.join(run_dir, "lammps"))
     with open(os.path.join(run_dir, "run.json"), "w") as f:
-        json.dump({"run": name, "velocity": velocity, "duration": 100.0, "kappa": 2e4}, f)
+        json.dump({"run": name, "velocity": 0.05, "duration": 100.0, "kappa": 2e4}, f)
     with open(os.path.join(run_dir, "packing.data.vars"), "w") as f:
         f.write("# test\nvariable wall_radius equal 0.5\nvariable length_x equal 10.0\n")
     with open(os.path.join(run_dir, "lammps", "series.txt"), "w") as f:
         f.write("# Time-averaged data\n# TimeStep v_now ...\n")
         for k in range(1, 1001):
-            t = 0.1 * k
-            f.write(f"{100 * k} {t - 0.05} {mu * 5} -5 {-mu * 5} 5 {heights(t)} 0.8 0.0\n")
+            t = 0.1 * k - 0.05
+            f.write(f"{225 * k} {t:g} {mu(t) * 5:g} -5 {-mu(t) * 5:g} 5 {top_line:g} 0.8 0\n")
     with open(os.path.join(run_dir, "lammps", "dump.txt"), "w") as f:
         for k in range(101):
             rows = bulk_rows(k)
-            walls = [[900, 2, 5.0, -0.5, 0.5], [901, 3, 5.0, 20.5, 0.5]]
-            f.write(f"ITEM: TIMESTEP\n{1000 * k}\nITEM: NUMBER OF ATOMS\n{len(rows) + 2}\n"
+            walls = [[900, 2, 5.0, -0.5, 0.5], [901, 3, 5.0, top_line + 0.5, 0.5]]
+            f.write(f"ITEM: TIMESTEP\n{2250 * k}\nITEM: NUMBER OF ATOMS\n{len(rows) + 2}\n"
                     "ITEM: BOX BOUNDS pp ff pp\n0 10\n-6 26\n-0.5 0.5\n"
                     "ITEM: ATOMS id type x y radius\n")
             for r in list(rows) + walls:
@@ -232,38 +234,56 @@ class BesideACampaign(unittest.TestCase):
         nu = stripe_solid_fraction(rows, 10.0, 5.0, 15.0)
         self.assertAlmostEqual(nu, (0.25 * math.pi + 0.125 * math.pi) / 100.0, places=14)
 
-    def test_a_run_row_averages_after_the_start_and_pairs_with_its_namesake(self):
+    def test_the_bulk_is_whole_stripes_with_centres_inside(self):
+        # L_y 20.25, h 5: centres 5.5 to 14.5 (15.5 > 15.25); L_y 20.6: 5.5 to 15.5
+        self.assertEqual(bulk_stripes(20.25, 5.0, 1.0), (5.0, 15.0))
+        self.assertEqual(bulk_stripes(20.6, 5.0, 1.0), (5.0, 16.0))
+        self.assertEqual(bulk_stripes(20.0, 5.0, 0.5), (5.0, 15.0))
+        self.assertEqual(bulk_stripes(20.0, 4.9, 1.0), (5.0, 15.0))
+        self.assertEqual(bulk_stripes(20.0, 5.5, 1.0), (6.0, 14.0))
+        self.assertIsNone(bulk_stripes(10.4, 5.0, 1.0))
+
+    def test_runs_are_averaged_as_their_namesakes_and_paired_with_them(self):
+        # The campaign's runs average from t = 30 (summary.json; the second half would be 50)
+        # in windows of 10 t with stripes of 1 (case.toml). L_y = 20.3 and h = 5: the bulk is the
+        # stripes with centres 5.5 to 14.5, [5, 15], so a grain in [15.05, 15.25] is not in it.
+        def bulk(k):
+            inside, above = [1, 1, 5.0, 10.0, 0.5], [2, 1, 2.0, 15.15, 0.1]
+            return [inside, above] + ([[3, 1, 7.0, 12.0, 0.5]] if k <= 30 else [])
+
+        def mu(t):
+            return 0.9 if t <= 30 else 0.3 if t <= 50 else 0.5
+
         with tempfile.TemporaryDirectory() as tmp:
-            # before t = 50 everything is off; after it the bulk holds one disk of radius 0.5
-            # (pi / 4 in 10 x 10), mu = 0.3 and L_y = 20
-            def bulk(k):
-                if k <= 50:
-                    return [[1, 1, 5.0, 10.0, 0.5], [2, 1, 2.0, 12.0, 0.5]]
-                return [[1, 1, 5.0, 10.0, 0.5], [2, 1, 2.0, 2.0, 0.5]]
-            def height(t):
-                return 25.0 if t <= 50 else 20.0
-            write_lammps_run(tmp, "s1_seed1_V0.05", 0.05, bulk, height, 0.3)
-            row = lammps_run_row(os.path.join(tmp, "s1_seed1_V0.05"), 50.0, 5.0)
-            self.assertAlmostEqual(row["mu_eff_wall"], 0.3, places=12)
-            self.assertAlmostEqual(row["L_y"], 20.0, places=12)
-            self.assertAlmostEqual(row["nu_bulk"], 0.25 * math.pi / 100.0, places=12)
-            self.assertLess(row["nu_bulk_err"], 1e-12)
-            write_lammps_run(tmp, "s1_seed2_V0.05", 0.05, bulk, height, 0.4)
-            cd_rows = [{"run": f"s1_seed{k}_V0.05", "system": 1, "seed": k, "V": 0.05,
-                        "duration": 100.0, "bulk_h": 5.0, "regime": "C",
-                        "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
-                        "L_y_err": 0.01, "nu_bulk": 0.007, "nu_bulk_err": 0.001}
-                       for k in (1, 2, 3)]
-            campaign = Campaign(name="fake", folder=os.path.join(tmp, "no-campaign"),
-                                rows=cd_rows)
-            peers = lammps_campaign(tmp, campaign)
+            peers_dir, campaign_dir = os.path.join(tmp, "lammps"), os.path.join(tmp, "campaign")
+            cd_rows = []
+            for k in (1, 2, 3):
+                name = f"s1_seed{k}_V0.05"
+                run = os.path.join(campaign_dir, "runs", name)
+                os.makedirs(run)
+                with open(os.path.join(run, "summary.json"), "w") as f:
+                    json.dump({"averaging_start_time": 30.0}, f)
+                with open(os.path.join(run, "case.toml"), "w") as f:
+                    f.write("[measure]\nstripe_thickness = 1.0\nwindow = 10.0\n")
+                cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05,
+                                "duration": 100.0, "bulk_h": 5.0, "regime": "C",
+                                "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
+                                "L_y_err": 0.01, "nu_bulk": 0.007, "nu_bulk_err": 0.001})
+                if k < 3:
+                    write_lammps_run(peers_dir, name, bulk, mu, top_line=20.3)
+            campaign = Campaign(name="fake", folder=campaign_dir, rows=cd_rows)
+            peers = lammps_campaign(peers_dir, campaign)
             self.assertEqual([r["run"] for r in peers.rows], ["s1_seed1_V0.05",
                                                               "s1_seed2_V0.05"])
             self.assertEqual(peers.skipped, [("s1_seed3_V0.05", "no finished LAMMPS run")])
+            row = peers.rows[0]
+            self.assertAlmostEqual(row["mu_eff_wall"], (0.3 * 200 + 0.5 * 500) / 700, places=6)
+            self.assertAlmostEqual(row["L_y"], 20.3, places=12)
+            self.assertAlmostEqual(row["nu_bulk"], 0.25 * math.pi / 100.0, places=12)
+            self.assertLess(row["nu_bulk_err"], 1e-12)
             paired = paired_differences(compare_campaigns(campaign, peers))[0]
             self.assertEqual(paired["runs"], 2)
-            self.assertAlmostEqual(paired["mu_eff_wall"]["mean"], 0.10, places=12)
-            self.assertAlmostEqual(paired["L_y"]["mean"], -0.1, places=10)
+            self.assertAlmostEqual(paired["L_y"]["mean"], 0.2, places=10)
             self.assertAlmostEqual(paired["nu_bulk"]["mean"], 0.25 * math.pi / 100 - 0.007,
                                    places=12)
 
