@@ -65,7 +65,7 @@ one_run() {
   velocity="$(case_value "$case_file" velocity)"
   duration="$(case_value "$case_file" duration)"
   for key in velocity duration; do
-    [[ "$(case_value "$case_file" $key)" =~ ^[0-9.eE+-]+$ ]] \
+    [[ "${!key}" =~ ^[0-9.eE+-]+$ ]] \
       || { echo "$name: $case_file: no number for shear.$key" >&2; return 1; }
   done
   for want in normal_stress=0.25 friction_grain=0.5 friction_wall=0.5 wall_mass=50; do

@@ -101,8 +101,8 @@ def main(argv=None):
         return 0
 
     if args.command == "lammps-compare":
-        from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import load_campaign
+        from .campaign import (compare_campaigns, format_comparison as format_campaigns,
+                               load_campaign)
         from .peers import PeerError, lammps_campaign
         from .report import ReportError
         try:   # both errors name a path and its problem

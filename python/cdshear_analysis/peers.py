@@ -453,6 +453,7 @@ def lammps_campaign(lammps_folder, campaign):
     measure.stripe_thickness and measure.window, else 1 and 80). Runs without a finished LAMMPS
     run are left out (listed in `skipped`)."""
     from .campaign import Campaign, _column, load_campaign
+    from .report import ReportError, read_summary
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     rows, skipped = [], []
     for ref in campaign.rows:
@@ -461,7 +462,11 @@ def lammps_campaign(lammps_folder, campaign):
             skipped.append((ref["run"], "no finished LAMMPS run"))
             continue
         ref_dir = os.path.join(campaign.folder, "runs", ref["run"])
-        summary = _json_object(os.path.join(ref_dir, "summary.json"))
+        try:
+            summary = read_summary(ref_dir)
+        except ReportError:
+            summary = None
+        summary = summary if isinstance(summary, dict) else {}
         measure = {}
         try:
             with open_regular(os.path.join(ref_dir, "case.toml"), encoding="utf-8") as f:
@@ -484,16 +489,6 @@ def lammps_campaign(lammps_folder, campaign):
     columns = {k: _column([r.get(k) for r in rows]) for k in keys}
     return Campaign(name=f"LAMMPS beside {campaign.name}", folder=lammps_folder, rows=rows,
                     columns=columns, skipped=skipped)
-
-
-def _json_object(path):
-    """The JSON object in path, or {} where it is missing, unreadable or not an object."""
-    try:
-        with open_regular(path, encoding="utf-8") as f:
-            value = json.load(f)
-    except (OSError, ValueError):
-        return {}
-    return value if isinstance(value, dict) else {}
 
 
 def _positive_number(value, zero=False):
