@@ -817,11 +817,12 @@ void error_spectrum(const std::vector<cdshear::Contact>& a, const std::vector<cd
 
 /// --dump-samples: each sample as text for offline study, FOLDER/sample_K_contacts.txt (one line
 /// per contact: bodies, normal, levers, arm, gap, friction, tested and reference impulses) and
-/// FOLDER/sample_K_bodies.txt (position, inverse masses and inertia; walls after the disks, at
-/// their points), with the periodic length and the walls' heights on each file's first line.
+/// FOLDER/sample_K_bodies.txt (position, inverse masses and inertia, and the velocities after the
+/// reference solve: v_x, v_y, omega; walls after the disks, at their points), with the periodic
+/// length, the walls' heights and the time step on each file's first line.
 void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Contact>& a,
                  const std::vector<cdshear::Contact>& b,
-                 const std::vector<cdshear::SolverBody>& bodies, const World& world) {
+                 const std::vector<cdshear::SolverBody>& bodies, const World& world, double dt) {
   std::filesystem::create_directories(folder);
   const std::string stem = folder + "/sample_" + std::to_string(k);
   const auto open = [](const std::string& path) {
@@ -838,7 +839,7 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
   const double y0 = world.walls[cdshear::kBoxBottomWall].point.y;
   const double y1 = world.walls[cdshear::kBoxTopWall].point.y;
   std::FILE* f = open(stem + "_contacts.txt");
-  std::fprintf(f, "# %.17g %.17g %.17g\n", lx, y0, y1);
+  std::fprintf(f, "# %.17g %.17g %.17g %.17g\n", lx, y0, y1, dt);
   for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
     const cdshear::Contact& c = b[i];
     std::fprintf(
@@ -848,15 +849,16 @@ void dump_sample(const std::string& folder, int k, const std::vector<cdshear::Co
   }
   close(f, stem + "_contacts.txt");
   f = open(stem + "_bodies.txt");
-  std::fprintf(f, "# %.17g %.17g %.17g\n", lx, y0, y1);
+  std::fprintf(f, "# %.17g %.17g %.17g %.17g\n", lx, y0, y1, dt);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     cdshear::Vec2 p{0.0, 0.0};
     if (i < world.disks.size())
       p = world.disks.position[i];
     else if (i - world.disks.size() < world.walls.size())
       p = world.walls[i - world.disks.size()].point;
-    std::fprintf(f, "%.17g %.17g %.17g %.17g %.17g\n", p.x, p.y, bodies[i].inv_mass.x,
-                 bodies[i].inv_mass.y, bodies[i].inv_inertia);
+    std::fprintf(f, "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", p.x, p.y,
+                 bodies[i].inv_mass.x, bodies[i].inv_mass.y, bodies[i].inv_inertia,
+                 bodies[i].velocity.x, bodies[i].velocity.y, bodies[i].omega);
   }
   close(f, stem + "_bodies.txt");
 }
@@ -1174,7 +1176,7 @@ void step_error(World& world, ContactDynamics& dynamics, const StepOptions& opti
         ref_capped ? "  (reference not converged: at its cap)" : "");
     sweeps.push_back(r_opt.solver.sweeps);
     if (s.error_locality) error_locality(a, b, world);
-    if (!dump_folder.empty()) dump_sample(dump_folder, k, a, b, d_ref.bodies(), world);
+    if (!dump_folder.empty()) dump_sample(dump_folder, k, a, b, d_ref.bodies(), world, options.dt);
     if (s.stress_error) {
       StressTally tested, reference;
       tested.add(a, world);

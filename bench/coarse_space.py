@@ -49,7 +49,8 @@ NULL_LEVEL = 1e-10
 class Sample:
     def __init__(self, stem):
         with open(stem + "_contacts.txt") as f:
-            self.length_x, self.y_bottom, self.y_top = map(float, f.readline()[2:].split())
+            header = [float(x) for x in f.readline()[2:].split()]
+            self.length_x, self.y_bottom, self.y_top = header[:3]  # then the time step
         contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
         bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
         self.c = contacts[contacts[:, REFERENCE_N] > 0.0]  # force-carrying in the reference

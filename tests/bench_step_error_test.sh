@@ -3,10 +3,13 @@
 # reference's own settings the tested solve is the reference's, bit for bit (every error exactly
 # 0, --stress-error's too), and with the shear defaults it is not (a median impulse error above
 # 0, --error-locality's shares within [0, 1], a stress error in some stripe); --reference-newton
-# with --polish ends each sample's polish on a solution.
+# with --polish ends each sample's polish on a solution; the samples --dump-samples writes hold
+# the reference's step (bench/admm_step.py finds its contact laws met to round-off from the dumped
+# contacts, impulses and velocities).
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
+admm_step=$(cd "$(dirname "$0")/../bench" && pwd)/admm_step.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -27,7 +30,7 @@ if [[ $(grep -c "stress error:" same.txt) != 2 || $(grep "stress error:" same.tx
   echo "FAIL: the reference's settings gave a stress error"; grep "stress error:" same.txt
   fails=$((fails + 1))
 fi
-if ! "$bench" "${common[@]}" > defaults.csv 2> defaults.txt; then
+if ! "$bench" "${common[@]}" --dump-samples dump > defaults.csv 2> defaults.txt; then
   echo "FAIL: cdshear_bench with the shear defaults failed"; cat defaults.txt; exit 1
 fi
 median=$(sed -n 's/.*median impulse error \([^ ]*\) .*/\1/p' defaults.txt)
@@ -48,6 +51,22 @@ if [[ "$stripes" == 0 ]]; then
   echo "FAIL: the shear defaults' steps gave no stress error in any stripe"
   grep "stress error:" defaults.txt; fails=$((fails + 1))
 fi
+# The dumped samples: the reference's impulses and velocities meet the contact laws to round-off
+# (W, the free term and the laws formed from the dump alone), the tested ones do not; twenty ADMM
+# iterations from the tested impulses stay finite.
+samples=(dump/shear_n*)
+for k in 0 1; do
+  if ! /usr/bin/python3 "$admm_step" "${samples[0]}/sample_$k" --rho 1 --iterations 20 > admm_$k.txt 2>&1; then
+    echo "FAIL: admm_step.py on dumped sample $k failed"; cat admm_$k.txt; fails=$((fails + 1)); continue
+  fi
+  if ! awk '/candidates/ { t = $0; sub(/.*tested: error /, "", t); split(t, a, /[ ,;]+/);
+                           r = $0; sub(/.*reference residual /, "", r);
+                           ok = (a[3] + 0 > 1e-6 && r + 0 < 1e-8) }
+            /from tested/ { f = ($0 !~ /nan|inf/) } END { exit !(ok && f) }' admm_$k.txt; then
+    echo "FAIL: dumped sample $k: expected the reference's laws met and the tested ones not"
+    cat admm_$k.txt; fails=$((fails + 1))
+  fi
+done
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at
 # round-off) on every sample.
