@@ -16,11 +16,12 @@ ADMMContactSolver and Chrono's ChSolverADMM do:
     s = (mu |u_t(z)|, 0) every --shift-period iterations (De Saxce's shift, which turns Coulomb's
         non-associated law into a cone complementarity problem for a fixed s)
 
-The time step is read from the sample's first line. Starts from the tested impulses (the sweeps' answer, y = -(u + s) there, so that a solution is a fixed
-point) or from zero. Prints, at some iterations, |z - R_ref| / |R_ref| (the per-step error of
-docs/step-error.md) and the natural-map residual |R - R'| / |R|, R'_n = max(0, R_n - u_n / w_nn),
-R'_t = clamp(R_t - u_t / w_tt, -mu R'_n, mu R'_n). --write-matrix F writes W + F w_nn I (w_nn the
-mean of W's normal diagonal) as sample_K_w.mtx for `cdshear_factor_cost`.
+The time step is read from the sample's first line. Starts from the tested impulses (the sweeps'
+answer, y = -(u + s) there, so that a solution is a fixed point) or from zero. Prints, at some
+iterations, |z - R_ref| / |R_ref| (the per-step error of docs/step-error.md) and the natural-map
+residual |R - R'| / |R|, R'_n = max(0, R_n - u_n / w_nn), R'_t = clamp(R_t - u_t / w_tt, -mu R'_n,
+mu R'_n). --write-matrix F writes W + F w_nn I (w_nn the mean of W's normal diagonal) as
+sample_K_w.mtx for `cdshear_factor_cost`.
 
   cdshear_bench --packing P --velocity V --no-static --steps 40 --warmup 1000 --step-error 3 \
       --reference-relaxation 1.6 --reference-anderson 5 --dump-samples DIR
@@ -44,7 +45,7 @@ REPORTED = (1, 2, 5, 10, 20, 50, 100, 200, 500)
 
 
 def contact_jacobian(contacts, bodies):
-    """H: row 2k the normal velocity of contact k (body A's minus body B's), 2k + 1 its tangent's."""
+    """H: row 2k the normal velocity of contact k (body A's less body B's), 2k + 1 the tangent's."""
     rows, cols, vals = [], [], []
     for k, r in enumerate(contacts):
         n = r[[NX, NY]]
