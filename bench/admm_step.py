@@ -36,26 +36,11 @@ import scipy.io
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import (BODY_A, BODY_B, LEVER_A, LEVER_B, NX, NY, REFERENCE_N, REFERENCE_T,
-                          TESTED_N, TESTED_T)
+from coarse_space import (FRICTION, GAP, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
+                          contact_jacobian)
 
-GAP, FRICTION = 8, 9  # further columns of sample_K_contacts.txt
-INV_MASS, VELOCITY = slice(2, 5), slice(5, 8)  # columns of sample_K_bodies.txt
+VELOCITY = slice(5, 8)  # columns of sample_K_bodies.txt: v_x, v_y, omega after the reference
 REPORTED = (1, 2, 5, 10, 20, 50, 100, 200, 500)
-
-
-def contact_jacobian(contacts, bodies):
-    """H: row 2k the normal velocity of contact k (body A's less body B's), 2k + 1 the tangent's."""
-    rows, cols, vals = [], [], []
-    for k, r in enumerate(contacts):
-        n = r[[NX, NY]]
-        t = np.array([-n[1], n[0]])
-        for body, sign, lever in ((int(r[BODY_A]), 1.0, r[LEVER_A]),
-                                  (int(r[BODY_B]), -1.0, r[LEVER_B])):
-            rows += [2 * k, 2 * k, 2 * k + 1, 2 * k + 1, 2 * k + 1]
-            cols += [3 * body, 3 * body + 1, 3 * body, 3 * body + 1, 3 * body + 2]
-            vals += [sign * n[0], sign * n[1], sign * t[0], sign * t[1], lever]
-    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(contacts), 3 * len(bodies)))
 
 
 def cone_projection(x, mu):

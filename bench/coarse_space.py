@@ -41,9 +41,27 @@ import scipy.sparse.linalg as sla
 
 # Columns of sample_K_contacts.txt (cdshear_bench's dump_sample).
 BODY_A, BODY_B, NX, NY, LEVER_A, LEVER_B, ARM_X, ARM_Y = 0, 1, 2, 3, 4, 5, 6, 7
+GAP, FRICTION = 8, 9
 TESTED_N, TESTED_T, REFERENCE_N, REFERENCE_T = 10, 11, 12, 13
+# Columns of sample_K_bodies.txt: 1/m along x and y, 1/I.
+INV_MASS = slice(2, 5)
 # W's null space: eigenvalues below this share of its largest (self-stresses, to round-off).
 NULL_LEVEL = 1e-10
+
+
+def contact_jacobian(contacts, bodies):
+    """H, u = H v: row 2k the normal relative velocity of contact k (body A's less body B's), 2k + 1
+    the tangential one; columns 3b, 3b + 1, 3b + 2 body b's v_x, v_y, omega."""
+    rows, cols, vals = [], [], []
+    for k, r in enumerate(contacts):
+        n = r[[NX, NY]]
+        t = np.array([-n[1], n[0]])
+        for body, sign, lever in ((int(r[BODY_A]), 1.0, r[LEVER_A]),
+                                  (int(r[BODY_B]), -1.0, r[LEVER_B])):
+            rows += [2 * k, 2 * k, 2 * k + 1, 2 * k + 1, 2 * k + 1]
+            cols += [3 * body, 3 * body + 1, 3 * body, 3 * body + 1, 3 * body + 2]
+            vals += [sign * n[0], sign * n[1], sign * t[0], sign * t[1], lever]
+    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(contacts), 3 * len(bodies)))
 
 
 class Sample:
@@ -64,18 +82,8 @@ class Sample:
 
     def operator(self):
         """A = M^-1/2 H^T: column 2k the normal impulse of contact k, 2k + 1 its tangential one."""
-        rows, cols, vals = [], [], []
-        for k, r in enumerate(self.c):
-            n = r[[NX, NY]]
-            t = np.array([-n[1], n[0]])
-            for body, sign, lever in ((int(r[BODY_A]), 1.0, r[LEVER_A]),
-                                      (int(r[BODY_B]), -1.0, r[LEVER_B])):
-                sx, sy, si = np.sqrt(self.bodies[body, 2:5])
-                rows += [3 * body, 3 * body + 1, 3 * body, 3 * body + 1, 3 * body + 2]
-                cols += [2 * k, 2 * k, 2 * k + 1, 2 * k + 1, 2 * k + 1]
-                vals += [sign * n[0] * sx, sign * n[1] * sy, sign * t[0] * sx, sign * t[1] * sy,
-                         lever * si]
-        return sp.csr_matrix((vals, (rows, cols)), shape=(3 * len(self.bodies), 2 * len(self.c)))
+        scale = sp.diags(np.sqrt(self.bodies[:, INV_MASS].ravel()))
+        return (scale @ contact_jacobian(self.c, self.bodies).T).tocsr()
 
     def grid_space(self, cell, kind):
         """The stress or scale space on a grid of cell x cell hats (columns never empty)."""

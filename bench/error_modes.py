@@ -33,12 +33,10 @@ import glob
 
 import numpy as np
 
-from coarse_space import (BODY_A, BODY_B, LEVER_A, LEVER_B, NX, NY, REFERENCE_N, REFERENCE_T,
-                          TESTED_N, TESTED_T)
+from coarse_space import (BODY_A, BODY_B, FRICTION, LEVER_A, LEVER_B, NX, NY, REFERENCE_N,
+                          REFERENCE_T, TESTED_N, TESTED_T)
 
-# The columns coarse_space.py does not name: a contact's friction coefficient, and the bodies'
-# height and inverse masses (sample_K_bodies.txt: x, y, 1/m along x, along y, 1/I).
-FRICTION = 9
+# The bodies' height and inverse masses (sample_K_bodies.txt: x, y, 1/m along x, along y, 1/I).
 Y, INV_MASS_X, INV_MASS_Y, INV_INERTIA = 1, 2, 3, 4
 
 
