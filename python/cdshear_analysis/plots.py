@@ -205,7 +205,7 @@ def height_solid_fraction(run, summary):
             ax.axhline(mean, color="k", lw=0.8, label=f"mean {mean:.4g}")
         _mark_transient(ax, summary)
         ax.set_ylabel(label)
-        ax.legend(loc="lower right", fontsize=8)
+        ax.legend(loc="best", fontsize=8)  # clear of the series, whichever way it runs
     axes[1].set_xlabel("strain $2Vt/L_y$")
     axes[0].set_title(_title(run, summary, "height and global solid fraction"), fontsize=9)
     return fig
