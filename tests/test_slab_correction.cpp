@@ -252,7 +252,7 @@ TEST(SlabCorrection, TallColumnReachesItsStaticsInFarFewerSweeps) {
       "%.3g with the slab correction every 8 sweeps\n",
       n, plain, corrected);
   EXPECT_GT(plain, 0.1);
-  // 6.9e-6 measured (2026-11-24); a correction whose scratch leaks from one correction into the
+  // The correction gives about 7e-6; a correction whose scratch leaks from one correction into the
   // next of the same step gave 5e-3, and one that corrects nothing gives the plain error.
   EXPECT_LT(corrected, 1e-4);
   // After sweeps 8, 16, ..., 96: never after the last one (the step ends on a sweep's result).

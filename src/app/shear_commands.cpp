@@ -213,7 +213,7 @@ void plan_run(ShearSession& s) {
 }
 
 /// A case.toml written by an earlier cdshear lacks the parameters added since: the resume runs
-/// them with today's defaults (for example solver.relaxation, 1.6 since it exists, where the
+/// them with the current defaults (for example solver.relaxation = 1.6, where the
 /// run's first part had plain Gauss-Seidel). Says so, with each value, on stderr.
 void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
   toml::table written;

@@ -62,8 +62,8 @@ double largest_overlap(const World& world, std::span<const Contact> contacts, do
     const auto b = static_cast<std::size_t>(c.key.body_b);
     if (b < n) {
       const double reach = d.radius[a] + d.radius[b] - largest;
-      const Vec2 delta = world.domain.minimum_image(d.position[b] - d.position[a]);
-      if (reach > 0.0 && length_squared(delta) >= (1.0 + 1e-9) * reach * reach) continue;
+      const Vec2 a_to_b = world.domain.minimum_image(d.position[b] - d.position[a]);
+      if (reach > 0.0 && length_squared(a_to_b) >= (1.0 + 1e-9) * reach * reach) continue;
     }
     largest = std::max(largest, current_overlap(world, c));
   }
