@@ -210,6 +210,28 @@ json.dump(p, open("four.json", "w"))
 EOF_PY
 expect_error "four.json: key 'disks_xyr[3]': must be [x, y, r], three numbers" \
   "$exe" run -q --packing four.json
+sed '0,/{/s/{/{"build": 3,/' "$packing" > build3.json
+expect_error "build3.json: key 'build': must be a string" "$exe" run -q --packing build3.json
+
+# The packing cache (`packings/`, named by the preparation's settings) says when another build
+# prepared the packing it reuses, and is silent when this build did.
+small=(run -q --no-analyze --set system.n=37 --set system.height=6 --set shear.duration=0.1 --threads 1)
+mkdir cache && (cd cache && "$exe" "${small[@]}" -o first > /dev/null && "$exe" "${small[@]}" -o same > same.txt)
+status=$?
+checks=$((checks + 1))
+if [ $status -ne 0 ] || grep -q "prepared by" cache/same.txt; then
+  echo "FAIL: the cache's own build was reported as another's"; cat cache/same.txt; fails=$((fails + 1))
+fi
+/usr/bin/python3 - cache/packings/*.json << 'EOF_PY'
+import json, sys
+p = json.load(open(sys.argv[1]))
+p["build"] = "cdshear 0.0.1 (commit 000000000000; Release build, instruction set none)"
+json.dump(p, open(sys.argv[1], "w"))
+EOF_PY
+(cd cache && "$exe" "${small[@]}" -o other > other.txt)
+checks=$((checks + 1))
+grep -qF "prepared by cdshear 0.0.1 (commit 000000000000" cache/other.txt ||
+  { echo "FAIL: a packing of another build reused without a word"; cat cache/other.txt; fails=$((fails + 1)); }
 printf '[campaign]\nname = "w"\nsystems = [1]\nvelocities = [0.5]\nseeds = [1]\nduration = 1.0\n[campaign.packing]\n1 = "%s"\n' \
   "$work/v7.json" > foreign.toml
 expect_status2 "foreign.toml: key 'campaign.packing.1': $work/v7.json: key 'version'" \

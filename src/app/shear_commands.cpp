@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "analysis_command.hpp"
+#include "build_info.hpp"
 #include "case_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
@@ -105,8 +106,16 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
   if (!c.packing_file.empty()) return {read_packing(c.packing_file, tolerance), c.packing_file};
   const fs::path cached = fs::path("packings") / packing_cache_name(c.preparation);
   if (fs::exists(cached)) {
+    Packing p = read_packing(cached, tolerance);
     std::printf("reusing packing %s\n", cached.c_str());
-    return {read_packing(cached, tolerance), cached};
+    // The cache's name covers the preparation's settings, not its code: say when another build
+    // prepared it, so that a changed preparation is not reused unnoticed.
+    const std::string here = build_description();
+    if (p.build != here)
+      std::printf(
+          "  prepared by %s;\n  this is %s: delete the file to prepare it with this build\n",
+          p.build.empty() ? "a build that did not record itself" : p.build.c_str(), here.c_str());
+    return {std::move(p), cached};
   }
   check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);

@@ -10,6 +10,7 @@
 #include <set>
 #include <vector>
 
+#include "build_info.hpp"
 #include "config_error.hpp"
 #include "outputs.hpp"
 
@@ -27,6 +28,7 @@ nlohmann::json packing_json(const Packing& p) {
   return {{"format", "cdshear-packing"},
           {"version", kPackingVersion},
           {"program_version", CDSHEAR_VERSION},
+          {"build", p.build.empty() ? build_description() : p.build},
           {"n", p.n()},
           {"height", p.height},
           {"length_x", p.length_x},
@@ -148,6 +150,11 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   p.seed = j.at("seed").get<std::uint64_t>();
   p.piston_stress = number("piston_stress");
   p.preparation_time = j.contains("preparation_time") ? number("preparation_time") : 0.0;
+  if (j.contains("build")) {
+    if (!j.at("build").is_string())
+      throw ConfigError(file, "build", "must be a string (the build that prepared the packing)");
+    p.build = j.at("build").get<std::string>();
+  }
   const nlohmann::json& list = need("disks_xyr");
   if (!list.is_array()) throw ConfigError(file, "disks_xyr", "must be a list of [x, y, r]");
   for (std::size_t i = 0; i < list.size(); ++i) {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "vec2.hpp"
@@ -28,6 +29,9 @@ struct Packing {
   std::uint64_t capped_steps = 0;           ///< steps whose solver hit the sweep cap
   std::uint64_t displacement_warnings = 0;  ///< steps moving a disk beyond displacement_bound
   double largest_overlap = 0.0;             ///< over the whole protocol [d]
+  /// The cdshear build that prepared it (build_description()); "" for one prepared now, or read
+  /// from a file that does not say.
+  std::string build;
   std::vector<PackingDisk> disks;
 };
 
