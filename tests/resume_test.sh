@@ -103,6 +103,26 @@ done
 if ! cmp -s "$work/straight/final_state.json" "$work/unobserved/final_state.json"; then
   echo "FAIL: the run without measurement observers ends in another state"; status=1
 fi
+# The analysis of a run as it stood at time t (`campaign-compare --until`) is that of the same
+# run stopped at t, every figure alike (the run's length and state aside).
+"$exe" run "${common[@]:2}" -q --set shear.duration=2.4 -o "$work/short" > /dev/null
+if ! PYTHONPATH="$python_dir" /usr/bin/python3 - "$work/straight" "$work/short" << 'EOF_PY'
+import sys
+from cdshear_analysis.report import read_summary, summary_until
+until, why = summary_until(sys.argv[1], 2.4)
+assert until is not None, why
+stopped = read_summary(sys.argv[2])
+assert stopped["steady_windows"] > 0, "no averaging window in 2.4 t: the test compares nothing"
+for s in (until, stopped):
+    s.pop("run_dir")
+    s["case"].pop("duration"), s["case"].pop("finished")
+assert until == stopped, [k for k in until if until[k] != stopped.get(k)]
+assert summary_until(sys.argv[1], 6.5)[0] is None   # a time the run has not reached
+EOF_PY
+then
+  echo "FAIL: the straight run analysed as it stood at t = 2.4 is not the run stopped there"
+  status=1
+fi
 # A case.toml written before a parameter existed: the resume says which parameter today's
 # default fills in, and with what value (the run then writes the complete case.toml).
 "$exe" run "${common[@]}" --stop-at 0.4 -o "$work/older" > /dev/null

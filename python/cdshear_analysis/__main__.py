@@ -18,6 +18,7 @@ window is analysed (not steady, series values over the last half) and plotted wi
 profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
+import math
 import os
 import sys
 import warnings
@@ -57,6 +58,9 @@ def main(argv=None):
         "combined errors (a solver setting's effect: docs/validation.md)")
     p_ccompare.add_argument("campaign_a")
     p_ccompare.add_argument("campaign_b")
+    p_ccompare.add_argument("--until", type=float, metavar="T",
+                            help="analyse every run from its run.h5 as it stood at time T, "
+                            "leaving out runs that have not reached it (summary.json unused)")
     p_compare = commands.add_parser(
         "study-compare", help="two folders of realizations (reference, reference_seedK) compared")
     p_compare.add_argument("dir_a")
@@ -119,13 +123,22 @@ def main(argv=None):
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
+        from .campaign import load_campaign
         from .report import ReportError
         try:
-            items = compare_campaigns(args.campaign_a, args.campaign_b)
+            if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
+                raise ReportError("--until", f"must be a time > 0, got {args.until:g}")
+            a = load_campaign(args.campaign_a, args.until)
+            b = load_campaign(args.campaign_b, args.until)
         except ReportError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
-        print(format_campaigns(items, args.campaign_a, args.campaign_b))
+        for name, c in ((args.campaign_a, a), (args.campaign_b, b)):
+            for run, why in c.skipped:
+                print(f"left out of {name}: {run}: {why}")
+        if args.until is not None:
+            print(f"every run analysed as it stood at t = {args.until:g}")
+        print(format_campaigns(compare_campaigns(a, b), args.campaign_a, args.campaign_b))
         return 0
 
     if args.command == "study-compare":

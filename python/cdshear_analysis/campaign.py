@@ -59,10 +59,13 @@ def _column(values):
     return np.array(values, dtype=object)
 
 
-def load_campaign(folder):
+def load_campaign(folder, until=None):
     """Reads the analysed runs of a campaign folder (DIR/campaign.toml, DIR/runs/*/summary.json)
-    into a Campaign. Raises report.ReportError for a folder that is not a campaign's."""
-    report = collect(folder, reanalyse_stale=False)
+    into a Campaign. With `until` (a time [t]), each run is analysed again from its run.h5 as it
+    stood at that time (report.summary_until; runs that have not reached it are left out), to
+    compare campaigns over the same stretch of time. Raises report.ReportError for a folder that
+    is not a campaign's."""
+    report = collect(folder, reanalyse_stale=False, until=until)
     rows = report["rows"]
     columns = {c: _column([r.get(c) for r in rows]) for c in csv_columns(rows)}
     return Campaign(name=report["campaign"], folder=folder, rows=rows, columns=columns,
@@ -75,13 +78,14 @@ COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", 
             "slip_top", "h10_bottom_mu_eff", "h10_bottom_nu", "h10_bottom_I")
 
 
-def compare_campaigns(a, b, quantities=COMPARED):
+def compare_campaigns(a, b, quantities=COMPARED, until=None):
     """The runs of campaign b that campaign a has too (the same run name: system, seed, V),
     compared quantity by quantity: a list of {"run", "regime_a", "regime_b", "<q>": {"a", "b",
     "diff" (b - a), "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is
-    missing)}}. a and b are Campaign objects or folders."""
-    a = a if isinstance(a, Campaign) else load_campaign(a)
-    b = b if isinstance(b, Campaign) else load_campaign(b)
+    missing)}}. a and b are Campaign objects or folders; folders are read with `until`
+    (load_campaign)."""
+    a = a if isinstance(a, Campaign) else load_campaign(a, until)
+    b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
     out = []
     for rb in b.rows:

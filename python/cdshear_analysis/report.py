@@ -299,11 +299,29 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
     return s, None
 
 
-def collect(campaign_dir, reanalyse_stale=True):
+def summary_until(run_dir, time):
+    """(summary, None): the summary of RUN_DIR/run.h5 analysed as it stood at `time` [t]
+    (rundata.truncate_run), as read_summary would give it, nothing written; or (None, why not):
+    run data that cannot be read, or a run that has not reached `time`."""
+    from .rundata import RunDataError, load_run, truncate_run
+    try:
+        run = load_run(run_dir)
+    except RunDataError as e:
+        return None, f"its run data cannot be read: {e.problem}"
+    reached = float(run["attrs"]["time"])
+    if reached < time * (1 - 1e-9):
+        return None, f"reached t = {reached:.6g} only, before {time:g}"
+    summary = summary_module.analyze(truncate_run(run, time))
+    return summary_module.jsonable(summary), None
+
+
+def collect(campaign_dir, reanalyse_stale=True, until=None):
     """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)] (the runs
     left out), "reanalysed": [(run, reason)] (stale summaries analysed again; with
     reanalyse_stale False none is, and nothing is written), "notes": [text]} (notes: about the
-    campaign folder, not about a run)."""
+    campaign folder, not about a run). With `until` (a time [t]) every run is analysed from its
+    run.h5 as it stood then (summary_until), its summary.json not read nor written; a run that
+    has not reached `until` is left out."""
     if not os.path.isdir(campaign_dir):
         raise ReportError(campaign_dir, "not a folder")
     toml_path = os.path.join(campaign_dir, "campaign.toml")
@@ -325,6 +343,13 @@ def collect(campaign_dir, reanalyse_stale=True):
     rows = []
     reanalysed = []
     for d in folders:
+        if until is not None:
+            s, why = summary_until(os.path.join(runs_dir, d), until)
+            if s is None:
+                skipped.append((d, why))
+            else:
+                rows.append(read_run(os.path.join(runs_dir, d), s))
+            continue
         if not os.path.isfile(os.path.join(runs_dir, d, "summary.json")):
             skipped.append((d, "not analysed: no summary.json (`cdshear analyze` it)"))
             continue

@@ -14,6 +14,9 @@ The result is a plain dict:
                                          plain floats), None if absent
 Every problem with the folder or file raises RunDataError(path, problem).
 
+`truncate_run(run, t)` gives the run as it stood at time t (the samples at t or before, the
+windows ending by then), for averages over the first t of a longer run.
+
 Format versions (attrs["format_version"]). Version 3 (FORMAT_VERSION) counts Z as the closed
 contacts (gap <= contact_gap), keeps the per-step count as force_carrying_coordination, and
 stores the rotation's momentum flux as rotational_stress beside a stress of contact and kinetic
@@ -409,3 +412,33 @@ def load_run(run_dir):
     except (OSError, KeyError, ValueError, TypeError, RuntimeError) as e:
         detail = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise RunDataError(path, f"not a readable HDF5 run file (truncated or corrupt?): {detail}")
+
+
+def truncate_run(run, time):
+    """The loaded run as it stood at `time` [t]: the /series samples with time <= `time`, the
+    windows (and their regions) with t_end <= `time`, attrs time and step at the last sample kept
+    and finished 0 when samples were dropped. The snapshot is left as it is (the run's last).
+    Analysing the result gives the averages a run stopped at `time` would give."""
+    if not (isinstance(time, (int, float)) and np.isfinite(time) and time > 0):
+        raise ValueError(f"truncation time must be a number > 0, got {time!r}")
+    series_time = np.asarray(run["series"]["time"], dtype=float)
+    keep = series_time <= time * (1 + 1e-12)
+    if keep.all():
+        return run
+    eps = 1e-9 * max(float(run["attrs"]["window"]), 1.0)
+    keep_w = np.asarray(run["windows"]["t_end"], dtype=float) <= time + eps
+    n_windows = len(keep_w)
+    windows = {k: (v if k == "y" or np.ndim(v) == 0 or len(v) != n_windows else v[keep_w])
+               for k, v in run["windows"].items()}
+    regions = {label: {k: (v if k == "h" else v[keep_w]) for k, v in region.items()}
+               for label, region in run["regions"].items()}
+    series = {k: v[keep] for k, v in run["series"].items()}
+    attrs = dict(run["attrs"])
+    attrs["finished"] = 0
+    if keep.any():
+        attrs["time"] = float(series_time[keep][-1])
+        if "step" in series and len(series["step"]):
+            attrs["step"] = int(series["step"][-1])
+    else:
+        attrs["time"] = float(time)
+    return dict(run, attrs=attrs, series=series, windows=windows, regions=regions)

@@ -15,6 +15,8 @@ from cdshear_analysis import load_campaign
 from cdshear_analysis.campaign import compare_campaigns, paired_differences
 from cdshear_analysis.report import ReportError
 
+from cdshear_analysis.synthetic import write_synthetic_run
+
 from .test_report import fake_summary, main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -140,3 +142,33 @@ class Version(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class CompareUntil(unittest.TestCase):
+    def test_runs_analysed_as_they_stood_at_a_time(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # the same transient run (mu_eff relaxing from 0.55 to 0.30) in both campaigns, and
+            # one that stopped at 300 t in b only
+            for c in (a, b):
+                write_synthetic_run(os.path.join(c, "runs", "s1_seed1_V0.5"), kind="transient",
+                                    duration=800.0, transient_tau=200.0)
+            write_synthetic_run(os.path.join(b, "runs", "s1_seed2_V0.5"), duration=800.0,
+                                time_reached=300.0)
+            for run in ("a/runs/s1_seed1_V0.5", "b/runs/s1_seed1_V0.5", "b/runs/s1_seed2_V0.5"):
+                # summaries of the runs as they ended: what --until must not read
+                self.assertEqual(main(["analyze", os.path.join(d, run)]), 0)
+            whole = load_campaign(a)
+            early = load_campaign(a, until=400.0)
+            self.assertEqual(early.columns["time_reached"][0], 400.0)
+            self.assertEqual(whole.columns["time_reached"][0], 800.0)
+            # the transient weighs more over the first 400 t than over all 800
+            self.assertGreater(early.columns["mu_eff_wall"][0], whole.columns["mu_eff_wall"][0])
+            skipped = dict(load_campaign(b, until=400.0).skipped)
+            self.assertIn("reached t = 300 only, before 400", skipped["s1_seed2_V0.5"])
+            self.assertEqual(len(load_campaign(b, until=300.0).rows), 2)
+            items = compare_campaigns(a, b, until=400.0)
+            self.assertEqual([it["run"] for it in items], ["s1_seed1_V0.5"])
+            self.assertEqual(items[0]["mu_eff_wall"]["diff"], 0.0)
+            self.assertEqual(main(["campaign-compare", a, b, "--until", "400"]), 0)
+            self.assertEqual(main(["campaign-compare", a, b, "--until", "-1"]), 2)
