@@ -210,7 +210,8 @@ json.dump(p, open("four.json", "w"))
 EOF_PY
 expect_error "four.json: key 'disks_xyr[3]': must be [x, y, r], three numbers" \
   "$exe" run -q --packing four.json
-sed '0,/{/s/{/{"build": 3,/' "$packing" > build3.json
+/usr/bin/python3 -c 'import json, sys; p = json.load(open(sys.argv[1])); p["build"] = 3
+json.dump(p, open("build3.json", "w"))' "$packing"
 expect_error "build3.json: key 'build': must be a string" "$exe" run -q --packing build3.json
 
 # The packing cache (`packings/`, named by the preparation's settings) says when another build
