@@ -37,7 +37,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from coarse_space import (FRICTION, GAP, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
-                          contact_jacobian)
+                          contact_jacobian, sample_header)
 
 VELOCITY = slice(5, 8)  # columns of sample_K_bodies.txt: v_x, v_y, omega after the reference
 REPORTED = (1, 2, 5, 10, 20, 50, 100, 200, 500)
@@ -65,8 +65,7 @@ def main():
     parser.add_argument("--write-matrix", type=float, help="write W + F w_nn I, F this value")
     args = parser.parse_args()
 
-    with open(args.stem + "_contacts.txt") as f:
-        header = f.readline()[2:].split()
+    header = sample_header(args.stem)
     if len(header) < 4:
         raise SystemExit(f"error: {args.stem}_contacts.txt: no time step on its first line "
                          "(dumped by an older bench)")

@@ -64,11 +64,16 @@ def contact_jacobian(contacts, bodies):
     return sp.csr_matrix((vals, (rows, cols)), shape=(2 * len(contacts), 3 * len(bodies)))
 
 
+def sample_header(stem):
+    """The first line of STEM_contacts.txt (`cdshear_bench --dump-samples`): L_x, the bottom and
+    top walls' y and the time step, as a list of floats (older dumps stop before the time step)."""
+    with open(stem + "_contacts.txt") as f:
+        return [float(x) for x in f.readline()[2:].split()]
+
+
 class Sample:
     def __init__(self, stem):
-        with open(stem + "_contacts.txt") as f:
-            header = [float(x) for x in f.readline()[2:].split()]
-            self.length_x, self.y_bottom, self.y_top = header[:3]  # then the time step
+        self.length_x, self.y_bottom, self.y_top = sample_header(stem)[:3]
         contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
         bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
         self.c = contacts[contacts[:, REFERENCE_N] > 0.0]  # force-carrying in the reference
