@@ -450,8 +450,8 @@ def lammps_campaign(lammps_folder, campaign):
     campaign.Campaign whose rows average each run as its namesake in `campaign` (a Campaign or
     a folder) is averaged: from its averaging start (summary.json's averaging_start_time, else
     the second half), with its bulk's h, its stripes' thickness and its window (case.toml's
-    measure.stripe_thickness and measure.window, else 1 and 80). Runs without a finished LAMMPS
-    run are left out (listed in `skipped`)."""
+    measure.stripe_thickness and measure.window). Runs without a finished LAMMPS run, or whose
+    case.toml lacks those two, are left out (listed in `skipped`)."""
     from .campaign import Campaign, _column, load_campaign
     from .report import ReportError, read_summary
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
@@ -480,9 +480,11 @@ def lammps_campaign(lammps_folder, campaign):
                 continue
             start = 0.5 * float(ref["duration"])
         dy, window = measure.get("stripe_thickness"), measure.get("window")
-        row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"),
-                             float(dy) if _positive_number(dy) else 1.0,
-                             float(window) if _positive_number(window) else 80.0)
+        if not (_positive_number(dy) and _positive_number(window)):
+            skipped.append((ref["run"], "its case.toml gives no measure.stripe_thickness and "
+                                        "measure.window > 0 to average the LAMMPS run as it"))
+            continue
+        row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"), float(dy), float(window))
         row.update(system=ref.get("system"), seed=ref.get("seed"), regime="not classified")
         rows.append(row)
     keys = sorted({k for r in rows for k in r})

@@ -257,25 +257,28 @@ class BesideACampaign(unittest.TestCase):
         with tempfile.TemporaryDirectory() as tmp:
             peers_dir, campaign_dir = os.path.join(tmp, "lammps"), os.path.join(tmp, "campaign")
             cd_rows = []
-            for k in (1, 2, 3):
+            for k in (1, 2, 3, 4):   # 3: no LAMMPS run; 4: a case.toml without the window
                 name = f"s1_seed{k}_V0.05"
                 run = os.path.join(campaign_dir, "runs", name)
                 os.makedirs(run)
                 with open(os.path.join(run, "summary.json"), "w") as f:
                     json.dump({"averaging_start_time": 30.0}, f)
                 with open(os.path.join(run, "case.toml"), "w") as f:
-                    f.write("[measure]\nstripe_thickness = 1.0\nwindow = 10.0\n")
+                    f.write("[measure]\nstripe_thickness = 1.0\n"
+                            + ("window = 10.0\n" if k < 4 else ""))
                 cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05,
                                 "duration": 100.0, "bulk_h": 5.0, "regime": "C",
                                 "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
                                 "L_y_err": 0.01, "nu_bulk": 0.007, "nu_bulk_err": 0.001})
-                if k < 3:
+                if k != 3:
                     write_lammps_run(peers_dir, name, bulk, mu, top_line=20.3)
             campaign = Campaign(name="fake", folder=campaign_dir, rows=cd_rows)
             peers = lammps_campaign(peers_dir, campaign)
             self.assertEqual([r["run"] for r in peers.rows], ["s1_seed1_V0.05",
                                                               "s1_seed2_V0.05"])
-            self.assertEqual(peers.skipped, [("s1_seed3_V0.05", "no finished LAMMPS run")])
+            self.assertEqual(peers.skipped[0], ("s1_seed3_V0.05", "no finished LAMMPS run"))
+            self.assertEqual(peers.skipped[1][0], "s1_seed4_V0.05")
+            self.assertIn("no measure.stripe_thickness and measure.window", peers.skipped[1][1])
             row = peers.rows[0]
             self.assertAlmostEqual(row["mu_eff_wall"], (0.3 * 200 + 0.5 * 500) / 700, places=6)
             self.assertAlmostEqual(row["L_y"], 20.3, places=12)
