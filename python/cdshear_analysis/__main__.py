@@ -61,6 +61,8 @@ def main(argv=None):
     p_ccompare.add_argument("--until", type=float, metavar="T",
                             help="analyse every run from its run.h5 as it stood at time T, "
                             "leaving out runs that have not reached it (summary.json unused)")
+    p_ccompare.add_argument("--markdown", action="store_true",
+                            help="print only the seeds paired by system and V, as Markdown tables")
     p_compare = commands.add_parser(
         "study-compare", help="two folders of realizations (reference, reference_seedK) compared")
     p_compare.add_argument("dir_a")
@@ -123,7 +125,7 @@ def main(argv=None):
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import load_campaign
+        from .campaign import format_paired_markdown, load_campaign
         from .report import ReportError
         try:
             if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
@@ -138,7 +140,11 @@ def main(argv=None):
                 print(f"left out of {name}: {run}: {why}")
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
-        print(format_campaigns(compare_campaigns(a, b), args.campaign_a, args.campaign_b))
+        items = compare_campaigns(a, b)
+        if args.markdown:
+            print(format_paired_markdown(items, args.campaign_a, args.campaign_b))
+        else:
+            print(format_campaigns(items, args.campaign_a, args.campaign_b))
         return 0
 
     if args.command == "study-compare":

@@ -113,8 +113,9 @@ def paired_differences(items):
     sqrt(n)), "t" (mean / se, Student's with n - 1 degrees of freedom; NaN where se is 0), "p"
     (its two-sided probability under no difference), "higher" (pairs with b > a)}. Pairing by
     seed takes out the scatter between packings, which in slow flows is several times one run's
-    error bar (docs/accuracy.md, "Effect on the averaged quantities"). A list of {"system", "V",
-    "runs", "<q>": {...}}, by system and V."""
+    error bar (docs/accuracy.md, "Effect on the averaged quantities"). Each entry also holds
+    "a" and "b": each campaign's own mean over the same pairs and its standard error (the scatter
+    between packings). A list of {"system", "V", "runs", "<q>": {...}}, by system and V."""
     groups = {}
     for it in items:
         groups.setdefault((it["system"], it["V"]), []).append(it)
@@ -124,15 +125,20 @@ def paired_differences(items):
         entry = {"system": system, "V": velocity, "runs": len(group)}
         quantities = [q for q, v in group[0].items() if isinstance(v, dict)]
         for q in quantities:
-            diffs = np.array([it[q]["diff"] for it in group if isinstance(it.get(q), dict)])
-            if diffs.size < 2:
+            pairs = [it[q] for it in group if isinstance(it.get(q), dict)]
+            if len(pairs) < 2:
                 continue
+            diffs = np.array([v["diff"] for v in pairs])
             mean, sd = float(diffs.mean()), float(diffs.std(ddof=1))
             se = sd / math.sqrt(diffs.size)
             t = mean / se if se > 0 else math.nan
             entry[q] = {"n": int(diffs.size), "mean": mean, "sd": sd, "se": se, "t": t,
                         "p": float(2.0 * student_t.sf(abs(t), diffs.size - 1)),
                         "higher": int((diffs > 0).sum())}
+            for side in ("a", "b"):
+                values = np.array([v[side] for v in pairs])
+                entry[q][side] = {"mean": float(values.mean()),
+                                  "se": float(values.std(ddof=1) / math.sqrt(values.size))}
         out.append(entry)
     return out
 
@@ -154,8 +160,40 @@ def format_comparison(items, name_a="a", name_b="b"):
             continue
         lines.append(f"system {g['system']}, V = {g['V']:g}: {g['runs']} seeds paired, b - a "
                      f"(mean +- standard error of the differences; t = mean / error and its "
-                     f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a)")
+                     f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a; "
+                     f"then a's and b's own means over the pairs +- their standard errors)")
         for q, v in shown:
             lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  t = {v['t']:+.2f}, "
-                         f"p = {v['p']:.2g}  ({v['higher']} of {v['n']} higher)")
+                         f"p = {v['p']:.2g}  ({v['higher']} of {v['n']} higher)  "
+                         f"a {_mean_se(v['a'])}, b {_mean_se(v['b'])}")
     return "\n".join(lines) if lines else "no run in both campaigns"
+
+
+def _mean_se(m, sign=""):
+    """A mean and its standard error, both to the error's second significant digit (sign "+":
+    the mean's sign always shown)."""
+    if not m["se"] > 1e-9 * abs(m["mean"]):  # no scatter but round-off
+        return f"{m['mean']:{sign}.4g} +- 0"
+    digits = max(0, 1 - math.floor(math.log10(m["se"])))
+    return f"{m['mean']:{sign}.{digits}f} +- {m['se']:.{digits}f}"
+
+
+def format_paired_markdown(items, name_a="a", name_b="b"):
+    """The seeds paired by system and V as Markdown tables (docs/accuracy.md's form): per
+    quantity, each campaign's mean over the pairs +- its standard error, and b - a paired with
+    its t."""
+    lines = []
+    for g in paired_differences(items):
+        shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
+        if not shown:
+            continue
+        if lines:
+            lines.append("")
+        lines += [f"System {g['system']}, V = {g['V']:g}, {g['runs']} seeds paired:", "",
+                  f"| quantity | {name_a} | {name_b} | {name_b} minus {name_a}, paired (t) |",
+                  "|---|---|---|---|"]
+        for q, v in shown:
+            diff = _mean_se({"mean": v["mean"], "se": v["se"]}, sign="+")
+            lines.append(f"| {q} | {_mean_se(v['a'])} | {_mean_se(v['b'])} | {diff} "
+                         f"({v['t']:+.2f}) |")
+    return "\n".join(lines) if lines else "no system and V with two seeds in both campaigns"

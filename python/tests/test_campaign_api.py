@@ -1,6 +1,8 @@
 """The notebook API: load_campaign gives runs.csv's table as arrays, never writes, and leaves out
 stale summaries with the reason; the package's version is the program's."""
+import contextlib
 import csv
+import io
 import json
 import math
 import os
@@ -11,8 +13,10 @@ import unittest
 import numpy as np
 
 import cdshear_analysis
+from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
-from cdshear_analysis.campaign import compare_campaigns, paired_differences
+from cdshear_analysis.campaign import (compare_campaigns, format_paired_markdown,
+                                       paired_differences)
 from cdshear_analysis.report import ReportError
 
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -128,6 +132,23 @@ class CompareCampaigns(unittest.TestCase):
             self.assertAlmostEqual(mu["p"], 1.0 - t / math.sqrt(2.0 + t * t))
             self.assertTrue(math.isnan(groups[0]["nu_bulk"]["t"]))  # no difference at all
             self.assertNotIn("mu_eff_bulk", groups[1])
+            # each campaign's own mean over the pairs and its standard error (the packings'
+            # scatter): a 0.1, 0.2, 0.3; b 0.11, 0.22, 0.36
+            self.assertAlmostEqual(mu["a"]["mean"], 0.2)
+            self.assertAlmostEqual(mu["a"]["se"], 0.1 / 3 ** 0.5)
+            self.assertAlmostEqual(mu["b"]["mean"], 0.23)
+            sd_b = ((0.12 ** 2 + 0.01 ** 2 + 0.13 ** 2) / 2) ** 0.5
+            self.assertAlmostEqual(mu["b"]["se"], sd_b / 3 ** 0.5)
+            table = format_paired_markdown(compare_campaigns(a, b), "A", "B")
+            self.assertIn("| quantity | A | B | B minus A, paired (t) |", table)
+            self.assertIn(f"| mu_eff_bulk | 0.200 +- 0.058 | 0.230 +- 0.072 | +0.030 +- 0.015 "
+                          f"({t:+.2f}) |", table)
+            self.assertIn("| nu_bulk | 0.83 +- 0 | 0.83 +- 0 | +0 +- 0 (+nan) |", table)
+            self.assertNotIn("V = 1", table)  # one seed: nothing to pair
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)
+            self.assertIn(f"| quantity | {a} | {b} | {b} minus {a}, paired (t) |", out.getvalue())
+            self.assertIn(table.splitlines()[5], out.getvalue())
 
 
 class Version(unittest.TestCase):
