@@ -125,7 +125,7 @@ def main(argv=None):
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import format_paired_markdown, load_campaign
+        from .campaign import format_paired_markdown, load_campaign, unequal_times
         from .report import ReportError
         try:
             if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
@@ -141,6 +141,13 @@ def main(argv=None):
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
         items = compare_campaigns(a, b)
+        uneven = unequal_times(items)
+        if uneven:
+            run, time_a, time_b = uneven[0]
+            print(f"note: {len(uneven)} of the {len(items)} shared runs stand at different times "
+                  f"in the two campaigns ({run}: t = {_time(time_a)} in a, {_time(time_b)} in b): their "
+                  f"averages cover different stretches of the flow; --until T compares them at a "
+                  f"common time")
         if args.markdown:
             print(format_paired_markdown(items, args.campaign_a, args.campaign_b))
         else:
@@ -310,7 +317,15 @@ def main(argv=None):
     return 0
 
 
+def _time(t):
+    return f"{t:.6g}" if t is not None else "unknown"
+
+
 if __name__ == "__main__":
     from . import rundata
     rundata.LIMIT_READ_TIME = True  # a process of its own: a read that never ends may end it
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except BrokenPipeError:  # the reader went away (`| head`): stop quietly, as other tools do
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        sys.exit(1)

@@ -80,10 +80,12 @@ COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", 
 
 def compare_campaigns(a, b, quantities=COMPARED, until=None):
     """The runs of campaign b that campaign a has too (the same run name: system, seed, V),
-    compared quantity by quantity: a list of {"run", "regime_a", "regime_b", "<q>": {"a", "b",
-    "diff" (b - a), "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is
-    missing)}}. a and b are Campaign objects or folders; folders are read with `until`
-    (load_campaign)."""
+    compared quantity by quantity: a list of {"run", "system", "V", "time_a", "time_b" (the times
+    the two analyses reached), "regime_a", "regime_b", "<q>": {"a", "b", "diff" (b - a),
+    "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is missing)}}. A run
+    whose two cases differ in V or in the number of disks is not compared: its item holds
+    "mismatch" (the reason) and no quantity. a and b are Campaign objects or folders; folders are
+    read with `until` (load_campaign)."""
     a = a if isinstance(a, Campaign) else load_campaign(a, until)
     b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
@@ -93,7 +95,14 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
         if ra is None:
             continue
         item = {"run": rb["run"], "system": rb.get("system"), "V": rb.get("V"),
+                "time_a": ra.get("time_reached"), "time_b": rb.get("time_reached"),
                 "regime_a": ra.get("regime"), "regime_b": rb.get("regime")}
+        differ = [f"{key} {ra.get(key)} in a, {rb.get(key)} in b" for key in ("V", "n")
+                  if ra.get(key) != rb.get(key)]
+        if differ:
+            item["mismatch"] = "; ".join(differ)
+            out.append(item)
+            continue
         for q in quantities:
             va, vb = ra.get(q), rb.get(q)
             ea, eb = ra.get(q + "_err"), rb.get(q + "_err")
@@ -118,12 +127,14 @@ def paired_differences(items):
     between packings). A list of {"system", "V", "runs", "<q>": {...}}, by system and V."""
     groups = {}
     for it in items:
-        groups.setdefault((it["system"], it["V"]), []).append(it)
+        if "mismatch" not in it:
+            groups.setdefault((it["system"], it["V"]), []).append(it)
     out = []
     for (system, velocity), group in sorted(groups.items(),
                                             key=lambda g: (g[0][0] or 0, g[0][1] or 0.0)):
         entry = {"system": system, "V": velocity, "runs": len(group)}
-        quantities = [q for q, v in group[0].items() if isinstance(v, dict)]
+        quantities = list(dict.fromkeys(q for it in group for q, v in it.items()
+                                        if isinstance(v, dict)))
         for q in quantities:
             pairs = [it[q] for it in group if isinstance(it.get(q), dict)]
             if len(pairs) < 2:
@@ -131,7 +142,8 @@ def paired_differences(items):
             diffs = np.array([v["diff"] for v in pairs])
             mean, sd = float(diffs.mean()), float(diffs.std(ddof=1))
             se = sd / math.sqrt(diffs.size)
-            t = mean / se if se > 0 else math.nan
+            # no scatter at all: t is infinite unless there is no difference either
+            t = mean / se if se > 0 else (math.copysign(math.inf, mean) if mean else math.nan)
             entry[q] = {"n": int(diffs.size), "mean": mean, "sd": sd, "se": se, "t": t,
                         "p": float(2.0 * student_t.sf(abs(t), diffs.size - 1)),
                         "higher": int((diffs > 0).sum())}
@@ -148,6 +160,9 @@ def format_comparison(items, name_a="a", name_b="b"):
     and V with two or more seeds in both, the differences paired by seed."""
     lines = []
     for it in items:
+        if "mismatch" in it:
+            lines.append(f"{it['run']}: not compared: {it['mismatch']}")
+            continue
         lines.append(f"{it['run']}: regime {it['regime_a']} ({name_a}) -> {it['regime_b']} "
                      f"({name_b})")
         for q, v in it.items():
@@ -158,7 +173,7 @@ def format_comparison(items, name_a="a", name_b="b"):
         shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
         if not shown:
             continue
-        lines.append(f"system {g['system']}, V = {g['V']:g}: {g['runs']} seeds paired, b - a "
+        lines.append(f"system {g['system']}, {_velocity(g['V'])}: {g['runs']} seeds paired, b - a "
                      f"(mean +- standard error of the differences; t = mean / error and its "
                      f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a; "
                      f"then a's and b's own means over the pairs +- their standard errors)")
@@ -167,6 +182,22 @@ def format_comparison(items, name_a="a", name_b="b"):
                          f"p = {v['p']:.2g}  ({v['higher']} of {v['n']} higher)  "
                          f"a {_mean_se(v['a'])}, b {_mean_se(v['b'])}")
     return "\n".join(lines) if lines else "no run in both campaigns"
+
+
+def _velocity(v):
+    return f"V = {v:g}" if v is not None else "V unknown"
+
+
+def unequal_times(items):
+    """The compared runs whose two analyses reached different times [(run, time_a, time_b)]:
+    averages over different stretches of a flow, to compare at a common time instead
+    (compare_campaigns' `until`)."""
+    return [(it["run"], it["time_a"], it["time_b"]) for it in items
+            if "mismatch" not in it and not _same_time(it["time_a"], it["time_b"])]
+
+
+def _same_time(a, b):
+    return a == b or (a is not None and b is not None and math.isclose(a, b, rel_tol=1e-9))
 
 
 def _mean_se(m, sign=""):
@@ -189,11 +220,12 @@ def format_paired_markdown(items, name_a="a", name_b="b"):
             continue
         if lines:
             lines.append("")
-        lines += [f"System {g['system']}, V = {g['V']:g}, {g['runs']} seeds paired:", "",
+        lines += [f"System {g['system']}, {_velocity(g['V'])}, {g['runs']} seeds paired:", "",
                   f"| quantity | {name_a} | {name_b} | {name_b} minus {name_a}, paired (t) |",
                   "|---|---|---|---|"]
         for q, v in shown:
             diff = _mean_se({"mean": v["mean"], "se": v["se"]}, sign="+")
-            lines.append(f"| {q} | {_mean_se(v['a'])} | {_mean_se(v['b'])} | {diff} "
+            label = q if v["n"] == g["runs"] else f"{q} ({v['n']} pairs)"
+            lines.append(f"| {label} | {_mean_se(v['a'])} | {_mean_se(v['b'])} | {diff} "
                          f"({v['t']:+.2f}) |")
     return "\n".join(lines) if lines else "no system and V with two seeds in both campaigns"

@@ -53,9 +53,16 @@ class ReportError(Exception):
 # ---------------------------------------------------------------------------------------------
 # Reading the runs
 
+def _number(x):
+    """float(x) for a finite JSON number (not a text, not true or false), else None."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return None
+    return _finite(x)
+
+
 def _pair(summary, *keys):
     """(mean, err) of a {"mean", "err"} entry at summary[k0][k1]...; None for what is missing,
-    null or not finite."""
+    null, not a finite number, or (err) negative."""
     entry = summary
     for k in keys:
         if not isinstance(entry, dict) or k not in entry:
@@ -63,7 +70,8 @@ def _pair(summary, *keys):
         entry = entry[k]
     if not isinstance(entry, dict):
         return None, None
-    return _finite(entry.get("mean")), _finite(entry.get("err"))
+    err = _number(entry.get("err"))
+    return _number(entry.get("mean")), err if err is not None and err >= 0 else None
 
 
 # (column, path in summary.json) of every quantity with an error column
@@ -311,7 +319,10 @@ def summary_until(run_dir, time):
     reached = float(run["attrs"]["time"])
     if reached < time * (1 - 1e-9):
         return None, f"reached t = {reached:.6g} only, before {time:g}"
-    summary = summary_module.analyze(truncate_run(run, time))
+    try:
+        summary = summary_module.analyze(truncate_run(run, time))
+    except RunDataError as e:
+        return None, f"cannot be analysed as it stood at t = {time:g}: {e.problem}"
     return summary_module.jsonable(summary), None
 
 

@@ -77,9 +77,19 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         sides = [os.path.join(check_dir, name, side) for side in ("a", "b")]
         if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):
             continue
-        with open(os.path.join(sides[0], "paired_check.start")) as f:
-            start = float(f.read())
-        a, b = (series_means(load(d), start, keys) for d in sides)
+        start_file = os.path.join(sides[0], "paired_check.start")
+        with open(start_file) as f:
+            text = f.read().strip()
+        try:
+            start = float(text)
+        except ValueError:
+            raise SeriesError(f"{start_file}: {text!r} is not a time") from None
+        if not math.isfinite(start):
+            raise SeriesError(f"{start_file}: {text!r} is not a time")
+        try:
+            a, b = (series_means(load(d), start, keys) for d in sides)
+        except SeriesError as e:
+            raise SeriesError(f"{os.path.join(check_dir, name)}: {e.problem}") from None
         for key in keys:
             diffs[key].append(b[key][0] - a[key][0])
             bases[key].append(a[key][0])

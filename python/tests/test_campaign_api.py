@@ -16,7 +16,7 @@ import cdshear_analysis
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
 from cdshear_analysis.campaign import (compare_campaigns, format_paired_markdown,
-                                       paired_differences)
+                                       paired_differences, unequal_times)
 from cdshear_analysis.report import ReportError
 
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -149,6 +149,59 @@ class CompareCampaigns(unittest.TestCase):
                 self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)
             self.assertIn(f"| quantity | {a} | {b} | {b} minus {a}, paired (t) |", out.getvalue())
             self.assertIn(table.splitlines()[5], out.getvalue())
+
+
+class CompareEdgeCases(unittest.TestCase):
+    def test_only_like_runs_paired_over_every_quantity_any_has(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            for seed in (1, 2, 3):
+                name = f"s1_seed{seed}_V0.05"
+                fake_summary(os.path.join(a, "runs", name), 0.05, 1e-4, 0.2, 0.83, 2.8)
+                s = fake_summary(os.path.join(b, "runs", name), 0.05, 1e-4, 0.22, 0.83, 2.8)
+                if seed == 1:  # the first pair lacks the bulk's Z; b's error of mu_eff negative,
+                    # its solid fraction a text: both read as missing, not as numbers
+                    s["bulk"]["coordination"] = {"mean": None, "err": None}
+                    s["bulk"]["mu_eff"]["err"] = -0.003
+                    s["bulk"]["solid_fraction"]["mean"] = "0.83"
+                    s["case"]["time"] = 500.0
+                    with open(os.path.join(b, "runs", name, "summary.json"), "w") as f:
+                        json.dump(s, f)
+            # the same name at another V and size in b: not compared
+            fake_summary(os.path.join(a, "runs", "s1_seed4_V0.05"), 0.05, 1e-4, 0.2, 0.83, 2.8)
+            s = fake_summary(os.path.join(b, "runs", "s1_seed4_V0.05"), 2.0, 1e-2, 0.4, 0.8, 3.0)
+            s["case"]["n"] = 4000
+            with open(os.path.join(b, "runs", "s1_seed4_V0.05", "summary.json"), "w") as f:
+                json.dump(s, f)
+            items = compare_campaigns(a, b)
+            mismatched = [it for it in items if "mismatch" in it]
+            self.assertEqual([it["run"] for it in mismatched], ["s1_seed4_V0.05"])
+            self.assertEqual(mismatched[0]["mismatch"], "V 0.05 in a, 2.0 in b; n 511 in a, 4000 in b")
+            first = next(it for it in items if it["run"] == "s1_seed1_V0.05")
+            self.assertTrue(math.isnan(first["mu_eff_bulk"]["combined_errors"]))
+            self.assertNotIn("nu_bulk", first)
+            (group,) = paired_differences(items)
+            self.assertEqual(group["runs"], 3)
+            self.assertEqual(group["Z_bulk"]["n"], 2)  # in the paired table though pair 1 lacks it
+            # the same +0.02 in every pair: no scatter, an infinite t
+            self.assertEqual(group["mu_eff_bulk"]["t"], math.inf)
+            self.assertEqual(group["mu_eff_bulk"]["p"], 0.0)
+            self.assertIn("| Z_bulk (2 pairs) |", format_paired_markdown(items))
+            self.assertEqual(unequal_times(items), [("s1_seed1_V0.05", 1000.0, 500.0)])
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
+            self.assertIn("note: 1 of the 4 shared runs stand at different times", out.getvalue())
+            self.assertIn("s1_seed4_V0.05: not compared: V 0.05 in a, 2.0 in b", out.getvalue())
+
+    def test_until_before_the_first_sample_leaves_the_run_out(self):
+        with tempfile.TemporaryDirectory() as d:
+            for side in ("a", "b"):
+                write_synthetic_run(os.path.join(d, side, "runs", "s1_seed1_V1"), velocity=1.0)
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", os.path.join(d, "a"),
+                                           os.path.join(d, "b"), "--until", "1e-6"]), 0)
+            self.assertIn("cannot be analysed as it stood at t = 1e-06", out.getvalue())
+            self.assertIn("no run in both campaigns", out.getvalue())
 
 
 class Version(unittest.TestCase):

@@ -136,6 +136,26 @@ class PairedDifferences(unittest.TestCase):
                 self.assertEqual(main(["series-pairs", d]), 2)
             self.assertIn(d, err.getvalue())
 
+    def test_bad_start_or_window_names_the_pair(self):
+        with tempfile.TemporaryDirectory() as d:
+            runs = {}
+            for side in ("a", "b"):
+                folder = os.path.join(d, "1_seed1", side)
+                os.makedirs(folder)
+                open(os.path.join(folder, "paired_check.done"), "w").close()
+                runs[folder] = {"series": {"time": np.arange(0.5, 10.0, 0.5),
+                                           "x": np.ones(19)}}
+            start = os.path.join(d, "1_seed1", "a", "paired_check.start")
+            for text, problem in (("abc\n", f"{start}: 'abc' is not a time"),
+                                  ("nan", f"{start}: 'nan' is not a time"),
+                                  ("1e9", f"{os.path.join(d, '1_seed1')}: no sample after t = 1e+09")):
+                with open(start, "w") as f:
+                    f.write(text)
+                with self.assertRaises(SeriesError) as caught:
+                    paired_differences(d, ("x",), load=lambda folder: runs[folder])
+                self.assertTrue(caught.exception.problem.startswith(problem),
+                                caught.exception.problem)
+
 
 if __name__ == "__main__":
     unittest.main()
