@@ -145,9 +145,9 @@ def main(argv=None):
         if uneven:
             run, time_a, time_b = uneven[0]
             print(f"note: {len(uneven)} of the {len(items)} shared runs stand at different times "
-                  f"in the two campaigns ({run}: t = {_time(time_a)} in a, {_time(time_b)} in b): their "
-                  f"averages cover different stretches of the flow; --until T compares them at a "
-                  f"common time")
+                  f"in the two campaigns ({run}: t = {_time(time_a)} in a, {_time(time_b)} in "
+                  f"b): their averages cover different stretches of the flow; --until T "
+                  f"compares them at a common time")
         if args.markdown:
             print(format_paired_markdown(items, args.campaign_a, args.campaign_b))
         else:

@@ -140,19 +140,25 @@ def paired_differences(items):
             if len(pairs) < 2:
                 continue
             diffs = np.array([v["diff"] for v in pairs])
-            mean, sd = float(diffs.mean()), float(diffs.std(ddof=1))
-            se = sd / math.sqrt(diffs.size)
+            d = _mean_se_of(diffs)
+            mean, se = d["mean"], d["se"]
             # no scatter at all: t is infinite unless there is no difference either
             t = mean / se if se > 0 else (math.copysign(math.inf, mean) if mean else math.nan)
-            entry[q] = {"n": int(diffs.size), "mean": mean, "sd": sd, "se": se, "t": t,
+            entry[q] = {"n": int(diffs.size), "mean": mean, "sd": se * math.sqrt(diffs.size),
+                        "se": se, "t": t,
                         "p": float(2.0 * student_t.sf(abs(t), diffs.size - 1)),
-                        "higher": int((diffs > 0).sum())}
-            for side in ("a", "b"):
-                values = np.array([v[side] for v in pairs])
-                entry[q][side] = {"mean": float(values.mean()),
-                                  "se": float(values.std(ddof=1) / math.sqrt(values.size))}
+                        "higher": int((diffs > 0).sum()),
+                        "a": _mean_se_of([v["a"] for v in pairs]),
+                        "b": _mean_se_of([v["b"] for v in pairs])}
         out.append(entry)
     return out
+
+
+def _mean_se_of(values):
+    """{"mean", "se"}: the values' mean and its standard error, std(ddof 1) / sqrt(n)."""
+    values = np.asarray(values, dtype=float)
+    return {"mean": float(values.mean()),
+            "se": float(values.std(ddof=1) / math.sqrt(values.size))}
 
 
 def format_comparison(items, name_a="a", name_b="b"):

@@ -33,6 +33,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
+from .rundata import _number as _is_number
 from .rundata import open_regular
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
@@ -54,10 +55,8 @@ class ReportError(Exception):
 # Reading the runs
 
 def _number(x):
-    """float(x) for a finite JSON number (not a text, not true or false), else None."""
-    if isinstance(x, bool) or not isinstance(x, (int, float)):
-        return None
-    return _finite(x)
+    """float(x) for a finite number (not a text, not true or false), else None."""
+    return _finite(x) if _is_number(x) else None
 
 
 def _pair(summary, *keys):

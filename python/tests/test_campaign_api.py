@@ -176,7 +176,8 @@ class CompareEdgeCases(unittest.TestCase):
             items = compare_campaigns(a, b)
             mismatched = [it for it in items if "mismatch" in it]
             self.assertEqual([it["run"] for it in mismatched], ["s1_seed4_V0.05"])
-            self.assertEqual(mismatched[0]["mismatch"], "V 0.05 in a, 2.0 in b; n 511 in a, 4000 in b")
+            self.assertEqual(mismatched[0]["mismatch"],
+                             "V 0.05 in a, 2.0 in b; n 511 in a, 4000 in b")
             first = next(it for it in items if it["run"] == "s1_seed1_V0.05")
             self.assertTrue(math.isnan(first["mu_eff_bulk"]["combined_errors"]))
             self.assertNotIn("nu_bulk", first)

@@ -146,9 +146,10 @@ class PairedDifferences(unittest.TestCase):
                 runs[folder] = {"series": {"time": np.arange(0.5, 10.0, 0.5),
                                            "x": np.ones(19)}}
             start = os.path.join(d, "1_seed1", "a", "paired_check.start")
+            pair = os.path.join(d, "1_seed1")
             for text, problem in (("abc\n", f"{start}: 'abc' is not a time"),
                                   ("nan", f"{start}: 'nan' is not a time"),
-                                  ("1e9", f"{os.path.join(d, '1_seed1')}: no sample after t = 1e+09")):
+                                  ("1e9", f"{pair}: no sample after t = 1e+09")):
                 with open(start, "w") as f:
                     f.write(text)
                 with self.assertRaises(SeriesError) as caught:
