@@ -272,6 +272,13 @@ def main(argv=None):
         try:
             report = collect(args.campaign_dir)
             out_dir = args.out_dir or os.path.join(args.campaign_dir, "report")
+            if not report["rows"]:
+                # Nothing to report: say why, and leave a report already written in place.
+                for name, reason in report["skipped"]:
+                    print(f"left out {name}: {reason}", file=sys.stderr)
+                raise ReportError(os.path.join(args.campaign_dir, "runs"),
+                                  "no analysed run to report on (the reasons above); "
+                                  f"{out_dir} left as it was")
             try:
                 paths = write_report(report, out_dir)
             except OSError as e:

@@ -174,7 +174,7 @@ def format_comparison(items, name_a="a", name_b="b"):
         for q, v in it.items():
             if isinstance(v, dict):
                 lines.append(f"  {q:22s} {v['a']:.5g} -> {v['b']:.5g}  diff {v['diff']:+.3g}  "
-                             f"({v['combined_errors']:+.2f} combined errors)")
+                             f"({_rounded(v['combined_errors'], 2):+.2f} combined errors)")
     for g in paired_differences(items):
         shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
         if not shown:
@@ -184,7 +184,8 @@ def format_comparison(items, name_a="a", name_b="b"):
                      f"two-sided p, Student's with n - 1 degrees of freedom; pairs with b > a; "
                      f"then a's and b's own means over the pairs +- their standard errors)")
         for q, v in shown:
-            lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  t = {v['t']:+.2f}, "
+            lines.append(f"  {q:22s} {v['mean']:+.3g} +- {v['se']:.2g}  "
+                         f"t = {_rounded(v['t'], 2):+.2f}, "
                          f"p = {v['p']:.2g}  ({v['higher']} of {v['n']} higher)  "
                          f"a {_mean_se(v['a'])}, b {_mean_se(v['b'])}")
     return "\n".join(lines) if lines else "no run in both campaigns"
@@ -212,7 +213,13 @@ def _mean_se(m, sign=""):
     if not m["se"] > 1e-9 * abs(m["mean"]):  # no scatter but round-off
         return f"{m['mean']:{sign}.4g} +- 0"
     digits = max(0, 1 - math.floor(math.log10(m["se"])))
-    return f"{m['mean']:{sign}.{digits}f} +- {m['se']:.{digits}f}"
+    return f"{_rounded(m['mean'], digits):{sign}.{digits}f} +- {m['se']:.{digits}f}"
+
+
+def _rounded(x, digits):
+    """x rounded to `digits` decimals, a negative value that rounds to zero made +0 (so that
+    a table shows 0.000, not -0.000)."""
+    return round(x, digits) + 0.0 if math.isfinite(x) else x
 
 
 def format_paired_markdown(items, name_a="a", name_b="b"):
@@ -233,5 +240,5 @@ def format_paired_markdown(items, name_a="a", name_b="b"):
             diff = _mean_se({"mean": v["mean"], "se": v["se"]}, sign="+")
             label = q if v["n"] == g["runs"] else f"{q} ({v['n']} pairs)"
             lines.append(f"| {label} | {_mean_se(v['a'])} | {_mean_se(v['b'])} | {diff} "
-                         f"({v['t']:+.2f}) |")
+                         f"({_rounded(v['t'], 2):+.2f}) |")
     return "\n".join(lines) if lines else "no system and V with two seeds in both campaigns"

@@ -394,6 +394,18 @@ def switch_time_figure(path, switch_predictions):
             "time / V [t^2 / d]", xs)
 
 
+def profile_labels(rows):
+    """The legend label of each row's profile: V, the regime, "not steady" where it is not, and
+    the seed (the run's name when it has none) where several rows share a V."""
+    labels = []
+    for r in rows:
+        shared = sum(1 for q in rows if q["V"] == r["V"]) > 1
+        tag = f"seed {r['seed']}" if r.get("seed") is not None else r.get("run", "?")
+        labels.append(f"V = {r['V']:g}{', ' + tag if shared else ''} "
+                      f"({r['regime'] or '?'}{'' if r['steady'] else ', not steady'})")
+    return labels
+
+
 def profile_figures(fig_dir, rows):
     """Per system, the profiles of every V (the steady part; for a run that is not steady, its
     last half): v_x / V and mu_eff against y / L_y.
@@ -407,11 +419,10 @@ def profile_figures(fig_dir, rows):
             continue
         plt, fig, axes = _figure((11.0, 4.0), columns=2)
         cmap = plt.get_cmap("viridis")
-        for k, r in enumerate(sel):
+        for k, (r, label) in enumerate(zip(sel, profile_labels(sel))):
             p = r["_profiles"]
             height = r.get("L_y") or max(p["y"])
             colour = cmap(k / max(1, len(sel) - 1))
-            label = f"V = {r['V']:g} ({r['regime'] or '?'}{'' if r['steady'] else ', not steady'})"
             y = np.asarray(p["y"], float) / height
             # Stripes centred above the mean top wall hold grains only while the wall is above
             # its mean: left out, so that y / L_y ends at 1.

@@ -194,6 +194,23 @@ class CompareEdgeCases(unittest.TestCase):
             self.assertIn("note: 1 of the 4 shared runs stand at different times", out.getvalue())
             self.assertIn("s1_seed4_V0.05: not compared: V 0.05 in a, 2.0 in b", out.getvalue())
 
+    def test_a_difference_that_rounds_to_zero_has_no_minus_sign(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # b - a of mu_eff: -0.00002, +0.003, -0.003: a mean of -6.7e-6 +- 0.0017, a t of -0.004
+            for seed, dmu in ((1, -0.00002), (2, 0.003), (3, -0.003)):
+                name = f"s1_seed{seed}_V0.05"
+                fake_summary(os.path.join(a, "runs", name), 0.05, 1e-4, 0.2, 0.83, 2.8)
+                fake_summary(os.path.join(b, "runs", name), 0.05, 1e-4, 0.2 + dmu, 0.83, 2.8)
+            items = compare_campaigns(a, b)
+            (group,) = paired_differences(items)
+            self.assertLess(group["mu_eff_bulk"]["mean"], 0.0)
+            self.assertLess(group["mu_eff_bulk"]["t"], 0.0)
+            row = next(line for line in format_paired_markdown(items).splitlines()
+                       if line.startswith("| mu_eff_bulk |"))
+            self.assertIn("| +0.0000 +- 0.0017 (+0.00) |", row)
+            self.assertNotIn("-0.0", row)
+
     def test_until_before_the_first_sample_leaves_the_run_out(self):
         with tempfile.TemporaryDirectory() as d:
             for side in ("a", "b"):

@@ -10,7 +10,7 @@ import unittest
 
 import numpy as np
 
-from cdshear_analysis import report
+from cdshear_analysis import campaign_figures, report
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -225,6 +225,32 @@ class ReportTest(unittest.TestCase):
         self.assertIn("s1_seed1_V1: not analysed", text)
         with open(os.path.join(self.d, "out", "runs.csv")) as f:
             self.assertEqual(len(list(csv.DictReader(f))), 1)
+
+    def test_no_analysed_run_is_an_error_that_leaves_an_earlier_report_alone(self):
+        fake_campaign(self.d, "running", {}, listed_extra=["s1_seed1_V1"])
+        os.makedirs(os.path.join(self.d, "runs", "s1_seed1_V1"))   # running: no summary.json
+        out = os.path.join(self.d, "out")
+        os.makedirs(out)
+        with open(os.path.join(out, "index.html"), "w") as f:
+            f.write("an earlier report")
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            self.assertEqual(cli_main(["report", self.d, "-o", out]), 2)
+        self.assertIn("s1_seed1_V1: not analysed", err.getvalue())
+        self.assertIn("no analysed run", err.getvalue())
+        self.assertEqual(os.listdir(out), ["index.html"])
+        with open(os.path.join(out, "index.html")) as f:
+            self.assertEqual(f.read(), "an earlier report")
+
+    def test_profile_labels_name_the_seed_where_several_runs_share_a_v(self):
+        rows = [{"V": 0.1, "seed": 1, "regime": "B", "steady": False},
+                {"V": 0.1, "seed": 2, "regime": "B", "steady": True},
+                {"V": 1.0, "seed": 1, "regime": "A", "steady": True},
+                {"V": 1.0, "seed": None, "run": "custom", "regime": None, "steady": True}]
+        self.assertEqual(campaign_figures.profile_labels(rows),
+                         ["V = 0.1, seed 1 (B, not steady)", "V = 0.1, seed 2 (B)",
+                          "V = 1, seed 1 (A)", "V = 1, custom (?)"])
+        self.assertEqual(campaign_figures.profile_labels(rows[2:3]), ["V = 1 (A)"])
 
     def test_index_references_only_files_that_exist(self):
         self.power_law_campaign()
