@@ -75,7 +75,8 @@ def load_campaign(folder, until=None):
 # The quantities compared between two campaigns, each with its standard error (runs.csv columns
 # X and X_err): the averages a setting could move.
 COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", "slip_bottom",
-            "slip_top", "h10_bottom_mu_eff", "h10_bottom_nu", "h10_bottom_I")
+            "slip_top", "h10_bottom_mu_eff", "h10_bottom_nu", "h10_bottom_I", "com_vx",
+            "com_vx_std")
 
 
 def compare_campaigns(a, b, quantities=COMPARED, until=None):

@@ -59,18 +59,29 @@ def _number(x):
     return _finite(x) if _is_number(x) else None
 
 
-def _pair(summary, *keys):
-    """(mean, err) of a {"mean", "err"} entry at summary[k0][k1]...; None for what is missing,
-    null, not a finite number, or (err) negative."""
+def _entry(summary, *keys):
+    """summary[k0][k1]..., or None where a key is missing or a level is not an object."""
     entry = summary
     for k in keys:
         if not isinstance(entry, dict) or k not in entry:
-            return None, None
+            return None
         entry = entry[k]
+    return entry
+
+
+def _pair(summary, *keys):
+    """(mean, err) of a {"mean", "err"} entry at summary[k0][k1]...; None for what is missing,
+    null, not a finite number, or (err) negative."""
+    entry = _entry(summary, *keys)
     if not isinstance(entry, dict):
         return None, None
     err = _number(entry.get("err"))
     return _number(entry.get("mean")), err if err is not None and err >= 0 else None
+
+
+def _value(summary, *keys):
+    """The finite number at summary[k0][k1]...; None for what is missing or not one."""
+    return _number(_entry(summary, *keys))
 
 
 # (column, path in summary.json) of every quantity with an error column
@@ -87,8 +98,13 @@ BULK_QUANTITIES = [
     ("shear_rate_bulk", ("bulk", "shear_rate")),
     ("slip_bottom", ("slip", "bottom")),
     ("slip_top", ("slip", "top")),
+    ("com_vx", ("com_vx",)),
     ("switch_duration", ("switch_duration",)),
     ("switch_delta_mu", ("switch_delta_mu",)),
+]
+# (column, path in summary.json) of the plain values without an error column after them
+PLAIN_QUANTITIES = [
+    ("com_vx_std", ("com_vx", "std")),   # the centre of mass's x-velocity: its scatter [d/t]
 ]
 # (column suffix, key in summary["regions"][hK][part]) of each part of a region group: the
 # boundary layers ("bottom", "top") and the bulk between them ("bulk", for the influence of h)
@@ -218,6 +234,8 @@ def read_run(run_dir, s=None):
     row["bulk_h_note"] = bulk.get("h_note") if isinstance(bulk.get("h_note"), str) else None
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
+    for col, keys in PLAIN_QUANTITIES:
+        row[col] = _value(s, *keys)
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     # the time the run's averages cover, its weight among the seeds of one point of a fit
@@ -383,6 +401,7 @@ def csv_columns(rows):
     cols = list(HEAD_COLUMNS)
     for col, _ in BULK_QUANTITIES:
         cols += [col, col + "_err"]
+    cols += [col for col, _ in PLAIN_QUANTITIES]
     for h in sorted({h for r in rows for h in r["_layers"]}):
         for part, quantities in REGION_PARTS.items():
             for col, _ in quantities:

@@ -144,6 +144,7 @@ class CompareCampaigns(unittest.TestCase):
             self.assertIn(f"| mu_eff_bulk | 0.200 +- 0.058 | 0.230 +- 0.072 | +0.030 +- 0.015 "
                           f"({t:+.2f}) |", table)
             self.assertIn("| nu_bulk | 0.83 +- 0 | 0.83 +- 0 | +0 +- 0 (+nan) |", table)
+            self.assertIn("| com_vx_std | 0.005 +- 0 | 0.005 +- 0 | +0 +- 0 (+nan) |", table)
             self.assertNotIn("V = 1", table)  # one seed: nothing to pair
             with contextlib.redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)

@@ -53,6 +53,7 @@ def fake_summary(run_dir, V, I, mu, nu, Z, errs=(0.003, 0.002, 0.02), steady=Tru
                  "solid_fraction": entry(nu, e_nu), "coordination": entry(Z, e_z),
                  "shear_rate": entry(I * 0.5, I * 0.01), "inertial_number": entry(I, 0.01 * I)},
         "slip": {"bottom": entry(0.1 * V, 0.01 * V), "top": entry(0.12 * V, 0.01 * V)},
+        "com_vx": {"mean": 0.02 * V, "err": 0.01 * V, "std": 0.1 * V},
         "regions": {report._h_label(h): {"h": h, "bulk": {}, "bottom": layer, "top": layer}
                     for h in layers},
         "switches": [], "switch_duration": entry(None, None),
@@ -327,7 +328,13 @@ class ReportTest(unittest.TestCase):
         self.assertAlmostEqual(float(a["h5_bottom_Z"]),
                                s["regions"]["h5"]["bottom"]["coordination"]["mean"])
         self.assertAlmostEqual(float(a["L_y"]), s["height"]["mean"])
+        self.assertAlmostEqual(float(a["com_vx"]), s["com_vx"]["mean"])
+        self.assertAlmostEqual(float(a["com_vx_err"]), s["com_vx"]["err"])
+        self.assertAlmostEqual(float(a["com_vx_std"]), s["com_vx"]["std"])
         c = rows["s1_seed1_V0.05"]
+        # regime C: the centre of mass near +V or -V, its scatter of the order of V
+        self.assertGreater(float(c["com_vx_std"]), 0.2 * 0.05)
+        self.assertGreater(float(c["com_vx_std"]), 5 * float(a["com_vx_std"]) * 0.05 / 0.5)
         self.assertEqual(c["regime"], "C")
         self.assertGreater(int(c["band_switches"]), 0)
         self.assertNotEqual(c["switch_duration"], "")
