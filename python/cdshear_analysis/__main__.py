@@ -276,6 +276,8 @@ def main(argv=None):
                 # Nothing to report: say why, and leave a report already written in place.
                 for name, reason in report["skipped"]:
                     print(f"left out {name}: {reason}", file=sys.stderr)
+                for note in report.get("notes", []):
+                    print(f"note: {note}", file=sys.stderr)
                 raise ReportError(os.path.join(args.campaign_dir, "runs"),
                                   "no analysed run to report on (the reasons above); "
                                   f"{out_dir} left as it was")

@@ -174,8 +174,10 @@ def format_comparison(items, name_a="a", name_b="b"):
                      f"({name_b})")
         for q, v in it.items():
             if isinstance(v, dict):
-                lines.append(f"  {q:22s} {v['a']:.5g} -> {v['b']:.5g}  diff {v['diff']:+.3g}  "
-                             f"({_rounded(v['combined_errors'], 2):+.2f} combined errors)")
+                ce = v["combined_errors"]   # NaN where a run gives no error (com_vx_std)
+                lines.append(f"  {q:22s} {v['a']:.5g} -> {v['b']:.5g}  diff {v['diff']:+.3g}" +
+                             ("" if math.isnan(ce) else
+                              f"  ({_rounded(ce, 2):+.2f} combined errors)"))
     for g in paired_differences(items):
         shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
         if not shown:

@@ -396,13 +396,19 @@ def switch_time_figure(path, switch_predictions):
 
 def profile_labels(rows):
     """The legend label of each row's profile: V, the regime, "not steady" where it is not, and
-    the seed (the run's name when it has none) where several rows share a V."""
+    where several rows share a V the seed (the run's name where the seed does not tell them
+    apart)."""
     labels = []
     for r in rows:
-        shared = sum(1 for q in rows if q["V"] == r["V"]) > 1
-        tag = f"seed {r['seed']}" if r.get("seed") is not None else r.get("run", "?")
-        labels.append(f"V = {r['V']:g}{', ' + tag if shared else ''} "
-                      f"({r['regime'] or '?'}{'' if r['steady'] else ', not steady'})")
+        same_v = [q for q in rows if q.get("V") == r.get("V")]
+        tag = ""
+        if len(same_v) > 1:
+            seed = r.get("seed")
+            unique = seed is not None and sum(1 for q in same_v if q.get("seed") == seed) == 1
+            tag = f", seed {seed}" if unique else f", {r.get('run', '?')}"
+        v = f"{r['V']:g}" if r.get("V") is not None else "?"
+        labels.append(f"V = {v}{tag} "
+                      f"({r.get('regime') or '?'}{'' if r.get('steady') else ', not steady'})")
     return labels
 
 

@@ -79,9 +79,11 @@ def _pair(summary, *keys):
     return _number(entry.get("mean")), err if err is not None and err >= 0 else None
 
 
-def _value(summary, *keys):
-    """The finite number at summary[k0][k1]...; None for what is missing or not one."""
-    return _number(_entry(summary, *keys))
+def _scatter(summary, *keys):
+    """The finite, non-negative number (a standard deviation) at summary[k0][k1]...; None for
+    what is missing, not a number, or negative."""
+    x = _number(_entry(summary, *keys))
+    return x if x is not None and x >= 0 else None
 
 
 # (column, path in summary.json) of every quantity with an error column
@@ -102,8 +104,8 @@ BULK_QUANTITIES = [
     ("switch_duration", ("switch_duration",)),
     ("switch_delta_mu", ("switch_delta_mu",)),
 ]
-# (column, path in summary.json) of the plain values without an error column after them
-PLAIN_QUANTITIES = [
+# (column, path in summary.json) of the standard deviations, without an error column
+SCATTER_QUANTITIES = [
     ("com_vx_std", ("com_vx", "std")),   # the centre of mass's x-velocity: its scatter [d/t]
 ]
 # (column suffix, key in summary["regions"][hK][part]) of each part of a region group: the
@@ -234,8 +236,8 @@ def read_run(run_dir, s=None):
     row["bulk_h_note"] = bulk.get("h_note") if isinstance(bulk.get("h_note"), str) else None
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
-    for col, keys in PLAIN_QUANTITIES:
-        row[col] = _value(s, *keys)
+    for col, keys in SCATTER_QUANTITIES:
+        row[col] = _scatter(s, *keys)
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     # the time the run's averages cover, its weight among the seeds of one point of a fit
@@ -401,7 +403,7 @@ def csv_columns(rows):
     cols = list(HEAD_COLUMNS)
     for col, _ in BULK_QUANTITIES:
         cols += [col, col + "_err"]
-    cols += [col for col, _ in PLAIN_QUANTITIES]
+    cols += [col for col, _ in SCATTER_QUANTITIES]
     for h in sorted({h for r in rows for h in r["_layers"]}):
         for part, quantities in REGION_PARTS.items():
             for col, _ in quantities:

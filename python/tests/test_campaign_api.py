@@ -15,8 +15,8 @@ import numpy as np
 import cdshear_analysis
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
-from cdshear_analysis.campaign import (compare_campaigns, format_paired_markdown,
-                                       paired_differences, unequal_times)
+from cdshear_analysis.campaign import (compare_campaigns, format_comparison,
+                                       format_paired_markdown, paired_differences, unequal_times)
 from cdshear_analysis.report import ReportError
 
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -145,6 +145,10 @@ class CompareCampaigns(unittest.TestCase):
                           f"({t:+.2f}) |", table)
             self.assertIn("| nu_bulk | 0.83 +- 0 | 0.83 +- 0 | +0 +- 0 (+nan) |", table)
             self.assertIn("| com_vx_std | 0.005 +- 0 | 0.005 +- 0 | +0 +- 0 (+nan) |", table)
+            text = format_comparison(compare_campaigns(a, b))
+            # com_vx_std has no error: no combined errors for it; com_vx has
+            self.assertIn("  com_vx_std             0.005 -> 0.005  diff +0\n", text)
+            self.assertRegex(text, r"  com_vx .*diff \+0  \(\+0\.00 combined errors\)")
             self.assertNotIn("V = 1", table)  # one seed: nothing to pair
             with contextlib.redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)

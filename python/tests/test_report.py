@@ -247,10 +247,14 @@ class ReportTest(unittest.TestCase):
         rows = [{"V": 0.1, "seed": 1, "regime": "B", "steady": False},
                 {"V": 0.1, "seed": 2, "regime": "B", "steady": True},
                 {"V": 1.0, "seed": 1, "regime": "A", "steady": True},
-                {"V": 1.0, "seed": None, "run": "custom", "regime": None, "steady": True}]
+                {"V": 1.0, "seed": None, "run": "custom", "regime": None, "steady": True},
+                {"V": 2.0, "seed": 3, "run": "x_seed3", "regime": "A", "steady": True},
+                {"V": 2.0, "seed": 3, "run": "y_seed3", "regime": "A", "steady": True},
+                {"V": None, "seed": 1, "run": "noV", "regime": "A", "steady": True}]
         self.assertEqual(campaign_figures.profile_labels(rows),
                          ["V = 0.1, seed 1 (B, not steady)", "V = 0.1, seed 2 (B)",
-                          "V = 1, seed 1 (A)", "V = 1, custom (?)"])
+                          "V = 1, seed 1 (A)", "V = 1, custom (?)",
+                          "V = 2, x_seed3 (A)", "V = 2, y_seed3 (A)", "V = ? (A)"])
         self.assertEqual(campaign_figures.profile_labels(rows[2:3]), ["V = 1 (A)"])
 
     def test_index_references_only_files_that_exist(self):
@@ -286,6 +290,7 @@ class ReportTest(unittest.TestCase):
         s["bulk"]["coordination"] = {"mean": None, "err": None}   # NaN is written as null
         s["bulk"]["solid_fraction"]["err"] = None                  # single window: no error
         s["regime"] = None
+        s["com_vx"] = {"mean": "0.1", "err": None, "std": -0.01}  # a text, none, a negative
         with open(path, "w") as f:
             json.dump(s, f)
         self.assertEqual(main(["report", self.d]), 0)
@@ -293,7 +298,8 @@ class ReportTest(unittest.TestCase):
             rows = {r["run"]: r for r in csv.DictReader(f)}
         full, holes = rows["s1_seed1_V0.1"], rows["s1_seed1_V0.2"]
         for col in ("slip_bottom", "slip_top_err", "Z_bulk", "Z_bulk_err", "nu_bulk_err",
-                    "regime", "regime_confidence", "h10_top_I", "h5_bottom_mu_eff_err"):
+                    "regime", "regime_confidence", "h10_top_I", "h5_bottom_mu_eff_err",
+                    "com_vx", "com_vx_err", "com_vx_std"):
             self.assertEqual(holes[col], "", col)
             self.assertNotEqual(full[col], "", col)
         self.assertAlmostEqual(float(holes["nu_bulk"]), 0.79)
