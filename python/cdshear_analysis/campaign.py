@@ -72,8 +72,8 @@ def load_campaign(folder, until=None):
                     skipped=list(report["skipped"]))
 
 
-# The quantities compared between two campaigns, each with its standard error (runs.csv columns
-# X and X_err): the averages a setting could move.
+# The quantities compared between two campaigns (runs.csv columns X, with their standard errors
+# X_err where the runs give one: com_vx_std has none): the averages a setting could move.
 COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", "slip_bottom",
             "slip_top", "h10_bottom_mu_eff", "h10_bottom_nu", "h10_bottom_I", "com_vx",
             "com_vx_std")
