@@ -269,18 +269,17 @@ def main(argv=None):
 
     if args.command == "report":
         from .report import ReportError, collect, write_report
+
+        def print_left_out(report, file):
+            for name, reason in report["skipped"]:
+                print(f"left out {name}: {reason}", file=file)
+            for note in report.get("notes", []):
+                print(f"note: {note}", file=file)
+
+        report = None
         try:
             report = collect(args.campaign_dir)
             out_dir = args.out_dir or os.path.join(args.campaign_dir, "report")
-            if not report["rows"]:
-                # Nothing to report: say why, and leave a report already written in place.
-                for name, reason in report["skipped"]:
-                    print(f"left out {name}: {reason}", file=sys.stderr)
-                for note in report.get("notes", []):
-                    print(f"note: {note}", file=sys.stderr)
-                raise ReportError(os.path.join(args.campaign_dir, "runs"),
-                                  "no analysed run to report on (the reasons above); "
-                                  f"{out_dir} left as it was")
             try:
                 paths = write_report(report, out_dir)
             except OSError as e:
@@ -288,14 +287,13 @@ def main(argv=None):
                       file=sys.stderr)
                 return 1
         except ReportError as e:
+            if report is not None:   # no run to report on: why each was left out
+                print_left_out(report, sys.stderr)
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
         for path in paths:
             print(path)
-        for name, reason in report["skipped"]:
-            print(f"left out {name}: {reason}")
-        for note in report.get("notes", []):
-            print(f"note: {note}")
+        print_left_out(report, sys.stdout)
         return 0
 
     from .rundata import RunDataError, load_run

@@ -75,14 +75,12 @@ def _pair(summary, *keys):
     entry = _entry(summary, *keys)
     if not isinstance(entry, dict):
         return None, None
-    err = _number(entry.get("err"))
-    return _number(entry.get("mean")), err if err is not None and err >= 0 else None
+    return _number(entry.get("mean")), _non_negative(entry.get("err"))
 
 
-def _scatter(summary, *keys):
-    """The finite, non-negative number (a standard deviation) at summary[k0][k1]...; None for
-    what is missing, not a number, or negative."""
-    x = _number(_entry(summary, *keys))
+def _non_negative(x):
+    """float(x) for a finite number >= 0 (an error, a standard deviation), else None."""
+    x = _number(x)
     return x if x is not None and x >= 0 else None
 
 
@@ -237,7 +235,7 @@ def read_run(run_dir, s=None):
     for col, keys in BULK_QUANTITIES:
         row[col], row[col + "_err"] = _pair(s, *keys)
     for col, keys in SCATTER_QUANTITIES:
-        row[col] = _scatter(s, *keys)
+        row[col] = _non_negative(_entry(s, *keys))
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
     # the time the run's averages cover, its weight among the seeds of one point of a fit
@@ -1027,8 +1025,13 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
 def write_report(report, out_dir):
     """runs.csv, runs.md, fits.json, figures/*.png and index.html in out_dir; returns their
     paths. Adds `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them
-    in report["printed"] (index.html gives them in its own sections, not as notes)."""
+    in report["printed"] (index.html gives them in its own sections, not as notes). With no run
+    to report on, raises ReportError and writes nothing, so that a report written before stays."""
     rows = report["rows"]
+    if not rows:
+        raise ReportError(os.path.join(report["campaign_dir"], "runs"),
+                          f"no analysed run to report on (each left out with its reason); "
+                          f"{out_dir} left as it was")
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
     paths = []

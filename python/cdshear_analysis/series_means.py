@@ -83,7 +83,7 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         try:
             start = float(text)
         except ValueError:
-            raise SeriesError(f"{start_file}: {text!r} is not a time") from None
+            start = math.nan
         if not math.isfinite(start):
             raise SeriesError(f"{start_file}: {text!r} is not a time")
         try:
