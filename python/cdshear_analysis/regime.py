@@ -207,6 +207,9 @@ def window_state(p, shares, velocity):
     if r > SHEAR_RATIO_BLOCK:
         return "undecided", (f"r = {r:.3g} between {SHEAR_RATIO_BLOCK:g} and "
                              f"{SHEAR_RATIO_A:g}: neither sheared nor a block")
+    if r < -SHEAR_RATIO_BLOCK:
+        return "undecided", (f"r = {r:.3g} < -{SHEAR_RATIO_BLOCK:g}: the bulk is sheared against "
+                             f"the walls' sense, not a block")
     jumps = f"jumps {jb / V:.2f} V (bottom), {jt / V:.2f} V (top)"
     if _carries(jb, 1, V) and _carries(jt, 1, V):
         state, share, side = "B", shares["rest"], f"|u| <= {COM_LEVEL:g} V"

@@ -409,7 +409,7 @@ def sweep_cap_warning(solver):
     lines = [f"warning: {capped} of {steps} steps ({share:.1%}) hit the sweep cap"]
     if share >= CAPPED_SHARE_WARNING:
         lines.append("  with so many steps at the cap the contact forces are not converged: the "
-                     "count of force-carrying contacts (Z) moves first (docs/step-error.md, \"Tall "
+                     "count of force-carrying contacts moves first (docs/step-error.md, \"Tall "
                      "cells\"); a stretch rerun with a tighter solver.alpha and a larger "
                      "solver.max_sweeps tells how far")
     return lines

@@ -44,6 +44,7 @@ class WindowStates(unittest.TestCase):
         cases = [
             (profile(r=0.8, linearity=0.3), shares(), "the bulk profile is not linear"),
             (profile(r=0.15), shares(), "r = 0.15 between 0.1 and 0.2"),
+            (profile(r=-0.5), shares(), "r = -0.5 < -0.1: the bulk is sheared against"),
             (profile(jump_bottom=1.3 * V, jump_top=0.2 * V), shares(),
              "neither both layers about V (B) nor one about 2V and the other about 0 (C)"),
             (profile(), shares(rest=0.3, plus=0.35, minus=0.35),

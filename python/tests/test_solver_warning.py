@@ -52,7 +52,7 @@ class SweepCapWarning(unittest.TestCase):
         self.assertGreaterEqual(summary["solver"]["capped_steps"] / summary["solver"]["steps"],
                                 CAPPED_SHARE_WARNING)
         self.assertIn("not converged", report)
-        self.assertIn("force-carrying contacts (Z)", report)
+        self.assertIn("the count of force-carrying contacts moves first", report)
 
     def test_without_a_step_count_the_count_alone(self):
         self.assertEqual(sweep_cap_warning({"capped_steps": 3, "steps": 0}),

@@ -368,9 +368,10 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   const double H = w.height;
   const double scale = std::sqrt(kInertialMass / normal_stress);
   // Sums over the stripes of one region. A stripe's share of the cell is the part of it below
-  // the mean height H (the top stripe is cut by the wall): the region's solid fraction and
-  // stresses are per area of the region inside the cell. Stripes are assigned by their centre;
-  // a stripe cut by the top wall belongs to the top layer.
+  // the mean height H (the top stripe is cut by the wall): the region's solid fraction is per
+  // area of the region inside the cell; its mu_eff is the ratio of the stripes' summed stresses,
+  // which needs no such division. Stripes are assigned by their centre; a stripe cut by the top
+  // wall belongs to the top layer.
   const double dy = centres.size() > 1 ? centres[1] - centres[0] : 2.0 * centres[0];
   struct Sums {
     double sxy = 0, syy = 0, nu = 0, nu_z = 0, nu_zc = 0, inside = 0, count = 0;
