@@ -24,6 +24,8 @@ expect_error "key 'system.height'" "$exe" run -q --set system.height=0.5
 expect_error "/nonexistent/p.json: packing file not found" "$exe" run -q --packing /nonexistent/p.json
 expect_error "key 'n': packing has 511 disks" "$exe" run -q --set system.n=100 --packing "$packing"
 expect_error "key 'shear.duraton': unknown key" "$exe" run -q --set shear.duraton=5
+expect_error "--set sheer.velocity=0.4: key 'sheer': unknown key" "$exe" run -q --set sheer.velocity=0.4
+expect_error "--set shear.velocity.x=1: key 'shear.velocity'" "$exe" run -q --set shear.velocity.x=1
 expect_error "missing.toml: file not found" "$exe" run -q missing.toml
 expect_error "--system: system must be 1..7" "$exe" run -q --system 9
 expect_error "key 'solver.normal_compliance': must be >= 0 and < 1, got 1" "$exe" run -q --set solver.normal_compliance=1 --packing "$packing"

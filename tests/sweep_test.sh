@@ -156,6 +156,8 @@ cmp -s grown/runs/s1_seed1_V1/final_state.json whole/runs/s1_seed1_V1/final_stat
   fail "the extended run differs from the run asked for 6 t from the start"
 "$exe" run --resume grown/runs/s1_seed1_V1 --set shear.duration=8 --stop-at 7 -q > stop.out 2>&1 ||
   fail "the stopped extension exited $?: $(cat stop.out)"
+# Its interrupted_state.json says it stopped short, even where progress.json is lost.
+rm grown/runs/s1_seed1_V1/progress.json
 sed -i 's/^duration = 6/duration = 8/' grow.toml
 "$exe" sweep grow.toml -o grown --force > regrown.out 2>&1 || fail "regrown: $(cat regrown.out)"
 grep -q "0 finished earlier, 1 to resume, 0 to start" regrown.out ||
@@ -170,6 +172,19 @@ rc=0; "$exe" sweep grow.toml -o grown --force > lost.out 2>&1 || rc=$?
 grep -q "s1_seed1_V1: finished at 8 t where the campaign asks for 10 t; extending it needs its checkpoint.cbor" \
   lost.out || fail "the run without its checkpoint: $(cat lost.out)"
 test -f grown/runs/s1_seed1_V1/final_state.json || fail "the run without its checkpoint was touched"
+# An extension that blew up is reported as blown up, not started again by every sweep.
+campaign burst "[1.0]"
+"$exe" sweep burst.toml -o burst > burst.out 2>&1 || fail "burst: $(cat burst.out)"
+rc=0; "$exe" run --resume burst/runs/s1_seed1_V1 --set shear.duration=6 \
+  --set step.abort_overlap=1e-9 -q --no-analyze > blew.out 2>&1 || rc=$?
+[ $rc -eq 3 ] && test -f burst/runs/s1_seed1_V1/blowup_state.json ||
+  fail "the extension did not blow up (exit $rc): $(cat blew.out)"
+sed -i 's/^duration = 4/duration = 6/' burst.toml
+sittings=$(ls burst/runs/s1_seed1_V1 | grep -c '^run_info')
+rc=0; "$exe" sweep burst.toml -o burst --force > reburst.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: blew up in an earlier sweep" reburst.out &&
+  [ "$(ls burst/runs/s1_seed1_V1 | grep -c '^run_info')" -eq "$sittings" ] ||
+  fail "a blown-up extension (exit $rc): $(cat reburst.out)"
 
 # 4. One sweep per folder: a second one started while the first works there is refused.
 campaign long "[0.5]"

@@ -245,14 +245,19 @@ TEST(BadInput, APackingDestinationIsCheckedBeforeAnythingIsPrepared) {
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "new"));
   const std::string plain = dir.write("plain.txt", "text");
   expect_refused(std::filesystem::path(plain) / "p.json", "cannot make the packing's folder");
-  // A new folder is made, a regular file may be replaced, and no probe is left behind.
+  // Only a packing is replaced: not a case file, a run's run.h5 or a JSON file of another kind.
+  expect_refused(plain, "not a cdshear packing");
+  expect_refused(dir.write("other.json", R"({"format": "cdshear-progress"})"),
+                 "not a cdshear packing");
+  EXPECT_EQ(testing::read_text(plain), "text");
+  // A new folder is made, a packing may be replaced, and no probe is left behind.
   check_packing_destination(dir.path() / "sub" / "p.json");
   EXPECT_TRUE(std::filesystem::is_directory(dir.path() / "sub"));
   EXPECT_TRUE(std::filesystem::is_empty(dir.path() / "sub"));
-  check_packing_destination(plain);
+  check_packing_destination(dir.write("old.json", R"( {"format": "cdshear-packing", "n": 1})"));
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()),
                           std::filesystem::directory_iterator()),
-            3);  // fifo.json, plain.txt, sub
+            5);  // fifo.json, plain.txt, other.json, old.json, sub
 }
 
 TEST(BadInput, RelaxationOutsideZeroToTwoIsRefused) {

@@ -140,6 +140,8 @@ def read_json(path):
             return json.load(f)
     except (OSError, ValueError) as e:
         raise ReportError(path, f"cannot read: {e}") from None
+    except RecursionError:
+        raise ReportError(path, "cannot read: its JSON is nested too deeply") from None
 
 
 def read_summary(run_dir):
@@ -176,6 +178,18 @@ def summary_state(s):
     if v > version:
         return "newer", (f"summary.json version {v} is newer than this code's {version}: "
                          "report it with the cdshear_analysis that wrote it, or newer")
+    return None
+
+
+def case_problem(s):
+    """None when the `case` of a current summary.json s holds what a report is drawn from (a
+    positive, finite wall speed); else what is wrong, for a summary edited or damaged by hand."""
+    case = s.get("case")
+    if not isinstance(case, dict):
+        return "has no `case` object"
+    v = case.get("velocity")
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        return f"case.velocity {v!r} is not a positive number"
     return None
 
 
@@ -302,6 +316,10 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
     s = read_summary(run_dir)
     state = summary_state(s)
     if state is None:
+        damaged = case_problem(s)
+        if damaged:
+            return None, f"summary.json {damaged} (`cdshear analyze` the run to write it " \
+                         f"again)"
         return s, None
     kind, why = state
     if kind == "other format":

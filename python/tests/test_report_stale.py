@@ -161,3 +161,34 @@ class StaleSummaryTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class DamagedSummaryTest(unittest.TestCase):
+    """A current summary.json edited or damaged by hand is left out with the reason, before the
+    report draws anything from it; a JSON file nested too deeply is a ReportError."""
+
+    def test_a_wall_speed_that_is_no_positive_number_is_left_out(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "damaged", {1: [(0.5, 0.025, 0.35, 0.8, 3.0)]})
+            run = os.path.join(d, "runs", "s1_seed1_V0.5")
+            with open(os.path.join(run, "summary.json")) as f:
+                good = json.load(f)
+            self.assertIsNone(report.case_problem(good))
+            self.assertIsNotNone(report.usable_summary(run, [])[0])
+            for bad in ("abc", None, True, 0, -0.5, [0.5], float("nan")):
+                s = dict(good, case=dict(good["case"], velocity=bad))
+                with open(os.path.join(run, "summary.json"), "w") as f:
+                    json.dump(s, f)
+                summary, why = report.usable_summary(run, [])
+                self.assertIsNone(summary, bad)
+                self.assertIn(f"case.velocity {bad!r} is not a positive number", why)
+            self.assertIn("no `case` object", report.case_problem(dict(good, case=[])))
+
+    def test_json_nested_too_deeply_is_a_report_error(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "summary.json")
+            with open(path, "w") as f:
+                f.write("[" * 100000 + "]" * 100000)
+            with self.assertRaises(report.ReportError) as caught:
+                report.read_json(path)
+            self.assertIn("nested too deeply", str(caught.exception))

@@ -60,7 +60,12 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     return 1;
   }
   const std::string package_dir = package.dir.string();
-  std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, run_dir.string()};
+  // A relative folder named like an option ("-x") goes as "./-x": the package's argument parser
+  // would take it for one.
+  const std::string folder = run_dir.string().starts_with('-')
+                                 ? (std::filesystem::path(".") / run_dir).string()
+                                 : run_dir.string();
+  std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, folder};
   args.insert(args.end(), extra.begin(), extra.end());
   std::fflush(stdout);
   std::fflush(stderr);

@@ -89,18 +89,32 @@ bool stopped_before_its_end(const fs::path& dir);
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
 /// done, and resuming it would be refused (it reached its end), so it counts as finished; unless
-/// an extension of it stopped before its new end (stopped_before_its_end, with a checkpoint):
-/// interrupted. Blown up: blowup_state.json (a resume would repeat the same steps). Interrupted:
-/// a checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
+/// an extension of it stopped before its new end, with a checkpoint: interrupted. An extension
+/// that stopped says so twice, in progress.json (stopped_before_its_end) and by its
+/// interrupted_state.json (removed when a run completes): either is enough, so that a lost or
+/// damaged progress.json does not leave the run finished short of its case.toml's duration.
+/// Blown up: blowup_state.json (a resume would repeat the same steps), also where an extension
+/// of a finished run blew up (the blow-up no older than the final state). Interrupted: a
+/// checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
 /// reached its end (a campaign folder cloned from git keeps its summaries, not its final states).
 /// Otherwise new.
 RunState run_state(const fs::path& dir) {
   if (!fs::is_directory(dir)) return RunState::kNew;
-  if (fs::exists(dir / "final_state.json"))
-    return fs::exists(dir / "checkpoint.cbor") && stopped_before_its_end(dir)
-               ? RunState::kInterrupted
-               : RunState::kFinished;
-  if (fs::exists(dir / "blowup_state.json")) return RunState::kBlownUp;
+  std::error_code ec;
+  const bool blown_up = fs::exists(dir / "blowup_state.json", ec);
+  if (fs::exists(dir / "final_state.json", ec)) {
+    if (blown_up) {
+      const auto blew = fs::last_write_time(dir / "blowup_state.json", ec);
+      const bool blew_known = !ec;
+      const auto ended = fs::last_write_time(dir / "final_state.json", ec);
+      if (blew_known && !ec && blew >= ended) return RunState::kBlownUp;
+    }
+    const bool extension_stopped =
+        stopped_before_its_end(dir) || fs::exists(dir / "interrupted_state.json", ec);
+    return fs::exists(dir / "checkpoint.cbor", ec) && extension_stopped ? RunState::kInterrupted
+                                                                        : RunState::kFinished;
+  }
+  if (blown_up) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
   if (case_of(run_summary(dir)).value("finished", nlohmann::json()) == true)
     return RunState::kFinished;
@@ -365,7 +379,15 @@ class Sweep {
   /// that died still hold it.
   void claim_folder() {
     check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
-    for (const char* sub : {"packings", "runs", "logs"}) fs::create_directories(dir_ / sub);
+    for (const char* sub : {"packings", "runs", "logs"}) {
+      std::error_code ec;
+      fs::create_directories(dir_ / sub, ec);
+      if (ec)
+        throw ConfigError(dir_.string(), "",
+                          fmt::format("cannot make the campaign's folder {}/ in it: {} (-o names "
+                                      "the folder that holds the campaign)",
+                                      sub, ec.message()));
+    }
     const fs::path lock = dir_ / ".sweep.lock";
     const int lock_fd = open_regular_file(lock, O_RDWR | O_CREAT, "the sweep's lock");
     if (lock_fd < 0)

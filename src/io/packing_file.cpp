@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -53,6 +54,25 @@ void write_packing(const std::filesystem::path& path, const Packing& p) {
   write_file_atomic(path, j.dump(1) + "\n");
 }
 
+bool is_packing_file(const std::filesystem::path& path) {
+  // A packing is at most a few MB; a larger file (a run's run.h5) is none, and is not read.
+  constexpr std::uintmax_t kLargestPacking = std::uintmax_t{1} << 30;
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size > kLargestPacking) return false;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  char first = 0;
+  while (in.get(first) && std::isspace(static_cast<unsigned char>(first))) {
+  }
+  if (first != '{') return false;  // a case file, an HDF5 file, LAMMPS data...
+  in.unget();
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return false;
+  const auto format = j.find("format");
+  return format != j.end() && format->is_string() && *format == "cdshear-packing";
+}
+
 void check_packing_destination(const std::filesystem::path& path) {
   namespace fs = std::filesystem;
   const std::string file = path.string();
@@ -65,6 +85,11 @@ void check_packing_destination(const std::filesystem::path& path) {
     throw ConfigError(file, "",
                       "exists and is not a regular file (a folder, a FIFO or a device): remove it "
                       "or give another name");
+  if (fs::exists(status) && !is_packing_file(path))
+    throw ConfigError(file, "",
+                      "exists and is not a cdshear packing (a JSON object with format "
+                      "\"cdshear-packing\"): only a packing is replaced; remove it or give another "
+                      "name");
   if (path.has_parent_path()) {
     fs::create_directories(path.parent_path(), ec);
     if (ec)

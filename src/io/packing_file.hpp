@@ -15,8 +15,13 @@ void write_packing(const std::filesystem::path& path, const Packing& packing);
 /// write it to `path`: a file name, not a folder; nothing but a regular file in its place (a FIFO
 /// or a device would be replaced by the packing); a folder that exists, or is made now, and takes
 /// a new file. Throws ConfigError naming the path and the problem. An existing packing there is
-/// replaced, as `-o` asks.
+/// replaced, as `-o` asks; any other file there (a case file, a run's run.h5) is refused.
 void check_packing_destination(const std::filesystem::path& path);
+
+/// True when `path` holds a cdshear packing: a JSON object whose "format" is "cdshear-packing"
+/// (whether the rest is a valid packing is not checked). False for anything else, unreadable
+/// or over 1 GiB (not read).
+bool is_packing_file(const std::filesystem::path& path);
 /// The least solid fraction a packing file may have: the walls must rest on a packing, not on a
 /// few grains in a cell far wider than its disks fill.
 inline constexpr double kSmallestPackingSolidFraction = 0.1;

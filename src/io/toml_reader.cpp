@@ -122,9 +122,16 @@ std::string TomlReader::full_key(const std::string& key) const {
 
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
   const std::string full = full_key(key);
-  if (sources_ != nullptr)
+  if (sources_ != nullptr) {
     if (const auto it = sources_->find(full); it != sources_->end())
       throw ConfigError(it->second, full, problem);  // the value came from the command line
+    // A key that a `--set` of a key inside it made a table (`--set sheer.velocity=1`: "sheer"
+    // is unknown; `--set shear.velocity.x=1`: shear.velocity is no number): that `--set`.
+    const std::string inside = full + ".";
+    if (const auto it = sources_->lower_bound(inside);
+        it != sources_->end() && it->first.starts_with(inside))
+      throw ConfigError(it->second, full, problem);
+  }
   throw ConfigError(file_, full, problem);
 }
 
