@@ -188,7 +188,7 @@ def case_problem(s):
     if not isinstance(case, dict):
         return "has no `case` object"
     v = case.get("velocity")
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+    if not (_number(v) or 0) > 0:   # _number: None for what is no finite number
         return f"case.velocity {v!r} is not a positive number"
     return None
 

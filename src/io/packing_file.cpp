@@ -20,13 +20,14 @@ namespace cdshear {
 namespace {
 
 constexpr int kPackingVersion = 1;
+constexpr const char* kPackingFormat = "cdshear-packing";  // a packing file's "format"
 
 /// A packing file's content: every key a packing holds is written here, and read_packing refuses
 /// any other.
 nlohmann::json packing_json(const Packing& p) {
   nlohmann::json disks = nlohmann::json::array();
   for (const PackingDisk& d : p.disks) disks.push_back({d.position.x, d.position.y, d.radius});
-  return {{"format", "cdshear-packing"},
+  return {{"format", kPackingFormat},
           {"version", kPackingVersion},
           {"program_version", CDSHEAR_VERSION},
           {"build", p.build.empty() ? build_description() : p.build},
@@ -70,7 +71,7 @@ bool is_packing_file(const std::filesystem::path& path) {
   const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
   if (j.is_discarded() || !j.is_object()) return false;
   const auto format = j.find("format");
-  return format != j.end() && format->is_string() && *format == "cdshear-packing";
+  return format != j.end() && format->is_string() && *format == kPackingFormat;
 }
 
 void check_packing_destination(const std::filesystem::path& path) {
@@ -150,7 +151,7 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     if (!j.contains(key)) throw ConfigError(file, key, "is missing");
     return j.at(key);
   };
-  if (need("format") != "cdshear-packing") throw ConfigError(file, "format", "not a packing file");
+  if (need("format") != kPackingFormat) throw ConfigError(file, "format", "not a packing file");
   const nlohmann::json known = packing_json(Packing{});
   for (const auto& [key, value] : j.items())
     if (!known.contains(key))
