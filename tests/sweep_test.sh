@@ -7,7 +7,7 @@
 # interrupted one from its checkpoint and finishes all; a run killed between its last step and
 # its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
 # longer duration extends finished runs; `--progress-every` prints a progress line with an
-# estimate before any run has finished.
+# estimate before any run has finished; a folder that is not a campaign's is refused untouched.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -236,6 +236,25 @@ rc=0; "$exe" sweep locked.toml -o locked > locked.out 2>&1 || rc=$?
 grep -q "locked/.sweep.lock: cannot open the sweep's lock file: Is a directory" locked.out ||
   fail "the refusal does not name the lock: $(cat locked.out)"
 
+# A folder that is not a campaign's is refused before anything is written in it: one holding
+# the user's own campaign file (`-o .`, with or without --force, would write over it), and one
+# holding other files.
+mkdir -p own && campaign own "[0.5]" && cp own.toml own/campaign.toml
+for force in "" --force; do
+  rc=0; (cd own && "$exe" sweep campaign.toml -o . $force) > own.out 2>&1 || rc=$?
+  [ $rc -eq 2 ] || fail "-o . onto the campaign file ($force) exited $rc, not 2: $(cat own.out)"
+  grep -q "own/campaign.toml: this campaign.toml was not written by a sweep" own.out ||
+    fail "the refusal does not name the file: $(cat own.out)"
+  cmp -s own.toml own/campaign.toml || fail "the user's campaign file was changed ($force)"
+done
+[ "$(ls own)" = campaign.toml ] || fail "a refused sweep wrote into the folder: $(ls own)"
+mkdir -p foreign && echo keep > foreign/notes.txt
+rc=0; "$exe" sweep own.toml -o foreign > foreign.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a foreign folder exited $rc, not 2: $(cat foreign.out)"
+grep -q "foreign: the folder holds 'notes.txt' and no campaign.toml of a sweep" foreign.out ||
+  fail "the refusal does not name the folder and its file: $(cat foreign.out)"
+[ "$(ls foreign)" = notes.txt ] || fail "a refused sweep wrote into a foreign folder"
+
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished (each runs several seconds);
 # a bad period is refused.
@@ -254,5 +273,6 @@ rc=0; "$exe" sweep ticks.toml -o ticks --progress-every -1 > bad_every.out 2>&1 
 [ $rc -eq 2 ] || fail "--progress-every -1 exited $rc, not 2: $(cat bad_every.out)"
 
 echo "sweep_test: campaigns run, skip finished runs (analysing one killed before its analysis),"\
-  "resume interrupted ones, extend finished ones, refuse changes, a busy folder and runs beyond the limits;"\
+  "resume interrupted ones, extend finished ones, refuse changes, a busy folder, a folder that is not"\
+  "a campaign's and runs beyond the limits;"\
   "periodic progress lines with an estimate before any run has finished"

@@ -192,6 +192,49 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   r.region_max = {10.0, 1e308};  // each finite, the height not
   s.random_disks = {r};
   EXPECT_EQ(key_of(s), "random_disks[0].region");
+  s = {};
+  r = {};
+  r.count = 3;
+  r.region_max = {10.0, 10.0};
+  r.diameter_min = 1e-100;  // a moment of inertia of about 1e-400: zero
+  s.random_disks = {r};
+  EXPECT_EQ(key_of(s), "random_disks[0].diameter_min");
+}
+
+TEST(BadInput, NumbersTooSmallToInvertAreRefusedNotTurnedIntoNaN) {
+  // A wall normal is divided by its length, a disk's mass and inertia are inverted: a length
+  // of 1e-320 has an infinite inverse, a radius of 1e-160 a zero moment of inertia. The files
+  // are well formed; the scene builder refuses them, naming the entry.
+  const std::string floor = "normal = [0.0, 1.0]\n";
+  auto with_normal = [&](std::string text, const std::string& normal) {
+    return text.replace(text.find(floor), floor.size(), "normal = " + normal + "\n");
+  };
+  auto scene_error = [](const std::string& text) -> std::pair<std::string, std::string> {
+    TempDir dir("tiny_numbers");
+    const SceneFile sf = load_scene_file(dir.write("scene.toml", text), {});
+    try {
+      const World w = build_world(sf.scene);
+      for (std::size_t i = 0; i < w.disks.size(); ++i)
+        EXPECT_TRUE(std::isfinite(1.0 / w.disks.inertia[i]) &&
+                    std::isfinite(1.0 / w.disks.mass[i]));
+      for (const Wall& wall : w.walls) EXPECT_NEAR(length(wall.normal), 1.0, 1e-15);
+    } catch (const SceneError& e) {
+      return {e.key(), e.what()};
+    }
+    return {"(no error)", ""};
+  };
+  auto [key, what] = scene_error(with_normal(scene_text(), "[0.0, 1e-320]"));
+  EXPECT_EQ(key, "walls[0].normal");
+  EXPECT_NE(what.find("inverse is finite"), std::string::npos) << what;
+  std::tie(key, what) =
+      scene_error(scene_text("dt = 1e-3\n", "[[disks]]\nposition = [1.0, 0.5]\nradius = 1e-160\n"));
+  EXPECT_EQ(key, "disks[0].radius");
+  EXPECT_NE(what.find("normal floating-point numbers"), std::string::npos) << what;
+  // Small but ordinary numbers stay accepted, and the world built from them is finite.
+  std::tie(key, what) = scene_error(
+      with_normal(scene_text("dt = 1e-3\n", "[[disks]]\nposition = [1.0, 0.5]\nradius = 1e-60\n"),
+                  "[0.0, 1e-300]"));
+  EXPECT_EQ(key, "(no error)") << what;
 }
 
 TEST(BadInput, OverrideWithUnknownKeyIsRefused) {

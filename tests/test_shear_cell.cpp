@@ -290,6 +290,16 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
   expect_case_error(with({"shear.velocity=1e-320"}), "shear.velocity", "less than one grain");
   expect_case_error(with({"measure.boundary_thickness=[5, 100]"}), "measure.boundary_thickness",
                     "at most half of L_y");
+  // Preparation limits counted in steps: a limit beyond the step count a run may take is blamed
+  // on the time step when that was given, and a window longer than the limit is refused.
+  expect_case_error(with({"preparation.max_time_per_phase=1e300"}),
+                    "preparation.max_time_per_phase", "more than the limit");
+  expect_case_error(with({"preparation.dt=1e-300"}), "preparation.dt", "more than the limit");
+  expect_case_error(with({"preparation.compression_dt=1e-300"}), "preparation.compression_dt",
+                    "more than the limit");
+  expect_case_error(with({"preparation.window_time=3000"}), "preparation.window_time",
+                    "at most preparation.max_time_per_phase");
+  EXPECT_EQ(load_case(with({"preparation.window_time=2000"})).preparation.window_time, 2000.0);
   EXPECT_EQ(load_case(with({"measure.boundary_thickness=[10]"})).measure.boundary_thickness,
             std::vector<double>{10.0});  // system 1: the layers meet in the middle
   // The slowest V of model.md section 6.

@@ -1040,11 +1040,32 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
     return lines
 
 
+_RUN_FILES = ("run.h5", "summary.json", "case.toml", "checkpoint.cbor", "final_state.json")
+
+
+def check_report_folder(campaign_dir, out_dir):
+    """Raises ReportError when out_dir is no place for a report: a run's folder (a report's
+    figures/ would replace the run's own) or anywhere in the campaign's runs/ (a report there
+    would be read as a run)."""
+    runs = os.path.realpath(os.path.join(campaign_dir, "runs"))
+    where = os.path.realpath(out_dir)
+    if where == runs or where.startswith(runs + os.sep):
+        raise ReportError(out_dir, f"is inside the campaign's runs folder ({runs}), where each "
+                                   f"folder is a run's; choose another -o (default: "
+                                   f"{os.path.join(campaign_dir, 'report')})")
+    found = [f for f in _RUN_FILES if os.path.lexists(os.path.join(out_dir, f))]
+    if found:
+        raise ReportError(out_dir, f"holds a run's files ({', '.join(found)}): a report would "
+                                   f"write over the run's figures; choose another -o")
+
+
 def write_report(report, out_dir):
     """runs.csv, runs.md, fits.json, figures/*.png and index.html in out_dir; returns their
     paths. Adds `printed_lines` to report["notes"], which `cdshear report` prints, and keeps them
     in report["printed"] (index.html gives them in its own sections, not as notes). With no run
-    to report on, raises ReportError and writes nothing, so that a report written before stays."""
+    to report on, or where out_dir is no place for a report (check_report_folder), raises
+    ReportError and writes nothing, so that a report written before stays."""
+    check_report_folder(report["campaign_dir"], out_dir)
     rows = report["rows"]
     if not rows:
         raise ReportError(os.path.join(report["campaign_dir"], "runs"),

@@ -111,6 +111,31 @@ class ReportTest(unittest.TestCase):
                                     3.2 - 2.0 * I ** 0.7 + 0.02 * rng.standard_normal()))
         fake_campaign(self.d, "test_campaign", runs)
 
+    def test_a_run_folder_or_the_runs_folder_is_refused_as_the_report_folder(self):
+        self.power_law_campaign()
+        run = os.path.join(self.d, "runs", "s1_seed1_V0.03")
+        os.makedirs(os.path.join(run, "figures"))
+        with open(os.path.join(run, "figures", "profiles.png"), "w") as f:
+            f.write("the run's own figure")
+        before = sorted(os.listdir(run))
+        other_run = os.path.join(self.d, "another_campaigns_run")  # a run of no campaign here
+        fake_summary(other_run, 0.1, 0.01, 0.3, 0.8, 3.0)
+        err = io.StringIO()
+        for out in (run, os.path.join(self.d, "runs"), os.path.join(self.d, "runs", "new"),
+                    other_run):
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+                self.assertEqual(cli_main(["report", self.d, "-o", out]), 2, out)
+        self.assertIn("holds a run's files (summary.json)", err.getvalue())
+        self.assertIn("is inside the campaign's runs folder", err.getvalue())
+        self.assertEqual(sorted(os.listdir(run)), before)
+        with open(os.path.join(run, "figures", "profiles.png")) as f:
+            self.assertEqual(f.read(), "the run's own figure")
+        self.assertFalse(os.path.exists(os.path.join(self.d, "runs", "new")))
+        self.assertFalse(os.path.exists(os.path.join(self.d, "runs", "runs.csv")))
+        self.assertEqual(os.listdir(other_run), ["summary.json"])
+        # elsewhere, the same report is written
+        self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "elsewhere")]), 0)
+
     def test_power_law_fits_recover_the_parameters(self):
         self.power_law_campaign()
         self.assertEqual(main(["report", self.d]), 0)

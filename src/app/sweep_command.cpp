@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -303,6 +304,36 @@ SittingProgress read_sitting_progress(const fs::path& run_dir, double sitting_se
   return out;
 }
 
+/// Refuses a folder that is neither new, nor empty, nor one a sweep made: a sweep writes
+/// campaign.toml, packings/, runs/ and logs/ in it, over whatever holds those names. A sweep's
+/// campaign.toml begins with kResolvedCampaignHeader; a folder with only a sweep's subfolders
+/// (a sweep stopped before it wrote campaign.toml, or packings put there by hand) is one too.
+void check_campaign_folder(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;  // made by the sweep (or refused when it cannot be)
+  const fs::path file = dir / "campaign.toml";
+  if (fs::exists(file, ec)) {
+    std::string head(kResolvedCampaignHeader.size(), '\0');
+    std::ifstream in(file, std::ios::binary);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    if (!in || head != kResolvedCampaignHeader)
+      throw ConfigError(file.lexically_normal().string(), "",
+                        "this campaign.toml was not written by a sweep (a campaign file of your "
+                        "own?): the sweep would write over it; -o names a new folder, or one a "
+                        "sweep made");
+    return;
+  }
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name == "packings" || name == "runs" || name == "logs" || name == ".sweep.lock") continue;
+    throw ConfigError(dir.lexically_normal().string(), "",
+                      fmt::format("the folder holds '{}' and no campaign.toml of a sweep: it is "
+                                  "not a campaign's folder; -o names a new or empty folder, or one "
+                                  "a sweep made",
+                                  name));
+  }
+}
+
 /// Refuses a campaign that differs from the one DIR was made for, unless --force.
 void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
   if (!fs::exists(file)) return;
@@ -378,6 +409,7 @@ class Sweep {
   /// until this process exits; its runs inherit the descriptor, so runs left behind by a sweep
   /// that died still hold it.
   void claim_folder() {
+    check_campaign_folder(dir_);
     check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
     for (const char* sub : {"packings", "runs", "logs"}) {
       std::error_code ec;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <unordered_map>
 
 #include "cell_list.hpp"
@@ -116,6 +117,17 @@ void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, 
   }
 }
 
+/// Why a disk of this radius cannot move (its mass or moment of inertia is no normal number,
+/// so that its inverse overflows or loses its digits), or "" when it can.
+std::string mass_problem(double density, double radius) {
+  const double mass = density * std::numbers::pi * radius * radius;
+  const double inertia = 0.5 * mass * radius * radius;
+  if (std::isnormal(mass) && std::isnormal(inertia)) return "";
+  return "radius " + short_number(radius) + " at density " + short_number(density) +
+         " gives a mass of " + short_number(mass) + " and a moment of inertia of " +
+         short_number(inertia) + ", outside the range of normal floating-point numbers";
+}
+
 }  // namespace
 
 void validate_scene(const SceneDefinition& s) {
@@ -126,14 +138,23 @@ void validate_scene(const SceneDefinition& s) {
     throw SceneError("material.friction_disk_disk", "must be >= 0");
   for (std::size_t i = 0; i < s.walls.size(); ++i) {
     const Wall& w = s.walls[i];
-    if (!(length(w.normal) > 0.0)) throw SceneError(indexed("walls", i, "normal"), "is zero");
+    // The normal is divided by its length: a length whose inverse overflows would make it NaN.
+    if (const double n = length(w.normal);
+        !(n > 0.0) || !std::isfinite(1.0 / n) || !std::isfinite(n))
+      throw SceneError(indexed("walls", i, "normal"),
+                       n == 0.0 ? "is zero"
+                                : "must have a finite length whose inverse is finite, got length " +
+                                      short_number(n));
     if (!(w.friction >= 0.0)) throw SceneError(indexed("walls", i, "friction"), "must be >= 0");
     const bool free = w.mode_x == AxisMode::kFree || w.mode_y == AxisMode::kFree;
     if (free && !(w.mass > 0.0))
       throw SceneError(indexed("walls", i, "mass"), "must be > 0 for a wall free along an axis");
   }
-  for (std::size_t i = 0; i < s.disks.size(); ++i)
+  for (std::size_t i = 0; i < s.disks.size(); ++i) {
     if (!(s.disks[i].radius > 0.0)) throw SceneError(indexed("disks", i, "radius"), "must be > 0");
+    if (const std::string why = mass_problem(s.density, s.disks[i].radius); !why.empty())
+      throw SceneError(indexed("disks", i, "radius"), why);
+  }
   double largest_diameter = 0.0;
   for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2 * d.radius);
   for (std::size_t i = 0; i < s.random_disks.size(); ++i) {
@@ -142,6 +163,11 @@ void validate_scene(const SceneDefinition& s) {
       throw SceneError(indexed("random_disks", i, "diameter_min"), "must be > 0");
     if (!(r.diameter_max >= r.diameter_min))
       throw SceneError(indexed("random_disks", i, "diameter_max"), "must be >= diameter_min");
+    for (const double diameter : {r.diameter_min, r.diameter_max})
+      if (const std::string why = mass_problem(s.density, 0.5 * diameter); !why.empty())
+        throw SceneError(indexed("random_disks", i,
+                                 diameter == r.diameter_min ? "diameter_min" : "diameter_max"),
+                         why);
     if (!(r.region_max.x > r.region_min.x) || !(r.region_max.y > r.region_min.y))
       throw SceneError(indexed("random_disks", i, "region"), "max must exceed min on both axes");
     if (!std::isfinite(r.region_max.x - r.region_min.x) ||

@@ -458,7 +458,7 @@ std::string campaign_fingerprint(const toml::table& resolved) {
 std::string campaign_file_text(const Campaign& c) {
   const toml::table t = campaign_to_toml(c);
   std::ostringstream text;
-  text << "# Resolved campaign written by cdshear " CDSHEAR_VERSION " sweep; fingerprint "
+  text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep; fingerprint "
        << campaign_fingerprint(t) << ".\n"
        << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
        << t << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";

@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <toml++/toml.h>
@@ -73,8 +74,13 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
 /// absolute); reading it back gives the same campaign.
 toml::table campaign_to_toml(const Campaign& c);
 
-/// What `DIR/campaign.toml` holds: a header with the fingerprint, campaign_to_toml, and every run
-/// (name, duration, dt, cost) as comment lines.
+/// The first words of what a sweep writes as `DIR/campaign.toml`: a file that does not begin
+/// with them is no sweep's (a user's own campaign file), and a sweep never writes over it.
+inline constexpr std::string_view kResolvedCampaignHeader =
+    "# Resolved campaign written by cdshear ";
+
+/// What `DIR/campaign.toml` holds: a header (kResolvedCampaignHeader, the version, the
+/// fingerprint), campaign_to_toml, and every run (name, duration, dt, cost) as comment lines.
 std::string campaign_file_text(const Campaign& c);
 
 /// A short fingerprint (16 hex digits, FNV-1a 64) of the resolved campaign's TOML text.

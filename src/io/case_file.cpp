@@ -52,6 +52,26 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
                                     ") in the longest run the step limit allows (" +
                                     format_number(longest) + " time units); give at least " +
                                     format_number(c.diameter_max / longest));
+  // The preparation counts its phases and windows in steps of its own time steps: a limit that
+  // asks for more steps than a run may take is a typo, and a window longer than the limit could
+  // never end a phase.
+  const PreparationOptions& po = c.preparation;
+  if (const double shortest = std::min(po.step.dt, po.compression_dt);
+      !(po.max_time_per_phase / shortest <= kMaxRunSteps)) {
+    // Blame the time step when it was given (the limit's default is no typo).
+    const std::string dt_key = po.step.dt <= po.compression_dt ? "dt" : "compression_dt";
+    TomlReader& p = t["preparation"];
+    const bool dt_given = p.has(dt_key);
+    p.fail(dt_given ? dt_key : "max_time_per_phase",
+           "preparation.max_time_per_phase = " + format_number(po.max_time_per_phase) +
+               " time units in steps of " + format_number(shortest) +
+               " is more than the limit of " + format_number(kMaxRunSteps) +
+               " steps (docs/reliability.md)");
+  }
+  if (po.window_time > po.max_time_per_phase)
+    t["preparation"].fail("window_time", "must be at most preparation.max_time_per_phase (" +
+                                             format_number(po.max_time_per_phase) + "), got " +
+                                             format_number(po.window_time));
   const MeasureOptions& mo = c.measure;
   TomlReader& m = t["measure"];
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step
