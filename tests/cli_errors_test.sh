@@ -212,6 +212,26 @@ json.dump(p, open("four.json", "w"))
 EOF_PY
 expect_error "four.json: key 'disks_xyr[3]': must be [x, y, r], three numbers" \
   "$exe" run -q --packing four.json
+# A disk outside the diameters the packing declares (and the case is checked against), and
+# metadata that no preparation writes.
+/usr/bin/python3 - "$packing" << 'EOF_PY'
+import json, sys
+p = json.load(open(sys.argv[1]))
+p["disks_xyr"][5][2] = 0.6 * p["diameter_max"]
+json.dump(p, open("big.json", "w"))
+p = json.load(open(sys.argv[1]))
+p["piston_stress"] = -0.25
+json.dump(p, open("pull.json", "w"))
+p = json.load(open(sys.argv[1]))
+p["diameter_min"] = 0.0
+json.dump(p, open("dmin0.json", "w"))
+EOF_PY
+expect_error "big.json: key 'disks_xyr[5]': diameter 1.2 outside the packing's diameter_min" \
+  "$exe" run -q --packing big.json
+expect_error "pull.json: key 'piston_stress': must be a finite number > 0" \
+  "$exe" run -q --packing pull.json
+expect_error "dmin0.json: key 'diameter_min': diameters must be finite numbers > 0" \
+  "$exe" run -q --packing dmin0.json
 /usr/bin/python3 -c 'import json, sys; p = json.load(open(sys.argv[1])); p["build"] = 3
 json.dump(p, open("build3.json", "w"))' "$packing"
 expect_error "build3.json: key 'build': must be a string" "$exe" run -q --packing build3.json

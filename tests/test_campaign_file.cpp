@@ -259,6 +259,28 @@ TEST(CampaignFile, GivenPackingServesOneSeedOverAllGroups) {
   }
 }
 
+TEST(CampaignFile, GivenPackingPlacedWithAnotherSeedIsRefused) {
+  // The run's folder and summary would name seed 2 for a placement of seed 1.
+  TempDir dir("campaign_packing_seed");
+  const std::string packing = write_packing_of_system(dir, "p.json", 1);
+  const std::string text =
+      "[campaign]\nname = \"p\"\nsystems = [1]\nvelocities = [0.5]\n"
+      "duration = 10\npacking = { 1 = \"p.json\" }\nseeds = [";
+  EXPECT_EQ(read_packing(packing, 0.0).seed, 1U);
+  EXPECT_EQ(
+      campaign_from_toml(toml::parse(text + "1]\n"), "p.toml", dir.path().string()).runs.at(0).name,
+      "s1_seed1_V0.5");
+  try {
+    campaign_from_toml(toml::parse(text + "2]\n"), "p.toml", dir.path().string());
+    FAIL() << "a packing placed with seed 1 was run as seed 2";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "campaign.packing.1");
+    EXPECT_NE(std::string(e.what()).find("placed with seed 1, the campaign would run it as seed 2"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(CampaignFile, GivenPackingOfAnotherSystemIsRefusedBeforeAnyRun) {
   TempDir dir("campaign_foreign_packing");
   const std::string packing = write_packing_of_system(dir, "p.json", 2);

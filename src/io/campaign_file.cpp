@@ -233,11 +233,21 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   // system, or a damaged one, is refused now rather than in every run.
   if (const auto it = c.packings.find(system);
       it != c.packings.end() && packings_checked.insert(system).second) {
+    const std::string key = "campaign.packing." + std::to_string(system);
+    Packing given;
     try {
-      check_packing_fits_case(sc, read_packing(it->second, packing_wall_tolerance(sc)), it->second);
+      given = read_packing(it->second, packing_wall_tolerance(sc));
+      check_packing_fits_case(sc, given, it->second);
     } catch (const ConfigError& e) {
-      throw ConfigError(file, "campaign.packing." + std::to_string(system), e.what());
+      throw ConfigError(file, key, e.what());
     }
+    // The run's folder and summary name its seed: a packing placed with another would be
+    // pooled as that seed's realisation.
+    if (given.seed != sc.seed)
+      throw ConfigError(file, key,
+                        fmt::format("{} was placed with seed {}, the campaign would run it as "
+                                    "seed {} (run {}); give seeds = [{}] for system {}",
+                                    it->second, given.seed, sc.seed, run.name, given.seed, system));
   }
   run.n = sc.n;
   run.height = sc.height;

@@ -200,10 +200,27 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
         fmt::format("is {}, but disks_xyr lists {} disks", j.at("n").dump(), p.disks.size()));
   if (!(p.height > 0) || !(p.length_x > 0))
     throw ConfigError(file, "length_x", "cell sizes must be > 0");
+  if (!(p.diameter_min > 0) || !std::isfinite(p.diameter_max))
+    throw ConfigError(file, "diameter_min", "diameters must be finite numbers > 0");
+  if (!(p.diameter_max >= p.diameter_min))
+    throw ConfigError(file, "diameter_max", "must be >= diameter_min");
+  if (!(p.piston_stress > 0) || !std::isfinite(p.piston_stress))
+    throw ConfigError(file, "piston_stress", "must be a finite number > 0");
+  if (!(p.preparation_time >= 0) || !std::isfinite(p.preparation_time))
+    throw ConfigError(file, "preparation_time", "must be a finite number >= 0");
+  // The diameters the metadata give are those the case is checked against (check_packing_fits
+  // _case): a disk outside them would be sheared as a grain of another system. The relative
+  // 1e-12 allows the rounding of a radius drawn at a bound.
+  const double smallest = p.diameter_min * (1 - 1e-12), largest = p.diameter_max * (1 + 1e-12);
   for (std::size_t i = 0; i < p.disks.size(); ++i) {
     const PackingDisk& d = p.disks[i];
     const std::string key = fmt::format("disks_xyr[{}]", i);
     if (!(d.radius > 0)) throw ConfigError(file, key, "radius must be > 0");
+    if (!(2 * d.radius >= smallest && 2 * d.radius <= largest))
+      throw ConfigError(file, key,
+                        fmt::format("diameter {} outside the packing's diameter_min to "
+                                    "diameter_max ({} to {})",
+                                    2 * d.radius, p.diameter_min, p.diameter_max));
     if (d.position.y - d.radius < -overlap_tolerance ||
         d.position.y + d.radius > p.height + overlap_tolerance)
       throw ConfigError(
