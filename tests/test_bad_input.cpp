@@ -83,6 +83,9 @@ TEST(BadInput, UnknownKey) {
                                      "[[disks]]\nposition = [1.0, 0.5]\n"
                                      "radius = 0.5\nmass = 2.0\n")),
                "disks[0].mass", "unknown key");
+  // A key that exists, given without the one that gives it a meaning, says which that is.
+  expect_names(load_error(scene_text("dt = 1e-3\n", "", "[domain]\nlength_x = 10.0\n")),
+               "domain.length_x", "give domain.periodic_x = true with it");
 }
 
 TEST(BadInput, WrongType) {

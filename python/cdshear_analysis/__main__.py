@@ -91,6 +91,11 @@ def main(argv=None):
         "compared pair by pair (scripts/paired_check.sh)")
     p_pairs.add_argument("check_dir")
     args = parser.parse_args(argv)
+    # An empty folder or file argument is an unset shell variable, not "the current folder".
+    for name, value in vars(args).items():
+        if value == "" or (isinstance(value, list) and "" in value):
+            print(f"error: {name}: is empty (an unset shell variable?)", file=sys.stderr)
+            return 2
     warnings.simplefilter("ignore", RuntimeWarning)   # all-NaN slices etc. give NaN = null
 
     if args.command == "study":

@@ -121,6 +121,15 @@ class RunData(unittest.TestCase):
         with self.assertRaises(RunDataError):
             load_run(os.path.join(d, "empty"))
 
+    def test_an_empty_argument_is_refused_not_taken_for_the_current_folder(self):
+        for argv in (("analyze", ""), ("report", self.tmp.name, "-o", ""),
+                     ("campaign-compare", "", self.tmp.name)):
+            with self.subTest(argv=argv):
+                result = run_module(*argv)
+                self.assertEqual(result.returncode, 2, result.stderr)
+                self.assertIn("is empty (an unset shell variable?)", result.stderr)
+                self.assertFalse(os.path.exists(os.path.join(self.tmp.name, "report")))
+
 
 class EndToEnd(unittest.TestCase):
     def test_analyze_and_plot(self):

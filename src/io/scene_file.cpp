@@ -40,7 +40,10 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
 
   TomlReader domain = root.table("domain");
   s.domain.periodic_x = domain.boolean("periodic_x", false);
-  if (s.domain.periodic_x) s.domain.length_x = domain.positive("length_x");
+  if (s.domain.periodic_x)
+    s.domain.length_x = domain.positive("length_x");
+  else if (domain.has("length_x"))
+    domain.fail("length_x", "is the period of a periodic x: give domain.periodic_x = true with it");
   domain.finish();
 
   TomlReader material = root.table("material");
