@@ -208,9 +208,9 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     throw ConfigError(file, "piston_stress", "must be a finite number > 0");
   if (!(p.preparation_time >= 0) || !std::isfinite(p.preparation_time))
     throw ConfigError(file, "preparation_time", "must be a finite number >= 0");
-  // The diameters the metadata give are those the case is checked against (check_packing_fits
-  // _case): a disk outside them would be sheared as a grain of another system. The relative
-  // 1e-12 allows the rounding of a radius drawn at a bound.
+  // The diameters the metadata give are those the case is checked against
+  // (check_packing_fits_case): a disk outside them would be sheared as a grain of another
+  // system. The relative 1e-12 allows the rounding of a radius drawn at a bound.
   const double smallest = p.diameter_min * (1 - 1e-12), largest = p.diameter_max * (1 + 1e-12);
   for (std::size_t i = 0; i < p.disks.size(); ++i) {
     const PackingDisk& d = p.disks[i];
