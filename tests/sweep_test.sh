@@ -254,6 +254,11 @@ rc=0; "$exe" sweep own.toml -o foreign > foreign.out 2>&1 || rc=$?
 grep -q "foreign: the folder holds 'notes.txt' and no campaign.toml of a sweep" foreign.out ||
   fail "the refusal does not name the folder and its file: $(cat foreign.out)"
 [ "$(ls foreign)" = notes.txt ] || fail "a refused sweep wrote into a foreign folder"
+mkdir -p fifo_campaign && mkfifo fifo_campaign/campaign.toml
+rc=0; timeout 60 "$exe" sweep own.toml -o fifo_campaign > fifo_campaign.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a FIFO as campaign.toml exited $rc, not 2: $(cat fifo_campaign.out)"
+grep -q "fifo_campaign/campaign.toml: is not a regular file" fifo_campaign.out ||
+  fail "the refusal does not name the FIFO: $(cat fifo_campaign.out)"
 
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished (each runs several seconds);

@@ -34,7 +34,7 @@ from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import _number as _is_number
-from .rundata import open_regular
+from .rundata import RUN_FILE, open_regular
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -311,7 +311,7 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
     """(parsed summary.json of RUN_DIR, None) when it can be pooled, re-analysing a stale one
     from run.h5 (appending (run, reason) to reanalysed; with reanalyse_stale False, a stale one
     is left out instead), or (None, why it is left out)."""
-    from .rundata import RUN_FILE, RunDataError
+    from .rundata import RunDataError
     name = os.path.basename(os.path.normpath(run_dir))
     s = read_summary(run_dir)
     state = summary_state(s)
@@ -1040,7 +1040,7 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
     return lines
 
 
-_RUN_FILES = ("run.h5", "summary.json", "case.toml", "checkpoint.cbor", "final_state.json")
+_RUN_FILES = (RUN_FILE, "summary.json", "case.toml", "checkpoint.cbor", "final_state.json")
 
 
 def check_report_folder(campaign_dir, out_dir):

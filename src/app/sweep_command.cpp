@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -19,7 +20,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -304,6 +304,9 @@ SittingProgress read_sitting_progress(const fs::path& run_dir, double sitting_se
   return out;
 }
 
+/// The folders a sweep makes in its campaign folder.
+constexpr std::array<const char*, 3> kCampaignSubfolders = {"packings", "runs", "logs"};
+
 /// Refuses a folder that is neither new, nor empty, nor one a sweep made: a sweep writes
 /// campaign.toml, packings/, runs/ and logs/ in it, over whatever holds those names. A sweep's
 /// campaign.toml begins with kResolvedCampaignHeader; a folder with only a sweep's subfolders
@@ -313,10 +316,10 @@ void check_campaign_folder(const fs::path& dir) {
   if (!fs::is_directory(dir, ec)) return;  // made by the sweep (or refused when it cannot be)
   const fs::path file = dir / "campaign.toml";
   if (fs::exists(file, ec)) {
-    std::string head(kResolvedCampaignHeader.size(), '\0');
-    std::ifstream in(file, std::ios::binary);
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    if (!in || head != kResolvedCampaignHeader)
+    // Read as the runs' files are: a FIFO in its place must not block (check_same_campaign
+    // then refuses what cannot be read).
+    const std::optional<std::string> text = read_run_file(file, "the campaign's file");
+    if (text && !text->starts_with(kResolvedCampaignHeader))
       throw ConfigError(file.lexically_normal().string(), "",
                         "this campaign.toml was not written by a sweep (a campaign file of your "
                         "own?): the sweep would write over it; -o names a new folder, or one a "
@@ -325,7 +328,9 @@ void check_campaign_folder(const fs::path& dir) {
   }
   for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (name == "packings" || name == "runs" || name == "logs" || name == ".sweep.lock") continue;
+    if (name == ".sweep.lock" || std::find(kCampaignSubfolders.begin(), kCampaignSubfolders.end(),
+                                           name) != kCampaignSubfolders.end())
+      continue;
     throw ConfigError(dir.lexically_normal().string(), "",
                       fmt::format("the folder holds '{}' and no campaign.toml of a sweep: it is "
                                   "not a campaign's folder; -o names a new or empty folder, or one "
@@ -411,7 +416,7 @@ class Sweep {
   void claim_folder() {
     check_campaign_folder(dir_);
     check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
-    for (const char* sub : {"packings", "runs", "logs"}) {
+    for (const char* sub : kCampaignSubfolders) {
       std::error_code ec;
       fs::create_directories(dir_ / sub, ec);
       if (ec)
