@@ -2,8 +2,10 @@
 """The two boundary layers of regime-A runs against each other (docs/measurements.md, "Bulk and
 boundary layers"): by symmetry they are equivalent, so their differences measure the
 measurement's own error. For each h and quantity: the runs, the mean |top - bottom| in combined
-errors, the share of runs beyond two, and the correlation of the difference with the top layer's
-edge offset (its stripes end at the stripe boundary nearest H - h: thickness h + offset).
+errors, the share of runs beyond two, and the correlation of the difference with the edge offset
+that runs written before run.h5 format version 4 had (their top layer's stripes, counted from
+the bottom wall, ended at the stripe boundary nearest H - h: thickness h + offset); from version
+4 the top layer is counted down from the top wall and the offset should not matter.
 Usage: scripts/layer_symmetry.py CAMPAIGN_DIR [CAMPAIGN_DIR ...]"""
 import glob
 import json

@@ -397,26 +397,42 @@ TEST(Stress, RotationOfTheGrainsGivesTheExactMaterialMomentumFlux) {
 }
 
 TEST(Regions, BulkAndBoundaryFromAProfileBuiltByHand) {
-  // A profile with still bulk and two sheared layers of h = 3 in a cell 12 high: regime B.
+  // A profile with still bulk and two sheared layers of h = 3 in a cell 12 high: regime B. The
+  // top layer's stripes are counted down from the top wall (depth = 12 - y).
   WindowProfile w;
   w.height = 12.0;
-  std::vector<double> centres;
+  std::vector<double> centres, depths;
   const double V = 1.0;
+  const auto vx_at = [V](double y) {
+    return y < 3 ? -V + (V - 0.1) * y / 3 : y > 9 ? 0.1 + (V - 0.1) * (y - 9) / 3 : 0.1;
+  };
   for (int k = 0; k < 15; ++k) {
     const double y = k + 0.5;
     centres.push_back(y);
-    const double vx = y < 3 ? -V + (V - 0.1) * y / 3 : y > 9 ? 0.1 + (V - 0.1) * (y - 9) / 3 : 0.1;
-    w.vx.push_back(y < 12 ? vx : NAN);
+    w.vx.push_back(y < 12 ? vx_at(y) : NAN);
     w.solid_fraction.push_back(y < 12 ? 0.8 : 0.0);
     w.coordination.push_back(y < 3 ? 3.0 : 4.0);
     w.stress.push_back({0.0, -0.05, -0.05, 0.25});
   }
-  const RegionValues r = region_values(w, centres, 3.0, V, 0.25);
+  for (int k = 0; k < 4; ++k) {
+    const double depth = k + 0.5;
+    depths.push_back(depth);
+    w.top_stripes.vx.push_back(vx_at(12.0 - depth));
+    w.top_stripes.solid_fraction.push_back(0.7);
+    w.top_stripes.coordination.push_back(depth < 3 ? 2.5 : 4.0);
+    w.top_stripes.force_carrying_coordination.push_back(1.0);
+    w.top_stripes.stress.push_back({0.0, -0.06, -0.06, 0.25});
+  }
+  const RegionValues r = region_values(w, centres, depths, 3.0, V, 0.25);
   EXPECT_NEAR(r.bulk_shear_rate, 0.0, 1e-12);
   EXPECT_NEAR(r.bulk_mu_eff, 0.2, 1e-12);
   EXPECT_NEAR(r.bulk_solid_fraction, 0.8, 1e-12);
   EXPECT_NEAR(r.bottom_coordination, 3.0, 1e-12);
   EXPECT_NEAR(r.bulk_coordination, 4.0, 1e-12);
+  EXPECT_NEAR(r.top_coordination, 2.5, 1e-12);
+  EXPECT_NEAR(r.top_solid_fraction, 0.7, 1e-12);
+  EXPECT_NEAR(r.top_mu_eff, 0.24, 1e-12);
+  EXPECT_NEAR(r.top_force_carrying_coordination, 1.0, 1e-12);
   // vx(3) interpolated between 2.5 and 3.5: the bottom jump is V + 0.1 ... by the profile.
   EXPECT_NEAR(r.bottom_velocity_jump, 0.5 * ((-V + 0.9 * 2.5 / 3) + 0.1) + V, 1e-12);
   EXPECT_NEAR(r.top_velocity_jump, V - 0.5 * (0.1 + (0.1 + 0.9 * 0.5 / 3)), 1e-12);
@@ -424,25 +440,87 @@ TEST(Regions, BulkAndBoundaryFromAProfileBuiltByHand) {
               r.bottom_velocity_jump / 3.0 * std::sqrt(kInertialMass / 0.25), 1e-12);
 }
 
-TEST(Regions, TheStripeCutByTheTopWallCountsForItsPartInsideTheCell) {
-  // Mean height 11.6: the stripe [11, 12) is 60% inside the cell, so a uniform packing of solid
-  // fraction 0.8 measures 0.48 there; the top layer (h = 3) must still come out at 0.8.
+TEST(Regions, TheBulkTakesOnlyStripesWhollyBelowTheMeanHeight) {
+  // Mean height 6.4 and h = 0.25: the stripe [6, 7) lies above H - h but is 40% inside the cell;
+  // a uniform packing of solid fraction 0.8 measures 0.32 there, which the bulk must not take.
   WindowProfile w;
-  w.height = 11.6;
+  w.height = 6.4;
   std::vector<double> centres;
-  for (int k = 0; k < 15; ++k) {
+  for (int k = 0; k < 10; ++k) {
     const double y = k + 0.5;
     centres.push_back(y);
-    w.vx.push_back(y < 12 ? 0.0 : NAN);
-    w.solid_fraction.push_back(y < 11 ? 0.8 : y < 12 ? 0.48 : 0.0);
+    w.vx.push_back(y < 7 ? 0.0 : NAN);
+    w.solid_fraction.push_back(y < 6 ? 0.8 : y < 7 ? 0.32 : 0.0);
     w.coordination.push_back(3.0);
-    w.stress.push_back(y < 11 ? Tensor2{0.0, -0.05, -0.05, 0.25}
-                              : Tensor2{0.0, -0.03, -0.03, 0.15});
+    w.stress.push_back({0.0, -0.05, -0.05, 0.25});
   }
-  const RegionValues r = region_values(w, centres, 3.0, 1.0, 0.25);
-  EXPECT_NEAR(r.top_solid_fraction, 0.8, 1e-12);
-  EXPECT_NEAR(r.top_mu_eff, 0.2, 1e-12);
+  const RegionValues r = region_values(w, centres, {0.5, 1.5}, 0.25, 1.0, 0.25);
   EXPECT_NEAR(r.bulk_solid_fraction, 0.8, 1e-12);
+  EXPECT_TRUE(std::isnan(r.top_solid_fraction));  // no top stripes given
+}
+
+TEST(Regions, TheTopLayerMovesWithTheTopWallAndMirrorsTheBottomOne) {
+  // A lattice whose upper half rides on the top wall, which rises and falls by up to 0.45 d from
+  // sample to sample (the walls' spacing that a window averages over). The point reflection of
+  // the cell about its moving top wall (x -> L_x - x, y -> y_top - y, v -> -v) puts that layer at
+  // a bottom wall that does not move, at every sample: its bottom layer, exact by construction,
+  // must be the top layer measured in the moving cell, to rounding.
+  const double length_x = 10.0, height = 8.0, V = 0.5;
+  World w = lattice_world(length_x, height, 0.5);
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    const Vec2 p = w.disks.position[i];
+    const bool rides = p.y > 4.0;
+    w.disks.velocity[i] = {rides ? V : -V + 0.1 * p.y, 0.01 * p.x};
+    w.disks.omega[i] = rides ? 0.0 : 0.05 * (p.y - 4.0);
+  }
+  World mirror = w;
+  const auto reflect = [&] {
+    const double top = w.walls[1].point.y;
+    mirror.walls[1].point.y = top;
+    for (std::size_t i = 0; i < w.disks.size(); ++i) {
+      mirror.disks.position[i] = {length_x - w.disks.position[i].x, top - w.disks.position[i].y};
+      mirror.disks.velocity[i] = -1.0 * w.disks.velocity[i];
+    }
+  };
+  reflect();
+  ShearMeasurement moving(quick_options(), {0.01, V, 0.25, height}, w);
+  ShearMeasurement still(quick_options(), {0.01, V, 0.25, height}, mirror);
+  const std::vector<Contact> none;
+  double lift = 0.0;
+  for (int s = 0; s < 100; ++s) {
+    const double next = 0.225 * (1.0 + std::sin(0.7 * s));  // 0 to 0.45: no overlaps
+    w.walls[1].point.y += next - lift;
+    for (std::size_t i = 0; i < w.disks.size(); ++i)
+      if (w.disks.position[i].y > 4.0) w.disks.position[i].y += next - lift;
+    lift = next;
+    reflect();
+    for (World* x : {&w, &mirror}) {
+      ++x->step;
+      x->time = static_cast<double>(x->step) * 0.01;
+    }
+    moving.after_step(w, none, StepReport{});
+    still.after_step(mirror, none, StepReport{});
+  }
+  ASSERT_EQ(moving.windows().size(), 1u);
+  ASSERT_EQ(still.windows().size(), 1u);
+  const WindowProfile &a = moving.windows()[0], &b = still.windows()[0];
+  ASSERT_GT(std::abs(a.height - height - 0.225), 0.0);  // the mean height is no sample's
+  for (std::size_t k = 0; k < quick_options().boundary_thickness.size(); ++k) {
+    const RegionValues &top = a.regions[k], &bottom = b.regions[k];
+    SCOPED_TRACE(top.h);
+    EXPECT_NEAR(top.top_solid_fraction, bottom.bottom_solid_fraction, 1e-12);
+    EXPECT_GT(top.top_solid_fraction, 0.5);
+    EXPECT_NEAR(top.top_velocity_jump, bottom.bottom_velocity_jump, 1e-12);
+    EXPECT_NEAR(top.top_mu_eff, bottom.bottom_mu_eff, 1e-12);  // kinetic stress alone
+    EXPECT_NEAR(top.top_coordination, bottom.bottom_coordination, 1e-12);
+  }
+  // h = 2: the grains within 2.5 d of the top wall all ride on it at V.
+  EXPECT_NEAR(a.regions[0].top_velocity_jump, 0.0, 1e-12);
+  // Stripe by stripe, the same profile in depth as the reflection's from its bottom wall.
+  for (std::size_t k = 0; k < moving.top_stripe_depths().size(); ++k) {
+    EXPECT_NEAR(a.top_stripes.solid_fraction[k], b.solid_fraction[k], 1e-12);
+    EXPECT_NEAR(a.top_stripes.vx[k], -b.vx[k], 1e-12);
+  }
 }
 
 /// A lattice whose grains get random velocities at every step, measured for `steps` steps.
@@ -559,7 +637,10 @@ TEST(RunDataFile, PythonLoadRunReadsTheSameNumbers) {
   for (const WindowProfile& p : m.windows()) {
     expected["windows"]["vx"].push_back(p.vx);
     expected["windows"]["solid_fraction"].push_back(p.solid_fraction);
+    expected["top_stripes"]["vx"].push_back(p.top_stripes.vx);
+    expected["top_stripes"]["solid_fraction"].push_back(p.top_stripes.solid_fraction);
   }
+  expected["top_stripes"]["depth"] = m.top_stripe_depths();
   std::ofstream(tmp.path() / "expected.json") << expected.dump();
   const std::string script =
       "import json, sys, numpy as np\n"

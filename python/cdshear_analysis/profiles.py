@@ -7,14 +7,17 @@ centre y; only stripes with a finite velocity count (stripes above the top wall 
   carrying force at the sampled steps; absent from files without it): means weighted by the
   solid fraction;
 - shear_rate: least-squares slope of v_x(y); inertial_number = |shear_rate| sqrt(m / sigma_yy);
-- boundary layers (bottom y < h, top y > H - h, H the window's mean height) add the velocity
-  jumps dv_bottom = v_x(h) + V, dv_top = V - v_x(H - h) (linear interpolation in the profile)
-  and I_boundary = sqrt(m / sigma_yy) dv / h.
+- boundary layers: the bottom one the stripes with y < h, the top one the stripes counted down
+  from the top wall (/windows/top_stripes) with depth < h; they add the velocity jumps
+  dv_bottom = v_x(h) + V, dv_top = V - v_x(depth h) (linear interpolation in the profiles)
+  and I_boundary = sqrt(m / sigma_yy) dv / h. Without top stripes (files before format
+  version 4) the top layer is the stripes with y > H - h, H the window's mean height.
 """
 import numpy as np
 
 QUANTITIES = ("mu_eff", "solid_fraction", "coordination", "force_carrying_coordination",
               "shear_rate", "inertial_number")
+LAYER_QUANTITIES = QUANTITIES[:4]   # a boundary layer's shear is its velocity jump
 
 
 def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4):
@@ -48,23 +51,36 @@ def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4):
     return out
 
 
-def regions_for_h(windows, h, velocity, normal_stress, inertial_mass=np.pi / 4):
-    """The datasets of /windows/regions/h<h> (bulk_*, bottom_*, top_*), one value per window."""
+def regions_for_h(windows, h, velocity, normal_stress, inertial_mass=np.pi / 4,
+                  top_stripes=None):
+    """The datasets of /windows/regions/h<h> (bulk_*, bottom_*, top_*), one value per window;
+    `top_stripes` the run's /windows/top_stripes (None: the top layer from `windows`)."""
     height = np.asarray(windows["height"], dtype=float)
-    parts = {"bulk": (h, height - h), "bottom": (-np.inf, h), "top": (height - h, np.inf)}
+    parts = {"bulk": (h, height - h), "bottom": (-np.inf, h)}
+    if top_stripes is None:
+        parts["top"] = (height - h, np.inf)
     out = {}
     for name, (lo, hi) in parts.items():
         q = region_quantities(windows, lo, hi, normal_stress, inertial_mass)
-        keep = QUANTITIES if name == "bulk" else ("mu_eff", "solid_fraction", "coordination",
-                                                  "force_carrying_coordination")
+        keep = QUANTITIES if name == "bulk" else LAYER_QUANTITIES
         out.update({f"{name}_{k}": q[k] for k in keep})
+    if top_stripes is not None:
+        depth_profiles = dict(top_stripes, y=top_stripes["depth"])
+        q = region_quantities(depth_profiles, -np.inf, h, normal_stress, inertial_mass)
+        out.update({f"top_{k}": q[k] for k in LAYER_QUANTITIES})
     y = np.asarray(windows["y"], dtype=float)
     jump_bottom, jump_top = np.full(len(height), np.nan), np.full(len(height), np.nan)
     for w, vx in enumerate(windows["vx"]):
         ok = np.isfinite(vx)
         if ok.sum() >= 2:
             jump_bottom[w] = np.interp(h, y[ok], vx[ok]) + velocity
-            jump_top[w] = velocity - np.interp(height[w] - h, y[ok], vx[ok])
+            if top_stripes is None:
+                jump_top[w] = velocity - np.interp(height[w] - h, y[ok], vx[ok])
+        if top_stripes is not None:
+            depth, top_vx = np.asarray(top_stripes["depth"], dtype=float), top_stripes["vx"][w]
+            ok = np.isfinite(top_vx)
+            if ok.sum() >= 2:
+                jump_top[w] = velocity - np.interp(h, depth[ok], top_vx[ok])
     scale = np.sqrt(inertial_mass / normal_stress) / h
     out.update(bottom_velocity_jump=jump_bottom, top_velocity_jump=jump_top,
                bottom_inertial_number=scale * jump_bottom, top_inertial_number=scale * jump_top)

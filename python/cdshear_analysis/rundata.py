@@ -9,6 +9,9 @@ The result is a plain dict:
     run["windows"][name]                 /windows datasets, first axis W (y has length S)
     run["regions"]["h10"][name]          /windows/regions/h10 datasets, plus ["h"] (float),
                                          ordered by increasing h
+    run["top_stripes"][name]             /windows/top_stripes datasets (depth has length T,
+                                         the others first axis W), None in files before
+                                         version 4
     run["snapshot"][name]                /snapshot datasets and attributes (`time`, `length_x`,
                                          `height` are attributes; datasets are accepted too, as
                                          plain floats), None if absent
@@ -17,11 +20,13 @@ Every problem with the folder or file raises RunDataError(path, problem).
 `truncate_run(run, t)` gives the run as it stood at time t (the samples at t or before, the
 windows ending by then), for averages over the first t of a longer run.
 
-Format versions (attrs["format_version"]). Version 3 (FORMAT_VERSION) counts Z as the closed
-contacts (gap <= contact_gap), keeps the per-step count as force_carrying_coordination, and
-stores the rotation's momentum flux as rotational_stress beside a stress of contact and kinetic
-parts. Older files are read as version 3 would describe them, with attrs["legacy_note"]:
-version 2 added rotational_stress into stress: it is taken out again, and mu_eff (profiles and
+Format versions (attrs["format_version"]). Version 4 (FORMAT_VERSION) measures the top
+boundary layer on stripes counted down from the top wall (/windows/top_stripes). Version 3
+counts Z as the closed contacts (gap <= contact_gap), keeps the per-step count as
+force_carrying_coordination, and stores the rotation's momentum flux as rotational_stress beside
+a stress of contact and kinetic parts. Older files are read as version 4 would describe them
+where they can be, with attrs["legacy_note"]: before version 4 the top layer's regions are as
+written (stripes counted from the bottom wall, docs/measurements.md); version 2 added rotational_stress into stress: it is taken out again, and mu_eff (profiles and
 regions) recomputed; in a version-1 file, coordination (the contacts carrying force at the
 sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
@@ -39,7 +44,7 @@ import h5py
 import numpy as np
 
 RUN_FILE = "run.h5"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
                   "time")
 REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
@@ -47,6 +52,10 @@ REQUIRED_SERIES = ("time", "com_vx", "height", "solid_fraction",
 REQUIRED_WINDOWS = ("y", "t_start", "t_end", "height", "com_vx", "solid_fraction", "vx",
                     "stress", "mu_eff", "coordination", "shear_rate", "inertial_number",
                     "slip_bottom", "slip_top")
+
+# The /windows datasets with one value per window.
+WINDOW_SCALARS = ("t_start", "t_end", "height", "com_vx", "wall_mu", "slip_bottom", "slip_top",
+                  "samples", "slip_bottom_count", "slip_top_count")
 
 
 def open_regular(path, mode="r", **kwargs):
@@ -121,6 +130,11 @@ def _plain(value):
     return value.item() if isinstance(value, np.generic) else value
 
 
+# /windows/top_stripes: depth (T), then W x T profiles and the W x T x 2 x 2 stress.
+TOP_STRIPE_DATASETS = ("depth", "solid_fraction", "vx", "coordination",
+                       "force_carrying_coordination", "stress")
+
+
 def _datasets(f, name, required, path):
     if name not in f or not isinstance(f[name], h5py.Group):
         raise RunDataError(path, f"missing group /{name}")
@@ -133,11 +147,18 @@ def _datasets(f, name, required, path):
     return data
 
 
-def _check_lengths(data, keys, length, what, path):
+def _check_lengths(data, keys, length, what, path, one_value=()):
+    """Each of `keys` has `length` rows; those in `one_value` (or all, when True) one value
+    per row."""
     for k in keys:
-        if k in data and np.shape(data[k])[:1] != (length,):
+        if k not in data:
+            continue
+        if np.shape(data[k])[:1] != (length,):
             raise RunDataError(path, f"{what}/{k} has shape {np.shape(data[k])}, "
                                      f"expected first dimension {length}")
+        if (one_value is True or k in one_value) and np.ndim(data[k]) != 1:
+            raise RunDataError(path, f"{what}/{k} has shape {np.shape(data[k])}, "
+                                     f"expected ({length},)")
 
 
 # Root attributes that must be finite numbers > 0 (n also a whole number), and those that must be
@@ -253,10 +274,11 @@ def _read(f, run_dir, path):
     if missing:
         raise RunDataError(path, "missing root attribute(s) " + ", ".join(missing))
     series = _datasets(f, "series", REQUIRED_SERIES, path)
-    _check_lengths(series, series, len(series["time"]), "/series", path)
+    _check_lengths(series, series, len(series["time"]), "/series", path, one_value=True)
     windows = _datasets(f, "windows", REQUIRED_WINDOWS, path)
     n_windows = len(windows["t_start"])
-    _check_lengths(windows, [k for k in windows if k != "y"], n_windows, "/windows", path)
+    _check_lengths(windows, [k for k in windows if k != "y"], n_windows, "/windows", path,
+                   one_value=WINDOW_SCALARS)
     n_stripes = len(windows["y"])
     for k in ("solid_fraction", "vx", "stress", "mu_eff", "coordination"):
         if windows[k].shape[1:2] != (n_stripes,):
@@ -267,13 +289,29 @@ def _read(f, run_dir, path):
     if "regions" in f["windows"]:
         for label, group in f["windows/regions"].items():
             data = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
-            _check_lengths(data, data, n_windows, f"/windows/regions/{label}", path)
+            _check_lengths(data, data, n_windows, f"/windows/regions/{label}", path,
+                           one_value=True)
             try:
                 data["h"] = float(group.attrs.get("h", label.lstrip("h")))
             except ValueError:
                 raise RunDataError(path, f"/windows/regions/{label}: no attribute h")
             regions[label] = data
     regions = dict(sorted(regions.items(), key=lambda item: item[1]["h"]))
+    top_stripes = None
+    if "top_stripes" in f["windows"] and isinstance(f["windows/top_stripes"], h5py.Group):
+        group = f["windows/top_stripes"]
+        top_stripes = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
+        missing = [k for k in TOP_STRIPE_DATASETS if k not in top_stripes]
+        if missing:
+            raise RunDataError(path, "missing dataset(s) "
+                               + ", ".join(f"/windows/top_stripes/{k}" for k in missing))
+        _check_lengths(top_stripes, [k for k in top_stripes if k != "depth"], n_windows,
+                       "/windows/top_stripes", path)
+        for k in TOP_STRIPE_DATASETS[1:]:
+            if top_stripes[k].shape[1:2] != (len(top_stripes["depth"]),):
+                raise RunDataError(path, f"/windows/top_stripes/{k} has shape "
+                                         f"{top_stripes[k].shape}, expected ({n_windows}, "
+                                         f"{len(top_stripes['depth'])}, ...)")
     version = attrs.get("format_version", 1)
     if not isinstance(version, (int, float, np.integer, np.floating)) or not np.isfinite(version):
         raise RunDataError(path, f"format_version {version!r} is not a number")
@@ -284,6 +322,10 @@ def _read(f, run_dir, path):
         _as_version_2(windows, regions, attrs)
     if version == 2:
         _as_version_3(windows, regions, attrs)
+    if version < 4:
+        attrs["legacy_note"] = " ".join(filter(None, (attrs.get("legacy_note"), (
+            f"format version {version:g}: the top boundary layer's stripes were counted from "
+            "the bottom wall (its nu and Z less exact than the bottom layer's)"))))
     snapshot = None
     if "snapshot" in f:
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
@@ -300,7 +342,8 @@ def _read(f, run_dir, path):
         if case:
             break
     return dict(run_dir=run_dir, path=path, attrs=attrs, case=case, series=series,
-                windows=windows, regions=regions, snapshot=snapshot)
+                windows=windows, regions=regions, top_stripes=top_stripes,
+                snapshot=snapshot)
 
 
 def _as_version_2(windows, regions, attrs):
@@ -432,6 +475,9 @@ def truncate_run(run, time):
                for k, v in run["windows"].items()}
     regions = {label: {k: (v if k == "h" else v[keep_w]) for k, v in region.items()}
                for label, region in run["regions"].items()}
+    top_stripes = run.get("top_stripes")
+    if top_stripes is not None:
+        top_stripes = {k: (v if k == "depth" else v[keep_w]) for k, v in top_stripes.items()}
     series = {k: v[keep] for k, v in run["series"].items()}
     attrs = dict(run["attrs"])
     attrs["finished"] = 0
@@ -441,4 +487,5 @@ def truncate_run(run, time):
             attrs["step"] = int(series["step"][-1])
     else:
         attrs["time"] = float(time)
-    return dict(run, attrs=attrs, series=series, windows=windows, regions=regions)
+    return dict(run, attrs=attrs, series=series, windows=windows, regions=regions,
+                top_stripes=top_stripes)

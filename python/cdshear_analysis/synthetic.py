@@ -187,6 +187,16 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
              rotational_stress=rotational, mu_eff=mu_prof, coordination=coord,
              force_carrying_coordination=0.85 * coord, shear_rate=shear_rate,
              inertial_number=np.abs(shear_rate) * np.sqrt(m / sigma))
+    # The stripes counted down from the top wall: the same profiles at y = H - depth.
+    depth = (np.arange(int(np.ceil(max(boundary_thickness) / dy)) + 1) + 0.5) * dy
+    top_stripes = dict(depth=depth)
+    for name in ("solid_fraction", "vx", "coordination", "force_carrying_coordination"):
+        top_stripes[name] = np.array([_at_depth(y, W[name][w], W["height"][w], depth)
+                                      for w in range(n_windows)]).reshape(n_windows, len(depth))
+    top_stripes["stress"] = np.stack(
+        [np.array([_at_depth(y, stress[w, :, a, b], W["height"][w], depth)
+                   for w in range(n_windows)]).reshape(n_windows, len(depth))
+         for a in range(2) for b in range(2)], axis=-1).reshape(n_windows, len(depth), 2, 2)
     for wall in ("bottom", "top"):
         fx, fyw = series[f"{wall}_fx"], series[f"{wall}_fy"]
         W[f"{wall}_force"] = np.array([[fx[s].mean(), fyw[s].mean()]
@@ -196,7 +206,7 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
         W[f"slip_{wall}_count"] = rng.integers(400, 600, n_windows)
     W["wall_mu"] = np.array([mu[s].mean() for s in inside])
 
-    attrs = dict(format="cdshear-run", format_version=3, program_version="synthetic",
+    attrs = dict(format="cdshear-run", format_version=4, program_version="synthetic",
                  program_build="synthetic run (cdshear_analysis.synthetic)", n=n,
                  length_x=length_x, height=height, velocity=V, normal_stress=sigma, dt=dt,
                  seed=seed, solver_seed=1, duration=duration, sample_interval=sample_interval,
@@ -220,10 +230,12 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
             f.create_dataset(f"series/{k}", data=v)
         for k, v in W.items():
             f.create_dataset(f"windows/{k}", data=v)
+        for k, v in top_stripes.items():
+            f.create_dataset(f"windows/top_stripes/{k}", data=v)
         for h in boundary_thickness:
             g = f.create_group(f"windows/regions/h{h:g}")
             g.attrs["h"] = float(h)
-            for k, v in regions_for_h(W, h, V, sigma, m).items():
+            for k, v in regions_for_h(W, h, V, sigma, m, top_stripes).items():
                 g.create_dataset(k, data=v)
         _write_snapshot(f.create_group("snapshot"), n, length_x, height, t_reached, rng)
     seal(path + ".tmp")
@@ -231,6 +243,14 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     with open(os.path.join(run_dir, "case.toml"), "w") as f:
         f.write(attrs["case_toml"])
     return path
+
+
+def _at_depth(y, profile, height, depth):
+    """A window's profile over stripe centres y, interpolated at the heights height - depth."""
+    ok = np.isfinite(profile)
+    if ok.sum() < 2:
+        return np.full(len(depth), np.nan)
+    return np.interp(height - depth, y[ok], profile[ok])
 
 
 def _write_snapshot(g, n, length_x, height, time, rng):

@@ -39,6 +39,7 @@ def documented_names():
         for line in f:
             if line.startswith("#"):
                 section = ("attrs" if "Root attributes" in line else "regions" if "regions" in line
+                           else "top_stripes" if "top_stripes" in line
                            else "series" if "/series" in line else "windows" if "/windows" in line
                            else "snapshot" if "/snapshot" in line else None)
             elif section == "snapshot":
@@ -72,6 +73,7 @@ class RunData(unittest.TestCase):
         self.assertEqual(doc["attrs"] - set(run["attrs"]), set())
         self.assertEqual(doc["series"] - set(run["series"]), set())
         self.assertEqual(doc["windows"] - set(run["windows"]), set())
+        self.assertEqual(doc["top_stripes"] - set(run["top_stripes"]), set())
         self.assertEqual(doc["snapshot"] - {"n"} - set(run["snapshot"]), set())
         self.assertEqual(list(run["regions"]), ["h5", "h10"])
         for region in run["regions"].values():

@@ -182,6 +182,32 @@ class Regions(unittest.TestCase):
         self.assertAlmostEqual(r["top_velocity_jump"][0], 2 * V * h / H)
         self.assertAlmostEqual(r["top_inertial_number"][0], np.sqrt(np.pi) * 2 * V / H)
 
+    def test_top_layer_from_the_stripes_counted_down_from_the_top_wall(self):
+        # The window's profile says one thing near the top, the top stripes another: the top
+        # layer (depth < h) is taken from the top stripes only, as src/measure does.
+        V, H, h = 0.5, 20.0, 3.0
+        y = np.arange(25) + 0.5
+        inside = y < H
+        stress = np.zeros((1, 25, 2, 2))
+        stress[..., 0, 1], stress[..., 1, 1] = -0.1, 0.25
+        windows = dict(y=y, height=np.array([H]), vx=np.where(inside, 0.0, np.nan)[None],
+                       stress=stress, solid_fraction=np.where(inside, 0.8, 0.0)[None],
+                       coordination=np.where(inside, 3.0, np.nan)[None])
+        depth = np.arange(4) + 0.5
+        top_stress = np.zeros((1, 4, 2, 2))
+        top_stress[..., 0, 1], top_stress[..., 1, 1] = -0.05, 0.25
+        top = dict(depth=depth, vx=(V - 0.1 * depth)[None], solid_fraction=np.full((1, 4), 0.7),
+                   coordination=np.array([[2.0, 2.0, 2.0, 9.0]]),
+                   force_carrying_coordination=np.full((1, 4), 1.5), stress=top_stress)
+        r = regions_for_h(windows, h, V, 0.25, top_stripes=top)
+        self.assertAlmostEqual(r["top_solid_fraction"][0], 0.7)
+        self.assertAlmostEqual(r["top_coordination"][0], 2.0)   # depth 3.5 is not in the layer
+        self.assertAlmostEqual(r["top_force_carrying_coordination"][0], 1.5)
+        self.assertAlmostEqual(r["top_mu_eff"][0], 0.2)
+        self.assertAlmostEqual(r["top_velocity_jump"][0], 0.1 * h)
+        self.assertAlmostEqual(r["bottom_solid_fraction"][0], 0.8)
+        self.assertAlmostEqual(r["bulk_mu_eff"][0], 0.4)
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -178,9 +178,25 @@ class OlderRunFiles(unittest.TestCase):
             np.testing.assert_array_equal(old["windows"]["force_carrying_coordination"],
                                           current["windows"]["coordination"])
             self.assertIn("format version 1", old["attrs"]["legacy_note"])
-            self.rewrite(d, 4, lambda f: None)
+            self.rewrite(d, 5, lambda f: None)
             with self.assertRaisesRegex(Exception, "newer than this analysis"):
                 load_run(d)
+
+    def test_version_3_keeps_its_top_layer_and_says_so(self):
+        with tempfile.TemporaryDirectory() as d:
+            write_synthetic_run(d, kind="A", duration=400.0)
+            current = load_run(d)
+            self.assertIsNotNone(current["top_stripes"])
+            self.assertNotIn("legacy_note", current["attrs"])
+
+            def as_v3(f):
+                del f["windows/top_stripes"]
+            self.rewrite(d, 3, as_v3)
+            old = load_run(d)
+        self.assertIsNone(old["top_stripes"])
+        self.assertIn("top boundary layer", old["attrs"]["legacy_note"])
+        np.testing.assert_array_equal(old["regions"]["h5"]["top_solid_fraction"],
+                                      current["regions"]["h5"]["top_solid_fraction"])
 
 
 if __name__ == "__main__":

@@ -410,7 +410,9 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   } catch (const std::exception& e) {
     throw ConfigError(checkpoint, "observers.measurement", e.what());
   }
-  if (state.grain_moment.size() != s.world.disks.size() || state.window.area.size() != m->stripes())
+  if (state.grain_moment.size() != s.world.disks.size() ||
+      state.window.stripes.area.size() != m->stripes() ||
+      state.window.top_stripes.area.size() != m->top_stripe_depths().size())
     throw ConfigError(checkpoint, "observers.measurement",
                       "does not match the run's disks or stripes");
   // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
@@ -445,7 +447,8 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
       o.stripe_span != s.c.measure.stripe_span ||
       o.boundary_thickness != s.c.measure.boundary_thickness ||
       o.force_threshold != s.c.measure.force_threshold ||
-      o.contact_gap != s.c.measure.contact_gap || data.stripe_centres.size() != m->stripes())
+      o.contact_gap != s.c.measure.contact_gap || data.stripe_centres.size() != m->stripes() ||
+      data.top_stripe_depths != m->top_stripe_depths())
     throw ConfigError(data_file, "measure",
                       "was written with other [measure] settings than "
                       "case.toml's: the files do not belong together");

@@ -20,13 +20,14 @@ void from_json(const json& j, Tensor2& t) {
 }
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(IntervalStats, steps, capped_steps, sweeps_sum, sweeps_max,
                                    residual_max, overlap_max)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(StripeSums, area, velocity_area, mass, mass_vx, mass_vy,
+                                   mass_vxx, mass_vxy, mass_vyy, material_vx, material_vxx,
+                                   material_vxy, material_vyy, coordination_area, carrying_area,
+                                   stress_xx, stress_xy, stress_yx, stress_yy)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(WindowSums, samples, step_start, bottom_impulse_start,
                                    top_impulse_start, height_sum, com_vx_sum, slip_bottom_sum,
-                                   slip_top_sum, slip_bottom_count, slip_top_count, area,
-                                   velocity_area, mass, mass_vx, mass_vy, mass_vxx, mass_vxy,
-                                   mass_vyy, material_vx, material_vxx, material_vxy, material_vyy,
-                                   coordination_area, carrying_area, stress_xx, stress_xy,
-                                   stress_yx, stress_yy)
+                                   slip_top_sum, slip_bottom_count, slip_top_count, stripes,
+                                   top_stripes)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeasurementState, window, grain_moment, interval,
                                    last_sample_step, last_sample_time, bottom_impulse_last,
                                    top_impulse_last)
@@ -41,10 +42,15 @@ MeasurementState measurement_state_from_json(const json& j) {
       j.at("definitions") != kMeasurementDefinitions)
     throw std::runtime_error(
         "written by a cdshear whose measurements differ from this one's (Z from closed "
-        "contacts, the stress without the rotational flux): a measured run cannot be resumed "
+        "contacts, the stress without the rotational flux, the top layer's stripes counted "
+        "down from the top wall): a measured run cannot be resumed "
         "across the change; "
         "start a new run, from this run's final state if needed");
-  return j.get<MeasurementState>();
+  MeasurementState state = j.get<MeasurementState>();
+  for (const StripeSums* sums : {&state.window.stripes, &state.window.top_stripes})
+    if (!sums->same_size())
+      throw std::runtime_error("its stripe sums have unequal lengths: a damaged checkpoint");
+  return state;
 }
 
 }  // namespace cdshear

@@ -9,10 +9,10 @@
 
 namespace cdshear {
 
-/// The version of the measurement definitions a checkpoint's open window was summed with (3: Z
-/// from closed contacts, the rotational flux beside the stress). A window cannot be continued
-/// with other definitions.
-inline constexpr int kMeasurementDefinitions = 3;
+/// The version of the measurement definitions a checkpoint's open window was summed with (4: Z
+/// from closed contacts, the rotational flux beside the stress, the top layer's stripes counted
+/// down from the top wall). A window cannot be continued with other definitions.
+inline constexpr int kMeasurementDefinitions = 4;
 
 nlohmann::json measurement_state_to_json(const MeasurementState& state);
 /// Throws std::exception (caught by the checkpoint reader) on a malformed object.

@@ -308,6 +308,12 @@ const WindowProfileField kWindowProfiles[] = {
     {"shear_rate", &WindowProfile::shear_rate},
     {"inertial_number", &WindowProfile::inertial_number}};
 using WindowTensor = std::pair<const char*, std::vector<Tensor2> WindowProfile::*>;
+using TopStripeField = std::pair<const char*, std::vector<double> TopStripes::*>;
+const TopStripeField kTopStripeProfiles[] = {
+    {"solid_fraction", &TopStripes::solid_fraction},
+    {"vx", &TopStripes::vx},
+    {"coordination", &TopStripes::coordination},
+    {"force_carrying_coordination", &TopStripes::force_carrying_coordination}};
 const WindowTensor kWindowTensors[] = {{"contact_stress", &WindowProfile::contact_stress},
                                        {"kinetic_stress", &WindowProfile::kinetic_stress},
                                        {"rotational_stress", &WindowProfile::rotational_stress},
@@ -484,6 +490,21 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
       for (const Tensor2& t : w.*field) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
     write_doubles(ctx, g, name, v, {w_count, s_count, 2, 2});
   }
+  {
+    Handle t = create_group(ctx, g, "top_stripes");
+    const hsize_t t_count = m.top_stripe_depths().size();
+    write_doubles(ctx, t, "depth", m.top_stripe_depths());
+    for (const auto& [name, field] : kTopStripeProfiles) {
+      std::vector<double> v;
+      for (const WindowProfile& w : ws)
+        v.insert(v.end(), (w.top_stripes.*field).begin(), (w.top_stripes.*field).end());
+      write_doubles(ctx, t, name, v, {w_count, t_count});
+    }
+    std::vector<double> v;
+    for (const WindowProfile& w : ws)
+      for (const Tensor2& x : w.top_stripes.stress) v.insert(v.end(), {x.xx, x.xy, x.yx, x.yy});
+    write_doubles(ctx, t, "stress", v, {w_count, t_count, 2, 2});
+  }
   Handle regions = create_group(ctx, g, "regions");
   for (std::size_t k = 0; k < o.boundary_thickness.size(); ++k) {
     const std::string group_name = region_group_name(o.boundary_thickness[k]);
@@ -590,6 +611,23 @@ void read_windows(const H5Context& ctx, hid_t file, RunData& data) {
         (data.windows[w].*field).push_back({t[0], t[1], t[2], t[3]});
       }
   }
+  {
+    Handle t = open_group(ctx, g, "top_stripes");
+    data.top_stripe_depths = read_doubles(ctx, t, "depth");
+    const std::size_t t_count = data.top_stripe_depths.size();
+    for (const auto& [name, field] : kTopStripeProfiles) {
+      const std::vector<double> v = read_doubles(ctx, t, name, w_count * t_count);
+      for (std::size_t w = 0; w < w_count; ++w)
+        (data.windows[w].top_stripes.*field)
+            .assign(v.begin() + w * t_count, v.begin() + (w + 1) * t_count);
+    }
+    const std::vector<double> v = read_doubles(ctx, t, "stress", 4 * w_count * t_count);
+    for (std::size_t w = 0; w < w_count; ++w)
+      for (std::size_t s = 0; s < t_count; ++s) {
+        const double* x = &v[4 * (w * t_count + s)];
+        data.windows[w].top_stripes.stress.push_back({x[0], x[1], x[2], x[3]});
+      }
+  }
   Handle regions = open_group(ctx, g, "regions");
   for (const double h : o.boundary_thickness) {
     Handle r = open_group(ctx, regions, region_group_name(h));
@@ -621,7 +659,8 @@ RunData read_run_data(const fs::path& path) {
              fmt::format("format version {} where this cdshear reads {}: {}", version,
                          kRunDataFormatVersion,
                          version < kRunDataFormatVersion
-                             ? "written with earlier measurement definitions (Z, the stress); "
+                             ? "written with earlier measurement definitions (Z, the stress, "
+                               "the top layer); "
                                "`cdshear analyze` still reads it, but a run cannot be resumed "
                                "across the change (start a new run)"
                              : "written by a newer cdshear"));

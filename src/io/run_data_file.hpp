@@ -16,9 +16,10 @@ namespace cdshear {
 
 /// run.h5's format_version. 3: Z counts closed contacts (measure.contact_gap) and the per-step
 /// count is force_carrying_coordination; rotational_stress (a diagnostic, not in the stress);
-/// the series carry block_vx and closed; stripe_span. Versions 1 and 2 are read by the analysis
+/// the series carry block_vx and closed; stripe_span. 4: the top layer from stripes counted down
+/// from the top wall (windows/top_stripes). Versions 1 to 3 are read by the analysis
 /// (docs/run-data.md), not resumed.
-inline constexpr int kRunDataFormatVersion = 3;
+inline constexpr int kRunDataFormatVersion = 4;
 
 struct RunMetadata {
   std::string case_toml;  ///< the resolved case
@@ -36,6 +37,7 @@ struct RunData {
   RunMetadata meta;
   MeasureOptions options;
   std::vector<double> stripe_centres;
+  std::vector<double> top_stripe_depths;  ///< windows/top_stripes/depth
   std::vector<SeriesRow> series;
   std::vector<WindowProfile> windows;
 };

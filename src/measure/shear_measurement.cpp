@@ -35,6 +35,60 @@ double interpolate(const std::vector<double>& centres, const std::vector<double>
   return kNaN;
 }
 
+/// What a sample adds of one grain to the stripes it crosses.
+struct GrainShare {
+  double radius = 0.0, density = 0.0;  ///< [d], [mass / length^2]
+  Vec2 velocity;                       ///< of the centre [d/t]
+  double omega = 0.0;                  ///< counter-clockwise [1/t]
+  Tensor2 moment;                      ///< contact moment M_i since the last sample
+  int closed = 0, carrying = 0;        ///< closed and force-carrying contacts
+};
+
+/// Adds a grain's parts to the stripes of `w`, stripe k between k dy and (k + 1) dy of a
+/// coordinate in which the grain's centre is at `centre`; `up` is +1 when that coordinate is the
+/// height above the bottom wall and -1 when it is the depth below the top wall (the part's first
+/// moment in y is `up` times its moment in the coordinate; its area and second moments are the
+/// same in both).
+void add_grain_parts(StripeSums& w, double dy, double centre, double up, const GrainShare& g) {
+  const auto stripes = static_cast<std::ptrdiff_t>(w.area.size());
+  const double r = g.radius, grain_area = std::numbers::pi * r * r, density = g.density;
+  const Vec2 v = g.velocity;
+  const double w_i = g.omega;
+  const Tensor2& m = g.moment;
+  const auto k0 =
+      std::max<std::ptrdiff_t>(0, static_cast<std::ptrdiff_t>(std::floor((centre - r) / dy)));
+  const auto k1 = std::min<std::ptrdiff_t>(
+      stripes - 1, static_cast<std::ptrdiff_t>(std::floor((centre + r) / dy)));
+  for (std::ptrdiff_t k = k0; k <= k1; ++k) {
+    const auto s = static_cast<std::size_t>(k);
+    const StripePart part =
+        disk_in_stripe(centre, r, static_cast<double>(k) * dy, static_cast<double>(k + 1) * dy);
+    if (part.area <= 0.0) continue;
+    const double first_moment_y = up * part.first_moment;
+    const double ms = density * part.area, share = part.area / grain_area;
+    const double rm1 = density * first_moment_y;
+    w.area[s] += part.area;
+    w.velocity_area[s] += v.x * part.area - w_i * first_moment_y;
+    w.mass[s] += ms;
+    w.mass_vx[s] += ms * v.x;
+    w.mass_vy[s] += ms * v.y;
+    w.mass_vxx[s] += ms * v.x * v.x;
+    w.mass_vxy[s] += ms * v.x * v.y;
+    w.mass_vyy[s] += ms * v.y * v.y;
+    w.material_vx[s] += ms * v.x - w_i * rm1;
+    w.material_vxx[s] +=
+        ms * v.x * v.x - 2.0 * v.x * w_i * rm1 + density * w_i * w_i * part.second_moment_y;
+    w.material_vxy[s] += ms * v.x * v.y - v.y * w_i * rm1;
+    w.material_vyy[s] += ms * v.y * v.y + density * w_i * w_i * part.second_moment_x;
+    w.coordination_area[s] += part.area * g.closed;
+    w.carrying_area[s] += part.area * g.carrying;
+    w.stress_xx[s] -= share * m.xx;
+    w.stress_xy[s] -= share * m.xy;
+    w.stress_yx[s] -= share * m.yx;
+    w.stress_yy[s] -= share * m.yy;
+  }
+}
+
 }  // namespace
 
 double current_gap(const World& world, const Contact& contact) {
@@ -72,6 +126,8 @@ ShearMeasurement::ShearMeasurement(MeasureOptions options, MeasureContext contex
   const auto stripes = static_cast<std::size_t>(stripe_count(options_, context_.nominal_height));
   for (std::size_t k = 0; k < stripes; ++k)
     stripe_centres_.push_back((static_cast<double>(k) + 0.5) * dy);
+  for (std::size_t k = 0; k < top_stripe_count(options_); ++k)
+    top_stripe_depths_.push_back((static_cast<double>(k) + 0.5) * dy);
   state_.grain_moment.assign(world.disks.size(), Tensor2{});
   state_.last_sample_step = world.step;
   state_.last_sample_time = world.time;
@@ -87,19 +143,37 @@ void ShearMeasurement::restore(MeasurementState state, std::vector<SeriesRow> se
   windows_ = std::move(windows);
 }
 
+void StripeSums::assign(std::size_t stripes) {
+  for (std::vector<double>* v :
+       {&area, &velocity_area, &mass, &mass_vx, &mass_vy, &mass_vxx, &mass_vxy, &mass_vyy,
+        &material_vx, &material_vxx, &material_vxy, &material_vyy, &coordination_area,
+        &carrying_area, &stress_xx, &stress_xy, &stress_yx, &stress_yy})
+    v->assign(stripes, 0.0);
+}
+
+bool StripeSums::same_size() const {
+  for (const std::vector<double>* v :
+       {&velocity_area, &mass, &mass_vx, &mass_vy, &mass_vxx, &mass_vxy, &mass_vyy, &material_vx,
+        &material_vxx, &material_vxy, &material_vyy, &coordination_area, &carrying_area, &stress_xx,
+        &stress_xy, &stress_yx, &stress_yy})
+    if (v->size() != area.size()) return false;
+  return true;
+}
+
+std::size_t top_stripe_count(const MeasureOptions& o) {
+  double h_max = 0.0;
+  for (const double h : o.boundary_thickness) h_max = std::max(h_max, h);
+  return static_cast<std::size_t>(std::ceil(h_max / o.stripe_thickness)) + 1;
+}
+
 void ShearMeasurement::reset_window(const World& world) {
   WindowSums& w = state_.window;
-  const std::size_t s = stripe_centres_.size();
   w = WindowSums{};
   w.step_start = world.step;
   w.bottom_impulse_start = world.walls[kBottom].contact_impulse;
   w.top_impulse_start = world.walls[kTop].contact_impulse;
-  for (std::vector<double>* v :
-       {&w.area, &w.velocity_area, &w.mass, &w.mass_vx, &w.mass_vy, &w.mass_vxx, &w.mass_vxy,
-        &w.mass_vyy, &w.material_vx, &w.material_vxx, &w.material_vxy, &w.material_vyy,
-        &w.coordination_area, &w.carrying_area, &w.stress_xx, &w.stress_xy, &w.stress_yx,
-        &w.stress_yy})
-    v->assign(s, 0.0);
+  w.stripes.assign(stripe_centres_.size());
+  w.top_stripes.assign(top_stripe_depths_.size());
 }
 
 void ShearMeasurement::after_step(const World& world, const std::vector<Contact>& contacts,
@@ -215,57 +289,31 @@ double ShearMeasurement::add_series_row(const World& world, const std::vector<Co
 void ShearMeasurement::add_stripe_shares(const World& world) {
   const Disks& d = world.disks;
   const std::size_t n = d.size();
-  const double bottom_y = world.walls[kBottom].point.y;
+  const double bottom_y = world.walls[kBottom].point.y, top_y = world.walls[kTop].point.y;
   WindowSums& w = state_.window;
   const double dy = options_.stripe_thickness;
-  const auto stripes = static_cast<std::ptrdiff_t>(stripe_centres_.size());
   for (std::size_t i = 0; i < n; ++i) {
-    const double yc = d.position[i].y - bottom_y, r = d.radius[i];
-    if (!std::isfinite(yc)) continue;  // never reached in a run: blown-up steps are not fed
-    const double grain_area = std::numbers::pi * r * r, density = d.mass[i] / grain_area;
-    const Vec2 v = d.velocity[i];
-    const double w_i = d.omega[i];
-    const Tensor2 m = state_.grain_moment[i];
-    const auto k0 =
-        std::max<std::ptrdiff_t>(0, static_cast<std::ptrdiff_t>(std::floor((yc - r) / dy)));
-    const auto k1 = std::min<std::ptrdiff_t>(
-        stripes - 1, static_cast<std::ptrdiff_t>(std::floor((yc + r) / dy)));
-    for (std::ptrdiff_t k = k0; k <= k1; ++k) {
-      const auto s = static_cast<std::size_t>(k);
-      const StripePart part =
-          disk_in_stripe(yc, r, static_cast<double>(k) * dy, static_cast<double>(k + 1) * dy);
-      if (part.area <= 0.0) continue;
-      const double ms = density * part.area, share = part.area / grain_area;
-      const double rm1 = density * part.first_moment;
-      w.area[s] += part.area;
-      w.velocity_area[s] += v.x * part.area - w_i * part.first_moment;
-      w.mass[s] += ms;
-      w.mass_vx[s] += ms * v.x;
-      w.mass_vy[s] += ms * v.y;
-      w.mass_vxx[s] += ms * v.x * v.x;
-      w.mass_vxy[s] += ms * v.x * v.y;
-      w.mass_vyy[s] += ms * v.y * v.y;
-      w.material_vx[s] += ms * v.x - w_i * rm1;
-      w.material_vxx[s] +=
-          ms * v.x * v.x - 2.0 * v.x * w_i * rm1 + density * w_i * w_i * part.second_moment_y;
-      w.material_vxy[s] += ms * v.x * v.y - v.y * w_i * rm1;
-      w.material_vyy[s] += ms * v.y * v.y + density * w_i * w_i * part.second_moment_x;
-      w.coordination_area[s] += part.area * closed_count_[i];
-      w.carrying_area[s] += part.area * carrying_count_[i];
-      w.stress_xx[s] -= share * m.xx;
-      w.stress_xy[s] -= share * m.xy;
-      w.stress_yx[s] -= share * m.yx;
-      w.stress_yy[s] -= share * m.yy;
-    }
+    const double y = d.position[i].y, r = d.radius[i];
+    if (!std::isfinite(y)) continue;  // never reached in a run: blown-up steps are not fed
+    const GrainShare g{.radius = r,
+                       .density = d.mass[i] / (std::numbers::pi * r * r),
+                       .velocity = d.velocity[i],
+                       .omega = d.omega[i],
+                       .moment = state_.grain_moment[i],
+                       .closed = closed_count_[i],
+                       .carrying = carrying_count_[i]};
+    add_grain_parts(w.stripes, dy, y - bottom_y, 1.0, g);
+    add_grain_parts(w.top_stripes, dy, top_y - y, -1.0, g);
     state_.grain_moment[i] = Tensor2{};
     // Slip (docs/model.md section 7): grain surface velocity at the contact point minus the wall's
     // velocity.
+    const Vec2 v = g.velocity;
     if (touches_[i] & 1) {
-      w.slip_bottom_sum += v.x + w_i * r - world.walls[kBottom].velocity.x;
+      w.slip_bottom_sum += v.x + g.omega * r - world.walls[kBottom].velocity.x;
       ++w.slip_bottom_count;
     }
     if (touches_[i] & 2) {
-      w.slip_top_sum += world.walls[kTop].velocity.x - (v.x - w_i * r);
+      w.slip_top_sum += world.walls[kTop].velocity.x - (v.x - g.omega * r);
       ++w.slip_top_count;
     }
   }
@@ -286,6 +334,46 @@ void ShearMeasurement::sample(const World& world, const std::vector<Contact>& co
   }
 }
 
+namespace {
+
+/// One stripe's values over a window, from its sums (NaN but the solid fraction where the stripe
+/// held no grain); `cell` the stripe's area, `samples` N, `seconds` T (header).
+struct StripeValues {
+  double solid_fraction = 0.0, vx = kNaN, coordination = kNaN, carrying = kNaN;
+  Tensor2 contact{kNaN, kNaN, kNaN, kNaN}, kinetic = contact, rotational = contact,
+                                           stress = contact;
+};
+
+StripeValues stripe_values(const StripeSums& w, std::size_t k, double cell, double samples,
+                           double seconds) {
+  StripeValues out;
+  out.solid_fraction = w.area[k] / (cell * samples);
+  if (w.area[k] <= 0.0) return out;
+  out.vx = w.velocity_area[k] / w.area[k];
+  out.coordination = w.coordination_area[k] / w.area[k];
+  out.carrying = w.carrying_area[k] / w.area[k];
+  const Tensor2 c{w.stress_xx[k] / (cell * seconds), w.stress_xy[k] / (cell * seconds),
+                  w.stress_yx[k] / (cell * seconds), w.stress_yy[k] / (cell * seconds)};
+  const double mx = w.mass_vx[k], my = w.mass_vy[k], m = w.mass[k];
+  const double kxy = (w.mass_vxy[k] - mx * my / m) / (cell * samples);
+  const Tensor2 kin{(w.mass_vxx[k] - mx * mx / m) / (cell * samples), kxy, kxy,
+                    (w.mass_vyy[k] - my * my / m) / (cell * samples)};
+  // The material velocity's moments about its own stripe mean, minus the centre velocity's.
+  const double ux = w.material_vx[k];
+  const double mxy = (w.material_vxy[k] - ux * my / m) / (cell * samples);
+  const Tensor2 rot{(w.material_vxx[k] - ux * ux / m) / (cell * samples) - kin.xx, mxy - kxy,
+                    mxy - kxy, (w.material_vyy[k] - my * my / m) / (cell * samples) - kin.yy};
+  out.contact = c;
+  out.kinetic = kin;
+  out.rotational = rot;
+  // The rotational flux is not added: a spinning grain's centripetal internal stress cancels
+  // it (header), and the contact stress is spread over each grain's area as a whole.
+  out.stress = {c.xx + kin.xx, c.xy + kin.xy, c.yx + kin.yx, c.yy + kin.yy};
+  return out;
+}
+
+}  // namespace
+
 void ShearMeasurement::close_window(const World& world) {
   const WindowSums& w = state_.window;
   const std::size_t s_count = stripe_centres_.size();
@@ -299,45 +387,29 @@ void ShearMeasurement::close_window(const World& world) {
   p.samples = w.samples;
   p.height = w.height_sum / samples;
   p.com_vx = w.com_vx_sum / samples;
-  p.solid_fraction.resize(s_count);
-  p.vx.assign(s_count, kNaN);
   p.mu_eff.assign(s_count, kNaN);
-  p.coordination.assign(s_count, kNaN);
-  p.force_carrying_coordination.assign(s_count, kNaN);
   p.shear_rate.assign(s_count, kNaN);
   p.inertial_number.assign(s_count, kNaN);
-  p.contact_stress.resize(s_count);
-  p.kinetic_stress.resize(s_count);
-  p.rotational_stress.resize(s_count);
-  p.stress.resize(s_count);
   for (std::size_t k = 0; k < s_count; ++k) {
-    p.solid_fraction[k] = w.area[k] / (cell * samples);
-    if (w.area[k] <= 0.0) {
-      p.contact_stress[k] = p.kinetic_stress[k] = p.rotational_stress[k] =
-          p.stress[k] = {kNaN, kNaN, kNaN, kNaN};
-      continue;
-    }
-    p.vx[k] = w.velocity_area[k] / w.area[k];
-    p.coordination[k] = w.coordination_area[k] / w.area[k];
-    p.force_carrying_coordination[k] = w.carrying_area[k] / w.area[k];
-    const Tensor2 c{w.stress_xx[k] / (cell * seconds), w.stress_xy[k] / (cell * seconds),
-                    w.stress_yx[k] / (cell * seconds), w.stress_yy[k] / (cell * seconds)};
-    const double mx = w.mass_vx[k], my = w.mass_vy[k], m = w.mass[k];
-    const double kxy = (w.mass_vxy[k] - mx * my / m) / (cell * samples);
-    const Tensor2 kin{(w.mass_vxx[k] - mx * mx / m) / (cell * samples), kxy, kxy,
-                      (w.mass_vyy[k] - my * my / m) / (cell * samples)};
-    // The material velocity's moments about its own stripe mean, minus the centre velocity's.
-    const double ux = w.material_vx[k];
-    const double mxy = (w.material_vxy[k] - ux * my / m) / (cell * samples);
-    const Tensor2 rot{(w.material_vxx[k] - ux * ux / m) / (cell * samples) - kin.xx, mxy - kxy,
-                      mxy - kxy, (w.material_vyy[k] - my * my / m) / (cell * samples) - kin.yy};
-    p.contact_stress[k] = c;
-    p.kinetic_stress[k] = kin;
-    p.rotational_stress[k] = rot;
-    // The rotational flux is not added: a spinning grain's centripetal internal stress cancels
-    // it (header), and the contact stress is spread over each grain's area as a whole.
-    p.stress[k] = {c.xx + kin.xx, c.xy + kin.xy, c.yx + kin.yx, c.yy + kin.yy};
-    if (p.stress[k].yy > 0) p.mu_eff[k] = std::abs(p.stress[k].xy) / p.stress[k].yy;
+    const StripeValues v = stripe_values(w.stripes, k, cell, samples, seconds);
+    p.solid_fraction.push_back(v.solid_fraction);
+    p.vx.push_back(v.vx);
+    p.coordination.push_back(v.coordination);
+    p.force_carrying_coordination.push_back(v.carrying);
+    p.contact_stress.push_back(v.contact);
+    p.kinetic_stress.push_back(v.kinetic);
+    p.rotational_stress.push_back(v.rotational);
+    p.stress.push_back(v.stress);
+    if (v.stress.yy > 0) p.mu_eff[k] = std::abs(v.stress.xy) / v.stress.yy;
+  }
+  for (std::size_t k = 0; k < top_stripe_depths_.size(); ++k) {
+    const StripeValues v = stripe_values(w.top_stripes, k, cell, samples, seconds);
+    TopStripes& t = p.top_stripes;
+    t.solid_fraction.push_back(v.solid_fraction);
+    t.vx.push_back(v.vx);
+    t.coordination.push_back(v.coordination);
+    t.force_carrying_coordination.push_back(v.carrying);
+    t.stress.push_back(v.stress);
   }
   const double inertial_scale = std::sqrt(kInertialMass / context_.normal_stress);
   for (std::size_t k = 0; k < s_count; ++k) {
@@ -356,49 +428,60 @@ void ShearMeasurement::close_window(const World& world) {
   p.slip_bottom = w.slip_bottom_count > 0 ? w.slip_bottom_sum / w.slip_bottom_count : kNaN;
   p.slip_top = w.slip_top_count > 0 ? w.slip_top_sum / w.slip_top_count : kNaN;
   for (double h : options_.boundary_thickness)
-    p.regions.push_back(
-        region_values(p, stripe_centres_, h, context_.velocity, context_.normal_stress));
+    p.regions.push_back(region_values(p, stripe_centres_, top_stripe_depths_, h, context_.velocity,
+                                      context_.normal_stress));
   windows_.push_back(std::move(p));
 }
 
-RegionValues region_values(const WindowProfile& w, const std::vector<double>& centres, double h,
-                           double velocity, double normal_stress) {
+RegionValues region_values(const WindowProfile& w, const std::vector<double>& centres,
+                           const std::vector<double>& top_depths, double h, double velocity,
+                           double normal_stress) {
   RegionValues out{};
   out.h = h;
   const double H = w.height;
   const double scale = std::sqrt(kInertialMass / normal_stress);
-  // Sums over the stripes of one region. A stripe's share of the cell is the part of it below
-  // the mean height H (the top stripe is cut by the wall): the region's solid fraction is per
-  // area of the region inside the cell; its mu_eff is the ratio of the stripes' summed stresses,
-  // which needs no such division. Stripes are assigned by their centre; a stripe cut by the top
-  // wall belongs to the top layer.
+  // Sums over the stripes of one region, each stripe assigned by its centre. The bottom layer:
+  // the stripes counted up from the bottom wall with centre y < h; the top layer: those counted
+  // down from the top wall with centre depth < h (both h rounded to whole stripes the same way,
+  // each exact at every sample); the bulk: the stripes counted up from the bottom wall between
+  // h and H - h (H the window's mean height) that lie wholly below H.
   const double dy = centres.size() > 1 ? centres[1] - centres[0] : 2.0 * centres[0];
   struct Sums {
-    double sxy = 0, syy = 0, nu = 0, nu_z = 0, nu_zc = 0, inside = 0, count = 0;
+    double sxy = 0, syy = 0, nu = 0, nu_z = 0, nu_zc = 0, count = 0;
     double sy = 0, sv = 0, syy2 = 0, syv = 0;  // least squares of vx against y
+    void add(double y, double vx, const Tensor2& stress, double solid_fraction, double coordination,
+             double carrying) {
+      sxy += stress.xy;
+      syy += stress.yy;
+      nu += solid_fraction;
+      nu_z += solid_fraction * coordination;
+      nu_zc += solid_fraction * carrying;
+      count += 1;
+      sy += y;
+      sv += vx;
+      syy2 += y * y;
+      syv += y * vx;
+    }
   } bulk, bottom, top;
   for (std::size_t k = 0; k < centres.size(); ++k) {
     const double y = centres[k];
-    const double inside = std::clamp((H - (y - 0.5 * dy)) / dy, 0.0, 1.0);
-    if (inside <= 0.0 || std::isnan(w.vx[k])) continue;
-    Sums& s = y < h ? bottom : (y > H - h || inside < 1.0) ? top : bulk;
-    s.sxy += w.stress[k].xy;
-    s.syy += w.stress[k].yy;
-    s.nu += w.solid_fraction[k];
-    s.nu_z += w.solid_fraction[k] * w.coordination[k];
-    s.nu_zc += w.solid_fraction[k] *
-               (k < w.force_carrying_coordination.size() ? w.force_carrying_coordination[k] : kNaN);
-    s.inside += inside;
-    s.count += 1;
-    s.sy += y;
-    s.sv += w.vx[k];
-    s.syy2 += y * y;
-    s.syv += y * w.vx[k];
+    if (std::isnan(w.vx[k])) continue;
+    const bool inside = y + 0.5 * dy <= H;
+    if (y >= h && (y > H - h || !inside)) continue;
+    const double carrying =
+        k < w.force_carrying_coordination.size() ? w.force_carrying_coordination[k] : kNaN;
+    (y < h ? bottom : bulk)
+        .add(y, w.vx[k], w.stress[k], w.solid_fraction[k], w.coordination[k], carrying);
   }
+  const TopStripes& t = w.top_stripes;
+  for (std::size_t k = 0; k < top_depths.size() && k < t.vx.size(); ++k)
+    if (top_depths[k] < h && !std::isnan(t.vx[k]))
+      top.add(top_depths[k], t.vx[k], t.stress[k], t.solid_fraction[k], t.coordination[k],
+              t.force_carrying_coordination[k]);
   const auto mu = [](const Sums& s) {
     return s.count > 0 && s.syy > 0 ? std::abs(s.sxy) / s.syy : kNaN;
   };
-  const auto nu = [](const Sums& s) { return s.inside > 0 ? s.nu / s.inside : kNaN; };
+  const auto nu = [](const Sums& s) { return s.count > 0 ? s.nu / s.count : kNaN; };
   const auto z = [](const Sums& s) { return s.nu > 0 ? s.nu_z / s.nu : kNaN; };
   const auto zc = [](const Sums& s) { return s.nu > 0 ? s.nu_zc / s.nu : kNaN; };
   out.bulk_mu_eff = mu(bulk);
@@ -419,7 +502,7 @@ RegionValues region_values(const WindowProfile& w, const std::vector<double>& ce
   out.top_solid_fraction = nu(top);
   out.top_coordination = z(top);
   out.top_force_carrying_coordination = zc(top);
-  out.top_velocity_jump = velocity - interpolate(centres, w.vx, H - h);
+  out.top_velocity_jump = velocity - interpolate(top_depths, t.vx, h);
   out.top_inertial_number = scale * out.top_velocity_jump / h;
   return out;
 }

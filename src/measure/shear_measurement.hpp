@@ -13,7 +13,10 @@
 // including rotation, mass-weighted moments of the centre velocity and of the material velocity
 // (for the kinetic stress), coordination, and the grain's contact moment accumulated since the
 // previous sample, spread with weights S_ik / A_i. Stripes start at the bottom wall's current
-// height. Every `samples_per_window` samples the window closes into a WindowProfile (every window
+// height; a second, short set starts at the top wall's current height and counts down (the top
+// boundary layer's, so that it is as exact at every sample as the bottom one), with the same
+// definitions in the depth below the wall (a part's first moment in y is minus its moment in
+// depth). Every `samples_per_window` samples the window closes into a WindowProfile (every window
 // kept):
 //   solid fraction   nu_k = sum S_ik / (L_x dy N)                           (N samples)
 //   velocity         v_k  = sum (v_ix S_ik - w_i M1_ik) / sum S_ik
@@ -78,6 +81,10 @@ inline double stripe_count(const MeasureOptions& o, double nominal_height) {
   return std::ceil(o.stripe_span * nominal_height / o.stripe_thickness);
 }
 
+/// The stripes counted down from the top wall: down to one stripe below the largest h, so that
+/// the velocity at depth h lies between two stripe centres.
+std::size_t top_stripe_count(const MeasureOptions& o);
+
 /// What the measurement needs to know beyond the state.
 struct MeasureContext {
   double dt = 0.0;               ///< time step [t]
@@ -121,6 +128,14 @@ struct RegionValues {
       top_velocity_jump, top_inertial_number;
 };
 
+/// The stripes counted down from the top wall at each sample (stripe k between depths k dy and
+/// (k + 1) dy below the wall): the top boundary layer's profile, exact at every sample as the
+/// bottom layer's stripes are (docs/measurements.md, "Bulk and boundary layers").
+struct TopStripes {
+  std::vector<double> solid_fraction, vx, coordination, force_carrying_coordination;
+  std::vector<Tensor2> stress;  ///< contact + kinetic, as WindowProfile::stress
+};
+
 /// One completed averaging window. Profiles have one entry per stripe (NaN where empty).
 struct WindowProfile {
   double t_start = 0.0, t_end = 0.0;
@@ -135,7 +150,24 @@ struct WindowProfile {
   double wall_mu = 0.0;          ///< mean of |f_x| / |f_y| of the two walls
   double slip_bottom = 0.0, slip_top = 0.0;
   std::uint64_t slip_bottom_count = 0, slip_top_count = 0;
+  TopStripes top_stripes;             ///< depths: ShearMeasurement::top_stripe_depths()
   std::vector<RegionValues> regions;  ///< one per boundary thickness
+};
+
+/// Per-stripe sums of one set of stripes over the open window (each vector one entry per
+/// stripe).
+struct StripeSums {
+  std::vector<double> area;           ///< sum S_ik
+  std::vector<double> velocity_area;  ///< sum (v_ix S_ik - w_i M1_ik)
+  std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
+  /// rho int u dS and rho int u u dS of the material velocity u (u_y's integral is mass_vy's)
+  std::vector<double> material_vx, material_vxx, material_vxy, material_vyy;
+  std::vector<double> coordination_area;  ///< sum S_ik z_i, closed contacts
+  std::vector<double> carrying_area;      ///< sum S_ik z_i, force-carrying contacts
+  std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
+
+  void assign(std::size_t stripes);  ///< that many stripes, all sums zero
+  bool same_size() const;            ///< every sum has area's length
 };
 
 /// Running sums of the open window: with the per-grain moments and the interval statistics, all
@@ -147,15 +179,8 @@ struct WindowSums {
   double height_sum = 0.0, com_vx_sum = 0.0;
   double slip_bottom_sum = 0.0, slip_top_sum = 0.0;
   std::uint64_t slip_bottom_count = 0, slip_top_count = 0;
-  // Per stripe:
-  std::vector<double> area;           ///< sum S_ik
-  std::vector<double> velocity_area;  ///< sum (v_ix S_ik - w_i M1_ik)
-  std::vector<double> mass, mass_vx, mass_vy, mass_vxx, mass_vxy, mass_vyy;  ///< rho S, rho S v..
-  /// rho int u dS and rho int u u dS of the material velocity u (u_y's integral is mass_vy's)
-  std::vector<double> material_vx, material_vxx, material_vxy, material_vyy;
-  std::vector<double> coordination_area;  ///< sum S_ik z_i, closed contacts
-  std::vector<double> carrying_area;      ///< sum S_ik z_i, force-carrying contacts
-  std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
+  StripeSums stripes;      ///< the profile's stripes, counted up from the bottom wall
+  StripeSums top_stripes;  ///< the top layer's stripes, counted down from the top wall
 };
 
 struct MeasurementState {
@@ -182,6 +207,8 @@ class ShearMeasurement {
   std::uint64_t samples_per_window() const { return samples_per_window_; }
   std::size_t stripes() const { return stripe_centres_.size(); }
   const std::vector<double>& stripe_centres() const { return stripe_centres_; }
+  /// Centres of the top stripes, as depths below the top wall [d].
+  const std::vector<double>& top_stripe_depths() const { return top_stripe_depths_; }
   const std::vector<SeriesRow>& series() const { return series_; }
   const std::vector<WindowProfile>& windows() const { return windows_; }
   const MeasurementState& state() const { return state_; }
@@ -218,6 +245,7 @@ class ShearMeasurement {
   double length_x_ = 0.0;
   std::uint64_t sample_every_ = 1, samples_per_window_ = 1;
   std::vector<double> stripe_centres_;
+  std::vector<double> top_stripe_depths_;
   MeasurementState state_;
   std::vector<SeriesRow> series_;
   std::vector<WindowProfile> windows_;
@@ -234,8 +262,11 @@ double current_gap(const World& world, const Contact& contact);
 /// Force threshold of a contact list: force_threshold times the mean R_n of contacts with R_n > 0.
 double force_carrying_threshold(const std::vector<Contact>& contacts, double relative);
 
-/// Bulk and boundary quantities of a window for one h (exposed for tests).
+/// Bulk and boundary quantities of a window for one h (exposed for tests): the bulk and the
+/// bottom layer from the stripes counted up from the bottom wall (`stripe_centres`), the top
+/// layer from w.top_stripes (`top_depths`, below the top wall).
 RegionValues region_values(const WindowProfile& w, const std::vector<double>& stripe_centres,
-                           double h, double velocity, double normal_stress);
+                           const std::vector<double>& top_depths, double h, double velocity,
+                           double normal_stress);
 
 }  // namespace cdshear
