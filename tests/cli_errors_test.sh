@@ -24,6 +24,7 @@ expect_error "key 'system.height'" "$exe" run -q --set system.height=0.5
 expect_error "/nonexistent/p.json: packing file not found" "$exe" run -q --packing /nonexistent/p.json
 expect_error "key 'n': packing has 511 disks" "$exe" run -q --set system.n=100 --packing "$packing"
 expect_error "key 'shear.duraton': unknown key" "$exe" run -q --set shear.duraton=5
+expect_error "key 'shear.duration': the integer 9007199254740993, beyond 2^53" "$exe" run -q --set shear.duration=9007199254740993
 expect_error "--set sheer.velocity=0.4: key 'sheer': unknown key" "$exe" run -q --set sheer.velocity=0.4
 expect_error "--set shear.velocity.x=1: key 'shear.velocity'" "$exe" run -q --set shear.velocity.x=1
 expect_error "missing.toml: file not found" "$exe" run -q missing.toml

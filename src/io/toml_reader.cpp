@@ -149,6 +149,20 @@ bool TomlReader::has_table(const std::string& key) const {
   return node != nullptr && node->is_table();
 }
 
+namespace {
+
+/// Why a node is not a number: an integer that a double cannot hold exactly (beyond 2^53, which
+/// toml++ will not round) or not a number at all.
+std::string not_a_number(const toml::node& n) {
+  if (const std::optional<std::int64_t> i = n.value<std::int64_t>(); i && n.is_integer())
+    return "the integer " + std::to_string(*i) +
+           ", beyond 2^53: no floating-point number holds it exactly (write it with an "
+           "exponent, like 9.0e15)";
+  return "must be a number";
+}
+
+}  // namespace
+
 const toml::node* TomlReader::lookup(const std::string& key) {
   used_.insert(key);
   return table_->get(key);
@@ -164,7 +178,7 @@ double TomlReader::number(const std::string& key, std::optional<double> fallback
     if (!std::isfinite(*v)) fail(key, "must be a finite number");
     return *v;
   }
-  fail(key, "must be a number");
+  fail(key, not_a_number(*n));
 }
 
 std::int64_t TomlReader::integer(const std::string& key, std::optional<std::int64_t> fallback) {
@@ -215,6 +229,8 @@ Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
   const toml::array* a = n->as_array();
   if (a == nullptr || a->size() != 2 || !(*a)[0].is_number() || !(*a)[1].is_number())
     fail(key, "must be an array of two numbers, like [0.0, 1.0]");
+  for (const toml::node& item : *a)
+    if (!item.value<double>()) fail(key, "holds " + not_a_number(item));
   const Vec2 v{*(*a)[0].value<double>(), *(*a)[1].value<double>()};
   if (!std::isfinite(v.x) || !std::isfinite(v.y)) fail(key, "must be finite");
   return v;
@@ -228,7 +244,9 @@ std::vector<double> TomlReader::number_array(const std::string& key) {
   std::vector<double> out;
   for (const toml::node& item : *a) {
     if (!item.is_number()) fail(key, "must be an array of numbers, like [5.0, 10.0]");
-    out.push_back(*item.value<double>());
+    const std::optional<double> v = item.value<double>();
+    if (!v) fail(key, "holds " + not_a_number(item));
+    out.push_back(*v);
   }
   return out;
 }
