@@ -146,8 +146,9 @@ expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness
 
 # Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is
 # prepared or written (docs/reliability.md).
-expect_error "asks for 2.4e+302 steps, more than the limit" "$exe" run -q --set step.dt=1e-300
-expect_error "asks for 2.5e+32 steps" "$exe" run -q --set shear.duration=1e30
+expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-300 is more than the limit" "$exe" run -q --set step.dt=1e-300
+expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is more than" "$exe" run -q --set shear.duration=1e30
+expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
 expect_error "more than the limit" "$exe" run -q -V 1e300
 expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9
 expect_error "key 'solver.max_sweeps': must be between 1 and 1000000, got 4294967296" \

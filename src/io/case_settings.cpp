@@ -416,7 +416,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "simulated shear time (`--system K` presets: the study's, model.md "
                        "section 6)",
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "duration / step.dt <= 2e9 steps (the step limit)"},
           [](auto& c) -> auto& { return c.duration; }),
       bind(
           S{.table = "shear",
