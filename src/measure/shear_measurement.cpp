@@ -1,6 +1,7 @@
 #include "shear_measurement.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -143,19 +144,33 @@ void ShearMeasurement::restore(MeasurementState state, std::vector<SeriesRow> se
   windows_ = std::move(windows);
 }
 
+std::array<std::vector<double>*, 18> StripeSums::sums() {
+  return {&area,
+          &velocity_area,
+          &mass,
+          &mass_vx,
+          &mass_vy,
+          &mass_vxx,
+          &mass_vxy,
+          &mass_vyy,
+          &material_vx,
+          &material_vxx,
+          &material_vxy,
+          &material_vyy,
+          &coordination_area,
+          &carrying_area,
+          &stress_xx,
+          &stress_xy,
+          &stress_yx,
+          &stress_yy};
+}
+
 void StripeSums::assign(std::size_t stripes) {
-  for (std::vector<double>* v :
-       {&area, &velocity_area, &mass, &mass_vx, &mass_vy, &mass_vxx, &mass_vxy, &mass_vyy,
-        &material_vx, &material_vxx, &material_vxy, &material_vyy, &coordination_area,
-        &carrying_area, &stress_xx, &stress_xy, &stress_yx, &stress_yy})
-    v->assign(stripes, 0.0);
+  for (std::vector<double>* v : sums()) v->assign(stripes, 0.0);
 }
 
 bool StripeSums::same_size() const {
-  for (const std::vector<double>* v :
-       {&velocity_area, &mass, &mass_vx, &mass_vy, &mass_vxx, &mass_vxy, &mass_vyy, &material_vx,
-        &material_vxx, &material_vxy, &material_vyy, &coordination_area, &carrying_area, &stress_xx,
-        &stress_xy, &stress_yx, &stress_yy})
+  for (const std::vector<double>* v : const_cast<StripeSums*>(this)->sums())
     if (v->size() != area.size()) return false;
   return true;
 }
