@@ -6,7 +6,10 @@ errors, the share of runs beyond two, and the correlation of the difference with
 that runs written before run.h5 format version 4 had (their top layer's stripes, counted from
 the bottom wall, ended at the stripe boundary nearest H - h: thickness h + offset); from version
 4 the top layer is counted down from the top wall and the offset should not matter.
-Usage: scripts/layer_symmetry.py CAMPAIGN_DIR [CAMPAIGN_DIR ...]"""
+With --legacy (runs of format version 4): the same runs' top layer as the former definition
+measured it, recomputed from the profiles, beside the current one, each paired with the bottom
+layer window by window (mean |top - bottom|, mean |z| and the share beyond two errors).
+Usage: scripts/layer_symmetry.py [--legacy] CAMPAIGN_DIR [CAMPAIGN_DIR ...]"""
 import glob
 import json
 import math
@@ -46,10 +49,64 @@ def points(dirs):
     return out
 
 
-def main(dirs):
+def legacy_top(run, h):
+    """The top layer's nu and Z per window as runs before format version 4 measured them: the
+    profile's stripes (counted from the bottom wall) with centre above H - h, H the window's mean
+    height, the stripe cut by the top wall counted for its part below H."""
+    w = run["windows"]
+    y = np.asarray(w["y"], dtype=float)
+    dy = y[1] - y[0]
+    nu_out, z_out = [], []
+    for k, height in enumerate(np.asarray(w["height"], dtype=float)):
+        inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
+        sel = (inside > 0) & np.isfinite(w["vx"][k]) & (y >= h) & ((y > height - h) | (inside < 1))
+        nu, z = w["solid_fraction"][k][sel], w["coordination"][k][sel]
+        nu_out.append(nu.sum() / inside[sel].sum() if sel.any() else np.nan)
+        z_out.append((nu * z).sum() / nu.sum() if nu.sum() > 0 else np.nan)
+    return {"solid_fraction": np.array(nu_out), "coordination": np.array(z_out)}
+
+
+def legacy_table(dirs):
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+    from cdshear_analysis import load_run
+    from cdshear_analysis.statistics import window_mean
+    rows = []
+    for d in dirs:
+        for path in sorted(glob.glob(os.path.join(d, "runs", "*", "summary.json"))):
+            with open(path, encoding="utf-8") as f:
+                s = json.load(f)
+            if s.get("regime") != "A" or s.get("steady") is not True:
+                continue
+            run = load_run(os.path.dirname(path))
+            if run["top_stripes"] is None:
+                continue
+            sel = np.asarray(s["steady_window_indices"], dtype=int)
+            for label, region in run["regions"].items():
+                legacy = legacy_top(run, region["h"])
+                for q in ("solid_fraction", "coordination"):
+                    bottom = region[f"bottom_{q}"][sel]
+                    for name, top in (("current", region[f"top_{q}"][sel]),
+                                      ("legacy", legacy[q][sel])):
+                        mean, err = window_mean(top - bottom)
+                        rows.append((label, q, name, abs(mean), abs(mean) / err))
+    print("h     quantity        top layer  runs  mean |top - bottom|  mean |z|  |z| > 2")
+    for label in sorted({r[0] for r in rows}, key=lambda x: float(x[1:])):
+        for q in ("solid_fraction", "coordination"):
+            for name in ("current", "legacy"):
+                sel = np.array([r[3:] for r in rows if r[:3] == (label, q, name)])
+                if len(sel):
+                    print(f"{label:5s} {q:15s} {name:9s}  {len(sel):4d}  {np.mean(sel[:, 0]):19.4f}"
+                          f"  {np.mean(sel[:, 1]):8.2f}  {np.mean(sel[:, 1] > 2):7.2f}")
+    return 0
+
+
+def main(args):
+    dirs = [a for a in args if a != "--legacy"]
     if not dirs:
         print(__doc__.splitlines()[-1], file=sys.stderr)
         return 2
+    if "--legacy" in args:
+        return legacy_table(dirs)
     rows = points(dirs)
     print("h     quantity        runs  mean |z|  |z| > 2  corr(z, offset)")
     for label in sorted({r[0] for r in rows}, key=lambda x: float(x[1:])):

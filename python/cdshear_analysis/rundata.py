@@ -26,8 +26,9 @@ counts Z as the closed contacts (gap <= contact_gap), keeps the per-step count a
 force_carrying_coordination, and stores the rotation's momentum flux as rotational_stress beside
 a stress of contact and kinetic parts. Older files are read as version 4 would describe them
 where they can be, with attrs["legacy_note"]: before version 4 the top layer's regions are as
-written (stripes counted from the bottom wall, docs/measurements.md); version 2 added rotational_stress into stress: it is taken out again, and mu_eff (profiles and
-regions) recomputed; in a version-1 file, coordination (the contacts carrying force at the
+written (stripes counted from the bottom wall, docs/measurements.md); version 2 added
+rotational_stress into stress: it is taken out again, and mu_eff (profiles and regions)
+recomputed; in a version-1 file, coordination (the contacts carrying force at the
 sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
 import contextlib
