@@ -18,6 +18,8 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+
 QUANTITIES = ("solid_fraction", "coordination", "mu_eff")
 
 
@@ -27,39 +29,41 @@ def edge_offset(height, h, dy=1.0):
     return height - lowest * dy - h
 
 
-def points(dirs):
-    out = []
+def steady_regime_a(dirs):
+    """(run folder, summary) of each steady regime-A run of the campaigns `dirs`."""
     for d in dirs:
         for path in sorted(glob.glob(os.path.join(d, "runs", "*", "summary.json"))):
             with open(path, encoding="utf-8") as f:
                 s = json.load(f)
-            if s.get("regime") != "A" or s.get("steady") is not True:
-                continue
-            height = s["height"]["mean"]
-            for label, region in s.get("regions", {}).items():
-                h = region.get("h")
-                for q in QUANTITIES:
-                    b, t = region["bottom"].get(q, {}), region["top"].get(q, {})
-                    if None in (b.get("mean"), t.get("mean"), b.get("err"), t.get("err")):
-                        continue
-                    err = math.hypot(b["err"], t["err"])
-                    if err > 0:
-                        out.append((label, q, edge_offset(height, h),
-                                    (t["mean"] - b["mean"]) / err))
+            if s.get("regime") == "A" and s.get("steady") is True:
+                yield os.path.dirname(path), s
+
+
+def points(dirs):
+    out = []
+    for _, s in steady_regime_a(dirs):
+        height = s["height"]["mean"]
+        for label, region in s.get("regions", {}).items():
+            h = region.get("h")
+            for q in QUANTITIES:
+                b, t = region["bottom"].get(q, {}), region["top"].get(q, {})
+                if None in (b.get("mean"), t.get("mean"), b.get("err"), t.get("err")):
+                    continue
+                err = math.hypot(b["err"], t["err"])
+                if err > 0:
+                    out.append((label, q, edge_offset(height, h), (t["mean"] - b["mean"]) / err))
     return out
 
 
 def legacy_top(run, h):
-    """The top layer's nu and Z per window as runs before format version 4 measured them: the
-    profile's stripes (counted from the bottom wall) with centre above H - h, H the window's mean
-    height, the stripe cut by the top wall counted for its part below H."""
+    """The top layer's nu and Z per window as runs before format version 4 measured them
+    (profiles.former_regions)."""
+    from cdshear_analysis.profiles import former_regions
     w = run["windows"]
-    y = np.asarray(w["y"], dtype=float)
-    dy = y[1] - y[0]
     nu_out, z_out = [], []
     for k, height in enumerate(np.asarray(w["height"], dtype=float)):
-        inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
-        sel = (inside > 0) & np.isfinite(w["vx"][k]) & (y >= h) & ((y > height - h) | (inside < 1))
+        parts, inside = former_regions(w["y"], height, h, np.isfinite(w["vx"][k]))
+        sel = parts["top"]
         nu, z = w["solid_fraction"][k][sel], w["coordination"][k][sel]
         nu_out.append(nu.sum() / inside[sel].sum() if sel.any() else np.nan)
         z_out.append((nu * z).sum() / nu.sum() if nu.sum() > 0 else np.nan)
@@ -67,28 +71,22 @@ def legacy_top(run, h):
 
 
 def legacy_table(dirs):
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
     from cdshear_analysis import load_run
     from cdshear_analysis.statistics import window_mean
     rows = []
-    for d in dirs:
-        for path in sorted(glob.glob(os.path.join(d, "runs", "*", "summary.json"))):
-            with open(path, encoding="utf-8") as f:
-                s = json.load(f)
-            if s.get("regime") != "A" or s.get("steady") is not True:
-                continue
-            run = load_run(os.path.dirname(path))
-            if run["top_stripes"] is None:
-                continue
-            sel = np.asarray(s["steady_window_indices"], dtype=int)
-            for label, region in run["regions"].items():
-                legacy = legacy_top(run, region["h"])
-                for q in ("solid_fraction", "coordination"):
-                    bottom = region[f"bottom_{q}"][sel]
-                    for name, top in (("current", region[f"top_{q}"][sel]),
-                                      ("legacy", legacy[q][sel])):
-                        mean, err = window_mean(top - bottom)
-                        rows.append((label, q, name, abs(mean), abs(mean) / err))
+    for run_dir, s in steady_regime_a(dirs):
+        run = load_run(run_dir)
+        if run["top_stripes"] is None:
+            continue
+        sel = np.asarray(s["steady_window_indices"], dtype=int)
+        for label, region in run["regions"].items():
+            legacy = legacy_top(run, region["h"])
+            for q in ("solid_fraction", "coordination"):
+                bottom = region[f"bottom_{q}"][sel]
+                for name, top in (("current", region[f"top_{q}"][sel]),
+                                  ("legacy", legacy[q][sel])):
+                    mean, err = window_mean(top - bottom)
+                    rows.append((label, q, name, abs(mean), abs(mean) / err))
     print("h     quantity        top layer  runs  mean |top - bottom|  mean |z|  |z| > 2")
     for label in sorted({r[0] for r in rows}, key=lambda x: float(x[1:])):
         for q in ("solid_fraction", "coordination"):

@@ -20,6 +20,21 @@ QUANTITIES = ("mu_eff", "solid_fraction", "coordination", "force_carrying_coordi
 LAYER_QUANTITIES = QUANTITIES[:4]   # a boundary layer's shear is its velocity jump
 
 
+def former_regions(y, height, h, finite):
+    """The stripes of each region as files before format version 4 assigned them, all counted
+    from the bottom wall: ({"bottom", "top", "bulk"}: boolean masks over the stripe centres y,
+    each stripe's share inside a cell of mean height `height`). `finite`: the stripes with a
+    velocity. Bottom y < h; top y > height - h and the stripe cut by the top wall (counted for
+    its share inside); bulk the rest."""
+    y = np.asarray(y, dtype=float)
+    dy = y[1] - y[0] if len(y) > 1 else 2 * y[0] if len(y) else 1.0
+    inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
+    ok = (inside > 0) & finite
+    upper = (y > height - h) | (inside < 1)
+    return {"bottom": ok & (y < h), "top": ok & (y >= h) & upper,
+            "bulk": ok & (y >= h) & ~upper}, inside
+
+
 def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4):
     """Per-window region averages over stripes with lo < y < hi (lo, hi scalars or per window).
 

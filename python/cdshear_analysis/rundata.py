@@ -44,6 +44,8 @@ import zlib
 import h5py
 import numpy as np
 
+from .profiles import former_regions
+
 RUN_FILE = "run.h5"
 FORMAT_VERSION = 4
 REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
@@ -364,7 +366,7 @@ def _as_version_2(windows, regions, attrs):
 
 def _as_version_3(windows, regions, attrs):
     """A version-2 file's stress without the rotational flux, and the mu_eff that follow (the
-    regions' stripes as src/measure/shear_measurement.cpp assigns them)."""
+    regions' stripes as that version assigned them: profiles.former_regions)."""
     if "rotational_stress" not in windows:
         return
     stress = np.asarray(windows["stress"], dtype=float) - np.asarray(
@@ -373,16 +375,10 @@ def _as_version_3(windows, regions, attrs):
     with np.errstate(invalid="ignore", divide="ignore"):
         windows["mu_eff"] = np.where(stress[..., 1, 1] > 0,
                                      np.abs(stress[..., 0, 1]) / stress[..., 1, 1], np.nan)
-    y = np.asarray(windows["y"], dtype=float)
-    dy = y[1] - y[0] if len(y) > 1 else 2 * y[0] if len(y) else 1.0
+    vx = np.asarray(windows["vx"], dtype=float)
     for data in regions.values():
-        h = data["h"]
         for w, height in enumerate(np.asarray(windows["height"], dtype=float)):
-            inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
-            ok = (inside > 0) & np.isfinite(np.asarray(windows["vx"], dtype=float)[w])
-            parts = {"bottom": ok & (y < h),
-                     "top": ok & (y >= h) & ((y > height - h) | (inside < 1)),
-                     "bulk": ok & (y >= h) & (y <= height - h) & (inside >= 1)}
+            parts, _ = former_regions(windows["y"], height, data["h"], np.isfinite(vx[w]))
             for part, sel in parts.items():
                 key = f"{part}_mu_eff"
                 if key not in data:

@@ -12,6 +12,7 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 #include "build_info.hpp"
 #include "config_error.hpp"
@@ -408,6 +409,28 @@ void write_snapshot(const H5Context& ctx, hid_t file, const World& world,
   attr_double(ctx, g, "height", world.walls[1].point.y - bottom);
 }
 
+/// One W x S (x 2 x 2 for tensors) dataset of the windows: the profile `get` picks from each
+/// window, S entries each.
+template <class Get>
+void write_window_profiles(const H5Context& ctx, hid_t group, const char* name,
+                           const std::vector<WindowProfile>& ws, hsize_t stripes, Get get) {
+  using Profile = std::decay_t<decltype(get(ws.front()))>;
+  constexpr bool tensors = std::is_same_v<Profile, std::vector<Tensor2>>;
+  std::vector<double> v;
+  for (const WindowProfile& w : ws) {
+    const Profile& profile = get(w);
+    if constexpr (tensors) {
+      for (const Tensor2& t : profile) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
+    } else {
+      v.insert(v.end(), profile.begin(), profile.end());
+    }
+  }
+  if constexpr (tensors)
+    write_doubles(ctx, group, name, v, {ws.size(), stripes, 2, 2});
+  else
+    write_doubles(ctx, group, name, v, {ws.size(), stripes});
+}
+
 }  // namespace
 
 /// Everything of run.h5 into the open `file`.
@@ -479,31 +502,23 @@ void write_run_file(const H5Context& ctx, hid_t file, const RunMetadata& meta,
     for (const WindowProfile& w : ws) v.insert(v.end(), {(w.*field).x, (w.*field).y});
     write_doubles(ctx, g, name, v, {w_count, 2});
   }
-  for (const auto& [name, field] : kWindowProfiles) {
-    std::vector<double> v;
-    for (const WindowProfile& w : ws) v.insert(v.end(), (w.*field).begin(), (w.*field).end());
-    write_doubles(ctx, g, name, v, {w_count, s_count});
-  }
-  for (const auto& [name, field] : kWindowTensors) {
-    std::vector<double> v;
-    for (const WindowProfile& w : ws)
-      for (const Tensor2& t : w.*field) v.insert(v.end(), {t.xx, t.xy, t.yx, t.yy});
-    write_doubles(ctx, g, name, v, {w_count, s_count, 2, 2});
-  }
+  for (const auto& [name, field] : kWindowProfiles)
+    write_window_profiles(
+        ctx, g, name, ws, s_count, [f = field](const WindowProfile& w) -> auto& { return w.*f; });
+  for (const auto& [name, field] : kWindowTensors)
+    write_window_profiles(
+        ctx, g, name, ws, s_count, [f = field](const WindowProfile& w) -> auto& { return w.*f; });
   {
     Handle t = create_group(ctx, g, "top_stripes");
     const hsize_t t_count = m.top_stripe_depths().size();
     write_doubles(ctx, t, "depth", m.top_stripe_depths());
-    for (const auto& [name, field] : kTopStripeProfiles) {
-      std::vector<double> v;
-      for (const WindowProfile& w : ws)
-        v.insert(v.end(), (w.top_stripes.*field).begin(), (w.top_stripes.*field).end());
-      write_doubles(ctx, t, name, v, {w_count, t_count});
-    }
-    std::vector<double> v;
-    for (const WindowProfile& w : ws)
-      for (const Tensor2& x : w.top_stripes.stress) v.insert(v.end(), {x.xx, x.xy, x.yx, x.yy});
-    write_doubles(ctx, t, "stress", v, {w_count, t_count, 2, 2});
+    for (const auto& [name, field] : kTopStripeProfiles)
+      write_window_profiles(
+          ctx, t, name, ws,
+          t_count, [f = field](const WindowProfile& w) -> auto& { return w.top_stripes.*f; });
+    write_window_profiles(
+        ctx, t, "stress", ws, t_count,
+        [](const WindowProfile& w) -> auto& { return w.top_stripes.stress; });
   }
   Handle regions = create_group(ctx, g, "regions");
   for (std::size_t k = 0; k < o.boundary_thickness.size(); ++k) {
@@ -575,6 +590,25 @@ void check_series_time(const H5Context& ctx, const std::vector<double>& time) {
   }
 }
 
+/// The windows' profiles of one W x S (x 2 x 2 for tensors) dataset into the vector `get` picks
+/// from each window.
+template <class Get>
+void read_window_profiles(const H5Context& ctx, hid_t group, const char* name,
+                          std::vector<WindowProfile>& ws, std::size_t stripes, Get get) {
+  using Profile = std::decay_t<decltype(get(ws.front()))>;
+  constexpr std::size_t per_stripe = std::is_same_v<Profile, std::vector<Tensor2>> ? 4 : 1;
+  const std::vector<double> v = read_doubles(ctx, group, name, per_stripe * ws.size() * stripes);
+  for (std::size_t w = 0; w < ws.size(); ++w) {
+    Profile& profile = get(ws[w]);
+    const double* x = v.data() + per_stripe * w * stripes;
+    if constexpr (per_stripe == 4) {
+      for (std::size_t s = 0; s < stripes; ++s, x += 4) profile.push_back({x[0], x[1], x[2], x[3]});
+    } else {
+      profile.assign(x, x + stripes);
+    }
+  }
+}
+
 /// The windows' profiles of a run.h5 (group "windows", its regions included) into `data`,
 /// whose options (boundary_thickness) are read already.
 void read_windows(const H5Context& ctx, hid_t file, RunData& data) {
@@ -598,35 +632,24 @@ void read_windows(const H5Context& ctx, hid_t file, RunData& data) {
     const std::vector<double> v = read_doubles(ctx, g, name, 2 * w_count);
     for (std::size_t w = 0; w < w_count; ++w) data.windows[w].*field = {v[2 * w], v[2 * w + 1]};
   }
-  for (const auto& [name, field] : kWindowProfiles) {
-    const std::vector<double> v = read_doubles(ctx, g, name, w_count * s_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      (data.windows[w].*field).assign(v.begin() + w * s_count, v.begin() + (w + 1) * s_count);
-  }
-  for (const auto& [name, field] : kWindowTensors) {
-    const std::vector<double> v = read_doubles(ctx, g, name, 4 * w_count * s_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      for (std::size_t s = 0; s < s_count; ++s) {
-        const double* t = &v[4 * (w * s_count + s)];
-        (data.windows[w].*field).push_back({t[0], t[1], t[2], t[3]});
-      }
-  }
+  std::vector<WindowProfile>& ws = data.windows;
+  for (const auto& [name, field] : kWindowProfiles)
+    read_window_profiles(
+        ctx, g, name, ws, s_count, [f = field](WindowProfile & w) -> auto& { return w.*f; });
+  for (const auto& [name, field] : kWindowTensors)
+    read_window_profiles(
+        ctx, g, name, ws, s_count, [f = field](WindowProfile & w) -> auto& { return w.*f; });
   {
     Handle t = open_group(ctx, g, "top_stripes");
     data.top_stripe_depths = read_doubles(ctx, t, "depth");
     const std::size_t t_count = data.top_stripe_depths.size();
-    for (const auto& [name, field] : kTopStripeProfiles) {
-      const std::vector<double> v = read_doubles(ctx, t, name, w_count * t_count);
-      for (std::size_t w = 0; w < w_count; ++w)
-        (data.windows[w].top_stripes.*field)
-            .assign(v.begin() + w * t_count, v.begin() + (w + 1) * t_count);
-    }
-    const std::vector<double> v = read_doubles(ctx, t, "stress", 4 * w_count * t_count);
-    for (std::size_t w = 0; w < w_count; ++w)
-      for (std::size_t s = 0; s < t_count; ++s) {
-        const double* x = &v[4 * (w * t_count + s)];
-        data.windows[w].top_stripes.stress.push_back({x[0], x[1], x[2], x[3]});
-      }
+    for (const auto& [name, field] : kTopStripeProfiles)
+      read_window_profiles(
+          ctx, t, name, ws,
+          t_count, [f = field](WindowProfile & w) -> auto& { return w.top_stripes.*f; });
+    read_window_profiles(
+        ctx, t, "stress", ws, t_count,
+        [](WindowProfile & w) -> auto& { return w.top_stripes.stress; });
   }
   Handle regions = open_group(ctx, g, "regions");
   for (const double h : o.boundary_thickness) {

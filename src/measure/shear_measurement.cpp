@@ -144,33 +144,39 @@ void ShearMeasurement::restore(MeasurementState state, std::vector<SeriesRow> se
   windows_ = std::move(windows);
 }
 
-std::array<std::vector<double>*, 18> StripeSums::sums() {
-  return {&area,
-          &velocity_area,
-          &mass,
-          &mass_vx,
-          &mass_vy,
-          &mass_vxx,
-          &mass_vxy,
-          &mass_vyy,
-          &material_vx,
-          &material_vxx,
-          &material_vxy,
-          &material_vyy,
-          &coordination_area,
-          &carrying_area,
-          &stress_xx,
-          &stress_xy,
-          &stress_yx,
-          &stress_yy};
+namespace {
+
+/// Every sum of a stripe set (pointers to const for a const set).
+template <class Sums>
+auto every_sum(Sums& s) {
+  return std::array{&s.area,
+                    &s.velocity_area,
+                    &s.mass,
+                    &s.mass_vx,
+                    &s.mass_vy,
+                    &s.mass_vxx,
+                    &s.mass_vxy,
+                    &s.mass_vyy,
+                    &s.material_vx,
+                    &s.material_vxx,
+                    &s.material_vxy,
+                    &s.material_vyy,
+                    &s.coordination_area,
+                    &s.carrying_area,
+                    &s.stress_xx,
+                    &s.stress_xy,
+                    &s.stress_yx,
+                    &s.stress_yy};
 }
 
+}  // namespace
+
 void StripeSums::assign(std::size_t stripes) {
-  for (std::vector<double>* v : sums()) v->assign(stripes, 0.0);
+  for (std::vector<double>* v : every_sum(*this)) v->assign(stripes, 0.0);
 }
 
 bool StripeSums::same_size() const {
-  for (const std::vector<double>* v : const_cast<StripeSums*>(this)->sums())
+  for (const std::vector<double>* v : every_sum(*this))
     if (v->size() != area.size()) return false;
   return true;
 }

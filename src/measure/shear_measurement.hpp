@@ -51,7 +51,6 @@
 // mean R_n of the contacts with R_n > 0 at the sample step.
 #pragma once
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -167,9 +166,8 @@ struct StripeSums {
   std::vector<double> carrying_area;      ///< sum S_ik z_i, force-carrying contacts
   std::vector<double> stress_xx, stress_xy, stress_yx, stress_yy;  ///< sum S_ik (-M_i) / A_i
 
-  void assign(std::size_t stripes);             ///< that many stripes, all sums zero
-  bool same_size() const;                       ///< every sum has area's length
-  std::array<std::vector<double>*, 18> sums();  ///< every member above
+  void assign(std::size_t stripes);  ///< that many stripes, all sums zero
+  bool same_size() const;            ///< every sum has area's length
 };
 
 /// Running sums of the open window: with the per-grain moments and the interval statistics, all
