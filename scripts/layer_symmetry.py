@@ -30,11 +30,15 @@ def edge_offset(height, h, dy=1.0):
 
 
 def steady_regime_a(dirs):
-    """(run folder, summary) of each steady regime-A run of the campaigns `dirs`."""
+    """(run folder, summary) of each steady regime-A run of the campaigns `dirs`; a summary.json
+    that is not a cdshear summary of version 3 stops the script with its path."""
     for d in dirs:
         for path in sorted(glob.glob(os.path.join(d, "runs", "*", "summary.json"))):
             with open(path, encoding="utf-8") as f:
                 s = json.load(f)
+            if (s.get("format"), s.get("version")) != ("cdshear-summary", 3):
+                sys.exit(f"{path}: not a cdshear summary of version 3 (format {s.get('format')!r}, "
+                         f"version {s.get('version')!r}); run `cdshear analyze` on its run again")
             if s.get("regime") == "A" and s.get("steady") is True:
                 yield os.path.dirname(path), s
 
@@ -43,6 +47,8 @@ def points(dirs):
     out = []
     for _, s in steady_regime_a(dirs):
         height = s["height"]["mean"]
+        y = s["profiles"]["y"]
+        dy = y[1] - y[0] if len(y) > 1 else 1.0  # the stripes' width (measure.dy)
         for label, region in s.get("regions", {}).items():
             h = region.get("h")
             for q in QUANTITIES:
@@ -51,7 +57,8 @@ def points(dirs):
                     continue
                 err = math.hypot(b["err"], t["err"])
                 if err > 0:
-                    out.append((label, q, edge_offset(height, h), (t["mean"] - b["mean"]) / err))
+                    z = (t["mean"] - b["mean"]) / err
+                    out.append((label, q, edge_offset(height, h, dy), z))
     return out
 
 
