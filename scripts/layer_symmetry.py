@@ -20,6 +20,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 
+from cdshear_analysis.profiles import stripe_width  # noqa: E402
+
 QUANTITIES = ("solid_fraction", "coordination", "mu_eff")
 
 
@@ -47,8 +49,7 @@ def points(dirs):
     out = []
     for _, s in steady_regime_a(dirs):
         height = s["height"]["mean"]
-        y = s["profiles"]["y"]
-        dy = y[1] - y[0] if len(y) > 1 else 1.0  # the stripes' width (measure.dy)
+        dy = stripe_width(s["profiles"]["y"])
         for label, region in s.get("regions", {}).items():
             h = region.get("h")
             for q in QUANTITIES:

@@ -20,6 +20,12 @@ QUANTITIES = ("mu_eff", "solid_fraction", "coordination", "force_carrying_coordi
 LAYER_QUANTITIES = QUANTITIES[:4]   # a boundary layer's shear is its velocity jump
 
 
+def stripe_width(y):
+    """The stripes' width dy (measure.dy) from their centres y = (k + 1/2) dy: the spacing of two,
+    twice the centre of one, 1 with none."""
+    return y[1] - y[0] if len(y) > 1 else 2 * y[0] if len(y) else 1.0
+
+
 def former_regions(y, height, h, finite):
     """The stripes of each region as files before format version 4 assigned them, all counted
     from the bottom wall: ({"bottom", "top", "bulk"}: boolean masks over the stripe centres y,
@@ -27,7 +33,7 @@ def former_regions(y, height, h, finite):
     velocity. Bottom y < h; top y > height - h and the stripe cut by the top wall (counted for
     its share inside); bulk the rest."""
     y = np.asarray(y, dtype=float)
-    dy = y[1] - y[0] if len(y) > 1 else 2 * y[0] if len(y) else 1.0
+    dy = stripe_width(y)
     inside = np.clip((height - (y - 0.5 * dy)) / dy, 0.0, 1.0)
     ok = (inside > 0) & finite
     upper = (y > height - h) | (inside < 1)

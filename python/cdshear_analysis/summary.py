@@ -16,7 +16,7 @@ import numpy as np
 
 from . import regime as rg
 from .relaxation import profile_decay
-from .profiles import QUANTITIES, region_quantities
+from .profiles import QUANTITIES, region_quantities, stripe_width
 from .rundata import RunDataError
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
@@ -129,7 +129,7 @@ def profile_warnings(run):
     height = np.asarray(run["windows"]["height"], dtype=float)
     if len(y) < 2 or not np.isfinite(height).any():
         return []
-    top = y[-1] + 0.5 * (y[1] - y[0])
+    top = y[-1] + 0.5 * stripe_width(y)
     if np.nanmax(height) <= top:
         return []
     above = int(np.sum(height > top))
