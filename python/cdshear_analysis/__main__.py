@@ -87,7 +87,8 @@ def main(argv=None):
     p_means.add_argument("--key", action="append", help="series name (repeatable; default "
                          "force_carrying, sweeps_mean, capped_steps)")
     p_pairs = commands.add_parser(
-        "series-pairs", help="series of two executables or settings resumed from the same checkpoints, "
+        "series-pairs",
+        help="series of two executables or settings resumed from the same checkpoints, "
         "compared pair by pair (scripts/paired_check.sh)")
     p_pairs.add_argument("check_dir")
     args = parser.parse_args(argv)

@@ -78,8 +78,8 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
     """(data_text, variables): the LAMMPS data file and the variables of the include file.
 
     Geometry (model.md sections 4 and 5): the packing's bottom wall is the line y = 0, its top
-    wall y = height, x periodic with period length_x. Grains: type 1, ids 1..n, centre x wrapped into
-    [0, length_x). Walls: n_wall = ceil(length_x / wall_spacing) disks of radius R_w per wall,
+    wall y = height, x periodic with period length_x. Grains: type 1, ids 1..n, centre x wrapped
+    into [0, length_x). Walls: n_wall = ceil(length_x / wall_spacing) disks of radius R_w per wall,
     spaced length_x / n_wall, centres at y = -R_w (bottom, type 2) and height + R_w (top,
     type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from
     -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).

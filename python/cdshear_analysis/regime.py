@@ -46,11 +46,11 @@ the other (excursions that return to the old plateau are none): start = the last
 old plateau, end = the first sample on the new one, so a switch from +V to -V spans the change
 from (1 - PLATEAU_LEVEL) V to the opposite, the fraction SWITCH_FRACTION of the time T of
 model.md section 8; a change that rests at 0 (B) on the way is one switch lasting through the
-rest (intermittent runs). delta_mu is taken over the stretch of the old plateau before the switch, while the block
-still moves at its plateau velocity: the stretch ends at the last sample before the start with u
-at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back, or to the
-previous switch's end if that is nearer (summary.switch_friction_difference). Switches are found
-over the whole series (a switch's delta_mu stretch stops at the previous one's end), but a run
+rest (intermittent runs). delta_mu is taken over the stretch of the old plateau before the switch,
+while the block still moves at its plateau velocity: the stretch ends at the last sample before the
+start with u at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back,
+or to the previous switch's end if that is nearer (summary.switch_friction_difference). Switches are
+found over the whole series (a switch's delta_mu stretch stops at the previous one's end), but a run
 counts only those starting in its averaged span (switches_in): the summary's switches, their
 statistics and the regime test's dwell criterion are all over that span.
 """

@@ -181,7 +181,8 @@ def _number(value):
 def _check_physics(attrs, series, windows, n_stripes, path):
     """Refuses data that are not a shear run, naming the attribute or dataset: what `cdshear run`
     cannot write (a V of 0, NaN or text, a negative height, time running backwards, no stripes,
-    arrays of the wrong rank, every physical series NaN), so that no regime is ever given to them."""
+    arrays of the wrong rank, every physical series NaN), so that no regime is ever given to
+    them."""
     for k in POSITIVE_ATTRS + NON_NEGATIVE_ATTRS:
         v = attrs[k]
         if not _number(v) or not np.isfinite(v):

@@ -1,16 +1,15 @@
 """Means of a run's time series after a given time: what a short solver check reads.
 
-`series_means(run_data, after, keys, before)` averages `series/KEY` of run.h5 over the samples
-with after < time <= before (docs/run-data.md; `before` defaults to the end), so that runs of
-different lengths, or whose analyses chose different averaging windows, compare over one
-window. The standard error of the mean comes from block averaging (statistics.block_average,
-the analysis' own method), since neighbouring samples are correlated: as if they were
-independent it was up to 2.5 times too small on the solver checks of docs/step-error.md
-("Tall cells"). When the
-blocks find no plateau (a short window) the largest error over the levels is given and the
-output says so: then it is still a lower bound. It serves
-scripts/solver_check.sh (docs/accuracy-methods.md, "Checkpoint copies"), which resumes copies of a run's
-checkpoint with other solver settings and compares, for example, the force-carrying contacts.
+`series_means(run_data, after, keys, before)` averages `series/KEY` of run.h5 over the samples with
+after < time <= before (docs/run-data.md; `before` defaults to the end), so that runs of different
+lengths, or whose analyses chose different averaging windows, compare over one window. The standard
+error of the mean comes from block averaging (statistics.block_average, the analysis' own method),
+since neighbouring samples are correlated: as if they were independent it was up to 2.5 times too
+small on the solver checks of docs/step-error.md ("Tall cells"). When the blocks find no plateau (a
+short window) the largest error over the levels is given and the output says so: then it is still a
+lower bound. It serves scripts/solver_check.sh (docs/accuracy-methods.md, "Checkpoint copies"),
+which resumes copies of a run's checkpoint with other solver settings and compares, for example, the
+force-carrying contacts.
 
 `paired_differences(check_dir, keys)` serves scripts/paired_check.sh: copies of several runs'
 checkpoints, each resumed as two sides (a/ and b/: two executables or two settings), compared

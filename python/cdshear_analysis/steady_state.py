@@ -105,16 +105,15 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
-    window_signals: {name: one value per window}; balance: balance(windows, start_time) ->
-    (mean, err) of the interior mu_eff minus the walls' friction over those windows and the
-    samples from start_time (None: not checked); stationarity_only: series that must not drift but need not
-    hold STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is
-    not reported, such as the block's speed); tolerances: {name: size} for series whose
-    changes matter only from that size on: a series whose batch means all lie within it takes
-    no part in the transient's end nor in the drift test (its truncation time is NaN). Returns
-    a dict with steady (bool), reason,
-    transient_end_time (NaN if unknown), averaging_start_time, windows (indices averaged),
-    truncation_times {name: t}, independent_samples {name: n}, drift_sigmas {name: z} and
+    window_signals: {name: one value per window}; balance: balance(windows, start_time) -> (mean,
+    err) of the interior mu_eff minus the walls' friction over those windows and the samples from
+    start_time (None: not checked); stationarity_only: series that must not drift but need not hold
+    STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is not
+    reported, such as the block's speed); tolerances: {name: size} for series whose changes matter
+    only from that size on: a series whose batch means all lie within it takes no part in the
+    transient's end nor in the drift test (its truncation time is NaN). Returns a dict with steady
+    (bool), reason, transient_end_time (NaN if unknown), averaging_start_time, windows (indices
+    averaged), truncation_times {name: t}, independent_samples {name: n}, drift_sigmas {name: z} and
     stress_balance {mean, err, sigmas} over the steady windows (NaN if not checked).
     """
     time = np.asarray(time, dtype=float)

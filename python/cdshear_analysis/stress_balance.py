@@ -63,8 +63,11 @@ def format_line(name, b):
     """One line of the printed table."""
     def f(pair, digits=4):
         return f"{pair[0]:+.{digits}f}±{pair[1]:.{digits}f}"
-    return (f"{name}  V {b['velocity']:g}  {b['windows']} windows{'' if b['steady'] else ' (NOT steady)'}"
-            f"  sigma_yy {f(b['sigma_yy'])} wall {f(b['sigma_yy_wall'])} diff {f(b['sigma_yy_diff'])}"
-            f"  sigma_xy {f(b['sigma_xy'])} wall {f(b['sigma_xy_wall'])} diff {f(b['sigma_xy_diff'])}"
+    steady = '' if b['steady'] else ' (NOT steady)'
+    return (f"{name}  V {b['velocity']:g}  {b['windows']} windows{steady}"
+            f"  sigma_yy {f(b['sigma_yy'])} wall {f(b['sigma_yy_wall'])}"
+            f" diff {f(b['sigma_yy_diff'])}"
+            f"  sigma_xy {f(b['sigma_xy'])} wall {f(b['sigma_xy_wall'])}"
+            f" diff {f(b['sigma_xy_diff'])}"
             f"  mu {f(b['mu_eff'])} wall {f(b['mu_eff_wall'])} diff {f(b['mu_eff_diff'])}"
             f"  kinetic_yy {f(b['kinetic_yy'], 5)} rotational_yy {f(b['rotational_yy'], 5)}")

@@ -228,8 +228,8 @@ def welch_p(values_a, values_b):
 def compare_references(dir_a, dir_b):
     """Two builds or settings, each a study folder of realizations (`reference`,
     `reference_seed2`, ...: the same case with other solver seeds), compared as in
-    docs/accuracy-methods.md, "Seed ensembles": each folder's runs combined (`combine`), then for every
-    quantity the two means, their errors, the difference b - a in combined errors,
+    docs/accuracy-methods.md, "Seed ensembles": each folder's runs combined (`combine`), then for
+    every quantity the two means, their errors, the difference b - a in combined errors,
     (b - a) / sqrt(err_a^2 + err_b^2), and Welch's p-value from the realizations' values
     (`welch_p`). Returns (combined row a, combined row b, lines, skipped), each line (quantity,
     a, err_a, b, err_b, difference in combined errors (NaN when both errors are 0 or missing),

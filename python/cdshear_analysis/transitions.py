@@ -311,7 +311,8 @@ def predictions(rows, fits, boundary=None, transitions=None):
                                   "estimate": measured["estimate"]} if measured else None)
         stability = symmetric_state_stability(rows, boundary)
     return {
-        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS, "switch_fraction": SWITCH_FRACTION},
+        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS,
+                      "switch_fraction": SWITCH_FRACTION},
         "V_AB": v_ab,
         "symmetric_state_stability": stability,
         "switch_time_C": switch_predictions(rows, boundary),

@@ -128,7 +128,8 @@ class CompareCampaigns(unittest.TestCase):
             self.assertAlmostEqual(mu["sd"], sd)
             t = 0.03 / (sd / 3 ** 0.5)
             self.assertAlmostEqual(mu["t"], t)
-            # Student's t with 2 degrees of freedom in closed form: P(|T| > t) = 1 - t / sqrt(2 + t^2)
+            # Student's t with 2 degrees of freedom in closed form:
+            # P(|T| > t) = 1 - t / sqrt(2 + t^2)
             self.assertAlmostEqual(mu["p"], 1.0 - t / math.sqrt(2.0 + t * t))
             self.assertTrue(math.isnan(groups[0]["nu_bulk"]["t"]))  # no difference at all
             self.assertNotIn("mu_eff_bulk", groups[1])

@@ -1,6 +1,7 @@
 """Seeds of one (system, V) combined into one point of a fit, the bulk laws fitted per system,
-whether a law depends on the system, and delta_mu of a regime-C switch from the boundary law, on synthetic campaigns with known
-parameters (report.py, fitting.py, boundary_laws.py, transitions.py)."""
+whether a law depends on the system, and delta_mu of a regime-C switch from the boundary law, on
+synthetic campaigns with known parameters (report.py, fitting.py, boundary_laws.py,
+transitions.py)."""
 import json
 import math
 import os

@@ -23,7 +23,8 @@ RUN_DATA_DOC = os.path.join(PYTHON_DIR, "..", "docs", "run-data.md")
 SUMMARY_KEYS = {
     "format", "version", "run_dir", "case", "steady", "steady_reason", "transient_end_time",
     "transient_end_strain", "averaging_start_time", "averaging_start_strain", "truncation_times",
-    "independent_samples", "drift_sigmas", "stress_balance", "warnings", "steady_windows", "steady_window_indices",
+    "independent_samples", "drift_sigmas", "stress_balance", "warnings", "steady_windows",
+    "steady_window_indices",
     "window_errors", "regime", "regime_confidence", "regime_criteria", "mu_eff_wall", "height",
     "solid_fraction", "com_vx", "bulk", "slip", "regions", "profiles", "switches",
     "switch_duration", "solver", "mu_eff_wall_bottom", "mu_eff_wall_top", "switch_delta_mu",

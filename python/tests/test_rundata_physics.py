@@ -1,7 +1,7 @@
 """run.h5 files that are sealed but are not a shear run (V of 0, NaN or text, a negative height,
 time running backwards, no stripes, a window of 0, every physical series NaN, arrays of the wrong
-rank, a dataset larger than the file) are refused by load_run naming the attribute or dataset, and `analyze` exits 2 with the
-message and no traceback: no regime is ever given to them."""
+rank, a dataset larger than the file) are refused by load_run naming the attribute or dataset,
+and `analyze` exits 2 with the message and no traceback: no regime is ever given to them."""
 import contextlib
 import io
 import os
@@ -59,7 +59,8 @@ CASES = [
     ("n = 2.5", set_attr("n", 2.5), "a number of disks is whole"),
     ("negative height", set_attr("height", -20.0), "attribute height is -20.0: it must be > 0"),
     ("window 0", set_attr("window", 0.0), "attribute window is 0.0: it must be > 0"),
-    ("time backwards", replace("series/time", backwards), "/series/time does not increase at row 5"),
+    ("time backwards", replace("series/time", backwards),
+     "/series/time does not increase at row 5"),
     ("no stripes", replace("windows/y", lambda y: np.zeros(0)), "/windows/"),
     ("all NaN", all_nan_series, "every physical series"),
     ("3-D vx", replace("windows/vx", lambda v: np.asarray(v)[..., None]),

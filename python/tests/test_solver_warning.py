@@ -1,4 +1,5 @@
-"""The report's warning on steps at the sweep cap: the share of steps, and what a large one costs."""
+"""The report's warning on steps at the sweep cap: the share of steps, and what a large one
+costs."""
 import os
 import tempfile
 import unittest
@@ -41,8 +42,8 @@ class SweepCapWarning(unittest.TestCase):
         summary, report = self.report_with_capped(1)
         steps, capped = summary["solver"]["steps"], summary["solver"]["capped_steps"]
         self.assertLess(capped / steps, CAPPED_SHARE_WARNING)
-        self.assertIn(f"warning: {capped} of {steps} steps ({capped / steps:.1%}) hit the sweep cap",
-                      report)
+        share = f"{capped / steps:.1%}"
+        self.assertIn(f"warning: {capped} of {steps} steps ({share}) hit the sweep cap", report)
         self.assertNotIn("not converged", report)
 
     def test_many_capped_steps_say_what_moves(self):
