@@ -36,10 +36,8 @@ import scipy.io
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import (FRICTION, GAP, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
-                          contact_jacobian, sample_header)
+from coarse_space import StepProblem
 
-VELOCITY = slice(5, 8)  # columns of sample_K_bodies.txt: v_x, v_y, omega after the reference
 REPORTED = (1, 2, 5, 10, 20, 50, 100, 200, 500)
 
 
@@ -65,40 +63,19 @@ def main():
     parser.add_argument("--write-matrix", type=float, help="write W + F w_nn I, F this value")
     args = parser.parse_args()
 
-    header = sample_header(args.stem)
-    if len(header) < 4:
-        raise SystemExit(f"error: {args.stem}_contacts.txt: no time step on its first line "
-                         "(dumped by an older bench)")
-    dt = float(header[3])
-    contacts = np.loadtxt(args.stem + "_contacts.txt", comments="#", ndmin=2)
-    bodies = np.loadtxt(args.stem + "_bodies.txt", comments="#", ndmin=2)
-    if bodies.shape[1] < VELOCITY.stop:
-        raise SystemExit(f"error: {args.stem}_bodies.txt: no velocities (dumped by an older bench)")
-    h = contact_jacobian(contacts, bodies)
-    w = (h @ sp.diags(bodies[:, INV_MASS].ravel()) @ h.T).tocsc()
-    reference = contacts[:, [REFERENCE_N, REFERENCE_T]].ravel()
-    tested = contacts[:, [TESTED_N, TESTED_T]].ravel()
-    mu = contacts[:, FRICTION]
-    q = h @ bodies[:, VELOCITY].ravel() - w @ reference
-    q[0::2] += contacts[:, GAP] / dt
-    diagonal = w.diagonal()
-    w_nn = diagonal[0::2].mean()
-
-    def error(r):
-        return np.linalg.norm(r - reference) / np.linalg.norm(reference)
+    problem = StepProblem(args.stem)
+    w, q, mu, w_nn = problem.w, problem.q, problem.mu, problem.w_nn
+    reference, tested, error = problem.reference, problem.tested, problem.error
 
     def residual(r):
-        u = w @ r + q
-        n = np.maximum(0.0, r[0::2] - u[0::2] / diagonal[0::2])
-        t = np.clip(r[1::2] - u[1::2] / diagonal[1::2], -mu * n, mu * n)
-        return np.linalg.norm(r - np.stack([n, t], 1).ravel()) / max(np.linalg.norm(r), 1e-300)
+        return problem.natural_map_distance(r) / max(np.linalg.norm(r), 1e-300)
 
     def shift(u):
         s = np.zeros_like(u)
         s[0::2] = mu * np.abs(u[1::2])
         return s
 
-    print(f"{len(contacts)} candidates, {int((reference[0::2] > 0).sum())} closed in the "
+    print(f"{len(mu)} candidates, {int((reference[0::2] > 0).sum())} closed in the "
           f"reference; tested: error {error(tested):.2e}, residual {residual(tested):.2e}; "
           f"reference residual {residual(reference):.2e}")
     if args.write_matrix is not None:

@@ -71,6 +71,49 @@ def sample_header(stem):
         return [float(x) for x in f.readline()[2:].split()]
 
 
+# Columns of sample_K_bodies.txt: v_x, v_y, omega after the reference solve.
+VELOCITY = slice(5, 8)
+
+
+class StepProblem:
+    """One dumped step as its contact problem over every candidate contact: u = W R + q at any R
+    (W = H M^-1 H^T the Delassus operator, q the free term with gap / dt on the normal rows, both
+    formed from the dump alone: q = u_ref - W R_ref), mu per contact, and the tested and the
+    reference impulses (n, t interleaved)."""
+
+    def __init__(self, stem):
+        header = sample_header(stem)
+        if len(header) < 4:
+            raise SystemExit(f"error: {stem}_contacts.txt: no time step on its first line "
+                             "(dumped by an older bench)")
+        self.dt = float(header[3])
+        contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
+        bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
+        if bodies.shape[1] < VELOCITY.stop:
+            raise SystemExit(f"error: {stem}_bodies.txt: no velocities (dumped by an older bench)")
+        h = contact_jacobian(contacts, bodies)
+        self.w = (h @ sp.diags(bodies[:, INV_MASS].ravel()) @ h.T).tocsc()
+        self.reference = contacts[:, [REFERENCE_N, REFERENCE_T]].ravel()
+        self.tested = contacts[:, [TESTED_N, TESTED_T]].ravel()
+        self.mu = contacts[:, FRICTION]
+        self.q = h @ bodies[:, VELOCITY].ravel() - self.w @ self.reference
+        self.q[0::2] += contacts[:, GAP] / self.dt
+        self.diagonal = self.w.diagonal()
+        self.w_nn = self.diagonal[0::2].mean()  # the mean of W's normal diagonal
+
+    def error(self, r):
+        """|R - R_ref| / |R_ref|, the per-step error of docs/step-error.md."""
+        return np.linalg.norm(r - self.reference) / np.linalg.norm(self.reference)
+
+    def natural_map_distance(self, r):
+        """|R - R'|, R'_n = max(0, R_n - u_n / w_nn), R'_t = clamp(R_t - u_t / w_tt, -mu R'_n,
+        mu R'_n): zero exactly where R and u meet the contact laws."""
+        u = self.w @ r + self.q
+        n = np.maximum(0.0, r[0::2] - u[0::2] / self.diagonal[0::2])
+        t = np.clip(r[1::2] - u[1::2] / self.diagonal[1::2], -self.mu * n, self.mu * n)
+        return np.linalg.norm(r - np.stack([n, t], 1).ravel())
+
+
 class Sample:
     def __init__(self, stem):
         self.length_x, self.y_bottom, self.y_top = sample_header(stem)[:3]

@@ -5,11 +5,14 @@
 # 0, --error-locality's shares within [0, 1], a stress error in some stripe); --reference-newton
 # with --polish ends each sample's polish on a solution; the samples --dump-samples writes hold
 # the reference's step (bench/admm_step.py finds its contact laws met to round-off from the dumped
-# contacts, impulses and velocities).
+# contacts, impulses and velocities), and bench/fb_newton_step.py's Newton iterations reach that
+# step (to round-off in a few iterations, as a right generalized Jacobian does on these small
+# young packings).
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
 admm_step=$(cd "$(dirname "$0")/../bench" && pwd)/admm_step.py
+fb_newton_step=$(cd "$(dirname "$0")/../bench" && pwd)/fb_newton_step.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -65,6 +68,22 @@ for k in 0 1; do
             /from tested/ { f = ($0 !~ /nan|inf/) } END { exit !(ok && f) }' admm_$k.txt; then
     echo "FAIL: dumped sample $k: expected the reference's laws met and the tested ones not"
     cat admm_$k.txt; fails=$((fails + 1))
+  fi
+done
+# Fischer-Burmeister Newton from the tested impulses: 5 iterations end at the reference's step
+# (impulse error below 1e-8, natural-map residual below 1e-12) on both samples: the quadratic
+# convergence of a right Jacobian (with a wrong one they converge linearly, still 1e-7 off).
+for k in 0 1; do
+  if ! /usr/bin/python3 "$fb_newton_step" "${samples[0]}/sample_$k" --iterations 5 \
+      --starts tested > fb_$k.txt 2>&1; then
+    echo "FAIL: fb_newton_step.py on dumped sample $k failed"; cat fb_$k.txt; fails=$((fails + 1))
+    continue
+  fi
+  if ! awk '/from tested/ { n = split($0, a, /, /); split(a[n], b, /[: \/]+/);
+                            ok = (b[2] + 0 < 1e-8 && b[3] + 0 < 1e-12) } END { exit !ok }' \
+      fb_$k.txt; then
+    echo "FAIL: dumped sample $k: Fischer-Burmeister Newton did not reach the reference's step"
+    cat fb_$k.txt; fails=$((fails + 1))
   fi
 done
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
