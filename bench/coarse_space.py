@@ -71,6 +71,13 @@ def sample_header(stem):
         return [float(x) for x in f.readline()[2:].split()]
 
 
+def contact_status(normal, tangential, friction, open_below=0.0, slide_tolerance=1e-9):
+    """0 open (R_n <= open_below), 1 sticking, 2 sliding (|R_t| at mu R_n to a relative
+    slide_tolerance)."""
+    sliding = np.abs(tangential) >= friction * normal * (1.0 - slide_tolerance)
+    return np.where(normal <= open_below, 0, np.where(sliding, 2, 1))
+
+
 # Columns of sample_K_bodies.txt: v_x, v_y, omega after the reference solve.
 VELOCITY = slice(5, 8)
 

@@ -34,16 +34,10 @@ import glob
 import numpy as np
 
 from coarse_space import (BODY_A, BODY_B, FRICTION, LEVER_A, LEVER_B, NX, NY, REFERENCE_N,
-                          REFERENCE_T, TESTED_N, TESTED_T)
+                          REFERENCE_T, TESTED_N, TESTED_T, contact_status)
 
 # The bodies' height and inverse masses (sample_K_bodies.txt: x, y, 1/m along x, along y, 1/I).
 Y, INV_MASS_X, INV_MASS_Y, INV_INERTIA = 1, 2, 3, 4
-
-
-def status(normal, tangential, friction):
-    """0 open, 1 sticking, 2 sliding (|R_t| at mu R_n to a relative 1e-9)."""
-    sliding = np.abs(tangential) >= friction * normal * (1.0 - 1e-9)
-    return np.where(normal <= 0.0, 0, np.where(sliding, 2, 1))
 
 
 def modes(stem, band, velocity):
@@ -86,8 +80,8 @@ def modes(stem, band, velocity):
     spin_a, spin_b = dv[a_of[between_disks], 2], dv[b_of[between_disks], 2]
     u_n, u_t = u_n_all[carrying], u_t_all[carrying]
     either = carrying | (c[:, TESTED_N] > 0.0)
-    differs = either & (status(c[:, TESTED_N], c[:, TESTED_T], c[:, FRICTION]) !=
-                        status(c[:, REFERENCE_N], c[:, REFERENCE_T], c[:, FRICTION]))
+    differs = either & (contact_status(c[:, TESTED_N], c[:, TESTED_T], c[:, FRICTION]) !=
+                        contact_status(c[:, REFERENCE_N], c[:, REFERENCE_T], c[:, FRICTION]))
     reference = np.hypot(c[:, REFERENCE_N], c[:, REFERENCE_T])
     figures = {"impulse": np.sqrt((e_n ** 2 + e_t ** 2).sum() / (reference ** 2).sum())}
     figures.update({k: v / energy for k, v in in_bands.items()})

@@ -39,7 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import StepProblem
+from coarse_space import StepProblem, contact_status
 
 REPORTED = (0, 1, 2, 3, 5, 10, 20, 30, 50, 100, 200, 500)
 ARMIJO = 1e-4           # sufficient decrease of Psi along a direction
@@ -82,10 +82,10 @@ def main():
         return problem.natural_map_distance(r) / impulse_scale
 
     def statuses(r):
-        """0 open, 1 sticking, 2 sliding, by the impulse alone (relative to its cone)."""
-        n, t = r[0::2], r[1::2]
-        closed = 1e-9 * max(n.max(), 1e-300)
-        return np.where(n <= closed, 0, np.where(np.abs(t) < mu * n * (1.0 - 1e-6), 1, 2))
+        """By the impulse alone; open below 1e-9 of the largest R_n (Newton's iterates leave
+        round-off where the sweeps leave zeros), sliding to a relative 1e-6 of the cone."""
+        n = r[0::2]
+        return contact_status(n, r[1::2], mu, 1e-9 * max(n.max(), 1e-300), 1e-6)
 
     reference_status = statuses(reference)
 
