@@ -13,7 +13,7 @@ counts two):
 - anderson W: the same, the last 5 images of every 4 sweeps mixed (type II, as the solver's
   AndersonMixer) and projected on the cones;
 - cheb W RHO: symmetric sweeps (colours forward, then backward) over-relaxed by W, accelerated by
-  Chebyshev's semi-iterative method for an iteration matrix whose spectrum lies in [0, RHO]
+  Chebyshev's semi-iterative method for an iteration matrix whose spectrum lies in [-RHO, RHO]
   (Golub and Varga; Wang 2015 for projective dynamics), each iterate projected on the cones;
 - nncg: projected Gauss-Seidel with the nonlinear conjugate-gradient momentum of Silcowski,
   Bruno and Erleben (2015): beta = |r_k|^2 / |r_k-1|^2, restart when beta > 1.
@@ -37,10 +37,9 @@ ERROR_LEVELS = (1e-2, 1e-3, 1e-4)
 RESIDUAL_LEVELS = (1e-3, 1e-5)
 
 
-def colour_contacts(stem):
-    """Greedy colouring: each contact the first colour none of its bodies holds yet. Returns the
-    colours as arrays of contact indices, in colour order."""
-    contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
+def colour_contacts(contacts):
+    """Greedy colouring of the dump's contact rows: each contact the first colour none of its
+    bodies holds yet. Returns the colours as arrays of contact indices, in colour order."""
     used = {}
     colour_of = np.empty(len(contacts), dtype=int)
     for k, r in enumerate(contacts):
@@ -142,9 +141,10 @@ def run_anderson(s, r, omega, sweeps, tally, depth=5, period=4):
 
 def run_chebyshev(s, r, omega, rho, sweeps, tally, warm=0):
     """Chebyshev semi-iteration on the symmetric sweep S: y_k+1 = P(w_k+1 (S(y_k) - y_k-1) +
-    y_k-1), P the projection on the cones, w = 1 for the first `warm` + 1 iterations, then
-    2 / (2 - rho^2) and w_k+1 = 4 / (4 - rho^2 w_k) (Wang's recurrence, as projective dynamics
-    uses it, for an iteration matrix whose spectrum lies within [-rho, rho])."""
+    y_k-1), P the projection on the cones, y_-1 = y_0, w = 1 for the first `warm` iterations,
+    then 2 / (2 - rho^2) and w_k+1 = 4 / (4 - rho^2 w_k) (Wang's recurrence for an iteration
+    matrix whose spectrum lies within [-rho, rho]). With warm = 0 (the default) the first
+    iteration is S's change over-relaxed by 2 / (2 - rho^2), where Wang's takes it whole."""
     k = 0
     previous = r.copy()
     w = 1.0
@@ -177,7 +177,7 @@ def run_nncg(s, r, sweeps, tally, omega=1.0):
         s.sweep(r, omega)
         g = r - x
         g2 = g @ g
-        if p is None or last is None or last == 0.0:
+        if last is None or last == 0.0:
             p = g
         else:
             beta = g2 / last
@@ -202,7 +202,7 @@ def main():
     args = parser.parse_args()
     for stem in args.stem:
         problem = StepProblem(stem)
-        colours = colour_contacts(stem)
+        colours = colour_contacts(problem.contacts)
         s = Sweeper(problem, colours)
         if args.start == "zero":
             start = np.zeros_like(problem.reference)

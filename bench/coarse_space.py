@@ -103,6 +103,7 @@ class StepProblem:
         self.reference = contacts[:, [REFERENCE_N, REFERENCE_T]].ravel()
         self.tested = contacts[:, [TESTED_N, TESTED_T]].ravel()
         self.mu = contacts[:, FRICTION]
+        self.contacts = contacts  # the dump's rows, columns as above
         self.q = h @ bodies[:, VELOCITY].ravel() - self.w @ self.reference
         self.q[0::2] += contacts[:, GAP] / self.dt
         self.diagonal = self.w.diagonal()
