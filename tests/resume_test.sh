@@ -11,7 +11,8 @@ exe=$1; packing=$2; work=$3
 python_dir="$(cd "$(dirname "$0")/../python" && pwd)"
 rm -rf "$work"; mkdir -p "$work"
 # Short measurement windows so that windows close before and after each interruption.
-common=(-q --no-analyze --packing "$packing" --set shear.duration=6
+# 12 t (about 0.9 s): the SIGTERM below lands at most about 0.2 s after the first checkpoint.
+common=(-q --no-analyze --packing "$packing" --set shear.duration=12
         --set output.checkpoint_interval=0.5 --set output.snapshot_interval=1
         --set measure.window=0.8 --set measure.sample_interval=0.1)
 
@@ -67,17 +68,17 @@ assert p["format"] == "cdshear-progress" and p["version"] == 1, p
 print(p["state"], round(p["time"], 6), round(p["sitting_start_time"], 6), p["duration"])' \
     "$1/progress.json"
 }
-[ "$(progress "$work/stopped")" = "stopped 1.2 0.0 6.0" ] ||
+[ "$(progress "$work/stopped")" = "stopped 1.2 0.0 12.0" ] ||
   { echo "FAIL: progress.json after --stop-at 1.2: $(progress "$work/stopped")"; exit 1; }
 "$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
-[ "$(progress "$work/stopped")" = "finished 6.0 1.2 6.0" ] ||
+[ "$(progress "$work/stopped")" = "finished 12.0 1.2 12.0" ] ||
   { echo "FAIL: progress.json after the resume: $(progress "$work/stopped")"; exit 1; }
 
-# Killed with SIGTERM at whatever step it has reached 0 to 0.3 s after its first checkpoint
-# (t = 0.5 of 6: a fixed sleep from the start would miss a fast run), then resumed.
+# Killed with SIGTERM at whatever step it has reached 0 to 0.15 s after its first checkpoint
+# (t = 0.5 of 12: a fixed sleep from the start would miss a fast run), then resumed.
 "$exe" run "${common[@]}" -o "$work/killed" > /dev/null & pid=$!
 for _ in $(seq 400); do [[ -f "$work/killed/checkpoint.cbor" ]] && break; sleep 0.05; done
-sleep "0.$((RANDOM % 4))"; kill -TERM $pid 2>/dev/null || true
+sleep "$(printf '0.%02d' $((RANDOM % 4 * 5)))"; kill -TERM $pid 2>/dev/null || true
 wait $pid || true
 # The kill must have landed mid-run, or this part tests nothing.
 test -f "$work/killed/interrupted_state.json" ||
@@ -117,7 +118,7 @@ for s in (until, stopped):
     s.pop("run_dir")
     s["case"].pop("duration"), s["case"].pop("finished")
 assert until == stopped, [k for k in until if until[k] != stopped.get(k)]
-assert summary_until(sys.argv[1], 6.5)[0] is None   # a time the run has not reached
+assert summary_until(sys.argv[1], 12.5)[0] is None   # a time the run has not reached
 EOF_PY
 then
   echo "FAIL: the straight run analysed as it stood at t = 2.4 is not the run stopped there"

@@ -73,9 +73,10 @@ rc=0; mpi "$exe" sweep three.toml -o three > changed.out 2>&1 || rc=$?
 # 3. SIGTERM to the ranks once both runs (on ranks 0 and 1) have a checkpoint and rank 0's loop
 # has printed a periodic progress line with an estimate: exit 130, both runs stopped cleanly
 # (rank 0 forwards the SIGTERM to its own run), no run finished before that line, then resume.
-# The runs are long enough (100 t) for the estimate (from a progress.json, written every 2 s)
-# to come before they end on a fast machine; the stop does not wait for more.
-campaign long "[0.5, 1.0]" 100
+# The runs are long enough (200 t, about 19 s each beside the other rank) for the estimate (from a
+# progress.json, written every 2 s, and a tick every 1 s) to come well before they end on a
+# machine several times faster; the stop does not wait for more.
+campaign long "[0.5, 1.0]" 200
 "$mpiexec" --oversubscribe --allow-run-as-root -n 3 "$exe" sweep long.toml -o long \
   --progress-every 1 > stopped.out 2>&1 & pid=$!
 estimate='^sweep: after .*: runs done 0/2, running 2, left 0; about .* left$'

@@ -103,9 +103,11 @@ grep -q "summary.json is of another run (run_dir .*s1_seed2_V1\")" kept3.out ||
   fail "another seed's summary: $(cat kept3.out)"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
+# 20 t each (about 1.5 s): the stop must land before the second run ends.
 campaign three "[0.25, 0.5, 1.0]"
+sed -i 's/^duration = 4/duration = 20/' three.toml
 "$exe" sweep three.toml --jobs 1 -o stopped > stopped.out 2>&1 & pid=$!
-# The stop lands once the second run (V 0.5) has written its first checkpoint (t = 1 of 4).
+# The stop lands once the second run (V 0.5) has written its first checkpoint (t = 1 of 20).
 for _ in $(seq 1 1200); do
   test -f stopped/runs/s1_seed1_V0.5/checkpoint.cbor && break
   kill -0 $pid 2>/dev/null || break
@@ -134,6 +136,7 @@ grep -q "3/3 runs finished" resumed.out || fail "resumed summary: $(cat resumed.
 
 # 3. A changed campaign for an existing folder is refused, naming what changed.
 campaign three "[0.25, 0.5, 2.0]"
+sed -i 's/^duration = 4/duration = 20/' three.toml
 rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
