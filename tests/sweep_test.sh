@@ -14,13 +14,13 @@ exe=$1; packing=$2; work=$3
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fail() { echo "FAIL: $*"; exit 1; }
 
-campaign() {  # campaign NAME VELOCITIES
+campaign() {  # campaign NAME VELOCITIES [DURATION, 4 t unless given]
   cat > "$1.toml" <<TOML
 [campaign]
 name = "$1"
 systems = [1]
 velocities = $2
-duration = 4
+duration = ${3:-4}
 analyze = false
 packing = { 1 = "$packing" }
 [set]
@@ -104,8 +104,7 @@ grep -q "summary.json is of another run (run_dir .*s1_seed2_V1\")" kept3.out ||
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 # 20 t each (about 1.5 s): the stop must land before the second run ends.
-campaign three "[0.25, 0.5, 1.0]"
-sed -i 's/^duration = 4/duration = 20/' three.toml
+campaign three "[0.25, 0.5, 1.0]" 20
 "$exe" sweep three.toml --jobs 1 -o stopped > stopped.out 2>&1 & pid=$!
 # The stop lands once the second run (V 0.5) has written its first checkpoint (t = 1 of 20).
 for _ in $(seq 1 1200); do
@@ -135,8 +134,7 @@ ls stopped/runs/s1_seed1_V0.5/run_info_resume_*.json > /dev/null 2>&1 ||
 grep -q "3/3 runs finished" resumed.out || fail "resumed summary: $(cat resumed.out)"
 
 # 3. A changed campaign for an existing folder is refused, naming what changed.
-campaign three "[0.25, 0.5, 2.0]"
-sed -i 's/^duration = 4/duration = 20/' three.toml
+campaign three "[0.25, 0.5, 2.0]" 20
 rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
@@ -152,8 +150,7 @@ sed -i 's/^duration = 4/duration = 6/' grow.toml
 grep -q "0 finished earlier, 0 to resume, 1 to extend, 0 to start" grown.out ||
   fail "the longer campaign did not extend the run: $(cat grown.out)"
 ls grown/runs/s1_seed1_V1/run_info_resume_*.json > /dev/null 2>&1 || fail "not extended by a resume"
-campaign whole "[1.0]"
-sed -i 's/^duration = 4/duration = 6/' whole.toml
+campaign whole "[1.0]" 6
 "$exe" sweep whole.toml -o whole > whole.out 2>&1 || fail "whole: $(cat whole.out)"
 cmp -s grown/runs/s1_seed1_V1/final_state.json whole/runs/s1_seed1_V1/final_state.json ||
   fail "the extended run differs from the run asked for 6 t from the start"
@@ -190,8 +187,7 @@ rc=0; "$exe" sweep burst.toml -o burst --force > reburst.out 2>&1 || rc=$?
   fail "a blown-up extension (exit $rc): $(cat reburst.out)"
 
 # 4. One sweep per folder: a second one started while the first works there is refused.
-campaign long "[0.5]"
-sed -i 's/^duration = 4/duration = 400/' long.toml
+campaign long "[0.5]" 400
 "$exe" sweep long.toml -o busy > busy.out 2>&1 & pid=$!
 for _ in $(seq 1 600); do test -f busy/runs/s1_seed1_V0.5/checkpoint.cbor && break; sleep 0.05; done
 rc=0; "$exe" sweep long.toml -o busy > second.out 2>&1 || rc=$?
@@ -267,8 +263,7 @@ grep -q "fifo_campaign/campaign.toml: is not a regular file" fifo_campaign.out |
 # time left from the running runs' logs, before any run has finished; a bad period is refused.
 # The runs are long (400 t) and the sweep is stopped once the line is printed, so the check does
 # not depend on the machine's speed (the estimate needs a progress.json, written every 2 s).
-campaign ticks "[0.5, 1.0]"
-sed -i 's/^duration = 4/duration = 400/' ticks.toml
+campaign ticks "[0.5, 1.0]" 400
 "$exe" sweep ticks.toml --jobs 2 -o ticks --progress-every 1 > ticks.out 2>&1 & pid=$!
 estimate='^sweep: after .*: runs done 0/2, running 2, left 0; about .* left$'
 for _ in $(seq 1 1200); do
