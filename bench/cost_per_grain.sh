@@ -15,9 +15,13 @@
 # small system runs longer, for a time that a start-up does not weigh on). PACKING_DIR holds
 # systemK.json for each system K; a missing one is prepared with `cdshear prepare --system K`
 # (system 7: about ten minutes on two cores).
+# A speed written rate=R shears each system at V = R times its packing's nominal height (the
+# `height` of the packing file, the study's L_y): the same shear rate V / L_y in every cell.
 # Environment: CDSHEAR [build/cdshear], CDSHEAR_BENCH [build/bench/cdshear_bench].
 # Example (systems 1 and 7 at V = 0.5 and 0.05, 20 t, three rounds):
 #   bench/cost_per_grain.sh packings/study "1 7" "0.5 0.05" 20 3
+# (the same shear rate, V / L_y = 0.0025, in systems 1, 5 and 7: V = 0.05, 0.2 and 0.5)
+#   bench/cost_per_grain.sh packings/study "1 5 7" rate=0.0025 20 3
 set -euo pipefail
 
 if [[ $# -lt 5 || "$1" == -h || "$1" == --help ]]; then
@@ -30,6 +34,10 @@ shift 5
 extra=("$@")
 source "$(dirname "$0")/binaries.sh"
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || { echo "error: ROUNDS '$rounds': expected a positive integer" >&2; exit 2; }
+for v in $speeds; do
+  [[ "$v" != rate=* || "${v#rate=}" =~ ^[0-9]*\.?[0-9]+([eE][-+]?[0-9]+)?$ ]] \
+    || { echo "error: speed '$v': expected rate=R with R a positive number" >&2; exit 2; }
+done
 [[ -n "${systems// /}" ]] || { echo "error: SYSTEMS: expected at least one system" >&2; exit 2; }
 system_list=($systems)
 if [[ ${#durations[@]} -eq 1 ]]; then
@@ -55,11 +63,18 @@ for ((round = 1; round <= rounds; ++round)); do
       duration=${duration_of[$k]}
       out=$scratch/run
       rm -rf "$out"
-      "$cdshear" run --system "$k" -V "$v" --packing "$dir/system$k.json" \
+      speed=$v
+      if [[ "$v" == rate=* ]]; then
+        speed=$(/usr/bin/python3 -c 'import json, sys
+print(repr(float(sys.argv[1]) * json.load(open(sys.argv[2]))["height"]))' "${v#rate=}" \
+          "$dir/system$k.json")
+      fi
+      "$cdshear" run --system "$k" -V "$speed" --packing "$dir/system$k.json" \
         --set shear.duration="$duration" --set measure.enabled=false --threads 1 -q --no-analyze \
         "${extra[@]}" -o "$out" > "$scratch/log" 2>&1 \
         || { echo "error: system $k at V = $v failed:" >&2; tail -n 5 "$scratch/log" >&2; exit 1; }
-      /usr/bin/python3 - "$round" "$k" "$v" "$duration" "$dir/system$k.json" "$out/run_info.json" <<'EOF' | tee -a "$table"
+      /usr/bin/python3 - "$round" "$k" "$v" "$duration" "$dir/system$k.json" "$out/run_info.json" \
+        <<'EOF' | tee -a "$table"
 import json, sys
 round_, system, v, duration, packing, info = sys.argv[1:]
 grains = json.load(open(packing))["n"]
@@ -88,7 +103,8 @@ for v in speeds:
         ratios = [cost[(n, k, v)] / cost[(n, systems[0], v)] for n in rounds]
         hashes = {r[7] for r in rows if r[1] == k and r[2] == v}
         ok = ok and len(hashes) == 1
-        print(f"V = {v}: system {k} {statistics.median(mine):.4e} core-s per t and grain "
+        label = f"V / L_y = {v[5:]}" if v.startswith("rate=") else f"V = {v}"
+        print(f"{label}: system {k} {statistics.median(mine):.4e} core-s per t and grain "
               f"(median; {min(mine):.4e} to {max(mine):.4e}), {statistics.median(ratios):.2f} "
               f"times system {systems[0]}'s (median of the rounds' ratios; {min(ratios):.2f} to "
               f"{max(ratios):.2f}); {'same hash' if len(hashes) == 1 else 'HASHES DIFFER'}")
