@@ -72,7 +72,7 @@ print(repr(float(sys.argv[1]) * json.load(open(sys.argv[2]))["height"]))' "${v#r
       "$cdshear" run --system "$k" -V "$speed" --packing "$dir/system$k.json" \
         --set shear.duration="$duration" --set measure.enabled=false --threads 1 -q --no-analyze \
         "${extra[@]}" -o "$out" > "$scratch/log" 2>&1 \
-        || { echo "error: system $k at V = $v failed:" >&2; tail -n 5 "$scratch/log" >&2; exit 1; }
+        || { echo "error: system $k at V = $speed failed:" >&2; tail -n 5 "$scratch/log" >&2; exit 1; }
       /usr/bin/python3 - "$round" "$k" "$v" "$duration" "$dir/system$k.json" "$out/run_info.json" \
         <<'EOF' | tee -a "$table"
 import json, sys
