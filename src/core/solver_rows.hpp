@@ -32,9 +32,9 @@ struct alignas(64) SolverBody {
 /// perp(normal) and is not stored. The Delassus entries themselves are needed only by coupled
 /// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
 /// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt > 0).
-/// On system 7's shape the rows of a step (about 11000) are about 1 MB, the size of a core's L2
-/// on the 2-core machines: each sweep streams them from L3, so their size is time (and the awake
-/// ones come first: put_awake_rows_first).
+/// On system 7's shape the rows of a step (about 11000) are about 1 MB, the awake ones first
+/// (put_awake_rows_first). Their size does not set an update's cost there: rows padded to 128
+/// bytes ran as fast (docs/performance.md, "What did not help").
 struct SolverRow {
   std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
   Vec2 normal;                           ///< unit, from b to a
