@@ -33,8 +33,8 @@ struct alignas(64) SolverBody {
 /// rows (w_nt != 0, rare): they live in SolverWorkspace::delassus, out of the stream; a coupled
 /// row is marked by inv_w_tt = kCoupledRow (a decoupled row has inv_w_tt > 0).
 /// On system 7's shape the rows of a step (about 11000) are about 1 MB, the awake ones first
-/// (put_awake_rows_first). Their size does not set an update's cost there: rows padded to 128
-/// bytes ran as fast (docs/performance.md, "What did not help").
+/// (put_awake_rows_first); their size is a few percent of an update's cost there (88 against 112
+/// bytes: 0.958; docs/performance.md, "Rows in visit order").
 struct SolverRow {
   std::uint32_t body_a = 0, body_b = 0;  ///< solver body indices
   Vec2 normal;                           ///< unit, from b to a
