@@ -1382,7 +1382,19 @@ int run(const Settings& s) {
       p.initial_solid_fraction = 0.47;
       std::cerr << "preparing " << size << " disks, width " << sys.width << ", periodic x ... "
                 << std::flush;
-      box = cdshear::make_dense_box(p);
+      try {
+        box = cdshear::make_dense_box(p);
+      } catch (const std::runtime_error& e) {
+        // The quick preparation (densify_step_options: 20 sweeps a step) does not hold every
+        // column (8000 disks 20 wide blew up); the study's tall cells come from `cdshear
+        // prepare` (settle, then a piston), whose packings the bench reads.
+        throw std::runtime_error(
+            std::string(e.what()) + "\n  the bench's quick preparation of " + std::to_string(size) +
+            " disks, width " + num(sys.width, 1) +
+            " failed; prepare the packing with `cdshear prepare --set system.n=N --set "
+            "system.height=H` (its piston then sets the width, about 0.78 N / H) and pass it "
+            "with --packing");
+      }
       const cdshear::DensifyReport& d = box.report;
       std::fprintf(stderr,
                    "%.1f s: %s after %llu steps, solid fraction %.3f, height %.2f, %zu contacts, "

@@ -62,6 +62,7 @@ TEST(Determinism, ColouredOrderGivesTheSameStateOnAnyNumberOfThreads) {
   // Bitwise the same trajectory on 1, 2 and 3 threads (docs/performance.md): the groups of the
   // coloured order are fixed by the geometry, not by the threads, and the convergence sums are
   // added in group order. The runs must really use the threads asked for.
+  CDSHEAR_SKIP_IF_ONE_PROCESSOR();
   const auto coloured_hash = [](int threads) {
     StepOptions o = options(1, ContactOrder::kColoured);
     o.solver.threads = threads;
@@ -91,6 +92,7 @@ TEST(Determinism, AndersonMixingGivesTheSameStateOnAnyNumberOfThreads) {
   // and adds its sums chunk by chunk in order; the mixed impulses are applied phase by phase.
   // 400 disks: the mixed vector spans several chunks (AndersonMixer::kChunk elements each).
   // Also the active contacts each step reports, which every thread counts over its own rows.
+  CDSHEAR_SKIP_IF_ONE_PROCESSOR();
   std::vector<int> active;
   const auto hash = [&active](int threads) {
     StepOptions o = options(1, ContactOrder::kColoured);
@@ -140,10 +142,12 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
   // a single one to test convergence (every thread adds the tallies itself). The solver
   // settings are the shear phase's: dormant rows left out and woken group by group on the
   // team, over-relaxation, Anderson mixing, alpha 1e-5, and the slab correction (every 4
-  // sweeps here, twice as often as in the shear phase, to exercise it more).
-  const testing::ShearedBox box = testing::sheared_dense_box(600, 12.0, 0.5);
+  // sweeps here, twice as often as in the shear phase, to exercise it more). 5 wide, the 600
+  // disks stand about 95 high: about 24 bands, more than kSlabCorrectionMinBands.
+  const testing::ShearedBox box = testing::sheared_dense_box(600, 5.0, 0.5);
   ASSERT_TRUE(box.dense);
   std::vector<std::size_t> woken;
+  std::uint64_t corrections = 0;  // slab corrections of the last call
   std::vector<double> residuals;  // each step's check: RMS and largest e (shared by the threads)
   SolverProfile profile;          // of the last call, summed over its steps
   double solve_seconds = 0.0;     // its solve stages
@@ -159,6 +163,7 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     std::size_t most_contacts = 0;
     woken.clear();
     residuals.clear();
+    corrections = 0;
     for (int k = 0; k < 200; ++k) {
       const StepReport r = dynamics.step(world, o);
       EXPECT_FALSE(r.blown_up);
@@ -170,6 +175,7 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
       residuals.push_back(r.velocity_residual.largest);
       profile += r.solver.profile;
       solve_seconds += r.seconds.solve;
+      corrections += static_cast<std::uint64_t>(r.solver.slab_corrections);
     }
     EXPECT_GE(most_phases, 3);       // slabs, even and odd boundaries
     EXPECT_GT(most_contacts, 600u);  // dense: more force-carrying contacts than disks
@@ -179,12 +185,16 @@ TEST(Determinism, ShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads) {
     return state_hash(world);
   };
   const std::uint64_t one = hash(1);
+  const std::uint64_t corrections_one = corrections;
+  EXPECT_GT(corrections_one, 0u);   // the slab correction ran
   EXPECT_EQ(profile.total(), 0.0);  // nothing timed unless asked
   const std::vector<std::size_t> woken_one = woken;
   EXPECT_GT(*std::max_element(woken_one.begin(), woken_one.end()), 0u);  // rows did wake
   const std::vector<double> residuals_one = residuals;
   EXPECT_GT(residuals_one.front(), 0.0);
+  CDSHEAR_SKIP_IF_ONE_PROCESSOR();
   EXPECT_EQ(hash(2), one);
+  EXPECT_EQ(corrections, corrections_one);
   EXPECT_EQ(woken, woken_one);
   EXPECT_EQ(residuals, residuals_one);  // bit for bit: the check adds its chunks in order
   EXPECT_EQ(hash(3), one);
@@ -205,6 +215,7 @@ TEST(Determinism, CompliantShearedDenseBoxGivesTheSameStateOnAnyNumberOfThreads)
   // scales each row's old impulse and its w_nn (nlgs_solver.cpp, update_row), the velocity
   // residual adds kappa w_nn R_n, and the slab correction stands aside; none of it may depend on
   // how the rows are shared among the threads.
+  CDSHEAR_SKIP_IF_ONE_PROCESSOR();
   const testing::ShearedBox box = testing::sheared_dense_box(600, 12.0, 0.5);
   ASSERT_TRUE(box.dense);
   std::vector<double> residuals;  // each step's RMS e of the force-carrying contacts

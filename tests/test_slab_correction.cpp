@@ -320,9 +320,10 @@ TEST(SlabCorrection, GatheringThatNoCorrectionFollowsLeavesNothingBehind) {
 
 TEST(SlabCorrection, LeavesASolvedStepUnchanged) {
   // Step 1 solved to round-off; step 2 starts from that solution (warm start) in the same state,
-  // and a correction after every sweep must keep it: at a solution r = 0, so s = 0.
-  const int n = 32;
-  SolverOptions tight = fixed_sweeps(20000, 0);
+  // and a correction after every sweep must keep it: at a solution r = 0, so s = 0. 80 disks:
+  // kSlabCorrectionMinBands bands of four, the fewest where the correction runs.
+  const int n = 4 * static_cast<int>(kSlabCorrectionMinBands);
+  SolverOptions tight = fixed_sweeps(200000, 0);
   tight.alpha = 1e-30;
   tight.converged_fraction = 1.0;
   testing::Simulation sim = column(n, tight);
@@ -330,6 +331,7 @@ TEST(SlabCorrection, LeavesASolvedStepUnchanged) {
   ASSERT_LT(worst_force_error(sim, n), 1e-10);
   sim.options.solver = fixed_sweeps(12, 1);
   sim.run(1);
+  EXPECT_EQ(sim.last().solver.slab_corrections, 11);  // after sweeps 1 to 11, not the last
   EXPECT_LT(worst_force_error(sim, n), 1e-10);
 }
 

@@ -16,7 +16,17 @@
 #include "contact_dynamics.hpp"
 #include "scene.hpp"
 #include "scene_presets.hpp"
+#include "threads.hpp"
 #include "world.hpp"
+
+/// Skips the rest of a test that compares thread counts where only one thread can run (one
+/// processor, or a build without OpenMP): it would compare one thread with itself and could not
+/// fail. A skipped test is reported as such.
+#define CDSHEAR_SKIP_IF_ONE_PROCESSOR()                                                         \
+  do {                                                                                          \
+    if (::cdshear::processors_available() < 2)                                                  \
+      GTEST_SKIP() << "one processor (or a build without OpenMP): no second thread to compare"; \
+  } while (false)
 
 namespace cdshear::testing {
 

@@ -128,6 +128,7 @@ class DamagedRunData(unittest.TestCase):
                 shutil.rmtree(d)
             # The generator must reach both outcomes, or it tests nothing of interest.
             self.assertGreater(outcomes[2], 0)
+            self.assertGreater(outcomes[0], 0)
 
 
 if __name__ == "__main__":

@@ -175,7 +175,13 @@ class ProfileDecayCommand(unittest.TestCase):
                 entry = json.load(f)["runs"][0]
             self.assertEqual(entry["initial_velocity"], "linear")
             self.assertFalse(entry["used"])
-            self.assertGreater(entry["T_SS"], 0)
+            # model.md section 8 from the run's own bulk: T_SS = L_y^2 / D, D = (d mu / d I)
+            # sqrt(m / sigma_yy) sigma_yy / (rho nu), d mu / d I = A B I^(B - 1), rho = 1,
+            # m = pi / 4
+            I, sigma = entry["I_bulk"], entry["sigma_yy"]
+            dmu_dI = 0.89 * 0.81 * I ** (0.81 - 1.0)
+            D = dmu_dI * math.sqrt(math.pi / 4 / sigma) * sigma / entry["nu_bulk"]
+            self.assertAlmostEqual(entry["T_SS"] / (entry["L_y"] ** 2 / D), 1.0, places=12)
             for content in ({"runs": []}, [1, 2], "{"):
                 with open(fits, "w") as f:
                     f.write(content if isinstance(content, str) else json.dumps(content))

@@ -9,7 +9,8 @@ the standard library is needed. The events that count as problems:
   Log.entryAdded of level error or warning (the browser's own messages, e.g. "Failed to load
   resource: net::ERR_FILE_NOT_FOUND" for an image that is missing).
 After the load event every <img> must be complete with naturalWidth > 0 (found and decoded).
-Skipped when no Chromium is installed (scripts/setup.sh installs chromium-headless-shell)."""
+Skipped when no Chromium is installed (scripts/setup.sh installs chromium-headless-shell), except
+under scripts/test.sh (CDSHEAR_REQUIRE_BROWSER=1), where that fails."""
 import fcntl
 import json
 import os
@@ -169,10 +170,19 @@ def open_page(path, exe=CHROMIUM):
         b.close()
 
 
-@unittest.skipIf(CHROMIUM is None, "no headless Chromium (chromium-headless-shell or chromium; "
-                                   "scripts/setup.sh installs it)")
+# scripts/test.sh installs Chromium and sets CDSHEAR_REQUIRE_BROWSER=1: there a missing browser
+# fails the test instead of skipping it.
+REQUIRED = os.environ.get("CDSHEAR_REQUIRE_BROWSER") == "1"
+
+
+@unittest.skipIf(CHROMIUM is None and not REQUIRED,
+                 "no headless Chromium (chromium-headless-shell or chromium; scripts/setup.sh "
+                 "installs it)")
 class ReportBrowserTest(unittest.TestCase):
     def setUp(self):
+        if CHROMIUM is None:
+            self.fail("CDSHEAR_REQUIRE_BROWSER=1, but neither chromium-headless-shell nor "
+                      "chromium is on PATH")
         self.tmp = tempfile.TemporaryDirectory()
         self.d = self.tmp.name
         # two systems, 16 runs: every fit and figure (self.d is the campaign folder)
