@@ -21,6 +21,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 
 from cdshear_analysis.profiles import stripe_width  # noqa: E402
+from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION  # noqa: E402
 
 QUANTITIES = ("solid_fraction", "coordination", "mu_eff")
 
@@ -33,14 +34,15 @@ def edge_offset(height, h, dy=1.0):
 
 def steady_regime_a(dirs):
     """(run folder, summary) of each steady regime-A run of the campaigns `dirs`; a summary.json
-    that is not a cdshear summary of version 3 stops the script with its path."""
+    that is not a cdshear summary of this package's version stops the script with its path."""
     for d in dirs:
         for path in sorted(glob.glob(os.path.join(d, "runs", "*", "summary.json"))):
             with open(path, encoding="utf-8") as f:
                 s = json.load(f)
-            if (s.get("format"), s.get("version")) != ("cdshear-summary", 3):
-                sys.exit(f"{path}: not a cdshear summary of version 3 (format {s.get('format')!r}, "
-                         f"version {s.get('version')!r}); run `cdshear analyze` on its run again")
+            if (s.get("format"), s.get("version")) != (SUMMARY_FORMAT, SUMMARY_VERSION):
+                sys.exit(f"{path}: not a cdshear summary of version {SUMMARY_VERSION} (format "
+                         f"{s.get('format')!r}, version {s.get('version')!r}); run `cdshear "
+                         "analyze` on its run again")
             if s.get("regime") == "A" and s.get("steady") is True:
                 yield os.path.dirname(path), s
 

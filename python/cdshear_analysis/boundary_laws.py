@@ -51,8 +51,10 @@ Predictions, fits.json `predictions`:
   symmetric_state_stability: the symmetric state (B) is unstable when the boundary friction
     decreases with the velocity jump. Per system and h, between consecutive velocities with B
     or C runs, the slope d mu_b / d (h I_b) of the sheared layers' points (mean of the two walls
-    for B) with its error; "decreasing" when slope + 2 err < 0, "increasing" when slope - 2 err
-    > 0, else "undetermined"; beside it the regimes observed at the two velocities.
+    for B) with its error (a point's mean error over the square root of the runs, not of the
+    walls: a run's two walls share one shear stress); "decreasing" when slope + 2 err < 0,
+    "increasing" when slope - 2 err > 0, else "undetermined"; beside it the regimes observed at
+    the two velocities.
   switch_time_C, `delta_mu_law` of each regime-C run (predict_delta_mu): the friction
     difference between the walls that the pooled B/C law of `prediction_law` gives at the two
     walls' measured velocity jumps (h I_b = sqrt(m / sigma_yy) dv), per h, beside the delta_mu
@@ -175,6 +177,9 @@ def fit_boundary(rows, bulk_fits):
             y = {"mu_power": "mu", "nu_linear": "nu", "nu_ratio_linear": "nu_ratio",
                  "Z_power": "Z"}[name]
             entry[name] = fitting.fit(spec, _points(pts, "I", y))
+        # mu_eff of a run's two walls: one shear stress (widening); nu and Z are the walls' own
+        entry["mu_power"]["independent_points"] = len(
+            {fitting.group_key(p) or p["run"] for p in pts})
         # the B/C law in h I_b at this h alone: how far the collapse holds
         bc = [p for p in pts if p["regime"] in ("B", "C")]
         for name in ("mu_hI_BC", "mu_hI_BC_log"):
@@ -431,7 +436,8 @@ def predict_v_ab(rows, bulk_fits, boundary):
             else None
         by_h = {}
         for h in boundary["thicknesses"]:
-            v, iv, frac, why = _crossing(boundary[h_label(h)]["mu_power"], mu_fit, scale / h)
+            law_h = boundary[h_label(h)]["mu_power"]
+            v, iv, frac, why = _crossing(law_h, mu_fit, scale / h, widen=widening(law_h))
             entry[h_label(h)] = {"V_AB": v, "interval": iv, "draws_crossing": frac,
                                  "reason": why, "interval_note": _interval_note(v, iv, frac)}
             if "prediction_law" in boundary[h_label(h)]:
@@ -456,10 +462,14 @@ def symmetric_state_stability(rows, boundary):
             for v0, v1 in zip(vs, vs[1:]):
                 def mean(ps, k):
                     return float(np.mean([p[k] for p in ps]))
+                def runs(ps):
+                    # a run's two walls share one shear stress (widening): one independent
+                    # point per run, not per wall
+                    return len({p["run"] for p in ps})
                 a, b = by_v[v0], by_v[v1]
                 dx = mean(b, "hI") - mean(a, "hI")
-                e = math.hypot(mean(a, "mu_err") / math.sqrt(len(a)),
-                               mean(b, "mu_err") / math.sqrt(len(b)))
+                e = math.hypot(mean(a, "mu_err") / math.sqrt(runs(a)),
+                               mean(b, "mu_err") / math.sqrt(runs(b)))
                 if dx <= 0:
                     slope, err, trend = None, None, "undetermined"
                 else:

@@ -41,8 +41,10 @@ def former_regions(y, height, h, finite):
             "bulk": ok & (y >= h) & ~upper}, inside
 
 
-def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4):
-    """Per-window region averages over stripes with lo < y < hi (lo, hi scalars or per window).
+def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4, closed=False):
+    """Per-window region averages over stripes with lo < y < hi (lo, hi scalars or per window),
+    or lo <= y <= hi when `closed` (the bulk, as the run's own regions take it: a stripe centred
+    on h belongs to the bulk, docs/measurements.md).
 
     Returns {quantity: array of length W} for QUANTITIES, NaN where the region is empty."""
     y = np.asarray(windows["y"], dtype=float)
@@ -54,7 +56,8 @@ def region_quantities(windows, lo, hi, normal_stress, inertial_mass=np.pi / 4):
     lo, hi = np.broadcast_to(lo, (n_windows,)), np.broadcast_to(hi, (n_windows,))
     out = {q: np.full(n_windows, np.nan) for q in QUANTITIES}
     for w in range(n_windows):
-        sel = (y > lo[w]) & (y < hi[w]) & np.isfinite(vx[w])
+        inside = (y >= lo[w]) & (y <= hi[w]) if closed else (y > lo[w]) & (y < hi[w])
+        sel = inside & np.isfinite(vx[w])
         if not sel.any():
             continue
         sxy, syy = np.nanmean(stress[w, sel, 0, 1]), np.nanmean(stress[w, sel, 1, 1])
@@ -82,7 +85,8 @@ def regions_for_h(windows, h, velocity, normal_stress, inertial_mass=np.pi / 4,
         parts["top"] = (height - h, np.inf)
     out = {}
     for name, (lo, hi) in parts.items():
-        q = region_quantities(windows, lo, hi, normal_stress, inertial_mass)
+        q = region_quantities(windows, lo, hi, normal_stress, inertial_mass,
+                              closed=name == "bulk")
         keep = QUANTITIES if name == "bulk" else LAYER_QUANTITIES
         out.update({f"{name}_{k}": q[k] for k in keep})
     if top_stripes is not None:

@@ -18,8 +18,8 @@ The measurement, per run (docs/analysis.md, "Profile decay"):
 - its distance from the reference profile, the mean over the run's last half;
 - the distance's dominant shape over the first half (its first singular vector), and the signed
   coefficient c(t) of every window along it, in units of V (the shape has a root mean square of 1);
-- c(t) = c_0 exp(-(t - t_0) / tau) + c_inf fitted from the first window where c has fallen to
-  START_FRACTION of its largest value (the higher modes and the start's dilation gone) over
+- c(t) = c_0 exp(-(t - t_0) / tau) + c_inf fitted from the first window after c's largest value
+  where c has fallen to START_FRACTION of it (the higher modes and the start's dilation gone) over
   FIT_SPANS tau (found again from each fit's tau until the span stays; the rest of the run holds
   only the steady flow's slow fluctuations): the noise averages out along the shape, and c_inf takes
   up what of the decay the reference still holds. A tau shorter than the windows' spacing, or a c_0
@@ -85,7 +85,9 @@ def _no_fit():
 
 
 def fit_decay(t, c, noise):
-    """c(t) = c_0 exp(-(t - t_0) / tau) + c_inf from the first t where c <= START_FRACTION max(c).
+    """c(t) = c_0 exp(-(t - t_0) / tau) + c_inf from the first t after c's largest value where
+    c <= START_FRACTION max(c) (a first window below the peak, a mode still building up, is not
+    part of the decay).
     Refused (tau None, with the reason) when tau is shorter than the windows' spacing or c_0 is
     within SIGNAL_TO_NOISE of the noise (c's scatter over the run's last half). Returns a dict: tau,
     tau_err, c_0, c_inf, fit_range, fit_windows, statistical_inefficiency, resolved, reason (None
@@ -95,7 +97,8 @@ def fit_decay(t, c, noise):
     if not np.max(np.abs(c)) > 0:
         out["reason"] = "the profile does not change from window to window"
         return out
-    start = int(np.flatnonzero(c <= START_FRACTION * np.max(c))[0])
+    peak = int(np.argmax(c))
+    start = peak + int(np.flatnonzero(c[peak:] <= START_FRACTION * c[peak])[0])
     x, z = t[start:] - t[start], c[start:]
     out["fit_windows"] = len(x)
     if len(x) < MIN_FIT_WINDOWS:

@@ -39,7 +39,7 @@ from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
 REPORT_FORMAT = "cdshear-report-fits"
-REPORT_VERSION = 2
+REPORT_VERSION = 3
 RUN_NAME = re.compile(r"^s(\d+)_seed(\d+)_V(.+)$")  # campaign_run_name() in campaign_file.cpp
 LINEAR_RANGE = (0.03, 0.2)  # model.md section 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
 

@@ -21,7 +21,7 @@ from .rundata import RunDataError
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
 
-SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 3
+SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 4
 REFERENCE_H = 10.0     # model.md section 7: the bulk is h < y < L_y - h with h = 10
 BULK_MIN_STRIPES = 3   # a bulk holds at least this many stripes
 PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination",
@@ -90,7 +90,7 @@ def holds_a_bulk(y, height, h):
 
 
 def choose_bulk_range(run):
-    """(h, lo, hi): the bulk h < y < H - h (H the mean window height) of the measured h closest
+    """(h, lo, hi): the bulk h <= y <= H - h (H the mean window height) of the measured h closest
     to REFERENCE_H among those whose bulk holds BULK_MIN_STRIPES stripes (the smaller on a tie),
     else h = None and the central half H/4 < y < 3H/4. lo and hi are per window."""
     y, height = run["windows"]["y"], np.asarray(run["windows"]["height"], dtype=float)
@@ -163,7 +163,7 @@ def analyze(run):
         bulk_w = {q: np.zeros(0) for q in QUANTITIES}
     else:
         bulk_h, lo, hi = choose_bulk_range(run)
-        bulk_w = region_quantities(w, lo, hi, sigma, mass)
+        bulk_w = region_quantities(w, lo, hi, sigma, mass, closed=True)
     u, u_source = rg.block_velocity(s)   # the block's velocity per sample (regime.py)
     if no_window:
         window_signals, balance = {}, None

@@ -358,6 +358,19 @@ class BoundaryLawTest(unittest.TestCase):
         narrow = bl.predict_delta_mu(c_run, narrow_boundary)["by_h"]["h5"]
         self.assertAlmostEqual(wide["delta_mu"], narrow["delta_mu"])
         self.assertGreater(width(wide) / width(narrow), 1.5)
+        # each h's mu_power in I_b: a run's two walls are one stress there too
+        law_h = self.boundary["h5"]["mu_power"]
+        stresses = {fitting.group_key(p) for p in bl.layer_points(self.rows, 5.0)}
+        self.assertEqual(law_h["independent_points"], len(stresses))
+        w_h = bl.widening(law_h)
+        self.assertGreater(w_h, 1.5)
+        narrow_boundary = dict(self.boundary, h5=dict(
+            self.boundary["h5"], mu_power=dict(law_h, independent_points=law_h["n_points"])))
+        wide = bl.predict_v_ab(self.rows, fits, self.boundary)["systems"]["1"]["h5"]
+        narrow = bl.predict_v_ab(self.rows, fits, narrow_boundary)["systems"]["1"]["h5"]
+        self.assertAlmostEqual(wide["V_AB"], narrow["V_AB"])
+        self.assertGreater(width(wide) / width(narrow), 0.8 * math.sqrt(w_h))
+        self.assertLess(width(wide) / width(narrow), 1.25 * math.sqrt(w_h))
 
     def test_a_v_ab_interval_that_misses_its_estimate_is_withheld(self):
         # mu = 0.2 + A x^0.5 reaching mu_0 = 0.3 at x* = (0.1 / A)^2. With A = 0.04 +- 0.2, 42%
@@ -398,19 +411,42 @@ class BoundaryLawTest(unittest.TestCase):
         trends = {e["trend"] for e in st["intervals"]}
         self.assertIn("increasing", trends)
         self.assertNotIn("decreasing", trends)
-        # a velocity-weakening boundary (mu falls with dv at low V) is flagged unstable
+        # a velocity-weakening boundary (mu falls by 0.1 a decade of V: about four errors an
+        # interval, each run one point whatever its walls) is flagged unstable
         rows = campaign_rows(seed=6)
         for r in rows:
             if r["regime"] in ("B", "C"):
                 for side in ("bottom", "top"):
                     c = f"h5_{side}_mu_eff"
-                    r[c] = 0.4 - 0.05 * math.log10(r["V"] / 0.01)
+                    r[c] = 0.4 - 0.1 * math.log10(r["V"] / 0.01)
         st = bl.symmetric_state_stability(rows, bl.fit_boundary(rows, report.FITS))
         # (two C runs side by side have one point each: too uncertain, "undetermined")
         weak = [e for e in st["intervals"] if e["h"] == 5.0 and e["observed"] != "C"]
         self.assertTrue(weak)
         self.assertEqual({e["trend"] for e in weak}, {"decreasing"})
         self.assertEqual({e["predicted"] for e in weak}, {"unstable (C)"})
+
+    def test_stability_counts_a_runs_two_walls_as_one_point(self):
+        # Two single-seed B runs, both walls alike (one shear stress per run): mu 0.300 and
+        # 0.275 +- 0.01, h I_b 0.1 and 0.2. Per run the error is 0.01, so the slope is -0.25
+        # +- 0.01 sqrt(2) / 0.1 = 0.141: undetermined (two walls counted apart gave 0.1 and a
+        # "decreasing" verdict). Two seeds per velocity halve the variance: 0.1, decreasing.
+        def row(V, I, mu, seed=1):
+            r = {"run": f"s1_seed{seed}_V{V:g}", "system": 1, "V": V, "steady": True,
+                 "_layers": [5.0], "regime": "B"}
+            for side in ("bottom", "top"):
+                r.update({f"h5_{side}_I": I, f"h5_{side}_mu_eff": mu,
+                          f"h5_{side}_mu_eff_err": 0.01})
+            return r
+        one = [row(0.1, 0.02, 0.3), row(0.11, 0.04, 0.275)]
+        (e,) = bl.symmetric_state_stability(one, {"thicknesses": [5.0]})["intervals"]
+        self.assertAlmostEqual(e["slope"], -0.25)
+        self.assertAlmostEqual(e["slope_err"], 0.01 * math.sqrt(2) / 0.1)
+        self.assertEqual(e["trend"], "undetermined")
+        two = one + [row(0.1, 0.02, 0.3, seed=2), row(0.11, 0.04, 0.275, seed=2)]
+        (e,) = bl.symmetric_state_stability(two, {"thicknesses": [5.0]})["intervals"]
+        self.assertAlmostEqual(e["slope_err"], 0.1)
+        self.assertEqual(e["trend"], "decreasing")
 
     def test_a_law_of_another_form_is_flagged(self):
         # Z = 2 - 0.3 ln(I): no power law Z_0 - c I^e fits it but one with e -> 0 (its bound):

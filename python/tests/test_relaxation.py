@@ -60,6 +60,17 @@ class ProfileDecay(unittest.TestCase):
             expected = 0.3 * math.sqrt(np.mean(f ** 2)) * math.exp(-out["fit_range"][0] / tau)
             self.assertLess(abs(out["c_0"] / expected - 1), 0.05)
 
+    def test_the_fit_starts_after_the_peak_when_the_first_window_is_below_it(self):
+        # windows 20 t apart, c = exp(-(t - 30) / 100) but the first window still building up:
+        # starting at that window would fit the rise too (tau 164 instead of 100)
+        t = np.arange(10.0, 800.0, 20.0)
+        c = np.exp(-(t - 30.0) / 100.0)
+        c[0] = 0.3
+        out = relaxation.fit_decay(t, c, 1e-4)
+        self.assertIsNone(out["reason"])
+        self.assertGreater(out["fit_range"][0], t[1])
+        self.assertLess(abs(out["tau"] / 100.0 - 1), 1e-3)
+
     def test_a_dilating_cell_is_compared_at_the_same_fractions_of_its_height(self):
         # the cell grows by 20% three times more slowly than the profile decays: compared at
         # fixed heights, the steady profile's stretch would read as a slower decay

@@ -182,6 +182,23 @@ class Regions(unittest.TestCase):
         self.assertAlmostEqual(r["top_velocity_jump"][0], 2 * V * h / H)
         self.assertAlmostEqual(r["top_inertial_number"][0], np.sqrt(np.pi) * 2 * V / H)
 
+    def test_a_stripe_centred_on_h_is_the_bulks(self):
+        # h = 5.5 on stripes centred at k + 0.5: the stripes at 5.5 and H - h = 14.5 are the
+        # bulk's (h <= y <= H - h, as src/measure takes it), not the layers': the bulk's solid
+        # fraction counts eight stripes of 0.8 and those two of 0.5, each layer five of 0.8
+        V, H, h = 0.5, 20.0, 5.5
+        y = np.arange(25) + 0.5
+        inside = y < H
+        nu = np.where(inside, 0.8, 0.0)
+        nu[[5, 14]] = 0.5
+        windows = dict(y=y, height=np.array([H]), vx=np.where(inside, 0.0, np.nan)[None],
+                       stress=np.zeros((1, 25, 2, 2)), solid_fraction=nu[None],
+                       coordination=np.where(inside, 3.0, np.nan)[None])
+        r = regions_for_h(windows, h, V, 0.25)
+        self.assertAlmostEqual(r["bulk_solid_fraction"][0], (8 * 0.8 + 2 * 0.5) / 10)
+        self.assertAlmostEqual(r["bottom_solid_fraction"][0], 0.8)
+        self.assertAlmostEqual(r["top_solid_fraction"][0], 0.8)
+
     def test_top_layer_from_the_stripes_counted_down_from_the_top_wall(self):
         # The window's profile says one thing near the top, the top stripes another: the top
         # layer (depth < h) is taken from the top stripes only, as src/measure does.
