@@ -21,7 +21,7 @@ from .rundata import RunDataError
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
 
-SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 4
+SUMMARY_FORMAT, SUMMARY_VERSION = "cdshear-summary", 3
 REFERENCE_H = 10.0     # model.md section 7: the bulk is h < y < L_y - h with h = 10
 BULK_MIN_STRIPES = 3   # a bulk holds at least this many stripes
 PROFILE_FIELDS = ("solid_fraction", "vx", "mu_eff", "coordination",

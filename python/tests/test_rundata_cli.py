@@ -147,7 +147,7 @@ class EndToEnd(unittest.TestCase):
             with open(os.path.join(run_dir, "summary.json")) as f:
                 summary = json.loads(f.read(), parse_constant=lambda c: self.fail(c))
             self.assertEqual(set(summary), SUMMARY_KEYS)
-            self.assertEqual((summary["format"], summary["version"]), ("cdshear-summary", 4))
+            self.assertEqual((summary["format"], summary["version"]), ("cdshear-summary", 3))
             self.assertEqual(set(summary["regions"]["h10"]),
                              {"h", "bulk", "bottom", "top", "sheared_layer", "resting_layer"})
             self.assertEqual(set(summary["regions"]["h5"]["bulk"]),
