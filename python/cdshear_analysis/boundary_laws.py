@@ -178,8 +178,7 @@ def fit_boundary(rows, bulk_fits):
                  "Z_power": "Z"}[name]
             entry[name] = fitting.fit(spec, _points(pts, "I", y))
         # mu_eff of a run's two walls: one shear stress (widening); nu and Z are the walls' own
-        entry["mu_power"]["independent_points"] = len(
-            {fitting.group_key(p) or p["run"] for p in pts})
+        entry["mu_power"]["independent_points"] = _independent_points(pts)
         # the B/C law in h I_b at this h alone: how far the collapse holds
         bc = [p for p in pts if p["regime"] in ("B", "C")]
         for name in ("mu_hI_BC", "mu_hI_BC_log"):
@@ -216,12 +215,18 @@ def fit_boundary(rows, bulk_fits):
     return out
 
 
+def _independent_points(points):
+    """How many independent mu_eff the layer points hold: one stress per (system, V) (a run
+    where it has none), shared by its walls' and thicknesses' points (`widening`)."""
+    return len({fitting.group_key(p) or p["run"] for p in points})
+
+
 def _pooled_fit(name, points):
-    """The POOLED law `name` fitted to layer points, with `independent_points`: one stress per
-    (system, V), shared by its walls' and thicknesses' points (`widening`)."""
+    """The POOLED law `name` fitted to layer points, with `independent_points`
+    (_independent_points)."""
     spec, x, _ = POOLED[name]
     result = fitting.fit(spec, _points(points, x, "mu"))
-    result["independent_points"] = len({fitting.group_key(p) or p["run"] for p in points})
+    result["independent_points"] = _independent_points(points)
     return result
 
 
@@ -450,6 +455,13 @@ def predict_v_ab(rows, bulk_fits, boundary):
 
 def symmetric_state_stability(rows, boundary):
     """fits.json predictions `symmetric_state_stability` (see the module's doc)."""
+    def mean(ps, k):
+        return float(np.mean([p[k] for p in ps]))
+
+    def runs(ps):
+        # a run's two walls share one shear stress (widening): one independent point per run,
+        # not per wall
+        return len({p["run"] for p in ps})
     entries = []
     for h in boundary["thicknesses"]:
         pts = [p for p in layer_points(rows, h) if p["regime"] in ("B", "C")]
@@ -460,12 +472,6 @@ def symmetric_state_stability(rows, boundary):
                     by_v.setdefault(p["V"], []).append(p)
             vs = sorted(by_v)
             for v0, v1 in zip(vs, vs[1:]):
-                def mean(ps, k):
-                    return float(np.mean([p[k] for p in ps]))
-                def runs(ps):
-                    # a run's two walls share one shear stress (widening): one independent
-                    # point per run, not per wall
-                    return len({p["run"] for p in ps})
                 a, b = by_v[v0], by_v[v1]
                 dx = mean(b, "hI") - mean(a, "hI")
                 e = math.hypot(mean(a, "mu_err") / math.sqrt(runs(a)),
