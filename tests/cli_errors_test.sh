@@ -285,6 +285,13 @@ expect_error "done: already holds results" "$exe" scene "$scene" -o done
 "$exe" scene -q "$scene" -o done --force > /dev/null 2>&1 || true
 test -f mine/notes.txt || { echo "FAIL: a refused run touched mine/"; fails=$((fails + 1)); }
 checks=$((checks + 1))
+# An empty folder, or one holding only the lock file a killed preparation leaves, is free.
+mkdir -p empty_dir lock_only && touch lock_only/.cdshear.lock
+for d in empty_dir lock_only; do
+  checks=$((checks + 1))
+  "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o "$d" > out.txt 2>&1 ||
+    { echo "FAIL: a run refused the free folder $d"; cat out.txt; fails=$((fails + 1)); }
+done
 
 # An empty file or folder argument (an unset shell variable) is refused, never read as the
 # option's absence (which would start the default job instead of a resume).

@@ -88,8 +88,21 @@ test -f "$work/killed/interrupted_state.json" ||
 # The observers only read the state: without them the run ends in the same state.
 "$exe" run "${common[@]}" --set measure.enabled=false -o "$work/unobserved" > /dev/null
 
+# Killed after its last checkpoint, before its end's files (final_state.json, run_info.json) and
+# inside an atomic write: the resume has no step left and writes them; the write's leftover goes.
+cp -r "$work/straight" "$work/ended"
+rm "$work/ended/final_state.json" "$work/ended/run_info.json"
+echo partial > "$work/ended/final_state.json.tmp.12345"
+"$exe" run -q --no-analyze --resume "$work/ended" > /dev/null ||
+  { echo "FAIL: a run killed before its end's files could not be resumed"; exit 1; }
+test ! -e "$work/ended/final_state.json.tmp.12345" ||
+  { echo "FAIL: the resume left a killed write's temporary file"; exit 1; }
+if "$exe" run -q --no-analyze --resume "$work/ended" > /dev/null 2>&1; then
+  echo "FAIL: a finished run resumed with nothing to do"; exit 1
+fi
+
 status=0
-for run in stopped killed; do
+for run in stopped killed ended; do
   if ! cmp -s "$work/straight/final_state.json" "$work/$run/final_state.json"; then
     echo "FAIL: $run/final_state.json differs from the uninterrupted run"; status=1
   fi

@@ -55,7 +55,7 @@ grep -q "s1_seed1_V0.25: .*final_state.json is of another run (velocity = 1.0, i
   swapped.out || fail "swapped final state: $(cat swapped.out)"
 
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
-# is not run again (a resume would be refused: it reached its end); a missing summary.json is
+# is not run again (every step is done); a missing summary.json is
 # made by `cdshear analyze`.
 cat > measured.toml <<TOML
 [campaign]
@@ -79,6 +79,15 @@ grep -q "1 finished earlier (1 to analyse)" ended.out || fail "ended run: $(cat 
 test -f $ended/summary.json || fail "the ended run was not analysed"
 ls $ended/figures/*.png > /dev/null 2>&1 || fail "the ended run's figures were not made"
 ls $ended/run_info_resume_*.json > /dev/null 2>&1 && fail "the ended run was resumed"
+# Killed during its analysis or its figures: a summary.json cut short, a figure missing.
+for damage in "truncate -s 100 $ended/summary.json" "rm $ended/figures/height_solid_fraction.png"; do
+  $damage
+  "$exe" sweep measured.toml -o measured > damaged.out 2>&1 || fail "damaged: $(cat damaged.out)"
+  grep -q "1 finished earlier (1 to analyse)" damaged.out || fail "after '$damage': $(cat damaged.out)"
+  /usr/bin/python3 -c "import json, sys; json.load(open(sys.argv[1]))" $ended/summary.json ||
+    fail "after '$damage': summary.json not made again"
+  test -f $ended/figures/height_solid_fraction.png || fail "after '$damage': figure not made again"
+done
 
 # 1c. A campaign folder as git keeps it (each run's case.toml, run_info*.json and summary.json;
 # no final state, run.h5 or checkpoint) counts its runs finished and leaves them untouched; a

@@ -265,8 +265,18 @@ def plot_run(run, summary, out_dir, skipped=None):
             if skipped is not None:
                 skipped.append((name, str(e)))
             continue
-        fig.savefig(path, dpi=DPI, bbox_inches="tight")
-        plt.close(fig)
+        # Written whole or not at all (temporary file + rename): a sweep that finds a figure
+        # takes it for complete (sweep_command.cpp, figures_missing).
+        tmp = f"{path}.tmp.{os.getpid()}"
+        try:
+            fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight")
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        finally:
+            plt.close(fig)
         written.append(path)
     return written
 

@@ -193,6 +193,36 @@ def case_problem(s):
     return None
 
 
+# The case values a summary must share with its run's case.toml: (summary `case` key, TOML table,
+# TOML key). The same check as the sweep's (src/app/sweep_command.cpp, summary_problem).
+IDENTITY_KEYS = (("n", "system", "n"), ("height", "system", "height"),
+                 ("velocity", "shear", "velocity"), ("normal_stress", "shear", "normal_stress"),
+                 ("duration", "shear", "duration"))
+
+
+def identity_problem(run_dir, s):
+    """None when the summary s belongs to RUN_DIR: the folder it names (`run_dir`) has this
+    folder's name, and its case agrees with RUN_DIR/case.toml where there is one; else why not,
+    for a summary.json copied from another run."""
+    name = os.path.basename(os.path.normpath(run_dir))
+    written_in = s.get("run_dir")
+    if isinstance(written_in, str) and os.path.basename(os.path.normpath(written_in)) != name:
+        return f"summary.json is of another run (run_dir {written_in!r})"
+    try:
+        with open_regular(os.path.join(run_dir, "case.toml"), encoding="utf-8") as f:
+            case_toml = tomllib.loads(f.read())
+    except (OSError, ValueError):
+        return None   # no case.toml to compare with (a summary kept alone, or a damaged case)
+    case = s.get("case", {})
+    for key, table, toml_key in IDENTITY_KEYS:
+        want = case_toml.get(table, {}).get(toml_key) if isinstance(case_toml.get(table), dict) \
+            else None
+        if want is not None and case.get(key) != want:
+            return f"summary.json is of another run ({key} = {case.get(key)!r}, its case.toml " \
+                   f"says {want!r})"
+    return None
+
+
 def reanalyse(run_dir):
     """Analyse RUN_DIR/run.h5 again and rewrite RUN_DIR/summary.json, as `cdshear analyze`
     does (rundata.load_run, summary.analyze, summary.write_summary), and redraw the run's
@@ -313,13 +343,19 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
     is left out instead), or (None, why it is left out)."""
     from .rundata import RunDataError
     name = os.path.basename(os.path.normpath(run_dir))
-    s = read_summary(run_dir)
-    state = summary_state(s)
+    try:
+        s = read_summary(run_dir)
+        state = summary_state(s)
+    except ReportError as e:   # cut short or garbled: analysed again like a stale one
+        s, state = None, ("stale", f"summary.json: {e.problem}")
     if state is None:
         damaged = case_problem(s)
         if damaged:
             return None, f"summary.json {damaged} (`cdshear analyze` the run to write it " \
                          f"again)"
+        other = identity_problem(run_dir, s)
+        if other:
+            return None, f"{other}: left out (`cdshear analyze` the run to write its own)"
         return s, None
     kind, why = state
     if kind == "other format":

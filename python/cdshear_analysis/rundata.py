@@ -289,6 +289,12 @@ def _read(f, run_dir, path):
             raise RunDataError(path, f"/windows/{k} has shape {windows[k].shape}, "
                                      f"expected ({n_windows}, {n_stripes}, ...)")
     _check_physics(attrs, series, windows, n_stripes, path)
+    dt = attrs.get("dt")
+    if "step" in series and isinstance(dt, (float, np.floating)) and np.isfinite(dt) and dt > 0:
+        # A sample's time as its step x dt, the windows' t_start and t_end: files written before
+        # cdshear wrote it so hold the summed time, which drifts from it by about 1e-11 and put
+        # a sample on a window's edge into the next window.
+        series["time"] = np.asarray(series["step"], dtype=float) * dt
     regions = {}
     if "regions" in f["windows"]:
         for label, group in f["windows/regions"].items():

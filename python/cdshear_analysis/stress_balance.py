@@ -33,7 +33,7 @@ def stress_balance(run, summary=None):
     lo, hi = summary["bulk"]["y_range"]
     if lo is None or hi is None or len(sel) == 0:
         return None
-    inside = (y > lo) & (y < hi)
+    inside = (y >= lo) & (y <= hi)   # closed, as the bulk's regions (profiles.region_quantities)
     fb = np.asarray(w["bottom_force"], dtype=float).reshape(-1, 2)[sel]
     ft = np.asarray(w["top_force"], dtype=float).reshape(-1, 2)[sel]
 

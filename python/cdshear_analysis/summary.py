@@ -373,7 +373,7 @@ def format_report(summary, summary_path):
     lo, hi = b["y_range"]
     if b.get("h_note"):
         lines.append(f"note: {b['h_note']}")
-    lines += [f"bulk ({where}, {lo:.3g} < y < {hi:.3g}):",
+    lines += [f"bulk ({where}, {lo:.3g} <= y <= {hi:.3g}):",
               f"  I_bulk        = {pm(b['inertial_number'])}",
               f"  mu_eff bulk   = {pm(b['mu_eff'])}",
               f"  mu_eff walls  = {pm(summary['mu_eff_wall'])}",

@@ -184,6 +184,51 @@ class DamagedSummaryTest(unittest.TestCase):
                 self.assertIn(f"case.velocity {bad!r} is not a positive number", why)
             self.assertIn("no `case` object", report.case_problem(dict(good, case=[])))
 
+    def test_a_summary_of_another_run_is_left_out(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "copied", {1: [(0.5, 0.025, 0.35, 0.8, 3.0),
+                                            (1.0, 0.05, 0.4, 0.8, 3.0)]})
+            runs = os.path.join(d, "runs")
+            run = os.path.join(runs, "s1_seed1_V0.5")
+            with open(os.path.join(runs, "s1_seed1_V1", "summary.json")) as f:
+                other = json.load(f)
+            with open(os.path.join(run, "summary.json")) as f:
+                own = json.load(f)
+            self.assertIsNone(report.identity_problem(run, own))
+            # copied whole: it names the other run's folder
+            with open(os.path.join(run, "summary.json"), "w") as f:
+                json.dump(other, f)
+            summary, why = report.usable_summary(run, [])
+            self.assertIsNone(summary)
+            self.assertIn("summary.json is of another run (run_dir", why)
+            # its folder edited to this one's: the case.toml tells the wall speeds apart
+            with open(os.path.join(run, "summary.json"), "w") as f:
+                json.dump(dict(other, run_dir=run), f)
+            self.assertIsNotNone(report.usable_summary(run, [])[0])   # no case.toml yet
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write(f"[shear]\nvelocity = 0.5\nduration = {own['case']['duration']!r}\n")
+            summary, why = report.usable_summary(run, [])
+            self.assertIsNone(summary)
+            self.assertIn("velocity = 1.0, its case.toml says 0.5", why)
+            with open(os.path.join(run, "summary.json"), "w") as f:
+                json.dump(own, f)
+            self.assertIsNotNone(report.usable_summary(run, [])[0])
+
+    def test_a_summary_cut_short_is_left_out_not_fatal(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "cut", {1: [(0.5, 0.025, 0.35, 0.8, 3.0),
+                                         (1.0, 0.05, 0.4, 0.8, 3.0)]})
+            run = os.path.join(d, "runs", "s1_seed1_V0.5")
+            with open(os.path.join(run, "summary.json"), "r+") as f:
+                f.truncate(100)
+            summary, why = report.usable_summary(run, [])
+            self.assertIsNone(summary)
+            self.assertIn("cannot read", why)
+            self.assertIn("no run.h5 to analyse it again", why)
+            rc, out = run_report(d)
+            self.assertIn("s1_seed1_V0.5", out)
+            self.assertIn("cannot read", out)
+
     def test_json_nested_too_deeply_is_a_report_error(self):
         with tempfile.TemporaryDirectory() as d:
             path = os.path.join(d, "summary.json")

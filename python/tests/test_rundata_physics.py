@@ -105,6 +105,28 @@ class NotPhysics(unittest.TestCase):
                 self.assertNotIn("Traceback", err.getvalue())
                 self.assertFalse(os.path.exists(os.path.join(d, "summary.json")))
 
+    def test_a_sample_on_a_window_edge_falls_in_its_window(self):
+        """A file whose series time is summed step by step (drifting from step x dt, as cdshear
+        wrote it before) reads with time = step x dt: each window then holds the same number of
+        samples, the one on its end included, as the windows' t_start and t_end count them."""
+        d = os.path.join(self.tmp.name, "drifted")
+        shutil.copytree(self.good, d)
+        path = os.path.join(d, "run.h5")
+        with h5py.File(path, "r+") as f:
+            dt, step = float(f.attrs["dt"]), f["series/step"][()]
+            drifted = np.concatenate(([0.0], np.cumsum(np.full(int(step[-1]), dt))))[step]
+            replace("series/time", lambda t: drifted)(f)
+        seal(path)
+        run = load_run(d)
+        t, w = run["series"]["time"], run["windows"]
+        np.testing.assert_array_equal(t, run["series"]["step"] * dt)
+        counts = {int(((t > a) & (t <= b)).sum()) for a, b in zip(w["t_start"], w["t_end"])}
+        self.assertEqual(len(counts), 1, counts)
+        # the drift itself would have moved samples between windows: the test sees the edge
+        off = {int(((drifted > a) & (drifted <= b)).sum())
+               for a, b in zip(w["t_start"], w["t_end"])}
+        self.assertGreater(len(off), 1, "no sample sits on a window edge: the test checks nothing")
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -81,6 +81,9 @@ int main(int argc, char** argv) {
   } catch (const cdshear::ConfigError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;
+  } catch (const cdshear::WriteError& e) {
+    std::fprintf(stderr, "error: %s; files written before it are kept\n", e.what());
+    return 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr,
                  "error: cdshear %s: out of memory (the limits on sizes are in "

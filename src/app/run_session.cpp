@@ -29,7 +29,7 @@ std::uint64_t steps_of(double interval, double dt) {
   return interval > 0 ? std::max<std::uint64_t>(1, std::llround(interval / dt)) : 0;
 }
 
-bool folder_is_free(const std::filesystem::path& dir) {
+bool folder_is_free(const std::filesystem::path& dir, bool lock_held_here) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(dir, ec)) return true;
@@ -40,8 +40,9 @@ bool folder_is_free(const std::filesystem::path& dir) {
     only_lock = true;
   }
   if (ec) return false;
-  // A lock file alone: free unless a command holds it (a run still preparing its packing).
-  if (only_lock) {
+  // A lock file alone: free unless another command holds it (a run still preparing its
+  // packing). flock locks belong to open files, so the caller's own lock would look held here.
+  if (only_lock && !lock_held_here) {
     const int fd =
         ::open((dir / kFolderLockName).c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
     if (fd < 0) return false;
@@ -190,7 +191,7 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
   // Locked before anything in it is looked at: another run may be writing it.
   FolderLock lock;
   if (fs::is_directory(dir)) lock = FolderLock::take(dir);
-  if (!force && !folder_is_free(dir)) {
+  if (!force && !folder_is_free(dir, lock.held())) {
     std::vector<std::string> names;
     for (const fs::directory_entry& e : fs::directory_iterator(dir))
       if (e.path().filename() != kFolderLockName) names.push_back(e.path().filename().string());
@@ -221,6 +222,17 @@ void remove_written_outputs(const std::filesystem::path& dir) {
     } else if (is_written_run_file(name) && !e.is_directory()) {
       fs::remove(e.path());
     }
+  }
+}
+
+void remove_stale_temporaries(const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.find(".tmp.") != std::string::npos && is_written_run_file(name) &&
+        e.is_regular_file(ec))
+      fs::remove(e.path(), ec);
   }
 }
 

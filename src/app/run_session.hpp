@@ -28,8 +28,9 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
 /// Whole number of steps in a time interval (0 when the interval is 0: disabled).
 std::uint64_t steps_of(double interval, double dt);
 
-/// True when `dir` does not exist or is an empty folder (its lock file aside).
-bool folder_is_free(const std::filesystem::path& dir);
+/// True when `dir` does not exist or is an empty folder, its lock file aside unless another
+/// command holds it (`lock_held_here`: the caller holds it, so it is no one else's).
+bool folder_is_free(const std::filesystem::path& dir, bool lock_held_here = false);
 
 /// One writer per run folder: an exclusive flock on DIR/.cdshear.lock, held as long as this
 /// object lives (the process's life, for a run), whose file names the holder (pid, host, start).
@@ -68,6 +69,10 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
 
 /// What `--force` removes: the outputs cdshear writes in `dir`, by name (nothing else).
 void remove_written_outputs(const std::filesystem::path& dir);
+
+/// Removes what killed atomic writes left in `dir` (<name>.tmp.<pid> of the files a run writes);
+/// for the holder of the folder's lock, whose own writes are complete.
+void remove_stale_temporaries(const std::filesystem::path& dir);
 
 /// lock_output_folder, then with `force` remove_written_outputs at once (a command with nothing
 /// to check before it writes).

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -195,14 +196,31 @@ struct ShearSession {
   FolderLock lock;             ///< one writer per run folder, held until the command ends
 };
 
+/// Whether the run in `dir` wrote the files that end it at `step`: final_state.json and a run_info
+/// (run_info.json, or run_info_resume_<step>.json for a resumed sitting) of that step.
+bool end_files_written(const fs::path& dir, std::uint64_t step) {
+  if (!fs::exists(dir / "final_state.json")) return false;
+  if (fs::exists(dir / fmt::format("run_info_resume_{}.json", step))) return true;
+  std::ifstream in(dir / "run_info.json");
+  const nlohmann::json info = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  return info.is_object() && info.value("step", std::uint64_t{0}) == step;
+}
+
 /// Resolves the time step and checks the run's size (docs/reliability.md) once the case and the
 /// state it starts from are known: a run that asks for too much, or for nothing, is refused
 /// before anything is prepared or written.
 void plan_run(ShearSession& s) {
   ShearCase& c = s.c;
   s.dt_warning = resolve_step_rules(c);
-  s.end_step =
-      checked_end_step(c.duration, c.step.dt, s.world.step, s.case_source, "shear.duration");
+  // A run killed after its last step's checkpoint and before its end's files (run.h5 marked
+  // finished, final_state.json, run_info) resumes with no step left: it writes them.
+  const double steps = c.duration / c.step.dt;
+  const bool ended_unwritten = s.resuming && std::isfinite(steps) && steps <= kMaxRunSteps &&
+                               std::llround(steps) == static_cast<long long>(s.world.step) &&
+                               !end_files_written(s.dir, s.world.step);
+  s.end_step = ended_unwritten ? s.world.step
+                               : checked_end_step(c.duration, c.step.dt, s.world.step,
+                                                  s.case_source, "shear.duration");
   if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
     throw ConfigError(s.case_source, "measure.sample_interval",
                       fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
@@ -259,6 +277,7 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
   // Before anything is read: a run still writing this folder would overwrite the resume's files.
   s.lock = FolderLock::take(s.dir);
+  remove_stale_temporaries(s.dir);
   CaseSource src;
   src.file = (s.dir / "case.toml").string();
   src.overrides = args.c.overrides;
@@ -648,11 +667,11 @@ int run_shear(const RunArgs& args) {
     checkpoint.observe(s.world, s.dynamics, summary.last);
   else if (hooks.before)
     hooks.before(s.world, s.dynamics);
-  const int status_code =
-      finish_run(shear_run_end(s, threads, loop.choose_threads && threads > 1), s.world, summary);
+  const RunEnd end = shear_run_end(s, threads, loop.choose_threads && threads > 1);
+  const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;
-  std::printf("done: output in %s (run.h5, case.toml, final_state.json, run_info.json%s)\n",
-              s.dir.c_str(), snapshots ? ", snapshots/*.pvd" : "");
+  std::printf("done: output in %s (run.h5, case.toml, final_state.json, %s%s)\n", s.dir.c_str(),
+              end.info_name.c_str(), snapshots ? ", snapshots/*.pvd" : "");
   if (!measurement || args.no_analyze) return 0;
   std::fflush(stdout);
   if (const int rc = run_analysis("analyze", s.dir, {}); rc != 0) return rc;

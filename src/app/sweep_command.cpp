@@ -89,7 +89,7 @@ bool stopped_before_its_end(const fs::path& dir);
 
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
-/// done, and resuming it would be refused (it reached its end), so it counts as finished; unless
+/// done (a resume would only write its run_info), so it counts as finished; unless
 /// an extension of it stopped before its new end, with a checkpoint: interrupted. An extension
 /// that stopped says so twice, in progress.json (stopped_before_its_end) and by its
 /// interrupted_state.json (removed when a run completes): either is enough, so that a lost or
@@ -120,6 +120,23 @@ RunState run_state(const fs::path& dir) {
   if (case_of(run_summary(dir)).value("finished", nlohmann::json()) == true)
     return RunState::kFinished;
   return RunState::kNew;
+}
+
+/// A finished run whose analysis was cut short: its summary.json missing or unreadable, or a
+/// figure `cdshear plot` always makes missing (each is written whole or not at all:
+/// python/cdshear_analysis/plots.py, plot_run); the profile figures are made when the run has
+/// measurement windows, which a summary with steady windows implies.
+bool analysis_incomplete(const fs::path& dir) {
+  const nlohmann::json summary = run_summary(dir);
+  if (summary.empty()) return true;
+  std::vector<const char*> figures = {"snapshot.png", "com_velocity.png",
+                                      "height_solid_fraction.png"};
+  const auto steady = summary.find("steady_windows");
+  if (steady != summary.end() && steady->is_number() && steady->get<double>() > 0)
+    figures.insert(figures.end(), {"velocity_profiles.png", "steady_profiles.png"});
+  std::error_code ec;
+  return std::any_of(figures.begin(), figures.end(),
+                     [&](const char* f) { return !fs::exists(dir / "figures" / f, ec); });
 }
 
 std::string format_seconds(double s) {
@@ -563,7 +580,7 @@ class Sweep {
         ++finished_before_;
         // Killed after its last step but before (or during) its analysis: analyse and plot it
         // now, as the run would have.
-        if (c_.analyze && fs::exists(rdir / "run.h5") && !fs::exists(rdir / "summary.json")) {
+        if (c_.analyze && fs::exists(rdir / "run.h5") && analysis_incomplete(rdir)) {
           Job j;
           j.name = r.name;
           j.log = log;

@@ -1,4 +1,5 @@
-// The error every configuration problem becomes: it names the file, the key and the problem.
+// The errors the edges report: a configuration problem names the file, the key and the problem
+// (exit 2); a file that cannot be written names the file and why (exit 1).
 #pragma once
 
 #include <stdexcept>
@@ -22,6 +23,14 @@ class ConfigError : public std::runtime_error {
   std::string file_;
   std::string key_;
   std::string problem_;
+};
+
+/// A file that could not be written (a full disk, a read-only or vanished folder): not bad
+/// input, so `cdshear` exits 1; what was written before it stays (docs/reliability.md).
+class WriteError : public std::runtime_error {
+ public:
+  WriteError(const std::string& file, const std::string& problem)
+      : std::runtime_error(file + ": " + problem) {}
 };
 
 }  // namespace cdshear

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "config_error.hpp"
+
 namespace cdshear {
 
 std::filesystem::path temporary_path(const std::filesystem::path& path) {
@@ -17,14 +19,20 @@ std::filesystem::path temporary_path(const std::filesystem::path& path) {
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path tmp = temporary_path(path);
+  std::error_code ec;
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(tmp.string() + ": cannot open for writing");
+    if (!out) throw WriteError(tmp.string(), "cannot open for writing");
     out << text;
     out.flush();
-    if (!out) throw std::runtime_error(tmp.string() + ": write failed (disk full?)");
+    if (!out) {
+      out.close();
+      std::filesystem::remove(tmp, ec);  // never leave a half-written temporary behind
+      throw WriteError(tmp.string(), "write failed (disk full?)");
+    }
   }
-  std::filesystem::rename(tmp, path);
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw WriteError(path.string(), "cannot rename the new file into place: " + ec.message());
 }
 
 namespace {
@@ -69,7 +77,7 @@ nlohmann::json state_to_json(const World& world) {
 
 TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const World& world)
     : out_(path, std::ios::trunc) {
-  if (!out_) throw std::runtime_error(path.string() + ": cannot open for writing");
+  if (!out_) throw WriteError(path.string(), "cannot open for writing");
   out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,"
           "capped_steps,sweeps_mean,sweeps_max,residual_max,max_overlap";
   for (const Wall& w : world.walls)
@@ -91,7 +99,7 @@ void TimeSeriesWriter::write(const World& world, const StepReport& r, const Inte
   row += '\n';
   out_ << row;
   out_.flush();
-  if (!out_) throw std::runtime_error("time series: write failed (disk full?)");
+  if (!out_) throw WriteError("time series", "write failed (disk full?)");
 }
 
 }  // namespace cdshear

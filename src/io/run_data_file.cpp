@@ -24,6 +24,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// HDF5 closes what is still open when the process exits; a file whose close failed (a full disk)
+/// stays open in the library, and closing it again at exit crashed (HDF5 1.10). Every identifier
+/// here is closed by its owner, so the library is told to skip that clean-up; this runs before
+/// any other HDF5 call, as it must.
+[[maybe_unused]] const herr_t kNoCleanUpAtExit = H5dont_atexit();
+
 /// Owns an HDF5 identifier and closes it with the matching function.
 class Handle {
  public:
@@ -386,9 +392,12 @@ void write_snapshot(const H5Context& ctx, hid_t file, const World& world,
     const auto a = static_cast<std::size_t>(c.key.body_a);
     const auto b = static_cast<std::size_t>(c.key.body_b);
     const Vec2 pa{d.position[a].x, d.position[a].y - bottom};
-    // The partner as seen from a: b's nearest periodic image, or the contact point on a wall.
+    // The partner as seen from a: b's nearest periodic image, or the contact point on a wall,
+    // -r_a along the wall's normal (detection's lever_a n, taken from the state: a checkpoint
+    // keeps the contacts' impulses, not their geometry, and a resume that ends at once writes
+    // this snapshot from it).
     const Vec2 pb = b < n ? pa + world.domain.minimum_image(d.position[b] - d.position[a])
-                          : pa + c.lever_a * c.normal;
+                          : pa + (-d.radius[a]) * world.walls[b - n].normal;
     a_index.push_back(static_cast<std::int64_t>(a));
     b_index.push_back(static_cast<std::int64_t>(b));
     ax.push_back(pa.x);
@@ -553,14 +562,18 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
     }
     if (H5Fclose(file) < 0) ctx.fail("", "cannot close the file (disk full?)");
     seal(ctx, tmp);
-  } catch (...) {
+  } catch (const ConfigError& e) {
     std::error_code ignored;
     fs::remove(tmp, ignored);  // never leave a half-written temporary behind
+    throw WriteError(tmp.string(), (e.key().empty() ? "" : e.key() + ": ") + e.problem());
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
     throw;
   }
   std::error_code ec;
   fs::rename(tmp, path, ec);
-  if (ec) throw ConfigError(path.string(), "", "cannot rename the new data file: " + ec.message());
+  if (ec) throw WriteError(path.string(), "cannot rename the new data file: " + ec.message());
 }
 
 namespace {

@@ -270,7 +270,9 @@ double ShearMeasurement::add_series_row(const World& world, const std::vector<Co
   const double height = world.walls[kTop].point.y - bottom_y;
   SeriesRow row;
   row.step = world.step;
-  row.time = world.time;
+  // step x dt, as the windows' t_start and t_end: world.time adds dt at every step and drifts
+  // from it by about 1e-11, enough to put a sample on a window's edge into the wrong window.
+  row.time = static_cast<double>(world.step) * context_.dt;
   double mass = 0.0, momentum_x = 0.0, area = 0.0, block_mass = 0.0, block_momentum_x = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     mass += d.mass[i];
