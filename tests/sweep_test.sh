@@ -80,14 +80,24 @@ test -f $ended/summary.json || fail "the ended run was not analysed"
 ls $ended/figures/*.png > /dev/null 2>&1 || fail "the ended run's figures were not made"
 ls $ended/run_info_resume_*.json > /dev/null 2>&1 && fail "the ended run was resumed"
 # Killed during its analysis or its figures: a summary.json cut short, a figure missing.
-for damage in "truncate -s 100 $ended/summary.json" "rm $ended/figures/height_solid_fraction.png"; do
+for damage in "truncate -s 100 $ended/summary.json" \
+              "rm $ended/figures/height_solid_fraction.png"; do
   $damage
   "$exe" sweep measured.toml -o measured > damaged.out 2>&1 || fail "damaged: $(cat damaged.out)"
-  grep -q "1 finished earlier (1 to analyse)" damaged.out || fail "after '$damage': $(cat damaged.out)"
+  grep -q "1 finished earlier (1 to analyse)" damaged.out ||
+    fail "after '$damage': $(cat damaged.out)"
   /usr/bin/python3 -c "import json, sys; json.load(open(sys.argv[1]))" $ended/summary.json ||
     fail "after '$damage': summary.json not made again"
   test -f $ended/figures/height_solid_fraction.png || fail "after '$damage': figure not made again"
 done
+# A run that fails: the sweep's account of it gives the run's own error line.
+cp -r measured broken
+rm broken/runs/s1_seed1_V1/final_state.json
+echo "not a checkpoint" > broken/runs/s1_seed1_V1/checkpoint.cbor
+"$exe" sweep measured.toml -o broken > broken.out 2>&1 &&
+  fail "a run with a damaged checkpoint passed"
+grep -q "s1_seed1_V1: interrupted, exit 2, log .*: error: .*checkpoint.cbor" broken.out ||
+  fail "the failed run's error is not in the sweep's account: $(cat broken.out)"
 
 # 1c. A campaign folder as git keeps it (each run's case.toml, run_info*.json and summary.json;
 # no final state, run.h5 or checkpoint) counts its runs finished and leaves them untouched; a

@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -137,6 +138,28 @@ bool analysis_incomplete(const fs::path& dir) {
   std::error_code ec;
   return std::any_of(figures.begin(), figures.end(),
                      [&](const char* f) { return !fs::exists(dir / "figures" / f, ec); });
+}
+
+/// The last line of a run's log that starts with "error:" (at most 300 characters), or empty:
+/// what a failed run said, for the sweep's account of it.
+std::string last_error_line(const fs::path& log) {
+  std::ifstream in(log, std::ios::binary);
+  if (!in) return "";
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff start = std::max<std::streamoff>(0, size - 65536);  // its tail is enough
+  in.seekg(start);
+  std::string line, found;
+  while (std::getline(in, line))
+    if (line.starts_with("error:")) found = line;
+  if (found.size() > 300) found = found.substr(0, 297) + "...";
+  return found;
+}
+
+/// ": <the log's last error line>" when there is one, else "".
+std::string failure_cause(const fs::path& log) {
+  const std::string line = last_error_line(log);
+  return line.empty() ? "" : ": " + line;
 }
 
 std::string format_seconds(double s) {
@@ -633,8 +656,8 @@ class Sweep {
     const Job& j = jobs_list_[e.job];
     if (analysis_jobs_.count(e.job) != 0) {
       if (e.exit_code != 0)
-        failed_.push_back(fmt::format("{}: finished, but its analysis failed (exit {}), log {}",
-                                      j.name, e.exit_code, j.log.string()));
+        failed_.push_back(fmt::format("{}: finished, but its analysis failed (exit {}), log {}{}",
+                                      j.name, e.exit_code, j.log.string(), failure_cause(j.log)));
       else if (!args_.quiet)
         std::printf("sweep: %s analysed (it had ended before its analysis)\n", j.name.c_str());
       std::fflush(stdout);
@@ -653,8 +676,8 @@ class Sweep {
       interrupted_.push_back(j.name);
       what = "interrupted";
     } else {
-      failed_.push_back(fmt::format("{}: {}, exit {}, log {}", j.name, state_name(after),
-                                    e.exit_code, j.log.string()));
+      failed_.push_back(fmt::format("{}: {}, exit {}, log {}{}", j.name, state_name(after),
+                                    e.exit_code, j.log.string(), failure_cause(j.log)));
       what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
     }
     if (args_.quiet) return;
