@@ -133,7 +133,7 @@ expect_status2 "nowhere: not a folder" "$exe" report nowhere
 expect_status2 "notarun/runs: no run folders" "$exe" report notarun
 mkdir -p badcampaign/runs/s1_seed1_V1
 echo "{" > badcampaign/runs/s1_seed1_V1/summary.json
-expect_status2 "s1_seed1_V1/summary.json: cannot read" "$exe" report badcampaign
+expect_status2 "left out s1_seed1_V1: summary.json: cannot read" "$exe" report badcampaign
 echo "[campaign" > badcampaign/campaign.toml
 expect_status2 "badcampaign/campaign.toml: cannot read" "$exe" report badcampaign
 expect_error "key 'output.sample_interval': moved to measure.sample_interval" \
@@ -148,6 +148,7 @@ expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness
 # prepared or written (docs/reliability.md).
 expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-300 is more than the limit" "$exe" run -q --set step.dt=1e-300
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is more than" "$exe" run -q --set shear.duration=1e30
+expect_error "key 'shear.velocity': V = 1e+308 sets the time step to 2e-311" "$exe" run -q -V 1e308
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
 expect_error "more than the limit" "$exe" run -q -V 1e300
 expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9

@@ -295,6 +295,9 @@ def _read(f, run_dir, path):
         # cdshear wrote it so hold the summed time, which drifts from it by about 1e-11 and put
         # a sample on a window's edge into the next window.
         series["time"] = np.asarray(series["step"], dtype=float) * dt
+        step = attrs.get("step")
+        if isinstance(step, (int, np.integer, float, np.floating)) and np.isfinite(step):
+            attrs["time"] = float(step) * dt   # how far the file goes, on the same clock
     regions = {}
     if "regions" in f["windows"]:
         for label, group in f["windows/regions"].items():

@@ -53,13 +53,20 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
                                     format_number(longest) + " time units); give at least " +
                                     format_number(c.diameter_max / longest));
   // The shear phase's steps, as a run counts them (checked_end_step): a case no run could take
-  // is refused where it is read, by `settings` and `sweep` too. Blame the time step when given.
-  if (const double dt = c.dt ? *c.dt : default_time_step(c); !(c.duration / dt <= kMaxRunSteps))
+  // is refused where it is read, by `settings` and `sweep` too. Blame the time step when given,
+  // the wall speed when the step it sets (step.displacement_per_step / V, below step.dt_max) is
+  // what makes the run too long.
+  if (const double dt = c.dt ? *c.dt : default_time_step(c); !(c.duration / dt <= kMaxRunSteps)) {
+    const bool speed_set_it = !c.dt && dt < c.dt_max && c.duration / c.dt_max <= kMaxRunSteps;
     t[c.dt ? "step" : "shear"].fail(
-        c.dt ? "dt" : "duration", "shear.duration = " + format_number(c.duration) +
-                                      " in steps of " + format_number(dt) +
-                                      " is more than the limit of " + format_number(kMaxRunSteps) +
-                                      " steps (docs/reliability.md)");
+        c.dt ? "dt" : (speed_set_it ? "velocity" : "duration"),
+        (speed_set_it ? "V = " + format_number(c.velocity) + " sets the time step to " +
+                            format_number(dt) + " (step.displacement_per_step / V): "
+                      : std::string()) +
+            "shear.duration = " + format_number(c.duration) + " in steps of " + format_number(dt) +
+            " is more than the limit of " + format_number(kMaxRunSteps) +
+            " steps (docs/reliability.md)");
+  }
   // The preparation counts its phases and windows in steps of its own time steps: a limit that
   // asks for more steps than a run may take is a typo, and a window longer than the limit could
   // never end a phase.
