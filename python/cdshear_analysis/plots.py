@@ -266,7 +266,7 @@ def plot_run(run, summary, out_dir, skipped=None):
                 skipped.append((name, str(e)))
             continue
         # Written whole or not at all (temporary file + rename): a sweep that finds a figure
-        # takes it for complete (sweep_command.cpp, figures_missing).
+        # takes it for complete (sweep_command.cpp, analysis_incomplete).
         tmp = f"{path}.tmp.{os.getpid()}"
         try:
             fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight")

@@ -215,8 +215,8 @@ def identity_problem(run_dir, s):
         return None   # no case.toml to compare with (a summary kept alone, or a damaged case)
     case = s.get("case", {})
     for key, table, toml_key in IDENTITY_KEYS:
-        want = case_toml.get(table, {}).get(toml_key) if isinstance(case_toml.get(table), dict) \
-            else None
+        values = case_toml.get(table)
+        want = values.get(toml_key) if isinstance(values, dict) else None
         if want is not None and case.get(key) != want:
             return f"summary.json is of another run ({key} = {case.get(key)!r}, its case.toml " \
                    f"says {want!r})"

@@ -244,7 +244,8 @@ FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
 }
 
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,
-                               const std::string& source, const std::string& key) {
+                               const std::string& source, const std::string& key,
+                               bool may_end_here) {
   const double steps = duration / dt;
   if (!std::isfinite(steps) || steps > kMaxRunSteps)
     throw ConfigError(source, key,
@@ -252,7 +253,7 @@ std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current
                                   "the limit of {:.0e} (docs/reliability.md)",
                                   duration, dt, steps, kMaxRunSteps));
   const auto end = static_cast<std::uint64_t>(std::llround(steps));
-  if (end <= current_step)
+  if (end < current_step || (end == current_step && !may_end_here))
     throw ConfigError(source, key,
                       current_step == 0
                           ? fmt::format("duration {:.6g} is less than half a time step ({:.6g}): "

@@ -80,9 +80,11 @@ FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,
                                const std::string& hint);
 
 /// The step at which a run of `duration` with step `dt` ends, checked: a step count that is not
-/// finite or above kMaxRunSteps, or a run with nothing left to do (end at or before
-/// `current_step`), is a ConfigError naming `source` and `key`.
+/// finite or above kMaxRunSteps, or a run with nothing left to do (end before `current_step`, or
+/// at it unless `may_end_here`: a resumed run that has yet to write its end's files), is a
+/// ConfigError naming `source` and `key`.
 std::uint64_t checked_end_step(double duration, double dt, std::uint64_t current_step,
-                               const std::string& source, const std::string& key);
+                               const std::string& source, const std::string& key,
+                               bool may_end_here = false);
 
 }  // namespace cdshear

@@ -214,13 +214,9 @@ void plan_run(ShearSession& s) {
   s.dt_warning = resolve_step_rules(c);
   // A run killed after its last step's checkpoint and before its end's files (run.h5 marked
   // finished, final_state.json, run_info) resumes with no step left: it writes them.
-  const double steps = c.duration / c.step.dt;
-  const bool ended_unwritten = s.resuming && std::isfinite(steps) && steps <= kMaxRunSteps &&
-                               std::llround(steps) == static_cast<long long>(s.world.step) &&
-                               !end_files_written(s.dir, s.world.step);
-  s.end_step = ended_unwritten ? s.world.step
-                               : checked_end_step(c.duration, c.step.dt, s.world.step,
-                                                  s.case_source, "shear.duration");
+  const bool may_end_here = s.resuming && !end_files_written(s.dir, s.world.step);
+  s.end_step = checked_end_step(c.duration, c.step.dt, s.world.step, s.case_source,
+                                "shear.duration", may_end_here);
   if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
     throw ConfigError(s.case_source, "measure.sample_interval",
                       fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "

@@ -47,10 +47,13 @@ class Handle {
   herr_t (*close_)(hid_t);
 };
 
-/// Every HDF5 failure turns into a ConfigError naming the file and the object.
+/// Every HDF5 failure turns into an error naming the file and the object: ConfigError when
+/// reading (bad input), WriteError when `writing` (exit 1: docs/reliability.md).
 struct H5Context {
   std::string file;
+  bool writing = false;
   [[noreturn]] void fail(const std::string& object, const std::string& problem) const {
+    if (writing) throw WriteError(file, (object.empty() ? "" : object + ": ") + problem);
     throw ConfigError(file, object, problem);
   }
   void check(herr_t status, const std::string& object, const char* what) const {
@@ -547,7 +550,7 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
                     const World& world, const std::vector<Contact>& contacts) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors are reported as ConfigError
   const fs::path tmp = temporary_path(path);
-  const H5Context ctx{tmp.string()};
+  const H5Context ctx{tmp.string(), /*writing=*/true};
   try {
     // The first kUserBlock bytes are HDF5's user block: it holds the seal (CRC-32 of the rest).
     Handle create_list(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
@@ -562,13 +565,9 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
     }
     if (H5Fclose(file) < 0) ctx.fail("", "cannot close the file (disk full?)");
     seal(ctx, tmp);
-  } catch (const ConfigError& e) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);  // never leave a half-written temporary behind
-    throw WriteError(tmp.string(), (e.key().empty() ? "" : e.key() + ": ") + e.problem());
   } catch (...) {
     std::error_code ignored;
-    fs::remove(tmp, ignored);
+    fs::remove(tmp, ignored);  // never leave a half-written temporary behind
     throw;
   }
   std::error_code ec;
