@@ -39,6 +39,7 @@ expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 expect_error "already holds results (case.toml, checkpoint.cbor" "$exe" run -q --packing "$packing" --set shear.duration=0.2 -o done
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
+expect_error "is a file: --resume takes the run's folder (done)" "$exe" run -q --resume done/case.toml
 # --force replaces what cdshear wrote and nothing else: the user's notes and own figures stay.
 mkdir -p done/figures done/snapshots
 echo "mine" > done/run_info_notes.txt
@@ -130,6 +131,8 @@ expect_error "/nowhere/cdshear_analysis: the analysis package is not there (from
   env CDSHEAR_ANALYSIS_DIR=/nowhere "$exe" analyze done
 # report: not a campaign folder, an unreadable summary.json or campaign.toml
 expect_status2 "nowhere: not a folder" "$exe" report nowhere
+touch report_file
+expect_status2 "report_file: -o: is a file, not a folder" "$exe" report -o report_file badcampaign
 expect_status2 "notarun/runs: no run folders" "$exe" report notarun
 mkdir -p badcampaign/runs/s1_seed1_V1
 echo "{" > badcampaign/runs/s1_seed1_V1/summary.json

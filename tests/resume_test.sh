@@ -110,6 +110,10 @@ for run in stopped killed ended; do
        "$work/straight/run.h5" "$work/$run/run.h5"; then
     echo "FAIL: $run/run.h5 differs from the uninterrupted run"; status=1
   fi
+  # Byte for byte too: run.h5 stores no creation or modification times.
+  if ! cmp -s "$work/straight/run.h5" "$work/$run/run.h5"; then
+    echo "FAIL: $run/run.h5 is not byte-identical to the uninterrupted run's"; status=1
+  fi
   if ! diff -r -q "$work/straight/snapshots" "$work/$run/snapshots"; then
     echo "FAIL: $run/snapshots differ from the uninterrupted run"; status=1
   fi

@@ -269,6 +269,10 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError("--resume " + s.dir.string(), "",
                       "a case file, --system, --velocity, --packing, -o and --force cannot be "
                       "combined with --resume: the run continues with its own case.toml");
+  if (fs::is_regular_file(s.dir))
+    throw ConfigError("--resume " + s.dir.string(), "",
+                      "is a file: --resume takes the run's folder (" +
+                          (s.dir.has_parent_path() ? s.dir.parent_path().string() : ".") + ")");
   if (!fs::exists(s.dir / "checkpoint.cbor"))
     throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
   // Before anything is read: a run still writing this folder would overwrite the resume's files.

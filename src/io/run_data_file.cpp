@@ -119,6 +119,14 @@ void check_seal(const H5Context& ctx, const fs::path& path) {
 
 // --- writing ---------------------------------------------------------------------------------
 
+/// A creation property list of class `cls` (dataset or group) that stores no modification
+/// times, so that one run, written twice, gives the same bytes.
+Handle untimed_creation(hid_t cls) {
+  const hid_t list = H5Pcreate(cls);
+  if (list >= 0) H5Pset_obj_track_times(list, false);
+  return Handle(list, H5Pclose);
+}
+
 void write_array(const H5Context& ctx, hid_t group, const std::string& name, hid_t mem_type,
                  const void* data, std::size_t size, const std::vector<hsize_t>& dims) {
   std::size_t count = 1;
@@ -127,9 +135,10 @@ void write_array(const H5Context& ctx, hid_t group, const std::string& name, hid
     ctx.fail(name,
              "has " + std::to_string(size) + " values for " + std::to_string(count) + " places");
   Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
+  const Handle create_list = untimed_creation(H5P_DATASET_CREATE);
   Handle set(H5Dcreate2(group, name.c_str(),
                         mem_type == H5T_NATIVE_DOUBLE ? H5T_IEEE_F64LE : H5T_STD_I64LE, space,
-                        H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                        H5P_DEFAULT, create_list, H5P_DEFAULT),
              H5Dclose);
   if (!set.valid()) ctx.fail(name, "cannot create dataset");
   bool empty = false;
@@ -357,7 +366,8 @@ std::string region_group_name(double h) {
 }
 
 Handle create_group(const H5Context& ctx, hid_t parent, const std::string& name) {
-  const hid_t id = H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const Handle create_list = untimed_creation(H5P_GROUP_CREATE);
+  const hid_t id = H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, create_list, H5P_DEFAULT);
   if (id < 0) ctx.fail(name, "cannot create group");
   return Handle(id, H5Gclose);
 }
