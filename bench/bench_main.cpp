@@ -39,11 +39,13 @@
 #include <vector>
 
 #include "checkpoint.hpp"
+#include "config_error.hpp"
 #include "contact_dynamics.hpp"
 #include "packing_file.hpp"
 #include "scene_presets.hpp"
 #include "shear_case.hpp"
 #include "shear_measurement.hpp"
+#include "toml_reader.hpp"
 #include "world.hpp"
 
 #ifndef CDSHEAR_SOURCE_DIR
@@ -306,12 +308,19 @@ Settings parse(int argc, char** argv) {
     } else if (a == "--sizes") {
       s.sizes.clear();
       std::stringstream list(value());
-      for (std::string item; std::getline(list, item, ',');)
+      for (std::string item; std::getline(list, item, ',');) {
         s.sizes.push_back(whole<std::size_t>(a, item));
+        // As many disks as `cdshear` takes (system.n).
+        if (s.sizes.back() < 1 || s.sizes.back() > static_cast<std::size_t>(cdshear::kMaxDisks))
+          throw UsageError("--sizes: each disk count must be in 1.." +
+                           std::to_string(cdshear::kMaxDisks) + ", got " + item);
+      }
     } else if (a == "--width") {
       s.width = number(a, value());
+      if (!(s.width > 0.0)) throw UsageError("--width must be > 0");
     } else if (a == "--seconds") {
       s.seconds = number(a, value());
+      if (!(s.seconds >= 0.0)) throw UsageError("--seconds must be >= 0");
     } else if (a == "--warmup") {
       s.warmup_steps = whole<std::uint64_t>(a, value());
     } else if (a == "--velocity") {
@@ -341,6 +350,7 @@ Settings parse(int argc, char** argv) {
         throw UsageError("--newton must be in 0.." + std::to_string(cdshear::kMaxNewtonIterations));
     } else if (a == "--step-error") {
       s.step_error_samples = whole<int>(a, value());
+      if (s.step_error_samples < 0) throw UsageError("--step-error must be >= 0");
     } else if (a == "--step-error-spacing") {
       s.step_error_spacing = whole<int>(a, value());
       if (s.step_error_spacing < 0) throw UsageError("--step-error-spacing must be at least 0");
@@ -1508,6 +1518,9 @@ int main(int argc, char** argv) {
     return run(parse(argc, argv));
   } catch (const UsageError& e) {
     std::cerr << "cdshear_bench: " << e.what() << " (--help lists the options)\n";
+    return 2;
+  } catch (const cdshear::ConfigError& e) {  // a packing or state file that cannot be used
+    std::cerr << "cdshear_bench: error: " << e.what() << '\n';
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "cdshear_bench: " << e.what() << '\n';

@@ -6,7 +6,8 @@
 # that moves the reference, a distance above 0 that a 1e-7 d move keeps below 10% in the impulses
 # and the top wall force and below 1% of V in the velocities, and refuses a jitter out of range
 # by name. --dt steps with the time step given instead of the rule's, and refuses one that is not
-# positive. A file that is not a checkpoint is refused, by name.
+# positive. A file that is not a checkpoint, options out of range and a missing packing are
+# refused by name (exit 2).
 # Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
 set -uo pipefail
 exe=$1; bench=$2; packing=$3; work=$4
@@ -89,6 +90,16 @@ fi
 for bad in "--sizes -5" "--steps -1" "--alpha 1e-5x"; do
   "$bench" $bad > /dev/null 2> bad.txt; rc=$?
   if [ $rc -ne 2 ] || ! grep -qF -- "${bad%% *}: '${bad#* }'" bad.txt; then
+    echo "FAIL: cdshear_bench $bad: exit $rc"; cat bad.txt; fails=$((fails + 1))
+  fi
+done
+# Values out of range are refused by name (exit 2): no disks, more than `cdshear` takes, a width,
+# a time or a sample count below zero; so is a packing that is not there.
+for bad in "--sizes 0" "--sizes 100000000" "--width -3" "--seconds -1" "--step-error -1" \
+           "--packing /nonexistent/p.json"; do
+  timeout 60 "$bench" $bad --steps 1 > /dev/null 2> bad.txt; rc=$?
+  named=${bad%% *}; [ "$named" = --packing ] && named=${bad#* }
+  if [ $rc -ne 2 ] || ! grep -qF -- "$named" bad.txt; then
     echo "FAIL: cdshear_bench $bad: exit $rc"; cat bad.txt; fails=$((fails + 1))
   fi
 done

@@ -163,6 +163,16 @@ expect_error "exceed the limit of 1e+07 profile points" "$exe" run -q \
   --set measure.stripe_thickness=1e-9
 expect_error "exceed the limit of 1e+07 profile points" "$exe" run -q \
   --set measure.stripe_thickness=1e-300
+expect_error "key 'measure.sample_interval': 1e+08 samples" "$exe" settings \
+  --set measure.sample_interval=1e-8 --set shear.duration=1
+# Numbers the engine inverts: a mass or a disk so small (or large) that its inverse is no normal
+# number is refused by key, not run into NaN.
+expect_error "key 'shear.wall_mass': must be > 0 with an inverse that is a normal" \
+  "$exe" run -q --set shear.wall_mass=1e-320
+expect_error "key 'preparation.piston_mass': must be > 0 with an inverse that is a normal" \
+  "$exe" prepare --set preparation.piston_mass=1e308 -o never.json
+expect_error "key 'system.diameter_min': a disk of this diameter cannot move" \
+  "$exe" prepare --set system.diameter_min=1e-300 -o never.json
 expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
 expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
 expect_error "--threads: must be a whole number from 1 to 1024, got 0" "$exe" run -q --threads 0

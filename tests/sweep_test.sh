@@ -244,6 +244,13 @@ rc=0; timeout 60 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || rc=$?
 grep -q "fifo/logs/s1_seed1_V0.5.log: is not a regular file" fifo.out ||
   fail "the refusal does not name the FIFO: $(cat fifo.out)"
 rm fifo/logs/s1_seed1_V0.5.log
+# A folder there is refused the same way (it was an "unexpected error", exit 1).
+mkdir fifo/logs/s1_seed1_V0.5.log
+rc=0; timeout 60 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a folder as a log exited $rc, not 2: $(cat fifo.out)"
+grep -q "fifo/logs/s1_seed1_V0.5.log: is a folder in a run's log's place" fifo.out ||
+  fail "the refusal does not name the folder: $(cat fifo.out)"
+rmdir fifo/logs/s1_seed1_V0.5.log
 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || fail "the campaign without the FIFO exited $?"
 
 # A folder in the lock's place is named as the cause (not "another sweep is working").

@@ -88,6 +88,18 @@ TEST(BadInput, UnknownKey) {
                "domain.length_x", "give domain.periodic_x = true with it");
 }
 
+TEST(BadInput, WallNamesAreWordsThatCanHeadACsvColumn) {
+  auto named = [](const std::string& name) {
+    std::string text = scene_text();
+    return text.replace(text.find("\"floor\""), 7, "\"" + name + "\"");
+  };
+  for (const std::string bad : {"a b", "a,b", "a'b", "a\\u0000b", "a\\u001bb", "a\\tb", ""})
+    expect_names(load_error(named(bad)), "walls[0].name", "printable characters");
+  TempDir dir("wall_names");
+  EXPECT_EQ(load_scene_file(dir.write("scene.toml", named("sol_\u00e9")), {}).scene.walls[0].name,
+            "sol_\xc3\xa9");  // UTF-8 letters are printable
+}
+
 TEST(BadInput, WrongType) {
   expect_names(load_error(scene_text("dt = \"fast\"\n")), "step.dt", "must be a number");
   expect_names(load_error(scene_text("dt = 1e-3\n", "",
@@ -174,6 +186,12 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   s = {};
   s.walls = {testing::free_y_wall("top", {0.0, 5.0}, {0.0, -1.0}, 0.0, {0.0, -1.0})};
   EXPECT_EQ(key_of(s), "walls[0].mass");
+  s.walls = {testing::free_y_wall("top", {0.0, 5.0}, {0.0, -1.0}, 1e-320, {0.0, -1.0})};
+  EXPECT_EQ(key_of(s), "walls[0].mass");  // subnormal: its inverse is infinite
+  s.walls = {testing::free_y_wall("top", {0.0, 5.0}, {0.0, -1.0}, 1e308, {0.0, -1.0})};
+  EXPECT_EQ(key_of(s), "walls[0].mass");  // its inverse is subnormal
+  s.walls = {testing::free_y_wall("top", {0.0, 5.0}, {0.0, -1.0}, 1e300, {0.0, -1.0})};
+  EXPECT_EQ(key_of(s), "(no error)");
   s = {};
   s.domain = {true, 2.0};  // shorter than 3 diameters
   s.disks = {disk({0.5, 0.5}, 0.5)};

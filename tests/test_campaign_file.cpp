@@ -313,6 +313,17 @@ void expect_refused(const std::string& text, const std::string& key, const std::
 
 const std::string kHead = "[campaign]\nname = \"b\"\n";
 
+TEST(CampaignFile, StepLimitIsTheRunsNotThePresets) {
+  // 1 t in steps of 1e-9 is 1e9 steps, within the limit of 2e9 that the preset's 20000 t exceed.
+  TempDir dir("campaign_dt");
+  const Campaign c = read_campaign(dir.write(
+      "c.toml",
+      kHead + "systems = [1]\nvelocities = [0.5]\nduration = 1\n[set]\nstep.dt = 1e-9\n"));
+  ASSERT_EQ(c.runs.size(), 1u);
+  EXPECT_EQ(c.runs[0].duration, 1.0);
+  EXPECT_EQ(c.runs[0].dt, 1e-9);
+}
+
 TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   const std::string ok_rest = "systems = [1]\nvelocities = [0.5]\nduration = 10\n";
   expect_refused(kHead + ok_rest + "velocitys = [1]\n", "campaign.velocitys", "unknown key");
@@ -392,6 +403,18 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"shear velocity\" = 1\n", "set", "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"\" = 1\n", "set", "empty");
+  // A run too big for its run.h5, refused as `cdshear run` would refuse it, with the campaign's
+  // duration: 1e8 samples in 1 t; 2e8 stripes in a 10-tall cell.
+  expect_refused(kHead +
+                     "systems = [1]\nvelocities = [0.5]\nduration = 1\n[set]\n"
+                     "measure.window = 0.5\nmeasure.sample_interval = 1e-8\n",
+                 "set.measure.sample_interval", "1e+08 samples over the duration 1");
+  expect_refused(kHead +
+                     "systems = [1]\nvelocities = [0.5]\nstrain = 0.1\n[set]\n"
+                     "system.height = 10.0\nmeasure.stripe_thickness = 1e-7\n",
+                 "set.measure.stripe_thickness", "profile points");
+  expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 1e9\n", "campaign.duration",
+                 "more than the limit");
   // An analysis of runs that measure nothing (it exited 0 with no analysis).
   expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = false\n", "campaign.analyze",
                  "measure nothing");

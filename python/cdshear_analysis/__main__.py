@@ -264,7 +264,8 @@ def main(argv=None):
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
         except OSError as e:
-            print(f"error: {e.filename}: {e.strerror}", file=sys.stderr)
+            where = e.filename or (args.output if args.command == "lammps-data" else "")
+            print(f"error: {where}: {e.strerror or e}", file=sys.stderr)
             return 1
         print(format_side_by_side(result))
         if args.json:

@@ -57,6 +57,8 @@ def load_packing(path):
             packing = json.load(f)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
+    except RecursionError:
+        raise PeerError(path, "cannot read packing: its JSON is nested too deeply") from None
     if not isinstance(packing, dict) or packing.get("format") != "cdshear-packing":
         raise PeerError(path, "not a cdshear packing (format != cdshear-packing)")
     for key in ("length_x", "height", "disks_xyr"):
@@ -84,10 +86,15 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
     type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from
     -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).
     """
-    lx, height = float(packing["length_x"]), float(packing["height"])
-    xyr = np.asarray(packing["disks_xyr"], dtype=float)
+    try:
+        lx, height = float(packing["length_x"]), float(packing["height"])
+        xyr = np.asarray(packing["disks_xyr"], dtype=float)
+    except (TypeError, ValueError):
+        raise PeerError("packing", "length_x, height and disks_xyr must be numbers") from None
     if xyr.ndim != 2 or xyr.shape[1] != 3 or len(xyr) == 0:
         raise PeerError("packing", "disks_xyr must be a non-empty list of [x, y, r]")
+    if not (math.isfinite(lx) and math.isfinite(height) and np.all(np.isfinite(xyr))):
+        raise PeerError("packing", "length_x, height and disks_xyr must be finite")
     if not (lx > 0 and height > 0 and np.all(xyr[:, 2] > 0)):
         raise PeerError("packing", "length_x, height and every radius must be positive")
     n = len(xyr)

@@ -211,7 +211,7 @@ def identity_problem(run_dir, s):
     try:
         with open_regular(os.path.join(run_dir, "case.toml"), encoding="utf-8") as f:
             case_toml = tomllib.loads(f.read())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None   # no case.toml to compare with (a summary kept alone, or a damaged case)
     case = s.get("case", {})
     for key, table, toml_key in IDENTITY_KEYS:
@@ -311,6 +311,8 @@ def campaign_runs(campaign_toml):
         data = tomllib.loads(raw.decode("utf-8"))
     except (OSError, ValueError) as e:  # tomllib.TOMLDecodeError is a ValueError
         raise ReportError(campaign_toml, f"cannot read: {e}") from None
+    except RecursionError:
+        raise ReportError(campaign_toml, "cannot read: nested too deeply") from None
     campaign = data.get("campaign")
     name = campaign.get("name") if isinstance(campaign, dict) else None
     name = name if isinstance(name, str) else None
@@ -331,7 +333,7 @@ def software(campaign_text, run_dirs):
             build = info.get("build")
             v = (build.get("description") if isinstance(build, dict) else None) or \
                 f"{info.get('program', '?')} {info.get('version', '?')}"
-        except (OSError, ValueError, AttributeError):
+        except (OSError, ValueError, AttributeError, RecursionError):
             v = "unknown (no readable run_info.json)"
         versions[v] = versions.get(v, 0) + 1
     return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}

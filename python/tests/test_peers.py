@@ -13,7 +13,7 @@ import unittest
 import numpy as np
 
 from cdshear_analysis.campaign import Campaign, compare_campaigns, paired_differences
-from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_run_row, lammps_series,
+from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_series,
                                     max_overlap, packing_to_lammps, ripple, second_half_estimates,
                                     bulk_stripes, segment_area, stripe_solid_fraction,
                                     wall_lines,
@@ -126,6 +126,21 @@ class PackingToLammps(unittest.TestCase):
                                  cwd=PYTHON_DIR, capture_output=True, text=True)
             self.assertEqual(out.returncode, 2)
             self.assertIn("not a cdshear packing", out.stderr)
+            # Nested too deeply, or numbers that are not finite: refused, never written out.
+            with open(bad, "w") as f:
+                f.write("[" * 100000 + "]" * 100000)
+            with self.assertRaisesRegex(PeerError, "nested too deeply"):
+                write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            for key, value in (("length_x", float("nan")), ("height", float("inf"))):
+                with open(bad, "w") as f:
+                    json.dump(dict(PACKING, **{key: value}), f)
+                with self.assertRaisesRegex(PeerError, "must be finite"):
+                    write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            with open(bad, "w") as f:
+                json.dump(dict(PACKING, disks_xyr=[[float("nan"), 1.0, 0.5]]), f)
+            with self.assertRaisesRegex(PeerError, "must be finite"):
+                write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            self.assertFalse(os.path.exists(os.path.join(tmp, "b.data")))
 
 
 class Estimates(unittest.TestCase):

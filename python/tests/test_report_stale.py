@@ -229,6 +229,22 @@ class DamagedSummaryTest(unittest.TestCase):
             self.assertIn("s1_seed1_V0.5", out)
             self.assertIn("cannot read", out)
 
+    def test_a_run_info_or_case_nested_too_deeply_is_no_traceback(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "deep", {1: [(0.5, 0.025, 0.35, 0.8, 3.0)]})
+            run = os.path.join(d, "runs", "s1_seed1_V0.5")
+            with open(os.path.join(run, "run_info.json"), "w") as f:
+                f.write("[" * 100000 + "]" * 100000)
+            self.assertIn("unknown (no readable run_info.json)", report.software("", [run])["runs"])
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write("x = " + "[" * 5000 + "1" + "]" * 5000 + "\n")
+            self.assertIsNone(report.identity_problem(run, {"run_dir": run}))
+            toml_path = os.path.join(d, "campaign.toml")
+            with open(toml_path, "w") as f:
+                f.write("x = " + "[" * 5000 + "1" + "]" * 5000 + "\n")
+            with self.assertRaisesRegex(report.ReportError, "nested too deeply"):
+                report.campaign_runs(toml_path)
+
     def test_json_nested_too_deeply_is_a_report_error(self):
         with tempfile.TemporaryDirectory() as d:
             path = os.path.join(d, "summary.json")

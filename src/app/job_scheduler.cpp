@@ -39,6 +39,8 @@ int open_regular_file(const std::filesystem::path& path, int flags, const std::s
       "is not a regular file (a FIFO or a device in " + role + "'s place): remove it";
   const int fd = ::open(path.c_str(), flags | O_NONBLOCK, 0644);
   if (fd < 0 && errno == ENXIO) throw ConfigError(path.string(), "", not_a_file);
+  if (fd < 0 && errno == EISDIR)
+    throw ConfigError(path.string(), "", "is a folder in " + role + "'s place: remove it");
   if (fd < 0) return -1;
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {

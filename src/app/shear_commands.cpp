@@ -135,13 +135,6 @@ void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path&
                  static_cast<unsigned long long>(c.seed));
 }
 
-/// The most samples a measured run may ask for (docs/reliability.md): run.h5 holds about 150
-/// bytes per sample, kept in memory and rewritten at every checkpoint.
-constexpr double kMaxSamples = 1e7;
-/// The most profile points (stripes times windows) a measured run may ask for: each window keeps
-/// about 150 bytes per stripe in run.h5, in memory and on disk.
-constexpr double kMaxProfilePoints = 1e7;
-
 struct RunArgs {
   CaseArgs c;
   std::string out_dir;
@@ -217,22 +210,6 @@ void plan_run(ShearSession& s) {
   const bool may_end_here = s.resuming && !end_files_written(s.dir, s.world.step);
   s.end_step = checked_end_step(c.duration, c.step.dt, s.world.step, s.case_source,
                                 "shear.duration", may_end_here);
-  if (c.measure.enabled && c.duration / c.measure.sample_interval > kMaxSamples)
-    throw ConfigError(s.case_source, "measure.sample_interval",
-                      fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
-                                  "(run.h5 would grow beyond 1.5 GB): sample less often",
-                                  c.duration / c.measure.sample_interval, c.duration, kMaxSamples));
-  if (c.measure.enabled) {
-    const double stripes = stripe_count(c.measure, c.height);
-    const double windows = std::max(1.0, std::ceil(c.duration / c.measure.window));
-    if (!(stripes * windows <= kMaxProfilePoints))
-      throw ConfigError(
-          s.case_source, "measure.stripe_thickness",
-          fmt::format("{:.3g} stripes (stripe_span x L_y / stripe_thickness) over {:.3g} windows "
-                      "exceed the limit of {:.0e} profile points (run.h5 would grow beyond 1.5 "
-                      "GB): thicker stripes or longer windows",
-                      stripes, windows, kMaxProfilePoints));
-  }
 }
 
 /// A case.toml written by an earlier cdshear lacks the parameters added since: the resume runs

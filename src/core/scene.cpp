@@ -117,9 +117,9 @@ void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, 
   }
 }
 
-/// Why a disk of this radius cannot move (its mass or moment of inertia is no normal number,
-/// so that its inverse overflows or loses its digits), or "" when it can.
-std::string mass_problem(double density, double radius) {
+}  // namespace
+
+std::string disk_mass_problem(double density, double radius) {
   const double mass = density * std::numbers::pi * radius * radius;
   const double inertia = 0.5 * mass * radius * radius;
   if (std::isnormal(mass) && std::isnormal(inertia)) return "";
@@ -128,7 +128,12 @@ std::string mass_problem(double density, double radius) {
          short_number(inertia) + ", outside the range of normal floating-point numbers";
 }
 
-}  // namespace
+std::string body_mass_problem(double mass) {
+  if (mass > 0.0 && std::isnormal(mass) && std::isnormal(1.0 / mass)) return "";
+  return "must be > 0 with an inverse that is a normal floating-point number (between about "
+         "2.2e-308 and 4.5e307), got " +
+         short_number(mass);
+}
 
 void validate_scene(const SceneDefinition& s) {
   if (s.domain.periodic_x && !(s.domain.length_x > 0.0))
@@ -147,12 +152,12 @@ void validate_scene(const SceneDefinition& s) {
                                       short_number(n));
     if (!(w.friction >= 0.0)) throw SceneError(indexed("walls", i, "friction"), "must be >= 0");
     const bool free = w.mode_x == AxisMode::kFree || w.mode_y == AxisMode::kFree;
-    if (free && !(w.mass > 0.0))
-      throw SceneError(indexed("walls", i, "mass"), "must be > 0 for a wall free along an axis");
+    if (const std::string why = body_mass_problem(w.mass); free && !why.empty())
+      throw SceneError(indexed("walls", i, "mass"), why + " for a wall free along an axis");
   }
   for (std::size_t i = 0; i < s.disks.size(); ++i) {
     if (!(s.disks[i].radius > 0.0)) throw SceneError(indexed("disks", i, "radius"), "must be > 0");
-    if (const std::string why = mass_problem(s.density, s.disks[i].radius); !why.empty())
+    if (const std::string why = disk_mass_problem(s.density, s.disks[i].radius); !why.empty())
       throw SceneError(indexed("disks", i, "radius"), why);
   }
   double largest_diameter = 0.0;
@@ -164,7 +169,7 @@ void validate_scene(const SceneDefinition& s) {
     if (!(r.diameter_max >= r.diameter_min))
       throw SceneError(indexed("random_disks", i, "diameter_max"), "must be >= diameter_min");
     for (const double diameter : {r.diameter_min, r.diameter_max})
-      if (const std::string why = mass_problem(s.density, 0.5 * diameter); !why.empty())
+      if (const std::string why = disk_mass_problem(s.density, 0.5 * diameter); !why.empty())
         throw SceneError(indexed("random_disks", i,
                                  diameter == r.diameter_min ? "diameter_min" : "diameter_max"),
                          why);

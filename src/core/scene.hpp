@@ -69,6 +69,14 @@ struct PlacementCancelled : std::runtime_error {
   PlacementCancelled() : std::runtime_error("random placement interrupted") {}
 };
 
+/// Why a disk of this radius cannot move (its mass or moment of inertia at `density` is no normal
+/// floating-point number, so that its inverse overflows or loses its digits), or "" when it can.
+std::string disk_mass_problem(double density, double radius);
+
+/// Why a body of this mass cannot move (the mass or its inverse is no normal floating-point
+/// number), or "" when it can.
+std::string body_mass_problem(double mass);
+
 /// Checks the definition's values (positive radii, masses of free walls, unit-able normals,
 /// periodic length large enough). Throws SceneError naming the key.
 void validate_scene(const SceneDefinition& scene);

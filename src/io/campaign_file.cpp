@@ -209,22 +209,33 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   run.system = system;
   run.velocity = v;
   run.seed = seed;
-  CaseSource src;
-  src.system = system;
-  src.velocity = v;
-  src.overrides = run_case_overrides(c, run);  // checked as the run will get them
-  ShearCase sc;
-  try {
-    sc = load_case(src);
-  } catch (const ConfigError& e) {
-    const std::string key =
-        e.key() == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
-        : e.key() == "shear.velocity"
-            ? gr.full_key(gr.has("velocities") ? "velocities" : "velocity_range")
-        : e.key().empty() ? std::string("set")
-                          : "set." + e.key();
-    throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
-  }
+  const std::string length_key = g.strain ? "strain" : "duration";
+  // The case as the run will get it: the campaign's overrides, and its duration (the sweep's
+  // `--set shear.duration`), not the preset's. A strain needs L_y: the case is read first with
+  // a unit duration to learn it.
+  const auto load = [&](double duration) {
+    CaseSource src;
+    src.system = system;
+    src.velocity = v;
+    src.overrides = run_case_overrides(c, run);
+    src.overrides.push_back(fmt::format("shear.duration={}", duration));
+    try {
+      return load_case(src);
+    } catch (const ConfigError& e) {
+      const std::string key =
+          e.key() == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
+          : e.key() == "shear.velocity"
+              ? gr.full_key(gr.has("velocities") ? "velocities" : "velocity_range")
+          : e.key() == "shear.duration" ? gr.full_key(length_key)
+          : e.key().empty()             ? std::string("set")
+                                        : "set." + e.key();
+      throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
+    }
+  };
+  run.duration = g.duration                      ? *g.duration
+                 : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
+                                                 : *g.strain * load(1.0).height / (2.0 * v);
+  ShearCase sc = load(run.duration);
   if (c.analyze && !sc.measure.enabled)
     t.fail("analyze",
            "is true, but the runs measure nothing ([set] measure.enabled = false): there "
@@ -251,22 +262,17 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   }
   run.n = sc.n;
   run.height = sc.height;
-  run.duration = g.duration                      ? *g.duration
-                 : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
-                                                 : *g.strain * sc.height / (2.0 * v);
-  sc.duration = run.duration;
   resolve_step_rules(sc);
   run.dt = sc.step.dt;
   const double steps = run.duration / run.dt;
   if (!(steps >= 0.5))
-    gr.fail(g.strain ? "strain" : "duration",
+    gr.fail(length_key,
             fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
                         run.name, run.duration, run.dt));
   if (steps > kMaxRunSteps)  // the limit `cdshear run` would refuse it with
-    gr.fail(g.strain ? "strain" : "duration",
-            fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
-                        "(docs/reliability.md)",
-                        run.name, steps, kMaxRunSteps));
+    gr.fail(length_key, fmt::format("gives run {} {:.3g} steps, more than the limit of {:.0e} "
+                                    "(docs/reliability.md)",
+                                    run.name, steps, kMaxRunSteps));
 }
 
 /// [campaign.packing]: a packing file per system (relative to the campaign file's folder),

@@ -1,9 +1,12 @@
 #include "case_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
 #include <limits>
 #include <sstream>
+
+#include <fmt/format.h>
 
 #include "case_settings.hpp"
 #include "config_error.hpp"
@@ -12,6 +15,11 @@
 
 namespace cdshear {
 namespace {
+
+/// The most samples of the series a measured run may ask for (docs/reliability.md).
+constexpr double kMaxSamples = 1e7;
+/// The most profile points (stripes times windows) a measured run may ask for.
+constexpr double kMaxProfilePoints = 1e7;
 
 /// The readers of a case file's tables, each created when first asked for, so that every table
 /// is checked for unknown keys (finish) once all its settings are read.
@@ -37,6 +45,15 @@ class TableReaders {
 /// `constraint` of the rows of case_settings(), which the docs print.
 void check_constraints(const ShearCase& c, TableReaders& t) {
   if (c.diameter_max < c.diameter_min) t["system"].fail("diameter_max", "must be >= diameter_min");
+  // Numbers the engine inverts (docs/reliability.md): the smallest disk's mass and moment of
+  // inertia, the walls' and the piston's masses.
+  if (const std::string why = disk_mass_problem(SceneDefinition{}.density, 0.5 * c.diameter_min);
+      !why.empty())
+    t["system"].fail("diameter_min", "a disk of this diameter cannot move: " + why);
+  if (const std::string why = body_mass_problem(c.wall_mass); !why.empty())
+    t["shear"].fail("wall_mass", why);
+  if (const std::string why = body_mass_problem(c.preparation.piston_mass); !why.empty())
+    t["preparation"].fail("piston_mass", why);
   if (c.height <= c.diameter_max)
     t["system"].fail("height", "L_y = " + format_number(c.height) +
                                    " must exceed the largest grain diameter " +
@@ -108,6 +125,24 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   if (mo.window < mo.sample_interval)
     m.fail("window",
            "must be at least measure.sample_interval (" + format_number(mo.sample_interval) + ")");
+  // run.h5 holds about 150 bytes per sample and per profile point (a stripe in a window), kept
+  // in memory and rewritten at every checkpoint: a run that would grow it beyond 1.5 GB is a
+  // typo, refused where the case is read (by `run`, `settings` and `sweep` alike).
+  if (mo.enabled && !(c.duration / mo.sample_interval <= kMaxSamples))
+    m.fail("sample_interval",
+           fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
+                       "(run.h5 would grow beyond 1.5 GB): sample less often",
+                       c.duration / mo.sample_interval, c.duration, kMaxSamples));
+  if (mo.enabled) {
+    const double stripes = stripe_count(mo, c.height);
+    const double windows = std::max(1.0, std::ceil(c.duration / mo.window));
+    if (!(stripes * windows <= kMaxProfilePoints))
+      m.fail("stripe_thickness",
+             fmt::format("{:.3g} stripes (stripe_span x L_y / stripe_thickness) over {:.3g} "
+                         "windows exceed the limit of {:.0e} profile points (run.h5 would grow "
+                         "beyond 1.5 GB): thicker stripes or longer windows",
+                         stripes, windows, kMaxProfilePoints));
+  }
 }
 
 }  // namespace

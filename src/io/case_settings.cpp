@@ -678,7 +678,8 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "t",
             .meaning = "time between samples of the series and the profiles",
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "shear.duration / sample_interval <= 1e7 samples"},
           [](auto& c) -> auto& { return c.measure.sample_interval; }),
       bind(
           S{.table = "measure",
@@ -697,7 +698,8 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "d",
             .meaning = "dy of the stripe profiles",
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "stripes x windows <= 1e7 profile points"},
           [](auto& c) -> auto& { return c.measure.stripe_thickness; }),
       bind(
           S{.table = "measure",

@@ -1,5 +1,6 @@
 #include "scene_file.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "case_settings.hpp"
@@ -68,10 +69,13 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   for (TomlReader& w : root.tables("walls")) {
     Wall wall;
     wall.name = w.string("name", "wall" + std::to_string(s.walls.size()));
-    // Names head CSV columns: no separators, quotes or line breaks, and no two alike.
-    if (wall.name.empty() || wall.name.find_first_of(",\"\n\r\t ") != std::string::npos)
+    // Names head CSV columns: printable, without separators, quotes or spaces, no two alike.
+    const bool printable = std::all_of(wall.name.begin(), wall.name.end(),
+                                       [](unsigned char ch) { return ch > ' ' && ch != 0x7f; });
+    if (wall.name.empty() || !printable || wall.name.find_first_of(",\"'") != std::string::npos)
       w.fail("name",
-             "'" + wall.name + "' must be a non-empty word without commas, quotes or spaces");
+             "must be a non-empty word of printable characters without commas, quotes or "
+             "spaces");
     for (const Wall& other : s.walls)
       if (other.name == wall.name) w.fail("name", "'" + wall.name + "' names two walls");
     wall.point = w.vec2("point");
