@@ -258,7 +258,7 @@ campaign locked "[0.5]"
 mkdir -p locked/.sweep.lock
 rc=0; "$exe" sweep locked.toml -o locked > locked.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a folder as the lock exited $rc, not 2: $(cat locked.out)"
-grep -q "locked/.sweep.lock: cannot open the sweep's lock file: Is a directory" locked.out ||
+grep -q "locked/.sweep.lock: is a folder in the sweep's lock's place" locked.out ||
   fail "the refusal does not name the lock: $(cat locked.out)"
 
 # A folder that is not a campaign's is refused before anything is written in it: one holding
