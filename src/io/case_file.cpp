@@ -128,12 +128,12 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   // run.h5 holds about 150 bytes per sample and per profile point (a stripe in a window), kept
   // in memory and rewritten at every checkpoint: a run that would grow it beyond 1.5 GB is a
   // typo, refused where the case is read (by `run`, `settings` and `sweep` alike).
-  if (mo.enabled && !(c.duration / mo.sample_interval <= kMaxSamples))
-    m.fail("sample_interval",
-           fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
-                       "(run.h5 would grow beyond 1.5 GB): sample less often",
-                       c.duration / mo.sample_interval, c.duration, kMaxSamples));
   if (mo.enabled) {
+    if (!(c.duration / mo.sample_interval <= kMaxSamples))
+      m.fail("sample_interval",
+             fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
+                         "(run.h5 would grow beyond 1.5 GB): sample less often",
+                         c.duration / mo.sample_interval, c.duration, kMaxSamples));
     const double stripes = stripe_count(mo, c.height);
     const double windows = std::max(1.0, std::ceil(c.duration / mo.window));
     if (!(stripes * windows <= kMaxProfilePoints))
