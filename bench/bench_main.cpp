@@ -254,7 +254,8 @@ Reference solve of --step-error:
                       times 100000 hand-overs, in ns) and stop: on a virtual machine it
                       changes with where the host places the two processors, and the
                       solver's two-thread speed with it (docs/benchmarks.md, "Threads")
-  --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv)
+  --save[=PATH]       append the CSV lines to PATH (default bench/results/<hostname>.csv);
+                      PATH's folder must exist
   --help              this text
 CSV lines go to stdout, progress to stderr. See docs/benchmarks.md.
 )";
@@ -463,6 +464,15 @@ Settings parse(int argc, char** argv) {
     throw UsageError("--dump-samples needs --step-error");
   if (!s.state.empty() && !s.packing.empty())
     throw UsageError("--state and --packing exclude each other");
+  if (!s.save_path.empty()) {  // checked before the bench runs, so that no figure is lost to it
+    const std::filesystem::path path(s.save_path);
+    const std::filesystem::path folder = path.parent_path();
+    if (std::filesystem::is_directory(path))
+      throw UsageError("--save=" + s.save_path + ": is a folder; --save takes a CSV file's path");
+    if (!folder.empty() && !std::filesystem::is_directory(folder))
+      throw UsageError("--save=" + s.save_path + ": the folder " + folder.string() +
+                       " does not exist (only the default bench/results/ is created)");
+  }
   return s;
 }
 
@@ -1500,7 +1510,7 @@ int run(const Settings& s) {
     const fs::path path = s.save_path.empty()
                               ? fs::path(CDSHEAR_SOURCE_DIR) / "bench" / "results" / (host + ".csv")
                               : fs::path(s.save_path);
-    if (path.has_parent_path()) fs::create_directories(path.parent_path());
+    if (s.save_path.empty()) fs::create_directories(path.parent_path());
     const bool fresh = !fs::exists(path) || fs::file_size(path) == 0;
     std::ofstream out(path, std::ios::app);
     if (!out) throw std::runtime_error("cannot append to " + path.string());

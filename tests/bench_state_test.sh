@@ -7,7 +7,7 @@
 # and the top wall force and below 1% of V in the velocities, and refuses a jitter out of range
 # by name. --dt steps with the time step given instead of the rule's, and refuses one that is not
 # positive. A file that is not a checkpoint, options out of range and a missing packing are
-# refused by name (exit 2).
+# refused by name (exit 2), as is a --save=PATH whose folder does not exist.
 # Usage: bench_state_test.sh CDSHEAR CDSHEAR_BENCH PACKING WORKDIR
 set -uo pipefail
 exe=$1; bench=$2; packing=$3; work=$4
@@ -101,6 +101,13 @@ for bad in "--sizes 0" "--sizes 100000000" "--width -3" "--seconds -1" "--step-e
   named=${bad%% *}; [ "$named" = --packing ] && named=${bad#* }
   if [ $rc -ne 2 ] || ! grep -qF -- "$named" bad.txt; then
     echo "FAIL: cdshear_bench $bad: exit $rc"; cat bad.txt; fails=$((fails + 1))
+  fi
+done
+# --save=PATH creates no folder, and a folder in the file's place is refused: both before a step.
+for bad in "$work/no_such_folder/x.csv" "$work/run"; do
+  timeout 60 "$bench" --save="$bad" --sizes 100 --steps 1 > /dev/null 2> bad.txt; rc=$?
+  if [ $rc -ne 2 ] || ! grep -qF -- "--save=$bad" bad.txt || [ -e "$work/no_such_folder" ]; then
+    echo "FAIL: cdshear_bench --save=$bad: exit $rc"; cat bad.txt; fails=$((fails + 1))
   fi
 done
 echo "bench_state_test: $fails failures"

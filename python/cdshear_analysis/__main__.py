@@ -311,6 +311,9 @@ def main(argv=None):
     from .rundata import RunDataError, load_run
     from .summary import analyze, format_report, write_summary
     try:
+        if args.command == "plot" and args.out_dir:
+            from .plots import check_figure_folder
+            check_figure_folder(args.run_dir, args.out_dir)   # before the run is read
         run = load_run(args.run_dir)
         summary = analyze(run)
         if args.command == "analyze":

@@ -54,7 +54,7 @@ def load_packing(path):
     """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
     try:
         with open_regular(path, encoding="utf-8") as f:
-            packing = json.load(f)
+            packing = json.load(f, object_pairs_hook=_unique_keys)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
     except RecursionError:
@@ -65,6 +65,22 @@ def load_packing(path):
         if key not in packing:
             raise PeerError(path, f"packing has no '{key}'")
     return packing
+
+
+def _unique_keys(pairs):
+    """A JSON object as a dict, refusing a key given twice (json keeps the last silently, where
+    `cdshear` refuses the file)."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"the key '{key}' is given twice in one object")
+        out[key] = value
+    return out
+
+
+def _is_number(value):
+    """A JSON number (int or float, not true or false, not a string)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 def ripple(wall_radius, spacing, grain_radius):
@@ -86,13 +102,18 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
     type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from
     -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).
     """
-    try:
-        lx, height = float(packing["length_x"]), float(packing["height"])
-        xyr = np.asarray(packing["disks_xyr"], dtype=float)
-    except (TypeError, ValueError):
-        raise PeerError("packing", "length_x, height and disks_xyr must be numbers") from None
-    if xyr.ndim != 2 or xyr.shape[1] != 3 or len(xyr) == 0:
+    for key in ("length_x", "height"):
+        if not _is_number(packing[key]):
+            raise PeerError("packing", f"{key} must be a number, got {packing[key]!r}")
+    disks = packing["disks_xyr"]
+    if not isinstance(disks, list) or not disks:
         raise PeerError("packing", "disks_xyr must be a non-empty list of [x, y, r]")
+    for i, disk in enumerate(disks):
+        if not (isinstance(disk, list) and len(disk) == 3 and all(map(_is_number, disk))):
+            raise PeerError("packing", f"disks_xyr[{i}] must be [x, y, r], three numbers, "
+                                       f"got {disk!r}"[:200])
+    lx, height = float(packing["length_x"]), float(packing["height"])
+    xyr = np.asarray(disks, dtype=float)
     if not (math.isfinite(lx) and math.isfinite(height) and np.all(np.isfinite(xyr))):
         raise PeerError("packing", "length_x, height and disks_xyr must be finite")
     if not (lx > 0 and height > 0 and np.all(xyr[:, 2] > 0)):

@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 
-from .rundata import RunDataError  # noqa: E402
+from .rundata import RUN_FOLDER_FILES, RunDataError  # noqa: E402
 
 DPI = 120
 MAX_PROFILES = 10          # velocity profiles drawn at most
@@ -245,6 +245,25 @@ def steady_profiles(run, summary):
 FIGURES = {"snapshot.png": snapshot, "velocity_profiles.png": velocity_profiles,
            "com_velocity.png": com_velocity, "height_solid_fraction.png": height_solid_fraction,
            "steady_profiles.png": steady_profiles}
+
+
+def check_figure_folder(run_dir, out_dir):
+    """Raises RunDataError when out_dir is another run's folder or that run's figures/ folder:
+    the figures written there would replace that run's own (its figures/ is where `cdshear sweep`
+    looks for them). The run's own folder and anything else are accepted."""
+    own = os.path.realpath(run_dir)
+    where = os.path.realpath(out_dir)
+    for folder in (where, os.path.dirname(where)):
+        if folder == own:
+            continue
+        found = [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(folder, f))]
+        if found:
+            whose = "is another run's folder" if folder == where else \
+                "is in another run's folder"
+            raise RunDataError(out_dir, f"-o: {whose} ({folder} holds {', '.join(found)}): "
+                                        f"this run's figures would replace that run's; choose "
+                                        f"another -o (default: "
+                                        f"{os.path.join(run_dir, 'figures')})")
 
 
 def plot_run(run, summary, out_dir, skipped=None):

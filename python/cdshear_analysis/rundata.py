@@ -47,6 +47,8 @@ import numpy as np
 from .profiles import former_regions
 
 RUN_FILE = "run.h5"
+# The files that mark a folder as a run's (what `cdshear run` writes there).
+RUN_FOLDER_FILES = (RUN_FILE, "summary.json", "case.toml", "checkpoint.cbor", "final_state.json")
 FORMAT_VERSION = 4
 REQUIRED_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window",
                   "time")

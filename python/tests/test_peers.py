@@ -140,6 +140,22 @@ class PackingToLammps(unittest.TestCase):
                 json.dump(dict(PACKING, disks_xyr=[[float("nan"), 1.0, 0.5]]), f)
             with self.assertRaisesRegex(PeerError, "must be finite"):
                 write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            # Numbers as strings or booleans, a disk of two numbers, a key given twice: refused
+            # by name, as `cdshear` refuses them (json would convert or keep the last).
+            for changed, problem in ((dict(height="10"), "height must be a number"),
+                                     (dict(length_x=True), "length_x must be a number"),
+                                     (dict(disks_xyr=[[1.0, 2.0, 0.5], [1.0, "2", 0.5]]),
+                                      r"disks_xyr\[1\] must be \[x, y, r\]"),
+                                     (dict(disks_xyr=[[1.0, 2.0]]), r"disks_xyr\[0\]"),
+                                     (dict(disks_xyr={"x": 1}), "non-empty list")):
+                with open(bad, "w") as f:
+                    json.dump(dict(PACKING, **changed), f)
+                with self.assertRaisesRegex(PeerError, problem):
+                    write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            with open(bad, "w") as f:
+                f.write(json.dumps(PACKING)[:-1] + ', "height": 99}')
+            with self.assertRaisesRegex(PeerError, "'height' is given twice"):
+                write_lammps_packing(bad, os.path.join(tmp, "b.data"))
             self.assertFalse(os.path.exists(os.path.join(tmp, "b.data")))
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from cdshear_analysis import RunDataError, analyze, format_report, load_run
 from cdshear_analysis.plots import plot_run
-from cdshear_analysis.rundata import seal
+from cdshear_analysis.rundata import RUN_FILE, seal
 from cdshear_analysis.summary import jsonable
 from cdshear_analysis.synthetic import write_synthetic_run
 
@@ -168,6 +168,22 @@ class EndToEnd(unittest.TestCase):
             out = os.path.join(d, "elsewhere")
             self.assertEqual(run_module("plot", run_dir, "-o", out).returncode, 0)
             self.assertEqual(sorted(os.listdir(out)), sorted(FIGURES))
+            # Its own folder may hold them; another run's folder or figures/ may not.
+            self.assertEqual(run_module("plot", run_dir, "-o", run_dir).returncode, 0)
+            other = os.path.join(d, "other")
+            write_synthetic_run(other, kind="A", duration=400.0, seed=5)
+            os.mkdir(os.path.join(other, "figures"))
+            for target in (other, os.path.join(other, "figures"),
+                           os.path.join(other, "figures", "..")):
+                with self.subTest(target=target):
+                    result = run_module("plot", run_dir, "-o", target)
+                    self.assertEqual(result.returncode, 2, result.stderr)
+                    self.assertTrue(result.stderr.startswith(f"error: {target}: -o: "),
+                                    result.stderr)
+                    self.assertIn("another run's folder", result.stderr)
+                    self.assertIn(f"holds {RUN_FILE}", result.stderr)
+                    self.assertEqual(os.listdir(os.path.join(other, "figures")), [])
+                    self.assertFalse(any(f.endswith(".png") for f in os.listdir(other)))
 
     def test_interrupted_short_run_is_not_steady_but_analyzed(self):
         with tempfile.TemporaryDirectory() as d:
