@@ -290,6 +290,11 @@ expect_error "must be > 0, got -1e+300" "$exe" run -q --set shear.normal_stress=
 cp done/checkpoint.cbor other/checkpoint.cbor
 expect_error "key 'case.velocity': the checkpoint is of a run with velocity = 0.5" \
   "$exe" run -q --no-analyze --resume other --set shear.duration=0.4
+# So is a case.toml whose initial velocity was edited after the run started from another one.
+cp -r done started_linear
+sed -i "s/^initial_velocity = .*/initial_velocity = 'rest'/" started_linear/case.toml
+expect_error "key 'case.initial_velocity': the checkpoint is of a run with initial_velocity = \"linear\"" \
+  "$exe" run -q --no-analyze --resume started_linear --set shear.duration=0.4
 
 # One rule for every command that writes a folder: a folder holding anything is refused.
 mkdir -p mine && echo "my notes" > mine/notes.txt

@@ -205,8 +205,9 @@ def main(argv=None):
 
     if args.command == "profile-decay":
         import json
-        from .relaxation import decay_against_diffusion, format_decay_table
+        from .relaxation import bulk_law_problem, decay_against_diffusion, format_decay_table
         from .report import ReportError, read_json, read_summary
+        from .rundata import output_problem
         from .summary import SUMMARY_FORMAT
         summaries = []
         try:
@@ -221,6 +222,15 @@ def main(argv=None):
             fits = fits.get("fits") if isinstance(fits, dict) else None
             if not isinstance(fits, dict):
                 raise ReportError(args.fits, "no `fits` table (a report's fits.json)")
+            if why := bulk_law_problem(fits):
+                raise ReportError(args.fits, why)
+            inputs = list(args.run_dirs) + [args.fits]
+            for option, out in (("--json", args.json), ("--plot", args.plot)):
+                if out is not None and (why := output_problem(out, inputs)):
+                    raise ReportError(out, f"{option}: {why}")
+            if args.plot is not None and not args.plot.lower().endswith(".png"):
+                raise ReportError(args.plot, "--plot: the figure is a PNG file: its name must "
+                                             "end in .png")
         except ReportError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
@@ -251,13 +261,24 @@ def main(argv=None):
 
     if args.command in ("lammps-data", "side-by-side"):
         from .peers import PeerError, format_side_by_side, side_by_side, write_lammps_packing
-        from .rundata import RunDataError
+        from .rundata import RunDataError, output_problem
         try:
             if args.command == "lammps-data":
+                for option, out in (("-o", args.output), ("-o (its .vars)", args.output + ".vars")):
+                    if why := output_problem(out, [args.packing]):
+                        raise PeerError(out, f"{option}: {why}")
                 info = write_lammps_packing(args.packing, args.output)
                 print(f"{args.output}: {info['n_grains']} grains, 2 walls of {info['n_wall']} "
                       f"disks, L_x = {info['length_x']:.6g}, L_y = {info['height0']:.6g}")
                 return 0
+            if args.json is not None and \
+                    (why := output_problem(args.json, [args.cdshear_run, args.lammps_dir])):
+                raise PeerError(args.json, f"--json: {why}")
+            for option, value in (("--duration", args.duration),
+                                  ("--cdshear-seconds", args.cdshear_seconds),
+                                  ("--lammps-seconds", args.lammps_seconds)):
+                if not (math.isfinite(value) and value > 0):
+                    raise PeerError(option, f"must be a number > 0, got {value:g}")
             result = side_by_side(args.cdshear_run, args.lammps_dir, args.duration,
                                   args.cdshear_seconds, args.lammps_seconds)
         except (PeerError, RunDataError) as e:
@@ -270,8 +291,12 @@ def main(argv=None):
         print(format_side_by_side(result))
         if args.json:
             import json
-            with open(args.json, "w", encoding="utf-8") as f:
-                json.dump(result, f, indent=1)
+            try:
+                with open(args.json, "w", encoding="utf-8") as f:
+                    json.dump(result, f, indent=1)
+            except OSError as e:
+                print(f"error: {args.json}: cannot write: {e.strerror or e}", file=sys.stderr)
+                return 1
         return 0
 
     if args.command == "report":

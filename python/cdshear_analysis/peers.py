@@ -192,7 +192,8 @@ def lammps_series(path):
     names = ("step", "time", "bottom_fx", "bottom_fy", "top_fx", "top_fy", "height",
              "solid_fraction", "com_vx")
     try:
-        table = np.loadtxt(path, comments="#", ndmin=2)
+        with open_regular(path, encoding="utf-8") as f:
+            table = np.loadtxt(f, comments="#", ndmin=2)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read LAMMPS series: {e}") from e
     if table.shape[0] == 0 or table.shape[1] != len(names):
@@ -254,15 +255,23 @@ def read_dump(path):
     i = 0
     while i < len(lines):
         if lines[i].startswith("ITEM: TIMESTEP"):
-            step = int(lines[i + 1])
-            count = int(lines[i + 3])
-            xlo, xhi = (float(v) for v in lines[i + 5].split()[:2])
+            try:
+                step = int(lines[i + 1])
+                count = int(lines[i + 3])
+                xlo, xhi = (float(v) for v in lines[i + 5].split()[:2])
+                header = lines[i + 8].split()[2:]
+                want = ["id", "type", "x", "y", "radius"]
+                if header != want:
+                    raise PeerError(path, f"dump columns {header}, expected {want}")
+                rows = np.array([lines[i + 9 + k].split() for k in range(count)], dtype=float)
+            except (IndexError, ValueError):
+                raise PeerError(path, f"the snapshot from line {i + 1} is cut short or not "
+                                      f"numbers (ITEM: TIMESTEP, NUMBER OF ATOMS, BOX BOUNDS, "
+                                      f"ATOMS id type x y radius, then one row per atom)") from None
+            if rows.shape != (count, 5) or not (np.all(np.isfinite(rows)) and xhi > xlo):
+                raise PeerError(path, f"the snapshot from line {i + 1}: expected {count} rows "
+                                      f"of 5 finite numbers and xhi > xlo")
             lx = xhi - xlo
-            header = lines[i + 8].split()[2:]
-            want = ["id", "type", "x", "y", "radius"]
-            if header != want:
-                raise PeerError(path, f"dump columns {header}, expected {want}")
-            rows = np.array([lines[i + 9 + k].split() for k in range(count)], dtype=float)
             snaps.append((step, rows))
             i += 9 + count
         else:

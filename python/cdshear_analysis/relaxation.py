@@ -185,6 +185,35 @@ def _mean(summary, *keys):
     return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None
 
 
+def _number(v):
+    """v when it is a finite number (not a boolean), else None."""
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return v if ok else None
+
+
+def bulk_law_problem(fits):
+    """Why the bulk laws of fits.json's `fits` (`mu_power`, `mu_linear`, where given) cannot be
+    used by decay_against_diffusion, naming the key; None when they can."""
+    for key in ("mu_power", "mu_linear"):
+        if key not in fits:
+            continue
+        law = fits[key]
+        if not isinstance(law, dict):
+            return f"fits.{key} is not an object"
+        params = law.get("parameters")
+        if not params:
+            continue   # a law not fitted: not usable, and said so per run
+        if not isinstance(law.get("model"), str):
+            return f"fits.{key}.model is not a text"
+        wanted = 3 if law["model"].startswith("power") else 2
+        if not isinstance(params, dict) or len(params) < wanted:
+            return f"fits.{key}.parameters is not an object of at least {wanted} parameters"
+        for name, p in params.items():
+            if not (isinstance(p, dict) and _number(p.get("value")) is not None):
+                return f"fits.{key}.parameters.{name}.value is not a finite number"
+    return None
+
+
 def decay_against_diffusion(summaries, fits):
     """One entry per run (summary.json dicts with "run" added): the measured tau beside T_SS =
     L_y^2 / D (D from the bulk law `mu_power` of fits.json's `fits`, or `mu_linear`, at the run's
@@ -203,17 +232,19 @@ def decay_against_diffusion(summaries, fits):
              "regime": s.get("regime"), "steady": s.get("steady"),
              "L_y": _mean(s, "height"), "I_bulk": _mean(s, "bulk", "inertial_number"),
              "nu_bulk": _mean(s, "bulk", "solid_fraction"),
-             "sigma_yy": _mean(s, "case", "normal_stress"), "tau": d.get("tau"),
-             "tau_err": d.get("tau_err"), "fit_range": d.get("fit_range"),
+             "sigma_yy": _mean(s, "case", "normal_stress"), "tau": _number(d.get("tau")),
+             "tau_err": _number(d.get("tau_err")), "fit_range": d.get("fit_range"),
              "shape_overlap": d.get("shape_overlap"), "law": law, "D": None, "T_SS": None,
              "tau_over_T_SS": None, "used": False, "reason": None}
-        missing = [k for k in ("L_y", "I_bulk", "nu_bulk", "sigma_yy") if e[k] is None]
+        # Each must be a number above 0 (L_y^2 / D and sqrt(m / sigma_yy) need it).
+        missing = [k for k in ("L_y", "I_bulk", "nu_bulk", "sigma_yy")
+                   if e[k] is None or e[k] <= 0]
         if not d:
             e["reason"] = "no profile_decay in summary.json (analyze the run again)"
         elif law is None:
             e["reason"] = "no bulk law whose parameters are determined"
         elif missing:
-            e["reason"] = "missing " + ", ".join(missing)
+            e["reason"] = "missing or not above 0: " + ", ".join(missing)
         elif fitting.slope(fits[law], e["I_bulk"]) <= 0:
             e["reason"] = f"d mu / d I <= 0 at I_bulk = {e['I_bulk']:.3g}: no diffusion"
         else:
@@ -223,6 +254,8 @@ def decay_against_diffusion(summaries, fits):
                 e["tau_over_T_SS"] = e["tau"] / e["T_SS"]
             if d.get("reason"):
                 e["reason"] = d["reason"]
+            elif e["tau"] is None or not (e["tau_err"] or 0) > 0:
+                e["reason"] = "no decay time tau with an error above 0 in summary.json"
             elif e["initial_velocity"] != "rest":
                 e["reason"] = "not started at rest"
             elif e["regime"] != "A" or not e["steady"]:

@@ -75,6 +75,30 @@ def open_regular(path, mode="r", **kwargs):
     return open(path, mode, **kwargs)
 
 
+def output_problem(path, inputs=()):
+    """Why a command may not write the file `path`, or None. An existing file is replaced, as
+    any output is, unless it is one of the command's `inputs` (files or folders it reads), a
+    file inside an input folder, or a run's own file (RUN_FOLDER_FILES in a folder that holds
+    run.h5): those hold results the command would lose. A folder, or a file in a folder that
+    does not exist, cannot be written."""
+    where = os.path.realpath(path)
+    if os.path.isdir(path):
+        return "is a folder, not a file"
+    folder = os.path.dirname(where)
+    if not os.path.isdir(folder):
+        return f"its folder {folder} does not exist"
+    for source in inputs:
+        source = os.path.realpath(source)
+        if where == source:
+            return "is one of the command's inputs: writing it would replace what it reads"
+        if os.path.isdir(source) and where.startswith(source + os.sep) and os.path.exists(where):
+            return f"is a file of the input folder {source}: writing it would replace it"
+    if os.path.basename(where) in RUN_FOLDER_FILES and \
+            os.path.lexists(os.path.join(folder, RUN_FILE)):
+        return f"is a run's own file ({folder} holds {RUN_FILE}): writing it would replace it"
+    return None
+
+
 USER_BLOCK = 512
 SEAL = re.compile(rb"cdshear-run crc32=([0-9a-f]{8}) size=([0-9]+)\n")
 

@@ -18,6 +18,8 @@ from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_series,
                                     bulk_stripes, segment_area, stripe_solid_fraction,
                                     wall_lines,
                                     write_lammps_packing)
+from cdshear_analysis.rundata import load_run
+from cdshear_analysis.synthetic import write_synthetic_run
 
 PYTHON_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -157,6 +159,65 @@ class PackingToLammps(unittest.TestCase):
             with self.assertRaisesRegex(PeerError, "'height' is given twice"):
                 write_lammps_packing(bad, os.path.join(tmp, "b.data"))
             self.assertFalse(os.path.exists(os.path.join(tmp, "b.data")))
+            # An output that would replace the packing read, or a run's own file: refused.
+            run = os.path.join(tmp, "run")
+            write_synthetic_run(run, kind="A", duration=100.0)
+            with open(packing, "rb") as f:
+                packing_bytes = f.read()
+            for target, problem in ((packing, "is one of the command's inputs"),
+                                    (os.path.join(run, "run.h5"), "is a run's own file"),
+                                    (tmp, "is a folder")):
+                out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "lammps-data",
+                                      packing, "-o", target],
+                                     cwd=PYTHON_DIR, capture_output=True, text=True)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertTrue(out.stderr.startswith(f"error: {target}: -o: {problem}"),
+                                out.stderr)
+            with open(packing, "rb") as f:
+                self.assertEqual(f.read(), packing_bytes)
+            load_run(run)   # still a sealed run
+
+
+class SideBySideInput(unittest.TestCase):
+    def side_by_side(self, run, lammps, *extra, duration="100"):
+        return subprocess.run([sys.executable, "-m", "cdshear_analysis", "side-by-side",
+                               "--cdshear-run", run, "--lammps-dir", lammps, "--duration",
+                               duration, "--cdshear-seconds", "1", "--lammps-seconds", "2",
+                               *extra], cwd=PYTHON_DIR, capture_output=True, text=True,
+                              timeout=60)
+
+    def test_bad_options_and_files_are_refused_by_name(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            run, lammps = os.path.join(tmp, "run"), os.path.join(tmp, "lammps")
+            write_synthetic_run(run, kind="A", duration=100.0)
+            os.mkdir(lammps)
+            series = os.path.join(lammps, "series.txt")
+            np.savetxt(series, np.column_stack([np.arange(400), np.arange(400) * 0.25]
+                                                + [np.ones(400)] * 7))
+            self.assertEqual(self.side_by_side(run, lammps).returncode, 0)
+            for duration in ("0", "-2", "nan"):
+                out = self.side_by_side(run, lammps, duration=duration)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn("error: --duration: must be a number > 0", out.stderr)
+            summary = os.path.join(run, "run.h5")
+            for target, problem in ((summary, "is a file of the input folder"),
+                                    (os.path.join(tmp, "none", "x.json"), "does not exist")):
+                out = self.side_by_side(run, lammps, "--json", target)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn(f"error: {target}: --json: ", out.stderr)
+                self.assertIn(problem, out.stderr)
+            load_run(run)
+            with open(os.path.join(lammps, "dump.txt"), "w") as f:
+                f.write("ITEM: TIMESTEP\n100\n")
+            out = self.side_by_side(run, lammps)
+            self.assertEqual(out.returncode, 2, out.stderr)
+            self.assertIn("dump.txt: the snapshot from line 1 is cut short", out.stderr)
+            os.unlink(os.path.join(lammps, "dump.txt"))
+            os.unlink(series)
+            os.mkfifo(series)   # refused, not waited on
+            out = self.side_by_side(run, lammps)
+            self.assertEqual(out.returncode, 2, out.stderr)
+            self.assertIn("not a regular file (a FIFO)", out.stderr)
 
 
 class Estimates(unittest.TestCase):

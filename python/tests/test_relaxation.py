@@ -215,6 +215,51 @@ class ProfileDecayCommand(unittest.TestCase):
                                        os.path.join(d, "none", "x.json")]), 2)
             self.assertIn(os.path.join(d, "summary.json"), err.getvalue())
             self.assertIn(os.path.join(d, "none", "x.json"), err.getvalue())
+            # Outputs that would replace an input, and bulk laws that cannot be used: refused by
+            # name before anything is written.
+            summary_path = os.path.join(run, "summary.json")
+            with open(summary_path, "rb") as f:
+                summary_bytes = f.read()
+            for argv, problem in (
+                    (["--json", summary_path], "--json: is a file of the input folder"),
+                    (["--json", fits], "--json: is one of the command's inputs"),
+                    (["--plot", os.path.join(d, "decay.xyz")], "must end in .png"),
+                    (["--plot", d], "--plot: is a folder")):
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    self.assertEqual(main(["profile-decay", run, "--fits", fits] + argv), 2)
+                self.assertIn(problem, err.getvalue())
+            with open(summary_path, "rb") as f:
+                self.assertEqual(f.read(), summary_bytes)
+            params = LAW["parameters"]
+            for law, problem in (("ok", "fits.mu_power is not an object"),
+                                 (dict(LAW, parameters=[1, 2, 3]), "fits.mu_power.parameters"),
+                                 (dict(LAW, parameters={"mu_0": params["mu_0"]}),
+                                  "at least 3 parameters"),
+                                 (dict(LAW, parameters=dict(params, A={"value": "x"})),
+                                  "fits.mu_power.parameters.A.value is not a finite number")):
+                with open(fits, "w") as f:
+                    json.dump({"fits": {"mu_power": law}}, f)
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err):
+                    self.assertEqual(main(["profile-decay", run, "--fits", fits]), 2)
+                self.assertTrue(err.getvalue().startswith(f"error: {fits}: fits.mu_power"))
+                self.assertIn(problem, err.getvalue())
+            with open(fits, "w") as f:
+                json.dump({"fits": {"mu_power": LAW}}, f)
+            # A summary whose sigma_yy is not above 0 or whose tau is no number: a reason, no
+            # traceback.
+            with open(summary_path) as f:
+                good = json.load(f)
+            for changed in (dict(good, case=dict(good["case"], normal_stress=-0.25)),
+                            dict(good, profile_decay=dict(good["profile_decay"], tau="abc",
+                                                          reason=None))):
+                with open(summary_path, "w") as f:
+                    json.dump(changed, f)
+                out = io.StringIO()
+                with contextlib.redirect_stdout(out):
+                    self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
+            self.assertIn("no decay time tau", out.getvalue())
 
 
 if __name__ == "__main__":

@@ -213,6 +213,16 @@ class DamagedSummaryTest(unittest.TestCase):
             with open(os.path.join(run, "summary.json"), "w") as f:
                 json.dump(own, f)
             self.assertIsNotNone(report.usable_summary(run, [])[0])
+            # The initial velocity too, where the summary records it (older ones do not).
+            with open(os.path.join(run, "case.toml"), "a") as f:
+                f.write("initial_velocity = 'rest'\n")
+            started = dict(own, case=dict(own["case"], initial_velocity="linear"))
+            self.assertIn("initial_velocity = 'linear', its case.toml says 'rest'",
+                          report.identity_problem(run, started))
+            self.assertIsNone(report.identity_problem(
+                run, dict(started, case=dict(started["case"], initial_velocity="rest"))))
+            self.assertNotIn("initial_velocity", own["case"])
+            self.assertIsNone(report.identity_problem(run, own))
 
     def test_a_summary_cut_short_is_left_out_not_fatal(self):
         with tempfile.TemporaryDirectory() as d:

@@ -279,11 +279,11 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   const std::string checkpoint_file = (s.dir / "checkpoint.cbor").string();
   Checkpoint cp = read_checkpoint(checkpoint_file);
   const nlohmann::json identity = case_identity(s.c);
-  if (cp.case_identity.is_null())
+  if (!cp.case_identity.is_object())
     throw ConfigError(checkpoint_file, "case",
                       "holds no case identity: not a shear-run checkpoint");
   for (const auto& [key, value] : identity.items())
-    if (cp.case_identity.value(key, nlohmann::json()) != value)
+    if (cp.case_identity.contains(key) && cp.case_identity[key] != value)  // absent: older
       throw ConfigError(checkpoint_file, "case." + key,
                         fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
                                     "belongs to another run",

@@ -249,14 +249,17 @@ std::string summary_problem(const fs::path& run_dir) {
                                  {"height", c.height},
                                  {"velocity", c.velocity},
                                  {"normal_stress", c.normal_stress},
-                                 {"duration", c.duration}};
-  for (const auto& [key, value] : wanted.items())
+                                 {"duration", c.duration},
+                                 {"initial_velocity", c.initial_velocity}};
+  for (const auto& [key, value] : wanted.items()) {
+    if (key == "initial_velocity" && !summary.contains(key)) continue;  // not in older summaries
     if (summary.value(key, nlohmann::json()) != value)
       return fmt::format(
           "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one "
           "again",
           (run_dir / "summary.json").string(), key, summary.value(key, nlohmann::json()).dump(),
           value.dump());
+  }
   return "";
 }
 
@@ -273,6 +276,7 @@ std::string final_state_problem(const fs::path& run_dir) {
   const nlohmann::json state = nlohmann::json::parse(*text, nullptr, false);
   if (state.is_discarded() || !state.is_object()) return file.string() + " is not JSON";
   if (!state.contains("case")) return "";
+  if (!state["case"].is_object()) return file.string() + ": its \"case\" is not an object";
   nlohmann::json identity;
   try {
     CaseSource source;
@@ -282,7 +286,7 @@ std::string final_state_problem(const fs::path& run_dir) {
     return std::string("its case.toml cannot be read: ") + e.what();
   }
   for (const auto& [key, value] : identity.items())
-    if (state["case"].value(key, nlohmann::json()) != value)
+    if (state["case"].contains(key) && state["case"][key] != value)  // absent: older cdshear
       return fmt::format(
           "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
           "this one again",

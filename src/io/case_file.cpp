@@ -207,7 +207,8 @@ nlohmann::json case_identity(const ShearCase& c) {
           {"normal_stress", c.normal_stress},
           {"friction_grain", c.friction_grain},
           {"friction_wall", c.friction_wall},
-          {"wall_mass", c.wall_mass}};
+          {"wall_mass", c.wall_mass},
+          {"initial_velocity", c.initial_velocity}};
 }
 
 toml::table case_to_toml(const ShearCase& c) {
