@@ -20,6 +20,7 @@ import os
 
 import numpy as np
 
+from .rundata import open_regular
 from .statistics import block_average
 
 
@@ -77,8 +78,11 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):
             continue
         start_file = os.path.join(sides[0], "paired_check.start")
-        with open(start_file) as f:
-            text = f.read().strip()
+        try:
+            with open_regular(start_file, encoding="utf-8") as f:
+                text = f.read().strip()
+        except (OSError, ValueError) as e:
+            raise SeriesError(f"{start_file}: cannot read: {e}") from None
         try:
             start = float(text)
         except ValueError:

@@ -74,6 +74,54 @@ def read_run(run_dir, key, value):
     """One row: the setting, each quantity's mean and error, the solver figures and the cost."""
     summary = _read_json(os.path.join(run_dir, "summary.json"))
     info = _read_json(os.path.join(run_dir, "run_info.json"))
+    try:
+        return _row(run_dir, key, value, summary, info)
+    except (AttributeError, TypeError, ValueError) as e:   # a value of another JSON type
+        raise StudyError(run_dir, f"summary.json or run_info.json holds a value of the wrong "
+                                  f"type (not what `cdshear run` and `analyze` write): {e}") \
+            from None
+
+
+def setting_problem(run_dir, key, text):
+    """Why the run in the folder `KEY=TEXT` does not hold KEY = TEXT in its case.toml (a run
+    copied or renamed into the wrong folder), or None; None too without a case.toml or with a
+    key it does not hold."""
+    import tomllib
+    path = os.path.join(run_dir, "case.toml")
+    try:
+        with open_regular(path, encoding="utf-8") as f:
+            case = tomllib.loads(f.read())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, RecursionError) as e:
+        return f"{path}: cannot read: {e}"
+    table, _, name = key.rpartition(".")
+    values = case.get(table) if table else case
+    if not isinstance(values, dict) or name not in values:
+        return None
+    held = values[name]
+    if isinstance(held, bool):
+        same = text.lower() == str(held).lower()
+    elif isinstance(held, (int, float)):
+        wanted = _number(text)
+        same = wanted is not None and math.isclose(wanted, held, rel_tol=1e-12, abs_tol=0.0)
+    elif isinstance(held, str):
+        same = text == held
+    else:
+        return None
+    if same:
+        return None
+    return f"{path}: {key} = {held!r}, not the folder's {text}: a run of another setting"
+
+
+def _row(run_dir, key, value, summary, info):
+    for name, data in (("summary.json", summary), ("run_info.json", info)):
+        if not isinstance(data, dict):
+            raise StudyError(os.path.join(run_dir, name), "is not a JSON object")
+    if key is not None:
+        text = os.path.basename(run_dir).split("=", 1)[1]
+        if why := setting_problem(run_dir, key, text):
+            raise StudyError(run_dir, why)
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
            "steady": bool(summary.get("steady"))}
     for name, get in QUANTITIES:
@@ -300,16 +348,24 @@ def _realization_series(run_dir):
     import h5py
     import numpy as np
 
+    from .rundata import RunDataError, check_seal
     from .summary import wall_friction_series
     path = os.path.join(run_dir, "run.h5")
-    try:
+    if not os.path.lexists(path):
+        raise StudyError(path, "missing")
+    try:   # a regular file whose seal matches, before HDF5 opens it (as `analyze` checks it)
+        check_seal(path)
         with h5py.File(path, "r") as f:
             series = {key: np.asarray(f["series"][key], dtype=float) for key in
                       ("time", "solid_fraction", "bottom_fx", "top_fx", "bottom_fy", "top_fy")}
-    except FileNotFoundError:
-        raise StudyError(path, "missing") from None
-    except (OSError, KeyError) as e:
+    except RunDataError as e:
+        raise StudyError(e.path, e.problem) from None
+    except (OSError, KeyError, ValueError, TypeError) as e:
         raise StudyError(path, f"cannot read its series: {e}") from None
+    uneven = [k for k, v in series.items() if v.shape != series["time"].shape]
+    if series["time"].ndim != 1 or uneven:
+        raise StudyError(path, "its series are not one-dimensional and of time's length: "
+                               + ", ".join(uneven or ["time"]))
     return series["time"], {"solid_fraction": series["solid_fraction"],
                             "mu_eff_wall": wall_friction_series(series)}
 
@@ -333,6 +389,10 @@ def windowed_means(study_dir, windows):
     t_end = min(float(t[-1]) if t.size else 0.0 for t, _ in runs)
     if t_end <= 0.0:
         raise StudyError(study_dir, "a realization has no samples")
+    fewest = min(int(np.count_nonzero(t <= t_end)) for t, _ in runs)
+    if windows > fewest:
+        raise StudyError(study_dir, f"--windows {windows}: more windows than the "
+                                    f"{fewest} samples of a realization up to t = {t_end:g}")
     edges = np.linspace(0.0, t_end, windows + 1)
     out = {}
     for quantity in WINDOW_QUANTITIES:

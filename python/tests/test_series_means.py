@@ -156,6 +156,15 @@ class PairedDifferences(unittest.TestCase):
                     paired_differences(d, ("x",), load=lambda folder: runs[folder])
                 self.assertTrue(caught.exception.problem.startswith(problem),
                                 caught.exception.problem)
+            # Not text, or a FIFO (refused, not waited on): named, not a traceback.
+            with open(start, "wb") as f:
+                f.write(b"\xff\xfe")
+            with self.assertRaisesRegex(SeriesError, f"{start}: cannot read: .*utf-8"):
+                paired_differences(d, ("x",), load=lambda folder: runs[folder])
+            os.remove(start)
+            os.mkfifo(start)
+            with self.assertRaisesRegex(SeriesError, f"{start}: cannot read: .*FIFO"):
+                paired_differences(d, ("x",), load=lambda folder: runs[folder])
 
 
 if __name__ == "__main__":

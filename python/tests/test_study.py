@@ -3,12 +3,14 @@ import io
 import json
 import math
 import os
+import shutil
 import tempfile
 import unittest
 from contextlib import redirect_stderr, redirect_stdout
 
 from cdshear_analysis import study
 from cdshear_analysis.__main__ import main
+from cdshear_analysis.rundata import seal
 
 
 def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0, averaging_start=None):
@@ -191,12 +193,14 @@ class StudyTest(unittest.TestCase):
             walls carry |f_x| / |f_y| = mu (bottom and top alike), sampled every 0.5."""
             fake_run(folder, mu, 0.004, 50.0, 10.0)
             t = np.arange(0.5, end + 0.25, 0.5)
-            with h5py.File(os.path.join(folder, "run.h5"), "w") as f:
+            path = os.path.join(folder, "run.h5")
+            with h5py.File(path, "w", userblock_size=512) as f:
                 g = f.create_group("series")
                 g["time"] = t
                 g["solid_fraction"] = offset + slope * t
                 g["bottom_fx"], g["top_fx"] = -mu * np.ones_like(t), mu * np.ones_like(t)
                 g["bottom_fy"], g["top_fy"] = np.ones_like(t), -np.ones_like(t)
+            seal(path)
 
         with tempfile.TemporaryDirectory() as d:
             a, b = os.path.join(d, "a"), os.path.join(d, "b")
@@ -238,6 +242,25 @@ class StudyTest(unittest.TestCase):
                     self.assertEqual(main(["study-compare", a, b, "--windows", "2"]), 2)
             self.assertIn(os.path.join(b, "reference_seed2", "run.h5") + ": missing",
                           err.getvalue())
+            # A damaged or unsealed run.h5, a FIFO in its place, and more windows than samples
+            # are refused by name, as `analyze` refuses them.
+            path = os.path.join(b, "reference_seed2", "run.h5")
+            shutil.rmtree(os.path.dirname(path))
+            series_run(os.path.dirname(path), 1e-4, 0.81, 0.2, end=50.0)
+            with open(path, "r+b") as f:
+                f.seek(-8, os.SEEK_END)
+                f.write(b"\xff" * 8)
+            with self.assertRaisesRegex(study.StudyError, "damaged"):
+                study.windowed_means(b, 2)
+            os.remove(path)
+            os.mkfifo(path)
+            with self.assertRaisesRegex(study.StudyError, "not a regular file"):
+                study.windowed_means(b, 2)
+            shutil.rmtree(os.path.dirname(path))
+            series_run(os.path.dirname(path), 1e-4, 0.81, 0.2, end=50.0)
+            with self.assertRaisesRegex(study.StudyError, "--windows 101: more windows than the "
+                                                          "100 samples"):
+                study.windowed_means(b, 101)
 
     def test_runs_not_analysed_are_left_out_and_a_reference_is_required(self):
         with tempfile.TemporaryDirectory() as d:
@@ -277,6 +300,45 @@ class StudyTest(unittest.TestCase):
                 study.collect(d)
             self.assertTrue(e.exception.path.endswith("summary.json"))
             self.assertEqual(main(["study", d]), 2)
+
+    def test_malformed_values_and_a_run_of_another_setting_are_named(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
+            run = os.path.join(d, "solver.max_sweeps=50")
+            fake_run(run, 0.30, 0.004, 50.0, 30.0)
+            with open(os.path.join(run, "summary.json")) as f:
+                good = json.load(f)
+            for name, content, problem in (
+                    ("summary.json", [1, 2], "summary.json: is not a JSON object"),
+                    ("summary.json", dict(good, case={"time": "abc"}), "of the wrong type"),
+                    ("summary.json", dict(good, com_vx=3), "of the wrong type"),
+                    ("run_info.json", "str", "run_info.json: is not a JSON object"),
+                    ("run_info.json", {"summary": {"steps": "many"}}, "of the wrong type")):
+                shutil.rmtree(run)
+                fake_run(run, 0.30, 0.004, 50.0, 30.0)
+                with open(os.path.join(run, name), "w") as f:
+                    json.dump(content, f)
+                with self.assertRaises(study.StudyError) as e:
+                    study.collect(d)
+                self.assertIn(problem, f"{e.exception.path}: {e.exception.problem}")
+                with redirect_stderr(io.StringIO()) as err:
+                    self.assertEqual(main(["study", d]), 2)
+                self.assertNotIn("Traceback", err.getvalue())
+            # The folder's setting against the run's case.toml.
+            shutil.rmtree(run)
+            fake_run(run, 0.30, 0.004, 50.0, 30.0)
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write("[solver]\nmax_sweeps = 200\n")
+            with self.assertRaisesRegex(study.StudyError, "max_sweeps = 200, not the folder's 50"):
+                study.collect(d)
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write("[solver]\nmax_sweeps = 50\n")
+            self.assertEqual(len(study.collect(d)), 2)
+            # Outputs that cannot be written: exit 1 naming them, no traceback.
+            os.mkdir(os.path.join(d, "study.csv"))
+            with redirect_stderr(io.StringIO()) as err, redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["study", d]), 1)
+            self.assertIn("study.csv: cannot write", err.getvalue())
 
 
 if __name__ == "__main__":
