@@ -177,10 +177,6 @@ def main(argv=None):
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
-        except OSError as e:   # study.csv, study.md or figures/ cannot be written
-            print(f"error: {e.filename or args.study_dir}: cannot write: {e.strerror or e}",
-                  file=sys.stderr)
-            return 1
         return 0
 
     if args.command == "series-means":

@@ -32,7 +32,7 @@ import tomllib
 
 import numpy as np
 
-from .rundata import open_regular
+from .rundata import is_number, open_regular
 from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -78,11 +78,6 @@ def _unique_keys(pairs):
     return out
 
 
-def _is_number(value):
-    """A JSON number (int or float, not true or false, not a string)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
 def ripple(wall_radius, spacing, grain_radius):
     """Height by which a grain of radius r sinks between two wall disks (radius R, centres s
     apart) below its height on top of one: (r + R) - sqrt((r + R)^2 - (s/2)^2), about
@@ -103,13 +98,13 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
     -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).
     """
     for key in ("length_x", "height"):
-        if not _is_number(packing[key]):
+        if not is_number(packing[key]):
             raise PeerError("packing", f"{key} must be a number, got {packing[key]!r}")
     disks = packing["disks_xyr"]
     if not isinstance(disks, list) or not disks:
         raise PeerError("packing", "disks_xyr must be a non-empty list of [x, y, r]")
     for i, disk in enumerate(disks):
-        if not (isinstance(disk, list) and len(disk) == 3 and all(map(_is_number, disk))):
+        if not (isinstance(disk, list) and len(disk) == 3 and all(map(is_number, disk))):
             raise PeerError("packing", f"disks_xyr[{i}] must be [x, y, r], three numbers, "
                                        f"got {disk!r}"[:200])
     lx, height = float(packing["length_x"]), float(packing["height"])

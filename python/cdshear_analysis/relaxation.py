@@ -34,6 +34,8 @@ import warnings
 
 import numpy as np
 
+from .rundata import is_number
+
 ETA = np.linspace(0.05, 0.95, 37)  # heights / L_y of the profile's comparison points
 START_FRACTION = 0.6   # the fit starts once c has fallen to this share of its largest value
 MIN_FIT_WINDOWS = 8
@@ -187,8 +189,7 @@ def _mean(summary, *keys):
 
 def _number(v):
     """v when it is a finite number (not a boolean), else None."""
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-    return v if ok else None
+    return v if is_number(v) and math.isfinite(v) else None
 
 
 def bulk_law_problem(fits):

@@ -33,7 +33,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
-from .rundata import _number as _is_number
+from .rundata import is_number as _is_number
 from .rundata import RUN_FILE, RUN_FOLDER_FILES, open_regular
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions

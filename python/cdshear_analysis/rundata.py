@@ -200,7 +200,8 @@ COUNT_SERIES = ("step", "contacts", "force_carrying", "closed", "capped_steps", 
 OPTIONAL_POSITIVE_ATTRS = ("inertial_mass", "sample_interval", "dt", "stripe_thickness")
 
 
-def _number(value):
+def is_number(value):
+    """A number (int or float, numpy's included), not a boolean nor a text."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
 
 
@@ -211,7 +212,7 @@ def _check_physics(attrs, series, windows, n_stripes, path):
     them."""
     for k in POSITIVE_ATTRS + NON_NEGATIVE_ATTRS:
         v = attrs[k]
-        if not _number(v) or not np.isfinite(v):
+        if not is_number(v) or not np.isfinite(v):
             raise RunDataError(path, f"attribute {k} is {v!r}, not a finite number")
         if k in POSITIVE_ATTRS and not v > 0:
             raise RunDataError(path, f"attribute {k} is {v!r}: it must be > 0")
@@ -219,9 +220,10 @@ def _check_physics(attrs, series, windows, n_stripes, path):
             raise RunDataError(path, f"attribute {k} is {v!r}: it must be >= 0")
     for k in OPTIONAL_POSITIVE_ATTRS:
         v = attrs.get(k)
-        if v is not None and (not _number(v) or not np.isfinite(v) or not v > 0):
+        if v is not None and (not is_number(v) or not np.isfinite(v) or not v > 0):
             raise RunDataError(path, f"attribute {k} is {v!r}: it must be a finite number > 0")
-    if "finished" in attrs and (not _number(attrs["finished"]) or attrs["finished"] not in (0, 1)):
+    finished = attrs.get("finished", 0)
+    if not is_number(finished) or finished not in (0, 1):
         raise RunDataError(path, f"attribute finished is {attrs['finished']!r}: it must be 0 or 1")
     h = attrs.get("boundary_thickness")
     if h is not None:
