@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 
-from .rundata import RUN_FOLDER_FILES, RunDataError  # noqa: E402
+from .rundata import RunDataError, run_files_in  # noqa: E402
 
 DPI = 120
 MAX_PROFILES = 10          # velocity profiles drawn at most
@@ -256,8 +256,7 @@ def check_figure_folder(run_dir, out_dir):
     for folder in (where, os.path.dirname(where)):
         if folder == own:
             continue
-        found = [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(folder, f))]
-        if found:
+        if found := run_files_in(folder):
             whose = "is another run's folder" if folder == where else \
                 "is in another run's folder"
             raise RunDataError(out_dir, f"-o: {whose} ({folder} holds {', '.join(found)}): "

@@ -34,7 +34,7 @@ from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import is_number as _is_number
-from .rundata import RUN_FILE, RUN_FOLDER_FILES, open_regular
+from .rundata import RUN_FILE, open_regular, run_files_in
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -1093,8 +1093,7 @@ def check_report_folder(campaign_dir, out_dir):
         raise ReportError(out_dir, f"is inside the campaign's runs folder ({runs}), where each "
                                    f"folder is a run's; choose another -o (default: "
                                    f"{os.path.join(campaign_dir, 'report')})")
-    found = [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(out_dir, f))]
-    if found:
+    if found := run_files_in(out_dir):
         raise ReportError(out_dir, f"holds a run's files ({', '.join(found)}): a report would "
                                    f"write over the run's figures; choose another -o")
 

@@ -75,6 +75,11 @@ def open_regular(path, mode="r", **kwargs):
     return open(path, mode, **kwargs)
 
 
+def run_files_in(folder):
+    """The RUN_FOLDER_FILES that `folder` holds: none for a folder that is no run's."""
+    return [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(folder, f))]
+
+
 def output_problem(path, inputs=()):
     """Why a command may not write the file `path`, or None. An existing file is replaced, as
     any output is, unless it is one of the command's `inputs` (files or folders it reads), a

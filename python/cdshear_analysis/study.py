@@ -118,10 +118,6 @@ def _row(run_dir, key, value, summary, info):
     for name, data in (("summary.json", summary), ("run_info.json", info)):
         if not isinstance(data, dict):
             raise StudyError(os.path.join(run_dir, name), "is not a JSON object")
-    if key is not None:
-        text = os.path.basename(run_dir).split("=", 1)[1]
-        if why := setting_problem(run_dir, key, text):
-            raise StudyError(run_dir, why)
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
            "steady": bool(summary.get("steady"))}
     for name, get in QUANTITIES:
@@ -253,6 +249,8 @@ def collect(study_dir, skipped=None):
                 skipped.append(name)
             continue
         key, text = name.split("=", 1)
+        if why := setting_problem(path, key, text):
+            raise StudyError(path, why)
         value = _number(text)
         rows.append(read_run(path, key, value if value is not None else text))
     return [combine(references)] + rows

@@ -282,13 +282,12 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   if (!cp.case_identity.is_object())
     throw ConfigError(checkpoint_file, "case",
                       "holds no case identity: not a shear-run checkpoint");
-  for (const auto& [key, value] : identity.items())
-    if (cp.case_identity.contains(key) && cp.case_identity[key] != value)  // absent: older
-      throw ConfigError(checkpoint_file, "case." + key,
-                        fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
-                                    "belongs to another run",
-                                    key, cp.case_identity.value(key, nlohmann::json()).dump(),
-                                    src.file, value.dump()));
+  if (const std::string key = differing_identity_key(cp.case_identity, identity); !key.empty())
+    throw ConfigError(
+        checkpoint_file, "case." + key,
+        fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
+                    "belongs to another run",
+                    key, cp.case_identity.at(key).dump(), src.file, identity.at(key).dump()));
   if (cp.world.disks.size() != s.c.n)
     throw ConfigError(checkpoint_file, "disks",
                       fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));

@@ -285,12 +285,11 @@ std::string final_state_problem(const fs::path& run_dir) {
   } catch (const ConfigError& e) {
     return std::string("its case.toml cannot be read: ") + e.what();
   }
-  for (const auto& [key, value] : identity.items())
-    if (state["case"].contains(key) && state["case"][key] != value)  // absent: older cdshear
-      return fmt::format(
-          "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
-          "this one again",
-          file.string(), key, state["case"].value(key, nlohmann::json()).dump(), value.dump());
+  if (const std::string key = differing_identity_key(state["case"], identity); !key.empty())
+    return fmt::format(
+        "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
+        "this one again",
+        file.string(), key, state["case"].at(key).dump(), identity.at(key).dump());
   return "";
 }
 

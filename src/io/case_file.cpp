@@ -211,6 +211,12 @@ nlohmann::json case_identity(const ShearCase& c) {
           {"initial_velocity", c.initial_velocity}};
 }
 
+std::string differing_identity_key(const nlohmann::json& stored, const nlohmann::json& wanted) {
+  for (const auto& [key, value] : wanted.items())
+    if (stored.contains(key) && stored.at(key) != value) return key;
+  return "";
+}
+
 toml::table case_to_toml(const ShearCase& c) {
   toml::table out;
   for (const CaseSetting& s : case_settings()) {

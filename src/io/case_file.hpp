@@ -32,10 +32,15 @@ ShearCase load_case(const CaseSource& source);
 ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base,
                          std::shared_ptr<const OverrideSources> sources = nullptr);
 
-/// The physics a run's files belong to (the system, the wall speed and stress, the frictions and
-/// the wall mass), stored in its checkpoint and final state: a file copied from another run is
-/// refused where it is read against this run's case.toml.
+/// The physics a run's files belong to (the system, the wall speed and stress, the frictions,
+/// the wall mass and the initial velocity), stored in its checkpoint and final state: a file
+/// copied from another run is refused where it is read against this run's case.toml.
 nlohmann::json case_identity(const ShearCase& c);
+
+/// The first key of `wanted` (a case_identity) whose value the `stored` identity (an object)
+/// holds differently; empty when none. A key `stored` lacks is not compared: a file of an
+/// earlier cdshear did not record it.
+std::string differing_identity_key(const nlohmann::json& stored, const nlohmann::json& wanted);
 
 /// Every parameter of the case, as TOML (the resolved case).
 toml::table case_to_toml(const ShearCase& c);
