@@ -165,6 +165,24 @@ expect_error "exceed the limit of 1e+07 profile points" "$exe" run -q \
   --set measure.stripe_thickness=1e-300
 expect_error "key 'measure.sample_interval': 1e+08 samples" "$exe" settings \
   --set measure.sample_interval=1e-8 --set shear.duration=1
+# A condition between two keys is blamed on the command line's --set of either, not on the file
+# that holds the other key.
+expect_error "--set step.contact_margin=1e-4: key 'measure.contact_gap': must be at most half" \
+  "$exe" settings --set step.contact_margin=1e-4
+printf '[measure]\ncontact_gap = 0.01\n' > gap.toml
+expect_error "--set step.contact_margin=0.01: key 'measure.contact_gap': must be at most half" \
+  "$exe" settings gap.toml --set step.contact_margin=0.01
+expect_error "--set measure.contact_gap=0.01: key 'measure.contact_gap': must be at most half" \
+  "$exe" settings gap.toml --set step.contact_margin=0.01 --set measure.contact_gap=0.01
+printf '[step]\ncontact_margin = 1e-5\n' > margin.toml
+expect_error "margin.toml: key 'measure.contact_gap': must be at most half" \
+  "$exe" settings margin.toml --set shear.duration=10
+expect_error "--set system.diameter_min=3: key 'system.diameter_max': must be >= diameter_min" \
+  "$exe" settings --set system.diameter_min=3
+expect_error "--set run.duration=1e30: key 'run.duration': duration 1e+30 with dt" \
+  "$exe" scene "$scene" --set run.duration=1e30 -o never
+expect_error "--set step.dt=1e-30: key 'run.duration': duration" \
+  "$exe" scene "$scene" --set step.dt=1e-30 -o never
 # Numbers the engine inverts: a mass or a disk so small (or large) that its inverse is no normal
 # number is refused by key, not run into NaN.
 expect_error "key 'shear.wall_mass': must be > 0 with an inverse that is a normal" \

@@ -34,13 +34,13 @@ int run_scene(const SceneArgs& args) {
   try {
     world = build_world(sf.scene, &g_stop_requested);
   } catch (const SceneError& e) {
-    throw ConfigError(args.file, e.key(), e.what());
+    throw ConfigError(sf.source_of({e.key()}), e.key(), e.what());
   } catch (const PlacementCancelled& e) {
     std::fprintf(stderr, "%s; nothing was written\n", e.what());
     return 130;
   }
-  const std::uint64_t end_step =
-      checked_end_step(sf.run.duration, sf.step.dt, 0, args.file, "run.duration");
+  const std::uint64_t end_step = checked_end_step(
+      sf.run.duration, sf.step.dt, 0, sf.source_of({"run.duration", "step.dt"}), "run.duration");
   const std::filesystem::path dir(args.out_dir);
   const FolderLock lock = claim_output_folder(dir, args.force, "");
   {

@@ -44,7 +44,8 @@ class TableReaders {
 /// The conditions between keys (each setting's own range is checked as it is read): the
 /// `constraint` of the rows of case_settings(), which the docs print.
 void check_constraints(const ShearCase& c, TableReaders& t) {
-  if (c.diameter_max < c.diameter_min) t["system"].fail("diameter_max", "must be >= diameter_min");
+  if (c.diameter_max < c.diameter_min)
+    t["system"].fail_between("diameter_max", {"system.diameter_min"}, "must be >= diameter_min");
   // Numbers the engine inverts (docs/reliability.md): the smallest disk's mass and moment of
   // inertia, the walls' and the piston's masses.
   if (const std::string why = disk_mass_problem(SceneDefinition{}.density, 0.5 * c.diameter_min);
@@ -55,28 +56,31 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   if (const std::string why = body_mass_problem(c.preparation.piston_mass); !why.empty())
     t["preparation"].fail("piston_mass", why);
   if (c.height <= c.diameter_max)
-    t["system"].fail("height", "L_y = " + format_number(c.height) +
-                                   " must exceed the largest grain diameter " +
-                                   format_number(c.diameter_max));
+    t["system"].fail_between("height", {"system.diameter_max"},
+                             "L_y = " + format_number(c.height) +
+                                 " must exceed the largest grain diameter " +
+                                 format_number(c.diameter_max));
   // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
   // an underflow (1e-320), not a flow (the slowest of model.md section 6 is 0.005).
   // (The longer of dt_max and a given dt: a tiny given dt is the step limit's to refuse.)
   if (const double longest = std::max(c.dt.value_or(c.dt_max), c.dt_max) * kMaxRunSteps;
       c.velocity * longest < c.diameter_max)
-    t["shear"].fail("velocity", "V = " + format_number(c.velocity) +
-                                    " would move the walls by less than one grain (" +
-                                    format_number(c.diameter_max) +
-                                    ") in the longest run the step limit allows (" +
-                                    format_number(longest) + " time units); give at least " +
-                                    format_number(c.diameter_max / longest));
+    t["shear"].fail_between(
+        "velocity", {"step.dt", "step.dt_max", "system.diameter_max"},
+        "V = " + format_number(c.velocity) + " would move the walls by less than one grain (" +
+            format_number(c.diameter_max) + ") in the longest run the step limit allows (" +
+            format_number(longest) + " time units); give at least " +
+            format_number(c.diameter_max / longest));
   // The shear phase's steps, as a run counts them (checked_end_step): a case no run could take
   // is refused where it is read, by `settings` and `sweep` too. Blame the time step when given,
   // the wall speed when the step it sets (step.displacement_per_step / V, below step.dt_max) is
   // what makes the run too long.
   if (const double dt = c.dt ? *c.dt : default_time_step(c); !(c.duration / dt <= kMaxRunSteps)) {
     const bool speed_set_it = !c.dt && dt < c.dt_max && c.duration / c.dt_max <= kMaxRunSteps;
-    t[c.dt ? "step" : "shear"].fail(
+    t[c.dt ? "step" : "shear"].fail_between(
         c.dt ? "dt" : (speed_set_it ? "velocity" : "duration"),
+        {"shear.duration", "step.dt", "shear.velocity", "step.displacement_per_step",
+         "step.dt_max"},
         (speed_set_it ? "V = " + format_number(c.velocity) + " sets the time step to " +
                             format_number(dt) + " (step.displacement_per_step / V): "
                       : std::string()) +
@@ -94,54 +98,61 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
     const std::string dt_key = po.step.dt <= po.compression_dt ? "dt" : "compression_dt";
     TomlReader& p = t["preparation"];
     const bool dt_given = p.has(dt_key);
-    p.fail(dt_given ? dt_key : "max_time_per_phase",
-           "preparation.max_time_per_phase = " + format_number(po.max_time_per_phase) +
-               " time units in steps of " + format_number(shortest) +
-               " is more than the limit of " + format_number(kMaxRunSteps) +
-               " steps (docs/reliability.md)");
+    p.fail_between(
+        dt_given ? dt_key : "max_time_per_phase",
+        {"preparation.max_time_per_phase", "preparation.dt", "preparation.compression_dt"},
+        "preparation.max_time_per_phase = " + format_number(po.max_time_per_phase) +
+            " time units in steps of " + format_number(shortest) + " is more than the limit of " +
+            format_number(kMaxRunSteps) + " steps (docs/reliability.md)");
   }
   if (po.window_time > po.max_time_per_phase)
-    t["preparation"].fail("window_time", "must be at most preparation.max_time_per_phase (" +
-                                             format_number(po.max_time_per_phase) + "), got " +
-                                             format_number(po.window_time));
+    t["preparation"].fail_between("window_time", {"preparation.max_time_per_phase"},
+                                  "must be at most preparation.max_time_per_phase (" +
+                                      format_number(po.max_time_per_phase) + "), got " +
+                                      format_number(po.window_time));
   const MeasureOptions& mo = c.measure;
   TomlReader& m = t["measure"];
   // A closed contact must be a candidate of the sample's step: its gap at the start of the step
   // was below the margin, and a step moves a pair by far less than half of it.
   if (mo.enabled && mo.contact_gap > 0.5 * c.step.contact_margin)
-    m.fail("contact_gap", "must be at most half of step.contact_margin (" +
-                              format_number(0.5 * c.step.contact_margin) + "), got " +
-                              format_number(mo.contact_gap));
+    m.fail_between("contact_gap", {"step.contact_margin", "measure.enabled"},
+                   "must be at most half of step.contact_margin (" +
+                       format_number(0.5 * c.step.contact_margin) + "), got " +
+                       format_number(mo.contact_gap));
   for (std::size_t k = 0; k < mo.boundary_thickness.size(); ++k) {
     const double h = mo.boundary_thickness[k];
     if (!(h <= 0.5 * c.height))  // the two layers would overlap
-      m.fail("boundary_thickness", "every h must be at most half of L_y (" +
-                                       format_number(0.5 * c.height) + "), got " +
-                                       format_number(h));
+      m.fail_between("boundary_thickness", {"system.height"},
+                     "every h must be at most half of L_y (" + format_number(0.5 * c.height) +
+                         "), got " + format_number(h));
     for (std::size_t j = 0; j < k; ++j)
       if (std::abs(mo.boundary_thickness[j] - h) < 1e-9)
         m.fail("boundary_thickness", "lists h = " + format_number(h) + " twice");
   }
   if (mo.window < mo.sample_interval)
-    m.fail("window",
-           "must be at least measure.sample_interval (" + format_number(mo.sample_interval) + ")");
+    m.fail_between(
+        "window", {"measure.sample_interval"},
+        "must be at least measure.sample_interval (" + format_number(mo.sample_interval) + ")");
   // run.h5 holds about 150 bytes per sample and per profile point (a stripe in a window), kept
   // in memory and rewritten at every checkpoint: a run that would grow it beyond 1.5 GB is a
   // typo, refused where the case is read (by `run`, `settings` and `sweep` alike).
   if (mo.enabled) {
     if (!(c.duration / mo.sample_interval <= kMaxSamples))
-      m.fail("sample_interval",
-             fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
-                         "(run.h5 would grow beyond 1.5 GB): sample less often",
-                         c.duration / mo.sample_interval, c.duration, kMaxSamples));
+      m.fail_between("sample_interval", {"shear.duration", "measure.enabled"},
+                     fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "
+                                 "(run.h5 would grow beyond 1.5 GB): sample less often",
+                                 c.duration / mo.sample_interval, c.duration, kMaxSamples));
     const double stripes = stripe_count(mo, c.height);
     const double windows = std::max(1.0, std::ceil(c.duration / mo.window));
     if (!(stripes * windows <= kMaxProfilePoints))
-      m.fail("stripe_thickness",
-             fmt::format("{:.3g} stripes (stripe_span x L_y / stripe_thickness) over {:.3g} "
-                         "windows exceed the limit of {:.0e} profile points (run.h5 would grow "
-                         "beyond 1.5 GB): thicker stripes or longer windows",
-                         stripes, windows, kMaxProfilePoints));
+      m.fail_between(
+          "stripe_thickness",
+          {"shear.duration", "measure.window", "measure.stripe_span", "system.height",
+           "measure.enabled"},
+          fmt::format("{:.3g} stripes (stripe_span x L_y / stripe_thickness) over {:.3g} "
+                      "windows exceed the limit of {:.0e} profile points (run.h5 would grow "
+                      "beyond 1.5 GB): thicker stripes or longer windows",
+                      stripes, windows, kMaxProfilePoints));
   }
 }
 

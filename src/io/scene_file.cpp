@@ -36,6 +36,8 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   out.resolved = parse_toml_file(path);
   auto sources = std::make_shared<OverrideSources>();
   apply_overrides(out.resolved, overrides, sources.get());
+  out.file = path;
+  out.sources = sources;
   TomlReader root(out.resolved, path, "", sources);
   SceneDefinition& s = out.scene;
 

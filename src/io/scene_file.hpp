@@ -1,6 +1,8 @@
 // Scene files (TOML) -> SceneDefinition + step and run settings. Schema: docs/scene-files.md.
 #pragma once
 
+#include <initializer_list>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,6 +26,12 @@ struct SceneFile {
   StepOptions step;
   RunSettings run;
   toml::table resolved;  ///< the table after overrides, written beside the results
+  std::string file;      ///< the scene file's path
+  std::shared_ptr<const OverrideSources> sources;  ///< keys given on the command line
+  /// Where a problem at, or between, the full dotted `keys` is blamed (blamed_source).
+  std::string source_of(std::initializer_list<std::string> keys) const {
+    return blamed_source(file, sources.get(), keys);
+  }
 };
 
 /// Reads `path`, applies `overrides` ("key=value"), validates. Throws ConfigError naming the

@@ -120,19 +120,33 @@ std::string TomlReader::full_key(const std::string& key) const {
   return prefix_.empty() ? key : prefix_ + "." + key;
 }
 
-void TomlReader::fail(const std::string& key, const std::string& problem) const {
-  const std::string full = full_key(key);
-  if (sources_ != nullptr) {
-    if (const auto it = sources_->find(full); it != sources_->end())
-      throw ConfigError(it->second, full, problem);  // the value came from the command line
+std::string blamed_source(const std::string& file, const OverrideSources* sources,
+                          std::initializer_list<std::string> keys) {
+  if (sources == nullptr) return file;
+  for (const std::string& full : keys) {
+    if (const auto it = sources->find(full); it != sources->end())
+      return it->second;  // the value came from the command line
     // A key that a `--set` of a key inside it made a table (`--set sheer.velocity=1`: "sheer"
     // is unknown; `--set shear.velocity.x=1`: shear.velocity is no number): that `--set`.
     const std::string inside = full + ".";
-    if (const auto it = sources_->lower_bound(inside);
-        it != sources_->end() && it->first.starts_with(inside))
-      throw ConfigError(it->second, full, problem);
+    if (const auto it = sources->lower_bound(inside);
+        it != sources->end() && it->first.starts_with(inside))
+      return it->second;
   }
-  throw ConfigError(file_, full, problem);
+  return file;
+}
+
+void TomlReader::fail(const std::string& key, const std::string& problem) const {
+  const std::string full = full_key(key);
+  throw ConfigError(blamed_source(file_, sources_.get(), {full}), full, problem);
+}
+
+void TomlReader::fail_between(const std::string& key, std::initializer_list<std::string> others,
+                              const std::string& problem) const {
+  const std::string full = full_key(key);
+  if (const std::string own = blamed_source(file_, sources_.get(), {full}); own != file_)
+    throw ConfigError(own, full, problem);
+  throw ConfigError(blamed_source(file_, sources_.get(), others), full, problem);
 }
 
 bool TomlReader::has(const std::string& key) const {

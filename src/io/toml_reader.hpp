@@ -5,6 +5,7 @@
 #include <toml++/toml.h>
 
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <optional>
@@ -51,6 +52,13 @@ std::string override_key(const std::string& item);
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
                      OverrideSources* sources = nullptr);
 
+/// The source to blame for a problem of a value, or of a condition between values, at the full
+/// dotted `keys`: the command line's --set (or --velocity) of the first of them given there (or
+/// of a key inside one, which made it a table), else `file`. A condition between a key of the
+/// file and a --set of another is the --set's doing.
+std::string blamed_source(const std::string& file, const OverrideSources* sources,
+                          std::initializer_list<std::string> keys);
+
 class TomlReader {
  public:
   TomlReader(const toml::table& table, std::string file, std::string prefix = "",
@@ -90,6 +98,10 @@ class TomlReader {
   void finish() const;
 
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+  /// Fails a condition between this table's `key` and the keys `others` (full dotted keys):
+  /// names `key`, blamed on a --set of `key` or of one of `others` (blamed_source).
+  [[noreturn]] void fail_between(const std::string& key, std::initializer_list<std::string> others,
+                                 const std::string& problem) const;
   std::string full_key(const std::string& key) const;
   const std::string& file() const { return file_; }
 
