@@ -18,7 +18,7 @@ import json
 import math
 import os
 
-from .rundata import open_regular
+from .rundata import is_number, open_regular
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -114,12 +114,43 @@ def setting_problem(run_dir, key, text):
     return f"{path}: {key} = {held!r}, not the folder's {text}: a run of another setting"
 
 
+# The case values (summary.json `case` name, the case key that sets it) every run of a study
+# shares with its reference, but for the setting its folder varies: a run of another system,
+# wall speed, stress or start state, tabulated beside the reference, would read as the
+# setting's effect.
+SHARED_CASE = (("n", "system.n"), ("height", "system.height"), ("velocity", "shear.velocity"),
+               ("normal_stress", "shear.normal_stress"),
+               ("initial_velocity", "shear.initial_velocity"))
+
+
+def case_difference(row, reference, varied=None, reference_name=None):
+    """Why the run of `row` is not of the reference's case (the first value of SHARED_CASE in
+    which they differ), or None. The setting `varied` (a case key) and values that either
+    summary lacks (summaries of an earlier cdshear hold no initial_velocity) are not compared.
+    `reference_name` names the reference in the reason (default: its run folder's name)."""
+    for name, key in SHARED_CASE:
+        held, wanted = row["case"].get(name), reference["case"].get(name)
+        if key == varied or held is None or wanted is None:
+            continue
+        if is_number(held) and is_number(wanted):
+            same = math.isclose(held, wanted, rel_tol=1e-12, abs_tol=0.0)
+        else:
+            same = held == wanted
+        if not same:
+            name = reference_name or reference["run"]
+            return f"{key} = {held!r} where the reference ({name}) has {wanted!r}: " \
+                   f"a run of another case"
+    return None
+
+
 def _row(run_dir, key, value, summary, info):
     for name, data in (("summary.json", summary), ("run_info.json", info)):
         if not isinstance(data, dict):
             raise StudyError(os.path.join(run_dir, name), "is not a JSON object")
+    case = summary.get("case", {})
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
-           "steady": bool(summary.get("steady"))}
+           "steady": bool(summary.get("steady")),
+           "case": {name: case[name] for name, _ in SHARED_CASE if name in case}}
     for name, get in QUANTITIES:
         try:
             entry = get(summary)
@@ -231,6 +262,9 @@ def _references(study_dir, skipped):
         rows.append(read_run(path, None, None))
     if not rows:
         raise StudyError(study_dir, "no analysed `reference` run folder")
+    for row in rows[1:]:
+        if why := case_difference(row, rows[0]):
+            raise StudyError(os.path.join(study_dir, row["run"]), why)
     return rows
 
 
@@ -252,7 +286,10 @@ def collect(study_dir, skipped=None):
         if why := setting_problem(path, key, text):
             raise StudyError(path, why)
         value = _number(text)
-        rows.append(read_run(path, key, value if value is not None else text))
+        row = read_run(path, key, value if value is not None else text)
+        if why := case_difference(row, references[0], varied=key):
+            raise StudyError(path, why)
+        rows.append(row)
     return [combine(references)] + rows
 
 
@@ -283,6 +320,9 @@ def compare_references(dir_a, dir_b):
     summary.json yet) as paths."""
     skipped_a, skipped_b = [], []
     runs_a, runs_b = _references(dir_a, skipped_a), _references(dir_b, skipped_b)
+    reference_a = os.path.join(dir_a, runs_a[0]["run"])
+    if why := case_difference(runs_b[0], runs_a[0], reference_name=reference_a):
+        raise StudyError(os.path.join(dir_b, runs_b[0]["run"]), why)
     a, b = combine(runs_a), combine(runs_b)
     skipped = ([os.path.join(dir_a, n) for n in skipped_a] +
                [os.path.join(dir_b, n) for n in skipped_b])

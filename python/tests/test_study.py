@@ -13,12 +13,14 @@ from cdshear_analysis.__main__ import main
 from cdshear_analysis.rundata import seal
 
 
-def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0, averaging_start=None):
-    """A run folder with the parts of summary.json and run_info.json that a study reads."""
+def fake_run(folder, mu, mu_err, sweeps, wall_seconds, time=100.0, averaging_start=None,
+             case=None):
+    """A run folder with the parts of summary.json and run_info.json that a study reads;
+    `case`: more values of summary.json's `case`."""
     os.makedirs(folder)
     entry = lambda m, e: {"mean": m, "err": e}  # noqa: E731
     summary = {
-        "steady": True, "case": {"time": time},
+        "steady": True, "case": dict(case or {}, time=time),
         "mu_eff_wall": entry(mu, mu_err), "solid_fraction": entry(0.8, 0.001),
         "height": entry(20.0, 0.01),
         "bulk": {"mu_eff": entry(mu, mu_err), "solid_fraction": entry(0.81, 0.001),
@@ -339,6 +341,39 @@ class StudyTest(unittest.TestCase):
             with redirect_stderr(io.StringIO()) as err, redirect_stdout(io.StringIO()):
                 self.assertEqual(main(["study", d]), 1)
             self.assertIn("study.csv: cannot write", err.getvalue())
+
+    def test_runs_of_another_case_than_the_reference_are_named(self):
+        case = {"n": 511, "height": 20.0, "velocity": 0.5, "normal_stress": 0.25,
+                "initial_velocity": "rest"}
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0, case=case)
+            run = os.path.join(d, "solver.max_sweeps=50")
+            fake_run(run, 0.30, 0.004, 50.0, 30.0, case=dict(case, velocity=0.05))
+            with self.assertRaisesRegex(study.StudyError, "shear.velocity = 0.05 where the "
+                                        "reference .reference. has 0.5"):
+                study.collect(d)
+            with redirect_stderr(io.StringIO()) as err:
+                self.assertEqual(main(["study", d]), 2)
+            self.assertIn("solver.max_sweeps=50", err.getvalue())
+            # The varied setting itself differs, and a value an earlier summary lacks is skipped.
+            shutil.rmtree(run)
+            run = os.path.join(d, "shear.velocity=0.05")
+            older = {k: v for k, v in case.items() if k != "initial_velocity"}
+            fake_run(run, 0.30, 0.004, 50.0, 30.0, case=dict(older, velocity=0.05))
+            self.assertEqual([r["key"] for r in study.collect(d)], [None, "shear.velocity"])
+            # A realization of the reference of another system is not combined with it.
+            seed2 = os.path.join(d, "reference_seed2")
+            fake_run(seed2, 0.26, 0.004, 100.0, 10.0, case=dict(case, n=1000))
+            with self.assertRaisesRegex(study.StudyError, "system.n = 1000 where"):
+                study.collect(d)
+            # Nor are two folders of realizations of different cases compared.
+            shutil.rmtree(seed2)
+            other = os.path.join(d, "other")
+            fake_run(os.path.join(other, "reference"), 0.26, 0.004, 100.0, 10.0,
+                     case=dict(case, initial_velocity="linear"))
+            with self.assertRaisesRegex(study.StudyError, "shear.initial_velocity = 'linear'"):
+                study.compare_references(d, other)
+            self.assertEqual(len(study.compare_references(d, d)[2]), len(study.QUANTITIES))
 
 
 if __name__ == "__main__":
