@@ -415,6 +415,10 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "set.measure.stripe_thickness", "profile points");
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 1e9\n", "campaign.duration",
                  "more than the limit");
+  // A condition between two keys, one of them the campaign's: its key named, the other beside
+  // the problem (the built-in measure.contact_gap against a margin of the campaign's).
+  expect_refused(kHead + ok_rest + "[set]\nstep.contact_margin = 1e-4\n", "set.step.contact_margin",
+                 "measure.contact_gap: must be at most half of step.contact_margin");
   // An analysis of runs that measure nothing (it exited 0 with no analysis).
   expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = false\n", "campaign.analyze",
                  "measure nothing");

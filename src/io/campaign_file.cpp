@@ -222,14 +222,21 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
     try {
       return load_case(src);
     } catch (const ConfigError& e) {
+      // The campaign's key that gave the value blamed: a condition between two keys is blamed
+      // on the override of either (blamed_source), named then beside the key that failed.
+      const std::string given = e.file() == "--velocity"         ? std::string("shear.velocity")
+                                : e.file().starts_with("--set ") ? override_key(e.file().substr(6))
+                                                                 : e.key();
       const std::string key =
-          e.key() == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
-          : e.key() == "shear.velocity"
+          given == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
+          : given == "shear.velocity"
               ? gr.full_key(gr.has("velocities") ? "velocities" : "velocity_range")
-          : e.key() == "shear.duration" ? gr.full_key(length_key)
-          : e.key().empty()             ? std::string("set")
-                                        : "set." + e.key();
-      throw ConfigError(file, key, e.problem() + " (run " + run.name + ")");
+          : given == "shear.duration" ? gr.full_key(length_key)
+          : given.empty()             ? std::string("set")
+                                      : "set." + given;
+      const std::string problem =
+          given == e.key() || e.key().empty() ? e.problem() : e.key() + ": " + e.problem();
+      throw ConfigError(file, key, problem + " (run " + run.name + ")");
     }
   };
   run.duration = g.duration                      ? *g.duration
