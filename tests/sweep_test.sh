@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # `cdshear sweep` end to end on a tiny campaign of system 1 (the fixture's packing, no
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
-# redoes nothing (and refuses a final state copied from another run), nor does one in a folder
-# kept as git keeps it (summaries, no final states); a sweep stopped by SIGTERM exits 130, and
+# redoes nothing (and refuses a final state or a run folder copied from another run, and takes
+# a run killed between its final state and its interrupted state's removal as finished), nor
+# does one in a folder kept as git keeps it (summaries, no final states); a sweep stopped by
+# SIGTERM exits 130, and
 # the next one keeps the finished runs untouched (run_info.json unchanged), resumes the
 # interrupted one from its checkpoint and finishes all; a run killed between its last step and
 # its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
@@ -53,6 +55,20 @@ cp swapped/runs/s1_seed1_V1/final_state.json swapped/runs/s1_seed1_V0.25/final_s
 "$exe" sweep two.toml -o swapped > swapped.out 2>&1 && fail "a swapped final state was accepted"
 grep -q "s1_seed1_V0.25: .*final_state.json is of another run (velocity = 1.0, its case.toml says 0.25)" \
   swapped.out || fail "swapped final state: $(cat swapped.out)"
+# A whole run folder copied into another run's place is neither skipped nor resumed as that run.
+cp -r "$dir" moved
+rm -r moved/runs/s1_seed1_V0.25
+cp -r moved/runs/s1_seed1_V1 moved/runs/s1_seed1_V0.25
+"$exe" sweep two.toml -o moved > moved.out 2>&1 && fail "another run's folder was accepted"
+grep -q "s1_seed1_V0.25: .*case.toml is of another run (velocity = 1.0 where the campaign's run has 0.25)" \
+  moved.out || fail "another run's folder: $(cat moved.out)"
+# A run killed between writing its final state and removing its interrupted_state.json (of the
+# same step) is finished, not resumed past its end by every later sweep.
+cp -r "$dir" stale
+test -f stale/runs/s1_seed1_V1/checkpoint.cbor || fail "the finished run kept no checkpoint"
+cp stale/runs/s1_seed1_V1/final_state.json stale/runs/s1_seed1_V1/interrupted_state.json
+"$exe" sweep two.toml -o stale > stale.out 2>&1 || fail "a stale interrupted state: $(cat stale.out)"
+grep -q "2 finished earlier" stale.out || fail "a stale interrupted state: $(cat stale.out)"
 
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
 # is not run again (every step is done); a missing summary.json is

@@ -88,6 +88,12 @@ nlohmann::json case_of(const nlohmann::json& summary) {
 /// ("finished", step = end_step) before its final state.
 bool stopped_before_its_end(const fs::path& dir);
 
+/// True when the folder's interrupted_state.json is of a stop after its final state: an
+/// extension that stopped before its new end. Not when it is no later than the final state (a
+/// run killed between writing its final state and removing the interrupted one has every step
+/// done), nor when there is none. Either state's step unknown: true, as the file says.
+bool interrupted_after_final_state(const fs::path& dir);
+
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
 /// done (a resume would only write its run_info), so it counts as finished; unless
@@ -112,7 +118,7 @@ RunState run_state(const fs::path& dir) {
       if (blew_known && !ec && blew >= ended) return RunState::kBlownUp;
     }
     const bool extension_stopped =
-        stopped_before_its_end(dir) || fs::exists(dir / "interrupted_state.json", ec);
+        stopped_before_its_end(dir) || interrupted_after_final_state(dir);
     return fs::exists(dir / "checkpoint.cbor", ec) && extension_stopped ? RunState::kInterrupted
                                                                         : RunState::kFinished;
   }
@@ -216,6 +222,26 @@ bool stopped_before_its_end(const fs::path& dir) {
          end->is_number_unsigned() && step->get<std::uint64_t>() < end->get<std::uint64_t>();
 }
 
+/// The step a state file (final_state.json, interrupted_state.json) was written at; none when
+/// it cannot be read or holds none.
+std::optional<std::uint64_t> state_file_step(const fs::path& file) {
+  const std::optional<std::string> text = read_run_file(file, "a run's state file");
+  if (!text) return std::nullopt;
+  const nlohmann::json j = nlohmann::json::parse(*text, nullptr, false);
+  if (!j.is_object()) return std::nullopt;
+  const auto step = j.find("step");
+  if (step == j.end() || !step->is_number_unsigned()) return std::nullopt;
+  return step->get<std::uint64_t>();
+}
+
+bool interrupted_after_final_state(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::exists(dir / "interrupted_state.json", ec)) return false;
+  const std::optional<std::uint64_t> stopped = state_file_step(dir / "interrupted_state.json");
+  const std::optional<std::uint64_t> ended = state_file_step(dir / "final_state.json");
+  return !stopped || !ended || *stopped > *ended;
+}
+
 nlohmann::json run_summary(const fs::path& dir) {
   const std::optional<std::string> text = read_run_file(dir / "summary.json", "a run's summary");
   if (!text) return nlohmann::json::object();
@@ -290,6 +316,30 @@ std::string final_state_problem(const fs::path& run_dir) {
         "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
         "this one again",
         file.string(), key, state["case"].at(key).dump(), identity.at(key).dump());
+  return "";
+}
+
+/// Empty when a run folder's case.toml is of the campaign's run `r` (the same case identity:
+/// n, L_y, diameters, seed, V, stress, frictions, wall mass, initial velocity), or cannot be
+/// read (final_state_problem and the resume name that); otherwise why not: a folder holding
+/// another run (copied or renamed into place, or made before a `[set]` of its physics changed
+/// under `--force`) must be neither skipped as this run nor resumed as it.
+std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
+  if (!fs::exists(run_dir / "case.toml")) return "";
+  nlohmann::json held;
+  try {
+    CaseSource source;
+    source.file = (run_dir / "case.toml").string();
+    held = case_identity(load_case(source));
+  } catch (const ConfigError&) {
+    return "";
+  }
+  if (const std::string key = differing_identity_key(held, r.identity); !key.empty())
+    return fmt::format(
+        "{} is of another run ({} = {} where the campaign's run has {}): remove {} to run this "
+        "one",
+        (run_dir / "case.toml").string(), key, held.at(key).dump(), r.identity.at(key).dump(),
+        run_dir.string());
   return "";
 }
 
@@ -582,6 +632,12 @@ class Sweep {
       const fs::path rdir = dir_ / "runs" / r.name;
       const fs::path log = dir_ / "logs" / (r.name + ".log");
       const RunState state = run_state(rdir);
+      if (state != RunState::kNew) {
+        if (const std::string problem = folder_case_problem(rdir, r); !problem.empty()) {
+          failed_.push_back(fmt::format("{}: {}", r.name, problem));
+          continue;
+        }
+      }
       if (state == RunState::kFinished) {
         if (const std::string problem = final_state_problem(rdir); !problem.empty()) {
           failed_.push_back(fmt::format("{}: {}", r.name, problem));

@@ -243,6 +243,7 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
                  : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
                                                  : *g.strain * load(1.0).height / (2.0 * v);
   ShearCase sc = load(run.duration);
+  run.identity = case_identity(sc);
   if (c.analyze && !sc.measure.enabled)
     t.fail("analyze",
            "is true, but the runs measure nothing ([set] measure.enabled = false): there "

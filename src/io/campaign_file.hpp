@@ -11,19 +11,21 @@
 #include <vector>
 
 #include <toml++/toml.h>
+#include <nlohmann/json.hpp>
 
 namespace cdshear {
 
 /// One shear run of a campaign, fully resolved.
 struct CampaignRun {
-  std::string name;        ///< folder name: s<system>_seed<seed>_V<V>
-  int system = 1;          ///< preset of model.md section 6, 1..7
-  double velocity = 0.0;   ///< V [d/t]
-  std::uint64_t seed = 1;  ///< packing placement seed (case key system.seed)
-  double duration = 0.0;   ///< simulated shear time [t] (from `duration`, or from `strain`)
-  double dt = 0.0;         ///< the run's resolved time step [t]
-  std::size_t n = 0;       ///< disks
-  double height = 0.0;     ///< nominal L_y [d]
+  std::string name;         ///< folder name: s<system>_seed<seed>_V<V>
+  int system = 1;           ///< preset of model.md section 6, 1..7
+  double velocity = 0.0;    ///< V [d/t]
+  std::uint64_t seed = 1;   ///< packing placement seed (case key system.seed)
+  double duration = 0.0;    ///< simulated shear time [t] (from `duration`, or from `strain`)
+  double dt = 0.0;          ///< the run's resolved time step [t]
+  std::size_t n = 0;        ///< disks
+  double height = 0.0;      ///< nominal L_y [d]
+  nlohmann::json identity;  ///< case_identity of the run's resolved case (src/io/case_file.hpp)
   /// Estimated cost: n x duration / dt [disk steps]; the sweep starts the costliest first.
   double cost() const { return static_cast<double>(n) * duration / dt; }
 };
