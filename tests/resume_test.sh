@@ -70,6 +70,19 @@ print(p["state"], round(p["time"], 6), round(p["sitting_start_time"], 6), p["dur
 }
 [ "$(progress "$work/stopped")" = "stopped 1.2 0.0 12.0" ] ||
   { echo "FAIL: progress.json after --stop-at 1.2: $(progress "$work/stopped")"; exit 1; }
+# A measured run goes on measuring: a case.toml edited to measure nothing is refused by key,
+# the folder left as it was.
+cp -r "$work/stopped" "$work/unmeasured"
+sed -i 's/^enabled = true$/enabled = false/' "$work/unmeasured/case.toml"
+grep -q '^enabled = false$' "$work/unmeasured/case.toml" || { echo "FAIL: case.toml not edited"; exit 1; }
+before=$(md5sum "$work/unmeasured/run.h5" "$work/unmeasured/checkpoint.cbor")
+if "$exe" run -q --no-analyze --resume "$work/unmeasured" > /dev/null 2> "$work/unmeasured.err"; then
+  echo "FAIL: a measured run resumed without its measurement"; exit 1
+fi
+grep -q "case.toml: key 'measure.enabled': is false, but the run was measured" \
+  "$work/unmeasured.err" || { echo "FAIL: $(cat "$work/unmeasured.err")"; exit 1; }
+[ "$before" = "$(md5sum "$work/unmeasured/run.h5" "$work/unmeasured/checkpoint.cbor")" ] ||
+  { echo "FAIL: the refused resume changed the run's files"; exit 1; }
 "$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
 [ "$(progress "$work/stopped")" = "finished 12.0 1.2 12.0" ] ||
   { echo "FAIL: progress.json after the resume: $(progress "$work/stopped")"; exit 1; }

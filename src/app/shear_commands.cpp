@@ -391,6 +391,12 @@ RunData read_run_data_isolated(const fs::path& path) {
 
 /// The measurement layer of a session, restored from the checkpoint and run.h5 when resuming.
 std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
+  // A measured run resumed under a case.toml edited to measure nothing would leave run.h5
+  // unfinished at the checkpoint's time, and the run "done" without a word.
+  if (!s.c.measure.enabled && s.resuming && s.observer_state.contains("measurement"))
+    throw ConfigError((s.dir / "case.toml").string(), "measure.enabled",
+                      "is false, but the run was measured up to its checkpoint (run.h5): a "
+                      "measured run goes on measuring; set it back to true");
   if (!s.c.measure.enabled) return nullptr;
   const MeasureContext context{s.c.step.dt, s.c.velocity, s.c.normal_stress, s.c.height};
   auto m = std::make_unique<ShearMeasurement>(s.c.measure, context, s.world);
