@@ -34,6 +34,7 @@ from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import is_number as _is_number
+from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
 from .rundata import RUN_FILE, open_regular, run_files_in
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
@@ -191,16 +192,6 @@ def case_problem(s):
     if not (_number(v) or 0) > 0:   # _number: None for what is no finite number
         return f"case.velocity {v!r} is not a positive number"
     return None
-
-
-# The case values a summary must share with its run's case.toml: (summary `case` key, TOML table,
-# TOML key). The same check as the sweep's (src/app/sweep_command.cpp, summary_problem).
-IDENTITY_KEYS = (("n", "system", "n"), ("height", "system", "height"),
-                 ("velocity", "shear", "velocity"), ("normal_stress", "shear", "normal_stress"),
-                 ("duration", "shear", "duration"),
-                 ("initial_velocity", "shear", "initial_velocity"))
-# Keys that summaries of an earlier cdshear do not hold: compared only where the summary has them.
-IDENTITY_KEYS_RECORDED_LATER = ("initial_velocity",)
 
 
 def identity_problem(run_dir, s):

@@ -205,6 +205,16 @@ COUNT_SERIES = ("step", "contacts", "force_carrying", "closed", "capped_steps", 
 OPTIONAL_POSITIVE_ATTRS = ("inertial_mass", "sample_interval", "dt", "stripe_thickness")
 
 
+# The case values a summary must share with its run's case.toml: (summary `case` key, TOML table,
+# TOML key). The same check as the sweep's (src/app/sweep_command.cpp, summary_problem).
+IDENTITY_KEYS = (("n", "system", "n"), ("height", "system", "height"),
+                 ("velocity", "shear", "velocity"), ("normal_stress", "shear", "normal_stress"),
+                 ("duration", "shear", "duration"),
+                 ("initial_velocity", "shear", "initial_velocity"))
+# Keys that summaries of an earlier cdshear do not hold: compared only where the summary has them.
+IDENTITY_KEYS_RECORDED_LATER = ("initial_velocity",)
+
+
 def is_number(value):
     """A number (int or float, numpy's included), not a boolean nor a text."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

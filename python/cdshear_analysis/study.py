@@ -18,7 +18,7 @@ import json
 import math
 import os
 
-from .rundata import is_number, open_regular
+from .rundata import IDENTITY_KEYS, is_number, open_regular
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -115,12 +115,11 @@ def setting_problem(run_dir, key, text):
 
 
 # The case values (summary.json `case` name, the case key that sets it) every run of a study
-# shares with its reference, but for the setting its folder varies: a run of another system,
-# wall speed, stress or start state, tabulated beside the reference, would read as the
-# setting's effect.
-SHARED_CASE = (("n", "system.n"), ("height", "system.height"), ("velocity", "shear.velocity"),
-               ("normal_stress", "shear.normal_stress"),
-               ("initial_velocity", "shear.initial_velocity"))
+# shares with its reference, but for the setting its folder varies: a summary's identity
+# (rundata.IDENTITY_KEYS) but its duration. A run of another system, wall speed, stress or start
+# state, tabulated beside the reference, would read as the setting's effect.
+SHARED_CASE = tuple((name, f"{table}.{key}") for name, table, key in IDENTITY_KEYS
+                    if name != "duration")
 
 
 def case_difference(row, reference, varied=None, reference_name=None):
