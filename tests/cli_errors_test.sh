@@ -362,6 +362,14 @@ test ! -e blown/blowup_state.json || { echo "FAIL: a stale blowup_state.json"; f
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"
 expect_status2 "is not a case key" "$exe" run -q --set "shear velocity=1"
 
+# A path that cannot be followed is bad input, named, for every command that takes one.
+ln -s loop_b loop_a; ln -s loop_a loop_b
+expect_status2 "loop_a: Too many levels of symbolic links" "$exe" scene loop_a -o never
+expect_status2 "loop_a: Too many levels of symbolic links" "$exe" run -q loop_a
+expect_status2 "loop_a: Too many levels of symbolic links" "$exe" run -q --packing loop_a
+expect_status2 "loop_a: Too many levels of symbolic links" "$exe" settings loop_a
+expect_status2 "loop_a: Too many levels of symbolic links" "$exe" sweep loop_a
+
 # Two run.h5 files behind a correct seal that the HDF5 library (Debian's 1.10.8) cannot read: one
 # byte of a small synthetic run changed (tests/data/README.md). One crashes it (SIGSEGV), one
 # makes it loop for ever; `analyze` names the folder and the cause, exit 2, in seconds.

@@ -408,6 +408,29 @@ TEST(BlowUp, NonFiniteVelocityIsReported) {
   EXPECT_NE(sim.last().problem.find("NaN"), std::string::npos) << sim.last().problem;
 }
 
+TEST(BlowUp, VelocityTooLargeToSquareIsReported) {
+  // Finite velocities and positions whose squares overflow: the kinetic energy would be
+  // infinite, so the step is a blow-up, not a finished step. A control at 1e100 passes.
+  for (const double speed : {1e155, 1e100}) {
+    SceneDefinition s;
+    s.disks = {disk({0.0, 0.0}, 0.5, {speed, 0.0})};
+    StepOptions o;
+    o.displacement_bound = 1e300;
+    testing::Simulation sim(s, o);
+    sim.run(1);
+    EXPECT_EQ(sim.last().blown_up, speed > 1e154) << speed << ": " << sim.last().problem;
+  }
+  SceneDefinition far;
+  far.disks = {disk({1.7e308, 0.0}, 0.5, {1e306, 0.0})};  // x + v dt overflows
+  StepOptions o;
+  o.dt = 10.0;
+  testing::Simulation sim(far, o);
+  sim.run(1);
+  ASSERT_TRUE(sim.last().blown_up);
+  EXPECT_NE(sim.last().problem.find("position or velocity"), std::string::npos)
+      << sim.last().problem;
+}
+
 TEST(BlowUp, NonFiniteWallIsReportedWithItsName) {
   // A wall free in y with an infinite applied force: its velocity becomes infinite in the first
   // step, with no disk touching it. That is a blow-up, named after the wall.

@@ -1,8 +1,10 @@
 // cdshear: Contact Dynamics for dense 2D granular shear flow. Command-line entry point.
 #include <CLI/CLI.hpp>
 
+#include <cerrno>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <new>
 #include <string>
 #include <string_view>
@@ -84,6 +86,18 @@ int main(int argc, char** argv) {
   } catch (const cdshear::WriteError& e) {
     std::fprintf(stderr, "error: %s; files written before it are kept\n", e.what());
     return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path that cannot be followed (a symbolic-link loop, a name too long, a file where a
+    // folder is expected) is bad input; any other refusal of the file system (permissions, a
+    // full or failing disk) is not the input's fault.
+    const int code = e.code().value();
+    const bool bad_path =
+        code == ELOOP || code == ENAMETOOLONG || code == ENOTDIR || code == ENOENT;
+    std::string paths = e.path1().string();
+    if (!e.path2().empty()) paths += ", " + e.path2().string();
+    std::fprintf(stderr, "error: %s: %s%s\n", paths.empty() ? "a path" : paths.c_str(),
+                 e.code().message().c_str(), bad_path ? "" : "; files written before it are kept");
+    return bad_path ? 2 : 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr,
                  "error: cdshear %s: out of memory (the limits on sizes are in "

@@ -230,8 +230,13 @@ ContactDynamics::Integrated ContactDynamics::integrate(World& world, double dt, 
       const Vec2 step = dt * b.velocity;
       d.position[i] += step;
       d.angle[i] += dt * b.omega;
-      max_disp2 = std::max(max_disp2, length_squared(step));
-      finite = finite && std::isfinite(step.x) && std::isfinite(step.y) && std::isfinite(b.omega);
+      const double step2 = length_squared(step);
+      max_disp2 = std::max(max_disp2, step2);
+      // A velocity whose square overflows is as broken as a NaN: the kinetic energy, the
+      // displacement bound and the contact search all square it.
+      finite = finite && std::isfinite(step2) && std::isfinite(length_squared(b.velocity)) &&
+               std::isfinite(b.omega * b.omega) && std::isfinite(d.position[i].x) &&
+               std::isfinite(d.position[i].y);
     }
     thread_high_[t] = max_disp2;
     thread_finite_[t] = finite ? 1 : 0;
@@ -301,7 +306,8 @@ void ContactDynamics::measure(World& world, const StepOptions& options, int team
                      "' became NaN or infinite";
   } else if (!integrated.finite) {
     report.blown_up = true;
-    report.problem = "a disk velocity became NaN or infinite";
+    report.problem =
+        "a disk's position or velocity became NaN or infinite (or too large to square)";
   } else if (!std::isfinite(report.solver.residual)) {
     report.blown_up = true;
     report.problem = "the solver residual is " + significant(report.solver.residual) + " after " +
