@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 
@@ -15,6 +16,7 @@
 #include "packing_file.hpp"
 #include "scene.hpp"
 #include "shear_case.hpp"
+#include "test_support.hpp"
 
 namespace cdshear {
 namespace {
@@ -335,6 +337,49 @@ TEST(ShearCaseErrors, MissingPackingFile) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.file(), "/nonexistent/packing.json");
     EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos);
+  }
+}
+
+// A packing's metadata are checked against its disks and each other, each error by its key; an
+// unedited copy reads back the preparation's numerics as written.
+TEST(ShearCaseErrors, PackingMetadataAreCheckedByKey) {
+  nlohmann::json original;
+  std::ifstream(CDSHEAR_SYSTEM1_PACKING) >> original;
+  testing::TempDir dir("packing_metadata");
+  auto read_edited = [&](const std::string& key, const nlohmann::json& value) {
+    nlohmann::json j = original;
+    j[key] = value;
+    const std::filesystem::path path = dir.path() / "edited.json";
+    std::ofstream(path) << j.dump();
+    return read_packing(path);
+  };
+  const Packing same = read_edited("n", original.at("n"));
+  EXPECT_EQ(same.preparation_steps, original.at("preparation_steps").get<std::uint64_t>());
+  EXPECT_EQ(same.capped_steps, original.at("capped_steps").get<std::uint64_t>());
+  EXPECT_EQ(same.largest_overlap, original.at("largest_overlap").get<double>());
+  EXPECT_GT(same.preparation_steps, 0u);
+  const std::uint64_t steps = same.preparation_steps;
+  const double fraction = original.at("solid_fraction").get<double>();
+  const std::pair<std::string, nlohmann::json> bad[] = {
+      {"solid_fraction", "x"},
+      {"solid_fraction", fraction * 1.01},
+      {"capped_steps", -5},
+      {"capped_steps", steps + 1},
+      {"displacement_warnings", 1.5},
+      {"preparation_steps", "many"},
+      {"largest_overlap", -1.0},
+      {"program_version", 5},
+      {"build", nullptr},
+      {"height", -20.0},
+      {"length_x", 0.0},
+  };
+  for (const auto& [key, value] : bad) {
+    try {
+      read_edited(key, value);
+      ADD_FAILURE() << key << " = " << value.dump() << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), key) << value.dump() << ": " << e.what();
+    }
   }
 }
 

@@ -176,10 +176,34 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   p.seed = j.at("seed").get<std::uint64_t>();
   p.piston_stress = number("piston_stress");
   p.preparation_time = j.contains("preparation_time") ? number("preparation_time") : 0.0;
-  if (j.contains("build")) {
-    if (!j.at("build").is_string())
-      throw ConfigError(file, "build", "must be a string (the build that prepared the packing)");
-    p.build = j.at("build").get<std::string>();
+  for (const char* key : {"build", "program_version"})
+    if (j.contains(key) && !j.at(key).is_string())
+      throw ConfigError(
+          file, key,
+          "must be a string (the program that prepared the packing), not " + j.at(key).dump());
+  if (j.contains("build")) p.build = j.at("build").get<std::string>();
+  // How the preparation's numerics behaved: optional (a packing written by hand need not say),
+  // but a count is a whole number >= 0 and no count exceeds the steps it counts.
+  auto count = [&](const char* key) -> std::uint64_t {
+    if (!j.contains(key)) return 0;
+    if (!j.at(key).is_number_unsigned())
+      throw ConfigError(file, key, "must be a whole number >= 0, not " + j.at(key).dump());
+    return j.at(key).get<std::uint64_t>();
+  };
+  p.preparation_steps = count("preparation_steps");
+  p.capped_steps = count("capped_steps");
+  p.displacement_warnings = count("displacement_warnings");
+  for (const auto& [key, value] : {std::pair{"capped_steps", p.capped_steps},
+                                   {"displacement_warnings", p.displacement_warnings}})
+    if (j.contains("preparation_steps") && value > p.preparation_steps)
+      throw ConfigError(file, key,
+                        fmt::format("is {}, more than the preparation's {} steps "
+                                    "(preparation_steps)",
+                                    value, p.preparation_steps));
+  if (j.contains("largest_overlap")) {
+    p.largest_overlap = number("largest_overlap");
+    if (!(p.largest_overlap >= 0) || !std::isfinite(p.largest_overlap))
+      throw ConfigError(file, "largest_overlap", "must be a finite number >= 0");
   }
   const nlohmann::json& list = need("disks_xyr");
   if (!list.is_array()) throw ConfigError(file, "disks_xyr", "must be a list of [x, y, r]");
@@ -198,8 +222,9 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     throw ConfigError(
         file, "n",
         fmt::format("is {}, but disks_xyr lists {} disks", j.at("n").dump(), p.disks.size()));
-  if (!(p.height > 0) || !(p.length_x > 0))
-    throw ConfigError(file, "length_x", "cell sizes must be > 0");
+  for (const auto& [key, value] : {std::pair{"height", p.height}, {"length_x", p.length_x}})
+    if (!(value > 0) || !std::isfinite(value))
+      throw ConfigError(file, key, fmt::format("must be a finite number > 0, not {}", value));
   if (!(p.diameter_min > 0) || !std::isfinite(p.diameter_max))
     throw ConfigError(file, "diameter_min", "diameters must be finite numbers > 0");
   if (!(p.diameter_max >= p.diameter_min))
@@ -230,6 +255,16 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
                       d.position.y, d.radius, p.height, overlap_tolerance));
   }
   p.solid_fraction = solid_fraction(p.disks, p.length_x, p.height);
+  // The file's own figure is the disks' (written from them): one that disagrees says the disks or
+  // the cell were edited without it, or it was.
+  if (j.contains("solid_fraction")) {
+    const double given = number("solid_fraction");
+    if (!(std::abs(given - p.solid_fraction) <= 1e-9 * p.solid_fraction))
+      throw ConfigError(file, "solid_fraction",
+                        fmt::format("is {}, but the disks fill {} of the cell L_x x L_y = {} x {} "
+                                    "(were the disks, length_x or height edited?)",
+                                    given, p.solid_fraction, p.length_x, p.height));
+  }
   // The walls rest on the grains: in a cell far wider than its disks fill, the piston's load
   // (sigma_yy L_x) falls on a few grains, and a period typed wrong gives no clearer sign than this.
   if (!p.disks.empty() &&
