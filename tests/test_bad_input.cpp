@@ -501,7 +501,7 @@ TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
   expect([](Checkpoint& c) { c.world.disks.radius[0] = -0.5; }, "disks[0]");
   expect([](Checkpoint& c) { c.world.domain.length_x = 0.0; }, "length_x");
   expect([](Checkpoint& c) { c.world.walls[0].mode_y = static_cast<AxisMode>(7); },
-         "unknown wall mode 7");
+         "key 'walls[0].mode_y': must be a whole number from 0 to 2, not 7");
   expect([](Checkpoint& c) { c.contacts[0].key.body_b = 3; }, "contacts[0]");
   expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts[0]");
 }
@@ -538,6 +538,58 @@ TEST(CheckpointValidation, ACraftedDeepNestingBehindACorrectSealIsRefused) {
     EXPECT_EQ(e.file(), path);
     EXPECT_NE(std::string(e.what()).find("nests deeper than 64 levels"), std::string::npos)
         << e.what();
+  }
+}
+
+// A checkpoint's fields edited behind a correct seal (a crafted file: the seal stops accidents)
+// are named by their path and the type they must have, not by the JSON library's words.
+TEST(CheckpointValidation, CraftedFieldsAreNamedByTheirPath) {
+  const TempDir dir("checkpoint_fields");
+  const Checkpoint cp = sample_checkpoint();
+  const auto path = dir.path() / "c.cbor";
+  write_checkpoint(path, cp.world, cp.contacts);
+  const std::string text = testing::read_text(path);
+  const std::size_t newline = text.find('\n');
+  const nlohmann::json original = nlohmann::json::from_cbor(text.substr(newline + 1));
+  const auto read_edited = [&](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json j = original;
+    edit(j);
+    const std::vector<std::uint8_t> body = nlohmann::json::to_cbor(j);
+    const uLong crc = crc32(crc32(0L, Z_NULL, 0), body.data(), static_cast<uInt>(body.size()));
+    char seal[96];
+    std::snprintf(seal, sizeof seal, "cdshear-checkpoint crc32=%08lx size=%zu\n", crc, body.size());
+    std::ofstream(path, std::ios::binary) << seal << std::string(body.begin(), body.end());
+    return read_checkpoint(path);
+  };
+  EXPECT_EQ(state_hash(read_edited([](nlohmann::json&) {}).world), state_hash(cp.world));
+  const std::pair<std::function<void(nlohmann::json&)>, std::string> cases[] = {
+      {[](nlohmann::json& j) { j.erase("time"); }, "time"},
+      {[](nlohmann::json& j) { j["step"] = -4; }, "step"},
+      {[](nlohmann::json& j) { j["periodic_x"] = 1; }, "periodic_x"},
+      {[](nlohmann::json& j) { j["body_force"] = {0.0}; }, "body_force"},
+      {[](nlohmann::json& j) { j["disks"]["vy"].erase(0); }, "disks.vy"},
+      {[](nlohmann::json& j) { j["disks"]["x"].push_back(1.0); }, "disks.y"},
+      {[](nlohmann::json& j) { j["disks"]["omega"][1] = "spin"; }, "disks.omega[1]"},
+      {[](nlohmann::json& j) { j["disks"]["image"][0] = 0.5; }, "disks.image[0]"},
+      {[](nlohmann::json& j) { j["disks"] = 3; }, "disks"},
+      {[](nlohmann::json& j) { j["walls"][0].erase("mass"); }, "walls[0].mass"},
+      {[](nlohmann::json& j) { j["walls"][0]["mode_x"] = 9; }, "walls[0].mode_x"},
+      {[](nlohmann::json& j) { j["walls"][0]["name"] = 5; }, "walls[0].name"},
+      {[](nlohmann::json& j) {
+         j["walls"] = {{"a", 1}};
+       },
+       "walls"},
+      {[](nlohmann::json& j) { j["contacts"]["rt"] = nlohmann::json::array(); }, "contacts.rt"},
+      {[](nlohmann::json& j) { j["contacts"]["b"][0] = 5000000000LL; }, "contacts.b[0]"},
+  };
+  for (const auto& [edit, key] : cases) {
+    try {
+      read_edited(edit);
+      ADD_FAILURE() << key << ": accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), key) << e.what();
+      EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
+    }
   }
 }
 

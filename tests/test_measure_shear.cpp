@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 
+#include "measurement_state.hpp"
 #include "packing_file.hpp"
 #include "shear_case.hpp"
 #include "shear_measurement.hpp"
@@ -169,6 +170,27 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   // At rest the force network is complete: Z (rattlers included) above 2, where a flow at
   // V = 0.5 measures 1.3-1.5.
   EXPECT_GT(p.regions.at(0).bulk_coordination, 2.0);
+}
+
+// A measurement state damaged behind a correct checkpoint seal is named in plain words: the
+// missing key or the wrong type, without the JSON library's tag.
+TEST(MeasurementState, ADamagedStateIsNamedWithoutTheLibrarysTag) {
+  const nlohmann::json good = measurement_state_to_json(MeasurementState{});
+  EXPECT_NO_THROW(measurement_state_from_json(good));
+  nlohmann::json missing = good, wrong = good;
+  missing.erase("window");
+  wrong["interval"]["steps"] = "many";
+  for (const auto& [damaged, words] :
+       {std::pair{missing, "key 'window' not found"}, {wrong, "must be number, but is string"}}) {
+    try {
+      measurement_state_from_json(damaged);
+      ADD_FAILURE() << words << ": accepted";
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(words), std::string::npos) << what;
+      EXPECT_EQ(what.find("json.exception"), std::string::npos) << what;
+    }
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "config_error.hpp"
@@ -110,17 +111,8 @@ json xy(const std::vector<Vec2>& v, bool take_y) {
   for (std::size_t i = 0; i < v.size(); ++i) out[i] = take_y ? v[i].y : v[i].x;
   return out;
 }
-std::vector<Vec2> vec2s(const json& x, const json& y) {
-  const auto xs = x.get<std::vector<double>>(), ys = y.get<std::vector<double>>();
-  std::vector<Vec2> out(xs.size());
-  for (std::size_t i = 0; i < xs.size(); ++i) out[i] = {xs[i], ys.at(i)};
-  return out;
-}
 json to_json(Vec2 v) {
   return json::array({v.x, v.y});
-}
-Vec2 to_vec2(const json& j) {
-  return {j.at(0).get<double>(), j.at(1).get<double>()};
 }
 
 /// The seal line in front of the CBOR: its CRC-32 (zlib) and size. Checked before the CBOR
@@ -136,7 +128,74 @@ std::string seal_line(const std::vector<std::uint8_t>& body) {
   return line;
 }
 
-/// Every field checked like an input file: finite numbers, positive sizes, known modes, contact
+/// A value as an error message shows it: its JSON, shortened.
+std::string shown(const json& v) {
+  std::string text = v.dump();
+  return text.size() > 60 ? text.substr(0, 57) + "..." : text;
+}
+
+/// Typed reads of a checkpoint's fields: a field that is missing or of another type is named by
+/// its path (`disks.vx`, `walls[1].mass`, `contacts.rn[7]`) with the type it must have, never by
+/// the JSON library's words.
+struct CheckpointFields {
+  const std::string& file;
+
+  const json& at(const json& parent, const std::string& prefix, const char* key) const {
+    if (!parent.is_object())
+      throw ConfigError(file, prefix.empty() ? "" : prefix.substr(0, prefix.size() - 1),
+                        "must be a table");
+    const auto it = parent.find(key);
+    if (it == parent.end()) throw ConfigError(file, prefix + key, "is missing");
+    return *it;
+  }
+  double number(const json& v, const std::string& path) const {
+    if (!v.is_number()) throw ConfigError(file, path, "must be a number, not " + shown(v));
+    return v.get<double>();
+  }
+  Vec2 vec2(const json& v, const std::string& path) const {
+    if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number())
+      throw ConfigError(file, path, "must be two numbers [x, y], not " + shown(v));
+    return {v[0].get<double>(), v[1].get<double>()};
+  }
+  /// A list of numbers.
+  std::vector<double> numbers(const json& v, const std::string& path) const {
+    if (!v.is_array()) throw ConfigError(file, path, "must be a list of numbers");
+    std::vector<double> out;
+    out.reserve(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i)  // the path formatted only for a message
+      out.push_back(v[i].is_number() ? v[i].get<double>()
+                                     : number(v[i], fmt::format("{}[{}]", path, i)));
+    return out;
+  }
+  /// A whole number from `low` to `high`.
+  static bool whole_in(const json& v, std::int64_t low, std::int64_t high) {
+    return v.is_number_unsigned() ? v.get<std::uint64_t>() <= static_cast<std::uint64_t>(high)
+                                  : v.is_number_integer() && v.get<std::int64_t>() >= low &&
+                                        v.get<std::int64_t>() <= high;
+  }
+  std::int64_t integer(const json& v, const std::string& path, std::int64_t low,
+                       std::int64_t high) const {
+    if (!whole_in(v, low, high))
+      throw ConfigError(
+          file, path,
+          fmt::format("must be a whole number from {} to {}, not {}", low, high, shown(v)));
+    return v.is_number_unsigned() ? static_cast<std::int64_t>(v.get<std::uint64_t>())
+                                  : v.get<std::int64_t>();
+  }
+  /// A list of whole numbers from `low` to `high`.
+  std::vector<std::int64_t> integers(const json& v, const std::string& path, std::int64_t low,
+                                     std::int64_t high) const {
+    if (!v.is_array()) throw ConfigError(file, path, "must be a list of whole numbers");
+    std::vector<std::int64_t> out;
+    out.reserve(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i)  // the path formatted only for a message
+      out.push_back(integer(v[i], whole_in(v[i], low, high) ? path : fmt::format("{}[{}]", path, i),
+                            low, high));
+    return out;
+  }
+};
+
+/// Every field checked like an input file: finite numbers, positive sizes, contact
 /// indices in range. Names the first bad field.
 void validate(const Checkpoint& cp, const std::string& file) {
   const World& w = cp.world;
@@ -162,9 +221,6 @@ void validate(const Checkpoint& cp, const std::string& file) {
   for (std::size_t k = 0; k < w.walls.size(); ++k) {
     const Wall& wall = w.walls[k];
     const std::string at = "walls[" + std::to_string(k) + "]";
-    for (const AxisMode m : {wall.mode_x, wall.mode_y})
-      if (m != AxisMode::kFixed && m != AxisMode::kImposed && m != AxisMode::kFree)
-        fail(at + ".mode", "unknown wall mode " + std::to_string(static_cast<int>(m)));
     if (!finite(wall.point) || !finite(wall.velocity) || !finite(wall.applied_force) ||
         !finite(wall.contact_impulse) || !finite(wall.contact_force))
       fail(at, "every vector must be finite");
@@ -266,75 +322,116 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
                       "does not match the content: the file was changed or damaged after it "
                       "was written");
   Checkpoint cp;
-  try {
-    const json j = parse_bounded_cbor(body, file);
-    if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
-      throw ConfigError(file, "format", "not a cdshear checkpoint");
-    if (j.at("version") != 1)
-      throw ConfigError(file, "version",
-                        "unsupported checkpoint version " + j.at("version").dump());
-    World& w = cp.world;
-    w.time = j.at("time").get<double>();
-    w.step = j.at("step").get<std::uint64_t>();
-    w.domain.periodic_x = j.at("periodic_x").get<bool>();
-    w.domain.length_x = j.at("length_x").get<double>();
-    w.body_force = to_vec2(j.at("body_force"));
-    w.friction_disk_disk = j.at("friction_disk_disk").get<double>();
-    const json& d = j.at("disks");
-    w.disks.position = vec2s(d.at("x"), d.at("y"));
-    w.disks.image = d.at("image").get<std::vector<std::int64_t>>();
-    w.disks.angle = d.at("angle").get<std::vector<double>>();
-    w.disks.velocity = vec2s(d.at("vx"), d.at("vy"));
-    w.disks.omega = d.at("omega").get<std::vector<double>>();
-    w.disks.radius = d.at("radius").get<std::vector<double>>();
-    w.disks.mass = d.at("mass").get<std::vector<double>>();
-    w.disks.inertia = d.at("inertia").get<std::vector<double>>();
-    for (const json& wj : j.at("walls")) {
-      Wall wall;
-      wall.name = wj.at("name").get<std::string>();
-      wall.point = to_vec2(wj.at("point"));
-      wall.normal = to_vec2(wj.at("normal"));
-      wall.mode_x = static_cast<AxisMode>(wj.at("mode_x").get<int>());
-      wall.mode_y = static_cast<AxisMode>(wj.at("mode_y").get<int>());
-      wall.velocity = to_vec2(wj.at("velocity"));
-      wall.mass = wj.at("mass").get<double>();
-      wall.applied_force = to_vec2(wj.at("applied_force"));
-      wall.friction = wj.at("friction").get<double>();
-      wall.contact_force = to_vec2(wj.at("contact_force"));
-      wall.contact_impulse = to_vec2(wj.at("contact_impulse"));
-      w.walls.push_back(wall);
-    }
-    if (j.contains("observers")) cp.observers = j.at("observers");
-    if (j.contains("case")) cp.case_identity = j.at("case");
-    if (j.contains("instruction_set")) {
-      if (!j.at("instruction_set").is_string())
-        throw ConfigError(file, "instruction_set", "must be a string");
-      cp.instruction_set = j.at("instruction_set").get<std::string>();
-    }
-    const json& c = j.at("contacts");
-    const auto a = c.at("a").get<std::vector<std::int32_t>>();
-    const auto b = c.at("b").get<std::vector<std::int32_t>>();
-    const auto image = c.at("image").get<std::vector<std::int32_t>>();
-    const auto rn = c.at("rn").get<std::vector<double>>();
-    const auto rt = c.at("rt").get<std::vector<double>>();
-    for (std::size_t k = 0; k < a.size(); ++k) {
-      Contact con;
-      con.key = {a[k], b.at(k), image.at(k)};
-      con.impulse_n = rn.at(k);
-      con.impulse_t = rt.at(k);
-      cp.contacts.push_back(con);
-    }
-    const std::size_t n = w.disks.position.size();
-    for (const std::size_t size :
-         {w.disks.image.size(), w.disks.angle.size(), w.disks.velocity.size(), w.disks.omega.size(),
-          w.disks.radius.size(), w.disks.mass.size(), w.disks.inertia.size()})
-      if (size != n) throw ConfigError(file, "disks", "arrays of different lengths");
-    validate(cp, file);
-  } catch (const ConfigError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw ConfigError(file, "", std::string("corrupt checkpoint: ") + e.what());
+  const json j = parse_bounded_cbor(body, file);
+  const CheckpointFields f{file};
+  if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
+    throw ConfigError(file, "format", "not a cdshear checkpoint");
+  if (f.at(j, "", "version") != 1)
+    throw ConfigError(file, "version", "unsupported checkpoint version " + j.at("version").dump());
+  World& w = cp.world;
+  w.time = f.number(f.at(j, "", "time"), "time");
+  const json& step = f.at(j, "", "step");
+  if (!step.is_number_unsigned())
+    throw ConfigError(file, "step", "must be a whole number >= 0, not " + shown(step));
+  w.step = step.get<std::uint64_t>();
+  const json& periodic = f.at(j, "", "periodic_x");
+  if (!periodic.is_boolean())
+    throw ConfigError(file, "periodic_x", "must be true or false, not " + shown(periodic));
+  w.domain.periodic_x = periodic.get<bool>();
+  w.domain.length_x = f.number(f.at(j, "", "length_x"), "length_x");
+  w.body_force = f.vec2(f.at(j, "", "body_force"), "body_force");
+  w.friction_disk_disk = f.number(f.at(j, "", "friction_disk_disk"), "friction_disk_disk");
+  // The disks: ten lists of one length, that of disks.x.
+  const json& d = f.at(j, "", "disks");
+  const auto list = [&](const char* key) {
+    return f.numbers(f.at(d, "disks.", key), std::string("disks.") + key);
+  };
+  const std::vector<double> x = list("x"), y = list("y"), vx = list("vx"), vy = list("vy");
+  const std::size_t n = x.size();
+  const auto same_length = [&](const char* key, std::size_t size) {
+    if (size != n)
+      throw ConfigError(file, std::string("disks.") + key,
+                        fmt::format("has {} values where disks.x has {}", size, n));
+  };
+  for (const auto& [key, values] : {std::pair{"y", &y}, {"vx", &vx}, {"vy", &vy}})
+    same_length(key, values->size());
+  for (std::size_t i = 0; i < n; ++i) {
+    w.disks.position.push_back({x[i], y[i]});
+    w.disks.velocity.push_back({vx[i], vy[i]});
   }
+  for (const auto& [key, target] : {std::pair{"angle", &w.disks.angle},
+                                    {"omega", &w.disks.omega},
+                                    {"radius", &w.disks.radius},
+                                    {"mass", &w.disks.mass},
+                                    {"inertia", &w.disks.inertia}}) {
+    *target = list(key);
+    same_length(key, target->size());
+  }
+  for (const std::int64_t image : f.integers(f.at(d, "disks.", "image"), "disks.image",
+                                             std::numeric_limits<std::int64_t>::min(),
+                                             std::numeric_limits<std::int64_t>::max()))
+    w.disks.image.push_back(image);
+  same_length("image", w.disks.image.size());
+  const json& walls = f.at(j, "", "walls");
+  if (!walls.is_array()) throw ConfigError(file, "walls", "must be a list of walls");
+  for (std::size_t k = 0; k < walls.size(); ++k) {
+    const json& wj = walls[k];
+    const std::string at = fmt::format("walls[{}].", k);
+    if (!wj.is_object()) throw ConfigError(file, fmt::format("walls[{}]", k), "must be a table");
+    Wall wall;
+    const json& name = f.at(wj, at, "name");
+    if (!name.is_string()) throw ConfigError(file, at + "name", "must be a string");
+    wall.name = name.get<std::string>();
+    const auto vec2 = [&](const char* key) { return f.vec2(f.at(wj, at, key), at + key); };
+    const auto number = [&](const char* key) { return f.number(f.at(wj, at, key), at + key); };
+    const auto mode = [&](const char* key) {
+      constexpr auto kFixed = static_cast<std::int64_t>(AxisMode::kFixed);  // the first mode
+      constexpr auto kFree = static_cast<std::int64_t>(AxisMode::kFree);    // the last
+      return static_cast<AxisMode>(f.integer(f.at(wj, at, key), at + key, kFixed, kFree));
+    };
+    wall.point = vec2("point");
+    wall.normal = vec2("normal");
+    wall.mode_x = mode("mode_x");
+    wall.mode_y = mode("mode_y");
+    wall.velocity = vec2("velocity");
+    wall.mass = number("mass");
+    wall.applied_force = vec2("applied_force");
+    wall.friction = number("friction");
+    wall.contact_force = vec2("contact_force");
+    wall.contact_impulse = vec2("contact_impulse");
+    w.walls.push_back(wall);
+  }
+  if (j.contains("observers")) cp.observers = j.at("observers");
+  if (j.contains("case")) cp.case_identity = j.at("case");
+  if (j.contains("instruction_set")) {
+    if (!j.at("instruction_set").is_string())
+      throw ConfigError(file, "instruction_set", "must be a string");
+    cp.instruction_set = j.at("instruction_set").get<std::string>();
+  }
+  // The contacts: five lists of one length, that of contacts.a; body indices as stored (int32),
+  // their range checked by validate.
+  const json& c = f.at(j, "", "contacts");
+  constexpr std::int64_t kLow = std::numeric_limits<std::int32_t>::min();
+  constexpr std::int64_t kHigh = std::numeric_limits<std::int32_t>::max();
+  const auto a = f.integers(f.at(c, "contacts.", "a"), "contacts.a", kLow, kHigh);
+  const auto b = f.integers(f.at(c, "contacts.", "b"), "contacts.b", kLow, kHigh);
+  const auto image = f.integers(f.at(c, "contacts.", "image"), "contacts.image", kLow, kHigh);
+  const auto rn = f.numbers(f.at(c, "contacts.", "rn"), "contacts.rn");
+  const auto rt = f.numbers(f.at(c, "contacts.", "rt"), "contacts.rt");
+  for (const auto& [key, size] :
+       {std::pair{"b", b.size()}, {"image", image.size()}, {"rn", rn.size()}, {"rt", rt.size()}})
+    if (size != a.size())
+      throw ConfigError(file, std::string("contacts.") + key,
+                        fmt::format("has {} values where contacts.a has {}", size, a.size()));
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    Contact con;
+    con.key = {static_cast<std::int32_t>(a[k]), static_cast<std::int32_t>(b[k]),
+               static_cast<std::int32_t>(image[k])};
+    con.impulse_n = rn[k];
+    con.impulse_t = rt[k];
+    cp.contacts.push_back(con);
+  }
+  validate(cp, file);
   return cp;
 }
 

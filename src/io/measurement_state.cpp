@@ -46,7 +46,17 @@ MeasurementState measurement_state_from_json(const json& j) {
         "down from the top wall): a measured run cannot be resumed "
         "across the change; "
         "start a new run, from this run's final state if needed");
-  MeasurementState state = j.get<MeasurementState>();
+  MeasurementState state;
+  try {
+    state = j.get<MeasurementState>();
+  } catch (const json::exception& e) {
+    // The library's words without its tag ("[json.exception.out_of_range.403] key 'window' not
+    // found" -> "key 'window' not found").
+    const std::string what = e.what();
+    const std::size_t tag_end = what.rfind("] ", what.find(' '));
+    throw std::runtime_error("a damaged measurement state: " +
+                             (tag_end == std::string::npos ? what : what.substr(tag_end + 2)));
+  }
   for (const StripeSums* sums : {&state.window.stripes, &state.window.top_stripes})
     if (!sums->same_size())
       throw std::runtime_error("its stripe sums have unequal lengths: a damaged checkpoint");
