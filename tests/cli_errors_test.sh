@@ -224,6 +224,16 @@ expect_status2 "--threads: is empty" "$exe" run -q --threads ''
 expect_error "key 'shear.velocty': unknown key" "$exe" run -q --resume done --set shear.velocty=0.3
 expect_error "--stop-at: 0.2 is not later than the run's time 0.2 (step 50" \
   "$exe" run -q --no-analyze --resume done --set shear.duration=1 --stop-at 0.2
+# The same at the start of a run: a time within half a step of 0 is not rounded up to one step.
+expect_error "--stop-at: 0.0001 is not later than the run's time 0 (step 0" \
+  "$exe" run -q --no-analyze --packing "$packing" --stop-at 0.0001 -o never
+# Spaces around a number are dropped on both sides alike (` 1` was taken, `1 ` refused).
+for value in " 0.25" "0.25 "; do
+  checks=$((checks + 1))
+  "$exe" settings -V "$value" --system " 1 " > settings.txt 2> err.txt &&
+    grep -q "^velocity = 0.25" settings.txt ||
+    { echo "FAIL: -V '$value' not read as 0.25: $(cat err.txt)"; fails=$((fails + 1)); }
+done
 cp -r done emptied && : > emptied/case.toml
 expect_error "emptied/case.toml: is empty" "$exe" run -q --no-analyze --resume emptied
 

@@ -25,8 +25,17 @@ inline CLI::Validator non_empty(const std::string& type_name) {
       type_name);
 }
 inline const CLI::Validator kNonEmptyPath = non_empty("PATH");
-/// A number argument: an empty one is refused, not read as 0.
-inline const CLI::Validator kNonEmptyNumber = non_empty("");
+/// A number argument: spaces around it are dropped (the conversion would take ` 1` and refuse
+/// `1 `), and an empty one is refused, not read as 0.
+inline const CLI::Validator kNonEmptyNumber = CLI::Validator(
+    [](std::string& value) {
+      const auto first = value.find_first_not_of(" \t");
+      value = first == std::string::npos
+                  ? std::string()
+                  : value.substr(first, value.find_last_not_of(" \t") - first + 1);
+      return value.empty() ? std::string("is empty (an unset shell variable?)") : std::string();
+    },
+    "");
 
 /// An option NAME taking a whole number from 1 to kMaxThreads (threads, jobs); a value outside
 /// is bad input naming the option.
@@ -43,7 +52,7 @@ inline CLI::Option* add_count_option(CLI::App* cmd, const std::string& name, int
             value = n;
           },
           description)
-      ->check(kNonEmptyNumber)
+      ->transform(kNonEmptyNumber)
       ->type_name("N");
 }
 
@@ -57,11 +66,11 @@ inline void add_case_choice_options(CLI::App* cmd, std::string& file, std::optio
   cmd->add_option_function<int>(
          "--system", [&system](int k) { system = k; },
          "preset of docs/model.md section 6, 1..7 (n, L_y, sigma_yy, duration)")
-      ->check(kNonEmptyNumber);
+      ->transform(kNonEmptyNumber);
   cmd->add_option_function<double>(
          "-V,--velocity", [&velocity](double v) { velocity = v; },
          "wall velocity V (bottom -V, top +V)")
-      ->check(kNonEmptyNumber);
+      ->transform(kNonEmptyNumber);
   cmd->add_option("--set", overrides, "override a case key: --set shear.duration=50 (repeatable)");
 }
 

@@ -522,8 +522,12 @@ RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
   loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
   loop.end_step = s.end_step;
   if (args.stop_at) {
-    // In steps, as the loop counts: a time within half a step of the run's is no later.
-    const std::uint64_t stop_step = steps_of(*args.stop_at, dt);
+    // In steps, as the loop counts: a time within half a step of the run's is no later (at the
+    // start too: not rounded up to one step, as an interval would be).
+    const double steps = *args.stop_at / dt;
+    const std::uint64_t stop_step = steps >= static_cast<double>(s.end_step)
+                                        ? s.end_step
+                                        : static_cast<std::uint64_t>(std::llround(steps));
     if (stop_step <= s.world.step)
       throw ConfigError("--stop-at", "",
                         fmt::format("{} is not later than the run's time {:.6g} (step {}, "
@@ -717,7 +721,7 @@ void register_shear_commands(CLI::App& app) {
          run->stop_at = t;
        },
        "stop (with a checkpoint) once simulated time reaches this; resume later")
-      ->check(kNonEmptyNumber);
+      ->transform(kNonEmptyNumber);
   r->callback([run]() {
     if (const int rc = run_shear(*run); rc != 0) throw CLI::RuntimeError(rc);
   });

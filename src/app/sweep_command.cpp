@@ -866,7 +866,7 @@ void register_sweep_command(CLI::App& app) {
        },
        "seconds between progress lines with a time estimate from the running runs' progress "
        "(default 600; 0: none)")
-      ->check(kNonEmptyNumber)
+      ->transform(kNonEmptyNumber)
       ->type_name("SECONDS");
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");

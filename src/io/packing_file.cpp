@@ -255,6 +255,15 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
                       d.position.y, d.radius, p.height, overlap_tolerance));
   }
   p.solid_fraction = solid_fraction(p.disks, p.length_x, p.height);
+  // The walls rest on the grains: in a cell far wider than its disks fill, the piston's load
+  // (sigma_yy L_x) falls on a few grains, and a period typed wrong gives no clearer sign than this.
+  if (!p.disks.empty() &&
+      !(p.solid_fraction >= kSmallestPackingSolidFraction && p.solid_fraction <= 1.0))
+    throw ConfigError(
+        file, "length_x",
+        fmt::format("the disks fill a fraction {:.3g} of the cell L_x x L_y = {} x "
+                    "{}; a packing fills between {} and 1 (is length_x right?)",
+                    p.solid_fraction, p.length_x, p.height, kSmallestPackingSolidFraction));
   // The file's own figure is the disks' (written from them): one that disagrees says the disks or
   // the cell were edited without it, or it was.
   if (j.contains("solid_fraction")) {
@@ -265,15 +274,6 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
                                     "(were the disks, length_x or height edited?)",
                                     given, p.solid_fraction, p.length_x, p.height));
   }
-  // The walls rest on the grains: in a cell far wider than its disks fill, the piston's load
-  // (sigma_yy L_x) falls on a few grains, and a period typed wrong gives no clearer sign than this.
-  if (!p.disks.empty() &&
-      !(p.solid_fraction >= kSmallestPackingSolidFraction && p.solid_fraction <= 1.0))
-    throw ConfigError(
-        file, "length_x",
-        fmt::format("the disks fill a fraction {:.3g} of the cell L_x x L_y = {} x "
-                    "{}; a packing fills between {} and 1 (is length_x right?)",
-                    p.solid_fraction, p.length_x, p.height, kSmallestPackingSolidFraction));
   return p;
 }
 
