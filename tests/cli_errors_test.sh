@@ -145,6 +145,8 @@ expect_error "key 'measure.boundary_thickness'" "$exe" run -q --set "measure.bou
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set measure.window=5
 expect_error "a resumed run keeps its time step" \
   "$exe" run -q --no-analyze --resume done --set step.dt=0.001 --set shear.duration=0.3
+expect_error "--set step.dt_max=0.001: key 'step.dt_max': changes the time step" \
+  "$exe" run -q --no-analyze --resume done --set step.dt_max=0.001 --set shear.duration=0.3
 expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
 
 # Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is

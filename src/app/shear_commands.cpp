@@ -271,11 +271,20 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   ShearCase after = s.c;
   resolve_step_rules(before);
   resolve_step_rules(after);
-  if (before.step.dt != after.step.dt)
-    throw ConfigError("--set", "step.dt",
+  if (before.step.dt != after.step.dt) {
+    // Blamed on the --set of a key of the time-step rule, as given (the last one, which wins).
+    std::string blamed = "--set", key = "step.dt";
+    for (const std::string& item : args.c.overrides)
+      if (const std::string k = override_key(item);
+          k == "step.dt" || k == "step.dt_max" || k == "step.displacement_per_step") {
+        blamed = "--set " + item;
+        key = k;
+      }
+    throw ConfigError(blamed, key,
                       fmt::format("changes the time step of the run from {} to {}: a resumed run "
                                   "keeps its time step (its steps, end and schedules count in it)",
                                   before.step.dt, after.step.dt));
+  }
   const std::string checkpoint_file = (s.dir / "checkpoint.cbor").string();
   Checkpoint cp = read_checkpoint(checkpoint_file);
   const nlohmann::json identity = case_identity(s.c);
