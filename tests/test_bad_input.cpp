@@ -93,11 +93,18 @@ TEST(BadInput, WallNamesAreWordsThatCanHeadACsvColumn) {
     std::string text = scene_text();
     return text.replace(text.find("\"floor\""), 7, "\"" + name + "\"");
   };
-  for (const std::string bad : {"a b", "a,b", "a'b", "a\\u0000b", "a\\u001bb", "a\\tb", ""})
+  // ASCII separators and controls; a C1 control, Unicode spaces (no-break, em, ideographic) and
+  // invisible characters (zero-width space, byte-order mark), as TOML escapes.
+  for (const std::string bad :
+       {"a b", "a,b", "a'b", "a\\u0000b", "a\\u001bb", "a\\tb", "", "a\\u0085b", "a\\u00a0b",
+        "a\\u2003b", "a\\u3000b", "a\\u200bb", "a\\ufeffb", "\\u00ad"})
     expect_names(load_error(named(bad)), "walls[0].name", "printable characters");
   TempDir dir("wall_names");
   EXPECT_EQ(load_scene_file(dir.write("scene.toml", named("sol_\u00e9")), {}).scene.walls[0].name,
             "sol_\xc3\xa9");  // UTF-8 letters are printable
+  EXPECT_EQ(
+      load_scene_file(dir.write("scene2.toml", named("\u03c3_\u58c1")), {}).scene.walls[0].name,
+      "\xcf\x83_\xe5\xa3\x81");  // so are Greek and CJK ones
 }
 
 TEST(BadInput, WrongType) {

@@ -7,6 +7,32 @@
 
 namespace cdshear {
 
+namespace {
+
+/// True for a non-empty UTF-8 word (toml++ has checked the encoding) whose every character is
+/// seen: no ASCII or C1 control, no space of any width (U+00A0, U+1680, U+2000 to U+200A,
+/// U+202F, U+205F, U+3000), no line or paragraph separator, and no invisible format character
+/// (U+00AD, U+200B to U+200F, U+202A to U+202E, U+2060 to U+206F, U+FEFF).
+bool is_visible_word(const std::string& text) {
+  if (text.empty()) return false;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    const int length = byte < 0x80 ? 1 : byte < 0xe0 ? 2 : byte < 0xf0 ? 3 : 4;
+    char32_t code = length == 1 ? byte : byte & (0x7f >> length);
+    for (int k = 1; k < length && i + k < text.size(); ++k)
+      code = (code << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3f);
+    i += static_cast<std::size_t>(length);
+    const bool unseen = code <= 0x20 || (code >= 0x7f && code <= 0xa0) || code == 0xad ||
+                        code == 0x1680 || (code >= 0x2000 && code <= 0x200f) ||
+                        (code >= 0x2028 && code <= 0x202f) || code == 0x205f ||
+                        (code >= 0x2060 && code <= 0x206f) || code == 0x3000 || code == 0xfeff;
+    if (unseen) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 AxisMode parse_axis_mode(TomlReader& t, const std::string& key) {
   const std::string m = t.choice(key, {"fixed", "imposed", "free"}, "fixed");
   return m == "free" ? AxisMode::kFree : m == "imposed" ? AxisMode::kImposed : AxisMode::kFixed;
@@ -72,12 +98,10 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
     Wall wall;
     wall.name = w.string("name", "wall" + std::to_string(s.walls.size()));
     // Names head CSV columns: printable, without separators, quotes or spaces, no two alike.
-    const bool printable = std::all_of(wall.name.begin(), wall.name.end(),
-                                       [](unsigned char ch) { return ch > ' ' && ch != 0x7f; });
-    if (wall.name.empty() || !printable || wall.name.find_first_of(",\"'") != std::string::npos)
+    if (!is_visible_word(wall.name) || wall.name.find_first_of(",\"'") != std::string::npos)
       w.fail("name",
              "must be a non-empty word of printable characters without commas, quotes or "
-             "spaces");
+             "spaces (Unicode spaces, controls and invisible characters included)");
     for (const Wall& other : s.walls)
       if (other.name == wall.name) w.fail("name", "'" + wall.name + "' names two walls");
     wall.point = w.vec2("point");
