@@ -236,6 +236,9 @@ for value in " 0.25" "0.25 "; do
     grep -q "^velocity = 0.25" settings.txt ||
     { echo "FAIL: -V '$value' not read as 0.25: $(cat err.txt)"; fails=$((fails + 1)); }
 done
+cp -r done piped && rm piped/run.h5 && mkfifo piped/run.h5
+expect_status2 "piped/run.h5: is not a regular file" \
+  timeout 60 "$exe" run -q --no-analyze --resume piped --set shear.duration=0.3
 cp -r done emptied && : > emptied/case.toml
 expect_error "emptied/case.toml: is empty" "$exe" run -q --no-analyze --resume emptied
 

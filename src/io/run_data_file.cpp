@@ -691,7 +691,11 @@ void read_windows(const H5Context& ctx, hid_t file, RunData& data) {
 RunData read_run_data(const fs::path& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const H5Context ctx{path.string()};
-  if (!fs::is_regular_file(path)) ctx.fail("", "no such file (not a cdshear run folder?)");
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status)) ctx.fail("", "no such file (not a cdshear run folder?)");
+  if (!fs::is_regular_file(status))
+    ctx.fail("", "is not a regular file (a folder, a FIFO or a device): not a run's data");
   check_seal(ctx, path);  // before HDF5 sees a byte: it can crash on a damaged file
   if (H5Fis_hdf5(path.c_str()) <= 0) ctx.fail("", "not an HDF5 file (empty or truncated?)");
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
