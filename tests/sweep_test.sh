@@ -137,6 +137,15 @@ grep -q '"run_dir": ".*/s1_seed2_V1"' kept/runs/s1_seed1_V1/summary.json || fail
 grep -q "summary.json is of another run (run_dir .*s1_seed2_V1\")" kept3.out ||
   fail "another seed's summary: $(cat kept3.out)"
 
+# A run's log starts with its command line as a shell reads it back: a folder with a space and a
+# quote in its name is one word.
+campaign quoted "[1.0]" 0.1
+"$exe" sweep quoted.toml -o "it's quoted" > quoted.out || fail "sweep quoted exited $?"
+line=$(head -n 1 "it's quoted/logs/s1_seed1_V1.log")
+eval "set -- ${line#==== cdshear sweep starts: }"
+while [ $# -gt 1 ] && [ "$1" != "-o" ]; do shift; done
+[ "${2:-}" = "$PWD/it's quoted/runs/s1_seed1_V1" ] || fail "log's command line not quoted: $line"
+
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 # 20 t each (about 1.5 s): the stop must land before the second run ends.
 campaign three "[0.25, 0.5, 1.0]" 20

@@ -50,6 +50,16 @@ int open_regular_file(const std::filesystem::path& path, int flags, const std::s
   return fd;
 }
 
+std::string shell_quoted(const std::string& word) {
+  const bool plain = !word.empty() && word.find_first_not_of(
+                                          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                          "0123456789_@%+=:,./-") == std::string::npos;
+  if (plain) return word;
+  std::string quoted = "'";
+  for (const char ch : word) quoted += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return quoted + "'";
+}
+
 pid_t start_job(const Job& job) {
   std::filesystem::create_directories(job.log.parent_path());
   const int fd =
@@ -60,7 +70,7 @@ pid_t start_job(const Job& job) {
   std::string header = "==== cdshear sweep starts";
   if (!job.where.empty()) header += " (" + job.where + ")";
   header += ":";
-  for (const std::string& a : job.argv) header += " " + a;
+  for (const std::string& a : job.argv) header += " " + shell_quoted(a);
   header += "\n";
   if (::write(fd, header.data(), header.size()) < 0) { /* the log is best effort */
   }

@@ -112,9 +112,14 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
 /// report. Writes and locks on a regular file behave as without O_NONBLOCK.
 int open_regular_file(const std::filesystem::path& path, int flags, const std::string& role);
 
+/// `word` as a POSIX shell reads it back: unchanged if it holds only letters, digits and
+/// `_@%+=:,./-`, else in single quotes (a quote inside written '\'').
+std::string shell_quoted(const std::string& word);
+
 /// Starts one job as a child process of this one, as run_jobs does (rank 0 of an MPI sweep keeps
 /// one of its own beside its workers): the command line (and `where`) appended to the log as its
-/// first line, then the job's output. Returns its pid. Throws std::runtime_error if the log cannot
+/// first line, each word shell_quoted so that it can be pasted into a shell, then the job's
+/// output. Returns its pid. Throws std::runtime_error if the log cannot
 /// be opened or fork fails (exec failures show in the log and as exit status 127).
 pid_t start_job(const Job& job);
 
