@@ -40,7 +40,7 @@ for v in 0.25 1; do
   grep -q '"outcome": "finished"' "$dir/runs/s1_seed1_V$v/run_info.json" || fail "V$v outcome"
   test -s "$dir/logs/s1_seed1_V$v.log" || fail "no log for V$v"
 done
-[ "$(ls "$dir/packings" | wc -l)" -eq 1 ] || fail "expected one packing, got: $(ls "$dir/packings")"
+[ "$(ls "$dir"/packings/*.json | wc -l)" -eq 1 ] || fail "expected one packing, got: $(ls "$dir/packings")"
 grep -q "fingerprint" "$dir/campaign.toml" || fail "campaign.toml holds no fingerprint"
 grep -q "2/2 runs finished" two.out || fail "no final summary: $(cat two.out)"
 sums=$(md5sum "$dir"/runs/*/run_info.json)
@@ -145,6 +145,25 @@ line=$(head -n 1 "it's quoted/logs/s1_seed1_V1.log")
 eval "set -- ${line#==== cdshear sweep starts: }"
 while [ $# -gt 1 ] && [ "$1" != "-o" ]; do shift; done
 [ "${2:-}" = "$PWD/it's quoted/runs/s1_seed1_V1" ] || fail "log's command line not quoted: $line"
+
+# A given packing changed in place since the sweep copied it, or a copy recorded as made
+# otherwise, is refused naming the copy; --force makes it anew, and the copy is then the file's.
+cp "$packing" mine.json
+sed "s|$packing|$PWD/mine.json|" quoted.toml > mine.toml
+"$exe" sweep mine.toml -o mine > mine.out || fail "sweep mine exited $? ($(cat mine.out))"
+grep -q "^copied from $PWD/mine.json$" mine/packings/s1_seed1.source ||
+  fail "no record of the copy: $(cat mine/packings/s1_seed1.source)"
+sed 's/"seed": 1,/"seed": 1 ,/' "$packing" > mine.json
+"$exe" sweep mine.toml -o mine > mine.out 2>&1 && fail "an edited given packing was not noticed"
+grep -q "mine/packings/s1_seed1.json: it differs from $PWD/mine.json" mine.out ||
+  fail "edited packing: $(cat mine.out)"
+"$exe" sweep mine.toml -o mine --force > mine.out 2>&1 || fail "--force: $(cat mine.out)"
+grep -q "made anew" mine.out || fail "--force did not say it made the packing anew: $(cat mine.out)"
+cmp -s mine.json mine/packings/s1_seed1.json || fail "--force left the old copy"
+echo "prepared as n511_other.json" > mine/packings/s1_seed1.source
+"$exe" sweep mine.toml -o mine > mine.out 2>&1 && fail "a packing made otherwise was not noticed"
+grep -q "it was prepared as n511_other.json, the campaign's run is copied from" mine.out ||
+  fail "packing made otherwise: $(cat mine.out)"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 # 20 t each (about 1.5 s): the stop must land before the second run ends.

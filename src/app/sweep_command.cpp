@@ -432,6 +432,32 @@ void check_campaign_folder(const fs::path& dir) {
   }
 }
 
+/// Where the sweep records how a packing of its folder was made (`sK_seedN.source` beside
+/// `sK_seedN.json`): "copied from FILE" or "prepared as CACHE_NAME" (packing_cache_name).
+fs::path packing_source_file(const fs::path& packing) {
+  return fs::path(packing).replace_extension(".source");
+}
+
+/// Empty when the folder's packing `p` is the one the campaign makes now (`source`, and for a
+/// given packing `given_file`, whose bytes the copy must still have); otherwise how it differs. A
+/// packing without a record (made before the sweep kept one) is taken as it is.
+std::string stale_packing(const fs::path& p, const std::string& source,
+                          const std::string& given_file) {
+  const auto text = [](const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const fs::path record = packing_source_file(p);
+  std::string recorded = fs::is_regular_file(record) ? text(record) : std::string();
+  if (!recorded.empty() && recorded.back() == '\n') recorded.pop_back();
+  if (!recorded.empty() && recorded != source)
+    return fmt::format("it was {}, the campaign's run is {}", recorded, source);
+  if (!given_file.empty() && text(p) != text(given_file))
+    return fmt::format("it differs from {}, the campaign's packing (changed since it was copied)",
+                       given_file);
+  return {};
+}
+
 /// Refuses a campaign that differs from the one DIR was made for, unless --force.
 void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
   if (!fs::exists(file)) return;
@@ -540,8 +566,23 @@ class Sweep {
       if (packing_of_.contains(key)) continue;
       const fs::path p = dir_ / "packings" / fmt::format("s{}_seed{}.json", r.system, r.seed);
       packing_of_[key] = p;
-      if (fs::exists(p)) continue;
-      if (const auto given = c_.packings.find(r.system); given != c_.packings.end()) {
+      const auto given = c_.packings.find(r.system);
+      const std::string source = given != c_.packings.end() ? "copied from " + given->second
+                                                            : "prepared as " + r.preparation;
+      if (fs::exists(p)) {
+        const std::string stale =
+            stale_packing(p, source, given != c_.packings.end() ? given->second : std::string());
+        if (stale.empty()) continue;
+        if (!args_.force)
+          throw ConfigError(p.string(), "",
+                            stale +
+                                ": pass --force to make it anew (runs already there keep the "
+                                "packing they started from), or choose another -o");
+        std::fprintf(stderr, "warning: --force: %s: %s; made anew\n", p.c_str(), stale.c_str());
+        fs::remove(p);
+      }
+      write_file_atomic(packing_source_file(p), source + "\n");
+      if (given != c_.packings.end()) {
         fs::copy_file(given->second, p);
         continue;
       }

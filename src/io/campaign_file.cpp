@@ -244,6 +244,7 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
                                                  : *g.strain * load(1.0).height / (2.0 * v);
   ShearCase sc = load(run.duration);
   run.identity = case_identity(sc);
+  run.preparation = packing_cache_name(sc.preparation);
   if (c.analyze && !sc.measure.enabled)
     t.fail("analyze",
            "is true, but the runs measure nothing ([set] measure.enabled = false): there "

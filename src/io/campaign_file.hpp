@@ -26,6 +26,9 @@ struct CampaignRun {
   std::size_t n = 0;        ///< disks
   double height = 0.0;      ///< nominal L_y [d]
   nlohmann::json identity;  ///< case_identity of the run's resolved case (src/io/case_file.hpp)
+  /// The packing cache name of its resolved preparation (packing_cache_name): two runs whose
+  /// packings are prepared alike share it.
+  std::string preparation;
   /// Estimated cost: n x duration / dt [disk steps]; the sweep starts the costliest first.
   double cost() const { return static_cast<double>(n) * duration / dt; }
 };
