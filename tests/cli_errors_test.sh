@@ -32,6 +32,7 @@ expect_error "--system: system must be 1..7" "$exe" run -q --system 9
 expect_error "key 'solver.normal_compliance': must be >= 0 and < 1, got 1" "$exe" run -q --set solver.normal_compliance=1 --packing "$packing"
 sed 's/^\[solver\]$/[solver]\nnormal_compliance = 1.5/' "$scene" > compliant_scene.toml
 expect_error "compliant_scene.toml: key 'solver.normal_compliance': must be >= 0 and < 1, got 1.5" "$exe" scene compliant_scene.toml -o never
+expect_error "--set material.density=1e-320: key 'random_disks[0].diameter_min': radius 0.4" "$exe" scene "$scene" --set material.density=1e-320 -o never
 expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.

@@ -34,7 +34,9 @@ int run_scene(const SceneArgs& args) {
   try {
     world = build_world(sf.scene, &g_stop_requested);
   } catch (const SceneError& e) {
-    throw ConfigError(sf.source_of({e.key()}), e.key(), e.what());
+    const std::string source =
+        e.other_key().empty() ? sf.source_of({e.key()}) : sf.source_of({e.key(), e.other_key()});
+    throw ConfigError(source, e.key(), e.what());
   } catch (const PlacementCancelled& e) {
     std::fprintf(stderr, "%s; nothing was written\n", e.what());
     return 130;

@@ -158,7 +158,7 @@ void validate_scene(const SceneDefinition& s) {
   for (std::size_t i = 0; i < s.disks.size(); ++i) {
     if (!(s.disks[i].radius > 0.0)) throw SceneError(indexed("disks", i, "radius"), "must be > 0");
     if (const std::string why = disk_mass_problem(s.density, s.disks[i].radius); !why.empty())
-      throw SceneError(indexed("disks", i, "radius"), why);
+      throw SceneError(indexed("disks", i, "radius"), why, "material.density");
   }
   double largest_diameter = 0.0;
   for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2 * d.radius);
@@ -172,7 +172,7 @@ void validate_scene(const SceneDefinition& s) {
       if (const std::string why = disk_mass_problem(s.density, 0.5 * diameter); !why.empty())
         throw SceneError(indexed("random_disks", i,
                                  diameter == r.diameter_min ? "diameter_min" : "diameter_max"),
-                         why);
+                         why, "material.density");
     if (!(r.region_max.x > r.region_min.x) || !(r.region_max.y > r.region_min.y))
       throw SceneError(indexed("random_disks", i, "region"), "max must exceed min on both axes");
     if (!std::isfinite(r.region_max.x - r.region_min.x) ||

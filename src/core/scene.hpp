@@ -21,12 +21,15 @@ namespace cdshear {
 /// offending entry in scene terms (for example "disks.random[0].count") when known.
 class SceneError : public std::runtime_error {
  public:
-  SceneError(std::string key, const std::string& what)
-      : std::runtime_error(what), key_(std::move(key)) {}
+  /// `key`: where the problem is; `other_key`: a key whose value takes part in it (the density
+  /// in a disk's mass), which a command line that gave it is blamed for.
+  SceneError(std::string key, const std::string& what, std::string other_key = "")
+      : std::runtime_error(what), key_(std::move(key)), other_key_(std::move(other_key)) {}
   const std::string& key() const { return key_; }
+  const std::string& other_key() const { return other_key_; }
 
  private:
-  std::string key_;
+  std::string key_, other_key_;
 };
 
 struct DiskSpec {
