@@ -249,6 +249,21 @@ nlohmann::json run_summary(const fs::path& dir) {
   return summary.is_object() ? summary : nlohmann::json::object();
 }
 
+/// A run folder's case.toml, read as `cdshear run --resume` reads it; or why it cannot be.
+struct FolderCase {
+  std::optional<ShearCase> c;
+  std::string problem;  ///< "its case.toml cannot be read: ..." when `c` is empty
+};
+FolderCase folder_case(const fs::path& run_dir) {
+  CaseSource source;
+  source.file = (run_dir / "case.toml").string();
+  try {
+    return {load_case(source), ""};
+  } catch (const ConfigError& e) {
+    return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
+  }
+}
+
 /// Empty when a finished run without its final state (only its summary.json) is of the run's
 /// case.toml: the summary's grain count, height, wall speed, normal stress and duration match,
 /// and the folder it names (`run_dir`) has this folder's name (a campaign's run names carry the
@@ -263,14 +278,9 @@ std::string summary_problem(const fs::path& run_dir) {
   if (written_in.is_string() && written_path.filename() != run_dir.filename())
     return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
                        (run_dir / "summary.json").string(), written_in.dump());
-  CaseSource source;
-  source.file = (run_dir / "case.toml").string();
-  ShearCase c;
-  try {
-    c = load_case(source);
-  } catch (const ConfigError& e) {
-    return std::string("its case.toml cannot be read: ") + e.what();
-  }
+  const FolderCase folder = folder_case(run_dir);
+  if (!folder.c) return folder.problem;
+  const ShearCase& c = *folder.c;
   const nlohmann::json wanted = {{"n", c.n},
                                  {"height", c.height},
                                  {"velocity", c.velocity},
@@ -303,14 +313,9 @@ std::string final_state_problem(const fs::path& run_dir) {
   if (state.is_discarded() || !state.is_object()) return file.string() + " is not JSON";
   if (!state.contains("case")) return "";
   if (!state["case"].is_object()) return file.string() + ": its \"case\" is not an object";
-  nlohmann::json identity;
-  try {
-    CaseSource source;
-    source.file = (run_dir / "case.toml").string();
-    identity = case_identity(load_case(source));
-  } catch (const ConfigError& e) {
-    return std::string("its case.toml cannot be read: ") + e.what();
-  }
+  const FolderCase folder = folder_case(run_dir);
+  if (!folder.c) return folder.problem;
+  const nlohmann::json identity = case_identity(*folder.c);
   if (const std::string key = differing_identity_key(state["case"], identity); !key.empty())
     return fmt::format(
         "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
@@ -326,14 +331,9 @@ std::string final_state_problem(const fs::path& run_dir) {
 /// under `--force`) must be neither skipped as this run nor resumed as it.
 std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
   if (!fs::exists(run_dir / "case.toml")) return "";
-  nlohmann::json held;
-  try {
-    CaseSource source;
-    source.file = (run_dir / "case.toml").string();
-    held = case_identity(load_case(source));
-  } catch (const ConfigError&) {
-    return "";
-  }
+  const FolderCase folder = folder_case(run_dir);
+  if (!folder.c) return "";
+  const nlohmann::json held = case_identity(*folder.c);
   if (const std::string key = differing_identity_key(held, r.identity); !key.empty())
     return fmt::format(
         "{} is of another run ({} = {} where the campaign's run has {}): remove {} to run this "
@@ -345,13 +345,8 @@ std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
 
 /// The duration [t] in a run folder's case.toml; none when it cannot be read.
 std::optional<double> folder_duration(const fs::path& run_dir) {
-  CaseSource source;
-  source.file = (run_dir / "case.toml").string();
-  try {
-    return load_case(source).duration;
-  } catch (const ConfigError&) {
-    return std::nullopt;
-  }
+  const FolderCase folder = folder_case(run_dir);
+  return folder.c ? std::optional<double>(folder.c->duration) : std::nullopt;
 }
 
 /// The duration [t] of the run's folder (its case.toml) when the campaign asks the run for a
