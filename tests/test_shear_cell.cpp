@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -142,6 +143,39 @@ TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   ShearCase d;
   resolve_step_rules(d);
   EXPECT_DOUBLE_EQ(d.step.dt, 0.004);
+}
+
+// What a run never changes holds after steps of a run (the test a resume makes of its
+// checkpoint), and each field changed is named.
+TEST(ShearWorld, WhatARunNeverChangesHoldsAfterItsStepsAndEachChangeIsNamed) {
+  ShearCase c;
+  c.velocity = 0.5;
+  resolve_step_rules(c);
+  World w = build_shear_world(c, system1_packing());
+  ContactDynamics dynamics;
+  for (int s = 0; s < 25; ++s) ASSERT_FALSE(dynamics.step(w, c.step).blown_up);
+  ASSERT_EQ(shear_world_problem(w, c).key, "") << shear_world_problem(w, c).problem;
+  const std::pair<std::function<void(World&)>, std::string> changes[] = {
+      {[](World& x) { x.domain.periodic_x = false; }, "periodic_x"},
+      {[](World& x) { x.body_force.y = -1.0; }, "body_force"},
+      {[](World& x) { x.friction_disk_disk = 0.3; }, "friction_disk_disk"},
+      {[](World& x) { x.walls.pop_back(); }, "walls"},
+      {[](World& x) { x.walls[1].mass = 5.0; }, "walls[1].mass"},
+      {[](World& x) { x.walls[0].friction = 0.9; }, "walls[0].friction"},
+      {[](World& x) { x.walls[1].velocity.x = 0.25; }, "walls[1].velocity"},
+      {[](World& x) { x.walls[0].applied_force.y *= 2; }, "walls[0].applied_force"},
+      {[](World& x) { x.walls[0].mode_y = AxisMode::kFixed; }, "walls[0].mode_x"},
+      {[](World& x) { x.disks.mass[7] *= 1.5; }, "disks[7]"},
+      {[](World& x) { x.time += 1.0; }, "time"},
+  };
+  for (const auto& [change, key] : changes) {
+    World changed = w;
+    change(changed);
+    EXPECT_EQ(shear_world_problem(changed, c).key, key);
+  }
+  ShearCase other = c;
+  other.friction_wall = 0.1;  // the case, not the world, differs: the same key
+  EXPECT_EQ(shear_world_problem(w, other).key, "walls[0].friction");
 }
 
 TEST(ShearWorld, StartsAtRestWhenAskedAndTheWallsDragTheLayersNextToThem) {

@@ -300,6 +300,10 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   if (cp.world.disks.size() != s.c.n)
     throw ConfigError(checkpoint_file, "disks",
                       fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));
+  // Its world as this run's case makes it (the seal stops accidents, this a crafted file).
+  if (const ShearWorldProblem bad = shear_world_problem(cp.world, after); !bad.key.empty())
+    throw ConfigError(checkpoint_file, bad.key,
+                      bad.problem + ": not a state of the run " + src.file + " describes");
   if (const std::string warning = instruction_set_warning(cp, checkpoint_file); !warning.empty())
     std::fprintf(stderr, "%s\n", warning.c_str());
   s.world = std::move(cp.world);

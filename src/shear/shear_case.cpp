@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "scene.hpp"
@@ -105,6 +106,61 @@ World build_shear_world(const ShearCase& c, const Packing& p) {
   // The packing was in equilibrium with overlaps at the solver's tolerance; accept those.
   scene.overlap_tolerance = std::max(1e-9, c.step.abort_overlap * 0.1);
   return build_world(scene);
+}
+
+ShearWorldProblem shear_world_problem(const World& w, const ShearCase& c) {
+  const auto number = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.17g", v);
+    return std::string(text);
+  };
+  const auto differs = [&](const std::string& what, double have, double want) {
+    return what + " is " + number(have) + ", the case's run has " + number(want);
+  };
+  if (!w.domain.periodic_x) return {"periodic_x", "is false: the shear cell is periodic in x"};
+  if (w.body_force.x != 0.0 || w.body_force.y != 0.0)
+    return {"body_force", "is not zero: the shear cell has no gravity"};
+  if (w.friction_disk_disk != c.friction_grain)
+    return {"friction_disk_disk",
+            differs("the grain friction", w.friction_disk_disk, c.friction_grain)};
+  if (w.walls.size() != 2)
+    return {"walls", "holds " + std::to_string(w.walls.size()) + " walls, the shear cell 2"};
+  const double force_y = c.normal_stress * w.domain.length_x;
+  for (const std::size_t k : {kBottomWall, kTopWall}) {
+    const Wall& wall = w.walls[k];
+    const bool top = k == kTopWall;
+    const std::string at = "walls[" + std::to_string(k) + "].";
+    if (wall.name != (top ? "top" : "bottom"))
+      return {at + "name", "is '" + wall.name + "', not '" + (top ? "top'" : "bottom'")};
+    if (wall.normal.x != 0.0 || wall.normal.y != (top ? -1.0 : 1.0))
+      return {at + "normal", std::string("must be ") + (top ? "[0, -1]" : "[0, 1]")};
+    if (wall.mode_x != AxisMode::kImposed || wall.mode_y != AxisMode::kFree)
+      return {at + "mode_x", "the walls are driven along x and free along y"};
+    if (wall.velocity.x != (top ? c.velocity : -c.velocity))
+      return {at + "velocity",
+              differs("its velocity along x", wall.velocity.x, top ? c.velocity : -c.velocity)};
+    if (wall.mass != c.wall_mass) return {at + "mass", differs("its mass", wall.mass, c.wall_mass)};
+    if (wall.friction != c.friction_wall)
+      return {at + "friction", differs("its friction", wall.friction, c.friction_wall)};
+    if (wall.applied_force.x != 0.0 || wall.applied_force.y != (top ? -force_y : force_y))
+      return {at + "applied_force",
+              differs("its load along y", wall.applied_force.y, top ? -force_y : force_y) +
+                  " (sigma_yy L_x)"};
+  }
+  Disks unit;  // a disk of each radius, as build_shear_world adds it (unit density)
+  for (std::size_t i = 0; i < w.disks.size(); ++i) {
+    unit.clear();
+    unit.add({}, w.disks.radius[i]);
+    if (w.disks.mass[i] != unit.mass[0] || w.disks.inertia[i] != unit.inertia[0])
+      return {"disks[" + std::to_string(i) + "]",
+              "its mass and moment of inertia are not those of its radius " +
+                  number(w.disks.radius[i]) + " at unit density"};
+  }
+  const double dt = c.step.dt;
+  if (!(std::abs(w.time - static_cast<double>(w.step) * dt) <= 0.5 * dt))
+    return {"time", "is " + number(w.time) + ", not step x dt = " + std::to_string(w.step) + " x " +
+                        number(dt)};
+  return {};
 }
 
 }  // namespace cdshear

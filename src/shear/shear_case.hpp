@@ -154,6 +154,17 @@ void sync_preparation(ShearCase& c);
 /// (c.initial_velocity). Throws std::invalid_argument for another initial_velocity.
 World build_shear_world(const ShearCase& c, const Packing& packing);
 
+/// The first field of a world that is not as build_shear_world made it for `c` and a run keeps it,
+/// as a key of a checkpoint (`walls[1].mass`) and what is wrong; an empty key when none.
+struct ShearWorldProblem {
+  std::string key, problem;
+};
+/// Checks what a run never changes: x periodic, no body force, the grain friction, two walls
+/// (bottom, top) with their normals, modes, mass, friction, velocity along x and load sigma_yy L_x,
+/// each disk's mass and inertia those of its radius at unit density, and the time within half a
+/// step of step x dt (`c`'s time step resolved: resolve_step_rules).
+ShearWorldProblem shear_world_problem(const World& w, const ShearCase& c);
+
 /// The heights L_y / nominal L_y a shear run may reach; beyond them the walls flew apart or went
 /// through each other (a blow-up). Wide, because a fast start is a violent dilation: system 1 at
 /// V = 5, from the linear profile, reaches L_y = 61 (3.05 times) at t = 30 and settles about 28
