@@ -37,7 +37,8 @@ nlohmann::json packing_json(const Packing& p) {
           {"diameter_min", p.diameter_min},
           {"diameter_max", p.diameter_max},
           {"seed", p.seed},
-          {"solid_fraction", p.solid_fraction},
+          // The disks' own, whatever the struct holds: read_packing checks the two agree.
+          {"solid_fraction", solid_fraction(p.disks, p.length_x, p.height)},
           {"piston_stress", p.piston_stress},
           {"preparation_time", p.preparation_time},
           {"preparation_steps", p.preparation_steps},
