@@ -330,7 +330,6 @@ std::string final_state_problem(const fs::path& run_dir) {
 /// another run (copied or renamed into place, or made before a `[set]` of its physics changed
 /// under `--force`) must be neither skipped as this run nor resumed as it.
 std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
-  if (!fs::exists(run_dir / "case.toml")) return "";
   const FolderCase folder = folder_case(run_dir);
   if (!folder.c) return "";
   const nlohmann::json held = case_identity(*folder.c);
@@ -438,16 +437,13 @@ fs::path packing_source_file(const fs::path& packing) {
 /// packing without a record (made before the sweep kept one) is taken as it is.
 std::string stale_packing(const fs::path& p, const std::string& source,
                           const std::string& given_file) {
-  const auto text = [](const fs::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  };
-  const fs::path record = packing_source_file(p);
-  std::string recorded = fs::is_regular_file(record) ? text(record) : std::string();
+  std::string recorded =
+      read_run_file(packing_source_file(p), "a packing's record").value_or(std::string());
   if (!recorded.empty() && recorded.back() == '\n') recorded.pop_back();
   if (!recorded.empty() && recorded != source)
     return fmt::format("it was {}, the campaign's run is {}", recorded, source);
-  if (!given_file.empty() && text(p) != text(given_file))
+  if (!given_file.empty() &&
+      read_run_file(p, "a campaign's packing") != read_run_file(given_file, "a given packing"))
     return fmt::format("it differs from {}, the campaign's packing (changed since it was copied)",
                        given_file);
   return {};

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <vector>
 
 #include "scene.hpp"
 
@@ -72,16 +73,17 @@ void sync_preparation(ShearCase& c) {
   c.preparation.seed = c.seed;
 }
 
-World build_shear_world(const ShearCase& c, const Packing& p) {
-  SceneDefinition scene;
-  scene.domain.periodic_x = true;
-  scene.domain.length_x = p.length_x;
-  scene.friction_disk_disk = c.friction_grain;
-  const double force_y = c.normal_stress * p.length_x;
+namespace {
+
+/// The bottom and top walls of the shear cell (indices kBottomWall, kTopWall) at y = 0 and
+/// `height`, loaded by sigma_yy `length_x`.
+std::vector<Wall> shear_walls(const ShearCase& c, double length_x, double height) {
+  const double force_y = c.normal_stress * length_x;
+  std::vector<Wall> walls;
   for (const bool top : {false, true}) {
     Wall w;
     w.name = top ? "top" : "bottom";
-    w.point = {0.0, top ? p.height : 0.0};
+    w.point = {0.0, top ? height : 0.0};
     w.normal = {0.0, top ? -1.0 : 1.0};
     w.mode_x = AxisMode::kImposed;
     w.mode_y = AxisMode::kFree;
@@ -89,8 +91,19 @@ World build_shear_world(const ShearCase& c, const Packing& p) {
     w.mass = c.wall_mass;
     w.applied_force = {0.0, top ? -force_y : force_y};
     w.friction = c.friction_wall;
-    scene.walls.push_back(w);
+    walls.push_back(w);
   }
+  return walls;
+}
+
+}  // namespace
+
+World build_shear_world(const ShearCase& c, const Packing& p) {
+  SceneDefinition scene;
+  scene.domain.periodic_x = true;
+  scene.domain.length_x = p.length_x;
+  scene.friction_disk_disk = c.friction_grain;
+  scene.walls = shear_walls(c, p.length_x, p.height);
   const bool at_rest = c.initial_velocity == kInitialRest;
   if (!at_rest && c.initial_velocity != kInitialLinear)
     throw std::invalid_argument("initial_velocity must be \"" + std::string(kInitialLinear) +
@@ -125,26 +138,28 @@ ShearWorldProblem shear_world_problem(const World& w, const ShearCase& c) {
             differs("the grain friction", w.friction_disk_disk, c.friction_grain)};
   if (w.walls.size() != 2)
     return {"walls", "holds " + std::to_string(w.walls.size()) + " walls, the shear cell 2"};
-  const double force_y = c.normal_stress * w.domain.length_x;
+  // The walls as build_shear_world makes them; of theirs, what a run never changes.
+  const std::vector<Wall> made = shear_walls(c, w.domain.length_x, 0.0);
   for (const std::size_t k : {kBottomWall, kTopWall}) {
     const Wall& wall = w.walls[k];
-    const bool top = k == kTopWall;
+    const Wall& want = made[k];
     const std::string at = "walls[" + std::to_string(k) + "].";
-    if (wall.name != (top ? "top" : "bottom"))
-      return {at + "name", "is '" + wall.name + "', not '" + (top ? "top'" : "bottom'")};
-    if (wall.normal.x != 0.0 || wall.normal.y != (top ? -1.0 : 1.0))
-      return {at + "normal", std::string("must be ") + (top ? "[0, -1]" : "[0, 1]")};
-    if (wall.mode_x != AxisMode::kImposed || wall.mode_y != AxisMode::kFree)
+    if (wall.name != want.name)
+      return {at + "name", "is '" + wall.name + "', not '" + want.name + "'"};
+    if (wall.normal.x != want.normal.x || wall.normal.y != want.normal.y)
+      return {at + "normal",
+              "must be [" + number(want.normal.x) + ", " + number(want.normal.y) + "]"};
+    if (wall.mode_x != want.mode_x || wall.mode_y != want.mode_y)
       return {at + "mode_x", "the walls are driven along x and free along y"};
-    if (wall.velocity.x != (top ? c.velocity : -c.velocity))
-      return {at + "velocity",
-              differs("its velocity along x", wall.velocity.x, top ? c.velocity : -c.velocity)};
-    if (wall.mass != c.wall_mass) return {at + "mass", differs("its mass", wall.mass, c.wall_mass)};
-    if (wall.friction != c.friction_wall)
-      return {at + "friction", differs("its friction", wall.friction, c.friction_wall)};
-    if (wall.applied_force.x != 0.0 || wall.applied_force.y != (top ? -force_y : force_y))
+    if (wall.velocity.x != want.velocity.x)
+      return {at + "velocity", differs("its velocity along x", wall.velocity.x, want.velocity.x)};
+    if (wall.mass != want.mass) return {at + "mass", differs("its mass", wall.mass, want.mass)};
+    if (wall.friction != want.friction)
+      return {at + "friction", differs("its friction", wall.friction, want.friction)};
+    if (wall.applied_force.x != want.applied_force.x ||
+        wall.applied_force.y != want.applied_force.y)
       return {at + "applied_force",
-              differs("its load along y", wall.applied_force.y, top ? -force_y : force_y) +
+              differs("its load along y", wall.applied_force.y, want.applied_force.y) +
                   " (sigma_yy L_x)"};
   }
   Disks unit;  // a disk of each radius, as build_shear_world adds it (unit density)
