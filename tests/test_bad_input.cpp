@@ -509,8 +509,10 @@ TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
   expect([](Checkpoint& c) { c.world.domain.length_x = 0.0; }, "length_x");
   expect([](Checkpoint& c) { c.world.walls[0].mode_y = static_cast<AxisMode>(7); },
          "key 'walls[0].mode_y': must be a whole number from 0 to 2, not 7");
-  expect([](Checkpoint& c) { c.contacts[0].key.body_b = 3; }, "contacts[0]");
-  expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts[0]");
+  expect([](Checkpoint& c) { c.contacts[0].key.body_b = 3; }, "contacts.b[0]");
+  expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts.a[0]");
+  expect([](Checkpoint& c) { c.contacts[0].key.body_a = 0, c.contacts[0].key.body_b = 0; },
+         "contacts.b[0]': joins bodies 0 and 0");
 }
 
 TEST(CheckpointValidation, APipeIsRefusedWithoutBlocking) {
@@ -587,6 +589,8 @@ TEST(CheckpointValidation, CraftedFieldsAreNamedByTheirPath) {
        },
        "walls"},
       {[](nlohmann::json& j) { j["contacts"]["rt"] = nlohmann::json::array(); }, "contacts.rt"},
+      // A wall list cut short is named through the wall contact's index with the counts.
+      {[](nlohmann::json& j) { j["walls"] = nlohmann::json::array(); }, "contacts.b[0]"},
       {[](nlohmann::json& j) { j["contacts"]["b"][0] = 5000000000LL; }, "contacts.b[0]"},
   };
   for (const auto& [edit, key] : cases) {

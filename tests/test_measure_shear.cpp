@@ -179,7 +179,7 @@ TEST(MeasurementState, ADamagedStateIsNamedWithoutTheLibrarysTag) {
   EXPECT_NO_THROW(measurement_state_from_json(good));
   nlohmann::json missing = good, wrong = good;
   missing.erase("window");
-  wrong["interval"]["steps"] = "many";
+  wrong["last_sample_time"] = "late";
   for (const auto& [damaged, words] :
        {std::pair{missing, "key 'window' not found"}, {wrong, "must be number, but is string"}}) {
     try {
@@ -189,6 +189,50 @@ TEST(MeasurementState, ADamagedStateIsNamedWithoutTheLibrarysTag) {
       const std::string what = e.what();
       EXPECT_NE(what.find(words), std::string::npos) << what;
       EXPECT_EQ(what.find("json.exception"), std::string::npos) << what;
+    }
+  }
+}
+
+// Counts read through the JSON library would wrap a negative number (-1 -> 2^64 - 1) and truncate
+// a fraction, and CBOR carries NaN: each is refused naming its key.
+TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
+  nlohmann::json good = measurement_state_to_json(MeasurementState{});
+  good["window"]["stripes"]["mass"] = {1.0, 2.0};
+  for (const char* key :
+       {"area", "velocity_area", "mass_vx", "mass_vy", "mass_vxx", "mass_vxy", "mass_vyy",
+        "material_vx", "material_vxx", "material_vxy", "material_vyy", "coordination_area",
+        "carrying_area", "stress_xx", "stress_xy", "stress_yx", "stress_yy"})
+    good["window"]["stripes"][key] = {0.0, 0.0};
+  good["interval"]["steps"] = 4;
+  good["interval"]["capped_steps"] = 2;
+  EXPECT_NO_THROW(measurement_state_from_json(good));
+  struct Edit {
+    nlohmann::json::json_pointer at;
+    nlohmann::json value;
+    const char* words;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Edit edits[] = {
+      {nlohmann::json::json_pointer("/interval/steps"), -1, "'interval.steps' must be a whole"},
+      {nlohmann::json::json_pointer("/window/samples"), 2.5, "'window.samples' must be a whole"},
+      {nlohmann::json::json_pointer("/last_sample_step"), -3, "'last_sample_step' must be"},
+      {nlohmann::json::json_pointer("/interval/sweeps_max"), 5000000000LL,
+       "'interval.sweeps_max' must be a whole number from 0 to 2147483647"},
+      {nlohmann::json::json_pointer("/interval/capped_steps"), 5,
+       "'interval.capped_steps' (5) counts more steps than 'interval.steps' (4)"},
+      {nlohmann::json::json_pointer("/window/stripes/mass/1"), nan,
+       "'window.stripes.mass[1]' is not finite"},
+      {nlohmann::json::json_pointer("/last_sample_time"), -std::numeric_limits<double>::infinity(),
+       "'last_sample_time' is not finite"},
+  };
+  for (const Edit& edit : edits) {
+    nlohmann::json damaged = good;
+    damaged[edit.at] = edit.value;
+    try {
+      measurement_state_from_json(damaged);
+      ADD_FAILURE() << edit.words << ": accepted";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(edit.words), std::string::npos) << e.what();
     }
   }
 }

@@ -233,9 +233,17 @@ void validate(const Checkpoint& cp, const std::string& file) {
   const auto bodies = n + static_cast<std::int64_t>(w.walls.size());
   for (std::size_t k = 0; k < cp.contacts.size(); ++k) {
     const Contact& c = cp.contacts[k];
-    if (c.key.body_a < 0 || c.key.body_a >= n || c.key.body_b < 0 || c.key.body_b >= bodies ||
-        c.key.body_a == c.key.body_b)
-      fail("contacts[" + std::to_string(k) + "]", "body index out of range");
+    // Body a is a disk (0 to n - 1), body b a disk or a wall (n to n + walls - 1). The counts
+    // are named: an index past them is often a list of disks or walls cut short, not the contact.
+    const bool a_bad = c.key.body_a < 0 || c.key.body_a >= n;
+    if (a_bad || c.key.body_b < 0 || c.key.body_b >= bodies || c.key.body_a == c.key.body_b)
+      fail(fmt::format("contacts.{}[{}]", a_bad ? 'a' : 'b', k),
+           fmt::format("joins bodies {} and {}, where the checkpoint holds {} disks (bodies 0 to "
+                       "{}) and {}: body a must be a disk, body b another disk or a wall",
+                       c.key.body_a, c.key.body_b, n, n - 1,
+                       w.walls.empty() ? std::string("no walls")
+                                       : fmt::format("{} walls (bodies {} to {})", w.walls.size(),
+                                                     n, bodies - 1)));
     if (!std::isfinite(c.impulse_n) || !std::isfinite(c.impulse_t) || c.impulse_n < 0)
       fail("contacts[" + std::to_string(k) + "]", "impulses must be finite, normal >= 0");
   }

@@ -1,6 +1,9 @@
 #include "measurement_state.hpp"
 
+#include <cmath>
+#include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace cdshear {
 
@@ -37,6 +40,40 @@ json measurement_state_to_json(const MeasurementState& state) {
   j["definitions"] = kMeasurementDefinitions;
   return j;
 }
+
+namespace {
+
+// The library converts a negative or fractional number into an unsigned field without a word
+// (-1 becomes 2^64 - 1), and CBOR holds NaN and infinities that JSON cannot: every count is checked
+// to be a whole number >= 0 and every other number to be finite before the state is converted.
+void check_numbers(const json& j, const std::string& path) {
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items())
+      check_numbers(value, path.empty() ? key : path + "." + key);
+  } else if (j.is_array()) {
+    for (std::size_t i = 0; i < j.size(); ++i)
+      check_numbers(j[i], path + "[" + std::to_string(i) + "]");
+  } else if (j.is_number_float() && !std::isfinite(j.get<double>())) {
+    throw std::runtime_error("a damaged measurement state: key '" + path + "' is not finite");
+  }
+}
+
+void check_count(const json& j, const char* pointer, const char* name, std::uint64_t largest) {
+  const json::json_pointer at(pointer);
+  if (!j.contains(at)) return;  // named by the conversion below
+  const json& v = j.at(at);
+  const bool whole = v.is_number_unsigned() || (v.is_number_integer() && v.get<long long>() >= 0);
+  if (!whole || v.get<std::uint64_t>() > largest)
+    throw std::runtime_error("a damaged measurement state: key '" + std::string(name) +
+                             "' must be a whole number " +
+                             (largest == std::numeric_limits<std::uint64_t>::max()
+                                  ? std::string(">= 0")
+                                  : "from 0 to " + std::to_string(largest)) +
+                             ", not " + v.dump());
+}
+
+}  // namespace
+
 MeasurementState measurement_state_from_json(const json& j) {
   if (!j.is_object() || !j.contains("definitions") ||
       j.at("definitions") != kMeasurementDefinitions)
@@ -46,6 +83,17 @@ MeasurementState measurement_state_from_json(const json& j) {
         "down from the top wall): a measured run cannot be resumed "
         "across the change; "
         "start a new run, from this run's final state if needed");
+  check_numbers(j, "");
+  constexpr std::uint64_t kAnyCount = std::numeric_limits<std::uint64_t>::max();
+  check_count(j, "/window/samples", "window.samples", kAnyCount);
+  check_count(j, "/window/step_start", "window.step_start", kAnyCount);
+  check_count(j, "/window/slip_bottom_count", "window.slip_bottom_count", kAnyCount);
+  check_count(j, "/window/slip_top_count", "window.slip_top_count", kAnyCount);
+  check_count(j, "/interval/steps", "interval.steps", kAnyCount);
+  check_count(j, "/interval/capped_steps", "interval.capped_steps", kAnyCount);
+  check_count(j, "/interval/sweeps_max", "interval.sweeps_max",
+              static_cast<std::uint64_t>(std::numeric_limits<int>::max()));
+  check_count(j, "/last_sample_step", "last_sample_step", kAnyCount);
   MeasurementState state;
   try {
     state = j.get<MeasurementState>();
@@ -57,6 +105,11 @@ MeasurementState measurement_state_from_json(const json& j) {
     throw std::runtime_error("a damaged measurement state: " +
                              (tag_end == std::string::npos ? what : what.substr(tag_end + 2)));
   }
+  if (state.interval.capped_steps > state.interval.steps)
+    throw std::runtime_error("a damaged measurement state: key 'interval.capped_steps' (" +
+                             std::to_string(state.interval.capped_steps) +
+                             ") counts more steps than 'interval.steps' (" +
+                             std::to_string(state.interval.steps) + ")");
   for (const StripeSums* sums : {&state.window.stripes, &state.window.top_stripes})
     if (!sums->same_size())
       throw std::runtime_error("its stripe sums have unequal lengths: a damaged checkpoint");
