@@ -249,8 +249,9 @@ def main(argv=None):
                 plot_profile_decay(summaries, entries, args.plot)
                 print(args.plot)
         except OSError as e:
-            print(f"error: {e.filename}: cannot write: {e.strerror}", file=sys.stderr)
-            return 2
+            where = e.filename or args.json or args.plot
+            print(f"error: {where}: cannot write: {e.strerror or e}", file=sys.stderr)
+            return 1
         return 0
 
     if args.command == "series-pairs":
@@ -358,7 +359,13 @@ def main(argv=None):
             from .plots import plot_run
             out_dir = args.out_dir or os.path.join(args.run_dir, "figures")
             skipped = []
-            for name in plot_run(run, summary, out_dir, skipped):
+            try:
+                written = plot_run(run, summary, out_dir, skipped)
+            except OSError as e:   # a full disk: each figure is written whole or not at all
+                print(f"error: {e.filename or out_dir}: cannot write: {e.strerror or e}",
+                      file=sys.stderr)
+                return 1
+            for name in written:
                 print(name)
             for name, reason in skipped:
                 print(f"skipped {name}: {reason}")

@@ -20,6 +20,7 @@ import numpy as np
 from . import fitting
 from .boundary_laws import h_label, layer_points, profile_crossing
 from .regime import SWITCH_FRACTION
+from .rundata import save_figure
 
 FIGURES = [
     ("mu_eff_I.png", "mu_eff (bulk) against I_bulk", "I_bulk", "mu_eff_bulk",
@@ -111,7 +112,7 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
     if plotted:
         ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -172,7 +173,7 @@ def _plot_regimes(path, rows, transitions):
     ax.set_title("regime diagram\n(open: not steady; open and grey markers do not vote;\n"
                  "bars: V_AB above, V_BC below)", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -216,7 +217,7 @@ def _finish(plt, fig, ax, path, title, xlabel, ylabel, xs, legend=True):
         else:
             ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110, bbox_inches="tight" if outside else None)
+    save_figure(fig, path, dpi=110, bbox_inches="tight" if outside else None)
     plt.close(fig)
 
 
@@ -446,7 +447,7 @@ def profile_figures(fig_dir, rows):
         fig.legend(*axes[0].get_legend_handles_labels(), fontsize=6, loc="center left",
                    bbox_to_anchor=(0.8, 0.5))
         name = f"profiles_s{system}.png"
-        fig.savefig(os.path.join(fig_dir, name), dpi=110)
+        save_figure(fig, os.path.join(fig_dir, name), dpi=110)
         plt.close(fig)
         names.append(name)
     return names

@@ -48,7 +48,7 @@ def finite(x):
     """float(x) if it is a finite number, else None."""
     try:
         x = float(x)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int beyond any float
         return None
     return x if math.isfinite(x) else None
 

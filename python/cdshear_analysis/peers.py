@@ -32,7 +32,7 @@ import tomllib
 
 import numpy as np
 
-from .rundata import is_number, open_regular
+from .rundata import is_number, open_regular, write_text_atomically
 from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -86,6 +86,44 @@ def ripple(wall_radius, spacing, grain_radius):
     return a - math.sqrt(a * a - 0.25 * spacing * spacing)
 
 
+# A disk may cross a wall by a tenth of cdshear's step.abort_overlap (0.1 d), as read_packing
+# allows (src/io/packing_file.cpp). The solid fraction: at most 1, and above a floor far below
+# any packing's (read_packing's is 0.1; the converter also takes small hand-made cells).
+WALL_CROSSING_TOLERANCE = 0.01
+SOLID_FRACTION_RANGE = (0.01, 1.0)
+
+
+def _check_packing_geometry(packing, xyr, lx, height):
+    """What `cdshear`'s read_packing checks of the disks against the cell: the count `n`, the
+    diameters within diameter_min to diameter_max, no disk crossing a wall, and a solid fraction
+    a preparation can give (a length_x typed 1e308 would make a wall of 1e308 disks)."""
+    if "n" in packing and not (is_number(packing["n"]) and packing["n"] == len(xyr)):
+        raise PeerError("packing", f"n is {packing['n']!r}, but disks_xyr lists {len(xyr)} disks")
+    bounds = [packing.get(k) for k in ("diameter_min", "diameter_max")]
+    if any(b is not None for b in bounds):
+        if not all(is_number(b) and math.isfinite(b) and b > 0 for b in bounds) or \
+                bounds[1] < bounds[0]:
+            raise PeerError("packing", f"diameter_min and diameter_max must be numbers with "
+                                       f"0 < diameter_min <= diameter_max, got {bounds}")
+        diameters = 2 * xyr[:, 2]
+        outside = (diameters < bounds[0] * (1 - 1e-12)) | (diameters > bounds[1] * (1 + 1e-12))
+        if outside.any():
+            i = int(np.argmax(outside))
+            raise PeerError("packing", f"disks_xyr[{i}]: diameter {diameters[i]!r} outside "
+                                       f"diameter_min to diameter_max ({bounds[0]} to {bounds[1]})")
+    y, r = xyr[:, 1], xyr[:, 2]
+    crossing = (y - r < -WALL_CROSSING_TOLERANCE) | (y + r > height + WALL_CROSSING_TOLERANCE)
+    if crossing.any():
+        i = int(np.argmax(crossing))
+        raise PeerError("packing", f"disks_xyr[{i}] crosses a wall (y = {y[i]!r}, r = {r[i]!r}, "
+                                   f"L_y = {height!r})")
+    solid_fraction = float(np.sum(np.pi * r * r)) / (lx * height)
+    if not SOLID_FRACTION_RANGE[0] <= solid_fraction <= SOLID_FRACTION_RANGE[1]:
+        raise PeerError("packing", f"the disks fill {solid_fraction:.3g} of length_x x height, "
+                                   f"outside {SOLID_FRACTION_RANGE[0]} to "
+                                   f"{SOLID_FRACTION_RANGE[1]}: a cell of another size")
+
+
 def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACING,
                       wall_mass=WALL_MASS, margin=BOX_MARGIN):
     """(data_text, variables): the LAMMPS data file and the variables of the include file.
@@ -113,6 +151,7 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
         raise PeerError("packing", "length_x, height and disks_xyr must be finite")
     if not (lx > 0 and height > 0 and np.all(xyr[:, 2] > 0)):
         raise PeerError("packing", "length_x, height and every radius must be positive")
+    _check_packing_geometry(packing, xyr, lx, height)
     n = len(xyr)
     n_wall = int(math.ceil(lx / wall_spacing))
     spacing = lx / n_wall
@@ -167,12 +206,10 @@ def write_lammps_packing(packing_path, data_path, vars_path=None, **options):
     except PeerError as e:
         raise PeerError(packing_path, e.problem) from e
     vars_path = vars_path or data_path + ".vars"
-    with open(data_path, "w", encoding="utf-8") as f:
-        f.write(data_text)
-    with open(vars_path, "w", encoding="utf-8") as f:
-        f.write(f"# written by cdshear_analysis.peers from {os.path.basename(packing_path)}\n")
-        for key, value in variables.items():
-            f.write(f"variable {key} equal {value!r}\n")
+    write_text_atomically(data_path, data_text)
+    write_text_atomically(vars_path, "".join(
+        [f"# written by cdshear_analysis.peers from {os.path.basename(packing_path)}\n"]
+        + [f"variable {key} equal {value!r}\n" for key, value in variables.items()]))
     return variables
 
 

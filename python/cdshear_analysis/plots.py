@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 
-from .rundata import RunDataError, run_files_in  # noqa: E402
+from .rundata import RunDataError, run_files_in, save_figure  # noqa: E402
 
 DPI = 120
 MAX_PROFILES = 10          # velocity profiles drawn at most
@@ -285,14 +285,8 @@ def plot_run(run, summary, out_dir, skipped=None):
             continue
         # Written whole or not at all (temporary file + rename): a sweep that finds a figure
         # takes it for complete (sweep_command.cpp, analysis_incomplete).
-        tmp = f"{path}.tmp.{os.getpid()}"
         try:
-            fig.savefig(tmp, format="png", dpi=DPI, bbox_inches="tight")
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+            save_figure(fig, path, dpi=DPI, bbox_inches="tight")
         finally:
             plt.close(fig)
         written.append(path)
@@ -347,5 +341,5 @@ def plot_profile_decay(summaries, entries, path):
     # Below the axes: inside, it covered the thin cells' late points.
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    save_figure(fig, path, dpi=DPI, bbox_inches="tight")
     plt.close(fig)

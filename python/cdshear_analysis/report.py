@@ -19,6 +19,7 @@ every boundary or per-system law that is poor or undetermined).
 """
 import csv
 import html
+import io
 import json
 import math
 import os
@@ -35,7 +36,8 @@ from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
-from .rundata import RUN_FILE, open_regular, run_files_in
+from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in
+from .rundata import write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -58,6 +60,11 @@ class ReportError(Exception):
 def _number(x):
     """float(x) for a finite number (not a text, not true or false), else None."""
     return _finite(x) if _is_number(x) else None
+
+
+def _text(x):
+    """x if it is a text, else None (a damaged summary's number or list is no regime)."""
+    return x if isinstance(x, str) else None
 
 
 def _entry(summary, *keys):
@@ -260,8 +267,8 @@ def read_run(run_dir, s=None):
         "time_reached": _finite(case.get("time")),
         "finished": case.get("finished"),
         "steady": bool(s["steady"]) if isinstance(s.get("steady"), bool) else None,
-        "steady_reason": s.get("steady_reason"),
-        "regime": s.get("regime"),
+        "steady_reason": _text(s.get("steady_reason")),
+        "regime": _text(s.get("regime")),
         "regime_confidence": _finite(s.get("regime_confidence")),
         "transient_end_time": _finite(s.get("transient_end_time")),
         "transient_end_strain": _finite(s.get("transient_end_strain")),
@@ -327,7 +334,7 @@ def software(campaign_text, run_dirs):
             with open_regular(os.path.join(d, "run_info.json"), encoding="utf-8") as f:
                 info = json.load(f)
             build = info.get("build")
-            v = (build.get("description") if isinstance(build, dict) else None) or \
+            v = (_text(build.get("description")) if isinstance(build, dict) else None) or \
                 f"{info.get('program', '?')} {info.get('version', '?')}"
         except (OSError, ValueError, AttributeError, RecursionError):
             v = "unknown (no readable run_info.json)"
@@ -994,7 +1001,9 @@ def copy_run_figures(report, out_dir):
         dst = os.path.join(out_dir, "runs", r["run"])
         os.makedirs(dst, exist_ok=True)
         for n in names:
-            shutil.copyfile(os.path.join(src, n), os.path.join(dst, n))
+            source = os.path.join(src, n)
+            replace_atomically(os.path.join(dst, n),
+                               lambda tmp, source=source: shutil.copyfile(source, tmp))
         out[r["run"]] = names
     return out
 
@@ -1101,55 +1110,52 @@ def write_report(report, out_dir):
         raise ReportError(os.path.join(report["campaign_dir"], "runs"),
                           f"no analysed run to report on (each left out with its reason); "
                           f"{out_dir} left as it was")
-    fig_dir = os.path.join(out_dir, "figures")
-    os.makedirs(fig_dir, exist_ok=True)
-    paths = []
-    csv_path = os.path.join(out_dir, "runs.csv")
+    # Every text is made before any file is written, and every file is written whole or not at
+    # all (replace_atomically): a failure leaves an earlier report as it was, file by file.
+    table = io.StringIO()
     cols = csv_columns(rows)
-    with open(csv_path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(cols)
-        for r in rows:
-            w.writerow([_cell(r.get(c)) for c in cols])
-    paths.append(csv_path)
-    md_path = os.path.join(out_dir, "runs.md")
-    with open(md_path, "w", encoding="utf-8") as f:
-        f.write(runs_markdown(rows, report["campaign"]))
-    paths.append(md_path)
-
+    w = csv.writer(table)
+    w.writerow(cols)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in cols])
+    markdown = runs_markdown(rows, report["campaign"])
     fits = fit_laws(rows)
     per_system = fit_laws_per_system(rows)
     dependence = system_dependence(rows)
     transitions = find_transitions(rows)
     boundary = fit_boundary(rows, FITS)
     preds = predictions(rows, fits, boundary, transitions)
-    fits_path = os.path.join(out_dir, "fits.json")
-    with open(fits_path, "w", encoding="utf-8") as f:
-        json.dump({"format": REPORT_FORMAT, "version": REPORT_VERSION,
-                   "campaign": report["campaign"], "runs_analysed": len(rows),
-                   "runs_steady": sum(1 for r in rows if r["steady"]),
-                   "summary_format": summary_module.SUMMARY_FORMAT,
-                   "summary_version": summary_module.SUMMARY_VERSION,
-                   "reanalysed_runs": [{"run": n, "reason": why}
-                                       for n, why in report.get("reanalysed", [])],
-                   "excluded_runs": [{"run": n, "reason": why} for n, why in report["skipped"]],
-                   "fit_status_counts": status_counts(all_fits(fits, per_system, boundary)),
-                   "bulk_not_reference": [{"run": r["run"], "reason": r.get("bulk_h_note")}
-                                          for r in rows if r.get("bulk_h_reference") is not True],
-                   "software": report.get("software"), "fits": fits,
-                   "fits_per_system": per_system, "system_dependence": dependence,
-                   "boundary": boundary, "transitions": transitions, "predictions": preds},
-                  f, indent=1, allow_nan=False)
-    paths.append(fits_path)
+    fits_text = json.dumps(
+        {"format": REPORT_FORMAT, "version": REPORT_VERSION,
+         "campaign": report["campaign"], "runs_analysed": len(rows),
+         "runs_steady": sum(1 for r in rows if r["steady"]),
+         "summary_format": summary_module.SUMMARY_FORMAT,
+         "summary_version": summary_module.SUMMARY_VERSION,
+         "reanalysed_runs": [{"run": n, "reason": why}
+                             for n, why in report.get("reanalysed", [])],
+         "excluded_runs": [{"run": n, "reason": why} for n, why in report["skipped"]],
+         "fit_status_counts": status_counts(all_fits(fits, per_system, boundary)),
+         "bulk_not_reference": [{"run": r["run"], "reason": r.get("bulk_h_note")}
+                                for r in rows if r.get("bulk_h_reference") is not True],
+         "software": report.get("software"), "fits": fits,
+         "fits_per_system": per_system, "system_dependence": dependence,
+         "boundary": boundary, "transitions": transitions, "predictions": preds},
+        indent=1, allow_nan=False)
 
+    fig_dir = os.path.join(out_dir, "figures")
+    os.makedirs(fig_dir, exist_ok=True)
     figures = write_figures(fig_dir, rows, fits, transitions, boundary, preds)
-    paths += [os.path.join(fig_dir, f) for f in figures]
     run_figures = copy_run_figures(report, out_dir)
-
+    page = _html(report, fits, figures, transitions, preds, boundary, run_figures, per_system,
+                 dependence)
+    paths = []
+    for name, text in (("runs.csv", table.getvalue()), ("runs.md", markdown),
+                       ("fits.json", fits_text)):
+        paths.append(os.path.join(out_dir, name))
+        write_text_atomically(paths[-1], text)
+    paths += [os.path.join(fig_dir, f) for f in figures]
     index = os.path.join(out_dir, "index.html")
-    with open(index, "w", encoding="utf-8") as f:
-        f.write(_html(report, fits, figures, transitions, preds, boundary, run_figures,
-                      per_system, dependence))
+    write_text_atomically(index, page)
     paths.append(index)
     report["printed"] = printed_lines(report, fits, per_system, boundary, dependence)
     notes = report.setdefault("notes", [])

@@ -37,6 +37,7 @@ import os
 import re
 import signal
 import stat
+import tempfile
 import threading
 import tomllib
 import zlib
@@ -75,6 +76,41 @@ def open_regular(path, mode="r", **kwargs):
     return open(path, mode, **kwargs)
 
 
+def replace_atomically(path, write):
+    """Writes `path` whole or not at all: write(tmp) fills a temporary file beside it, which then
+    replaces `path` (os.replace); on any failure the temporary goes and `path` is left as it was,
+    so a failed command never leaves an earlier result truncated."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp",
+                               dir=folder)
+    os.close(fd)
+    try:
+        write(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException as e:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        if isinstance(e, OSError) and e.filename in (None, tmp):
+            raise OSError(e.errno, e.strerror or str(e), path) from e   # the file, not its tmp
+        raise
+
+
+def write_text_atomically(path, text):
+    """`text` into `path` through replace_atomically (UTF-8)."""
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+    replace_atomically(path, write)
+
+
+def save_figure(fig, path, **savefig_options):
+    """fig.savefig into `path` through replace_atomically (PNG)."""
+    replace_atomically(path, lambda tmp: fig.savefig(tmp, format="png", **savefig_options))
+
+
 def run_files_in(folder):
     """The RUN_FOLDER_FILES that `folder` holds: none for a folder that is no run's."""
     return [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(folder, f))]
@@ -83,9 +119,9 @@ def run_files_in(folder):
 def output_problem(path, inputs=()):
     """Why a command may not write the file `path`, or None. An existing file is replaced, as
     any output is, unless it is one of the command's `inputs` (files or folders it reads), a
-    file inside an input folder, or a run's own file (RUN_FOLDER_FILES in a folder that holds
-    run.h5): those hold results the command would lose. A folder, or a file in a folder that
-    does not exist, cannot be written."""
+    file inside an input folder, or a run's own file (RUN_FOLDER_FILES or run_info.json in a
+    folder that run_marks_in calls a run's): those hold results the command would lose. A
+    folder, or a file in a folder that does not exist, cannot be written."""
     where = os.path.realpath(path)
     if os.path.isdir(path):
         return "is a folder, not a file"
@@ -98,10 +134,22 @@ def output_problem(path, inputs=()):
             return "is one of the command's inputs: writing it would replace what it reads"
         if os.path.isdir(source) and where.startswith(source + os.sep) and os.path.exists(where):
             return f"is a file of the input folder {source}: writing it would replace it"
-    if os.path.basename(where) in RUN_FOLDER_FILES and \
-            os.path.lexists(os.path.join(folder, RUN_FILE)):
-        return f"is a run's own file ({folder} holds {RUN_FILE}): writing it would replace it"
+    if os.path.basename(where) in RUN_FOLDER_FILES + ("run_info.json",) and \
+            (marks := run_marks_in(folder)):
+        return (f"is a run's own file ({folder} holds {', '.join(marks)}): writing it would "
+                f"replace it")
     return None
+
+
+def run_marks_in(folder):
+    """The files that make `folder` a run's: run.h5, or the case.toml that every run writes
+    first beside its summary.json or run_info.json (a campaign keeps those three without run.h5,
+    and they cannot be made again without the run)."""
+    present = [f for f in (RUN_FILE, "case.toml", "summary.json", "run_info.json")
+               if os.path.lexists(os.path.join(folder, f))]
+    if RUN_FILE in present or ("case.toml" in present and len(present) > 1):
+        return present
+    return []
 
 
 USER_BLOCK = 512
@@ -299,6 +347,9 @@ def _check_structure(f, path):
         if not isinstance(name, str):
             raise RunDataError(path, f"an object name {name!r} is not text: damaged metadata")
         if isinstance(obj, h5py.Dataset):
+            if obj.dtype.kind not in "biuf":
+                raise RunDataError(path, f"/{name} holds values of type {obj.dtype}, not "
+                                         "numbers: cdshear writes numbers only")
             claimed = int(np.prod(obj.shape, dtype=object)) * obj.dtype.itemsize if obj.shape \
                 else obj.dtype.itemsize
             bound = size * (1000 if obj.compression else 1) + (1 << 20)
@@ -347,10 +398,15 @@ def _read(f, run_dir, path):
             data = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
             _check_lengths(data, data, n_windows, f"/windows/regions/{label}", path,
                            one_value=True)
+            h = group.attrs.get("h", label.lstrip("h"))
             try:
-                data["h"] = float(group.attrs.get("h", label.lstrip("h")))
-            except ValueError:
-                raise RunDataError(path, f"/windows/regions/{label}: no attribute h")
+                data["h"] = float(_plain(h) if isinstance(h, (bytes, np.ndarray)) else h)
+            except (TypeError, ValueError):
+                raise RunDataError(path, f"/windows/regions/{label}: attribute h "
+                                         f"({h!r}) is not a number")
+            if not (np.isfinite(data["h"]) and data["h"] > 0):
+                raise RunDataError(path, f"/windows/regions/{label}: attribute h = "
+                                         f"{data['h']:g}: a layer's thickness must be > 0")
             regions[label] = data
     regions = dict(sorted(regions.items(), key=lambda item: item[1]["h"]))
     top_stripes = None
@@ -382,6 +438,7 @@ def _read(f, run_dir, path):
         attrs["legacy_note"] = " ".join(filter(None, (attrs.get("legacy_note"), (
             f"format version {version:g}: the top boundary layer's stripes were counted from "
             "the bottom wall (its nu and Z less exact than the bottom layer's)"))))
+    _check_window_fields(windows, n_windows, n_stripes, path)
     snapshot = None
     if "snapshot" in f:
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
@@ -389,6 +446,8 @@ def _read(f, run_dir, path):
         for k in ("time", "length_x", "height"):   # attributes, or datasets in older files
             if k in snapshot:
                 snapshot[k] = _scalar(np.asarray(snapshot[k]))
+    if snapshot is not None:
+        _check_snapshot(snapshot, path)
     case = {}
     for text in (attrs.get("case_toml"), _read_text(os.path.join(run_dir, "case.toml"))):
         try:
@@ -400,6 +459,54 @@ def _read(f, run_dir, path):
     return dict(run_dir=run_dir, path=path, attrs=attrs, case=case, series=series,
                 windows=windows, regions=regions, top_stripes=top_stripes,
                 snapshot=snapshot)
+
+
+# The /windows profiles the analysis reads (after the version conversions), by their shape
+# beyond (windows, stripes): every profile, and the stress and its parts as 2 x 2 tensors.
+WINDOW_PROFILES = ("solid_fraction", "vx", "mu_eff", "coordination", "force_carrying_coordination",
+                   "inertial_number", "shear_rate")
+WINDOW_TENSORS = ("stress", "contact_stress", "kinetic_stress", "rotational_stress")
+WINDOW_WALL_FORCES = ("bottom_force", "top_force")
+SNAPSHOT_DISKS = ("x", "y", "radius", "vx")
+SNAPSHOT_CONTACTS = ("contact_ax", "contact_ay", "contact_bx", "contact_by",
+                     "contact_normal_force")
+
+
+def _check_window_fields(windows, n_windows, n_stripes, path):
+    """Refuses a profile the analysis reads that is missing or of another shape, a tensor that is
+    not 2 x 2 per stripe, and the walls' forces where they are not one (x, y) pair per window."""
+    missing = [k for k in WINDOW_PROFILES if k not in windows]
+    if missing:
+        raise RunDataError(path, "missing dataset(s) "
+                           + ", ".join(f"/windows/{k}" for k in missing))
+    for keys, tail in ((WINDOW_PROFILES, ()), (WINDOW_TENSORS, (2, 2))):
+        for k in keys:
+            if k in windows and np.shape(windows[k]) != (n_windows, n_stripes) + tail:
+                raise RunDataError(path, f"/windows/{k} has shape {np.shape(windows[k])}, "
+                                         f"expected {(n_windows, n_stripes) + tail}")
+    for k in WINDOW_WALL_FORCES:
+        if k in windows and np.shape(windows[k]) != (n_windows, 2):
+            raise RunDataError(path, f"/windows/{k} has shape {np.shape(windows[k])}, "
+                                     f"expected {(n_windows, 2)}")
+
+
+def _check_snapshot(snapshot, path):
+    """A snapshot's disks (and its contacts, where it has any) as one-dimensional lists of one
+    length each: what snapshot.png draws."""
+    for names in (SNAPSHOT_DISKS, SNAPSHOT_CONTACTS):
+        present = [k for k in names if k in snapshot]
+        if names is SNAPSHOT_CONTACTS and not present:
+            continue
+        missing = [k for k in names if k not in snapshot]
+        if missing:
+            raise RunDataError(path, "missing dataset(s) "
+                               + ", ".join(f"/snapshot/{k}" for k in missing))
+        lengths = {k: np.shape(snapshot[k]) for k in names}
+        if any(len(shape) != 1 for shape in lengths.values()) or \
+                len(set(lengths.values())) != 1:
+            raise RunDataError(path, "/snapshot/" + ", ".join(names) + " must be lists of one "
+                               "length: shapes " + ", ".join(f"{k} {v}"
+                                                             for k, v in lengths.items()))
 
 
 def _as_version_2(windows, regions, attrs):

@@ -13,6 +13,7 @@ stresses (docs/measurements.md) averages out over the bulk's stripes and the win
 `python3 -m cdshear_analysis stress-balance RUN_DIR...` prints one line per run."""
 import numpy as np
 
+from .rundata import RunDataError
 from .statistics import window_mean
 from .summary import analyze, window_wall_friction
 
@@ -27,6 +28,10 @@ def stress_balance(run, summary=None):
     summary's `steady_window_indices`; analyze(run) when no summary is given)."""
     summary = summary or analyze(run)
     w = run["windows"]
+    if missing := [k for k in ("bottom_force", "top_force") if k not in w]:
+        raise RunDataError(run["path"], "missing dataset(s) "
+                           + ", ".join(f"/windows/{k}" for k in missing)
+                           + ": the walls' stress is not known")
     sel = np.asarray(summary["steady_window_indices"], dtype=int)
     lx = float(run["attrs"]["length_x"])
     y = np.asarray(w["y"], dtype=float)

@@ -18,7 +18,7 @@ import json
 import math
 import os
 
-from .rundata import IDENTITY_KEYS, is_number, open_regular
+from .rundata import IDENTITY_KEYS, is_number, open_regular, save_figure
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -76,7 +76,8 @@ def read_run(run_dir, key, value):
     info = _read_json(os.path.join(run_dir, "run_info.json"))
     try:
         return _row(run_dir, key, value, summary, info)
-    except (AttributeError, TypeError, ValueError) as e:   # a value of another JSON type
+    # a value of another JSON type, or an integer beyond any float (OverflowError)
+    except (AttributeError, TypeError, ValueError, OverflowError) as e:
         raise StudyError(run_dir, f"summary.json or run_info.json holds a value of the wrong "
                                   f"type (not what `cdshear run` and `analyze` write): {e}") \
             from None
@@ -132,7 +133,10 @@ def case_difference(row, reference, varied=None, reference_name=None):
         if key == varied or held is None or wanted is None:
             continue
         if is_number(held) and is_number(wanted):
-            same = math.isclose(held, wanted, rel_tol=1e-12, abs_tol=0.0)
+            try:
+                same = math.isclose(held, wanted, rel_tol=1e-12, abs_tol=0.0)
+            except OverflowError:   # an integer beyond any float: equal only to itself
+                same = held == wanted
         else:
             same = held == wanted
         if not same:
@@ -148,7 +152,7 @@ def _row(run_dir, key, value, summary, info):
             raise StudyError(os.path.join(run_dir, name), "is not a JSON object")
     case = summary.get("case", {})
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
-           "steady": bool(summary.get("steady")),
+           "steady": summary.get("steady") is True,   # "false" (a text) is not steady
            "case": {name: case[name] for name, _ in SHARED_CASE if name in case}}
     for name, get in QUANTITIES:
         try:
@@ -566,7 +570,7 @@ def write_study(rows, study_dir):
         fig.suptitle(f"{name} (mean ± standard error)\ngrey: reference ± its error", fontsize=9)
         fig.tight_layout()
         path = os.path.join(fig_dir, f"{name}.png")
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         figures.append(path)
     return [csv_path, md_path] + figures

@@ -10,14 +10,13 @@ are null, its regime None (reason in regime_criteria), its series averaged over 
 import json
 import math
 import os
-import tempfile
 
 import numpy as np
 
 from . import regime as rg
 from .relaxation import profile_decay
 from .profiles import QUANTITIES, region_quantities, stripe_width
-from .rundata import RunDataError
+from .rundata import RunDataError, write_text_atomically
 from .statistics import block_average, mean_err, ratio_of_means, window_mean
 from .steady_state import detect_steady_state
 
@@ -322,19 +321,7 @@ def jsonable(obj):
 def write_summary(summary, run_dir):
     """Write RUN_DIR/summary.json atomically (temporary file + rename); returns its path."""
     path = os.path.join(run_dir, "summary.json")
-    fd, tmp = tempfile.mkstemp(prefix=".summary.", suffix=".tmp", dir=run_dir)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            json.dump(jsonable(summary), f, indent=1, allow_nan=False)
-            f.write("\n")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_text_atomically(path, json.dumps(jsonable(summary), indent=1, allow_nan=False) + "\n")
     return path
 
 

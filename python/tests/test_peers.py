@@ -149,7 +149,14 @@ class PackingToLammps(unittest.TestCase):
                                      (dict(disks_xyr=[[1.0, 2.0, 0.5], [1.0, "2", 0.5]]),
                                       r"disks_xyr\[1\] must be \[x, y, r\]"),
                                      (dict(disks_xyr=[[1.0, 2.0]]), r"disks_xyr\[0\]"),
-                                     (dict(disks_xyr={"x": 1}), "non-empty list")):
+                                     (dict(disks_xyr={"x": 1}), "non-empty list"),
+                                     # what cdshear's read_packing refuses of the geometry
+                                     (dict(length_x=1e308), "the disks fill 0 of"),
+                                     (dict(n=-1), "n is -1, but disks_xyr lists 3"),
+                                     (dict(diameter_min=0), "diameter_min and diameter_max"),
+                                     (dict(diameter_max=0.85), r"disks_xyr\[0\]: diameter 0.9"),
+                                     (dict(disks_xyr=[[1.0, 3.9, 0.5]], n=1),
+                                      r"disks_xyr\[0\] crosses a wall")):
                 with open(bad, "w") as f:
                     json.dump(dict(PACKING, **changed), f)
                 with self.assertRaisesRegex(PeerError, problem):

@@ -5,6 +5,7 @@ import io
 import json
 import os
 import re
+import shutil
 import tempfile
 import unittest
 
@@ -267,6 +268,64 @@ class ReportTest(unittest.TestCase):
         self.assertEqual(os.listdir(out), ["index.html"])
         with open(os.path.join(out, "index.html")) as f:
             self.assertEqual(f.read(), "an earlier report")
+
+    def test_a_failed_report_leaves_the_earlier_one_whole(self):
+        """A report that fails half-way (here in its fits) writes no file: each is made first and
+        then replaces the earlier one whole, so runs.md is not left empty beside an old
+        fits.json."""
+        self.power_law_campaign()
+        out = os.path.join(self.d, "report")
+        self.assertEqual(main(["report", self.d]), 0)
+        before = {}
+        for name in ("runs.csv", "runs.md", "fits.json", "index.html"):
+            with open(os.path.join(out, name), "rb") as f:
+                before[name] = f.read()
+        runs = os.path.join(self.d, "runs")
+        shutil.rmtree(os.path.join(runs, sorted(os.listdir(runs))[0]))   # a table that differs
+        fit_laws = report.fit_laws
+
+        def failing(rows):
+            raise RuntimeError("a fit that fails")
+        report.fit_laws = failing
+        try:
+            with self.assertRaisesRegex(RuntimeError, "a fit that fails"):
+                report.write_report(report.collect(self.d), out)
+        finally:
+            report.fit_laws = fit_laws
+        for name, data in before.items():
+            with open(os.path.join(out, name), "rb") as f:
+                self.assertEqual(f.read(), data, name)
+        self.assertEqual([n for n in os.listdir(out) if n.endswith(".tmp")], [])
+
+    def test_a_regime_that_is_not_a_text_is_no_regime(self):
+        """A damaged summary's regime (a number, a list) is left blank, not joined as text."""
+        fake_campaign(self.d, "damaged", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]})
+        path = os.path.join(self.d, "runs", "s1_seed1_V0.1", "summary.json")
+        with open(path) as f:
+            summary = json.load(f)
+        summary["regime"] = 5
+        with open(path, "w") as f:
+            json.dump(summary, f)
+        self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "out")]), 0)
+        self.assertIsNone(report.collect(self.d)["rows"][0]["regime"])
+
+    def test_a_campaign_runs_files_are_not_written_over_without_run_h5(self):
+        """A committed campaign keeps case.toml, summary.json and run_info.json without run.h5:
+        they are a run's all the same, and an output naming one of them is refused."""
+        from cdshear_analysis.rundata import output_problem
+        run = os.path.join(self.d, "runs", "s1_seed1_V0.1")
+        fake_summary(run, 0.1, 0.05, 0.3, 0.8, 3.0)
+        for name in ("case.toml", "run_info.json"):
+            with open(os.path.join(run, name), "w") as f:
+                f.write("{}\n")
+        for name in ("summary.json", "case.toml", "run_info.json"):
+            self.assertIn("is a run's own file", output_problem(os.path.join(run, name)) or "")
+        self.assertIsNone(output_problem(os.path.join(run, "other.json")))
+        lone = os.path.join(self.d, "lone")
+        os.makedirs(lone)
+        with open(os.path.join(lone, "summary.json"), "w") as f:
+            f.write("{}\n")
+        self.assertIsNone(output_problem(os.path.join(lone, "summary.json")))
 
     def test_profile_labels_name_the_seed_where_several_runs_share_a_v(self):
         rows = [{"V": 0.1, "seed": 1, "regime": "B", "steady": False},

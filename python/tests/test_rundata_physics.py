@@ -32,6 +32,19 @@ def replace(dataset, make):
     return damage
 
 
+def delete(dataset):
+    def damage(f):
+        del f[dataset]
+    return damage
+
+
+def set_group_attr(parent, name, value):
+    """The attribute `name` of the first group under `parent` (a region: h5, h10...)."""
+    def damage(f):
+        f[parent][next(iter(f[parent]))].attrs[name] = value
+    return damage
+
+
 def backwards(t):
     t = np.array(t, dtype=float)
     t[5] = t[3]
@@ -68,6 +81,20 @@ CASES = [
     ("2-D series", replace("series/com_vx", lambda v: np.stack([v, v], axis=1)),
      "/series/com_vx"),
     ("8 TB series", huge_series, "/series/com_vx claims 8000000000000 bytes"),
+    # datasets outside the required lists, read by analyze, plot or stress-balance
+    ("text height", replace("windows/height", lambda v: np.full(np.shape(v), b"x", "S1")),
+     "/windows/height holds values of type |S1, not numbers"),
+    ("no carrying Z", delete("windows/force_carrying_coordination"),
+     "missing dataset(s) /windows/force_carrying_coordination"),
+    ("flat stress", replace("windows/stress", lambda v: np.asarray(v)[..., 0, 0]),
+     "/windows/stress has shape"),
+    ("flat kinetic stress", replace("windows/kinetic_stress", lambda v: np.asarray(v)[..., 0]),
+     "/windows/kinetic_stress has shape"),
+    ("layer h -1", set_group_attr("windows/regions", "h", -1.0),
+     "a layer's thickness must be > 0"),
+    ("layer h text", set_group_attr("windows/regions", "h", "abc"), "('abc') is not a number"),
+    ("no radius", delete("snapshot/radius"), "missing dataset(s) /snapshot/radius"),
+    ("short x", replace("snapshot/x", lambda v: v[:-1]), "must be lists of one length"),
 ]
 
 

@@ -62,6 +62,19 @@ class StudyTest(unittest.TestCase):
             self.assertIn("solver.max_sweeps=200 | yes | 0.2650 ± 0.0040 |", text)
             self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
 
+    def test_a_steady_flag_that_is_not_true_is_not_steady(self):
+        """Only the JSON true of summary.json is steady: a text "false" is not (bool("false") is
+        True)."""
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
+            path = os.path.join(d, "reference", "summary.json")
+            with open(path) as f:
+                summary = json.load(f)
+            for flag, steady in ((True, True), ("false", False), ("no", False), (1, False)):
+                with open(path, "w") as f:
+                    json.dump(dict(summary, steady=flag), f)
+                self.assertIs(study.collect(d)[0]["steady"], steady, flag)
+
     def test_resumed_parts_count_in_the_cost(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 50.0, time=300.0)
@@ -315,7 +328,9 @@ class StudyTest(unittest.TestCase):
                     ("summary.json", dict(good, case={"time": "abc"}), "of the wrong type"),
                     ("summary.json", dict(good, com_vx=3), "of the wrong type"),
                     ("run_info.json", "str", "run_info.json: is not a JSON object"),
-                    ("run_info.json", {"summary": {"steps": "many"}}, "of the wrong type")):
+                    ("run_info.json", {"summary": {"steps": "many"}}, "of the wrong type"),
+                    ("summary.json", dict(good, com_vx={"std": 10 ** 400}), "of the wrong type"),
+                    ("run_info.json", {"summary": {"steps": 10 ** 400}}, "of the wrong type")):
                 shutil.rmtree(run)
                 fake_run(run, 0.30, 0.004, 50.0, 30.0)
                 with open(os.path.join(run, name), "w") as f:
