@@ -151,6 +151,10 @@ def main(argv=None):
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
         items = compare_campaigns(a, b)
+        if not items:   # as `report` with no run to report on
+            print(f"error: {args.campaign_b}: no analysed run that {args.campaign_a} has as "
+                  f"well: nothing to compare", file=sys.stderr)
+            return 2
         uneven = unequal_times(items)
         if uneven:
             run, time_a, time_b = uneven[0]
@@ -168,6 +172,8 @@ def main(argv=None):
         from .study import (StudyError, compare_references, format_comparison, format_windows,
                             windowed_means)
         try:
+            if args.windows < 0:   # checked before the comparison is printed
+                raise StudyError("--windows", f"must be at least 1 (0: none), not {args.windows}")
             a, b, lines, skipped = compare_references(args.dir_a, args.dir_b)
             print(format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped), end="")
             if args.windows:
@@ -183,6 +189,10 @@ def main(argv=None):
         from .rundata import RunDataError, load_run
         from .series_means import SeriesError, format_series_means, series_means
         keys = args.key or ["force_carrying", "sweeps_mean", "capped_steps"]
+        for option, value in (("--after", args.after), ("--before", args.before)):
+            if math.isnan(value) or (option == "--after" and math.isinf(value)):
+                print(f"error: {option}: must be a time, not {value:g}", file=sys.stderr)
+                return 2
         try:
             print(format_series_means(series_means(load_run(args.run_dir), args.after, keys,
                                                    args.before)))

@@ -230,6 +230,12 @@ def lammps_series(path):
         raise PeerError(path, f"cannot read LAMMPS series: {e}") from e
     if table.shape[0] == 0 or table.shape[1] != len(names):
         raise PeerError(path, f"expected rows of {len(names)} columns, got {table.shape}")
+    if not np.all(np.isfinite(table)):
+        row = int(np.argmax(~np.all(np.isfinite(table), axis=1)))
+        raise PeerError(path, f"row {row + 1} of the samples holds a value that is not finite")
+    if table.shape[0] > 1 and np.any(np.diff(table[:, 1]) <= 0):
+        row = int(np.argmax(np.diff(table[:, 1]) <= 0)) + 1
+        raise PeerError(path, f"time does not increase at row {row + 1} of the samples")
     return {name: table[:, k] for k, name in enumerate(names)}
 
 
@@ -243,13 +249,13 @@ def cdshear_series(run_dir):
                          "com_vx", "solid_fraction")}
 
 
-def second_half_estimates(series, duration):
+def second_half_estimates(series, duration, name="series"):
     """mu_eff and solid fraction over the samples with time > duration / 2, same estimator for
-    both codes (`estimates_after`)."""
-    return estimates_after(series, 0.5 * duration)
+    both codes (`estimates_after`); `name`: the file the series came from, for errors."""
+    return estimates_after(series, 0.5 * duration, name)
 
 
-def estimates_after(series, start_time):
+def estimates_after(series, start_time, name="series"):
     """mu_eff, solid fraction and height over the samples with time > start_time:
       mu_eff = <|f_x^bottom| + |f_x^top|> / <|f_y^bottom| + |f_y^top|> (ratio of the time
       averaged tangential and normal wall forces), error err(a - mu b) / <b> with a, b the
@@ -259,9 +265,13 @@ def estimates_after(series, start_time):
     t = series["time"]
     keep = t > start_time
     if np.count_nonzero(keep) < 16:
-        raise PeerError("series", f"only {np.count_nonzero(keep)} samples after t = {start_time:g}")
+        raise PeerError(name, f"only {np.count_nonzero(keep)} samples after t = {start_time:g} "
+                              f"(half of --duration): a run of that length?")
     a = np.abs(series["bottom_fx"][keep]) + np.abs(series["top_fx"][keep])
     b = np.abs(series["bottom_fy"][keep]) + np.abs(series["top_fy"][keep])
+    if not b.mean() > 0:
+        raise PeerError(name, f"no normal force on the walls after t = {start_time:g}: no "
+                              f"mu_eff")
     mu = float(a.mean() / b.mean())
     mu_err = block_average(a - mu * b)["err"] / float(b.mean())
     nu = block_average(series["solid_fraction"][keep])
@@ -350,8 +360,10 @@ def max_overlap_from_dump(path):
 def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seconds):
     """Both codes' figures as a dict: wall seconds per simulated time unit, their ratio, the
     second-half estimates (mu_eff, solid fraction, height), LAMMPS' largest overlap."""
-    cd = second_half_estimates(cdshear_series(cdshear_run), duration)
-    lm = second_half_estimates(lammps_series(os.path.join(lammps_dir, "series.txt")), duration)
+    cd = second_half_estimates(cdshear_series(cdshear_run), duration,
+                               os.path.join(cdshear_run, "run.h5"))
+    series_path = os.path.join(lammps_dir, "series.txt")
+    lm = second_half_estimates(lammps_series(series_path), duration, series_path)
     cd["seconds_per_time"] = cdshear_seconds / duration
     lm["seconds_per_time"] = lammps_seconds / duration
     dump = os.path.join(lammps_dir, "dump.txt")
@@ -476,8 +488,9 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
     wall_radius = read_vars(os.path.join(run_dir, "packing.data.vars")).get("wall_radius")
     if wall_radius is None:
         raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
-    series = lammps_series(os.path.join(run_dir, "lammps", "series.txt"))
-    est = estimates_after(series, start_time)
+    series_path = os.path.join(run_dir, "lammps", "series.txt")
+    series = lammps_series(series_path)
+    est = estimates_after(series, start_time, series_path)
     row = {"run": meta.get("run", os.path.basename(run_dir)), "V": meta.get("velocity"),
            "kappa": meta.get("kappa"), "mu_eff_wall": est["mu_eff"],
            "mu_eff_wall_err": est["mu_eff_err"], "L_y": est["height"],

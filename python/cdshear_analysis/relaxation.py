@@ -192,6 +192,22 @@ def _number(v):
     return v if is_number(v) and math.isfinite(v) else None
 
 
+# The parameters of the bulk laws as a report names them (report.FITS).
+BULK_LAW_PARAMETERS = {"mu_power": ("mu_0", "A", "B"), "mu_linear": ("a", "b")}
+
+
+def _range(v):
+    """A fit range [t0, t1] of two finite numbers, else None."""
+    ok = isinstance(v, list) and len(v) == 2 and all(_number(x) is not None for x in v)
+    return v if ok else None
+
+
+def _overlaps(v):
+    """The shape overlaps {sin_2pi_eta, cos_pi_eta} that are finite numbers."""
+    v = v if isinstance(v, dict) else {}
+    return {k: v[k] for k in ("sin_2pi_eta", "cos_pi_eta") if _number(v.get(k)) is not None}
+
+
 def bulk_law_problem(fits):
     """Why the bulk laws of fits.json's `fits` (`mu_power`, `mu_linear`, where given) cannot be
     used by decay_against_diffusion, naming the key; None when they can."""
@@ -206,9 +222,11 @@ def bulk_law_problem(fits):
             continue   # a law not fitted: not usable, and said so per run
         if not isinstance(law.get("model"), str):
             return f"fits.{key}.model is not a text"
-        wanted = 3 if law["model"].startswith("power") else 2
-        if not isinstance(params, dict) or len(params) < wanted:
-            return f"fits.{key}.parameters is not an object of at least {wanted} parameters"
+        # read by position (fitting.slope): the report's names, in its order
+        wanted = BULK_LAW_PARAMETERS[key]
+        if not isinstance(params, dict) or list(params) != list(wanted):
+            return (f"fits.{key}.parameters must be {', '.join(wanted)} in that order (a "
+                    f"report's fits.json), not {', '.join(map(str, params)) or 'none'}")
         for name, p in params.items():
             if not (isinstance(p, dict) and _number(p.get("value")) is not None):
                 return f"fits.{key}.parameters.{name}.value is not a finite number"
@@ -234,8 +252,9 @@ def decay_against_diffusion(summaries, fits):
              "L_y": _mean(s, "height"), "I_bulk": _mean(s, "bulk", "inertial_number"),
              "nu_bulk": _mean(s, "bulk", "solid_fraction"),
              "sigma_yy": _mean(s, "case", "normal_stress"), "tau": _number(d.get("tau")),
-             "tau_err": _number(d.get("tau_err")), "fit_range": d.get("fit_range"),
-             "shape_overlap": d.get("shape_overlap"), "law": law, "D": None, "T_SS": None,
+             "tau_err": _number(d.get("tau_err")), "fit_range": _range(d.get("fit_range")),
+             "shape_overlap": _overlaps(d.get("shape_overlap")), "law": law, "D": None,
+             "T_SS": None,
              "tau_over_T_SS": None, "used": False, "reason": None}
         # Each must be a number above 0 (L_y^2 / D and sqrt(m / sigma_yy) need it).
         missing = [k for k in ("L_y", "I_bulk", "nu_bulk", "sigma_yy")
@@ -248,15 +267,21 @@ def decay_against_diffusion(summaries, fits):
             e["reason"] = "missing or not above 0: " + ", ".join(missing)
         elif fitting.slope(fits[law], e["I_bulk"]) <= 0:
             e["reason"] = f"d mu / d I <= 0 at I_bulk = {e['I_bulk']:.3g}: no diffusion"
+        elif not _finite_products(e["L_y"] ** 2 if e["L_y"] < 1e150 else math.inf,
+                                  e["sigma_yy"], 1.0 / e["nu_bulk"], 1.0 / e["sigma_yy"]):
+            e["reason"] = "L_y, nu_bulk or sigma_yy beyond the range T_SS can be taken from"
         else:
             e["T_SS"], e["D"] = steady_state_time(fits[law], e["I_bulk"], e["L_y"], e["nu_bulk"],
                                                   e["sigma_yy"])
             if e["tau"] is not None:
                 e["tau_over_T_SS"] = e["tau"] / e["T_SS"]
-            if d.get("reason"):
+            if isinstance(d.get("reason"), str) and d["reason"]:
                 e["reason"] = d["reason"]
-            elif e["tau"] is None or not (e["tau_err"] or 0) > 0:
-                e["reason"] = "no decay time tau with an error above 0 in summary.json"
+            elif e["tau"] is None or not (e["tau_err"] or 0) > 0 or not e["tau"] > 0:
+                e["reason"] = "no decay time tau > 0 with an error above 0 in summary.json"
+            elif not _finite_products(e["tau"] * e["D"], e["tau"] / e["tau_err"],
+                                      e["T_SS"]) or e["tau"] / e["tau_err"] > 1e150:
+                e["reason"] = "tau or its error beyond the range a weight can be taken from"
             elif e["initial_velocity"] != "rest":
                 e["reason"] = "not started at rest"
             elif e["regime"] != "A" or not e["steady"]:
@@ -281,6 +306,12 @@ def decay_against_diffusion(summaries, fits):
                     "note": "error from tau's errors alone, scaled by sqrt(chi2/dof) when above 1"
                             + ("" if dof > 0 else "; no degree of freedom left to check it")}
     return entries, exponent
+
+
+def _finite_products(*values):
+    """True when every value (a product or quotient the decay's comparison takes) is a finite
+    number above 0 and above underflow: a damaged summary's 1e308 or 1e-320 is not."""
+    return all(math.isfinite(v) and abs(v) > 1e-300 for v in values)
 
 
 def format_decay_table(entries, exponent):

@@ -221,11 +221,13 @@ class CompareEdgeCases(unittest.TestCase):
         with tempfile.TemporaryDirectory() as d:
             for side in ("a", "b"):
                 write_synthetic_run(os.path.join(d, side, "runs", "s1_seed1_V1"), velocity=1.0)
-            with contextlib.redirect_stdout(io.StringIO()) as out:
+            # Nothing left to compare is an error, as a report with no run to report on.
+            with contextlib.redirect_stdout(io.StringIO()) as out, \
+                    contextlib.redirect_stderr(io.StringIO()) as err:
                 self.assertEqual(cli_main(["campaign-compare", os.path.join(d, "a"),
-                                           os.path.join(d, "b"), "--until", "1e-6"]), 0)
+                                           os.path.join(d, "b"), "--until", "1e-6"]), 2)
             self.assertIn("cannot be analysed as it stood at t = 1e-06", out.getvalue())
-            self.assertIn("no run in both campaigns", out.getvalue())
+            self.assertIn("nothing to compare", err.getvalue())
 
 
 class Version(unittest.TestCase):

@@ -214,6 +214,25 @@ class SideBySideInput(unittest.TestCase):
                 self.assertIn(f"error: {target}: --json: ", out.stderr)
                 self.assertIn(problem, out.stderr)
             load_run(run)
+            # A LAMMPS series without normal force, with NaN, or with time running back; a
+            # duration longer than the runs: each named by its file.
+            good = np.loadtxt(series)
+            no_load, nan, back = good.copy(), good.copy(), good.copy()
+            no_load[:, [3, 5]] = 0.0   # bottom_fy, top_fy
+            nan[4, 4] = np.nan
+            back[4, 1] = 0.5
+            for table, problem in ((no_load, "no normal force on the walls"),
+                                   (nan, "row 5 of the samples holds a value"),
+                                   (back, "time does not increase at row 5")):
+                np.savetxt(series, table)
+                out = self.side_by_side(run, lammps)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn(f"error: {series}: {problem}", out.stderr)
+            np.savetxt(series, good)
+            out = self.side_by_side(run, lammps, duration="1e6")
+            self.assertEqual(out.returncode, 2, out.stderr)
+            self.assertIn("run.h5: only 0 samples after t = 500000 (half of --duration)",
+                          out.stderr)
             with open(os.path.join(lammps, "dump.txt"), "w") as f:
                 f.write("ITEM: TIMESTEP\n100\n")
             out = self.side_by_side(run, lammps)

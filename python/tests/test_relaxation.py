@@ -235,7 +235,11 @@ class ProfileDecayCommand(unittest.TestCase):
             for law, problem in (("ok", "fits.mu_power is not an object"),
                                  (dict(LAW, parameters=[1, 2, 3]), "fits.mu_power.parameters"),
                                  (dict(LAW, parameters={"mu_0": params["mu_0"]}),
-                                  "at least 3 parameters"),
+                                  "must be mu_0, A, B in that order"),
+                                 # names read by position: another law's names are refused
+                                 (dict(LAW, parameters={"x": params["mu_0"], "y": params["A"],
+                                                        "z": params["B"]}),
+                                  "not x, y, z"),
                                  (dict(LAW, parameters=dict(params, A={"value": "x"})),
                                   "fits.mu_power.parameters.A.value is not a finite number")):
                 with open(fits, "w") as f:
@@ -260,6 +264,26 @@ class ProfileDecayCommand(unittest.TestCase):
                 with contextlib.redirect_stdout(out):
                     self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
             self.assertIn("no decay time tau", out.getvalue())
+            # Values a damaged summary may hold: each run said why it is not used (or shown
+            # without the value), never a traceback; a negative tau is not used.
+            decay = good["profile_decay"]
+            for changed, words in (
+                    (dict(decay, tau=-5.0, reason=None), "no decay time tau > 0"),
+                    (dict(decay, tau=1.0, tau_err=1e-320, reason=None), "beyond the range"),
+                    (dict(decay, fit_range="ab", shape_overlap=[1]), ""),
+                    (dict(decay, fit_range=[None, 3], shape_overlap={"sin_2pi_eta": "x"}), "")):
+                with open(summary_path, "w") as f:
+                    json.dump(dict(good, profile_decay=changed), f)
+                out = io.StringIO()
+                with contextlib.redirect_stdout(out):
+                    self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
+                self.assertIn(words, out.getvalue())
+            with open(summary_path, "w") as f:
+                json.dump(dict(good, height={"mean": 1e308, "err": 0.1}), f)
+            out = io.StringIO()
+            with contextlib.redirect_stdout(out):
+                self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
+            self.assertIn("beyond the range T_SS can be taken from", out.getvalue())
 
 
 if __name__ == "__main__":
