@@ -25,6 +25,7 @@ import math
 import os
 import re
 import shutil
+import stat
 import textwrap
 import tomllib
 
@@ -416,15 +417,21 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     notes = []
     if os.path.isfile(toml_path):
         name, listed, text = campaign_runs(toml_path)
+    elif os.path.lexists(toml_path):
+        raise ReportError(toml_path, f"is {_what_is(toml_path)}, not the campaign's file")
     else:
         name, listed, text = None, [], None
         notes.append("campaign.toml is missing: the campaign name is the folder's")
     if not name:
         name = os.path.basename(os.path.normpath(campaign_dir))
     runs_dir = os.path.join(campaign_dir, "runs")
-    folders = sorted(d for d in os.listdir(runs_dir)
-                     if os.path.isdir(os.path.join(runs_dir, d))) if os.path.isdir(runs_dir) \
-        else []
+    if os.path.lexists(runs_dir) and not os.path.isdir(runs_dir):
+        raise ReportError(runs_dir, f"is {_what_is(runs_dir)}, not the folder of the runs")
+    entries = sorted(os.listdir(runs_dir)) if os.path.isdir(runs_dir) else []
+    folders = [d for d in entries if os.path.isdir(os.path.join(runs_dir, d))]
+    for d in entries:   # a run's place taken by a file or a link that leads nowhere
+        if d not in folders and (d in listed or RUN_NAME.match(d)):
+            skipped.append((d, f"not a run folder: {_what_is(os.path.join(runs_dir, d))}"))
     if not folders and not listed:
         raise ReportError(runs_dir, "no run folders (has `cdshear sweep` run here?)")
     rows = []
@@ -446,14 +453,34 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
             continue
         rows.append(read_run(os.path.join(runs_dir, d), s))
     for r in listed:
-        if r not in folders:
+        if r not in entries:
             skipped.append((r, "not started: no run folder"))
     rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
+    same = {}
+    for r in rows:   # a run folder copied inside runs/ (a backup) weighs its seed twice
+        if None not in (r["system"], r["seed"], r["V"]):
+            same.setdefault((r["system"], r["seed"], r["V"]), []).append(r["run"])
+    for (system, seed, v), names in same.items():
+        if len(names) > 1:
+            notes.append(f"{', '.join(names)} are the same run (system {system}, seed {seed}, "
+                         f"V = {v:g}): each is pooled, so that seed weighs {len(names)} times; "
+                         f"move the copies out of runs/")
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
             "reanalysed": reanalysed, "notes": notes, "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
+
+
+def _what_is(path):
+    """What stands at `path` in words, for a place where a folder or a file was expected: a
+    file, a FIFO, a link that leads nowhere or into a loop (the system's reason), a folder."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as e:
+        return f"a link that cannot be followed ({e.strerror})"
+    return ("a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode)
+            else "a FIFO" if stat.S_ISFIFO(mode) else "a device or socket")
 
 
 def csv_columns(rows):

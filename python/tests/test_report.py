@@ -327,6 +327,28 @@ class ReportTest(unittest.TestCase):
             f.write("{}\n")
         self.assertIsNone(output_problem(os.path.join(lone, "summary.json")))
 
+    def test_a_run_folder_that_is_a_file_or_a_loop_is_named_as_such(self):
+        fake_campaign(self.d, "odd", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]},
+                      listed_extra=["s1_seed1_V1", "s1_seed1_V2"])
+        runs = os.path.join(self.d, "runs")
+        open(os.path.join(runs, "s1_seed1_V1"), "w").close()
+        os.symlink("s1_seed1_V2", os.path.join(runs, "s1_seed1_V2"))
+        skipped = dict(report.collect(self.d)["skipped"])
+        self.assertEqual(skipped["s1_seed1_V1"], "not a run folder: a file")
+        self.assertIn("a link that cannot be followed", skipped["s1_seed1_V2"])
+        shutil.rmtree(runs)
+        open(runs, "w").close()
+        with self.assertRaisesRegex(report.ReportError, "is a file, not the folder of the runs"):
+            report.collect(self.d)
+
+    def test_a_copy_of_a_run_inside_runs_is_noted(self):
+        fake_campaign(self.d, "copied", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]})
+        fake_summary(os.path.join(self.d, "runs", "s1_seed1_V0.10"), 0.1, 0.05, 0.3, 0.8, 3.0)
+        r = report.collect(self.d)
+        self.assertEqual(len(r["rows"]), 2)
+        self.assertTrue(any("s1_seed1_V0.1, s1_seed1_V0.10 are the same run" in n
+                            for n in r["notes"]), r["notes"])
+
     def test_profile_labels_name_the_seed_where_several_runs_share_a_v(self):
         rows = [{"V": 0.1, "seed": 1, "regime": "B", "steady": False},
                 {"V": 0.1, "seed": 2, "regime": "B", "steady": True},
