@@ -267,8 +267,8 @@ def decay_against_diffusion(summaries, fits):
             e["reason"] = "missing or not above 0: " + ", ".join(missing)
         elif fitting.slope(fits[law], e["I_bulk"]) <= 0:
             e["reason"] = f"d mu / d I <= 0 at I_bulk = {e['I_bulk']:.3g}: no diffusion"
-        elif not _finite_products(e["L_y"] ** 2 if e["L_y"] < 1e150 else math.inf,
-                                  e["sigma_yy"], 1.0 / e["nu_bulk"], 1.0 / e["sigma_yy"]):
+        elif not (1e-150 < e["L_y"] < 1e150   # L_y^2 / D
+                  and _finite_products(e["sigma_yy"], 1.0 / e["nu_bulk"], 1.0 / e["sigma_yy"])):
             e["reason"] = "L_y, nu_bulk or sigma_yy beyond the range T_SS can be taken from"
         else:
             e["T_SS"], e["D"] = steady_state_time(fits[law], e["I_bulk"], e["L_y"], e["nu_bulk"],

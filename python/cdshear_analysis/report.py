@@ -25,7 +25,6 @@ import math
 import os
 import re
 import shutil
-import stat
 import textwrap
 import tomllib
 
@@ -38,7 +37,7 @@ from .fitting import finite as _finite
 from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
 from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in
-from .rundata import write_text_atomically
+from .rundata import what_is, write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -418,7 +417,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     if os.path.isfile(toml_path):
         name, listed, text = campaign_runs(toml_path)
     elif os.path.lexists(toml_path):
-        raise ReportError(toml_path, f"is {_what_is(toml_path)}, not the campaign's file")
+        raise ReportError(toml_path, f"is {what_is(toml_path)}, not the campaign's file")
     else:
         name, listed, text = None, [], None
         notes.append("campaign.toml is missing: the campaign name is the folder's")
@@ -426,12 +425,12 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
         name = os.path.basename(os.path.normpath(campaign_dir))
     runs_dir = os.path.join(campaign_dir, "runs")
     if os.path.lexists(runs_dir) and not os.path.isdir(runs_dir):
-        raise ReportError(runs_dir, f"is {_what_is(runs_dir)}, not the folder of the runs")
+        raise ReportError(runs_dir, f"is {what_is(runs_dir)}, not the folder of the runs")
     entries = sorted(os.listdir(runs_dir)) if os.path.isdir(runs_dir) else []
     folders = [d for d in entries if os.path.isdir(os.path.join(runs_dir, d))]
     for d in entries:   # a run's place taken by a file or a link that leads nowhere
         if d not in folders and (d in listed or RUN_NAME.match(d)):
-            skipped.append((d, f"not a run folder: {_what_is(os.path.join(runs_dir, d))}"))
+            skipped.append((d, f"not a run folder: {what_is(os.path.join(runs_dir, d))}"))
     if not folders and not listed:
         raise ReportError(runs_dir, "no run folders (has `cdshear sweep` run here?)")
     rows = []
@@ -470,17 +469,6 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
             "reanalysed": reanalysed, "notes": notes, "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
-
-
-def _what_is(path):
-    """What stands at `path` in words, for a place where a folder or a file was expected: a
-    file, a FIFO, a link that leads nowhere or into a loop (the system's reason), a folder."""
-    try:
-        mode = os.stat(path).st_mode
-    except OSError as e:
-        return f"a link that cannot be followed ({e.strerror})"
-    return ("a folder" if stat.S_ISDIR(mode) else "a file" if stat.S_ISREG(mode)
-            else "a FIFO" if stat.S_ISFIFO(mode) else "a device or socket")
 
 
 def csv_columns(rows):

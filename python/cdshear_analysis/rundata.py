@@ -70,10 +70,24 @@ def open_regular(path, mode="r", **kwargs):
     naming the path, which every reader here already reports as "cannot read"."""
     st = os.stat(path)
     if not stat.S_ISREG(st.st_mode):
-        kind = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a folder" if stat.S_ISDIR(st.st_mode)
-                else "a device or socket")
-        raise OSError(errno.EINVAL, f"not a regular file ({kind})", os.fspath(path))
+        raise OSError(errno.EINVAL, f"not a regular file ({kind_of(st.st_mode)})",
+                      os.fspath(path))
     return open(path, mode, **kwargs)
+
+
+def kind_of(mode):
+    """A file's kind in words, from its st_mode: a file, a folder, a FIFO, a device or socket."""
+    return ("a file" if stat.S_ISREG(mode) else "a folder" if stat.S_ISDIR(mode)
+            else "a FIFO" if stat.S_ISFIFO(mode) else "a device or socket")
+
+
+def what_is(path):
+    """What stands at `path` in words (kind_of), or a link that leads nowhere or into a loop
+    with the system's reason: for a place where a folder or a file was expected."""
+    try:
+        return kind_of(os.stat(path).st_mode)
+    except OSError as e:
+        return f"a link that cannot be followed ({e.strerror})"
 
 
 def replace_atomically(path, write):
