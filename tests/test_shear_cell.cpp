@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
+#include <string>
+#include <utility>
 
 #include "case_file.hpp"
 #include "config_error.hpp"
@@ -145,13 +147,24 @@ TEST(ShearWorld, StartsWithTheLinearProfileAndSeparateFrictions) {
   EXPECT_DOUBLE_EQ(d.step.dt, 0.004);
 }
 
+// A case at wall speed V with its step rules resolved, and its world on the system-1 packing.
+struct System1Shear {
+  ShearCase c;
+  World world;
+};
+System1Shear system1_shear(double velocity, std::string initial_velocity = kInitialLinear) {
+  ShearCase c;
+  c.velocity = velocity;
+  c.initial_velocity = std::move(initial_velocity);
+  resolve_step_rules(c);
+  World world = build_shear_world(c, system1_packing());
+  return {std::move(c), std::move(world)};
+}
+
 // What a run never changes holds after steps of a run (the test a resume makes of its
 // checkpoint), and each field changed is named.
 TEST(ShearWorld, WhatARunNeverChangesHoldsAfterItsStepsAndEachChangeIsNamed) {
-  ShearCase c;
-  c.velocity = 0.5;
-  resolve_step_rules(c);
-  World w = build_shear_world(c, system1_packing());
+  auto [c, w] = system1_shear(0.5);
   ContactDynamics dynamics;
   for (int s = 0; s < 25; ++s) ASSERT_FALSE(dynamics.step(w, c.step).blown_up);
   ASSERT_EQ(shear_world_problem(w, c).key, "") << shear_world_problem(w, c).problem;
@@ -183,11 +196,7 @@ TEST(ShearWorld, StartsAtRestWhenAskedAndTheWallsDragTheLayersNextToThem) {
   // from the walls only, so after a few time units the disks in the lowest fifth move with the
   // bottom wall (against +x) and those in the highest fifth with the top wall (along +x): 0.16 V
   // both at 5 t on this packing, the walls slipping over them.
-  ShearCase c;
-  c.velocity = 0.5;
-  c.initial_velocity = kInitialRest;
-  resolve_step_rules(c);
-  World w = build_shear_world(c, system1_packing());
+  auto [c, w] = system1_shear(0.5, kInitialRest);
   EXPECT_EQ(w.walls[kBottomWall].velocity.x, -0.5);
   EXPECT_EQ(w.walls[kTopWall].velocity.x, 0.5);
   for (std::size_t i = 0; i < w.disks.size(); ++i) {
@@ -220,10 +229,7 @@ struct ShearWindow {
 };
 
 TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
-  ShearCase c;
-  c.velocity = 0.5;
-  resolve_step_rules(c);
-  World world = build_shear_world(c, system1_packing());
+  auto [c, world] = system1_shear(0.5);
   ContactDynamics dynamics;
   const double dt = c.step.dt;
   const double force_y = c.normal_stress * world.domain.length_x;

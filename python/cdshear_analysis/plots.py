@@ -250,9 +250,17 @@ FIGURES = {"snapshot.png": snapshot, "velocity_profiles.png": velocity_profiles,
 def check_figure_folder(run_dir, out_dir):
     """Raises RunDataError when out_dir is another run's folder or that run's figures/ folder:
     the figures written there would replace that run's own (its figures/ is where `cdshear sweep`
-    looks for them). The run's own folder and anything else are accepted."""
+    looks for them), or a campaign's runs/ folder or a new folder in it (a report reads each folder
+    there as a run's). The run's own folder and anything else are accepted."""
     own = os.path.realpath(run_dir)
     where = os.path.realpath(out_dir)
+    for runs in (where, os.path.dirname(where)):
+        if os.path.basename(runs) == "runs" and where != own and \
+                os.path.isfile(os.path.join(os.path.dirname(runs), "campaign.toml")):
+            raise RunDataError(out_dir, f"-o: is {'' if runs == where else 'in '}a campaign's "
+                                        f"runs folder ({runs}), where `cdshear report` reads "
+                                        f"each folder as a run's; choose another -o (default: "
+                                        f"{os.path.join(run_dir, 'figures')})")
     for folder in (where, os.path.dirname(where)):
         if folder == own:
             continue

@@ -316,15 +316,23 @@ def _finite_products(*values):
 
 def format_decay_table(entries, exponent):
     """The table `profile-decay` prints."""
+    def fixed(v, decimals):
+        # Fixed-point in the table's columns; beyond them (a damaged or diverged value), 3 digits.
+        return f"{v:.{decimals}f}" if abs(v) < 1e6 else f"{v:.3g}"
+
     def f(v, spec):
-        return format(v, spec) if v is not None else "-"
+        if v is None:
+            return "-"
+        width, decimals = spec.rstrip("f").split(".")
+        return format(fixed(v, int(decimals)), f">{width}")
     lines = [f"{'run':<16} {'start':<7} {'regime':<12} {'L_y':>6} {'I_bulk':>7} {'D':>7} "
              f"{'T_SS':>7} {'tau':>14} {'tau/T_SS':>9} {'sin2':>5} {'cos1':>5}  fit / reason"]
     for e in entries:
-        tau = f"{e['tau']:.1f} +- {e['tau_err']:.1f}" if e["tau"] is not None and \
+        tau = f"{fixed(e['tau'], 1)} +- {fixed(e['tau_err'], 1)}" if e["tau"] is not None and \
             e["tau_err"] is not None else "-"
         ov = e["shape_overlap"] or {}
-        note = (f"{e['fit_range'][0]:.0f}-{e['fit_range'][1]:.0f} t" if e["fit_range"] else "") \
+        note = (f"{fixed(e['fit_range'][0], 0)}-{fixed(e['fit_range'][1], 0)} t"
+                if e["fit_range"] else "") \
             + ("" if e["used"] else f" (not used: {e['reason']})")
         lines.append(f"{e['run']:<16} {str(e['initial_velocity']):<7} {str(e['regime']):<12} "
                      f"{f(e['L_y'], '6.2f')} {f(e['I_bulk'], '7.4f')} {f(e['D'], '7.3f')} "

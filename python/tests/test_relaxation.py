@@ -270,6 +270,7 @@ class ProfileDecayCommand(unittest.TestCase):
             for changed, words in (
                     (dict(decay, tau=-5.0, reason=None), "no decay time tau > 0"),
                     (dict(decay, tau=1.0, tau_err=1e-320, reason=None), "beyond the range"),
+                    (dict(decay, tau=1e308, tau_err=1.0, reason=None), "1e+308 +- 1.0"),
                     (dict(decay, fit_range="ab", shape_overlap=[1]), ""),
                     (dict(decay, fit_range=[None, 3], shape_overlap={"sin_2pi_eta": "x"}), "")):
                 with open(summary_path, "w") as f:
@@ -278,6 +279,7 @@ class ProfileDecayCommand(unittest.TestCase):
                 with contextlib.redirect_stdout(out):
                     self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
                 self.assertIn(words, out.getvalue())
+                self.assertNotRegex(out.getvalue(), "[0-9]{20}")   # no value printed in full
             with open(summary_path, "w") as f:
                 json.dump(dict(good, height={"mean": 1e308, "err": 0.1}), f)
             out = io.StringIO()

@@ -184,6 +184,18 @@ class EndToEnd(unittest.TestCase):
                     self.assertIn(f"holds {RUN_FILE}", result.stderr)
                     self.assertEqual(os.listdir(os.path.join(other, "figures")), [])
                     self.assertFalse(any(f.endswith(".png") for f in os.listdir(other)))
+            # A campaign's runs/ folder holds runs only: figures there would be listed as one.
+            campaign = os.path.join(d, "campaign")
+            os.makedirs(os.path.join(campaign, "runs"))
+            with open(os.path.join(campaign, "campaign.toml"), "w") as f:
+                f.write("")
+            runs = os.path.join(campaign, "runs")
+            for target in (runs, os.path.join(runs, "figs")):
+                with self.subTest(target=target):
+                    result = run_module("plot", run_dir, "-o", target)
+                    self.assertEqual(result.returncode, 2, result.stderr)
+                    self.assertIn("a campaign's runs folder", result.stderr)
+                    self.assertEqual(os.listdir(runs), [])
 
     def test_interrupted_short_run_is_not_steady_but_analyzed(self):
         with tempfile.TemporaryDirectory() as d:

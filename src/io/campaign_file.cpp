@@ -224,9 +224,7 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
     } catch (const ConfigError& e) {
       // The campaign's key that gave the value blamed: a condition between two keys is blamed
       // on the override of either (blamed_source), named then beside the key that failed.
-      const std::string given = e.file() == "--velocity"         ? std::string("shear.velocity")
-                                : e.file().starts_with("--set ") ? override_key(e.file().substr(6))
-                                                                 : e.key();
+      const std::string given = e.given_key().empty() ? e.key() : e.given_key();
       const std::string key =
           given == "measure.boundary_thickness" ? std::string("campaign.boundary_thickness")
           : given == "shear.velocity"

@@ -201,7 +201,7 @@ ShearCase load_case(const CaseSource& src) {
   }
   apply_overrides(table, src.overrides, sources.get());
   if (src.velocity && *src.velocity <= 0.0)
-    throw ConfigError("--velocity", "shear.velocity", "must be > 0");
+    throw ConfigError("--velocity", "shear.velocity", "must be > 0", "shear.velocity");
   ShearCase resolved = case_from_toml(table, name, c, sources);
   resolved.step.solver.threads = src.threads;
   resolved.preparation.step.solver.threads = src.threads;

@@ -9,20 +9,27 @@ namespace cdshear {
 
 class ConfigError : public std::runtime_error {
  public:
-  ConfigError(const std::string& file, const std::string& key, const std::string& problem)
+  /// `given_key`: the dotted key of the command-line override (`--set KEY=...`, `--velocity`)
+  /// that `file` names, when the problem is blamed on one.
+  ConfigError(const std::string& file, const std::string& key, const std::string& problem,
+              const std::string& given_key = "")
       : std::runtime_error(file + (key.empty() ? "" : ": key '" + key + "'") + ": " + problem),
         file_(file),
         key_(key),
-        problem_(problem) {}
+        problem_(problem),
+        given_key_(given_key) {}
   const std::string& file() const { return file_; }
   const std::string& key() const { return key_; }
   /// The problem alone, to be told again under another file or key.
   const std::string& problem() const { return problem_; }
+  /// The key of the override blamed (file() is then that override); empty when a file is.
+  const std::string& given_key() const { return given_key_; }
 
  private:
   std::string file_;
   std::string key_;
   std::string problem_;
+  std::string given_key_;
 };
 
 /// A file that could not be written (a full disk, a read-only or vanished folder): not bad

@@ -66,13 +66,14 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
   for (const std::string& item : overrides) {
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
-      throw ConfigError("--set " + item, "", "expected key=value");
+      throw ConfigError("--set " + item, "", "expected key=value", override_key(item));
     const std::string key = override_key(item);
     if (const std::string problem = case_key_problem(key); !problem.empty())
-      throw ConfigError("--set " + item, "", "the key " + problem);
+      throw ConfigError("--set " + item, "", "the key " + problem, key);
     std::string value = item.substr(eq + 1);
     if (item.find_first_of("\n\r") != std::string::npos)
-      throw ConfigError("--set", key, "the value holds a line break; give one key=value per --set");
+      throw ConfigError("--set", key, "the value holds a line break; give one key=value per --set",
+                        key);
     toml::table parsed;
     try {
       parsed = toml::parse("v = " + value);
@@ -80,7 +81,8 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
       if (!is_bare_word(value))
         throw ConfigError("--set " + item, key,
                           "'" + value + "' is not a TOML value (" + std::string(e.description()) +
-                              "); strings other than single words need quotes: key='\"text\"'");
+                              "); strings other than single words need quotes: key='\"text\"'",
+                          key);
       parsed = toml::parse("v = \"" + value + "\"");  // a bare word: --set solver.order=random
     }
     // A TOML inline table defines the whole table: `--set shear={velocity=0.4}` would drop the
@@ -89,7 +91,8 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
       throw ConfigError("--set " + item, key,
                         "a table value would replace every key of '" + key +
                             "' (the case file's included); give one key per --set: --set " + key +
-                            ".KEY=VALUE");
+                            ".KEY=VALUE",
+                        key);
     if (sources != nullptr) (*sources)[key] = "--set " + item;
     toml::table* at = &root;
     std::string rest = key;
@@ -102,7 +105,7 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
         next = at->get(part);
       }
       if (!next->is_table())
-        throw ConfigError("--set " + item, key, "'" + part + "' is not a table");
+        throw ConfigError("--set " + item, key, "'" + part + "' is not a table", key);
       at = next->as_table();
     }
     at->insert_or_assign(rest, *parsed.get("v"));
@@ -120,33 +123,37 @@ std::string TomlReader::full_key(const std::string& key) const {
   return prefix_.empty() ? key : prefix_ + "." + key;
 }
 
-std::string blamed_source(const std::string& file, const OverrideSources* sources,
-                          std::initializer_list<std::string> keys) {
-  if (sources == nullptr) return file;
+std::string blamed_key(const OverrideSources* sources, std::initializer_list<std::string> keys) {
+  if (sources == nullptr) return "";
   for (const std::string& full : keys) {
-    if (const auto it = sources->find(full); it != sources->end())
-      return it->second;  // the value came from the command line
+    if (sources->contains(full)) return full;  // the value came from the command line
     // A key that a `--set` of a key inside it made a table (`--set sheer.velocity=1`: "sheer"
     // is unknown; `--set shear.velocity.x=1`: shear.velocity is no number): that `--set`.
     const std::string inside = full + ".";
     if (const auto it = sources->lower_bound(inside);
         it != sources->end() && it->first.starts_with(inside))
-      return it->second;
+      return it->first;
   }
-  return file;
+  return "";
+}
+
+std::string blamed_source(const std::string& file, const OverrideSources* sources,
+                          std::initializer_list<std::string> keys) {
+  const std::string given = blamed_key(sources, keys);
+  return given.empty() ? file : sources->at(given);
 }
 
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
-  const std::string full = full_key(key);
-  throw ConfigError(blamed_source(file_, sources_.get(), {full}), full, problem);
+  fail_between(key, {}, problem);
 }
 
 void TomlReader::fail_between(const std::string& key, std::initializer_list<std::string> others,
                               const std::string& problem) const {
   const std::string full = full_key(key);
-  if (const std::string own = blamed_source(file_, sources_.get(), {full}); own != file_)
-    throw ConfigError(own, full, problem);
-  throw ConfigError(blamed_source(file_, sources_.get(), others), full, problem);
+  // The key's own override first, then one of the others'; else the file.
+  std::string given = blamed_key(sources_.get(), {full});
+  if (given.empty()) given = blamed_key(sources_.get(), others);
+  throw ConfigError(given.empty() ? file_ : sources_->at(given), full, problem, given);
 }
 
 bool TomlReader::has(const std::string& key) const {

@@ -58,6 +58,9 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
 /// file and a --set of another is the --set's doing.
 std::string blamed_source(const std::string& file, const OverrideSources* sources,
                           std::initializer_list<std::string> keys);
+/// The key of `sources` that blamed_source blames (its source: sources->at(key)); empty when
+/// the file is blamed.
+std::string blamed_key(const OverrideSources* sources, std::initializer_list<std::string> keys);
 
 class TomlReader {
  public:
