@@ -33,6 +33,12 @@ expect_error "key 'solver.normal_compliance': must be >= 0 and < 1, got 1" "$exe
 sed 's/^\[solver\]$/[solver]\nnormal_compliance = 1.5/' "$scene" > compliant_scene.toml
 expect_error "compliant_scene.toml: key 'solver.normal_compliance': must be >= 0 and < 1, got 1.5" "$exe" scene compliant_scene.toml -o never
 expect_error "--set material.density=1e-320: key 'random_disks[0].diameter_min': radius 0.4" "$exe" scene "$scene" --set material.density=1e-320 -o never
+# An array of tables is the file's: no --set empties, replaces or adds to it.
+expect_error "--set walls=[]: key 'walls': an array of tables" "$exe" scene "$scene" --set 'walls=[]' -o never
+expect_error "key 'disks': an array of tables" "$exe" scene "$scene" --set 'disks=[{position=[1,1],radius=0.5}]' -o never
+# A place in a periodic x beyond a million periods (its wrap would lose it).
+printf '[run]\nduration=0.05\n[domain]\nperiodic_x=true\nlength_x=10\n[[disks]]\nposition=[1e20,2]\nradius=1\n' > far_scene.toml
+expect_error "far_scene.toml: key 'disks[0].position': x = 1e+20 is more than a million periods" "$exe" scene far_scene.toml -o never
 expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.
@@ -157,7 +163,10 @@ expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is 
 expect_error "key 'shear.velocity': V = 1e+308 sets the time step to 2e-311" "$exe" run -q -V 1e308
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
 expect_error "more than the limit" "$exe" run -q -V 1e300
-expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9
+expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9 \
+  --set measure.enabled=false
+expect_error "key 'measure.sample_interval': is longer than shear.duration (1e-09)" \
+  "$exe" run -q --set shear.duration=1e-9
 expect_error "key 'solver.max_sweeps': must be between 1 and 1000000, got 4294967296" \
   "$exe" run -q --set solver.max_sweeps=4294967296
 expect_error "exceed the limit of 1e+07" "$exe" run -q --set measure.sample_interval=1e-5 \
@@ -188,7 +197,7 @@ expect_error "--set step.dt=1e-30: key 'run.duration': duration" \
   "$exe" scene "$scene" --set step.dt=1e-30 -o never
 # Numbers the engine inverts: a mass or a disk so small (or large) that its inverse is no normal
 # number is refused by key, not run into NaN.
-expect_error "key 'shear.wall_mass': must be > 0 with an inverse that is a normal" \
+expect_error "key 'shear.wall_mass': must be >= 1e-100, got 9.99989e-321" \
   "$exe" run -q --set shear.wall_mass=1e-320
 expect_error "key 'preparation.piston_mass': must be > 0 with an inverse that is a normal" \
   "$exe" prepare --set preparation.piston_mass=1e308 -o never.json
@@ -285,6 +294,18 @@ expect_error "dmin0.json: key 'diameter_min': diameters must be finite numbers >
 /usr/bin/python3 -c 'import json, sys; p = json.load(open(sys.argv[1])); p["build"] = 3
 json.dump(p, open("build3.json", "w"))' "$packing"
 expect_error "build3.json: key 'build': must be a string" "$exe" run -q --packing build3.json
+/usr/bin/python3 -c 'import json, sys; p = json.load(open(sys.argv[1])); p["seed"] = 2**64 - 1
+json.dump(p, open("seed_max.json", "w"))' "$packing"
+expect_error "seed_max.json: key 'seed': must be a whole number from 0 to 9223372036854775807" \
+  "$exe" run -q --packing seed_max.json
+expect_error "key 'diameter_max': packing diameters [0.8, 1] differ from the case's [0.8, 1.2]" \
+  "$exe" run -q --packing "$packing" --set system.diameter_max=1.2
+# A cut JSON file: where it ends, in words of the program's messages (no library tag).
+head -c 2000 "$packing" > cut.json
+expect_error "cut.json: not valid JSON: parse error at line" "$exe" run -q --packing cut.json
+if grep -q "json.exception" err.txt; then
+  echo "FAIL: the JSON library's tag in: $(cat err.txt)"; fails=$((fails + 1))
+fi
 
 # The packing cache (`packings/`, named by the preparation's settings) says when another build
 # prepared the packing it reuses, and is silent when this build did.
@@ -317,7 +338,7 @@ expect_error "'0.5.3' is not a TOML value" "$exe" run -q --set shear.velocity=0.
 expect_error "the value holds a line break" "$exe" run -q --set $'shear.velocity=0.5\nshear.duration=3'
 expect_error "is a directory, not a TOML file" "$exe" run -q "$work"
 mkfifo fifo.toml && expect_error "is not a regular file" "$exe" run -q fifo.toml
-expect_error "must be > 0, got -1e+300" "$exe" run -q --set shear.normal_stress=-1e300
+expect_error "must be > 0 and <= 1e+100, got -1e+300" "$exe" run -q --set shear.normal_stress=-1e300
 
 # A checkpoint copied from another run (other V) is refused, naming what differs.
 "$exe" run -q --no-analyze --packing "$packing" -V 1 --set shear.duration=0.2 -o other > /dev/null

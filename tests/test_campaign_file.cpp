@@ -403,6 +403,21 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"shear velocity\" = 1\n", "set", "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"\" = 1\n", "set", "empty");
+  // One key written twice, dotted and quoted (the later would win unseen); an empty table.
+  expect_refused(
+      kHead + ok_rest + "[set]\nshear.friction_grain = 0.4\n\"shear.friction_grain\" = 0.3\n",
+      "set.shear.friction_grain", "given twice");
+  expect_refused(kHead + ok_rest + "[set]\nmeasure = {}\n", "set.measure", "table value");
+  // Speeds of a range that underflow to subnormals, or whose ratio overflows: refused by the
+  // case's own checks, under the range's key.
+  expect_refused(kHead +
+                     "systems = [1]\nduration = 10\n[campaign.velocity_range]\nfrom = 1e-320\n"
+                     "to = 1\ncount = 3\n",
+                 "campaign.velocity_range", "less than one grain");
+  expect_refused(kHead +
+                     "systems = [1]\nduration = 10\n[campaign.velocity_range]\nfrom = 0.1\n"
+                     "to = 1e308\ncount = 3\n",
+                 "campaign.velocity_range", "sets the time step to");
   // A run too big for its run.h5, refused as `cdshear run` would refuse it, with the campaign's
   // duration: 1e8 samples in 1 t; 2e8 stripes in a 10-tall cell.
   expect_refused(kHead +

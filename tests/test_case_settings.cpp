@@ -125,8 +125,10 @@ TEST(CaseSettings, PrintedSettingsReadBackAsTheSameCase) {
   source.system = 5;
   source.velocity = 0.1;
   source.overrides = {"measure.boundary_thickness=[3, 5, 7, 10]", "step.dt=3e-4",
-                      "preparation.packing=\"a \\\"quoted\\\" path.json\""};
+                      // quotes, and control characters the printed file escapes
+                      "preparation.packing=\"a \\\"quoted\\\"\\n path\\t.json\""};
   const ShearCase c = load_case(source);
+  ASSERT_EQ(c.packing_file, "a \"quoted\"\n path\t.json");
   const std::string text = settings_as_toml(c,
                                             "a header that is long enough to be wrapped over "
                                             "more than one line of comments in the file");

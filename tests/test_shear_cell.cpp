@@ -332,6 +332,14 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
   expect_case_error(with({"shear.velocity=1e-320"}), "shear.velocity", "less than one grain");
   expect_case_error(with({"measure.boundary_thickness=[5, 100]"}), "measure.boundary_thickness",
                     "at most half of L_y");
+  // A run that would end before its first sample; loads whose sums would overflow.
+  expect_case_error(with({"shear.duration=2", "measure.sample_interval=3"}),
+                    "measure.sample_interval", "no sample");
+  EXPECT_EQ(load_case(with({"shear.duration=2", "measure.window=2", "measure.sample_interval=2"}))
+                .measure.sample_interval,
+            2.0);
+  expect_case_error(with({"shear.normal_stress=1e308"}), "shear.normal_stress", "<= 1e+100");
+  expect_case_error(with({"shear.wall_mass=1e-300"}), "shear.wall_mass", ">= 1e-100");
   // Preparation limits counted in steps: a limit beyond the step count a run may take is blamed
   // on the time step when that was given, and a window longer than the limit is refused.
   expect_case_error(with({"preparation.max_time_per_phase=1e300"}),

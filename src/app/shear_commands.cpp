@@ -22,6 +22,7 @@
 #include "case_file.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
+#include "job_scheduler.hpp"
 #include "measurement_state.hpp"
 #include "observers.hpp"
 #include "outputs.hpp"
@@ -588,7 +589,7 @@ RunEnd shear_run_end(const ShearSession& s, int threads, bool threads_chosen) {
               {"solver_seed", c.step.solver.seed},
               {"solver_threads", threads},
               {"solver_threads_chosen_by_speed", threads_chosen}};
-  end.resume_hint = "; continue with: cdshear run --resume " + s.dir.string();
+  end.resume_hint = "; continue with: cdshear run --resume " + shell_quoted(s.dir.string());
   return end;
 }
 
@@ -669,8 +670,9 @@ int run_shear(const RunArgs& args) {
   const RunEnd end = shear_run_end(s, threads, loop.choose_threads && threads > 1);
   const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;
-  std::printf("done: output in %s (run.h5, case.toml, final_state.json, %s%s)\n", s.dir.c_str(),
-              end.info_name.c_str(), snapshots ? ", snapshots/*.pvd" : "");
+  std::printf("done: output in %s (%scase.toml, final_state.json, %s%s)\n", s.dir.c_str(),
+              measurement ? "run.h5, " : "", end.info_name.c_str(),
+              snapshots ? ", snapshots/*.pvd" : "");
   if (!measurement || args.no_analyze) return 0;
   std::fflush(stdout);
   if (const int rc = run_analysis("analyze", s.dir, {}); rc != 0) return rc;

@@ -760,8 +760,13 @@ class Sweep {
       ++finished_now_;
       done_cost_ += j.cost;
       done_seconds_ += e.seconds;
-      if (e.exit_code != 0)
+      if (e.exit_code != 0) {  // the steps ran to the end; what came after them did not
         what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
+        failed_.push_back(
+            fmt::format("{}: finished, but exited with {} after its last step (its "
+                        "analysis), log {}{}",
+                        j.name, e.exit_code, j.log.string(), failure_cause(j.log)));
+      }
     } else if (after != RunState::kBlownUp &&
                (e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
       interrupted_.push_back(j.name);
@@ -827,7 +832,8 @@ class Sweep {
     std::fflush(stdout);
   }
 
-  /// The final summary; the exit status: 0 when every run finished, 130 when interrupted, else 1.
+  /// The final summary; the exit status: 0 when every run finished and none failed (a finished
+  /// run whose analysis failed is listed as failed), 130 when interrupted, else 1.
   int sum_up(const ScheduleResult& res) const {
     const std::size_t finished = finished_before_ + finished_now_;
     std::printf(
@@ -843,7 +849,7 @@ class Sweep {
     if (!interrupted_.empty())
       std::printf("  interrupted (not by this sweep): %s; run the same command again to resume\n",
                   fmt::format("{}", fmt::join(interrupted_, ", ")).c_str());
-    return finished == c_.runs.size() ? 0 : 1;
+    return finished == c_.runs.size() && failed_.empty() ? 0 : 1;
   }
 
   const SweepArgs& args_;

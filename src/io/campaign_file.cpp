@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <optional>
@@ -57,22 +58,31 @@ std::string value_text(const toml::node& node) {
   return text;
 }
 
-/// Every leaf of a table as (dotted key, value text), in key order.
-void flatten(const toml::table& t, const std::string& prefix,
-             std::map<std::string, std::string>& out) {
+/// Every leaf of a table as (dotted key, value text), in key order; an empty table is a leaf
+/// ("{}"). Returns a dotted key that two leaves share (`a.b = 1` beside `"a.b" = 2`), the first
+/// found, or "" (the later leaf's value is kept).
+std::string flatten(const toml::table& t, const std::string& prefix,
+                    std::map<std::string, std::string>& out) {
+  std::string twice;
+  const auto keep = [&twice](std::string found) {
+    if (twice.empty()) twice = std::move(found);
+  };
   for (const auto& [k, v] : t) {
     const std::string key =
         prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     const toml::array* array = v.as_array();
-    if (const toml::table* sub = v.as_table()) {
-      flatten(*sub, key, out);
+    const toml::table* sub = v.as_table();
+    if (sub != nullptr && !sub->empty()) {
+      keep(flatten(*sub, key, out));
     } else if (array != nullptr && !array->empty() && array->is_array_of_tables()) {
       for (std::size_t i = 0; i < array->size(); ++i)  // [[campaign.group]]: group[i].key
-        flatten(*(*array)[i].as_table(), key + "[" + std::to_string(i) + "]", out);
+        keep(flatten(*(*array)[i].as_table(), key + "[" + std::to_string(i) + "]", out));
     } else {
-      out[key] = value_text(v);
+      if (out.contains(key)) keep(key);
+      out[key] = sub != nullptr ? std::string("{}") : value_text(v);
     }
   }
+  return twice;
 }
 
 /// Velocities of a range, rounded to 6 significant digits (the precision of the run names).
@@ -87,8 +97,15 @@ std::vector<double> velocity_range(TomlReader& r) {
   std::vector<double> v;
   for (int k = 0; k < count; ++k) {
     const double f = count == 1 ? 0.0 : static_cast<double>(k) / (count - 1);
-    const double x = spacing == "log" ? from * std::pow(to / from, f) : from + f * (to - from);
-    v.push_back(std::stod(fmt::format("{:.6g}", x)));
+    // Log spacing through logarithms where to / from overflows (from 0.1 to 1e308).
+    const double ratio = to / from;
+    const double x = spacing == "linear" ? from + f * (to - from)
+                     : std::isfinite(ratio)
+                         ? from * std::pow(ratio, f)
+                         : std::exp(std::log(from) + f * (std::log(to) - std::log(from)));
+    // strtod, not stod: a subnormal speed is a value the case check refuses by its key, not an
+    // out_of_range exception.
+    v.push_back(std::strtod(fmt::format("{:.6g}", x).c_str(), nullptr));
   }
   v.front() = from;  // exactly as written
   v.back() = to;
@@ -212,13 +229,15 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   const std::string length_key = g.strain ? "strain" : "duration";
   // The case as the run will get it: the campaign's overrides, and its duration (the sweep's
   // `--set shear.duration`), not the preset's. A strain needs L_y: the case is read first with
-  // a unit duration to learn it.
-  const auto load = [&](double duration) {
+  // a unit duration to learn it, unmeasured (the measurements' checks against the duration are
+  // for the run's own).
+  const auto load = [&](double duration, bool for_height_only = false) {
     CaseSource src;
     src.system = system;
     src.velocity = v;
     src.overrides = run_case_overrides(c, run);
     src.overrides.push_back(fmt::format("shear.duration={}", duration));
+    if (for_height_only) src.overrides.push_back("measure.enabled=false");
     try {
       return load_case(src);
     } catch (const ConfigError& e) {
@@ -239,7 +258,7 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
   };
   run.duration = g.duration                      ? *g.duration
                  : !g.duration_of_system.empty() ? g.duration_of_system.at(system)
-                                                 : *g.strain * load(1.0).height / (2.0 * v);
+                                                 : *g.strain * load(1.0, true).height / (2.0 * v);
   ShearCase sc = load(run.duration);
   run.identity = case_identity(sc);
   run.preparation = packing_cache_name(sc.preparation);
@@ -309,7 +328,10 @@ void read_set(const toml::table& table, TomlReader& root, const std::string& fil
   std::map<std::string, std::string> set_items;
   if (const toml::node* set = table.get("set")) {
     if (!set->is_table()) root.fail("set", "must be a table of case keys: [set]");
-    flatten(*set->as_table(), "", set_items);
+    if (const std::string twice = flatten(*set->as_table(), "", set_items); !twice.empty())
+      throw ConfigError(file, "set." + twice,
+                        "is given twice (as a dotted key and as a quoted one holding a dot); "
+                        "give it once");
   }
   TomlReader unused_set = root.table("set");  // marks [set] as read for root.finish()
   (void)unused_set;

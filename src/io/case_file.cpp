@@ -137,6 +137,10 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   // in memory and rewritten at every checkpoint: a run that would grow it beyond 1.5 GB is a
   // typo, refused where the case is read (by `run`, `settings` and `sweep` alike).
   if (mo.enabled) {
+    if (mo.sample_interval > c.duration)  // the run would end before its first sample
+      m.fail_between("sample_interval", {"shear.duration", "measure.enabled"},
+                     "is longer than shear.duration (" + format_number(c.duration) +
+                         "): the run would take no sample; sample more often or shear longer");
     if (!(c.duration / mo.sample_interval <= kMaxSamples))
       m.fail_between("sample_interval", {"shear.duration", "measure.enabled"},
                      fmt::format("{:.3g} samples over the duration {} exceed the limit of {:.0e} "

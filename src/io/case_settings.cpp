@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <optional>
+#include <sstream>
 #include <type_traits>
 
 // The rows below name only the fields that differ from Setting's defaults (designated
@@ -152,7 +153,8 @@ std::string bound_text(double v, bool integer) {
 template <class T>
 std::string bounds_problem(const Setting<T>& s) {
   const bool integer = s.type == kInteger;
-  const bool has_lo = std::isfinite(s.lo), has_hi = std::isfinite(s.hi) && s.hi < 9.2e18;
+  const bool has_lo = std::isfinite(s.lo),
+             has_hi = std::isfinite(s.hi) && (!integer || s.hi < 9.2e18);
   if (has_lo && has_hi && !s.lo_open && !s.hi_open)
     return "between " + bound_text(s.lo, integer) + " and " + bound_text(s.hi, integer);
   std::string text;
@@ -387,7 +389,9 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "force/length",
             .meaning = "sigma_yy: each wall is pushed inwards by sigma_yy L_x",
             .lo = 0.0,
-            .lo_open = true},
+            .hi = 1e100,
+            .lo_open = true,
+            .range_reason = "beyond it the squares of the impulses would overflow"},
           [](auto& c) -> auto& { return c.normal_stress; }),
       bind(
           S{.table = "shear",
@@ -406,8 +410,8 @@ std::vector<CaseSetting> make_case_settings() {
             .key = "wall_mass",
             .unit = "mass",
             .meaning = "M_w, the mass of each wall along y",
-            .lo = 0.0,
-            .lo_open = true},
+            .lo = 1e-100,
+            .range_reason = "below it the wall's inverse mass would overflow the solver's sums"},
           [](auto& c) -> auto& { return c.wall_mass; }),
       bind(
           S{.table = "shear",
@@ -679,7 +683,7 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "time between samples of the series and the profiles",
             .lo = 0.0,
             .lo_open = true,
-            .constraint = "shear.duration / sample_interval <= 1e7 samples"},
+            .constraint = "shear.duration / sample_interval from 1 to 1e7 samples"},
           [](auto& c) -> auto& { return c.measure.sample_interval; }),
       bind(
           S{.table = "measure",
@@ -824,7 +828,8 @@ std::string range_text(const Setting<T>& s) {
       break;
     default: {
       const bool integer = s.type == kInteger;
-      const bool has_lo = std::isfinite(s.lo), has_hi = std::isfinite(s.hi) && s.hi < 9.2e18;
+      const bool has_lo = std::isfinite(s.lo),
+                 has_hi = std::isfinite(s.hi) && (!integer || s.hi < 9.2e18);
       text = has_lo && has_hi && !s.lo_open && !s.hi_open
                  ? bound_text(s.lo, integer) + " to " + bound_text(s.hi, integer)
                  : bounds_problem(s);
@@ -855,12 +860,11 @@ std::string toml_text(const SettingValue& v) {
         } else if constexpr (std::is_same_v<V, bool>) {
           return x ? "true" : "false";
         } else if constexpr (std::is_same_v<V, std::string>) {
-          std::string quoted = "\"";
-          for (const char ch : x) {
-            if (ch == '"' || ch == '\\') quoted += '\\';
-            quoted += ch;
-          }
-          return quoted + "\"";
+          // The TOML library's escapes (quotes, control characters), in one double-quoted line.
+          std::ostringstream quoted;
+          quoted << toml::toml_formatter{toml::value<std::string>(x),
+                                         toml::format_flags::allow_unicode_strings};
+          return quoted.str();
         } else {
           std::string list = "[";
           for (std::size_t i = 0; i < x.size(); ++i) list += (i ? ", " : "") + exact_number(x[i]);

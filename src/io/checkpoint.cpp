@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config_error.hpp"
+#include "json_message.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {
@@ -47,7 +48,7 @@ class BoundedDomBuilder {
   bool start_array(std::size_t) { return open(json::array()); }
   bool end_array() { return close(); }
   bool parse_error(std::size_t, const std::string&, const json::exception& e) {
-    error_ = e.what();
+    error_ = json_message(e);
     return false;
   }
   bool too_deep() const { return too_deep_; }

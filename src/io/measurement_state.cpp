@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "json_message.hpp"
+
 namespace cdshear {
 
 using nlohmann::json;
@@ -98,12 +100,8 @@ MeasurementState measurement_state_from_json(const json& j) {
   try {
     state = j.get<MeasurementState>();
   } catch (const json::exception& e) {
-    // The library's words without its tag ("[json.exception.out_of_range.403] key 'window' not
-    // found" -> "key 'window' not found").
-    const std::string what = e.what();
-    const std::size_t tag_end = what.rfind("] ", what.find(' '));
-    throw std::runtime_error("a damaged measurement state: " +
-                             (tag_end == std::string::npos ? what : what.substr(tag_end + 2)));
+    // The library's words without its tag ("key 'window' not found").
+    throw std::runtime_error("a damaged measurement state: " + json_message(e));
   }
   if (state.interval.capped_steps > state.interval.steps)
     throw std::runtime_error("a damaged measurement state: key 'interval.capped_steps' (" +

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 
 #include "build_info.hpp"
 #include "config_error.hpp"
+#include "json_message.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {
@@ -132,7 +134,7 @@ nlohmann::json parse_without_duplicate_keys(std::istream& in, const std::string&
   try {
     j = nlohmann::json::parse(in, watch);
   } catch (const nlohmann::json::exception& e) {  // syntax, or a number out of range
-    throw ConfigError(file, "", std::string("not valid JSON: ") + e.what());
+    throw ConfigError(file, "", "not valid JSON: " + json_message(e));
   }
   if (!duplicate.empty()) throw ConfigError(file, duplicate, "is given twice");
   return j;
@@ -172,8 +174,14 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   p.length_x = number("length_x");
   p.diameter_min = number("diameter_min");
   p.diameter_max = number("diameter_max");
-  if (!need("seed").is_number_unsigned())
-    throw ConfigError(file, "seed", "must be a whole number >= 0, not " + j.at("seed").dump());
+  // The seeds a case can give (a TOML integer): a packing placed with another could never be
+  // the case's.
+  if (const nlohmann::json& seed = need("seed");
+      !seed.is_number_unsigned() ||
+      seed.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX))
+    throw ConfigError(file, "seed",
+                      "must be a whole number from 0 to " + std::to_string(INT64_MAX) + ", not " +
+                          seed.dump());
   p.seed = j.at("seed").get<std::uint64_t>();
   p.piston_stress = number("piston_stress");
   p.preparation_time = j.contains("preparation_time") ? number("preparation_time") : 0.0;
@@ -287,9 +295,9 @@ void check_packing_fits_case(const ShearCase& c, const Packing& p, const std::st
     throw ConfigError(file, "height",
                       fmt::format("packing has L_y = {}, the case asks for {} (system.height)",
                                   p.height, c.height));
-  if (std::abs(p.diameter_min - c.diameter_min) > 1e-12 ||
-      std::abs(p.diameter_max - c.diameter_max) > 1e-12)
-    throw ConfigError(file, "diameter_min",
+  if (const bool min_differs = std::abs(p.diameter_min - c.diameter_min) > 1e-12;
+      min_differs || std::abs(p.diameter_max - c.diameter_max) > 1e-12)
+    throw ConfigError(file, min_differs ? "diameter_min" : "diameter_max",
                       fmt::format("packing diameters [{}, {}] differ from the case's [{}, {}]",
                                   p.diameter_min, p.diameter_max, c.diameter_min, c.diameter_max));
 }

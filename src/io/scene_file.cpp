@@ -1,6 +1,7 @@
 #include "scene_file.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "case_settings.hpp"
@@ -120,6 +121,14 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   for (TomlReader& d : root.tables("disks")) {
     DiskSpec disk;
     disk.position = d.vec2("position");
+    // A periodic x keeps a period count and the place within the period: beyond a million periods
+    // the place loses its digits (at 1e20 nothing of it is left) and the count its range.
+    if (s.domain.periodic_x && !(std::abs(disk.position.x) <= 1e6 * s.domain.length_x))
+      d.fail_between("position", {"domain.length_x"},
+                     "x = " + format_number(disk.position.x) +
+                         " is more than a million periods (domain.length_x = " +
+                         format_number(s.domain.length_x) +
+                         ") from 0: give the disk's place within the period");
     disk.radius = d.positive("radius");
     disk.velocity = d.vec2("velocity", Vec2{});
     disk.omega = d.number("omega", 0.0);

@@ -93,6 +93,15 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
                             "' (the case file's included); give one key per --set: --set " + key +
                             ".KEY=VALUE",
                         key);
+    // Nor does a --set replace or add an array of tables ([[walls]], [[disks]]): its entries are
+    // not addressed one by one, and `walls=[]` would drop the file's walls unseen.
+    const toml::node_view<toml::node> existing = root.at_path(key);
+    if (parsed.get("v")->is_array_of_tables() || existing.is_array_of_tables())
+      throw ConfigError("--set " + item, key,
+                        "an array of tables ([[" + key +
+                            "]]) is given in the file, not by --set: its entries cannot be "
+                            "replaced or added this way",
+                        key);
     if (sources != nullptr) (*sources)[key] = "--set " + item;
     toml::table* at = &root;
     std::string rest = key;
