@@ -162,6 +162,11 @@ expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-300 is more tha
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is more than" "$exe" run -q --set shear.duration=1e30
 expect_error "key 'shear.velocity': V = 1e+308 sets the time step to 2e-311" "$exe" run -q -V 1e308
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
+# The key given on the command line is the one named, not the built-in speed beside it.
+expect_error "--set shear.duration=1e7: key 'shear.duration': shear.duration = 1e+07 in steps of 0.004" \
+  "$exe" settings --set shear.duration=1e7
+expect_error "--set step.dt_max=1e-12: key 'step.dt_max': the longest run the step limit allows" \
+  "$exe" settings --set step.dt_max=1e-12
 expect_error "more than the limit" "$exe" run -q -V 1e300
 expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9 \
   --set measure.enabled=false

@@ -63,20 +63,40 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
   // an underflow (1e-320), not a flow (the slowest of model.md section 6 is 0.005).
   // (The longer of dt_max and a given dt: a tiny given dt is the step limit's to refuse.)
+  // Blamed on the time step when that alone came from the command line (a tiny dt_max), else
+  // on the speed.
   if (const double longest = std::max(c.dt.value_or(c.dt_max), c.dt_max) * kMaxRunSteps;
-      c.velocity * longest < c.diameter_max)
-    t["shear"].fail_between(
+      c.velocity * longest < c.diameter_max) {
+    TomlReader& shear = t["shear"];
+    const char* step_key = c.dt && *c.dt > c.dt_max ? "dt" : "dt_max";
+    if (!shear.overridden("shear.velocity") &&
+        t["step"].overridden(std::string("step.") + step_key))
+      t["step"].fail_between(step_key, {"shear.velocity", "system.diameter_max"},
+                             "the longest run the step limit allows in steps of " +
+                                 format_number(longest / kMaxRunSteps) + " (" +
+                                 format_number(longest) +
+                                 " time units) would move the walls at "
+                                 "V = " +
+                                 format_number(c.velocity) + " by less than one grain (" +
+                                 format_number(c.diameter_max) + "); give at least " +
+                                 format_number(c.diameter_max / (c.velocity * kMaxRunSteps)));
+    shear.fail_between(
         "velocity", {"step.dt", "step.dt_max", "system.diameter_max"},
         "V = " + format_number(c.velocity) + " would move the walls by less than one grain (" +
             format_number(c.diameter_max) + ") in the longest run the step limit allows (" +
             format_number(longest) + " time units); give at least " +
             format_number(c.diameter_max / longest));
+  }
   // The shear phase's steps, as a run counts them (checked_end_step): a case no run could take
   // is refused where it is read, by `settings` and `sweep` too. Blame the time step when given,
   // the wall speed when the step it sets (step.displacement_per_step / V, below step.dt_max) is
   // what makes the run too long.
   if (const double dt = c.dt ? *c.dt : default_time_step(c); !(c.duration / dt <= kMaxRunSteps)) {
-    const bool speed_set_it = !c.dt && dt < c.dt_max && c.duration / c.dt_max <= kMaxRunSteps;
+    // The speed is blamed when the step it sets makes the run too long, unless the duration alone
+    // came from the command line.
+    const bool speed_set_it =
+        !c.dt && dt < c.dt_max && c.duration / c.dt_max <= kMaxRunSteps &&
+        !(t["shear"].overridden("shear.duration") && !t["shear"].overridden("shear.velocity"));
     t[c.dt ? "step" : "shear"].fail_between(
         c.dt ? "dt" : (speed_set_it ? "velocity" : "duration"),
         {"shear.duration", "step.dt", "shear.velocity", "step.displacement_per_step",

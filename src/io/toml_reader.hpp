@@ -106,6 +106,10 @@ class TomlReader {
   [[noreturn]] void fail_between(const std::string& key, std::initializer_list<std::string> others,
                                  const std::string& problem) const;
   std::string full_key(const std::string& key) const;
+  /// True when the full dotted `key` was given on the command line (--set, --velocity).
+  bool overridden(const std::string& key) const {
+    return !blamed_key(sources_.get(), {key}).empty();
+  }
   const std::string& file() const { return file_; }
 
  private:
