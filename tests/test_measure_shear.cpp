@@ -172,18 +172,21 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   EXPECT_GT(p.regions.at(0).bulk_coordination, 2.0);
 }
 
+/// The checkpoint's step the measurement states below are read against.
+constexpr std::uint64_t kStep = 1000;
+
 // A measurement state damaged behind a correct checkpoint seal is named in plain words: the
 // missing key or the wrong type, without the JSON library's tag.
 TEST(MeasurementState, ADamagedStateIsNamedWithoutTheLibrarysTag) {
   const nlohmann::json good = measurement_state_to_json(MeasurementState{});
-  EXPECT_NO_THROW(measurement_state_from_json(good));
+  EXPECT_NO_THROW(measurement_state_from_json(good, kStep));
   nlohmann::json missing = good, wrong = good;
   missing.erase("window");
   wrong["last_sample_time"] = "late";
   for (const auto& [damaged, words] :
        {std::pair{missing, "key 'window' not found"}, {wrong, "must be number, but is string"}}) {
     try {
-      measurement_state_from_json(damaged);
+      measurement_state_from_json(damaged, kStep);
       ADD_FAILURE() << words << ": accepted";
     } catch (const std::runtime_error& e) {
       const std::string what = e.what();
@@ -205,7 +208,7 @@ TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
     good["window"]["stripes"][key] = {0.0, 0.0};
   good["interval"]["steps"] = 4;
   good["interval"]["capped_steps"] = 2;
-  EXPECT_NO_THROW(measurement_state_from_json(good));
+  EXPECT_NO_THROW(measurement_state_from_json(good, kStep));
   struct Edit {
     nlohmann::json::json_pointer at;
     nlohmann::json value;
@@ -216,6 +219,13 @@ TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
       {nlohmann::json::json_pointer("/interval/steps"), -1, "'interval.steps' must be a whole"},
       {nlohmann::json::json_pointer("/window/samples"), 2.5, "'window.samples' must be a whole"},
       {nlohmann::json::json_pointer("/last_sample_step"), -3, "'last_sample_step' must be"},
+      // Nothing after the checkpoint's step, at most a sample a step.
+      {nlohmann::json::json_pointer("/last_sample_step"), kStep + 1,
+       "'last_sample_step' must be a whole number from 0 to 1000"},
+      {nlohmann::json::json_pointer("/window/step_start"), kStep + 1,
+       "'window.step_start' must be a whole number from 0 to 1000"},
+      {nlohmann::json::json_pointer("/window/samples"), std::uint64_t{1} << 63,
+       "'window.samples' must be a whole number from 0 to 1001"},
       {nlohmann::json::json_pointer("/interval/sweeps_max"), 5000000000LL,
        "'interval.sweeps_max' must be a whole number from 0 to 2147483647"},
       {nlohmann::json::json_pointer("/interval/capped_steps"), 5,
@@ -229,7 +239,7 @@ TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
     nlohmann::json damaged = good;
     damaged[edit.at] = edit.value;
     try {
-      measurement_state_from_json(damaged);
+      measurement_state_from_json(damaged, kStep);
       ADD_FAILURE() << edit.words << ": accepted";
     } catch (const std::runtime_error& e) {
       EXPECT_NE(std::string(e.what()).find(edit.words), std::string::npos) << e.what();

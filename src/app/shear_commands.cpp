@@ -421,7 +421,7 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
                       "the checkpoint holds no measurement state");
   MeasurementState state;
   try {
-    state = measurement_state_from_json(s.observer_state.at("measurement"));
+    state = measurement_state_from_json(s.observer_state.at("measurement"), s.world.step);
   } catch (const std::exception& e) {
     throw ConfigError(checkpoint, "observers.measurement", e.what());
   }

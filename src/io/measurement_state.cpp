@@ -76,7 +76,7 @@ void check_count(const json& j, const char* pointer, const char* name, std::uint
 
 }  // namespace
 
-MeasurementState measurement_state_from_json(const json& j) {
+MeasurementState measurement_state_from_json(const json& j, std::uint64_t step) {
   if (!j.is_object() || !j.contains("definitions") ||
       j.at("definitions") != kMeasurementDefinitions)
     throw std::runtime_error(
@@ -87,15 +87,16 @@ MeasurementState measurement_state_from_json(const json& j) {
         "start a new run, from this run's final state if needed");
   check_numbers(j, "");
   constexpr std::uint64_t kAnyCount = std::numeric_limits<std::uint64_t>::max();
-  check_count(j, "/window/samples", "window.samples", kAnyCount);
-  check_count(j, "/window/step_start", "window.step_start", kAnyCount);
+  // Nothing measured after the checkpoint's step, at most one sample a step.
+  check_count(j, "/window/samples", "window.samples", step + 1);
+  check_count(j, "/window/step_start", "window.step_start", step);
   check_count(j, "/window/slip_bottom_count", "window.slip_bottom_count", kAnyCount);
   check_count(j, "/window/slip_top_count", "window.slip_top_count", kAnyCount);
   check_count(j, "/interval/steps", "interval.steps", kAnyCount);
   check_count(j, "/interval/capped_steps", "interval.capped_steps", kAnyCount);
   check_count(j, "/interval/sweeps_max", "interval.sweeps_max",
               static_cast<std::uint64_t>(std::numeric_limits<int>::max()));
-  check_count(j, "/last_sample_step", "last_sample_step", kAnyCount);
+  check_count(j, "/last_sample_step", "last_sample_step", step);
   MeasurementState state;
   try {
     state = j.get<MeasurementState>();

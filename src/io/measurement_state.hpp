@@ -3,6 +3,8 @@
 // run measures exactly as the uninterrupted one.
 #pragma once
 
+#include <cstdint>
+
 #include <nlohmann/json.hpp>
 
 #include "shear_measurement.hpp"
@@ -15,7 +17,8 @@ namespace cdshear {
 inline constexpr int kMeasurementDefinitions = 4;
 
 nlohmann::json measurement_state_to_json(const MeasurementState& state);
-/// Throws std::exception (caught by the checkpoint reader) on a malformed object.
-MeasurementState measurement_state_from_json(const nlohmann::json& j);
+/// Throws std::exception (caught by the checkpoint reader) on a malformed object, or on one that
+/// does not fit the checkpoint's `step` (a window or a sample after it, more samples than steps).
+MeasurementState measurement_state_from_json(const nlohmann::json& j, std::uint64_t step);
 
 }  // namespace cdshear
