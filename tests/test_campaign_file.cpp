@@ -329,6 +329,9 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   expect_refused(kHead + ok_rest + "velocitys = [1]\n", "campaign.velocitys", "unknown key");
   expect_refused(kHead + ok_rest + "[extra]\na = 1\n", "extra", "unknown key");
   expect_refused("[campaign]\n" + ok_rest, "campaign.name", "required");
+  expect_refused("[campaign]\nname = \"a/b\"\n" + ok_rest, "campaign.name", "a folder name");
+  expect_refused("[campaign]\nname = \"" + std::string(256, 'a') + "\"\n" + ok_rest,
+                 "campaign.name", "at most 255 characters, got 256");
   expect_refused(kHead + "systems = [8]\nvelocities = [0.5]\nduration = 10\n", "campaign.systems",
                  "unknown");
   expect_refused(kHead + "systems = [0]\nvelocities = [0.5]\nduration = 10\n", "campaign.systems",

@@ -361,6 +361,10 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
       c.name.find_first_not_of(
           "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos)
     t.fail("name", "must be a folder name: letters, digits, '.', '_', '-', got '" + c.name + "'");
+  // A folder name: at most 255 bytes on the file systems a campaign runs on (NAME_MAX).
+  if (c.name.size() > 255)
+    t.fail("name",
+           "must be a folder name of at most 255 characters, got " + std::to_string(c.name.size()));
 
   // The runs: [campaign] itself, or [[campaign.group]] tables (never both).
   std::vector<TomlReader> group_readers;  // kept to name a group's keys in later errors
