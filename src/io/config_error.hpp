@@ -2,10 +2,29 @@
 // (exit 2); a file that cannot be written names the file and why (exit 1).
 #pragma once
 
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
 namespace cdshear {
+
+/// `text` as a terminal may show it: control characters other than line breaks and tabs (a NUL
+/// would end the message, an escape sequence would act on the terminal) written as \xNN.
+inline std::string printable(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char ch : text) {
+    const auto byte = static_cast<unsigned char>(ch);
+    if ((byte < 0x20 && ch != '\n' && ch != '\t') || byte == 0x7f) {
+      char escaped[5];
+      std::snprintf(escaped, sizeof escaped, "\\x%02x", byte);
+      out += escaped;
+    } else {
+      out += ch;
+    }
+  }
+  return out;
+}
 
 class ConfigError : public std::runtime_error {
  public:
@@ -13,7 +32,8 @@ class ConfigError : public std::runtime_error {
   /// that `file` names, when the problem is blamed on one.
   ConfigError(const std::string& file, const std::string& key, const std::string& problem,
               const std::string& given_key = "")
-      : std::runtime_error(file + (key.empty() ? "" : ": key '" + key + "'") + ": " + problem),
+      : std::runtime_error(
+            printable(file + (key.empty() ? "" : ": key '" + key + "'") + ": " + problem)),
         file_(file),
         key_(key),
         problem_(problem),
