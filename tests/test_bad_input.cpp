@@ -513,6 +513,16 @@ TEST(CheckpointValidation, AValidCheckpointReadsBackAndEveryBadFieldIsNamed) {
   expect([](Checkpoint& c) { c.contacts[0].key.body_a = 2; }, "contacts.a[0]");
   expect([](Checkpoint& c) { c.contacts[0].key.body_a = 0, c.contacts[0].key.body_b = 0; },
          "contacts.b[0]': joins bodies 0 and 0");
+  // Each contact once, in key order (the order the warm start merges them in).
+  expect([](Checkpoint& c) { c.contacts.push_back(c.contacts[0]); },
+         "key 'contacts[1]': the contact of bodies 0 and 2 (image 0) comes again or out of order");
+  expect(
+      [](Checkpoint& c) {
+        Contact first = c.contacts[0];
+        first.key = {0, 1, 0};
+        c.contacts.push_back(first);
+      },
+      "key 'contacts[1]': the contact of bodies 0 and 1 (image 0) comes again or out of order");
 }
 
 TEST(CheckpointValidation, APipeIsRefusedWithoutBlocking) {

@@ -247,6 +247,13 @@ void validate(const Checkpoint& cp, const std::string& file) {
                                                      n, bodies - 1)));
     if (!std::isfinite(c.impulse_n) || !std::isfinite(c.impulse_t) || c.impulse_n < 0)
       fail("contacts[" + std::to_string(k) + "]", "impulses must be finite, normal >= 0");
+    // The list is kept sorted by key (the warm start merges by it): a contact repeated or out of
+    // order would be warm-started twice or not at all.
+    if (k > 0 && !(cp.contacts[k - 1].key < c.key))
+      fail(fmt::format("contacts[{}]", k),
+           fmt::format("the contact of bodies {} and {} (image {}) comes again or out of order: a "
+                       "checkpoint lists each contact once, ordered by bodies and image",
+                       c.key.body_a, c.key.body_b, c.key.image_b));
   }
 }
 
