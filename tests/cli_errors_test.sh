@@ -309,6 +309,14 @@ expect_error "seed_max.json: key 'seed': must be a whole number from 0 to 922337
   "$exe" run -q --packing seed_max.json
 expect_error "key 'diameter_max': packing diameters [0.8, 1] differ from the case's [0.8, 1.2]" \
   "$exe" run -q --packing "$packing" --set system.diameter_max=1.2
+# A count written -0 is a whole number >= 0 (the JSON library reads it as a signed 0).
+/usr/bin/python3 -c 'import json, sys; t = json.dumps(json.load(open(sys.argv[1])))
+open("minus0.json", "w").write(t.replace("\"capped_steps\": 0", "\"capped_steps\": -0"))' "$packing"
+checks=$((checks + 1))
+if ! grep -q '"capped_steps": -0' minus0.json ||
+   ! "$exe" run -q --packing minus0.json --set shear.duration=0.2 --no-analyze -o minus0 > out.txt 2>&1; then
+  echo "FAIL: a packing with a count written -0 refused:"; cat out.txt; fails=$((fails + 1))
+fi
 # A cut JSON file: where it ends, in words of the program's messages (no library tag).
 head -c 2000 "$packing" > cut.json
 expect_error "cut.json: not valid JSON: parse error at line" "$exe" run -q --packing cut.json
