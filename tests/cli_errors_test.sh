@@ -311,9 +311,9 @@ expect_error "key 'diameter_max': packing diameters [0.8, 1] differ from the cas
   "$exe" run -q --packing "$packing" --set system.diameter_max=1.2
 # A count written -0 is a whole number >= 0 (the JSON library reads it as a signed 0).
 /usr/bin/python3 -c 'import json, sys; t = json.dumps(json.load(open(sys.argv[1])))
-open("minus0.json", "w").write(t.replace("\"capped_steps\": 0", "\"capped_steps\": -0"))' "$packing"
+open("minus0.json", "w").write(t.replace("\"displacement_warnings\": 0", "\"displacement_warnings\": -0"))' "$packing"
 checks=$((checks + 1))
-if ! grep -q '"capped_steps": -0' minus0.json ||
+if ! grep -q '"displacement_warnings": -0' minus0.json ||
    ! "$exe" run -q --packing minus0.json --set shear.duration=0.2 --no-analyze -o minus0 > out.txt 2>&1; then
   echo "FAIL: a packing with a count written -0 refused:"; cat out.txt; fails=$((fails + 1))
 fi
