@@ -96,6 +96,15 @@ wait $pid || true
 # The kill must have landed mid-run, or this part tests nothing.
 test -f "$work/killed/interrupted_state.json" ||
   { echo "FAIL: the SIGTERM did not interrupt the run (it had finished)"; exit 1; }
+# A --stop-at past a duration that ends where the run stands blames the duration, not the time.
+cp -r "$work/killed" "$work/killed_at_end"
+reached=$(/usr/bin/python3 -c 'import json, sys; print(repr(json.load(open(sys.argv[1]))["time"]))' \
+  "$work/killed_at_end/progress.json")
+if "$exe" run -q --no-analyze --resume "$work/killed_at_end" --set shear.duration="$reached" \
+     --stop-at 100 > /dev/null 2> "$work/at_end.txt" ||
+   ! grep -q "is past the run's end, shear.duration = .*nothing to do" "$work/at_end.txt"; then
+  echo "FAIL: --stop-at past a duration at the run's time: $(cat "$work/at_end.txt")"; exit 1
+fi
 "$exe" run -q --no-analyze --resume "$work/killed" > /dev/null
 
 # The observers only read the state: without them the run ends in the same state.

@@ -543,10 +543,18 @@ RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
                                         ? s.end_step
                                         : static_cast<std::uint64_t>(std::llround(steps));
     if (stop_step <= s.world.step)
-      throw ConfigError("--stop-at", "",
-                        fmt::format("{} is not later than the run's time {:.6g} (step {}, "
-                                    "dt {}): nothing to do",
-                                    *args.stop_at, s.world.time, s.world.step, dt));
+      throw ConfigError(
+          "--stop-at", "",
+          stop_step == s.end_step && steps > static_cast<double>(s.world.step)
+              // The run's end, not the time asked for, is what comes no later.
+              ? fmt::format("{} is past the run's end, shear.duration = {:.6g}, which is not later "
+                            "than the run's time {:.6g} (step {}): nothing to do; give a longer "
+                            "--set shear.duration",
+                            *args.stop_at, static_cast<double>(s.end_step) * dt, s.world.time,
+                            s.world.step)
+              : fmt::format("{} is not later than the run's time {:.6g} (step {}, dt {}): "
+                            "nothing to do",
+                            *args.stop_at, s.world.time, s.world.step, dt));
     loop.end_step = std::min(s.end_step, stop_step);
   }
   const std::uint64_t status = steps_of(c.status_interval, dt);
