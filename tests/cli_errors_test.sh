@@ -171,6 +171,8 @@ expect_error "--set shear.duration=1e7: key 'shear.duration': shear.duration = 1
   "$exe" settings --set shear.duration=1e7
 expect_error "--set step.dt_max=1e-12: key 'step.dt_max': the longest run the step limit allows" \
   "$exe" settings --set step.dt_max=1e-12
+expect_error "key 'shear.velocity': V = 0.5 sets the time step to 2e-12" \
+  "$exe" settings --set shear.duration=240 --set step.displacement_per_step=1e-12
 expect_error "more than the limit" "$exe" run -q -V 1e300
 expect_error "the run would do nothing" "$exe" run -q --set shear.duration=1e-9 \
   --set measure.enabled=false

@@ -106,6 +106,18 @@ for damage in "truncate -s 100 $ended/summary.json" \
     fail "after '$damage': summary.json not made again"
   test -f $ended/figures/height_solid_fraction.png || fail "after '$damage': figure not made again"
 done
+# An analysis that fails: the run is listed as failed and the sweep exits 1; a later sweep whose
+# analysis succeeds exits 0.
+rm $ended/summary.json
+printf '#!/bin/sh\nexit 1\n' > failing_python.sh && chmod +x failing_python.sh
+if CDSHEAR_PYTHON="$PWD/failing_python.sh" "$exe" sweep measured.toml -o measured \
+     > failed_analysis.out 2>&1; then
+  fail "a sweep whose run's analysis failed exited 0: $(cat failed_analysis.out)"
+fi
+grep -q "s1_seed1_V1: finished, but its analysis failed" failed_analysis.out ||
+  fail "the failed analysis not listed: $(cat failed_analysis.out)"
+"$exe" sweep measured.toml -o measured > reanalysed.out 2>&1 ||
+  fail "the analysis made again: $(cat reanalysed.out)"
 # A run that fails: the sweep's account of it gives the run's own error line.
 cp -r measured broken
 rm broken/runs/s1_seed1_V1/final_state.json

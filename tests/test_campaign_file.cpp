@@ -406,11 +406,10 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"shear velocity\" = 1\n", "set", "not a case key");
   expect_refused(kHead + ok_rest + "[set]\n\"\" = 1\n", "set", "empty");
-  // One key written twice, dotted and quoted (the later would win unseen); an empty table.
+  // One key written twice, dotted and quoted (the later would win unseen).
   expect_refused(
       kHead + ok_rest + "[set]\nshear.friction_grain = 0.4\n\"shear.friction_grain\" = 0.3\n",
       "set.shear.friction_grain", "given twice");
-  expect_refused(kHead + ok_rest + "[set]\nmeasure = {}\n", "set.measure", "table value");
   // Speeds of a range that underflow to subnormals, or whose ratio overflows: refused by the
   // case's own checks, under the range's key.
   expect_refused(kHead +

@@ -209,6 +209,12 @@ TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
   good["interval"]["steps"] = 4;
   good["interval"]["capped_steps"] = 2;
   EXPECT_NO_THROW(measurement_state_from_json(good, kStep));
+  // The bounds themselves are accepted: a sample at every step from step 0, the last at the step.
+  nlohmann::json at_bounds = good;
+  at_bounds["window"]["samples"] = kStep + 1;
+  at_bounds["window"]["step_start"] = kStep;
+  at_bounds["last_sample_step"] = kStep;
+  EXPECT_NO_THROW(measurement_state_from_json(at_bounds, kStep));
   struct Edit {
     nlohmann::json::json_pointer at;
     nlohmann::json value;
@@ -224,6 +230,8 @@ TEST(MeasurementState, CountsAndSumsOutOfTheirRangeAreRefusedByKey) {
        "'last_sample_step' must be a whole number from 0 to 1000"},
       {nlohmann::json::json_pointer("/window/step_start"), kStep + 1,
        "'window.step_start' must be a whole number from 0 to 1000"},
+      {nlohmann::json::json_pointer("/window/samples"), kStep + 2,
+       "'window.samples' must be a whole number from 0 to 1001"},
       {nlohmann::json::json_pointer("/window/samples"), std::uint64_t{1} << 63,
        "'window.samples' must be a whole number from 0 to 1001"},
       {nlohmann::json::json_pointer("/interval/sweeps_max"), 5000000000LL,

@@ -760,7 +760,9 @@ class Sweep {
       ++finished_now_;
       done_cost_ += j.cost;
       done_seconds_ += e.seconds;
-      if (e.exit_code != 0) {  // the steps ran to the end; what came after them did not
+      const bool stopped =
+          e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM);
+      if (e.exit_code != 0 && !stopped) {  // the steps ran to the end; what came after did not
         what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
         failed_.push_back(
             fmt::format("{}: finished, but exited with {} after its last step (its "

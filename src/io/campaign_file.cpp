@@ -58,9 +58,10 @@ std::string value_text(const toml::node& node) {
   return text;
 }
 
-/// Every leaf of a table as (dotted key, value text), in key order; an empty table is a leaf
-/// ("{}"). Returns a dotted key that two leaves share (`a.b = 1` beside `"a.b" = 2`), the first
-/// found, or "" (the later leaf's value is kept).
+/// Every leaf of a table as (dotted key, value text), in key order (an empty table has none: a
+/// `[set.measure]` header whose keys are all commented out sets nothing). Returns a dotted key
+/// that two leaves share (`a.b = 1` beside `"a.b" = 2`), the first found, or "" (the later
+/// leaf's value is kept).
 std::string flatten(const toml::table& t, const std::string& prefix,
                     std::map<std::string, std::string>& out) {
   std::string twice;
@@ -71,15 +72,14 @@ std::string flatten(const toml::table& t, const std::string& prefix,
     const std::string key =
         prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     const toml::array* array = v.as_array();
-    const toml::table* sub = v.as_table();
-    if (sub != nullptr && !sub->empty()) {
+    if (const toml::table* sub = v.as_table()) {
       keep(flatten(*sub, key, out));
     } else if (array != nullptr && !array->empty() && array->is_array_of_tables()) {
       for (std::size_t i = 0; i < array->size(); ++i)  // [[campaign.group]]: group[i].key
         keep(flatten(*(*array)[i].as_table(), key + "[" + std::to_string(i) + "]", out));
     } else {
       if (out.contains(key)) keep(key);
-      out[key] = sub != nullptr ? std::string("{}") : value_text(v);
+      out[key] = value_text(v);
     }
   }
   return twice;

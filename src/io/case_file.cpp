@@ -92,11 +92,12 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   // the wall speed when the step it sets (step.displacement_per_step / V, below step.dt_max) is
   // what makes the run too long.
   if (const double dt = c.dt ? *c.dt : default_time_step(c); !(c.duration / dt <= kMaxRunSteps)) {
-    // The speed is blamed when the step it sets makes the run too long, unless the duration alone
-    // came from the command line.
+    // The speed is blamed when the step it sets makes the run too long, unless the duration came
+    // from the command line and nothing that sets the step did.
     const bool speed_set_it =
         !c.dt && dt < c.dt_max && c.duration / c.dt_max <= kMaxRunSteps &&
-        !(t["shear"].overridden("shear.duration") && !t["shear"].overridden("shear.velocity"));
+        !(t["shear"].overridden("shear.duration") && !t["shear"].overridden("shear.velocity") &&
+          !t["step"].overridden("step.displacement_per_step"));
     t[c.dt ? "step" : "shear"].fail_between(
         c.dt ? "dt" : (speed_set_it ? "velocity" : "duration"),
         {"shear.duration", "step.dt", "shear.velocity", "step.displacement_per_step",
