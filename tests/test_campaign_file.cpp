@@ -432,6 +432,9 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "set.measure.stripe_thickness", "profile points");
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = 1e9\n", "campaign.duration",
                  "more than the limit");
+  // A tiny step limit is blamed on itself, not on the campaign's speeds.
+  expect_refused(kHead + ok_rest + "[set]\nstep.dt_max = 1e-20\n", "set.step.dt_max",
+                 "the longest run the step limit allows");
   // A condition between two keys, one of them the campaign's: its key named, the other beside
   // the problem (the built-in measure.contact_gap against a margin of the campaign's).
   expect_refused(kHead + ok_rest + "[set]\nstep.contact_margin = 1e-4\n", "set.step.contact_margin",

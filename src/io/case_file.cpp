@@ -63,13 +63,16 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
   // A wall speed at which no run the step limit allows moves the walls by one grain: a typo or
   // an underflow (1e-320), not a flow (the slowest of model.md section 6 is 0.005).
   // (The longer of dt_max and a given dt: a tiny given dt is the step limit's to refuse.)
-  // Blamed on the time step when that alone came from the command line (a tiny dt_max), else
-  // on the speed.
+  // Blamed on the time step when it came from the command line (a tiny dt_max) and the speed did
+  // not, or would pass with the built-in dt_max (a campaign gives every run's speed), else on the
+  // speed.
   if (const double longest = std::max(c.dt.value_or(c.dt_max), c.dt_max) * kMaxRunSteps;
       c.velocity * longest < c.diameter_max) {
     TomlReader& shear = t["shear"];
     const char* step_key = c.dt && *c.dt > c.dt_max ? "dt" : "dt_max";
-    if (!shear.overridden("shear.velocity") &&
+    const bool speed_passes_alone =
+        c.velocity * ShearCase{}.dt_max * kMaxRunSteps >= c.diameter_max;
+    if ((!shear.overridden("shear.velocity") || speed_passes_alone) &&
         t["step"].overridden(std::string("step.") + step_key))
       t["step"].fail_between(step_key, {"shear.velocity", "system.diameter_max"},
                              "the longest run the step limit allows in steps of " +
