@@ -320,11 +320,8 @@ def format_decay_table(entries, exponent):
         # Fixed-point in the table's columns; beyond them (a damaged or diverged value), 3 digits.
         return f"{v:.{decimals}f}" if abs(v) < 1e6 else f"{v:.3g}"
 
-    def f(v, spec):
-        if v is None:
-            return "-"
-        width, decimals = spec.rstrip("f").split(".")
-        return format(fixed(v, int(decimals)), f">{width}")
+    def f(v, width, decimals):
+        return "-" if v is None else format(fixed(v, decimals), f">{width}")
     lines = [f"{'run':<16} {'start':<7} {'regime':<12} {'L_y':>6} {'I_bulk':>7} {'D':>7} "
              f"{'T_SS':>7} {'tau':>14} {'tau/T_SS':>9} {'sin2':>5} {'cos1':>5}  fit / reason"]
     for e in entries:
@@ -335,9 +332,9 @@ def format_decay_table(entries, exponent):
                 if e["fit_range"] else "") \
             + ("" if e["used"] else f" (not used: {e['reason']})")
         lines.append(f"{e['run']:<16} {str(e['initial_velocity']):<7} {str(e['regime']):<12} "
-                     f"{f(e['L_y'], '6.2f')} {f(e['I_bulk'], '7.4f')} {f(e['D'], '7.3f')} "
-                     f"{f(e['T_SS'], '7.0f')} {tau:>14} {f(e['tau_over_T_SS'], '9.4f')} "
-                     f"{f(ov.get('sin_2pi_eta'), '5.2f')} {f(ov.get('cos_pi_eta'), '5.2f')} "
+                     f"{f(e['L_y'], 6, 2)} {f(e['I_bulk'], 7, 4)} {f(e['D'], 7, 3)} "
+                     f"{f(e['T_SS'], 7, 0)} {tau:>14} {f(e['tau_over_T_SS'], 9, 4)} "
+                     f"{f(ov.get('sin_2pi_eta'), 5, 2)} {f(ov.get('cos_pi_eta'), 5, 2)} "
                      f" {note.strip()}")
     lines.append(f"slowest mode from rest: tau / T_SS = 1 / (4 pi^2) = "
                  f"{TAU_OVER_T_SS['sin_2pi_eta']:.4f} (sin(2 pi y / L_y), walls holding the "

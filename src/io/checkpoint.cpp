@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config_error.hpp"
-#include "json_message.hpp"
+#include "json_reading.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "json_message.hpp"
+#include "json_reading.hpp"
 
 namespace cdshear {
 
@@ -64,8 +64,7 @@ void check_count(const json& j, const char* pointer, const char* name, std::uint
   const json::json_pointer at(pointer);
   if (!j.contains(at)) return;  // named by the conversion below
   const json& v = j.at(at);
-  const bool whole = v.is_number_unsigned() || (v.is_number_integer() && v.get<long long>() >= 0);
-  if (!whole || v.get<std::uint64_t>() > largest)
+  if (!is_whole_number(v) || v.get<std::uint64_t>() > largest)
     throw std::runtime_error("a damaged measurement state: key '" + std::string(name) +
                              "' must be a whole number " +
                              (largest == std::numeric_limits<std::uint64_t>::max()

@@ -14,7 +14,7 @@
 
 #include "build_info.hpp"
 #include "config_error.hpp"
-#include "json_message.hpp"
+#include "json_reading.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {
@@ -176,12 +176,8 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   p.diameter_max = number("diameter_max");
   // The seeds a case can give (a TOML integer): a packing placed with another could never be
   // the case's.
-  // A whole number >= 0, written "-0" too (the JSON library reads it as a signed 0).
-  const auto whole = [](const nlohmann::json& v) {
-    return v.is_number_unsigned() || (v.is_number_integer() && v.get<std::int64_t>() >= 0);
-  };
   if (const nlohmann::json& seed = need("seed");
-      !whole(seed) || seed.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX))
+      !is_whole_number(seed) || seed.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX))
     throw ConfigError(
         file, "seed",
         "must be a whole number from 0 to " + std::to_string(INT64_MAX) + ", not " + seed.dump());
@@ -198,7 +194,7 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   // but a count is a whole number >= 0 and no count exceeds the steps it counts.
   auto count = [&](const char* key) -> std::uint64_t {
     if (!j.contains(key)) return 0;
-    if (!whole(j.at(key)))
+    if (!is_whole_number(j.at(key)))
       throw ConfigError(file, key, "must be a whole number >= 0, not " + j.at(key).dump());
     return j.at(key).get<std::uint64_t>();
   };
