@@ -7,12 +7,14 @@
 # the reference's step (bench/admm_step.py finds its contact laws met to round-off from the dumped
 # contacts, impulses and velocities), and bench/fb_newton_step.py's Newton iterations reach that
 # step (to round-off in a few iterations, as a right generalized Jacobian does on these small
-# young packings).
+# young packings); bench/solution_set.py's split of their errors is an orthogonal one along which
+# no grain moves.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
 admm_step=$(cd "$(dirname "$0")/../bench" && pwd)/admm_step.py
 fb_newton_step=$(cd "$(dirname "$0")/../bench" && pwd)/fb_newton_step.py
+solution_set=$(cd "$(dirname "$0")/../bench" && pwd)/solution_set.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -86,6 +88,41 @@ for k in 0 1; do
     cat fb_$k.txt; fails=$((fails + 1))
   fi
 done
+# bench/solution_set.py splits each dumped sample's error into its part along the step's solution
+# set and the rest: the part along the set moves no grain (|A B s*| at round-off against |A e|),
+# the two parts are orthogonal (|e_det|^2 + |B s*|^2 = |e|^2 to the printed digits), and the set
+# with both rows of every force-carrying contact free holds at least the share that the one with
+# the reference's statuses holds.
+if ! /usr/bin/python3 "$solution_set" "${samples[0]}" > set.txt 2>&1 ||
+   ! /usr/bin/python3 "$solution_set" "${samples[0]}" --all-rows > set_all.txt 2>&1; then
+  echo "FAIL: solution_set.py on the dumped samples failed"; cat set.txt set_all.txt
+  fails=$((fails + 1))
+else
+  split='s/.*|e| \/ |R| \([^,]*\), undetermined share of |e| \([^,]*\), determinate |e_det| \/ |R| \([^;]*\);.*moves \([^ ]*\) of A e$/\1 \2 \3 \4/p'
+  good=$(sed -n "$split" set.txt set_all.txt | awk '{ e = $1; x = $2; d = $3 }
+           $4 + 0 < 1e-6 && (d * d + x * x * e * e - e * e) ^ 2 <= (2e-2 * e * e) ^ 2 { n++ }
+           END { print n + 0 }')
+  more=$(paste <(sed -n "$split" set.txt) <(sed -n "$split" set_all.txt) |
+           awk '$6 + 1e-3 >= $2 { n++ } END { print n + 0 }')
+  if [[ "$good" != 4 || "$more" != 2 ]]; then
+    echo "FAIL: solution_set.py: expected 4 orthogonal splits along which no grain moves and 2" \
+         "samples where all rows free hold as much, got $good and $more"
+    cat set.txt set_all.txt; fails=$((fails + 1))
+  fi
+fi
+# A known answer: one disk pressed between two fixed walls, both contacts sticking, its tested
+# impulses the reference's plus equal normal impulses on both (a self-stress: the disk does not
+# move): the whole error lies along the solution set, none of it is determinate.
+mkdir -p squeezed
+printf '# 10 0 1 0.004\n0 1 0 1 0.5 0 0 -0.5 0 0.5 1.1 0 1 0\n0 2 0 -1 0.5 0 0 0.5 0 0.5 1.1 0 1 0\n' \
+  > squeezed/sample_0_contacts.txt
+printf '# x y 1/m_x 1/m_y 1/I v_x v_y omega\n0 0.5 2 2 8 0 0 0\n0 0 0 0 0 0 0 0\n0 1 0 0 0 0 0 0\n' \
+  > squeezed/sample_0_bodies.txt
+if ! /usr/bin/python3 "$solution_set" squeezed > squeezed.txt 2>&1 ||
+   ! grep -qF "undetermined share of |e| 1.000, determinate |e_det| / |R| 0.00e+00" squeezed.txt; then
+  echo "FAIL: solution_set.py: a squeezed disk's self-stress was not found undetermined"
+  cat squeezed.txt; fails=$((fails + 1))
+fi
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at
 # round-off) on every sample.
