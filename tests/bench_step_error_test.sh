@@ -8,13 +8,14 @@
 # contacts, impulses and velocities), and bench/fb_newton_step.py's Newton iterations reach that
 # step (to round-off in a few iterations, as a right generalized Jacobian does on these small
 # young packings); bench/solution_set.py's split of their errors is an orthogonal one along which
-# no grain moves.
+# no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
 admm_step=$(cd "$(dirname "$0")/../bench" && pwd)/admm_step.py
 fb_newton_step=$(cd "$(dirname "$0")/../bench" && pwd)/fb_newton_step.py
 solution_set=$(cd "$(dirname "$0")/../bench" && pwd)/solution_set.py
+known_statuses=$(cd "$(dirname "$0")/../bench" && pwd)/known_statuses.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -122,6 +123,20 @@ if ! /usr/bin/python3 "$solution_set" squeezed > squeezed.txt 2>&1 ||
    ! grep -qF "undetermined share of |e| 1.000, determinate |e_det| / |R| 0.00e+00" squeezed.txt; then
   echo "FAIL: solution_set.py: a squeezed disk's self-stress was not found undetermined"
   cat squeezed.txt; fails=$((fails + 1))
+fi
+# bench/known_statuses.py: the linear system of the reference's statuses has the reference's step
+# as its solution, and GMRES with each preconditioner reaches it from the tested impulses.
+if ! /usr/bin/python3 "$known_statuses" "${samples[0]}" > statuses.txt 2>&1; then
+  echo "FAIL: known_statuses.py on the dumped samples failed"; cat statuses.txt; fails=$((fails + 1))
+else
+  exact=$(sed -n 's/.*exact solution \([^ ]*\) from the reference.*/\1/p' statuses.txt |
+            awk '$1 + 0 < 1e-8 { n++ } END { print n + 0 }')
+  reached=$(sed -n 's/.*; \([^ ]*\) after [0-9]*$/\1/p' statuses.txt |
+              awk '$1 + 0 < 1e-6 { n++ } END { print n + 0 }')
+  if [[ "$exact" != 2 || "$reached" != 6 ]]; then
+    echo "FAIL: known_statuses.py: expected 2 exact solutions at the reference and 6 GMRES runs" \
+         "reaching it, got $exact and $reached"; cat statuses.txt; fails=$((fails + 1))
+  fi
 fi
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at

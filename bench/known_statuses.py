@@ -1,0 +1,144 @@
+#!/usr/bin/python3
+"""A step solved by a Krylov method once its contacts' statuses are known (docs/performance.md,
+"What did not help", "A Krylov finish with the statuses known").
+
+With every contact's status fixed at the reference's (open: no impulse; sticking: u_n + gap/dt = 0
+and u_t = 0; sliding: u_n + gap/dt = 0 with R_t = sign(R_t) mu R_n), a step's contact problem is a
+linear system in the closed contacts' normal impulses and the sticking ones' tangential impulses,
+M x = -E^T q, M = E^T W P (E the rows the statuses constrain, P the impulses the unknowns give; not
+symmetric where contacts slide). Its exact solution is the reference's step where the reference
+converged (printed first, as the check of the system). From the tested impulses, right-
+preconditioned GMRES (no restart) with three preconditioners, counting iterations until the
+impulses are within 1e-2, 1e-3 and 1e-4 of the reference:
+
+- jacobi: M's diagonal;
+- sgs: symmetric Gauss-Seidel, (D + L) D^-1 (D + U), a forward and a backward sweep per iteration;
+- ilu: an incomplete LU with drop tolerance 1e-4 (SuperLU's), a near-direct solve.
+
+The best case for a hybrid that lets the sweeps find the statuses and a Krylov method finish: the
+statuses here are the reference's own.
+
+  cdshear_bench --packing P --velocity V --no-static --steps S --warmup N --step-error K \\
+      --reference-relaxation 1.6 --reference-anderson 5 --reference-newton 16 --dump-samples DIR
+  /usr/bin/python3 bench/known_statuses.py DIR/shear_nN [--iterations 300]
+"""
+
+import argparse
+import glob
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from coarse_space import StepProblem, contact_status
+
+LEVELS = (1e-2, 1e-3, 1e-4)
+
+
+def status_system(problem):
+    """(M, right-hand side, P, the tested impulses' unknowns) for the reference's statuses."""
+    normal, tangential = problem.reference[0::2], problem.reference[1::2]
+    status = contact_status(normal, tangential, problem.mu)
+    p_rows, p_cols, p_vals, equations, start = [], [], [], [], []
+    unknowns = 0
+    for k, s in enumerate(status):
+        if s == 0:
+            continue
+        p_rows.append(2 * k)
+        p_cols.append(unknowns)
+        p_vals.append(1.0)
+        equations.append(2 * k)
+        start.append(problem.tested[2 * k])
+        if s == 1:
+            p_rows.append(2 * k + 1)
+            p_cols.append(unknowns + 1)
+            p_vals.append(1.0)
+            equations.append(2 * k + 1)
+            start.append(problem.tested[2 * k + 1])
+            unknowns += 2
+        else:
+            p_rows.append(2 * k + 1)
+            p_cols.append(unknowns)
+            p_vals.append(np.sign(tangential[k]) * problem.mu[k])
+            unknowns += 1
+    rows = 2 * len(status)
+    p = sp.csr_matrix((p_vals, (p_rows, p_cols)), shape=(rows, unknowns))
+    e = sp.csr_matrix((np.ones(len(equations)), (equations, np.arange(len(equations)))),
+                      shape=(rows, len(equations)))
+    m = (e.T @ problem.w @ p).tocsr()
+    return m, -(e.T @ problem.q), p, np.array(start), int((status == 2).sum())
+
+
+def gmres_errors(m, b, x0, apply_preconditioner, error, iterations):
+    """Right-preconditioned GMRES without restart from x0: error(x) of each iterate (stops at
+    1e-6 or at breakdown)."""
+    r0 = b - m @ x0
+    beta = np.linalg.norm(r0)
+    basis, preconditioned = [r0 / beta], []
+    h = np.zeros((iterations + 1, iterations))
+    errors = []
+    for j in range(iterations):
+        z = apply_preconditioner(basis[j])
+        preconditioned.append(z)
+        w = m @ z
+        for _ in range(2):  # Gram-Schmidt twice
+            for i in range(j + 1):
+                c = w @ basis[i]
+                h[i, j] += c
+                w = w - c * basis[i]
+        h[j + 1, j] = np.linalg.norm(w)
+        rhs = np.zeros(j + 2)
+        rhs[0] = beta
+        y = np.linalg.lstsq(h[:j + 2, :j + 1], rhs, rcond=None)[0]
+        errors.append(error(x0 + np.array(preconditioned).T @ y))
+        if errors[-1] < 1e-6 or h[j + 1, j] < 1e-14 * beta:
+            break
+        basis.append(w / h[j + 1, j])
+    return errors
+
+
+def preconditioners(m):
+    diagonal = m.diagonal()
+    lower = (sp.diags(diagonal) + sp.tril(m, -1)).tocsr()
+    upper = (sp.diags(diagonal) + sp.triu(m, 1)).tocsr()
+
+    def sgs(v):
+        y = sla.spsolve_triangular(lower, v, lower=True)
+        return sla.spsolve_triangular(upper, diagonal * y, lower=False)
+
+    ilu = sla.spilu(m.tocsc(), drop_tol=1e-4, fill_factor=10)
+    return {"jacobi": lambda v: v / diagonal, "sgs": sgs, "ilu": ilu.solve}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("folder")
+    parser.add_argument("--iterations", type=int, default=300)
+    args = parser.parse_args()
+    stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
+                   key=lambda s: int(s.split("_")[-2]))
+    if not stems:
+        parser.error(f"{args.folder}: no sample_K_contacts.txt (cdshear_bench --dump-samples)")
+    for stem in stems:
+        stem = stem[: -len("_contacts.txt")]
+        problem = StepProblem(stem)
+        m, b, p, x0, sliding = status_system(problem)
+
+        def error(x):
+            return problem.error(p @ x)
+
+        exact = error(sla.spsolve(m.tocsc(), b))
+        lines = [f"{stem.split('/')[-1]}: {m.shape[0]} unknowns ({sliding} sliding); the "
+                 f"statuses' exact solution {exact:.1e} from the reference, tested {error(x0):.2e}"]
+        for name, apply in preconditioners(m).items():
+            errors = gmres_errors(m, b, x0, apply, error, args.iterations)
+            reached = [next((i + 1 for i, e in enumerate(errors) if e <= level), "-")
+                       for level in LEVELS]
+            lines.append(f"  {name}: iterations to 1e-2, 1e-3, 1e-4: "
+                         f"{', '.join(str(r) for r in reached)}; {errors[-1]:.1e} after "
+                         f"{len(errors)}")
+        print("\n".join(lines), flush=True)
+
+
+if __name__ == "__main__":
+    main()
