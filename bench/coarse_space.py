@@ -71,6 +71,18 @@ def sample_header(stem):
         return [float(x) for x in f.readline()[2:].split()]
 
 
+def sample_stems(folder):
+    """The samples `cdshear_bench --dump-samples` wrote to FOLDER (DIR/<case>_n<disks>), as
+    FOLDER/sample_K in the order of K; none is an error."""
+    stems = sorted((f[: -len("_contacts.txt")]
+                    for f in glob.glob(folder + "/sample_*_contacts.txt")),
+                   key=lambda s: int(s.split("_")[-1]))
+    if not stems:
+        raise SystemExit(f"error: {folder}: no sample_K_contacts.txt "
+                         "(cdshear_bench --dump-samples)")
+    return stems
+
+
 def contact_status(normal, tangential, friction, open_below=0.0, slide_tolerance=1e-9):
     """0 open (R_n <= open_below), 1 sticking, 2 sliding (|R_t| at mu R_n to a relative
     slide_tolerance)."""

@@ -24,13 +24,12 @@ statuses here are the reference's own.
 """
 
 import argparse
-import glob
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import StepProblem, contact_status
+from coarse_space import StepProblem, contact_status, sample_stems
 
 LEVELS = (1e-2, 1e-3, 1e-4)
 
@@ -115,12 +114,7 @@ def main():
     parser.add_argument("folder")
     parser.add_argument("--iterations", type=int, default=300)
     args = parser.parse_args()
-    stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
-                   key=lambda s: int(s.split("_")[-2]))
-    if not stems:
-        parser.error(f"{args.folder}: no sample_K_contacts.txt (cdshear_bench --dump-samples)")
-    for stem in stems:
-        stem = stem[: -len("_contacts.txt")]
+    for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
         m, b, p, x0, sliding = status_system(problem)
 

@@ -37,14 +37,13 @@ bench/coarse_space.py's "null space" line counts it).
 """
 
 import argparse
-import glob
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from coarse_space import (FRICTION, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
-                          contact_jacobian, contact_status)
+                          contact_jacobian, contact_status, sample_stems)
 
 
 def free_directions(reference, friction, all_rows):
@@ -112,12 +111,7 @@ def main():
     parser.add_argument("--eps", default="1e-13", help="regularisations, comma-separated")
     parser.add_argument("--all-rows", action="store_true")
     args = parser.parse_args()
-    stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
-                   key=lambda s: int(s.split("_")[-2]))
-    if not stems:
-        parser.error(f"{args.folder}: no sample_K_contacts.txt (cdshear_bench --dump-samples)")
-    for stem in stems:
-        stem = stem[: -len("_contacts.txt")]
+    for stem in sample_stems(args.folder):
         contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
         bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
         for eps in (float(v) for v in args.eps.split(",") if v):
