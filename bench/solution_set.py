@@ -26,7 +26,10 @@ Per sample: |e| / |R_ref| (the per-step error of docs/step-error.md), |e_det| / 
 of |e| along the set, the largest cone or sign violation of R* = R_ref + B s* (the point of the set
 nearest the tested impulses, to first order; a large one means the set's edge is nearer than its
 tangent says, and e_det underestimates the distance) relative to the mean |R_ref| per contact, and
-|A B s*| / |A e| (zero to round-off: the part along the set moves no grain). With --all-rows, B
+|A B s*| / |A e| (zero to round-off: the part along the set moves no grain), and the degenerate
+statuses, which could change at no cost and so widen the set beyond its tangent: sliding contacts
+slipping, and open ones separating, slower than 1e-9 of the step's largest relative velocity (the
+reference's velocities from the dump). With --all-rows, B
 holds both rows of every force-carrying contact (W's null space over them, as
 bench/coarse_space.py's "null space" line counts it).
 
@@ -42,8 +45,13 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import (FRICTION, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
-                          contact_jacobian, contact_status, sample_stems)
+from coarse_space import (FRICTION, GAP, INV_MASS, REFERENCE_N, REFERENCE_T, TESTED_N, TESTED_T,
+                          VELOCITY, contact_jacobian, contact_status, sample_header, sample_stems)
+
+# A status is degenerate where its velocity would let it change at no cost: a sliding contact
+# slipping, or an open one separating, slower than this share of the step's largest relative
+# velocity.
+DEGENERATE = 1e-9
 
 
 def free_directions(reference, friction, all_rows):
@@ -71,13 +79,17 @@ def free_directions(reference, friction, all_rows):
     return b, status
 
 
-def split_error(contacts, bodies, eps, all_rows):
-    """The shares described above, as a dict."""
+def split_error(contacts, bodies, dt, eps, all_rows):
+    """The shares described above, and the degenerate statuses' counts, as a dict."""
     reference = contacts[:, [REFERENCE_N, REFERENCE_T]]
     friction = contacts[:, FRICTION]
     error = (contacts[:, [TESTED_N, TESTED_T]] - reference).ravel()
-    a = sp.diags(np.sqrt(bodies[:, INV_MASS].ravel())) @ contact_jacobian(contacts, bodies).T
+    h = contact_jacobian(contacts, bodies)
+    a = sp.diags(np.sqrt(bodies[:, INV_MASS].ravel())) @ h.T
     b, status = free_directions(reference, friction, all_rows)
+    u = h @ bodies[:, VELOCITY].ravel()  # the reference's relative velocities
+    u[0::2] += contacts[:, GAP] / dt
+    slow = np.abs(u) < DEGENERATE * np.abs(u).max(initial=0.0)
     ab = (a @ b).tocsr()
     z = b.T @ error
     k = (ab @ ab.T).tocsc()
@@ -98,6 +110,8 @@ def split_error(contacts, bodies, eps, all_rows):
         "determinate": np.linalg.norm(determinate) / r_norm,
         "along": np.linalg.norm(b @ along) / max(np.linalg.norm(error), 1e-300),
         "violation": violation.max(initial=0.0) / mean_impulse,
+        "slow_sliding": int(np.sum((status == 2) & slow[1::2])),
+        "slow_open": int(np.sum((status == 0) & slow[0::2])),
         "moves": np.linalg.norm(ab @ along) / max(velocity_error, 1e-300),
         "closed": int(closed.sum()),
         "sliding": int((status == 2).sum()),
@@ -115,12 +129,14 @@ def main():
         contacts = np.loadtxt(stem + "_contacts.txt", comments="#", ndmin=2)
         bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
         for eps in (float(v) for v in args.eps.split(",") if v):
-            s = split_error(contacts, bodies, eps, args.all_rows)
+            s = split_error(contacts, bodies, sample_header(stem)[3], eps, args.all_rows)
             print(f"{stem.split('/')[-1]} eps {eps:g}: {s['closed']} force-carrying "
                   f"({s['sliding']} sliding, {s['columns']} free directions); |e| / |R| "
                   f"{s['error']:.2e}, undetermined share of |e| {s['along']:.3f}, determinate "
-                  f"|e_det| / |R| {s['determinate']:.2e}; nearest point's cone violation "
-                  f"{s['violation']:.1e} of the mean impulse; moves {s['moves']:.1e} of A e",
+                  f"|e_det| / |R| {s['determinate']:.2e}; degenerate statuses "
+                  f"{s['slow_sliding']} sliding, {s['slow_open']} open; nearest point's cone "
+                  f"violation {s['violation']:.1e} of the mean impulse; moves {s['moves']:.1e} "
+                  f"of A e",
                   flush=True)
 
 
