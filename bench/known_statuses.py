@@ -29,43 +29,27 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import StepProblem, contact_status, sample_stems
+from coarse_space import StepProblem, sample_stems
+from solution_set import free_directions
 
 LEVELS = (1e-2, 1e-3, 1e-4)
 
 
 def status_system(problem):
-    """(M, right-hand side, P, the tested impulses' unknowns) for the reference's statuses."""
-    normal, tangential = problem.reference[0::2], problem.reference[1::2]
-    status = contact_status(normal, tangential, problem.mu)
-    p_rows, p_cols, p_vals, equations, start = [], [], [], [], []
-    unknowns = 0
-    for k, s in enumerate(status):
-        if s == 0:
-            continue
-        p_rows.append(2 * k)
-        p_cols.append(unknowns)
-        p_vals.append(1.0)
-        equations.append(2 * k)
-        start.append(problem.tested[2 * k])
-        if s == 1:
-            p_rows.append(2 * k + 1)
-            p_cols.append(unknowns + 1)
-            p_vals.append(1.0)
-            equations.append(2 * k + 1)
-            start.append(problem.tested[2 * k + 1])
-            unknowns += 2
-        else:
-            p_rows.append(2 * k + 1)
-            p_cols.append(unknowns)
-            p_vals.append(np.sign(tangential[k]) * problem.mu[k])
-            unknowns += 1
-    rows = 2 * len(status)
-    p = sp.csr_matrix((p_vals, (p_rows, p_cols)), shape=(rows, unknowns))
-    e = sp.csr_matrix((np.ones(len(equations)), (equations, np.arange(len(equations)))),
-                      shape=(rows, len(equations)))
+    """(M, right-hand side, P, the tested impulses' unknowns, sliding contacts) for the
+    reference's statuses. The unknowns are solution_set.py's free directions, each scaled so that
+    its leading row (a contact's normal row, or a sticking contact's tangential one) holds 1:
+    R_n for every closed contact, R_t for every sticking one; those leading rows are the
+    equations, and the tested impulses there the start."""
+    b, status = free_directions(problem.reference.reshape(-1, 2), problem.mu, False)
+    b = b.tocsc()
+    b.sort_indices()
+    lead = b.indices[b.indptr[:-1]]  # each column's first row
+    p = b @ sp.diags(1.0 / b.data[b.indptr[:-1]])
+    e = sp.csr_matrix((np.ones(len(lead)), (lead, np.arange(len(lead)))),
+                      shape=(b.shape[0], len(lead)))
     m = (e.T @ problem.w @ p).tocsr()
-    return m, -(e.T @ problem.q), p, np.array(start), int((status == 2).sum())
+    return m, -(e.T @ problem.q), p, problem.tested[lead], int((status == 2).sum())
 
 
 def gmres_errors(m, b, x0, apply_preconditioner, error, iterations):
