@@ -18,9 +18,14 @@ impulses are within 1e-2, 1e-3 and 1e-4 of the reference:
 The best case for a hybrid that lets the sweeps find the statuses and a Krylov method finish: the
 statuses here are the reference's own.
 
+With --reuse, a fourth: the previous sample's incomplete LU (the first sample's own), as a
+factorisation kept over steps would serve. Unknowns are matched by contact (its two bodies) and
+kind (normal or tangential); those of contacts or statuses the factorised sample lacks take their
+diagonal. Dump consecutive steps for it (--step-error-spacing 0).
+
   cdshear_bench --packing P --velocity V --no-static --steps S --warmup N --step-error K \\
       --reference-relaxation 1.6 --reference-anderson 5 --reference-newton 16 --dump-samples DIR
-  /usr/bin/python3 bench/known_statuses.py DIR/shear_nN [--iterations 300]
+  /usr/bin/python3 bench/known_statuses.py DIR/shear_nN [--iterations 300] [--reuse]
 """
 
 import argparse
@@ -29,18 +34,18 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from coarse_space import StepProblem, sample_stems
+from coarse_space import BODY_A, BODY_B, StepProblem, sample_stems
 from solution_set import free_directions
 
 LEVELS = (1e-2, 1e-3, 1e-4)
 
 
 def status_system(problem):
-    """(M, right-hand side, P, the tested impulses' unknowns, sliding contacts) for the
-    reference's statuses. The unknowns are solution_set.py's free directions, each scaled so that
-    its leading row (a contact's normal row, or a sticking contact's tangential one) holds 1:
-    R_n for every closed contact, R_t for every sticking one; those leading rows are the
-    equations, and the tested impulses there the start."""
+    """(M, right-hand side, P, the tested impulses' unknowns, sliding contacts, each unknown's
+    leading row) for the reference's statuses. The unknowns are solution_set.py's free
+    directions, each scaled so that its leading row (a contact's normal row, or a sticking
+    contact's tangential one) holds 1: R_n for every closed contact, R_t for every sticking one;
+    those leading rows are the equations, and the tested impulses there the start."""
     b, status = free_directions(problem.reference.reshape(-1, 2), problem.mu, False)
     b = b.tocsc()
     b.sort_indices()
@@ -49,7 +54,31 @@ def status_system(problem):
     e = sp.csr_matrix((np.ones(len(lead)), (lead, np.arange(len(lead)))),
                       shape=(b.shape[0], len(lead)))
     m = (e.T @ problem.w @ p).tocsr()
-    return m, -(e.T @ problem.q), p, problem.tested[lead], int((status == 2).sum())
+    return m, -(e.T @ problem.q), p, problem.tested[lead], int((status == 2).sum()), lead
+
+
+def unknown_keys(problem, lead):
+    """Each unknown's contact (its two bodies) and kind (0 normal, 1 tangential)."""
+    c = problem.contacts
+    return [(int(c[row // 2, BODY_A]), int(c[row // 2, BODY_B]), int(row % 2)) for row in lead]
+
+
+def reused_preconditioner(factor, factor_keys, m, keys):
+    """An incomplete LU of another step's system applied to this one's unknowns that it shares
+    (matched by key), the diagonal on the rest; with the number shared."""
+    index = {k: n for n, k in enumerate(factor_keys)}
+    here = np.array([n for n, k in enumerate(keys) if k in index], dtype=int)
+    there = np.array([index[keys[n]] for n in here], dtype=int)
+    diagonal = m.diagonal()
+
+    def apply(v):
+        z = v / diagonal
+        full = np.zeros(len(factor_keys))
+        full[there] = v[here]
+        z[here] = factor.solve(full)[there]
+        return z
+
+    return apply, len(here)
 
 
 def gmres_errors(m, b, x0, apply_preconditioner, error, iterations):
@@ -80,7 +109,7 @@ def gmres_errors(m, b, x0, apply_preconditioner, error, iterations):
     return errors
 
 
-def preconditioners(m):
+def preconditioners(m, ilu):
     diagonal = m.diagonal()
     lower = (sp.diags(diagonal) + sp.tril(m, -1)).tocsr()
     upper = (sp.diags(diagonal) + sp.triu(m, 1)).tocsr()
@@ -89,18 +118,24 @@ def preconditioners(m):
         y = sla.spsolve_triangular(lower, v, lower=True)
         return sla.spsolve_triangular(upper, diagonal * y, lower=False)
 
-    ilu = sla.spilu(m.tocsc(), drop_tol=1e-4, fill_factor=10)
     return {"jacobi": lambda v: v / diagonal, "sgs": sgs, "ilu": ilu.solve}
+
+
+def incomplete_lu(m):
+    return sla.spilu(m.tocsc(), drop_tol=1e-4, fill_factor=10)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("folder")
     parser.add_argument("--iterations", type=int, default=300)
+    parser.add_argument("--reuse", action="store_true",
+                        help="also precondition by the previous sample's incomplete LU")
     args = parser.parse_args()
+    kept = None  # (factor, keys) of the previous sample, with --reuse
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
-        m, b, p, x0, sliding = status_system(problem)
+        m, b, p, x0, sliding, lead = status_system(problem)
 
         def error(x):
             return problem.error(p @ x)
@@ -108,7 +143,14 @@ def main():
         exact = error(sla.spsolve(m.tocsc(), b))
         lines = [f"{stem.split('/')[-1]}: {m.shape[0]} unknowns ({sliding} sliding); the "
                  f"statuses' exact solution {exact:.1e} from the reference, tested {error(x0):.2e}"]
-        for name, apply in preconditioners(m).items():
+        ilu = incomplete_lu(m)
+        applies = preconditioners(m, ilu)
+        if args.reuse:
+            keys = unknown_keys(problem, lead)
+            applies["ilu-kept"], shared = reused_preconditioner(*(kept or (ilu, keys)), m, keys)
+            lines[0] += f"; {shared} shared with the kept factorisation's"
+            kept = (ilu, keys)
+        for name, apply in applies.items():
             errors = gmres_errors(m, b, x0, apply, error, args.iterations)
             reached = [next((i + 1 for i, e in enumerate(errors) if e <= level), "-")
                        for level in LEVELS]

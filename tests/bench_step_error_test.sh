@@ -8,7 +8,8 @@
 # contacts, impulses and velocities), and bench/fb_newton_step.py's Newton iterations reach that
 # step (to round-off in a few iterations, as a right generalized Jacobian does on these small
 # young packings); bench/solution_set.py's split of their errors is an orthogonal one along which
-# no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it.
+# no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it
+# (with --reuse, from a factorisation kept from the sample before too).
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -125,17 +126,26 @@ if ! /usr/bin/python3 "$solution_set" squeezed > squeezed.txt 2>&1 ||
   cat squeezed.txt; fails=$((fails + 1))
 fi
 # bench/known_statuses.py: the linear system of the reference's statuses has the reference's step
-# as its solution, and GMRES with each preconditioner reaches it from the tested impulses.
-if ! /usr/bin/python3 "$known_statuses" "${samples[0]}" > statuses.txt 2>&1; then
+# as its solution, and GMRES with each preconditioner reaches it from the tested impulses; with
+# --reuse the first sample's kept factorisation is its own, every unknown shared, and the same
+# iterations as its own incomplete LU.
+if ! /usr/bin/python3 "$known_statuses" "${samples[0]}" --reuse > statuses.txt 2>&1; then
   echo "FAIL: known_statuses.py on the dumped samples failed"; cat statuses.txt; fails=$((fails + 1))
 else
   exact=$(sed -n 's/.*exact solution \([^ ]*\) from the reference.*/\1/p' statuses.txt |
             awk '$1 + 0 < 1e-8 { n++ } END { print n + 0 }')
   reached=$(sed -n 's/.*; \([^ ]*\) after [0-9]*$/\1/p' statuses.txt |
               awk '$1 + 0 < 1e-6 { n++ } END { print n + 0 }')
-  if [[ "$exact" != 2 || "$reached" != 6 ]]; then
-    echo "FAIL: known_statuses.py: expected 2 exact solutions at the reference and 6 GMRES runs" \
-         "reaching it, got $exact and $reached"; cat statuses.txt; fails=$((fails + 1))
+  first=$(sed -n '1,/^sample_1/p' statuses.txt)
+  shared=$(sed -n '1s/.*: \([0-9]*\) unknowns .* \([0-9]*\) shared with the kept.*/\1 \2/p' \
+             statuses.txt | awk '$1 == $2 && $1 > 0 { print "all" }')
+  own=$(grep -F "  ilu: " <<< "$first" | cut -d: -f2-)
+  kept=$(grep -F "  ilu-kept: " <<< "$first" | cut -d: -f2-)
+  if [[ "$exact" != 2 || "$reached" != 8 || "$shared" != all || -z "$own" || "$own" != "$kept" ]]
+  then
+    echo "FAIL: known_statuses.py: expected 2 exact solutions at the reference, 8 GMRES runs" \
+         "reaching it and the first sample's kept factorisation its own, got $exact, $reached," \
+         "'$shared', '$own' and '$kept'"; cat statuses.txt; fails=$((fails + 1))
   fi
 fi
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
