@@ -756,12 +756,13 @@ class Sweep {
     }
     const RunState after = run_state(dir_ / "runs" / j.name);
     std::string what = state_name(after);
+    // Stopped by an interrupt: Ctrl-C (130), or the TERM this sweep passes on when it is stopped.
+    const bool stopped =
+        e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM);
     if (after == RunState::kFinished) {
       ++finished_now_;
       done_cost_ += j.cost;
       done_seconds_ += e.seconds;
-      const bool stopped =
-          e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM);
       if (e.exit_code != 0 && !stopped) {  // the steps ran to the end; what came after did not
         what += fmt::format(" (but exited with {}: see the log {})", e.exit_code, j.log.string());
         failed_.push_back(
@@ -769,8 +770,7 @@ class Sweep {
                         "analysis), log {}{}",
                         j.name, e.exit_code, j.log.string(), failure_cause(j.log)));
       }
-    } else if (after != RunState::kBlownUp &&
-               (e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM))) {
+    } else if (after != RunState::kBlownUp && stopped) {
       interrupted_.push_back(j.name);
       what = "interrupted";
     } else {
