@@ -109,6 +109,13 @@ def gmres_errors(m, b, x0, apply_preconditioner, error, iterations):
     return errors
 
 
+def reached_line(name, errors):
+    """A run's line: the first iterations whose error is within each of LEVELS, the last error."""
+    reached = [next((i + 1 for i, e in enumerate(errors) if e <= level), "-") for level in LEVELS]
+    return (f"  {name}: iterations to 1e-2, 1e-3, 1e-4: {', '.join(str(r) for r in reached)}; "
+            f"{errors[-1]:.1e} after {len(errors)}")
+
+
 def preconditioners(m, ilu):
     diagonal = m.diagonal()
     lower = (sp.diags(diagonal) + sp.tril(m, -1)).tocsr()
@@ -151,12 +158,8 @@ def main():
             lines[0] += f"; {shared} shared with the kept factorisation's"
             kept = (ilu, keys)
         for name, apply in applies.items():
-            errors = gmres_errors(m, b, x0, apply, error, args.iterations)
-            reached = [next((i + 1 for i, e in enumerate(errors) if e <= level), "-")
-                       for level in LEVELS]
-            lines.append(f"  {name}: iterations to 1e-2, 1e-3, 1e-4: "
-                         f"{', '.join(str(r) for r in reached)}; {errors[-1]:.1e} after "
-                         f"{len(errors)}")
+            lines.append(reached_line(name, gmres_errors(m, b, x0, apply, error,
+                                                         args.iterations)))
         print("\n".join(lines), flush=True)
 
 

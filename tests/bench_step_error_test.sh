@@ -9,7 +9,9 @@
 # step (to round-off in a few iterations, as a right generalized Jacobian does on these small
 # young packings); bench/solution_set.py's split of their errors is an orthogonal one along which
 # no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it
-# (with --reuse, from a factorisation kept from the sample before too).
+# (with --reuse, from a factorisation kept from the sample before too), and so does
+# bench/adaptive_coarse.py's two-level preconditioner in one iteration where its coarse space is
+# the whole space.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -17,6 +19,7 @@ admm_step=$(cd "$(dirname "$0")/../bench" && pwd)/admm_step.py
 fb_newton_step=$(cd "$(dirname "$0")/../bench" && pwd)/fb_newton_step.py
 solution_set=$(cd "$(dirname "$0")/../bench" && pwd)/solution_set.py
 known_statuses=$(cd "$(dirname "$0")/../bench" && pwd)/known_statuses.py
+adaptive_coarse=$(cd "$(dirname "$0")/../bench" && pwd)/adaptive_coarse.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -146,6 +149,25 @@ else
     echo "FAIL: known_statuses.py: expected 2 exact solutions at the reference, 8 GMRES runs" \
          "reaching it and the first sample's kept factorisation its own, got $exact, $reached," \
          "'$shared', '$own' and '$kept'"; cat statuses.txt; fails=$((fails + 1))
+  fi
+fi
+# bench/adaptive_coarse.py: with aggregates of one disk each (cells of 0.3 d; the test's disks
+# are at least 0.8 d apart) and 16 unrelaxed random vectors, every aggregate's basis spans its
+# unknowns, the coarse space is the whole space, and the two-level preconditioner is M's inverse:
+# GMRES reaches the statuses' exact solution in one iteration on every sample.
+if ! /usr/bin/python3 "$adaptive_coarse" "${samples[0]}" --cell 0.3 --vectors 16 --relax 0 \
+     > adaptive.txt 2>&1; then
+  echo "FAIL: adaptive_coarse.py on the dumped samples failed"; cat adaptive.txt
+  fails=$((fails + 1))
+else
+  whole=$(sed -n 's/^sample_[0-9]*: \([0-9]*\) unknowns .* coarse \([0-9]*\);.*/\1 \2/p' \
+            adaptive.txt | awk '$1 == $2 && $1 > 0 { n++ } END { print n + 0 }')
+  exact=$(sed -n 's/^  two-level, own vectors .*; \([^ ]*\) after 1$/\1/p' adaptive.txt |
+            awk '$1 + 0 < 1e-8 { n++ } END { print n + 0 }')
+  if [[ "$whole" != 2 || "$exact" != 2 ]]; then
+    echo "FAIL: adaptive_coarse.py: expected 2 samples with the whole space as the coarse space" \
+         "and 2 one-iteration solves at the reference, got $whole and $exact"
+    cat adaptive.txt; fails=$((fails + 1))
   fi
 fi
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
