@@ -23,7 +23,7 @@ vectors (matched by contact and kind, zero on unknowns the previous sample lacks
 one iteration: what a coarse space carried over from step to step would give.
 
   cdshear_bench ... --dump-samples DIR   (the commands of known_statuses.py)
-  /usr/bin/python3 bench/adaptive_coarse.py DIR/shear_nN [--vectors K] [--relax S] [--cell C]
+  /usr/bin/python3 bench/adaptive_coarse.py DIR/shear_nN [--vectors 16] [--relax 30] [--cell 8]
       [--stale]
 """
 
@@ -60,11 +60,11 @@ class Sweeps:
         return self.backward(self.forward(x, b), b)
 
 
-def aggregates(problem, lead, cell):
+def aggregates(problem, stem, lead, cell):
     """Each unknown's aggregate: the square cell of side CELL (in the positions' units) holding its
     contact's disk (the first body, or the second where the first is a wall: no rotation),
     numbered densely."""
-    bodies = np.loadtxt(problem.stem + "_bodies.txt", comments="#", ndmin=2)
+    bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
     contact = problem.contacts[lead // 2]
     first = contact[:, BODY_A].astype(int)
     disk = np.where(bodies[first, INV_INERTIA] > 0, first, contact[:, BODY_B].astype(int))
@@ -121,10 +121,10 @@ def relaxed(sweeps, start, iterations):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("folder")
-    parser.add_argument("--vectors", type=int, default=8, help="relaxed vectors K")
-    parser.add_argument("--relax", type=int, default=10,
+    parser.add_argument("--vectors", type=int, default=16, help="relaxed vectors K")
+    parser.add_argument("--relax", type=int, default=30,
                         help="symmetric Gauss-Seidel iterations S on each")
-    parser.add_argument("--cell", type=float, default=4.0, help="aggregates' side C, in d")
+    parser.add_argument("--cell", type=float, default=8.0, help="aggregates' side C, in d")
     parser.add_argument("--stale", action="store_true",
                         help="also build from the previous sample's vectors")
     parser.add_argument("--iterations", type=int, default=200)
@@ -133,14 +133,13 @@ def main():
     kept = None  # (vectors, keys) of the previous sample
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
-        problem.stem = stem
         m, b, p_status, x0, sliding, lead = status_system(problem)
         sweeps = Sweeps(m)
 
         def error(x):
             return problem.error(p_status @ x)
 
-        aggregate = aggregates(problem, lead, args.cell)
+        aggregate = aggregates(problem, stem, lead, args.cell)
         vectors = relaxed(sweeps, rng.standard_normal((m.shape[0], args.vectors)), args.relax)
         p = coarse_basis(vectors, aggregate)
         lines = [f"{stem.split('/')[-1]}: {m.shape[0]} unknowns ({sliding} sliding), "
