@@ -34,30 +34,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from coarse_space import BODY_A, BODY_B, StepProblem, sample_stems
-from known_statuses import gmres_errors, reached_line, status_system, unknown_keys
+from known_statuses import (GaussSeidel, gmres_errors, reached_line, shared_unknowns,
+                            status_system, unknown_keys)
 
 INV_INERTIA = 4  # sample_K_bodies.txt's column of 1/I (0 for a wall)
-
-
-class Sweeps:
-    """Forward and backward Gauss-Seidel on M x = b."""
-
-    def __init__(self, m):
-        self.m = m.tocsr()
-        diagonal = sp.diags(m.diagonal())
-        self.lower = (diagonal + sp.tril(m, -1)).tocsr()
-        self.upper = (diagonal + sp.triu(m, 1)).tocsr()
-        self.strict_lower = sp.tril(m, -1).tocsr()
-        self.strict_upper = sp.triu(m, 1).tocsr()
-
-    def forward(self, x, b):
-        return sla.spsolve_triangular(self.lower, b - self.strict_upper @ x, lower=True)
-
-    def backward(self, x, b):
-        return sla.spsolve_triangular(self.upper, b - self.strict_lower @ x, lower=False)
-
-    def symmetric(self, x, b):
-        return self.backward(self.forward(x, b), b)
 
 
 def aggregates(problem, stem, lead, cell):
@@ -134,7 +114,7 @@ def main():
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
         m, b, p_status, x0, sliding, lead = status_system(problem)
-        sweeps = Sweeps(m)
+        sweeps = GaussSeidel(m)
 
         def error(x):
             return problem.error(p_status @ x)
@@ -145,15 +125,13 @@ def main():
         lines = [f"{stem.split('/')[-1]}: {m.shape[0]} unknowns ({sliding} sliding), "
                  f"{aggregate.max() + 1} aggregates, coarse {p.shape[1]}; tested "
                  f"{error(x0):.2e}"]
-        runs = {"sgs": (lambda v: sweeps.symmetric(np.zeros_like(v), v), 1.0),
+        runs = {"sgs": (sweeps.preconditioner, 1.0),
                 "two-level, own vectors": two_level(sweeps, p)}
         keys = unknown_keys(problem, lead)
         if args.stale and kept is not None:
-            index = {k: n for n, k in enumerate(kept[1])}
+            here, there = shared_unknowns(kept[1], keys)
             carried = np.zeros_like(vectors)
-            for n, k in enumerate(keys):
-                if k in index:
-                    carried[n] = kept[0][index[k]]
+            carried[here] = kept[0][there]
             runs["two-level, previous vectors"] = two_level(
                 sweeps, coarse_basis(relaxed(sweeps, carried, 1), aggregate))
         kept = (vectors, keys)

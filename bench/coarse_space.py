@@ -234,12 +234,10 @@ def main():
         parser.error("--stale needs --lowest")
     cells = [float(v) for v in args.cells.split(",") if v]
     lowest = [int(v) for v in args.lowest.split(",") if v]
-    stems = sorted(glob.glob(args.folder + "/sample_*_contacts.txt"),
-                   key=lambda s: int(s.split("_")[-2]))
     first = None
-    for stem in stems:
-        s = Sample(stem[: -len("_contacts.txt")])
-        line = [f"{stem.split('/')[-1][:-len('_contacts.txt')]}: {len(s.c)} force-carrying, "
+    for stem in sample_stems(args.folder):
+        s = Sample(stem)
+        line = [f"{stem.split('/')[-1]}: {len(s.c)} force-carrying, "
                 f"|e| / |R| {np.linalg.norm(s.error) / np.linalg.norm(s.reference):.2e}; "
                 f"left (galerkin / span v velocities):"]
         for cell in cells:

@@ -29,12 +29,11 @@ operator). Printed per sample, and as medians over the samples:
 """
 
 import argparse
-import glob
 
 import numpy as np
 
 from coarse_space import (BODY_A, BODY_B, FRICTION, LEVER_A, LEVER_B, NX, NY, REFERENCE_N,
-                          REFERENCE_T, TESTED_N, TESTED_T, contact_status)
+                          REFERENCE_T, TESTED_N, TESTED_T, contact_status, sample_stems)
 
 # The bodies' height and inverse masses (sample_K_bodies.txt: x, y, 1/m along x, along y, 1/I).
 Y, INV_MASS_X, INV_MASS_Y, INV_INERTIA = 1, 2, 3, 4
@@ -100,10 +99,7 @@ def main():
     parser.add_argument("--velocity", type=float, required=True, help="the wall speed V")
     parser.add_argument("--band", type=float, default=4.0, help="band height [d]")
     args = parser.parse_args()
-    stems = sorted(f[: -len("_contacts.txt")]
-                   for f in glob.glob(args.folder + "/sample_*_contacts.txt"))
-    if not stems:
-        parser.error(f"{args.folder}: no sample_*_contacts.txt (cdshear_bench --dump-samples)")
+    stems = sample_stems(args.folder)
     rows = [modes(s, args.band, args.velocity) for s in stems]
     keys = list(rows[0])
     print("sample  " + "  ".join(f"{k:>9}" for k in keys))

@@ -63,12 +63,17 @@ def unknown_keys(problem, lead):
     return [(int(c[row // 2, BODY_A]), int(c[row // 2, BODY_B]), int(row % 2)) for row in lead]
 
 
+def shared_unknowns(other_keys, keys):
+    """(here, there): the unknowns of KEYS that OTHER_KEYS hold too, and their places there."""
+    index = {k: n for n, k in enumerate(other_keys)}
+    here = np.array([n for n, k in enumerate(keys) if k in index], dtype=int)
+    return here, np.array([index[keys[n]] for n in here], dtype=int)
+
+
 def reused_preconditioner(factor, factor_keys, m, keys):
     """An incomplete LU of another step's system applied to this one's unknowns that it shares
     (matched by key), the diagonal on the rest; with the number shared."""
-    index = {k: n for n, k in enumerate(factor_keys)}
-    here = np.array([n for n, k in enumerate(keys) if k in index], dtype=int)
-    there = np.array([index[keys[n]] for n in here], dtype=int)
+    here, there = shared_unknowns(factor_keys, keys)
     diagonal = m.diagonal()
 
     def apply(v):
@@ -116,16 +121,36 @@ def reached_line(name, errors):
             f"{errors[-1]:.1e} after {len(errors)}")
 
 
+class GaussSeidel:
+    """Gauss-Seidel on M x = b: forward and backward sweeps from x, and the symmetric
+    preconditioner, (D + U)^-1 D (D + L)^-1 v (a forward and a backward sweep from zero)."""
+
+    def __init__(self, m):
+        self.m = m.tocsr()
+        self.diagonal = m.diagonal()
+        self.strict_lower = sp.tril(m, -1).tocsr()
+        self.strict_upper = sp.triu(m, 1).tocsr()
+        self.lower = (sp.diags(self.diagonal) + self.strict_lower).tocsr()
+        self.upper = (sp.diags(self.diagonal) + self.strict_upper).tocsr()
+
+    def forward(self, x, b):
+        return sla.spsolve_triangular(self.lower, b - self.strict_upper @ x, lower=True)
+
+    def backward(self, x, b):
+        return sla.spsolve_triangular(self.upper, b - self.strict_lower @ x, lower=False)
+
+    def symmetric(self, x, b):
+        return self.backward(self.forward(x, b), b)
+
+    def preconditioner(self, v):
+        y = sla.spsolve_triangular(self.lower, v, lower=True)
+        return sla.spsolve_triangular(self.upper, self.diagonal * y, lower=False)
+
+
 def preconditioners(m, ilu):
     diagonal = m.diagonal()
-    lower = (sp.diags(diagonal) + sp.tril(m, -1)).tocsr()
-    upper = (sp.diags(diagonal) + sp.triu(m, 1)).tocsr()
-
-    def sgs(v):
-        y = sla.spsolve_triangular(lower, v, lower=True)
-        return sla.spsolve_triangular(upper, diagonal * y, lower=False)
-
-    return {"jacobi": lambda v: v / diagonal, "sgs": sgs, "ilu": ilu.solve}
+    return {"jacobi": lambda v: v / diagonal, "sgs": GaussSeidel(m).preconditioner,
+            "ilu": ilu.solve}
 
 
 def incomplete_lu(m):
