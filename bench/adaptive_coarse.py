@@ -100,7 +100,7 @@ def hierarchy(m, cells, vectors, levels, coarse_relax, coarsest):
     by COARSE_RELAX symmetric Gauss-Seidel iterations on the coarse operator. Stops after LEVELS
     levels, or once a coarse operator has at most COARSEST unknowns (factorised from there)."""
     out = []
-    while len(out) < levels - 1:
+    while True:
         aggregate = dense_numbers(cells)
         p, owner = coarse_basis(vectors, aggregate)
         out.append(Level(m, p))
@@ -108,7 +108,7 @@ def hierarchy(m, cells, vectors, levels, coarse_relax, coarsest):
         aggregate_cell[aggregate] = cells
         cells = aggregate_cell[owner] // 2
         m = (p.T @ m @ p).tocsr()
-        if m.shape[0] <= coarsest:
+        if m.shape[0] <= coarsest or len(out) == levels - 1:
             break
         vectors = relaxed(GaussSeidel(m), p.T @ vectors, coarse_relax)
     return out, m
@@ -172,6 +172,8 @@ def main():
                              "times on each")
     parser.add_argument("--iterations", type=int, default=200)
     args = parser.parse_args()
+    if args.levels < 2:
+        parser.error(f"--levels {args.levels}: a hierarchy has at least 2 levels")
     rng = np.random.default_rng(1)
     kept = None  # (vectors, keys) of the previous sample
     carried = None  # (vectors, keys) carried to the previous sample, with --carry
