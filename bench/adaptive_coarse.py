@@ -177,11 +177,6 @@ def main():
     rng = np.random.default_rng(1)
     kept = None  # (vectors, keys) of the previous sample
     carried = None  # (vectors, keys) carried to the previous sample, with --carry
-
-    def cycle_from(vectors):
-        return cycle(*hierarchy(m, cells, vectors, args.levels, args.coarse_relax,
-                                args.coarsest))
-
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
         m, b, p_status, x0, sliding, lead = status_system(problem)
@@ -191,6 +186,11 @@ def main():
             return problem.error(p_status @ x)
 
         cells = disk_cells(problem, stem, lead, args.cell)
+
+        def cycle_from(vectors):
+            return cycle(*hierarchy(m, cells, vectors, args.levels, args.coarse_relax,
+                                    args.coarsest))
+
         vectors = relaxed(sweeps, rng.standard_normal((m.shape[0], args.vectors)), args.relax)
         own, cost, sizes = cycle_from(vectors)
         participation = 1 / (vectors**4).sum(axis=0) / m.shape[0]
@@ -199,8 +199,8 @@ def main():
                  f"unknowns {', '.join(str(n) for n in sizes)}; tested {error(x0):.2e}; own "
                  f"vectors' participation ratios {participation.min():.0%} to "
                  f"{participation.max():.0%} of the unknowns"]
-        levels = f"{len(sizes)}-level"
-        runs = {"sgs": (sweeps.preconditioner, 1.0), f"{levels}, own vectors": (own, cost)}
+        kind = f"{len(sizes)}-level"
+        runs = {"sgs": (sweeps.preconditioner, 1.0), f"{kind}, own vectors": (own, cost)}
         keys = unknown_keys(problem, lead)
 
         def from_previous(previous, relaxations):
@@ -210,15 +210,15 @@ def main():
             return relaxed(sweeps, start, relaxations)
 
         if args.stale and kept is not None:
-            runs[f"{levels}, previous vectors"] = cycle_from(from_previous(kept, 1))[:2]
-        if args.carry is not None:
-            carried_here = vectors if carried is None else from_previous(carried, args.carry)
-            if carried is not None:
-                cosines = principal_cosines(vectors, carried_here)
-                lines[0] += (f"; carried vectors' principal cosines with the own "
-                             f"{', '.join(f'{c:.2f}' for c in cosines)}")
-                runs[f"{levels}, carried vectors"] = cycle_from(carried_here)[:2]
-            carried = (carried_here, keys)
+            runs[f"{kind}, previous vectors"] = cycle_from(from_previous(kept, 1))[:2]
+        if args.carry is not None and carried is None:
+            carried = (vectors, keys)  # the first sample's own
+        elif args.carry is not None:
+            carried = (from_previous(carried, args.carry), keys)
+            cosines = principal_cosines(vectors, carried[0])
+            lines[0] += (f"; carried vectors' principal cosines with the own "
+                         f"{', '.join(f'{c:.2f}' for c in cosines)}")
+            runs[f"{kind}, carried vectors"] = cycle_from(carried[0])[:2]
         kept = (vectors, keys)
         for name, (apply, cost) in runs.items():
             lines.append(reached_line(f"{name} ({cost:.1f} symmetric Gauss-Seidel iterations each)",
