@@ -28,15 +28,21 @@ Right-preconditioned GMRES from the tested impulses, iterations until the impuls
 1e-2, 1e-3 and 1e-4 of the reference, for symmetric Gauss-Seidel alone and for the hierarchy
 built (a) from this step's own relaxed vectors, (b) with --stale, from the previous sample's own
 relaxed vectors (matched by contact and kind, zero on unknowns the previous sample lacks) relaxed
-again by one iteration, (c) with --carry R, from vectors carried over the samples: the first
-sample's own, then each sample's those of the sample before relaxed R more times, what a space
-kept from step to step would be (with the cosines of the principal angles between the carried
-vectors' span and the own vectors'). The header gives the own vectors' participation ratios
+again by one iteration, (c) with --carry R and no --bootstrap, from vectors carried over the
+samples: the first sample's own, then each sample's those of the sample before relaxed R more
+times, what a space kept from step to step would be (with the cosines of the principal angles
+between the carried vectors' span and the own vectors'), (d) with --bootstrap B, from vectors kept
+over the samples the way a bootstrap setup keeps them: the first sample's own, then at each
+sample those of the sample before (relaxed --carry R times, none by default) build the current
+cycle, B iterations of that cycle on M x = 0 from a random vector leave the mode it reduces
+least, and that vector takes the place of the oldest, unless nothing is left of it (with the
+upkeep in symmetric Gauss-Seidel iterations, and the cycle's contraction per iteration on that
+vector in the energy norm). The header gives the own vectors' participation ratios
 (1 / sum v_i^4 for a unit vector, as a share of the unknowns: how local they are).
 
   cdshear_bench ... --dump-samples DIR   (the commands of known_statuses.py)
   /usr/bin/python3 bench/adaptive_coarse.py DIR/shear_nN [--vectors 16] [--relax 30] [--cell 8]
-      [--levels 2] [--coarse-relax 10] [--coarsest 100] [--stale] [--carry R]
+      [--levels 2] [--coarse-relax 10] [--coarsest 100] [--stale] [--carry R] [--bootstrap B]
 """
 
 import argparse
@@ -170,6 +176,10 @@ def main():
     parser.add_argument("--carry", type=int, metavar="R",
                         help="also build from vectors carried over the samples, relaxed R "
                              "times on each")
+    parser.add_argument("--bootstrap", type=int, metavar="B",
+                        help="also build from vectors kept over the samples, each sample "
+                             "replacing the oldest by B iterations of the current cycle on a "
+                             "random vector")
     parser.add_argument("--iterations", type=int, default=200)
     args = parser.parse_args()
     if args.levels < 2:
@@ -177,6 +187,8 @@ def main():
     rng = np.random.default_rng(1)
     kept = None  # (vectors, keys) of the previous sample
     carried = None  # (vectors, keys) carried to the previous sample, with --carry
+    booted = None  # (vectors, keys) kept to the previous sample, oldest first, with --bootstrap
+    fresh_rng = np.random.default_rng(2)  # --bootstrap's random vectors
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
         m, b, p_status, x0, sliding, lead = status_system(problem)
@@ -211,9 +223,27 @@ def main():
 
         if args.stale and kept is not None:
             runs[f"{kind}, previous vectors"] = cycle_from(from_previous(kept, 1))[:2]
-        if args.carry is not None and carried is None:
+        if args.bootstrap is not None and booted is None:
+            booted = (vectors, keys)  # the first sample's own
+        elif args.bootstrap is not None:
+            start = from_previous(booted, args.carry or 0)
+            current, current_cost, _ = cycle_from(start)
+            fresh = fresh_rng.standard_normal(m.shape[0])
+            energy = np.sqrt(fresh @ (m @ fresh))
+            for _ in range(args.bootstrap):
+                fresh = fresh - current(m @ fresh)
+            left = np.sqrt(max(fresh @ (m @ fresh), 0.0))
+            contraction = (left / energy) ** (1 / args.bootstrap)
+            if left > 1e-12 * energy:
+                start = np.column_stack([start[:, 1:], fresh / np.linalg.norm(fresh)])
+            booted = (start, keys)  # an exact cycle leaves nothing to add: the space kept
+            upkeep = (args.carry or 0) * args.vectors + args.bootstrap * current_cost
+            lines[0] += (f"; bootstrap upkeep {upkeep:.0f} symmetric Gauss-Seidel iterations, "
+                         f"the kept cycle's contraction {contraction:.3f} per iteration")
+            runs[f"{kind}, bootstrapped vectors"] = cycle_from(booted[0])[:2]
+        if args.carry is not None and args.bootstrap is None and carried is None:
             carried = (vectors, keys)  # the first sample's own
-        elif args.carry is not None:
+        elif args.carry is not None and args.bootstrap is None:
             carried = (from_previous(carried, args.carry), keys)
             cosines = principal_cosines(vectors, carried[0])
             lines[0] += (f"; carried vectors' principal cosines with the own "

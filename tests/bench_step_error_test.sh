@@ -11,7 +11,7 @@
 # no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it
 # (with --reuse, from a factorisation kept from the sample before too), and so does
 # bench/adaptive_coarse.py's two-level preconditioner, and its six-level cycle, in one iteration
-# where every coarse space is the whole space.
+# where every coarse space is the whole space (with --bootstrap, kept to a sample's copy).
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -180,6 +180,25 @@ adaptive_check() {  # LEVELS VECTORS
 }
 adaptive_check 2 16
 adaptive_check 6 40
+# --bootstrap on the first sample given twice: its 16 vectors, kept to the copy where every
+# unknown is the same, span every one-disk aggregate there too, so the kept cycle is exact: its
+# iterations on a random vector leave nothing (contraction 0), and the bootstrapped solve reaches
+# the reference in one iteration.
+mkdir -p twice
+for file in "${samples[0]}"/sample_0_*; do
+  cp "$file" twice/; cp "$file" "twice/$(basename "${file/sample_0_/sample_1_}")"
+done
+if ! /usr/bin/python3 "$adaptive_coarse" twice --cell 0.3 --vectors 16 --relax 0 --bootstrap 2 \
+     > bootstrap.txt 2>&1; then
+  echo "FAIL: adaptive_coarse.py --bootstrap on the first sample given twice failed"
+  cat bootstrap.txt; fails=$((fails + 1))
+elif ! grep -q "^sample_1: .*the kept cycle's contraction 0.000 per iteration$" bootstrap.txt ||
+     ! awk '/^  2-level, bootstrapped vectors .* after 1$/ && $(NF - 2) + 0 < 1e-8 { n++ }
+            END { exit n != 1 }' bootstrap.txt; then
+  echo "FAIL: adaptive_coarse.py --bootstrap: expected the kept cycle exact on the sample's copy" \
+       "(contraction 0) and its one-iteration solve at the reference"
+  cat bootstrap.txt; fails=$((fails + 1))
+fi
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at
 # round-off) on every sample.
