@@ -184,6 +184,8 @@ def main():
     args = parser.parse_args()
     if args.levels < 2:
         parser.error(f"--levels {args.levels}: a hierarchy has at least 2 levels")
+    if args.bootstrap is not None and args.bootstrap < 1:
+        parser.error(f"--bootstrap {args.bootstrap}: at least 1 iteration of the kept cycle")
     rng = np.random.default_rng(1)
     kept = None  # (vectors, keys) of the previous sample
     carried = None  # (vectors, keys) carried to the previous sample, with --carry
