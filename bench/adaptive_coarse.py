@@ -188,8 +188,9 @@ def main():
         parser.error(f"--bootstrap {args.bootstrap}: at least 1 iteration of the kept cycle")
     rng = np.random.default_rng(1)
     kept = None  # (vectors, keys) of the previous sample
-    carried = None  # (vectors, keys) carried to the previous sample, with --carry
-    booted = None  # (vectors, keys) kept to the previous sample, oldest first, with --bootstrap
+    # (vectors, keys) kept over the samples to the previous one (oldest vector first), with
+    # --carry or --bootstrap
+    span = None
     fresh_rng = np.random.default_rng(2)  # --bootstrap's random vectors
     for stem in sample_stems(args.folder):
         problem = StepProblem(stem)
@@ -225,10 +226,8 @@ def main():
 
         if args.stale and kept is not None:
             runs[f"{kind}, previous vectors"] = cycle_from(from_previous(kept, 1))[:2]
-        if args.bootstrap is not None and booted is None:
-            booted = (vectors, keys)  # the first sample's own
-        elif args.bootstrap is not None:
-            start = from_previous(booted, args.carry or 0)
+        if span is not None and args.bootstrap is not None:
+            start = from_previous(span, args.carry or 0)
             current, current_cost, _ = cycle_from(start)
             fresh = fresh_rng.standard_normal(m.shape[0])
             energy = np.sqrt(fresh @ (m @ fresh))
@@ -238,19 +237,19 @@ def main():
             contraction = (left / energy) ** (1 / args.bootstrap)
             if left > 1e-12 * energy:
                 start = np.column_stack([start[:, 1:], fresh / np.linalg.norm(fresh)])
-            booted = (start, keys)  # an exact cycle leaves nothing to add: the space kept
+            span = (start, keys)  # an exact cycle leaves nothing to add: the space kept
             upkeep = (args.carry or 0) * args.vectors + args.bootstrap * current_cost
             lines[0] += (f"; bootstrap upkeep {upkeep:.0f} symmetric Gauss-Seidel iterations, "
                          f"the kept cycle's contraction {contraction:.3f} per iteration")
-            runs[f"{kind}, bootstrapped vectors"] = cycle_from(booted[0])[:2]
-        if args.carry is not None and args.bootstrap is None and carried is None:
-            carried = (vectors, keys)  # the first sample's own
-        elif args.carry is not None and args.bootstrap is None:
-            carried = (from_previous(carried, args.carry), keys)
-            cosines = principal_cosines(vectors, carried[0])
+            runs[f"{kind}, bootstrapped vectors"] = cycle_from(span[0])[:2]
+        elif span is not None:
+            span = (from_previous(span, args.carry), keys)
+            cosines = principal_cosines(vectors, span[0])
             lines[0] += (f"; carried vectors' principal cosines with the own "
                          f"{', '.join(f'{c:.2f}' for c in cosines)}")
-            runs[f"{kind}, carried vectors"] = cycle_from(carried[0])[:2]
+            runs[f"{kind}, carried vectors"] = cycle_from(span[0])[:2]
+        elif args.carry is not None or args.bootstrap is not None:
+            span = (vectors, keys)  # the first sample's own
         kept = (vectors, keys)
         for name, (apply, cost) in runs.items():
             lines.append(reached_line(f"{name} ({cost:.1f} symmetric Gauss-Seidel iterations each)",
