@@ -11,7 +11,8 @@
 # no grain moves, and bench/known_statuses.py's system of the reference's statuses solves to it
 # (with --reuse, from a factorisation kept from the sample before too), and so does
 # bench/adaptive_coarse.py's two-level preconditioner, and its six-level cycle, in one iteration
-# where every coarse space is the whole space (with --bootstrap, kept to a sample's copy).
+# where every coarse space is the whole space (with --bootstrap, kept to a sample's copy), and
+# bench/schwarz_blocks.py's overlapping blocks where one block holds every unknown.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -20,6 +21,7 @@ fb_newton_step=$(cd "$(dirname "$0")/../bench" && pwd)/fb_newton_step.py
 solution_set=$(cd "$(dirname "$0")/../bench" && pwd)/solution_set.py
 known_statuses=$(cd "$(dirname "$0")/../bench" && pwd)/known_statuses.py
 adaptive_coarse=$(cd "$(dirname "$0")/../bench" && pwd)/adaptive_coarse.py
+schwarz_blocks=$(cd "$(dirname "$0")/../bench" && pwd)/schwarz_blocks.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -199,6 +201,28 @@ elif ! grep -q "^sample_1: .*the kept cycle's contraction 0.000 per iteration$" 
        "(contraction 0) and its one-iteration solve at the reference"
   cat bootstrap.txt; fails=$((fails + 1))
 fi
+# bench/schwarz_blocks.py: one block holding every unknown (a cell wider than the test's cell,
+# or cells of one disk grown by more rings than M's graph is wide) is solved exactly, so GMRES
+# reaches the statuses' exact solution in one iteration on both samples, with the coarse
+# correction before the sweep too; blocks of one disk without overlap are not exact.
+schwarz_check() {  # EXACT(1|0) NAME OPTIONS...
+  local exact=$1 name=$2; shift 2
+  if ! /usr/bin/python3 "$schwarz_blocks" "${samples[0]}" "$@" > "schwarz_$name.txt" 2>&1; then
+    echo "FAIL: schwarz_blocks.py $* on the dumped samples failed"
+    cat "schwarz_$name.txt"; fails=$((fails + 1)); return
+  fi
+  local solved
+  solved=$(awk '/^  blocks: .* after 1$/ && $(NF - 2) + 0 < 1e-8 { n++ } END { print n + 0 }' \
+             "schwarz_$name.txt")
+  if [[ ( $exact == 1 && $solved != 2 ) || ( $exact == 0 && $solved == 2 ) ]]; then
+    echo "FAIL: schwarz_blocks.py $*: expected one-iteration solves at the reference on" \
+         "$((exact * 2)) samples, got $solved"; cat "schwarz_$name.txt"; fails=$((fails + 1))
+  fi
+}
+schwarz_check 1 whole --cell 1000 --overlap 0
+schwarz_check 1 grown --cell 0.3 --overlap 1000
+schwarz_check 1 coarse --cell 0.3 --overlap 1000 --coarse
+schwarz_check 0 disks --cell 0.3 --overlap 0
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at
 # round-off) on every sample.
