@@ -201,10 +201,12 @@ elif ! grep -q "^sample_1: .*the kept cycle's contraction 0.000 per iteration$" 
        "(contraction 0) and its one-iteration solve at the reference"
   cat bootstrap.txt; fails=$((fails + 1))
 fi
-# bench/schwarz_blocks.py: one block holding every unknown (a cell wider than the test's cell,
-# or cells of one disk grown by more rings than M's graph is wide) is solved exactly, so GMRES
-# reaches the statuses' exact solution in one iteration on both samples, with the coarse
-# correction before the sweep too; blocks of one disk without overlap are not exact.
+# bench/schwarz_blocks.py: where each connected piece of M's graph lies whole in one block (a
+# cell wider than the test's cell, or cells of one disk grown by more rings than the graph is
+# wide), the multiplicative sweep solves exactly, so GMRES reaches the statuses' exact solution in
+# one iteration on both samples (with --coarse too, which checks only that the coarse correction
+# composes with the sweep: the exact blocks override it); blocks of one disk without overlap are
+# not exact.
 schwarz_check() {  # EXACT(1|0) NAME OPTIONS...
   local exact=$1 name=$2; shift 2
   if ! /usr/bin/python3 "$schwarz_blocks" "${samples[0]}" "$@" > "schwarz_$name.txt" 2>&1; then
