@@ -74,12 +74,9 @@ def elimination_work(factor):
 def symmetric_lu(block):
     """SuperLU's factors of BLOCK ordered on the pattern of A + A^T (nearly symmetric: only the
     sliding contacts' columns differ) and pivoting on the diagonal, which keeps the fill the
-    ordering predicts; with partial pivoting where a diagonal pivot is zero."""
-    try:
-        return sla.splu(block, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                        options=dict(SymmetricMode=True))
-    except RuntimeError:
-        return sla.splu(block, permc_spec="MMD_AT_PLUS_A")
+    ordering predicts (SuperLU pivots off the diagonal only where a diagonal pivot is zero)."""
+    return sla.splu(block, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                    options=dict(SymmetricMode=True))
 
 
 class Blocks:
@@ -89,28 +86,20 @@ class Blocks:
         self.m = m.tocsr()
         graph = (abs(self.m) + abs(self.m.T)).tocsr()
         graph.data[:] = 1
-        self.members, self.factors, self.rows = [], [], []
-        self.setup = 0.0
-        for a in range(aggregate.max() + 1):
-            members = grown(np.flatnonzero(aggregate == a), graph, rings)
-            factor = symmetric_lu(self.m[members][:, members].tocsc())
-            self.members.append(members)
-            self.factors.append(factor)
-            self.rows.append(self.m[members])
-            self.setup += elimination_work(factor)
+        self.members = [grown(np.flatnonzero(aggregate == a), graph, rings)
+                        for a in range(aggregate.max() + 1)]
+        self.rows = [self.m[k] for k in self.members]
+        submatrices = [rows[:, k].tocsc() for rows, k in zip(self.rows, self.members)]
+        self.seconds = np.inf  # the factorisations' time, best of three
+        for _ in range(3):
+            start = time.perf_counter()
+            self.factors = [symmetric_lu(block) for block in submatrices]
+            self.seconds = min(self.seconds, time.perf_counter() - start)
+        self.setup = sum(elimination_work(f) for f in self.factors)
         # L's unit diagonal is stored but costs nothing
         self.work = 2 * sum(r.nnz + f.L.nnz - len(k) + f.U.nnz
                             for r, f, k in zip(self.rows, self.factors, self.members))
         self.sizes = np.array([len(k) for k in self.members])
-        self.seconds = min(self.factorisation_seconds() for _ in range(3))
-
-    def factorisation_seconds(self):
-        """The time of every block's factorisation, its submatrix extracted beforehand."""
-        blocks = [self.m[k][:, k].tocsc() for k in self.members]
-        start = time.perf_counter()
-        for block in blocks:
-            symmetric_lu(block)
-        return time.perf_counter() - start
 
     def sweep(self, z, v, order):
         for k in order:
