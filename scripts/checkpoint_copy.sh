@@ -1,5 +1,6 @@
-# Shared by scripts/solver_check.sh and bench/thread_scaling.sh (sourced, not run): the binary,
-# the checks of a run folder with a checkpoint, its copy into a folder, and the checkpoint's time.
+# Shared by scripts/solver_check.sh, scripts/paired_check.sh and bench/thread_scaling.sh (sourced,
+# not run): the binary, the checks of a run folder with a checkpoint, its copy into a folder, and
+# the checkpoint's time.
 
 # The cdshear binary to use: $CDSHEAR, else the repository's build; exits 2 if it is not built.
 checkpoint_cdshear() {
