@@ -47,6 +47,9 @@ expect_error "already holds results (case.toml, checkpoint.cbor" "$exe" run -q -
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
 expect_error "is a file: --resume takes the run's folder (done)" "$exe" run -q --resume done/case.toml
+# A run folder without its checkpoint (as a clone keeps a finished run) is called one.
+mkdir cloned && cp done/case.toml cloned/
+expect_error "cloned: a run folder without its checkpoint.cbor" "$exe" run -q --resume cloned
 # --force replaces what cdshear wrote and nothing else: the user's notes and own figures stay.
 mkdir -p done/figures done/snapshots
 echo "mine" > done/run_info_notes.txt
@@ -345,6 +348,20 @@ EOF_PY
 checks=$((checks + 1))
 grep -qF "prepared by cdshear 0.0.1 (commit 000000000000" cache/other.txt ||
   { echo "FAIL: a packing of another build reused without a word"; cat cache/other.txt; fails=$((fails + 1)); }
+# A packing that records no build (written before packings named theirs) is not called another's.
+/usr/bin/python3 - cache/packings/*.json << 'EOF_PY'
+import json, sys
+p = json.load(open(sys.argv[1]))
+del p["build"]
+json.dump(p, open(sys.argv[1], "w"))
+EOF_PY
+(cd cache && "$exe" "${small[@]}" -o unrecorded > unrecorded.txt)
+status=$?
+checks=$((checks + 1))
+if [ $status -ne 0 ] || grep -q "prepared by\|reusing" cache/unrecorded.txt; then
+  echo "FAIL: a packing without a build was called another build's, or named under -q"
+  cat cache/unrecorded.txt; fails=$((fails + 1))
+fi
 printf '[campaign]\nname = "w"\nsystems = [1]\nvelocities = [0.5]\nseeds = [1]\nduration = 1.0\n[campaign.packing]\n1 = "%s"\n' \
   "$work/v7.json" > foreign.toml
 expect_status2 "foreign.toml: key 'campaign.packing.1': $work/v7.json: key 'version'" \

@@ -88,6 +88,21 @@ TEST(BadInput, UnknownKey) {
                "domain.length_x", "give domain.periodic_x = true with it");
 }
 
+TEST(BadInput, AMissingRequiredKeyNamesTheMisspellingTheFileGives) {
+  std::string misspelt = scene_text();
+  misspelt.replace(misspelt.find("duration ="), 8, "duraton");
+  const ConfigError e = load_error(misspelt);
+  expect_names(e, "run.duration", "is required");
+  EXPECT_NE(std::string(e.what()).find("'run.duraton': misspelt?"), std::string::npos) << e.what();
+
+  // A key far from the missing one is not offered: it is reported as unknown once read.
+  std::string far = scene_text();
+  far.replace(far.find("duration ="), 8, "length");
+  const ConfigError f = load_error(far);
+  expect_names(f, "run.duration", "is required");
+  EXPECT_EQ(std::string(f.what()).find("misspelt"), std::string::npos) << f.what();
+}
+
 TEST(BadInput, WallNamesAreWordsThatCanHeadACsvColumn) {
   auto named = [](const std::string& name) {
     std::string text = scene_text();

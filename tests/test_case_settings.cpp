@@ -12,6 +12,7 @@
 #include "case_settings.hpp"
 #include "config_error.hpp"
 #include "shear_case.hpp"
+#include "test_support.hpp"
 
 namespace cdshear {
 namespace {
@@ -148,6 +149,35 @@ TEST(CaseSettings, PrintedSettingsReadBackAsTheSameCase) {
     EXPECT_TRUE(seen.insert(table + "." + dotted_key_of(line)).second) << line;
   }
   EXPECT_EQ(seen.size(), case_settings().size());
+}
+
+TEST(CaseSettings, ACaseFileThatGivesTheSystemsOwnNumbersRefusesAnotherPreset) {
+  // The file comes after --system: a file printed for system 1 with --system 3 would run system
+  // 1, unseen. Refused naming the key; the same preset, or the key given by --set, passes.
+  testing::TempDir dir("system_preset");
+  CaseSource system1;
+  system1.system = 1;
+  const std::string file =
+      dir.write("system1.toml", settings_as_toml(load_case(system1), "system 1's case"));
+  CaseSource other;
+  other.file = file;
+  other.system = 3;
+  try {
+    load_case(other);
+    ADD_FAILURE() << "--system 3 over a file of system 1 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), file);
+    EXPECT_EQ(e.key(), "system.n");
+    EXPECT_NE(std::string(e.what()).find("--system 3 gives 1023"), std::string::npos) << e.what();
+  }
+  other.system = 1;
+  EXPECT_EQ(load_case(other).n, 511u);
+  other.system = 3;
+  other.overrides = {"system.n=1023", "system.height=40", "shear.normal_stress=0.0625"};
+  const ShearCase three = load_case(other);
+  EXPECT_EQ(three.n, 1023u);
+  EXPECT_EQ(three.normal_stress, 0.0625);
+  EXPECT_EQ(three.duration, 20000.0);  // the file's, which comes after the preset's 10000
 }
 
 TEST(CaseSettings, SceneSolverRowsAreTheCaseSolverRows) {

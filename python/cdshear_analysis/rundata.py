@@ -606,6 +606,24 @@ def _read_time_limit(path):
             signal.alarm(0)
 
 
+def missing_run_file(run_dir):
+    """Why RUN_DIR, a folder without RUN_FILE, cannot be read, in words: a run that measured
+    nothing, a run folder whose RUN_FILE was not kept (a clone keeps summaries), or no run."""
+    case = os.path.join(run_dir, "case.toml")
+    try:
+        with open(case, "rb") as f:
+            measured = tomllib.load(f).get("measure", {}).get("enabled", True)
+    except (OSError, tomllib.TOMLDecodeError, AttributeError):
+        measured = True
+    if measured is False:
+        return (f"a run with measure.enabled = false: it wrote no {RUN_FILE}, so there is "
+                "nothing to analyse")
+    if os.path.isfile(case) or os.path.isfile(os.path.join(run_dir, "summary.json")):
+        return (f"a run folder without its {RUN_FILE} (git does not keep it: a clone holds "
+                "finished runs as their summary.json)")
+    return f"not a run folder (no {RUN_FILE})"
+
+
 def load_run(run_dir):
     """Read RUN_DIR/run.h5 into a dict of numpy arrays and metadata (see the module doc)."""
     run_dir = os.fspath(run_dir)
@@ -614,7 +632,7 @@ def load_run(run_dir):
                            else "not a folder (expected a run folder holding run.h5)")
     path = os.path.join(run_dir, RUN_FILE)
     if not os.path.isfile(path):
-        raise RunDataError(run_dir, f"not a run folder (no {RUN_FILE})")
+        raise RunDataError(run_dir, missing_run_file(run_dir))
     if os.path.getsize(path) == 0:
         raise RunDataError(path, "empty file")
     check_seal(path)

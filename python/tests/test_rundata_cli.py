@@ -105,8 +105,18 @@ class RunData(unittest.TestCase):
         seal(os.path.join(missing, "run.h5"))   # a sealed file that lacks a dataset
         nodata = os.path.join(d, "nodata")   # written before the first sample
         write_synthetic_run(nodata, kind="A", duration=400.0, time_reached=0.0)
+        unmeasured = os.path.join(d, "unmeasured")   # a run with measure.enabled = false
+        os.makedirs(unmeasured)
+        with open(os.path.join(unmeasured, "case.toml"), "w") as f:
+            f.write("[system]\nn = 511\n\n[measure]\nenabled = false\nwindow = 40.0\n")
+        cloned = os.path.join(d, "cloned")   # a clone keeps a finished run's summary only
+        os.makedirs(cloned)
+        with open(os.path.join(cloned, "summary.json"), "w") as f:
+            f.write("{}")
         cases = [("nowhere", os.path.join(d, "nowhere"), "no such folder"),
-                 ("not_a_run", os.path.join(d, "not_a_run"), "no run.h5"),
+                 ("not_a_run", os.path.join(d, "not_a_run"), "not a run folder (no run.h5)"),
+                 ("unmeasured", unmeasured, "measure.enabled = false: it wrote no run.h5"),
+                 ("cloned", cloned, "a run folder without its run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),
                  ("truncated", os.path.join(truncated, "run.h5"), "damaged"),
@@ -115,7 +125,8 @@ class RunData(unittest.TestCase):
         for command in ("analyze", "plot"):
             for name, path, problem in cases:
                 with self.subTest(command=command, case=name):
-                    folder = path if name in ("nowhere", "not_a_run") else os.path.dirname(path)
+                    folders = ("nowhere", "not_a_run", "unmeasured", "cloned")
+                    folder = path if name in folders else os.path.dirname(path)
                     result = run_module(command, folder)
                     self.assertEqual(result.returncode, 2, result.stderr)
                     self.assertTrue(result.stderr.startswith(f"error: {path}: "), result.stderr)

@@ -109,14 +109,17 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
   const fs::path cached = fs::path("packings") / packing_cache_name(c.preparation);
   if (fs::exists(cached)) {
     Packing p = read_packing(cached, tolerance);
-    std::printf("reusing packing %s\n", cached.c_str());
     // The cache's name covers the preparation's settings, not its code: say when another build
-    // prepared it, so that a changed preparation is not reused unnoticed.
+    // prepared it, so that a changed preparation is not reused unnoticed (even with --quiet). A
+    // packing that records no build (the repository's, written before packings named their
+    // build) is only named.
     const std::string here = build_description();
-    if (p.build != here)
+    const bool another_build = !p.build.empty() && p.build != here;
+    if (!quiet || another_build) std::printf("reusing packing %s\n", cached.c_str());
+    if (another_build)
       std::printf(
           "  prepared by %s;\n  this is %s: delete the file to prepare it with this build\n",
-          p.build.empty() ? "a build that did not record itself" : p.build.c_str(), here.c_str());
+          p.build.c_str(), here.c_str());
     return {std::move(p), cached};
   }
   check_packing_destination(cached);  // before the preparation, not after it
@@ -252,7 +255,13 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
                       "is a file: --resume takes the run's folder (" +
                           (s.dir.has_parent_path() ? s.dir.parent_path().string() : ".") + ")");
   if (!fs::exists(s.dir / "checkpoint.cbor"))
-    throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
+    throw ConfigError(
+        s.dir.string(), "",
+        fs::exists(s.dir / "case.toml") || fs::exists(s.dir / "summary.json")
+            ? "a run folder without its checkpoint.cbor (git does not keep checkpoints: a clone "
+              "holds finished runs as their summaries), so the run cannot go on; run it again "
+              "from its case.toml in another folder"
+            : "no checkpoint.cbor here: not a cdshear run folder");
   // Before anything is read: a run still writing this folder would overwrite the resume's files.
   s.lock = FolderLock::take(s.dir);
   remove_stale_temporaries(s.dir);

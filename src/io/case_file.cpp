@@ -205,6 +205,35 @@ ShearCase case_from_toml(const toml::table& table, const std::string& file, Shea
   return c;
 }
 
+namespace {
+
+/// A case file comes after the `--system` preset: where it gives the system's own numbers (its
+/// grains, height or normal stress) other values than the preset's, `--system` would change
+/// nothing there, unseen (a file written by `cdshear settings` gives them all). Refused, naming
+/// the key; a --set of the key is meant and passes.
+void check_file_keeps_system(const toml::table& table, const std::string& file, int system,
+                             const ShearCase& preset, const OverrideSources& given_on_line) {
+  const struct {
+    const char* key;
+    double value;
+  } identity[] = {{"system.n", static_cast<double>(preset.n)},
+                  {"system.height", preset.height},
+                  {"shear.normal_stress", preset.normal_stress}};
+  for (const auto& [key, value] : identity) {
+    if (given_on_line.contains(key)) continue;
+    const std::optional<double> given = table.at_path(key).value<double>();
+    if (!given || *given == value) continue;
+    throw ConfigError(file, key,
+                      "is " + format_number(*given) + " where --system " + std::to_string(system) +
+                          " gives " + format_number(value) +
+                          ": the case file comes after the preset, so --system would change "
+                          "nothing here; remove the system's keys from the file, or leave out "
+                          "--system (docs/case-files.md, precedence)");
+  }
+}
+
+}  // namespace
+
 ShearCase load_case(const CaseSource& src) {
   ShearCase c;
   sync_preparation(c);
@@ -228,6 +257,8 @@ ShearCase load_case(const CaseSource& src) {
     (*sources)["shear.velocity"] = "--velocity";
   }
   apply_overrides(table, src.overrides, sources.get());
+  if (src.system && !src.file.empty())
+    check_file_keeps_system(table, src.file, *src.system, c, *sources);
   if (src.velocity && *src.velocity <= 0.0)
     throw ConfigError("--velocity", "shear.velocity", "must be > 0", "shear.velocity");
   ShearCase resolved = case_from_toml(table, name, c, sources);

@@ -2,10 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 namespace cdshear {
 
@@ -152,7 +154,46 @@ std::string blamed_source(const std::string& file, const OverrideSources* source
   return given.empty() ? file : sources->at(given);
 }
 
+namespace {
+
+/// Edits (insertions, deletions, substitutions) between two keys: Levenshtein's distance.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({above + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+std::string TomlReader::near_miss(const std::string& key) const {
+  // A key of this table not read so far, within a third of the key's length in edits (at least
+  // two): `velocity` for `velocities`, `sytems` for `systems`.
+  const std::size_t allowed = std::max<std::size_t>(2, key.size() / 3);
+  std::string best;
+  std::size_t best_distance = allowed + 1;
+  for (const auto& [k, v] : *table_) {
+    const std::string name(k.str());
+    if (name == key || used_.contains(name)) continue;
+    const std::size_t d = edit_distance(name, key);
+    if (d < best_distance) best = name, best_distance = d;
+  }
+  return best;
+}
+
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
+  // A required key that is missing is most often misspelt: name the spelling the file has.
+  if (problem.starts_with("is required") && !table_->contains(key))
+    if (const std::string typo = near_miss(key); !typo.empty())
+      fail_between(key, {}, problem + " (the file gives '" + full_key(typo) + "': misspelt?)");
   fail_between(key, {}, problem);
 }
 

@@ -100,7 +100,12 @@ class TomlReader {
   /// Throws ConfigError for the first key of this table that was never read.
   void finish() const;
 
+  /// Fails on `key`; a problem starting "is required" names a key of this table not read so far
+  /// within a few edits of `key` (near_miss), the likely misspelling.
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+  /// The key of this table, not read so far, closest to `key` within a third of its length in
+  /// edits (at least two); empty if none.
+  std::string near_miss(const std::string& key) const;
   /// Fails a condition between this table's `key` and the keys `others` (full dotted keys):
   /// names `key`, blamed on a --set of `key` or of one of `others` (blamed_source).
   [[noreturn]] void fail_between(const std::string& key, std::initializer_list<std::string> others,
