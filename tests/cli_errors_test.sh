@@ -47,9 +47,12 @@ expect_error "already holds results (case.toml, checkpoint.cbor" "$exe" run -q -
 expect_error "cannot be changed on --resume" "$exe" run -q --resume done --set shear.velocity=2
 expect_error "cannot be combined with --resume" "$exe" run -q --resume done -V 2
 expect_error "is a file: --resume takes the run's folder (done)" "$exe" run -q --resume done/case.toml
-# A run folder without its checkpoint (as a clone keeps a finished run) is called one.
-mkdir cloned && cp done/case.toml cloned/
-expect_error "cloned: a run folder without its checkpoint.cbor" "$exe" run -q --resume cloned
+# A run folder without its checkpoint is called one: a clone keeps a finished run's summary, a
+# run killed before its first checkpoint only its case.toml.
+mkdir cloned stopped && cp done/case.toml cloned/ && cp done/case.toml stopped/
+echo '{}' > cloned/summary.json
+expect_error "cloned: a finished run without its checkpoint.cbor" "$exe" run -q --resume cloned
+expect_error "stopped: a run folder without checkpoint.cbor: the run stopped" "$exe" run -q --resume stopped
 # --force replaces what cdshear wrote and nothing else: the user's notes and own figures stay.
 mkdir -p done/figures done/snapshots
 echo "mine" > done/run_info_notes.txt

@@ -101,6 +101,31 @@ TEST(BadInput, AMissingRequiredKeyNamesTheMisspellingTheFileGives) {
   const ConfigError f = load_error(far);
   expect_names(f, "run.duration", "is required");
   EXPECT_EQ(std::string(f.what()).find("misspelt"), std::string::npos) << f.what();
+
+  // A sibling key read after the missing one (region_max after region_min) is not a misspelling.
+  const std::string random_disks = "[[random_disks]]\ncount = 1\nregion_max = [4.0, 4.0]\n";
+  const ConfigError g = load_error(scene_text("dt = 1e-3\n", "", random_disks));
+  expect_names(g, "random_disks[0].region_min", "is required");
+  EXPECT_EQ(std::string(g.what()).find("misspelt"), std::string::npos) << g.what();
+  const ConfigError h = load_error(
+      scene_text("dt = 1e-3\n", "", "[[random_disks]]\ncount = 1\nregion_mn = [0.0, 0.0]\n"));
+  EXPECT_NE(std::string(h.what()).find("'random_disks[0].region_mn': misspelt?"), std::string::npos)
+      << h.what();
+
+  // A misspelling given by --set is named as such, and the error blames that --set.
+  TempDir dir("misspelt_set");
+  std::string without = scene_text();
+  without.erase(without.find("duration = 0.01\n"), 16);
+  const std::string path = dir.write("scene.toml", without);
+  try {
+    load_scene_file(path, {"run.duraton=0.01"});
+    ADD_FAILURE() << "a scene without run.duration loaded";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "--set run.duraton=0.01") << e.what();
+    EXPECT_NE(std::string(e.what()).find("(--set gives 'run.duraton': misspelt?)"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(BadInput, WallNamesAreWordsThatCanHeadACsvColumn) {

@@ -613,14 +613,17 @@ def missing_run_file(run_dir):
     try:
         with open(case, "rb") as f:
             measured = tomllib.load(f).get("measure", {}).get("enabled", True)
-    except (OSError, tomllib.TOMLDecodeError, AttributeError):
+    except (OSError, ValueError, AttributeError):   # ValueError: TOML or UTF-8 decoding
         measured = True
     if measured is False:
         return (f"a run with measure.enabled = false: it wrote no {RUN_FILE}, so there is "
                 "nothing to analyse")
-    if os.path.isfile(case) or os.path.isfile(os.path.join(run_dir, "summary.json")):
-        return (f"a run folder without its {RUN_FILE} (git does not keep it: a clone holds "
+    if os.path.isfile(os.path.join(run_dir, "summary.json")):
+        return (f"a finished run without its {RUN_FILE} (git does not keep it: a clone holds "
                 "finished runs as their summary.json)")
+    if os.path.isfile(case):
+        return (f"a run folder without {RUN_FILE}: the run stopped before its first checkpoint "
+                "(or the file was removed)")
     return f"not a run folder (no {RUN_FILE})"
 
 

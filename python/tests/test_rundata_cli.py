@@ -109,6 +109,10 @@ class RunData(unittest.TestCase):
         os.makedirs(unmeasured)
         with open(os.path.join(unmeasured, "case.toml"), "w") as f:
             f.write("[system]\nn = 511\n\n[measure]\nenabled = false\nwindow = 40.0\n")
+        stopped = os.path.join(d, "stopped")   # killed before its first checkpoint
+        os.makedirs(stopped)
+        with open(os.path.join(stopped, "case.toml"), "wb") as f:
+            f.write(b"[system]\nn = 511 # \xff not UTF-8\n")
         cloned = os.path.join(d, "cloned")   # a clone keeps a finished run's summary only
         os.makedirs(cloned)
         with open(os.path.join(cloned, "summary.json"), "w") as f:
@@ -116,7 +120,8 @@ class RunData(unittest.TestCase):
         cases = [("nowhere", os.path.join(d, "nowhere"), "no such folder"),
                  ("not_a_run", os.path.join(d, "not_a_run"), "not a run folder (no run.h5)"),
                  ("unmeasured", unmeasured, "measure.enabled = false: it wrote no run.h5"),
-                 ("cloned", cloned, "a run folder without its run.h5"),
+                 ("stopped", stopped, "the run stopped before its first checkpoint"),
+                 ("cloned", cloned, "a finished run without its run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),
                  ("truncated", os.path.join(truncated, "run.h5"), "damaged"),
@@ -125,7 +130,7 @@ class RunData(unittest.TestCase):
         for command in ("analyze", "plot"):
             for name, path, problem in cases:
                 with self.subTest(command=command, case=name):
-                    folders = ("nowhere", "not_a_run", "unmeasured", "cloned")
+                    folders = ("nowhere", "not_a_run", "unmeasured", "stopped", "cloned")
                     folder = path if name in folders else os.path.dirname(path)
                     result = run_module(command, folder)
                     self.assertEqual(result.returncode, 2, result.stderr)

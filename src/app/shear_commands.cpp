@@ -257,10 +257,14 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
   if (!fs::exists(s.dir / "checkpoint.cbor"))
     throw ConfigError(
         s.dir.string(), "",
-        fs::exists(s.dir / "case.toml") || fs::exists(s.dir / "summary.json")
-            ? "a run folder without its checkpoint.cbor (git does not keep checkpoints: a clone "
-              "holds finished runs as their summaries), so the run cannot go on; run it again "
-              "from its case.toml in another folder"
+        fs::exists(s.dir / "summary.json")
+            ? "a finished run without its checkpoint.cbor (git does not keep checkpoints: a "
+              "clone holds finished runs as their summaries), so the run cannot go on; run it "
+              "again from its case.toml in another folder"
+        : fs::exists(s.dir / "case.toml")
+            ? "a run folder without checkpoint.cbor: the run stopped before its first "
+              "checkpoint (or the file was removed), so it cannot go on; run it again from its "
+              "case.toml (-o with --force, or another folder)"
             : "no checkpoint.cbor here: not a cdshear run folder");
   // Before anything is read: a run still writing this folder would overwrite the resume's files.
   s.lock = FolderLock::take(s.dir);

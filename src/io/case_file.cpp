@@ -227,8 +227,9 @@ void check_file_keeps_system(const toml::table& table, const std::string& file, 
                       "is " + format_number(*given) + " where --system " + std::to_string(system) +
                           " gives " + format_number(value) +
                           ": the case file comes after the preset, so --system would change "
-                          "nothing here; remove the system's keys from the file, or leave out "
-                          "--system (docs/case-files.md, precedence)");
+                          "nothing here; give the key with --set, remove it from the file (whose "
+                          "shear.duration and measure.window, if given, also win over the "
+                          "preset's), or leave out --system (docs/case-files.md, precedence)");
   }
 }
 

@@ -172,6 +172,16 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
+/// Whether `a` and `b` are sibling keys (`region_min`, `region_max`): the same up to a last '_',
+/// their last parts two or more edits apart. A missing key's sibling is read on its own, not
+/// misspelt (`region_mn` is one edit from `region_min`: a misspelling).
+bool siblings(const std::string& a, const std::string& b) {
+  const std::size_t cut = a.rfind('_');
+  if (cut == std::string::npos || b.rfind('_') != cut || a.compare(0, cut, b, 0, cut) != 0)
+    return false;
+  return edit_distance(a.substr(cut), b.substr(cut)) >= 2;
+}
+
 }  // namespace
 
 std::string TomlReader::near_miss(const std::string& key) const {
@@ -182,7 +192,7 @@ std::string TomlReader::near_miss(const std::string& key) const {
   std::size_t best_distance = allowed + 1;
   for (const auto& [k, v] : *table_) {
     const std::string name(k.str());
-    if (name == key || used_.contains(name)) continue;
+    if (name == key || used_.contains(name) || siblings(name, key)) continue;
     const std::size_t d = edit_distance(name, key);
     if (d < best_distance) best = name, best_distance = d;
   }
@@ -190,10 +200,15 @@ std::string TomlReader::near_miss(const std::string& key) const {
 }
 
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
-  // A required key that is missing is most often misspelt: name the spelling the file has.
+  // A required key that is missing is most often misspelt: name the spelling given, in the file
+  // or by a --set (which the error then blames).
   if (problem.starts_with("is required") && !table_->contains(key))
-    if (const std::string typo = near_miss(key); !typo.empty())
-      fail_between(key, {}, problem + " (the file gives '" + full_key(typo) + "': misspelt?)");
+    if (const std::string typo = near_miss(key); !typo.empty()) {
+      const std::string typo_key = full_key(typo);
+      fail_between(key, {typo_key},
+                   problem + " (" + (overridden(typo_key) ? "--set" : "the file") + " gives '" +
+                       typo_key + "': misspelt?)");
+    }
   fail_between(key, {}, problem);
 }
 

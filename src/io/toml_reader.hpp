@@ -101,10 +101,12 @@ class TomlReader {
   void finish() const;
 
   /// Fails on `key`; a problem starting "is required" names a key of this table not read so far
-  /// within a few edits of `key` (near_miss), the likely misspelling.
+  /// within a few edits of `key` (near_miss), the likely misspelling, and blames its --set where
+  /// one gave it.
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
-  /// The key of this table, not read so far, closest to `key` within a third of its length in
-  /// edits (at least two); empty if none.
+  /// The key of this table, not read so far and not a sibling of `key` (`region_max` for
+  /// `region_min`), closest to `key` within a third of its length in edits (at least two); empty
+  /// if none.
   std::string near_miss(const std::string& key) const;
   /// Fails a condition between this table's `key` and the keys `others` (full dotted keys):
   /// names `key`, blamed on a --set of `key` or of one of `others` (blamed_source).
