@@ -115,6 +115,13 @@ stop=$(/usr/bin/python3 -c 'import json; print(json.load(open("busy/progress.jso
 "$exe" run -q --no-analyze --resume busy --stop-at "$stop" > /dev/null 2> err.txt ||
   { echo "FAIL: the resume after the holder stopped: $(cat err.txt)"; fails=$((fails + 1)); }
 
+# Before its first checkpoint too: a resume names the run still going, not a stopped one.
+"$exe" run -q --no-analyze --threads 1 --packing "$packing" --set shear.duration=500 \
+  --set output.checkpoint_interval=0 -o early > /dev/null 2>&1 & early_pid=$!
+for _ in $(seq 600); do [ -f early/case.toml ] && break; sleep 0.05; done
+expect_error "another cdshear is writing this folder (pid $early_pid on " "$exe" run -q --resume early
+kill -TERM $early_pid; wait $early_pid 2> /dev/null
+
 # analyze and plot: a folder that is not a run, an empty and a truncated run.h5 give a clear
 # error naming the file, with exit status 2.
 expect_status2() {  # expect_status2 "words in the message" command...
