@@ -610,10 +610,9 @@ def missing_run_file(run_dir):
     """Why RUN_DIR, a folder without RUN_FILE, cannot be read, in words: a run that measured
     nothing, a run folder whose RUN_FILE was not kept (a clone keeps summaries), or no run."""
     case = os.path.join(run_dir, "case.toml")
-    try:
-        with open(case, "rb") as f:
-            measured = tomllib.load(f).get("measure", {}).get("enabled", True)
-    except (OSError, ValueError, AttributeError):   # ValueError: TOML or UTF-8 decoding
+    try:   # _read_text: None for no file (or a FIFO); ValueError: TOML or UTF-8 decoding
+        measured = tomllib.loads(_read_text(case) or "").get("measure", {}).get("enabled", True)
+    except (ValueError, AttributeError):
         measured = True
     if measured is False:
         return (f"a run with measure.enabled = false: it wrote no {RUN_FILE}, so there is "

@@ -254,14 +254,14 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError("--resume " + s.dir.string(), "",
                       "is a file: --resume takes the run's folder (" +
                           (s.dir.has_parent_path() ? s.dir.parent_path().string() : ".") + ")");
-  if (!fs::exists(s.dir / "checkpoint.cbor")) {
-    const bool finished = fs::exists(s.dir / "summary.json");
-    if (!finished && !fs::exists(s.dir / "case.toml"))
-      throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
-    // A run still going before its first checkpoint holds the folder's lock: take() names it.
-    if (!finished) {
-      const FolderLock probe = FolderLock::take(s.dir);
-    }
+  const bool finished = fs::exists(s.dir / "summary.json");
+  const bool checkpointed = fs::exists(s.dir / "checkpoint.cbor");
+  if (!checkpointed && !finished && !fs::exists(s.dir / "case.toml"))
+    throw ConfigError(s.dir.string(), "", "no checkpoint.cbor here: not a cdshear run folder");
+  // Before anything is read: a run still writing this folder (before its first checkpoint too)
+  // would overwrite the resume's files, and is named.
+  s.lock = FolderLock::take(s.dir);
+  if (!checkpointed)
     throw ConfigError(
         s.dir.string(), "",
         finished ? "a finished run without its checkpoint.cbor (git does not keep checkpoints: a "
@@ -270,9 +270,6 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
                  : "a run folder without checkpoint.cbor: the run stopped before its first "
                    "checkpoint (or the file was removed), so it cannot go on; run it again from "
                    "its case.toml (-o with --force, or another folder)");
-  }
-  // Before anything is read: a run still writing this folder would overwrite the resume's files.
-  s.lock = FolderLock::take(s.dir);
   remove_stale_temporaries(s.dir);
   CaseSource src;
   src.file = (s.dir / "case.toml").string();

@@ -159,7 +159,7 @@ CampaignGroup read_group(TomlReader& t) {
   const bool has_list = t.has("velocities"), has_range = t.has("velocity_range");
   if (has_list && has_range)
     t.fail("velocity_range", "give either velocities or velocity_range, not both");
-  if (!has_list && !has_range) t.fail("velocities", "is required (or a velocity_range table)");
+  if (!has_list && !has_range) t.fail_missing("velocities", " (or a velocity_range table)");
   if (has_list) {
     g.velocities = t.number_array("velocities");
     if (g.velocities.empty()) t.fail("velocities", "is empty: give at least one V");
@@ -194,7 +194,7 @@ CampaignGroup read_group(TomlReader& t) {
   if (has_duration && has_strain)
     t.fail("strain", "give either duration (time units) or strain, not both");
   if (!has_duration && !has_strain)
-    t.fail("duration", "is required: give duration (time units per run) or strain (2 V t / L_y)");
+    t.fail_missing("duration", ": give duration (time units per run) or strain (2 V t / L_y)");
   if (has_duration) {
     if (t.has_table("duration")) {
       // One duration per system (model.md section 6 gives each its own simulated time).
@@ -353,7 +353,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   Campaign c;
   c.file = file;
   TomlReader root(table, file);
-  if (!root.has("campaign")) root.fail("campaign", "is required (a [campaign] table)");
+  if (!root.has("campaign")) root.fail_missing("campaign", " (a [campaign] table)");
   TomlReader t = root.table("campaign");
 
   c.name = t.string("name");

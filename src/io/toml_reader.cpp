@@ -200,15 +200,19 @@ std::string TomlReader::near_miss(const std::string& key) const {
 }
 
 void TomlReader::fail(const std::string& key, const std::string& problem) const {
+  fail_between(key, {}, problem);
+}
+
+void TomlReader::fail_missing(const std::string& key, const std::string& how) const {
   // A required key that is missing is most often misspelt: name the spelling given, in the file
   // or by a --set (which the error then blames).
-  if (problem.starts_with("is required") && !table_->contains(key))
-    if (const std::string typo = near_miss(key); !typo.empty()) {
-      const std::string typo_key = full_key(typo);
-      fail_between(key, {typo_key},
-                   problem + " (" + (overridden(typo_key) ? "--set" : "the file") + " gives '" +
-                       typo_key + "': misspelt?)");
-    }
+  const std::string problem = "is required" + how;
+  if (const std::string typo = near_miss(key); !typo.empty()) {
+    const std::string typo_key = full_key(typo);
+    fail_between(key, {typo_key},
+                 problem + " (" + (overridden(typo_key) ? "--set" : "the file") + " gives '" +
+                     typo_key + "': misspelt?)");
+  }
   fail_between(key, {}, problem);
 }
 
@@ -257,7 +261,7 @@ const toml::node* TomlReader::lookup(const std::string& key) {
 double TomlReader::number(const std::string& key, std::optional<double> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
-    if (!fallback) fail(key, "is required");
+    if (!fallback) fail_missing(key);
     return *fallback;
   }
   if (auto v = n->value<double>(); v && (n->is_floating_point() || n->is_integer())) {
@@ -270,7 +274,7 @@ double TomlReader::number(const std::string& key, std::optional<double> fallback
 std::int64_t TomlReader::integer(const std::string& key, std::optional<std::int64_t> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
-    if (!fallback) fail(key, "is required");
+    if (!fallback) fail_missing(key);
     return *fallback;
   }
   if (!n->is_integer()) fail(key, "must be an integer");
@@ -289,7 +293,7 @@ std::int64_t TomlReader::integer_in(const std::string& key, std::int64_t lo, std
 bool TomlReader::boolean(const std::string& key, std::optional<bool> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
-    if (!fallback) fail(key, "is required");
+    if (!fallback) fail_missing(key);
     return *fallback;
   }
   if (!n->is_boolean()) fail(key, "must be true or false");
@@ -299,7 +303,7 @@ bool TomlReader::boolean(const std::string& key, std::optional<bool> fallback) {
 std::string TomlReader::string(const std::string& key, std::optional<std::string> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
-    if (!fallback) fail(key, "is required");
+    if (!fallback) fail_missing(key);
     return *fallback;
   }
   if (!n->is_string()) fail(key, "must be a string");
@@ -309,7 +313,7 @@ std::string TomlReader::string(const std::string& key, std::optional<std::string
 Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
-    if (!fallback) fail(key, "is required");
+    if (!fallback) fail_missing(key);
     return *fallback;
   }
   const toml::array* a = n->as_array();
@@ -324,7 +328,7 @@ Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
 
 std::vector<double> TomlReader::number_array(const std::string& key) {
   const toml::node* n = lookup(key);
-  if (n == nullptr) fail(key, "is required");
+  if (n == nullptr) fail_missing(key);
   const toml::array* a = n->as_array();
   if (a == nullptr) fail(key, "must be an array of numbers, like [5.0, 10.0]");
   std::vector<double> out;
@@ -340,7 +344,7 @@ std::vector<double> TomlReader::number_array(const std::string& key) {
 std::vector<std::int64_t> TomlReader::integer_array(const std::string& key, std::int64_t lo,
                                                     std::int64_t hi) {
   const toml::node* n = lookup(key);
-  if (n == nullptr) fail(key, "is required");
+  if (n == nullptr) fail_missing(key);
   const toml::array* a = n->as_array();
   if (a == nullptr) fail(key, "must be an array of whole numbers, like [1, 2]");
   std::vector<std::int64_t> out;

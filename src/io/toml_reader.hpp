@@ -100,10 +100,11 @@ class TomlReader {
   /// Throws ConfigError for the first key of this table that was never read.
   void finish() const;
 
-  /// Fails on `key`; a problem starting "is required" names a key of this table not read so far
-  /// within a few edits of `key` (near_miss), the likely misspelling, and blames its --set where
-  /// one gave it.
   [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+  /// Fails on the missing `key`: "is required" followed by `how` (how to give it), naming a key of
+  /// this table not read so far within a few edits of `key` (near_miss), the likely misspelling,
+  /// and blaming its --set where one gave it.
+  [[noreturn]] void fail_missing(const std::string& key, const std::string& how = "") const;
   /// The key of this table, not read so far and not a sibling of `key` (`region_max` for
   /// `region_min`), closest to `key` within a third of its length in edits (at least two); empty
   /// if none.
