@@ -138,6 +138,18 @@ expect_status2 "notarun" "$exe" analyze notarun
 printf '#!/bin/sh\nkill -SEGV $$\n' > crash.sh; chmod +x crash.sh
 expect_status2 "done: the analysis (\`analyze\`) died of signal 11" \
   env CDSHEAR_PYTHON="$work/crash.sh" "$exe" analyze done
+# A stop request sent to cdshear alone (`kill PID`) during its analysis is passed on to the
+# analysis: exit 130 with a message at once, and `--plot` does not go on. The stand-in analysis
+# signals its parent, then waits for a minute unless stopped.
+printf '#!/bin/sh\nkill -TERM $PPID\nexec sleep 60\n' > stop_parent.sh; chmod +x stop_parent.sh
+checks=$((checks + 1))
+started=$(date +%s)
+env CDSHEAR_PYTHON="$work/stop_parent.sh" "$exe" analyze --plot done > out.txt 2> err.txt; rc=$?
+if [ $rc -ne 130 ] || [ $(($(date +%s) - started)) -ge 30 ] ||
+  ! grep -qF "done: \`analyze\` was interrupted" err.txt || grep -qF "plot" err.txt; then
+  echo "FAIL: a stopped analysis: exit $rc after $(($(date +%s) - started)) s:"; cat err.txt
+  fails=$((fails + 1))
+fi
 expect_status2 "notarun" "$exe" plot notarun
 expect_status2 "nowhere" "$exe" analyze nowhere
 : > empty/run.h5

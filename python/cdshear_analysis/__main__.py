@@ -390,10 +390,18 @@ def _time(t):
 
 
 if __name__ == "__main__":
+    import signal
     from . import rundata
     rundata.LIMIT_READ_TIME = True  # a process of its own: a read that never ends may end it
+    # A stop request (cdshear passes SIGINT, SIGTERM and SIGHUP on as SIGTERM) unwinds like
+    # Ctrl-C, so replace_atomically removes its temporary; exit 130, and cdshear, which started
+    # this, says so.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    signal.signal(signal.SIGHUP, signal.default_int_handler)
     try:
         sys.exit(main())
+    except KeyboardInterrupt:
+        sys.exit(130)
     except BrokenPipeError:  # the reader went away (`| head`): stop quietly, as other tools do
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         sys.exit(1)

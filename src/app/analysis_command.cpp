@@ -13,6 +13,7 @@
 #include <system_error>
 
 #include "commands.hpp"
+#include "run_loop.hpp"
 
 namespace cdshear {
 
@@ -33,6 +34,19 @@ AnalysisPackage find_analysis_package() {
   }
   return {CDSHEAR_PYTHON_DIR, "source tree", has_package(CDSHEAR_PYTHON_DIR)};
 }
+
+namespace {
+/// A stop request (SIGINT, SIGTERM, SIGHUP) ended the analysis or came before it: exit 130, as an
+/// interrupted run does. The analysis writes each file whole or not at all, and never touches the
+/// run's data.
+int report_stopped_analysis(const std::string& verb, const std::filesystem::path& dir) {
+  std::fprintf(stderr,
+               "stopped: %s: `%s` was interrupted before it ended (what it wrote is whole, the "
+               "run's data untouched); `cdshear %s %s` does it again\n",
+               dir.c_str(), verb.c_str(), verb.c_str(), dir.c_str());
+  return 130;
+}
+}  // namespace
 
 int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                  const std::vector<std::string>& extra) {
@@ -67,6 +81,9 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                                  : run_dir.string();
   std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, folder};
   args.insert(args.end(), extra.begin(), extra.end());
+  // A stop request before the analysis starts (a run's SIGTERM after its last step, or between
+  // `analyze` and `plot`) starts nothing.
+  if (g_stop_requested.load()) return report_stopped_analysis(verb, run_dir);
   std::fflush(stdout);
   std::fflush(stderr);
   const pid_t pid = fork();
@@ -86,14 +103,42 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     std::perror(("error: cannot start " + python).c_str());
     _exit(127);
   }
+  // cdshear's stop handlers catch SIGINT, SIGTERM and SIGHUP (run_loop.cpp), so a signal sent to
+  // cdshear alone (`kill PID`, a batch system's signal to the main process) would leave the
+  // analysis running. It is passed on as SIGTERM: the analysis writes each file whole or not at
+  // all (os.replace), so it stops with nothing half written. Polled every 20 ms, as the handler
+  // only sets a flag and waitpid restarts after it. The analysis turns SIGTERM into Python's
+  // KeyboardInterrupt, which removes its temporaries; one inside the HDF5 library that does not
+  // return to Python within 10 s is killed.
+  constexpr int kPollMicroseconds = 20000;
+  constexpr int kPollsBeforeKill = 500;  // 10 s
   int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) {
+  int polls_since_passed_on = -1;  // -1: not passed on
+  for (;;) {
+    const pid_t ended = waitpid(pid, &status, WNOHANG);
+    if (ended == pid) break;
+    if (ended < 0 && errno != EINTR) {
       std::perror("error: waiting for the analysis");
       return 1;
     }
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
+    if (polls_since_passed_on < 0 && g_stop_requested.load()) {
+      ::kill(pid, SIGTERM);
+      polls_since_passed_on = 0;
+    } else if (polls_since_passed_on >= 0 && ++polls_since_passed_on == kPollsBeforeKill) {
+      ::kill(pid, SIGKILL);
+    }
+    ::usleep(kPollMicroseconds);
+  }
   const int signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+  // An analysis that ended on its own as the request came counts as done (the next one, `plot`
+  // after `analyze`, is not started).
+  const bool stopped_by_request =
+      g_stop_requested.load() &&
+      (WIFEXITED(status) ? WEXITSTATUS(status) == 130
+                         : signal == SIGINT || signal == SIGTERM || signal == SIGHUP ||
+                               (signal == SIGKILL && polls_since_passed_on >= kPollsBeforeKill));
+  if (stopped_by_request) return report_stopped_analysis(verb, run_dir);
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
   // The analysis ends itself by SIGALRM when reading a run.h5 takes longer than its limit
   // (python/cdshear_analysis/rundata.py, read_time_limit_seconds): the HDF5 library looping
   // without end on a damaged file.
