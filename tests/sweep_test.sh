@@ -106,6 +106,25 @@ for damage in "truncate -s 100 $ended/summary.json" \
     fail "after '$damage': summary.json not made again"
   test -f $ended/figures/height_solid_fraction.png || fail "after '$damage': figure not made again"
 done
+# An extension stopped in its analysis keeps the summary of the run's earlier end, or in its
+# figures those of the earlier analysis: both are made again.
+/usr/bin/python3 -c "import json, sys
+summary = json.load(open(sys.argv[1])); summary['case']['duration'] = 2.0
+json.dump(summary, open(sys.argv[1], 'w'))" $ended/summary.json
+touch -d '2000-01-01' $ended/figures/com_velocity.png
+"$exe" sweep measured.toml -o measured > earlier_end.out 2>&1 ||
+  fail "earlier end: $(cat earlier_end.out)"
+grep -q "1 finished earlier (1 to analyse)" earlier_end.out ||
+  fail "a summary of an earlier end: $(cat earlier_end.out)"
+grep -q '"duration": 4' $ended/summary.json || fail "the summary of an earlier end was kept"
+[ "$(date -r $ended/figures/com_velocity.png +%Y)" != 2000 ] || fail "an old figure was kept"
+touch -d '2000-01-01' $ended/figures/snapshot.png
+"$exe" sweep measured.toml -o measured > old_figure.out 2>&1 || fail "old: $(cat old_figure.out)"
+grep -q "1 finished earlier (1 to analyse)" old_figure.out ||
+  fail "a figure older than the summary: $(cat old_figure.out)"
+"$exe" sweep measured.toml -o measured > analysed.out 2>&1 || fail "analysed: $(cat analysed.out)"
+grep -q "1 finished earlier, 0 to resume" analysed.out ||
+  fail "an analysed run analysed again: $(cat analysed.out)"
 # An analysis that fails: the run is listed as failed and the sweep exits 1; a later sweep whose
 # analysis succeeds exits 0.
 rm $ended/summary.json

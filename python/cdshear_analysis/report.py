@@ -416,6 +416,10 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     notes = []
     if os.path.isfile(toml_path):
         name, listed, text = campaign_runs(toml_path)
+        if not name:
+            notes.append("campaign.toml gives no [campaign] name, as every file a sweep writes "
+                         "does (not a sweep's file, or edited): the campaign name is the "
+                         "folder's, and runs it lists without a folder are not named")
     elif os.path.lexists(toml_path):
         raise ReportError(toml_path, f"is {what_is(toml_path)}, not the campaign's file")
     else:
@@ -1100,17 +1104,26 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
 
 def check_report_folder(campaign_dir, out_dir):
     """Raises ReportError when out_dir is no place for a report: a run's folder (a report's
-    figures/ would replace the run's own) or anywhere in the campaign's runs/ (a report there
-    would be read as a run)."""
+    figures/ would replace the run's own), anywhere in the campaign's runs/ (a report there
+    would be read as a run), or a campaign's folder, this one or another (the report copies each
+    run's figures to OUT/runs/RUN/, which there are run folders)."""
+    default = os.path.join(campaign_dir, "report")
     runs = os.path.realpath(os.path.join(campaign_dir, "runs"))
     where = os.path.realpath(out_dir)
     if where == runs or where.startswith(runs + os.sep):
         raise ReportError(out_dir, f"is inside the campaign's runs folder ({runs}), where each "
-                                   f"folder is a run's; choose another -o (default: "
-                                   f"{os.path.join(campaign_dir, 'report')})")
+                                   f"folder is a run's; choose another -o (default: {default})")
     if found := run_files_in(out_dir):
         raise ReportError(out_dir, f"holds a run's files ({', '.join(found)}): a report would "
                                    f"write over the run's figures; choose another -o")
+    out_runs = os.path.join(out_dir, "runs")
+    holds_runs = os.path.isdir(out_runs) and any(
+        run_files_in(os.path.join(out_runs, name)) for name in os.listdir(out_runs)
+        if os.path.isdir(os.path.join(out_runs, name)))
+    if holds_runs or os.path.lexists(os.path.join(out_dir, "campaign.toml")):
+        raise ReportError(out_dir, "is a campaign's folder (campaign.toml or run folders in "
+                                   "runs/): the report's copies of the run figures would go into "
+                                   f"its run folders; choose another -o (default: {default})")
 
 
 def write_report(report, out_dir):

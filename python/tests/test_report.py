@@ -122,13 +122,20 @@ class ReportTest(unittest.TestCase):
         other_run = os.path.join(self.d, "another_campaigns_run")  # a run of no campaign here
         fake_summary(other_run, 0.1, 0.01, 0.3, 0.8, 3.0)
         err = io.StringIO()
+        other_campaign = os.path.join(self.d, "another_campaign")  # run folders in runs/
+        fake_summary(os.path.join(other_campaign, "runs", "s1_seed1_V0.03"), 0.1, 0.01, 0.3, 0.8,
+                     3.0)
         for out in (run, os.path.join(self.d, "runs"), os.path.join(self.d, "runs", "new"),
-                    other_run):
+                    other_run, self.d, other_campaign):
             with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
                 self.assertEqual(cli_main(["report", self.d, "-o", out]), 2, out)
         self.assertIn("holds a run's files (summary.json)", err.getvalue())
         self.assertIn("is inside the campaign's runs folder", err.getvalue())
+        self.assertEqual(err.getvalue().count("is a campaign's folder (campaign.toml or run "
+                                              "folders in runs/)"), 2)
         self.assertEqual(sorted(os.listdir(run)), before)
+        self.assertFalse(os.path.exists(os.path.join(self.d, "runs.csv")))
+        self.assertFalse(os.path.exists(os.path.join(other_campaign, "runs.csv")))
         with open(os.path.join(run, "figures", "profiles.png")) as f:
             self.assertEqual(f.read(), "the run's own figure")
         self.assertFalse(os.path.exists(os.path.join(self.d, "runs", "new")))
@@ -462,6 +469,16 @@ class ReportTest(unittest.TestCase):
         self.assertIn("Note: campaign.toml is missing", text)
         self.assertNotIn("<li>campaign.toml", text)
         self.assertIn(" 0 left out", text)
+
+    def test_a_campaign_toml_without_a_name_is_noted(self):
+        self.power_law_campaign()
+        for text in ("", "garbage = 1\n", "[campaign]\nname = 5\n"):
+            with open(os.path.join(self.d, "campaign.toml"), "w") as f:
+                f.write(text)
+            collected = report.collect(self.d)
+            self.assertEqual(collected["campaign"], os.path.basename(self.d), text)
+            self.assertTrue(any(n.startswith("campaign.toml gives no [campaign] name")
+                                for n in collected["notes"]), text)
 
     def test_bad_campaign_folder_is_an_error(self):
         self.assertEqual(main(["report", os.path.join(self.d, "nothing")]), 2)

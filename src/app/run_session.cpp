@@ -295,13 +295,19 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   if (!end.reached_end && summary.outcome == RunOutcome::kFinished)
     info["summary"]["outcome"] = "stopped";
   write_file_atomic(end.dir / end.info_name, info.dump(2) + "\n");
+  // A step that reaches `max_sweeps` over-relaxed goes on with relaxation 1 (the plain finish);
+  // "capped" counts those that reach the cap there too. Both are said: each hit the cap once.
+  const std::string plain_finish =
+      summary.plain_finish_steps > 0
+          ? fmt::format(", {} past the over-relaxed cap (plain finish)", summary.plain_finish_steps)
+          : std::string();
   std::printf(
-      "%llu steps in %.1f s (%.0f steps/s), sweeps mean %.1f largest %d, capped %llu, largest "
+      "%llu steps in %.1f s (%.0f steps/s), sweeps mean %.1f largest %d%s, capped %llu, largest "
       "overlap %.3g\n",
       static_cast<unsigned long long>(summary.steps), summary.wall_seconds,
       summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
-      summary.largest_sweeps, static_cast<unsigned long long>(summary.capped_steps),
-      summary.largest_overlap);
+      summary.largest_sweeps, plain_finish.c_str(),
+      static_cast<unsigned long long>(summary.capped_steps), summary.largest_overlap);
   if (summary.refinement.steps > 0)
     std::printf(
         "refinement: %llu of %llu steps to its tolerance, %.2f iterations per step, largest "

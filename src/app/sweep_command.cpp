@@ -129,21 +129,46 @@ RunState run_state(const fs::path& dir) {
   return RunState::kNew;
 }
 
-/// A finished run whose analysis was cut short: its summary.json missing or unreadable, or a
-/// figure `cdshear plot` always makes missing (each is written whole or not at all:
-/// python/cdshear_analysis/plots.py, plot_run); the profile figures are made when the run has
+/// A run folder's case.toml, read as `cdshear run --resume` reads it; or why it cannot be.
+struct FolderCase {
+  std::optional<ShearCase> c;
+  std::string problem;  ///< "its case.toml cannot be read: ..." when `c` is empty
+};
+FolderCase folder_case(const fs::path& run_dir) {
+  CaseSource source;
+  source.file = (run_dir / "case.toml").string();
+  try {
+    return {load_case(source), ""};
+  } catch (const ConfigError& e) {
+    return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
+  }
+}
+
+/// A finished run whose analysis was cut short: its summary.json missing or unreadable, or of
+/// an earlier end (an extension stopped in its analysis: the summary's duration is not the
+/// case.toml's), or a figure `cdshear plot` always makes missing or older than the summary (an
+/// extension stopped in its plot). Each file is written whole or not at all
+/// (python/cdshear_analysis/plots.py, plot_run); the profile figures are made when the run has
 /// measurement windows, which a summary with steady windows implies.
 bool analysis_incomplete(const fs::path& dir) {
   const nlohmann::json summary = run_summary(dir);
   if (summary.empty()) return true;
+  if (const FolderCase folder = folder_case(dir);
+      folder.c && case_of(summary).value("duration", nlohmann::json()) != folder.c->duration)
+    return true;
   std::vector<const char*> figures = {"snapshot.png", "com_velocity.png",
                                       "height_solid_fraction.png"};
   const auto steady = summary.find("steady_windows");
   if (steady != summary.end() && steady->is_number() && steady->get<double>() > 0)
     figures.insert(figures.end(), {"velocity_profiles.png", "steady_profiles.png"});
   std::error_code ec;
-  return std::any_of(figures.begin(), figures.end(),
-                     [&](const char* f) { return !fs::exists(dir / "figures" / f, ec); });
+  const fs::file_time_type analysed = fs::last_write_time(dir / "summary.json", ec);
+  const bool analysed_known = !ec;
+  return std::any_of(figures.begin(), figures.end(), [&](const char* f) {
+    std::error_code figure_ec;
+    const fs::file_time_type plotted = fs::last_write_time(dir / "figures" / f, figure_ec);
+    return figure_ec || (analysed_known && plotted < analysed);
+  });
 }
 
 /// The last line of a run's log that starts with "error:" (at most 300 characters), or empty:
@@ -247,21 +272,6 @@ nlohmann::json run_summary(const fs::path& dir) {
   if (!text) return nlohmann::json::object();
   const nlohmann::json summary = nlohmann::json::parse(*text, nullptr, false);
   return summary.is_object() ? summary : nlohmann::json::object();
-}
-
-/// A run folder's case.toml, read as `cdshear run --resume` reads it; or why it cannot be.
-struct FolderCase {
-  std::optional<ShearCase> c;
-  std::string problem;  ///< "its case.toml cannot be read: ..." when `c` is empty
-};
-FolderCase folder_case(const fs::path& run_dir) {
-  CaseSource source;
-  source.file = (run_dir / "case.toml").string();
-  try {
-    return {load_case(source), ""};
-  } catch (const ConfigError& e) {
-    return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
-  }
 }
 
 /// Empty when a finished run without its final state (only its summary.json) is of the run's
@@ -769,9 +779,12 @@ class Sweep {
             fmt::format("{}: finished, but exited with {} after its last step (its "
                         "analysis), log {}{}",
                         j.name, e.exit_code, j.log.string(), failure_cause(j.log)));
+      } else if (e.exit_code != 0) {  // stopped in its analysis: the next sweep analyses it
+        what += " (its analysis interrupted)";
+        interrupted_.push_back(fmt::format("{} (its analysis; log {})", j.name, j.log.string()));
       }
     } else if (after != RunState::kBlownUp && stopped) {
-      interrupted_.push_back(j.name);
+      interrupted_.push_back(fmt::format("{} (log {})", j.name, j.log.string()));
       what = "interrupted";
     } else {
       failed_.push_back(fmt::format("{}: {}, exit {}, log {}{}", j.name, state_name(after),
@@ -834,8 +847,9 @@ class Sweep {
     std::fflush(stdout);
   }
 
-  /// The final summary; the exit status: 0 when every run finished and none failed (a finished
-  /// run whose analysis failed is listed as failed), 130 when interrupted, else 1.
+  /// The final summary; the exit status: 0 when every run finished, none failed (a finished
+  /// run whose analysis failed is listed as failed) and none was stopped by another's signal
+  /// (a finished run's analysis included), 130 when interrupted, else 1.
   int sum_up(const ScheduleResult& res) const {
     const std::size_t finished = finished_before_ + finished_now_;
     std::printf(
@@ -851,7 +865,7 @@ class Sweep {
     if (!interrupted_.empty())
       std::printf("  interrupted (not by this sweep): %s; run the same command again to resume\n",
                   fmt::format("{}", fmt::join(interrupted_, ", ")).c_str());
-    return finished == c_.runs.size() && failed_.empty() ? 0 : 1;
+    return finished == c_.runs.size() && failed_.empty() && interrupted_.empty() ? 0 : 1;
   }
 
   const SweepArgs& args_;
