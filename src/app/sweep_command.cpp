@@ -129,33 +129,18 @@ RunState run_state(const fs::path& dir) {
   return RunState::kNew;
 }
 
-/// A run folder's case.toml, read as `cdshear run --resume` reads it; or why it cannot be.
-struct FolderCase {
-  std::optional<ShearCase> c;
-  std::string problem;  ///< "its case.toml cannot be read: ..." when `c` is empty
-};
-FolderCase folder_case(const fs::path& run_dir) {
-  CaseSource source;
-  source.file = (run_dir / "case.toml").string();
-  try {
-    return {load_case(source), ""};
-  } catch (const ConfigError& e) {
-    return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
-  }
-}
+std::string summary_problem(const fs::path& run_dir);
 
-/// A finished run whose analysis was cut short: its summary.json missing or unreadable, or of
-/// an earlier end (an extension stopped in its analysis: the summary's duration is not the
-/// case.toml's), or a figure `cdshear plot` always makes missing or older than the summary (an
-/// extension stopped in its plot). Each file is written whole or not at all
-/// (python/cdshear_analysis/plots.py, plot_run); the profile figures are made when the run has
-/// measurement windows, which a summary with steady windows implies.
+/// A finished run whose analysis was cut short: its summary.json missing or unreadable, or not
+/// of the run's case.toml as it is now (summary_problem: an extension stopped in its analysis
+/// keeps the summary of its earlier duration), or a figure `cdshear plot` always makes missing
+/// or older than the summary (an extension stopped in its plot). Each file is written whole or
+/// not at all (python/cdshear_analysis/plots.py, plot_run); the profile figures are made when
+/// the run has measurement windows, which a summary with steady windows implies.
 bool analysis_incomplete(const fs::path& dir) {
   const nlohmann::json summary = run_summary(dir);
   if (summary.empty()) return true;
-  if (const FolderCase folder = folder_case(dir);
-      folder.c && case_of(summary).value("duration", nlohmann::json()) != folder.c->duration)
-    return true;
+  if (!summary_problem(dir).empty()) return true;
   std::vector<const char*> figures = {"snapshot.png", "com_velocity.png",
                                       "height_solid_fraction.png"};
   const auto steady = summary.find("steady_windows");
@@ -274,11 +259,26 @@ nlohmann::json run_summary(const fs::path& dir) {
   return summary.is_object() ? summary : nlohmann::json::object();
 }
 
-/// Empty when a finished run without its final state (only its summary.json) is of the run's
-/// case.toml: the summary's grain count, height, wall speed, normal stress and duration match,
-/// and the folder it names (`run_dir`) has this folder's name (a campaign's run names carry the
-/// system, seed and speed). Otherwise why not: a summary copied from another run must not make
-/// the sweep skip this one.
+/// A run folder's case.toml, read as `cdshear run --resume` reads it; or why it cannot be.
+struct FolderCase {
+  std::optional<ShearCase> c;
+  std::string problem;  ///< "its case.toml cannot be read: ..." when `c` is empty
+};
+FolderCase folder_case(const fs::path& run_dir) {
+  CaseSource source;
+  source.file = (run_dir / "case.toml").string();
+  try {
+    return {load_case(source), ""};
+  } catch (const ConfigError& e) {
+    return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
+  }
+}
+
+/// Empty when a finished run's summary.json (all a clone keeps of it; beside run.h5, its last
+/// analysis) is of the run's case.toml: the summary's grain count, height, wall speed, normal
+/// stress and duration match, and the folder it names (`run_dir`) has this folder's name (a
+/// campaign's run names carry the system, seed and speed). Otherwise why not: a summary copied
+/// from another run must not make the sweep skip this one, nor an old one its analysis.
 std::string summary_problem(const fs::path& run_dir) {
   const nlohmann::json whole = run_summary(run_dir);
   const nlohmann::json summary = case_of(whole);
