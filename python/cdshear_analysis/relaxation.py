@@ -100,7 +100,12 @@ def fit_decay(t, c, noise):
         out["reason"] = "the profile does not change from window to window"
         return out
     peak = int(np.argmax(c))
-    start = peak + int(np.flatnonzero(c[peak:] <= START_FRACTION * c[peak])[0])
+    fallen = np.flatnonzero(c[peak:] <= START_FRACTION * c[peak])
+    if not len(fallen):
+        out["reason"] = (f"c does not fall to {START_FRACTION} of its largest value (at "
+                         f"t {t[peak]:.3g}) within the run: no decay to fit (a longer run)")
+        return out
+    start = peak + int(fallen[0])
     x, z = t[start:] - t[start], c[start:]
     out["fit_windows"] = len(x)
     if len(x) < MIN_FIT_WINDOWS:

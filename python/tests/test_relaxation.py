@@ -71,6 +71,14 @@ class ProfileDecay(unittest.TestCase):
         self.assertGreater(out["fit_range"][0], t[1])
         self.assertLess(abs(out["tau"] / 100.0 - 1), 1e-3)
 
+    def test_a_series_that_never_falls_below_its_peak_has_no_decay_and_says_why(self):
+        # the largest value in the last window: nothing after it to fit
+        t = np.arange(10.0, 800.0, 20.0)
+        out = relaxation.fit_decay(t, 1.0 - np.exp(-t / 100.0), 1e-4)
+        self.assertIsNone(out["tau"])
+        self.assertFalse(out["resolved"])
+        self.assertIn("a longer run", out["reason"])
+
     def test_a_dilating_cell_is_compared_at_the_same_fractions_of_its_height(self):
         # the cell grows by 20% three times more slowly than the profile decays: compared at
         # fixed heights, the steady profile's stretch would read as a slower decay
