@@ -438,8 +438,9 @@ def parameter_samples(result, count, rng, widen=1.0):
 
 
 def solve_for_x(result, target, params=None):
-    """The x > 0 at which the fit's y equals target (monotonic families), or None. params:
-    a parameter vector instead of the fitted values."""
+    """The x > 0 at which the fit's y equals target (monotonic families), or None (also where
+    that x is beyond the float range, above about 1e307). params: a parameter vector instead of
+    the fitted values."""
     p = params if params is not None else [v["value"] for v in result["parameters"].values()]
     y0, amp = p[0], p[1]
     sign = -1.0 if result["model"].endswith("minus") else 1.0
@@ -451,5 +452,8 @@ def solve_for_x(result, target, params=None):
     if u <= 0:
         return None
     if result["model"].startswith("power"):
-        return float(u ** (1.0 / p[2])) if p[2] > 0 else None
+        if not p[2] > 0:
+            return None
+        ln_x = math.log(u) / p[2]   # u ** (1 / p[2]) in logarithms: a small exponent overflows
+        return float(math.exp(ln_x)) if ln_x < 707 else None
     return float(u)

@@ -472,6 +472,15 @@ class BoundaryLawTest(unittest.TestCase):
             y = float(fitting.curve(fit, x))
             self.assertAlmostEqual(fitting.solve_for_x(fit, y), x)
 
+    def test_a_crossing_beyond_the_float_range_is_none_not_an_overflow(self):
+        # 0.1 + 0.01 x^0.02 reaches 0.5 at x = 40^50 (1e80); with the exponent 0.001 at
+        # x = 40^1000, past the largest float
+        fit = {"status": "ok", "model": "power_plus",
+               "parameters": {"mu_0": {"value": 0.1}, "A": {"value": 0.01}, "B": {"value": 0.02}}}
+        self.assertAlmostEqual(fitting.solve_for_x(fit, 0.5) / 40.0 ** 50, 1.0, places=9)
+        self.assertIsNone(fitting.solve_for_x(fit, 0.5, params=[0.1, 0.01, 0.001]))
+        self.assertIsNone(bl.profile_crossing({"B": 0.02, "params": [0.2, 1e-9]}, 0.3))
+
 
 if __name__ == "__main__":
     unittest.main()

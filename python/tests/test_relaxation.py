@@ -125,6 +125,14 @@ class ProfileDecay(unittest.TestCase):
         self.assertIsNone(out["tau"])
         self.assertIn("measure.window", out["reason"])
 
+    def test_a_fit_left_at_the_windows_spacing_is_not_a_measured_decay(self):
+        # without noise the fit of a decay 16 times faster than the windows stays at its
+        # first guess, one spacing
+        w, V = synthetic_windows(5.0, window=80.0, duration=2000.0, noise=0.0)
+        out = relaxation.profile_decay(w, V, "rest")
+        self.assertIsNone(out["tau"])
+        self.assertIn("measure.window", out["reason"])
+
     def test_a_profile_that_never_changes_has_no_decay(self):
         w, V = synthetic_windows(30.0, noise=0.0)
         w["vx"] = np.where(np.isfinite(w["vx"]), 0.5, np.nan)
