@@ -23,13 +23,13 @@ time. The run is steady unless
   - a series still drifts after it: the means of the two halves of what remains differ by more
     than STEADY_MAX_DRIFT combined standard errors, 2 err with err the block-averaging error of
     the whole remaining mean (MSER misses slow drifts);
-  - the stress is not uniform (`balance`: the interior mu_eff minus the walls' friction over the
-    steady windows, with its error): in steady shear the momentum balance makes the interior
-    friction equal the walls', while momentum still diffuses across the cell it does not. With
-    at least BALANCE_MIN_WINDOWS steady windows, the difference must be within
-    STEADY_MAX_IMBALANCE standard errors of zero or within IMBALANCE_FLOOR
-    (a floor for the grain-scale scatter of stripe stresses and the correlation of windows,
-    which long runs would otherwise turn into a verdict). With fewer windows it is not checked,
+  - the stress is not uniform (`balance`: the interior mu_eff minus the walls' friction, window
+    by window, over the steady windows, with its error): in steady shear the momentum balance
+    makes the interior friction equal the walls', while momentum still diffuses across the cell
+    it does not. With at least BALANCE_MIN_WINDOWS steady windows, the difference must be
+    within STEADY_MAX_IMBALANCE standard errors of zero or within IMBALANCE_FLOOR (a floor for
+    the grain-scale scatter of stripe stresses and the correlation of windows, which long runs
+    would otherwise turn into a verdict). With fewer windows it is not checked,
     and the reason says so.
 When not steady, averages are taken over the last half of the run (flagged): series samples
 at t >= t_end / 2, windows starting there (or the last window if none does).
@@ -89,12 +89,12 @@ def batch_truncation(times, means):
     return float(times[d]), at_limit
 
 
-def stress_balance(balance, windows, start_time):
-    """(mean, standard error, z) of balance(windows, start_time); NaNs with fewer than
+def stress_balance(balance, windows):
+    """(mean, standard error, z) of balance(windows); NaNs with fewer than
     BALANCE_MIN_WINDOWS windows or without a value."""
     if len(windows) < BALANCE_MIN_WINDOWS:
         return np.nan, np.nan, np.nan
-    mean, err = balance(windows, start_time)
+    mean, err = balance(windows)
     if not (np.isfinite(mean) and np.isfinite(err)):
         return np.nan, np.nan, np.nan
     return mean, err, (abs(mean) / err if err > 0 else (0.0 if mean == 0 else np.inf))
@@ -105,11 +105,11 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
-    window_signals: {name: one value per window}; balance: balance(windows, start_time) -> (mean,
-    err) of the interior mu_eff minus the walls' friction over those windows and the samples from
-    start_time (None: not checked); stationarity_only: series that must not drift but need not hold
-    STEADY_MIN_INDEPENDENT independent samples (a slowly correlated signal whose mean is not
-    reported, such as the block's speed); tolerances: {name: size} for series whose changes matter
+    window_signals: {name: one value per window}; balance: balance(windows) -> (mean, err) of the
+    interior mu_eff minus the walls' friction over those windows (None: not checked);
+    stationarity_only: series that must not drift but need not hold STEADY_MIN_INDEPENDENT
+    independent samples (a slowly correlated signal whose mean is not reported, such as the
+    block's speed); tolerances: {name: size} for series whose changes matter
     only from that size on: a series whose batch means all lie within it takes no part in the
     transient's end nor in the drift test (its truncation time is NaN). Returns a dict with steady
     (bool), reason, transient_end_time (NaN if unknown), averaging_start_time, windows (indices
@@ -167,7 +167,7 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
             if name not in level and z > STEADY_MAX_DRIFT:
                 problems.append(f"{name} still drifting (the two halves after t = "
                                 f"{transient_end:.4g} differ by {z:.2g} standard errors)")
-    imbalance = (stress_balance(balance, steady_windows, transient_end)
+    imbalance = (stress_balance(balance, steady_windows)
                  if balance is not None and np.isfinite(transient_end)
                  else (np.nan, np.nan, np.nan))
     if not problems and imbalance[2] > STEADY_MAX_IMBALANCE \
