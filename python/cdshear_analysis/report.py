@@ -36,7 +36,7 @@ from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
-from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in
+from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths
 from .rundata import what_is, write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
@@ -324,21 +324,30 @@ def campaign_runs(campaign_toml):
     return name, runs, text
 
 
+def _build_of(path):
+    """The build that wrote one run_info file (its description, else program and version), or
+    None when it cannot be read."""
+    try:
+        with open_regular(path, encoding="utf-8") as f:
+            info = json.load(f)
+        build = info.get("build")
+        return (_text(build.get("description")) if isinstance(build, dict) else None) or \
+            f"{info.get('program', '?')} {info.get('version', '?')}"
+    except (OSError, ValueError, AttributeError, RecursionError):
+        return None
+
+
 def software(campaign_text, run_dirs):
     """What made the campaign: the sweep's version (first line of campaign.toml, "written by
-    cdshear X sweep") and {version: number of runs} from each run's run_info.json."""
+    cdshear X sweep") and {version: number of runs} from each run's run_info files (run_info.json
+    and the resumed sittings' run_info_resume_*.json: a run made by several builds counts under
+    each)."""
     m = re.search(r"written by (\S+) (\S+) sweep", campaign_text or "")
     versions = {}
     for d in run_dirs:
-        try:
-            with open_regular(os.path.join(d, "run_info.json"), encoding="utf-8") as f:
-                info = json.load(f)
-            build = info.get("build")
-            v = (_text(build.get("description")) if isinstance(build, dict) else None) or \
-                f"{info.get('program', '?')} {info.get('version', '?')}"
-        except (OSError, ValueError, AttributeError, RecursionError):
-            v = "unknown (no readable run_info.json)"
-        versions[v] = versions.get(v, 0) + 1
+        builds = {b for b in map(_build_of, run_info_paths(d)) if b is not None}
+        for v in sorted(builds) or ["unknown (no readable run_info.json)"]:
+            versions[v] = versions.get(v, 0) + 1
     return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}
 
 

@@ -155,6 +155,22 @@ def output_problem(path, inputs=()):
     return None
 
 
+RESUMED_INFO = re.compile(r"run_info_resume_[0-9]+(_[0-9]+)?\.json")
+
+
+def run_info_paths(run_dir):
+    """The run's solver and build records that exist, one per sitting: run_info.json (the first;
+    absent when it was stopped before its end, its figures then lost) and each resumed sitting's
+    run_info_resume_<step>[_<k>].json, in the order of their names."""
+    try:
+        names = sorted(n for n in os.listdir(run_dir) if RESUMED_INFO.fullmatch(n))
+    except OSError:
+        names = []
+    first = os.path.join(run_dir, "run_info.json")
+    return ([first] if os.path.lexists(first) else []) + [os.path.join(run_dir, n)
+                                                         for n in names]
+
+
 def run_marks_in(folder):
     """The files that make `folder` a run's: run.h5, or the case.toml that every run writes
     first beside its summary.json or run_info.json (a campaign keeps those three without run.h5,

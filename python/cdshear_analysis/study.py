@@ -4,7 +4,9 @@ A study folder holds one run folder per setting, named `KEY=VALUE` after the `--
 with (`solver.max_sweeps=50`, `step.dt=0.002`), and one named `reference` (the tightest
 settings; more folders named `reference_<anything>` are further realizations of it, for example
 with another solver seed, and are combined with it). Each must have been analysed
-(`summary.json`) and hold `run_info.json` (and `run_info_resume_*.json` for each resumed part).
+(`summary.json`) and hold `run_info.json` (and `run_info_resume_*.json` for each resumed part;
+a run whose first sitting was stopped before its end has only the latter, and its cost is that
+of the sittings they record).
 `collect(study_dir)` reads them into rows; `write_study(rows, study_dir)` writes `study.csv`,
 `study.md` (each quantity with its error bar, whether it agrees with the reference, and the
 cost) and `figures/<quantity>.png` (the quantity against each setting, reference band shaded).
@@ -18,7 +20,7 @@ import json
 import math
 import os
 
-from .rundata import IDENTITY_KEYS, is_number, open_regular, save_figure
+from .rundata import IDENTITY_KEYS, is_number, open_regular, run_info_paths, save_figure
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -73,9 +75,14 @@ def averaged_time(summary):
 def read_run(run_dir, key, value):
     """One row: the setting, each quantity's mean and error, the solver figures and the cost."""
     summary = _read_json(os.path.join(run_dir, "summary.json"))
-    info = _read_json(os.path.join(run_dir, "run_info.json"))
+    paths = run_info_paths(run_dir)
+    if not paths:
+        raise StudyError(os.path.join(run_dir, "run_info.json"),
+                         "missing, and no run_info_resume_*.json either: the run never ended a "
+                         "sitting (`cdshear run` it to its end)")
+    parts = [(path, _read_json(path)) for path in paths]
     try:
-        return _row(run_dir, key, value, summary, info)
+        return _row(run_dir, key, value, summary, parts)
     # a value of another JSON type, or an integer beyond any float (OverflowError)
     except (AttributeError, TypeError, ValueError, OverflowError) as e:
         raise StudyError(run_dir, f"summary.json or run_info.json holds a value of the wrong "
@@ -146,10 +153,10 @@ def case_difference(row, reference, varied=None, reference_name=None):
     return None
 
 
-def _row(run_dir, key, value, summary, info):
-    for name, data in (("summary.json", summary), ("run_info.json", info)):
+def _row(run_dir, key, value, summary, parts):
+    for path, data in [(os.path.join(run_dir, "summary.json"), summary)] + parts:
         if not isinstance(data, dict):
-            raise StudyError(os.path.join(run_dir, name), "is not a JSON object")
+            raise StudyError(path, "is not a JSON object")
     case = summary.get("case", {})
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
            "steady": summary.get("steady") is True,   # "false" (a text) is not steady
@@ -164,25 +171,24 @@ def _row(run_dir, key, value, summary, info):
             row[name + "_err"] = math.nan
     com = summary.get("com_vx") or {}
     row["com_vx_std"] = float(com.get("std", math.nan))
-    cost = run_cost(run_dir, info)
+    cost = run_cost([data for _, data in parts])
     row["mean_sweeps"] = cost["mean_sweeps"]
     row["capped_share"] = cost["capped_steps"] / cost["steps"] if cost["steps"] else math.nan
     row["largest_overlap"] = cost["largest_overlap"]
-    simulated = float(summary.get("case", {}).get("time", math.nan))
-    row["wall_s_per_time"] = cost["wall_seconds"] / simulated if simulated > 0 else math.nan
+    covered = cost["simulated_time"]   # NaN where a record lacks dt: the summary's time then
+    if not covered > 0:
+        covered = float(summary.get("case", {}).get("time", math.nan))
+    row["wall_s_per_time"] = cost["wall_seconds"] / covered if covered > 0 else math.nan
     row["averaged_time"] = averaged_time(summary)   # its weight in `combine`
     return row
 
 
-def run_cost(run_dir, info=None):
-    """The solver figures and the wall time of a run over all its parts: the first
-    (`run_info.json`) and every resumed one (`run_info_resume_<step>.json`), each of which
-    reports only the steps it ran. Mean sweeps are weighted by steps."""
-    parts = [info if info is not None else _read_json(os.path.join(run_dir, "run_info.json"))]
-    for name in sorted(os.listdir(run_dir)):
-        if name.startswith("run_info_resume_") and name.endswith(".json"):
-            parts.append(_read_json(os.path.join(run_dir, name)))
-    steps = capped = sweeps = wall = 0.0
+def run_cost(parts):
+    """The solver figures and the wall time of a run over its recorded sittings (the parsed
+    run_info files, rundata.run_info_paths), each of which reports only the steps it ran. Mean
+    sweeps are weighted by steps; simulated_time is the sum of steps times dt (NaN where a
+    record gives no dt)."""
+    steps = capped = sweeps = wall = simulated = 0.0
     overlap = math.nan
     for part in parts:
         p = part.get("summary", {})
@@ -191,9 +197,12 @@ def run_cost(run_dir, info=None):
         capped += float(p.get("capped_steps", 0) or 0)
         sweeps += n * float(p.get("mean_sweeps", 0) or 0)
         wall += float(p.get("wall_seconds", 0) or 0)
+        dt = part.get("dt")
+        simulated += n * float(dt) if is_number(dt) else math.nan
         o = float(p.get("largest_overlap", math.nan))
         overlap = o if math.isnan(overlap) else max(overlap, o)
     return {"steps": steps, "capped_steps": capped, "wall_seconds": wall,
+            "simulated_time": simulated,
             "mean_sweeps": sweeps / steps if steps else math.nan, "largest_overlap": overlap}
 
 

@@ -239,6 +239,25 @@ class DamagedSummaryTest(unittest.TestCase):
             self.assertIn("s1_seed1_V0.5", out)
             self.assertIn("cannot read", out)
 
+    def test_the_builds_of_a_run_come_from_every_sitting_it_records(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "resumed", {1: [(0.5, 0.025, 0.35, 0.8, 3.0)]})
+            run = os.path.join(d, "runs", "s1_seed1_V0.5")
+            for name in os.listdir(run):
+                if name.startswith("run_info"):
+                    os.remove(os.path.join(run, name))
+
+            def record(name, build):
+                with open(os.path.join(run, name), "w") as f:
+                    json.dump({"build": {"description": build}}, f)
+            # the first sitting stopped before its end: only the resumed one's record
+            record("run_info_resume_400000.json", "cdshear 1.0 (abc)")
+            self.assertEqual(report.software("", [run])["runs"], {"cdshear 1.0 (abc)": 1})
+            record("run_info.json", "cdshear 0.9 (def)")
+            record("run_info_resume_800000_1.json", "cdshear 1.0 (abc)")
+            self.assertEqual(report.software("", [run])["runs"],
+                             {"cdshear 0.9 (def)": 1, "cdshear 1.0 (abc)": 1})
+
     def test_a_run_info_or_case_nested_too_deeply_is_no_traceback(self):
         with tempfile.TemporaryDirectory() as d:
             fake_campaign(d, "deep", {1: [(0.5, 0.025, 0.35, 0.8, 3.0)]})
