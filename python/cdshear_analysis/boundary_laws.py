@@ -372,7 +372,7 @@ def _crossing(law, mu_0_fit, scale, unavailable=None, widen=1.0):
     x = fitting.solve_for_x(law, mu_0)
     if x is None:
         return None, None, None, (f"the boundary law does not reach the bulk mu_0 = "
-                                  f"{mu_0:.4g} at any positive x (up to 1e307)")
+                                  f"{mu_0:.4g} at any positive x within the float range")
     rng = np.random.default_rng(SEED)
     laws = fitting.parameter_samples(law, MONTE_CARLO, rng, widen)
     mu0s = fitting.parameter_samples(mu_0_fit, MONTE_CARLO, rng)[:, 0]

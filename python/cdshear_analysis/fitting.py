@@ -439,8 +439,8 @@ def parameter_samples(result, count, rng, widen=1.0):
 
 def solve_for_x(result, target, params=None):
     """The x > 0 at which the fit's y equals target (monotonic families), or None (also where
-    that x is beyond the float range, above about 1e307). params: a parameter vector instead of
-    the fitted values."""
+    that x is beyond the float range, above about 1e304 or below 1e-304). params: a parameter
+    vector instead of the fitted values."""
     p = params if params is not None else [v["value"] for v in result["parameters"].values()]
     y0, amp = p[0], p[1]
     sign = -1.0 if result["model"].endswith("minus") else 1.0
@@ -448,12 +448,12 @@ def solve_for_x(result, target, params=None):
         return None
     u = sign * (target - y0) / amp   # = X^exponent (power), ln X (log) or X (linear)
     if result["model"] == "log_plus":
-        return float(math.exp(u)) if u < 700 else None
+        return float(math.exp(u)) if -700 < u < 700 else None
     if u <= 0:
         return None
     if result["model"].startswith("power"):
         if not p[2] > 0:
             return None
         ln_x = math.log(u) / p[2]   # u ** (1 / p[2]) in logarithms: a small exponent overflows
-        return float(math.exp(ln_x)) if ln_x < 707 else None
+        return float(math.exp(ln_x)) if -700 < ln_x < 700 else None
     return float(u)

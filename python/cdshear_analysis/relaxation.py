@@ -137,7 +137,8 @@ def fit_decay(t, c, noise):
     x, z = x[:n], z[:n]
     out["fit_windows"] = n
     spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    if p[1] <= spacing or abs(p[0]) < SIGNAL_TO_NOISE * noise:
+    # (a fit left at its first guess, one spacing, equals it up to the rounding of the times)
+    if p[1] <= spacing * (1 + 1e-9) or abs(p[0]) < SIGNAL_TO_NOISE * noise:
         out["reason"] = (f"the decay is not resolved by the windows (tau {p[1]:.3g} t against "
                          f"windows {spacing:.3g} t apart; c_0 {p[0]:.3g} against the noise "
                          f"{noise:.3g}): shorter windows (measure.window)")

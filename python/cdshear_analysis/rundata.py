@@ -160,10 +160,13 @@ RESUMED_INFO = re.compile(r"run_info_resume_[0-9]+(_[0-9]+)?\.json")
 
 def run_info_paths(run_dir):
     """The run's solver and build records that exist, one per sitting: run_info.json (the first;
-    absent when it was stopped before its end, its figures then lost) and each resumed sitting's
-    run_info_resume_<step>[_<k>].json, in the order of their names."""
+    absent when that sitting was killed, its figures then lost) and each resumed sitting's
+    run_info_resume_<step>[_<k>].json, in the order of the steps they end at."""
+    def step_and_k(name):
+        return tuple(int(x) for x in re.findall(r"[0-9]+", name))
     try:
-        names = sorted(n for n in os.listdir(run_dir) if RESUMED_INFO.fullmatch(n))
+        names = sorted((n for n in os.listdir(run_dir) if RESUMED_INFO.fullmatch(n)),
+                       key=step_and_k)
     except OSError:
         names = []
     first = os.path.join(run_dir, "run_info.json")

@@ -36,7 +36,7 @@ at t >= t_end / 2, windows starting there (or the last window if none does).
 """
 import numpy as np
 
-from .statistics import block_average
+from .statistics import block_average, window_mean
 
 MSER_MIN_BATCH = 5            # samples per batch at least (MSER-5)
 MSER_MAX_TRUNCATION = 0.5     # MSER searches truncations up to this fraction of the batches
@@ -90,11 +90,13 @@ def batch_truncation(times, means):
 
 
 def stress_balance(balance, windows):
-    """(mean, standard error, z) of balance(windows); NaNs with fewer than
-    BALANCE_MIN_WINDOWS windows or without a value."""
-    if len(windows) < BALANCE_MIN_WINDOWS:
+    """(mean, standard error, z) over the windows of balance(windows), one value per window;
+    NaNs with fewer than BALANCE_MIN_WINDOWS finite values."""
+    values = np.asarray(balance(windows), dtype=float) if len(windows) else np.zeros(0)
+    values = values[np.isfinite(values)]
+    if len(values) < BALANCE_MIN_WINDOWS:
         return np.nan, np.nan, np.nan
-    mean, err = balance(windows)
+    mean, err = window_mean(values)
     if not (np.isfinite(mean) and np.isfinite(err)):
         return np.nan, np.nan, np.nan
     return mean, err, (abs(mean) / err if err > 0 else (0.0 if mean == 0 else np.inf))
@@ -105,8 +107,8 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
     """Steady-state verdict for one run.
 
     time: series sample times; series: {name: samples}; window_start: window start times;
-    window_signals: {name: one value per window}; balance: balance(windows) -> (mean, err) of the
-    interior mu_eff minus the walls' friction over those windows (None: not checked);
+    window_signals: {name: one value per window}; balance: balance(windows) -> the interior mu_eff
+    minus the walls' friction in each of those windows (NaN where not known; None: not checked);
     stationarity_only: series that must not drift but need not hold STEADY_MIN_INDEPENDENT
     independent samples (a slowly correlated signal whose mean is not reported, such as the
     block's speed); tolerances: {name: size} for series whose changes matter
@@ -188,7 +190,7 @@ def detect_steady_state(time, series, window_start, window_signals, balance=None
               if steady else "; ".join(problems))
     if steady and balance is not None and not np.isfinite(imbalance[0]):
         reason += (f"; stress balance not checked (fewer than {BALANCE_MIN_WINDOWS} steady "
-                   f"windows)")
+                   f"windows with a bulk mu_eff and a wall normal force)")
     return dict(steady=steady, reason=reason, transient_end_time=transient_end,
                 averaging_start_time=float(start), windows=windows,
                 truncation_times=truncation, independent_samples=independent,

@@ -5,8 +5,8 @@ with (`solver.max_sweeps=50`, `step.dt=0.002`), and one named `reference` (the t
 settings; more folders named `reference_<anything>` are further realizations of it, for example
 with another solver seed, and are combined with it). Each must have been analysed
 (`summary.json`) and hold `run_info.json` (and `run_info_resume_*.json` for each resumed part;
-a run whose first sitting was stopped before its end has only the latter, and its cost is that
-of the sittings they record).
+a run whose first sitting was killed has only the latter, and its cost is that of the sittings
+they record).
 `collect(study_dir)` reads them into rows; `write_study(rows, study_dir)` writes `study.csv`,
 `study.md` (each quantity with its error bar, whether it agrees with the reference, and the
 cost) and `figures/<quantity>.png` (the quantity against each setting, reference band shaded).
@@ -78,14 +78,14 @@ def read_run(run_dir, key, value):
     paths = run_info_paths(run_dir)
     if not paths:
         raise StudyError(os.path.join(run_dir, "run_info.json"),
-                         "missing, and no run_info_resume_*.json either: the run never ended a "
-                         "sitting (`cdshear run` it to its end)")
+                         "missing, and no run_info_resume_*.json either: no sitting of the run "
+                         "ended (`cdshear run --resume` it)")
     parts = [(path, _read_json(path)) for path in paths]
     try:
         return _row(run_dir, key, value, summary, parts)
     # a value of another JSON type, or an integer beyond any float (OverflowError)
     except (AttributeError, TypeError, ValueError, OverflowError) as e:
-        raise StudyError(run_dir, f"summary.json or run_info.json holds a value of the wrong "
+        raise StudyError(run_dir, f"summary.json or a run_info file holds a value of the wrong "
                                   f"type (not what `cdshear run` and `analyze` write): {e}") \
             from None
 

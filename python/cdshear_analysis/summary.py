@@ -38,7 +38,7 @@ def wall_friction_series(series):
 
 
 def wall_force_ratio(series, sides, keep):
-    """The walls' friction as model.md section 7 checks it against the interior's mu_eff: the ratio
+    """The walls' friction reported beside the interior's mu_eff (model.md section 7): the ratio
     of the time-averaged tangential and normal forces, (|<f_x>| summed over `sides`) / (|<f_y>|
     summed likewise), over the samples `keep`, with its standard error (statistics.ratio_of_means).
     Not the mean of each sample's ratio: where the forces fluctuate, that mean is biased (by -0.007
@@ -172,13 +172,16 @@ def analyze(run):
                           "bulk_shear_rate": bulk_w["shear_rate"]}
         bulk_mu = bulk_w["mu_eff"]
 
-        def balance(windows):
+        def paired_balance(windows):
             # window by window, the bulk's mu_eff minus the walls' friction of the same window
-            # (window_wall_friction, its exact mean forces), mean and error over the windows:
-            # paired, so the fluctuations the momentum balance makes the two share leave the
-            # error (the errors of two separate means, combined, were several times too large)
-            return window_mean(np.asarray(bulk_mu, dtype=float)[windows]
-                               - window_wall_friction(w)[windows])
+            # (window_wall_friction, its exact mean forces): paired, so the fluctuations the
+            # momentum balance makes the two share leave the error over the windows (the
+            # errors of two separate means, combined, were several times too large)
+            return (np.asarray(bulk_mu, dtype=float)[windows]
+                    - window_wall_friction(w)[windows])
+        # not checked in a hand-made file without the windows' wall forces
+        balance = (paired_balance if all(k in w for k in ("bottom_force", "top_force"))
+                   else None)
     st = detect_steady_state(time, {"mu_wall": mu_wall, "height": s["height"],
                                     "abs_block_vx": np.abs(u)},
                              w["t_start"], window_signals, balance=balance,

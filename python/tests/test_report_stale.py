@@ -250,7 +250,7 @@ class DamagedSummaryTest(unittest.TestCase):
             def record(name, build):
                 with open(os.path.join(run, name), "w") as f:
                     json.dump({"build": {"description": build}}, f)
-            # the first sitting stopped before its end: only the resumed one's record
+            # the first sitting killed: only the resumed one's record
             record("run_info_resume_400000.json", "cdshear 1.0 (abc)")
             self.assertEqual(report.software("", [run])["runs"], {"cdshear 1.0 (abc)": 1})
             record("run_info.json", "cdshear 0.9 (def)")

@@ -88,21 +88,21 @@ class StudyTest(unittest.TestCase):
             self.assertAlmostEqual(ref["wall_s_per_time"], 300.0 / 300.0)
             self.assertAlmostEqual(ref["largest_overlap"], 4e-5)
 
-    def test_a_run_whose_first_sitting_was_stopped_costs_what_its_records_hold(self):
-        # stopped before its first end (no run_info.json), resumed at t = 200 to its end at 300:
-        # the cost per time unit is over the 100 t the resumed record covers
+    def test_a_run_whose_first_sitting_was_killed_costs_what_its_records_hold(self):
+        # killed in its first sitting (no run_info.json), resumed at t = 200 (step 2000) to its
+        # end at 300 (step 3000): the cost per time unit is over the 100 t the record covers
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "reference")
             fake_run(run, 0.26, 0.004, 100.0, 50.0, time=300.0)
             os.remove(os.path.join(run, "run_info.json"))
-            with open(os.path.join(run, "run_info_resume_2000.json"), "w") as f:
+            with open(os.path.join(run, "run_info_resume_3000.json"), "w") as f:
                 json.dump({"dt": 0.1, "summary": {"steps": 1000, "mean_sweeps": 80.0,
                                                   "capped_steps": 10, "largest_overlap": 1e-5,
                                                   "wall_seconds": 20.0}}, f)
             ref = study.collect(d)[0]
             self.assertAlmostEqual(ref["wall_s_per_time"], 20.0 / 100.0)
             self.assertAlmostEqual(ref["mean_sweeps"], 80.0)
-            os.remove(os.path.join(run, "run_info_resume_2000.json"))
+            os.remove(os.path.join(run, "run_info_resume_3000.json"))
             with self.assertRaises(study.StudyError) as e:
                 study.collect(d)
             self.assertIn("run_info.json: missing, and no run_info_resume_*.json either",
