@@ -42,6 +42,17 @@ class BulkThickness(unittest.TestCase):
         self.assertIn("h = 10 was not measured", summary["bulk"]["h_note"])
 
 
+def steady_synthetic_run():
+    """A loaded steady synthetic run (regime A, 2000 t) whose windows' stress and wall forces are
+    copies a test may change."""
+    with tempfile.TemporaryDirectory() as d:
+        write_synthetic_run(d, kind="A", duration=2000.0)
+        run = load_run(d)
+    for key in ("stress", "bottom_force", "top_force"):
+        run["windows"][key] = run["windows"][key].copy()
+    return run
+
+
 class StressBalance(unittest.TestCase):
     """A steady run's interior friction equals the walls' (momentum balance)."""
 
@@ -78,11 +89,8 @@ class StressBalance(unittest.TestCase):
     def test_analyze_flags_an_interior_friction_above_the_walls(self):
         # The interior's shear stress 8% above what the walls carry (as in a tall cell whose
         # momentum still spreads: system 5 at V = 1, 0.286 inside against 0.263 at the walls).
-        with tempfile.TemporaryDirectory() as d:
-            write_synthetic_run(d, kind="A", duration=2000.0)
-            run = load_run(d)
+        run = steady_synthetic_run()
         self.assertTrue(analyze(run)["steady"])
-        run["windows"]["stress"] = run["windows"]["stress"].copy()
         run["windows"]["stress"][..., 0, 1] *= 1.08
         summary = analyze(run)
         self.assertFalse(summary["steady"])
@@ -93,15 +101,11 @@ class StressBalance(unittest.TestCase):
         # The shear stress inside and at the walls swinging together by 10% from window to
         # window (the momentum balance ties them), the interior 3% above the walls: 0.009 in
         # mu_eff, under a single error of separate means (0.007) but many of the paired one.
-        with tempfile.TemporaryDirectory() as d:
-            write_synthetic_run(d, kind="A", duration=2000.0)
-            run = load_run(d)
+        run = steady_synthetic_run()
         w = run["windows"]
         swing = 1.0 + 0.1 * np.random.default_rng(5).standard_normal(len(w["t_start"]))
-        w["stress"] = w["stress"].copy()
         w["stress"][..., 0, 1] *= swing[:, None]
         for side in ("bottom_force", "top_force"):
-            w[side] = w[side].copy()
             w[side][:, 0] *= swing
         balanced = analyze(run)
         self.assertTrue(balanced["steady"], balanced["steady_reason"])
@@ -116,15 +120,11 @@ class StressBalance(unittest.TestCase):
         # the interior 3% above the walls, but a wall normal force in the first two windows
         # only (in the transient): no steady window to judge it by, and the reason says so;
         # without the wall-force datasets it is not checked either
-        with tempfile.TemporaryDirectory() as d:
-            write_synthetic_run(d, kind="A", duration=2000.0)
-            run = load_run(d)
+        run = steady_synthetic_run()
         w = run["windows"]
-        w["stress"] = w["stress"].copy()
         w["stress"][..., 0, 1] *= 1.03
         self.assertIn("stress not uniform", analyze(run)["steady_reason"])
         for side in ("bottom_force", "top_force"):
-            w[side] = w[side].copy()
             w[side][2:, 1] = 0.0
         summary = analyze(run)
         self.assertTrue(summary["steady"], summary["steady_reason"])
@@ -137,10 +137,7 @@ class StressBalance(unittest.TestCase):
         self.assertTrue(np.isnan(summary["stress_balance"]["mean"]))
 
     def test_analyze_checks_the_walls_against_the_interior(self):
-        with tempfile.TemporaryDirectory() as d:
-            write_synthetic_run(d, kind="A", duration=2000.0)
-            summary = analyze(load_run(d))
-        balance = summary["stress_balance"]
+        balance = analyze(steady_synthetic_run())["stress_balance"]
         self.assertTrue(np.isfinite(balance["mean"]))
         self.assertLess(balance["sigmas"], STEADY_MAX_IMBALANCE)
 
