@@ -180,6 +180,27 @@ expect_error "a resumed run keeps its time step" \
 expect_error "--set step.dt_max=0.001: key 'step.dt_max': changes the time step" \
   "$exe" run -q --no-analyze --resume done --set step.dt_max=0.001 --set shear.duration=0.3
 expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness=[5.0, 5.0]"
+# Nor a time step edited into case.toml, by less than half a step too (an unmeasured run: no
+# run.h5 to check it against).
+"$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
+  --set shear.duration=0.4 --stop-at 0.2 -o unmeasured > /dev/null
+sed -i "s/^dt = 'auto'$/dt = 0.004001/" unmeasured/case.toml
+expect_error "(was the time step changed?): not a state of the run unmeasured/case.toml describes" \
+  "$exe" run -q --no-analyze --resume unmeasured
+# A folder whose name holds a line break is resumed (case.toml's comment names it escaped); a
+# path that is not UTF-8, which case.toml and run_info.json could not record, is refused.
+"$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
+  --set shear.duration=0.2 -o $'line\nbreak' > /dev/null
+checks=$((checks + 1))
+"$exe" run -q --no-analyze --resume $'line\nbreak' --set shear.duration=0.3 > /dev/null 2> err.txt ||
+  { echo "FAIL: a folder named with a line break: $(cat err.txt)"; fails=$((fails + 1)); }
+cp "$packing" $'packing\xff.json'
+for option in --packing --output; do
+  if [ $option = --packing ]; then given=("$PWD/"$'packing\xff.json' -o not_utf8)
+  else given=("$packing" -o $'out\xff'); fi
+  expect_status2 "is not UTF-8 text" "$exe" run -q --no-analyze --packing "${given[@]}"
+  grep -q "^error: $option: '" err.txt || { echo "FAIL: not named: $(cat err.txt)"; fails=$((fails + 1)); }
+done
 
 # Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is
 # prepared or written (docs/reliability.md).
@@ -274,7 +295,10 @@ expect_error "--stop-at: 0.2 is not later than the run's time 0.2 (step 50" \
   "$exe" run -q --no-analyze --resume done --set shear.duration=1 --stop-at 0.2
 # The same at the start of a run: a time within half a step of 0 is not rounded up to one step.
 expect_error "--stop-at: 0.0001 is not later than the run's time 0 (step 0" \
-  "$exe" run -q --no-analyze --packing "$packing" --stop-at 0.0001 -o never
+  "$exe" run -q --no-analyze --packing "$packing" --stop-at 0.0001 -o stop_refused
+checks=$((checks + 1))
+test ! -e stop_refused ||
+  { echo "FAIL: a refused --stop-at left its folder: $(ls -A stop_refused)"; fails=$((fails + 1)); }
 # Spaces around a number are dropped on both sides alike (` 1` was taken, `1 ` refused).
 for value in " 0.25" "0.25 "; do
   checks=$((checks + 1))

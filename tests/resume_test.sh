@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A shear run stopped (at a chosen time, and by SIGTERM at an arbitrary moment) and resumed ends
 # in exactly the same state, with the same run.h5 (series, windows, snapshot), as the same run
-# done in one go; and a run without the measurement observers ends in the same state. Its
+# done in one go, and so does an extension stopped and ended at its stop; and a run without the measurement observers ends in the same state. Its
 # progress.json follows the stop and the resume, and its steps meet the shear defaults'
 # contact-law bound. With the active-set refinement on, run_info.json counts the steps it
 # brought to round-off.
@@ -115,6 +115,7 @@ fi
 cp -r "$work/straight" "$work/ended"
 rm "$work/ended/final_state.json" "$work/ended/run_info.json"
 echo partial > "$work/ended/final_state.json.tmp.12345"
+echo partial > "$work/ended/snapshots/particles.pvd.tmp.12345"   # compared with snapshots/ below
 "$exe" run -q --no-analyze --resume "$work/ended" > /dev/null ||
   { echo "FAIL: a run killed before its end's files could not be resumed"; exit 1; }
 test ! -e "$work/ended/final_state.json.tmp.12345" ||
@@ -123,7 +124,19 @@ if "$exe" run -q --no-analyze --resume "$work/ended" > /dev/null 2>&1; then
   echo "FAIL: a finished run resumed with nothing to do"; exit 1
 fi
 
+# An extension stopped by --stop-at ends there when resumed with its stop as the duration: its
+# final_state.json is still of the earlier end, not of the step it stopped at.
+cp -r "$work/straight" "$work/extended"
+"$exe" run -q --no-analyze --resume "$work/extended" --set shear.duration=14 --stop-at 13 \
+  > /dev/null
+"$exe" run -q --no-analyze --resume "$work/extended" --set shear.duration=13 > /dev/null ||
+  { echo "FAIL: a stopped extension could not end at its stop"; exit 1; }
+"$exe" run "${common[@]}" --set shear.duration=13 -o "$work/straight13" > /dev/null
+
 status=0
+if ! cmp -s "$work/straight13/final_state.json" "$work/extended/final_state.json"; then
+  echo "FAIL: the extension ended at its stop differs from the run asked for 13 t"; status=1
+fi
 for run in stopped killed ended; do
   if ! cmp -s "$work/straight/final_state.json" "$work/$run/final_state.json"; then
     echo "FAIL: $run/final_state.json differs from the uninterrupted run"; status=1

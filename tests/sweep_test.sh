@@ -8,7 +8,8 @@
 # the next one keeps the finished runs untouched (run_info.json unchanged), resumes the
 # interrupted one from its checkpoint and finishes all; a run killed between its last step and
 # its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
-# longer duration extends finished runs; `--progress-every` prints a progress line with an
+# longer duration extends finished runs, resumes an extension killed before its new final state
+# and reports one that failed before it started; `--progress-every` prints a progress line with an
 # estimate before any run has finished; a folder that is not a campaign's is refused untouched.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
@@ -259,6 +260,25 @@ grep -q "0 finished earlier, 1 to resume, 0 to start" regrown.out ||
 grep -q '"state": "finished"' grown/runs/s1_seed1_V1/progress.json &&
   grep -q '"duration": 8.0' grown/runs/s1_seed1_V1/progress.json ||
   fail "the extension did not reach 8 t: $(cat grown/runs/s1_seed1_V1/progress.json)"
+# An extension killed after it wrote the longer duration into case.toml but before its new final
+# state (its progress.json still of the earlier end) is resumed to the state of the longer run.
+cp -r grown killed_extension
+sed -i 's/^duration = 8.0$/duration = 9.0/' killed_extension/runs/s1_seed1_V1/case.toml
+sed 's/^duration = 8/duration = 9/' grow.toml > grow9.toml
+"$exe" sweep grow9.toml -o killed_extension --force > killed_extension.out 2>&1 ||
+  fail "killed extension: $(cat killed_extension.out)"
+grep -q "0 finished earlier, 1 to resume, 0 to start" killed_extension.out ||
+  fail "a killed extension was not resumed: $(cat killed_extension.out)"
+campaign whole9 "[1.0]" 9
+"$exe" sweep whole9.toml -o whole9 > whole9.out 2>&1 || fail "whole9: $(cat whole9.out)"
+cmp -s killed_extension/runs/s1_seed1_V1/final_state.json whole9/runs/s1_seed1_V1/final_state.json ||
+  fail "the resumed extension differs from the run asked for 9 t from the start"
+# An extension that fails before it starts (a damaged checkpoint) is reported as not extended.
+cp -r grown damaged_extension
+head -c 1000 grown/runs/s1_seed1_V1/checkpoint.cbor > damaged_extension/runs/s1_seed1_V1/checkpoint.cbor
+rc=0; "$exe" sweep grow9.toml -o damaged_extension --force > damaged_extension.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: not extended: still finished at 8 t where the campaign asks for 9 t" \
+  damaged_extension.out || fail "a failed extension (exit $rc): $(cat damaged_extension.out)"
 rm grown/runs/s1_seed1_V1/checkpoint.cbor
 sed -i 's/^duration = 8/duration = 10/' grow.toml
 rc=0; "$exe" sweep grow.toml -o grown --force > lost.out 2>&1 || rc=$?

@@ -78,12 +78,25 @@ pid_t start_job(const Job& job) {
   for (const std::string& a : job.argv) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   const pid_t parent = ::getpid();
+  // The stop signals are held from before the fork until the child has dropped the sweep's
+  // handlers: a stop sent to the child in between would otherwise only set the sweep's flag in
+  // the child's memory, which the exec discards, and the run would go on to its end.
+  sigset_t stops;
+  sigset_t before;
+  ::sigemptyset(&stops);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaddset(&stops, signal);
+  ::pthread_sigmask(SIG_BLOCK, &stops, &before);
   const pid_t pid = ::fork();
+  if (pid != 0) ::pthread_sigmask(SIG_SETMASK, &before, nullptr);
   if (pid < 0) {
     ::close(fd);
     throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
   }
   if (pid == 0) {  // child: only async-signal-safe calls until exec
+    // Default actions until the run installs its own handlers; a stop already sent ends the
+    // child here, before the run starts.
+    for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal, SIG_DFL);
+    ::sigprocmask(SIG_SETMASK, &before, nullptr);
     // A sweep that dies without forwarding a stop (SIGKILL, out of memory) stops its runs too:
     // each writes its checkpoint on the SIGTERM, and a rerun resumes it.
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);
@@ -92,8 +105,6 @@ pid_t start_job(const Job& job) {
     if (null >= 0) ::dup2(null, STDIN_FILENO);
     ::dup2(fd, STDOUT_FILENO);
     ::dup2(fd, STDERR_FILENO);
-    ::signal(SIGINT, SIG_DFL);  // until the child installs its own handlers
-    ::signal(SIGTERM, SIG_DFL);
     // The binary this sweep runs, even if the file at argv[0] was rebuilt meanwhile (a resume
     // must continue with the program that wrote the checkpoint).
     ::execv("/proc/self/exe", argv.data());

@@ -5,6 +5,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -129,14 +130,21 @@ bool all_digits(std::string_view digits) {
          std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
+/// What a killed atomic write (write_file_atomic) leaves, <name>.tmp.<pid>: <name>; none for
+/// any other name.
+std::optional<std::string_view> temporary_of(std::string_view name) {
+  if (const auto tmp = name.rfind(".tmp.");
+      tmp != std::string_view::npos && all_digits(name.substr(tmp + 5)) && tmp > 0 &&
+      name.substr(0, tmp).find(".tmp.") == std::string_view::npos)
+    return name.substr(0, tmp);
+  return std::nullopt;
+}
+
 /// The files a run or scene command writes at the top of its folder: fixed names, and
 /// run_info.json, run_info_resume_<step>.json, run_info_resume_<step>_<k>.json, and what a
 /// killed atomic write of any of them leaves: <name>.tmp.<pid>.
 bool is_written_run_file(std::string_view name) {
-  if (const auto tmp = name.rfind(".tmp.");
-      tmp != std::string_view::npos && all_digits(name.substr(tmp + 5)) && tmp > 0 &&
-      name.substr(0, tmp).find(".tmp.") == std::string_view::npos)
-    return is_written_run_file(name.substr(0, tmp));
+  if (const auto written = temporary_of(name)) return is_written_run_file(*written);
   for (const char* fixed : {"case.toml", "scene.toml", "run.h5", "summary.json", "checkpoint.cbor",
                             "timeseries.csv", "final_state.json", "interrupted_state.json",
                             "blowup_state.json", "run_info.json", "progress.json"})
@@ -161,8 +169,9 @@ bool is_run_figure(std::string_view name) {
 }
 
 /// The ParaView files of snapshots/ (observers.cpp): particles_<step>.vtp, contacts_<step>.vtp,
-/// particles.pvd, contacts.pvd.
+/// particles.pvd, contacts.pvd, and what a killed atomic write of any of them leaves.
 bool is_snapshot_file(std::string_view name) {
+  if (const auto written = temporary_of(name)) return is_snapshot_file(*written);
   if (name == "particles.pvd" || name == "contacts.pvd") return true;
   for (const std::string_view prefix :
        {std::string_view("particles_"), std::string_view("contacts_")})
@@ -225,15 +234,29 @@ void remove_written_outputs(const std::filesystem::path& dir) {
   }
 }
 
+void check_utf8_path(const std::string& option, const std::string& path) {
+  try {
+    (void)nlohmann::json(path).dump();
+  } catch (const nlohmann::json::type_error&) {
+    throw ConfigError(option, "",
+                      fmt::format("'{}' is not UTF-8 text, which case.toml and run_info.json "
+                                  "need to record it: rename it",
+                                  printable(path)));
+  }
+}
+
 void remove_stale_temporaries(const std::filesystem::path& dir) {
   namespace fs = std::filesystem;
+  const auto remove_in = [](const fs::path& folder, bool (*ours)(std::string_view)) {
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
+      const std::string name = e.path().filename().string();
+      if (temporary_of(name) && ours(name) && e.is_regular_file(ec)) fs::remove(e.path(), ec);
+    }
+  };
+  remove_in(dir, is_written_run_file);
   std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.find(".tmp.") != std::string::npos && is_written_run_file(name) &&
-        e.is_regular_file(ec))
-      fs::remove(e.path(), ec);
-  }
+  if (fs::is_directory(dir / "snapshots", ec)) remove_in(dir / "snapshots", is_snapshot_file);
 }
 
 FolderLock claim_output_folder(const std::filesystem::path& dir, bool force,

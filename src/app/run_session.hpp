@@ -70,8 +70,13 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
 /// What `--force` removes: the outputs cdshear writes in `dir`, by name (nothing else).
 void remove_written_outputs(const std::filesystem::path& dir);
 
-/// Removes what killed atomic writes left in `dir` (<name>.tmp.<pid> of the files a run writes);
-/// for the holder of the folder's lock, whose own writes are complete.
+/// Refuses (ConfigError naming `option`) a path given on the command line that is not UTF-8:
+/// case.toml, run_info.json and the summary record paths as text, which TOML and JSON hold only
+/// in UTF-8.
+void check_utf8_path(const std::string& option, const std::string& path);
+
+/// Removes what killed atomic writes left in `dir` and its snapshots/ (<name>.tmp.<pid> of the
+/// files a run writes); for the holder of the folder's lock, whose own writes are complete.
 void remove_stale_temporaries(const std::filesystem::path& dir);
 
 /// lock_output_folder, then with `force` remove_written_outputs at once (a command with nothing

@@ -165,6 +165,20 @@ void check_resume_override(const std::string& item) {
                     "from the checkpoint); only shear.duration, output.*, step.* and solver.* can");
 }
 
+/// A path as a TOML comment may hold it: control characters (a line break would end the
+/// comment, the others are refused in one) written as \xNN.
+std::string path_for_comment(const fs::path& path) {
+  std::string out;
+  for (const char ch : path.string()) {
+    const auto byte = static_cast<unsigned char>(ch);
+    if (byte < 0x20 || byte == 0x7f)
+      out += fmt::format("\\x{:02x}", byte);
+    else
+      out += ch;
+  }
+  return out;
+}
+
 /// The resolved case as TOML text, with the packing actually used.
 std::string resolved_case_text(const ShearCase& c, const std::string& packing,
                                const fs::path& dir) {
@@ -172,7 +186,7 @@ std::string resolved_case_text(const ShearCase& c, const std::string& packing,
   resolved["preparation"].as_table()->insert_or_assign("packing", packing);
   std::ostringstream text;
   text << "# Resolved case written by cdshear " CDSHEAR_VERSION;
-  if (!dir.empty()) text << "; `cdshear run --resume " << dir.string() << "` continues it";
+  if (!dir.empty()) text << "; `cdshear run --resume " << path_for_comment(dir) << "` continues it";
   text << ".\n" << resolved << '\n';
   return text.str();
 }
@@ -193,14 +207,23 @@ struct ShearSession {
   FolderLock lock;             ///< one writer per run folder, held until the command ends
 };
 
-/// Whether the run in `dir` wrote the files that end it at `step`: final_state.json and a run_info
+/// Whether the JSON file holds an object whose "step" is `step` (false when it cannot be read).
+bool json_file_of_step(const fs::path& file, std::uint64_t step) {
+  std::ifstream in(file);
+  if (!in) return false;
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) return false;
+  const auto found = j.find("step");
+  return found != j.end() && found->is_number_unsigned() && found->get<std::uint64_t>() == step;
+}
+
+/// Whether the run in `dir` wrote the files that end it at `step`: a final_state.json of that
+/// step (an extension keeps its earlier end's until it reaches the new one) and a run_info
 /// (run_info.json, or run_info_resume_<step>.json for a resumed sitting) of that step.
 bool end_files_written(const fs::path& dir, std::uint64_t step) {
-  if (!fs::exists(dir / "final_state.json")) return false;
-  if (fs::exists(dir / fmt::format("run_info_resume_{}.json", step))) return true;
-  std::ifstream in(dir / "run_info.json");
-  const nlohmann::json info = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  return info.is_object() && info.value("step", std::uint64_t{0}) == step;
+  if (!json_file_of_step(dir / "final_state.json", step)) return false;
+  return fs::exists(dir / fmt::format("run_info_resume_{}.json", step)) ||
+         json_file_of_step(dir / "run_info.json", step);
 }
 
 /// Resolves the time step and checks the run's size (docs/reliability.md) once the case and the
@@ -331,6 +354,8 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
               static_cast<unsigned long long>(s.world.step), s.world.time);
 }
 
+std::uint64_t checked_stop_step(const RunArgs& args, const ShearSession& s);
+
 void open_new(const RunArgs& args, ShearSession& s) {
   ShearCase& c = s.c;
   c = load_case(to_source(args.c));
@@ -338,6 +363,8 @@ void open_new(const RunArgs& args, ShearSession& s) {
                   (args.c.overrides.empty() ? "" : " (with --set overrides)");
   if (!args.packing.empty()) c.packing_file = args.packing;
   plan_run(s);  // the new world starts at step 0
+  // --stop-at too, before the folder is claimed and the packing prepared
+  checked_stop_step(args, s);
   // The output folder is claimed before the packing is obtained: a folder that cannot be used
   // must not be found out after minutes of preparation.
   if (args.out_dir.empty()) {
@@ -542,14 +569,11 @@ void write_progress_file(const fs::path& dir, const RunProgress& p, double durat
   }
 }
 
-/// How the run loop of a shear run steps, reports and stops (run_loop.hpp): to the case's end or
-/// --stop-at, status lines and the progress bar, the thread choice, and the check of the walls.
-RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
-  const ShearCase& c = s.c;
-  const double dt = c.step.dt;
-  RunLoopSettings loop;
-  loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
-  loop.end_step = s.end_step;
+/// The step the run loop stops at: the run's end, or --stop-at's step where that comes first.
+/// Refused (ConfigError) when it is no later than the state's step (planned: s.end_step and the
+/// time step known; a new run's world, at step 0, not yet built).
+std::uint64_t checked_stop_step(const RunArgs& args, const ShearSession& s) {
+  const double dt = s.c.step.dt;
   if (args.stop_at) {
     // In steps, as the loop counts: a time within half a step of the run's is no later (at the
     // start too: not rounded up to one step, as an interval would be).
@@ -570,8 +594,19 @@ RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
               : fmt::format("{} is not later than the run's time {:.6g} (step {}, dt {}): "
                             "nothing to do",
                             *args.stop_at, s.world.time, s.world.step, dt));
-    loop.end_step = std::min(s.end_step, stop_step);
+    return std::min(s.end_step, stop_step);
   }
+  return s.end_step;
+}
+
+/// How the run loop of a shear run steps, reports and stops (run_loop.hpp): to the case's end or
+/// --stop-at, status lines and the progress bar, the thread choice, and the check of the walls.
+RunLoopSettings run_loop_settings(const RunArgs& args, const ShearSession& s) {
+  const ShearCase& c = s.c;
+  const double dt = c.step.dt;
+  RunLoopSettings loop;
+  loop.choose_threads = args.c.threads_option == nullptr || args.c.threads_option->count() == 0;
+  loop.end_step = checked_stop_step(args, s);
   const std::uint64_t status = steps_of(c.status_interval, dt);
   loop.status_every = args.c.quiet ? 0
                       : status > 0 ? status
@@ -617,6 +652,9 @@ RunEnd shear_run_end(const ShearSession& s, int threads, bool threads_chosen) {
 }
 
 int run_shear(const RunArgs& args) {
+  check_utf8_path("--output", args.out_dir);
+  check_utf8_path("--packing", args.packing);
+  check_utf8_path("--resume", args.resume_dir);
   ShearSession s;
   if (args.resume_dir.empty())
     open_new(args, s);

@@ -94,13 +94,20 @@ bool stopped_before_its_end(const fs::path& dir);
 /// done), nor when there is none. Either state's step unknown: true, as the file says.
 bool interrupted_after_final_state(const fs::path& dir);
 
+/// True when the folder's final_state.json is of a step before the end its case.toml asks for:
+/// an extension killed after it wrote the longer duration into case.toml but before its new
+/// final state (its progress.json may say "finished" by then, or still be the earlier end's).
+/// Either file unreadable: false.
+bool final_state_short_of_case(const fs::path& dir);
+
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
 /// done (a resume would only write its run_info), so it counts as finished; unless
 /// an extension of it stopped before its new end, with a checkpoint: interrupted. An extension
 /// that stopped says so twice, in progress.json (stopped_before_its_end) and by its
 /// interrupted_state.json (removed when a run completes): either is enough, so that a lost or
-/// damaged progress.json does not leave the run finished short of its case.toml's duration.
+/// damaged progress.json does not leave the run finished short of its case.toml's duration; and
+/// so does a final state short of case.toml's end (killed between the two files' writes).
 /// Blown up: blowup_state.json (a resume would repeat the same steps), also where an extension
 /// of a finished run blew up (the blow-up no older than the final state). Interrupted: a
 /// checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
@@ -117,8 +124,9 @@ RunState run_state(const fs::path& dir) {
       const auto ended = fs::last_write_time(dir / "final_state.json", ec);
       if (blew_known && !ec && blew >= ended) return RunState::kBlownUp;
     }
-    const bool extension_stopped =
-        stopped_before_its_end(dir) || interrupted_after_final_state(dir);
+    const bool extension_stopped = stopped_before_its_end(dir) ||
+                                   interrupted_after_final_state(dir) ||
+                                   final_state_short_of_case(dir);
     return fs::exists(dir / "checkpoint.cbor", ec) && extension_stopped ? RunState::kInterrupted
                                                                         : RunState::kFinished;
   }
@@ -356,6 +364,18 @@ std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
 std::optional<double> folder_duration(const fs::path& run_dir) {
   const FolderCase folder = folder_case(run_dir);
   return folder.c ? std::optional<double>(folder.c->duration) : std::nullopt;
+}
+
+bool final_state_short_of_case(const fs::path& dir) {
+  const std::optional<std::uint64_t> ended = state_file_step(dir / "final_state.json");
+  if (!ended) return false;
+  FolderCase folder = folder_case(dir);
+  if (!folder.c) return false;
+  // the end step as the run takes it (plan_run: the time step resolved, checked_end_step)
+  resolve_step_rules(*folder.c);
+  const double steps = folder.c->duration / folder.c->step.dt;
+  return std::isfinite(steps) && steps < 1e18 &&
+         *ended < static_cast<std::uint64_t>(std::llround(steps));
 }
 
 /// The duration [t] of the run's folder (its case.toml) when the campaign asks the run for a
@@ -769,7 +789,22 @@ class Sweep {
     // Stopped by an interrupt: Ctrl-C (130), or the TERM this sweep passes on when it is stopped.
     const bool stopped =
         e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM);
-    if (after == RunState::kFinished) {
+    // An extension that ended before it wrote the longer duration into case.toml (a checkpoint
+    // it could not read, a stop) leaves the run finished at its earlier end.
+    const std::optional<double> had = folder_duration(dir_ / "runs" / j.name);
+    const bool not_extended =
+        after == RunState::kFinished && had && duration_of_[e.job] > *had * (1.0 + 1e-12);
+    if (not_extended && stopped) {
+      interrupted_.push_back(
+          fmt::format("{} (before its extension; log {})", j.name, j.log.string()));
+      what = "interrupted before its extension";
+    } else if (not_extended) {
+      failed_.push_back(fmt::format(
+          "{}: not extended: still finished at {:g} t where the "
+          "campaign asks for {:g} t, exit {}, log {}{}",
+          j.name, *had, duration_of_[e.job], e.exit_code, j.log.string(), failure_cause(j.log)));
+      what = fmt::format("FAILED to extend (exit {}, log {})", e.exit_code, j.log.string());
+    } else if (after == RunState::kFinished) {
       ++finished_now_;
       done_cost_ += j.cost;
       done_seconds_ += e.seconds;
@@ -890,6 +925,10 @@ class Sweep {
 
 int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   Campaign c = read_campaign(args.file);
+  // the runs' folders: each run records its own path (check_utf8_path)
+  check_utf8_path("--output", fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name
+                                                                : fs::path(args.out_dir))
+                                  .string());
   if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
     std::fputs(campaign_file_text(c).c_str(), stdout);
     return 0;
