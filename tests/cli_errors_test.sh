@@ -198,7 +198,8 @@ cp "$packing" $'packing\xff.json'
 for option in --packing --output; do
   if [ $option = --packing ]; then given=("$PWD/"$'packing\xff.json' -o not_utf8)
   else given=("$packing" -o $'out\xff'); fi
-  expect_status2 "is not UTF-8 text" "$exe" run -q --no-analyze --packing "${given[@]}"
+  expect_status2 "is not UTF-8 text" "$exe" run -q --no-analyze --set shear.duration=0.2 \
+    --packing "${given[@]}"
   grep -q "^error: $option: '" err.txt || { echo "FAIL: not named: $(cat err.txt)"; fails=$((fails + 1)); }
 done
 

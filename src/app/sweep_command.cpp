@@ -786,9 +786,11 @@ class Sweep {
     }
     const RunState after = run_state(dir_ / "runs" / j.name);
     std::string what = state_name(after);
-    // Stopped by an interrupt: Ctrl-C (130), or the TERM this sweep passes on when it is stopped.
+    // Stopped by an interrupt: Ctrl-C (130), or the TERM this sweep passes on when it is stopped
+    // (or a TERM or HUP that reached the run before it installed its handlers: 143, 129).
     const bool stopped =
-        e.exit_code == 130 || (g_stop_requested.load() && e.exit_code == 128 + SIGTERM);
+        e.exit_code == 130 ||
+        (g_stop_requested.load() && (e.exit_code == 128 + SIGTERM || e.exit_code == 128 + SIGHUP));
     // An extension that ended before it wrote the longer duration into case.toml (a checkpoint
     // it could not read, a stop) leaves the run finished at its earlier end.
     const std::optional<double> had = folder_duration(dir_ / "runs" / j.name);
