@@ -22,6 +22,7 @@
 
 #include "build_info.hpp"
 #include "config_error.hpp"
+#include "job_scheduler.hpp"
 #include "outputs.hpp"
 
 namespace cdshear {
@@ -232,6 +233,33 @@ void remove_written_outputs(const std::filesystem::path& dir) {
       fs::remove(e.path());
     }
   }
+}
+
+std::optional<std::string> read_run_file(const std::filesystem::path& path,
+                                         const std::string& role) {
+  int fd = -1;
+  try {
+    fd = open_regular_file(path, O_RDONLY | O_CLOEXEC, role);
+  } catch (const ConfigError&) {
+    return std::nullopt;
+  }
+  if (fd < 0) return std::nullopt;
+  std::string text;
+  char buffer[4096];
+  for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;)
+    text.append(buffer, static_cast<std::size_t>(got));
+  ::close(fd);
+  return text;
+}
+
+std::optional<std::uint64_t> recorded_step(const std::filesystem::path& file) {
+  const std::optional<std::string> text = read_run_file(file, "a run's file");
+  if (!text) return std::nullopt;
+  const nlohmann::json j = nlohmann::json::parse(*text, nullptr, false);
+  if (!j.is_object()) return std::nullopt;
+  const auto step = j.find("step");
+  if (step == j.end() || !step->is_number_unsigned()) return std::nullopt;
+  return step->get<std::uint64_t>();
 }
 
 void check_utf8_path(const std::string& option, const std::string& path) {

@@ -3,7 +3,9 @@
 // and the exit status (0 done, 130 interrupted, 3 blown up).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -69,6 +71,15 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
 
 /// What `--force` removes: the outputs cdshear writes in `dir`, by name (nothing else).
 void remove_written_outputs(const std::filesystem::path& dir);
+
+/// The text of a file a run wrote, opened as the sweep opens the runs' logs: a FIFO or another
+/// special file in its place must not block the reader. None when it is missing or unreadable.
+std::optional<std::string> read_run_file(const std::filesystem::path& path,
+                                         const std::string& role);
+
+/// The "step" a JSON file of a run was written at (final_state.json, interrupted_state.json,
+/// run_info.json); none when it cannot be read or holds none.
+std::optional<std::uint64_t> recorded_step(const std::filesystem::path& file);
 
 /// Refuses (ConfigError naming `option`) a path given on the command line that is not UTF-8:
 /// case.toml, run_info.json and the summary record paths as text, which TOML and JSON hold only

@@ -12,7 +12,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -207,23 +206,13 @@ struct ShearSession {
   FolderLock lock;             ///< one writer per run folder, held until the command ends
 };
 
-/// Whether the JSON file holds an object whose "step" is `step` (false when it cannot be read).
-bool json_file_of_step(const fs::path& file, std::uint64_t step) {
-  std::ifstream in(file);
-  if (!in) return false;
-  const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!j.is_object()) return false;
-  const auto found = j.find("step");
-  return found != j.end() && found->is_number_unsigned() && found->get<std::uint64_t>() == step;
-}
-
 /// Whether the run in `dir` wrote the files that end it at `step`: a final_state.json of that
 /// step (an extension keeps its earlier end's until it reaches the new one) and a run_info
 /// (run_info.json, or run_info_resume_<step>.json for a resumed sitting) of that step.
 bool end_files_written(const fs::path& dir, std::uint64_t step) {
-  if (!json_file_of_step(dir / "final_state.json", step)) return false;
+  if (recorded_step(dir / "final_state.json") != step) return false;
   return fs::exists(dir / fmt::format("run_info_resume_{}.json", step)) ||
-         json_file_of_step(dir / "run_info.json", step);
+         recorded_step(dir / "run_info.json") == step;
 }
 
 /// Resolves the time step and checks the run's size (docs/reliability.md) once the case and the

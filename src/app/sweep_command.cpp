@@ -210,24 +210,6 @@ double seconds_left(double rate, const JobProgress& p, const std::vector<Job>& j
                                              p.running + p.waiting)));
 }
 
-/// The text of a file a run wrote, opened as the sweep opens the runs' logs: a FIFO or another
-/// special file in its place must not block the sweep. Empty when it is missing or unreadable.
-std::optional<std::string> read_run_file(const fs::path& path, const std::string& role) {
-  int fd = -1;
-  try {
-    fd = open_regular_file(path, O_RDONLY | O_CLOEXEC, role);
-  } catch (const ConfigError&) {
-    return std::nullopt;
-  }
-  if (fd < 0) return std::nullopt;
-  std::string text;
-  char buffer[4096];
-  for (ssize_t got; (got = ::read(fd, buffer, sizeof buffer)) > 0;)
-    text.append(buffer, static_cast<std::size_t>(got));
-  ::close(fd);
-  return text;
-}
-
 bool stopped_before_its_end(const fs::path& dir) {
   const std::optional<std::string> text =
       read_run_file(dir / "progress.json", "a run's progress file");
@@ -240,23 +222,11 @@ bool stopped_before_its_end(const fs::path& dir) {
          end->is_number_unsigned() && step->get<std::uint64_t>() < end->get<std::uint64_t>();
 }
 
-/// The step a state file (final_state.json, interrupted_state.json) was written at; none when
-/// it cannot be read or holds none.
-std::optional<std::uint64_t> state_file_step(const fs::path& file) {
-  const std::optional<std::string> text = read_run_file(file, "a run's state file");
-  if (!text) return std::nullopt;
-  const nlohmann::json j = nlohmann::json::parse(*text, nullptr, false);
-  if (!j.is_object()) return std::nullopt;
-  const auto step = j.find("step");
-  if (step == j.end() || !step->is_number_unsigned()) return std::nullopt;
-  return step->get<std::uint64_t>();
-}
-
 bool interrupted_after_final_state(const fs::path& dir) {
   std::error_code ec;
   if (!fs::exists(dir / "interrupted_state.json", ec)) return false;
-  const std::optional<std::uint64_t> stopped = state_file_step(dir / "interrupted_state.json");
-  const std::optional<std::uint64_t> ended = state_file_step(dir / "final_state.json");
+  const std::optional<std::uint64_t> stopped = recorded_step(dir / "interrupted_state.json");
+  const std::optional<std::uint64_t> ended = recorded_step(dir / "final_state.json");
   return !stopped || !ended || *stopped > *ended;
 }
 
@@ -367,7 +337,7 @@ std::optional<double> folder_duration(const fs::path& run_dir) {
 }
 
 bool final_state_short_of_case(const fs::path& dir) {
-  const std::optional<std::uint64_t> ended = state_file_step(dir / "final_state.json");
+  const std::optional<std::uint64_t> ended = recorded_step(dir / "final_state.json");
   if (!ended) return false;
   FolderCase folder = folder_case(dir);
   if (!folder.c) return false;
