@@ -10,7 +10,8 @@
 # its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
 # longer duration extends finished runs, resumes an extension killed before its new final state
 # and reports one that failed before it started; `--progress-every` prints a progress line with an
-# estimate before any run has finished; a folder that is not a campaign's is refused untouched.
+# estimate before any run has finished; a folder that is not a campaign's, or with something
+# else where its runs/ folder or a log goes, is refused untouched.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -339,7 +340,7 @@ rc=0; timeout 60 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || rc=$?
 grep -q "fifo/logs/s1_seed1_V0.5.log: is not a regular file" fifo.out ||
   fail "the refusal does not name the FIFO: $(cat fifo.out)"
 rm fifo/logs/s1_seed1_V0.5.log
-# A folder there is refused the same way (it was an "unexpected error", exit 1).
+# A folder there is refused the same way.
 mkdir fifo/logs/s1_seed1_V0.5.log
 rc=0; timeout 60 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a folder as a log exited $rc, not 2: $(cat fifo.out)"
@@ -379,6 +380,20 @@ rc=0; timeout 60 "$exe" sweep own.toml -o fifo_campaign > fifo_campaign.out 2>&1
 [ $rc -eq 2 ] || fail "a FIFO as campaign.toml exited $rc, not 2: $(cat fifo_campaign.out)"
 grep -q "fifo_campaign/campaign.toml: is not a regular file" fifo_campaign.out ||
   fail "the refusal does not name the FIFO: $(cat fifo_campaign.out)"
+# A file where the campaign's runs/ folder goes, or a folder where a run's log goes: refused before
+# any folder is made or any job starts.
+mkdir -p runs_file && touch runs_file/runs
+rc=0; "$exe" sweep own.toml -o runs_file > runs_file.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a file named runs exited $rc, not 2: $(cat runs_file.out)"
+grep -q "runs_file/runs: the campaign's folder runs/ goes here" runs_file.out ||
+  fail "the refusal does not name runs: $(cat runs_file.out)"
+[ "$(ls runs_file)" = runs ] || fail "a refused sweep made folders: $(ls runs_file)"
+mkdir -p log_folder/logs/s1_seed1_V0.5.log
+rc=0; "$exe" sweep own.toml -o log_folder > log_folder.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a folder as a log exited $rc, not 2: $(cat log_folder.out)"
+grep -q "log_folder/logs/s1_seed1_V0.5.log: is a folder in a run's log's place" log_folder.out ||
+  fail "the refusal does not name the log: $(cat log_folder.out)"
+[ ! -e log_folder/packings/s1_seed1.json ] || fail "a refused sweep copied its packing"
 
 # 6. --progress-every: a progress line with runs done / running / left and an estimate of the
 # time left from the running runs' logs, before any run has finished; a bad period is refused.

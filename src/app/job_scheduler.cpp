@@ -34,20 +34,38 @@ int exit_code_of(int status) {
 
 }  // namespace
 
+namespace {
+
+[[noreturn]] void refuse_not_a_file(const std::filesystem::path& path, const std::string& role) {
+  throw ConfigError(
+      path.string(), "",
+      "is not a regular file (a FIFO or a device in " + role + "'s place): remove it");
+}
+
+[[noreturn]] void refuse_folder(const std::filesystem::path& path, const std::string& role) {
+  throw ConfigError(path.string(), "", "is a folder in " + role + "'s place: remove it");
+}
+
+}  // namespace
+
 int open_regular_file(const std::filesystem::path& path, int flags, const std::string& role) {
-  const std::string not_a_file =
-      "is not a regular file (a FIFO or a device in " + role + "'s place): remove it";
   const int fd = ::open(path.c_str(), flags | O_NONBLOCK, 0644);
-  if (fd < 0 && errno == ENXIO) throw ConfigError(path.string(), "", not_a_file);
-  if (fd < 0 && errno == EISDIR)
-    throw ConfigError(path.string(), "", "is a folder in " + role + "'s place: remove it");
+  if (fd < 0 && errno == ENXIO) refuse_not_a_file(path, role);
+  if (fd < 0 && errno == EISDIR) refuse_folder(path, role);
   if (fd < 0) return -1;
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    throw ConfigError(path.string(), "", not_a_file);
+    refuse_not_a_file(path, role);
   }
   return fd;
+}
+
+void check_regular_file_if_present(const std::filesystem::path& path, const std::string& role) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return;
+  if (S_ISDIR(st.st_mode)) refuse_folder(path, role);
+  if (!S_ISREG(st.st_mode)) refuse_not_a_file(path, role);
 }
 
 std::string shell_quoted(const std::string& word) {

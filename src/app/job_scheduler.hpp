@@ -112,6 +112,11 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
 /// report. Writes and locks on a regular file behave as without O_NONBLOCK.
 int open_regular_file(const std::filesystem::path& path, int flags, const std::string& role);
 
+/// Refuses, as open_regular_file would, a path where something other than a regular file stands
+/// (a folder, a FIFO, a device); an absent path, or one that cannot be looked at, passes. For
+/// checks made before any job starts, without creating the file.
+void check_regular_file_if_present(const std::filesystem::path& path, const std::string& role);
+
 /// `word` as a POSIX shell reads it back: unchanged if it holds only letters, digits and
 /// `_@%+=:,./-`, else in single quotes (a quote inside written '\'').
 std::string shell_quoted(const std::string& word);

@@ -526,6 +526,15 @@ class Sweep {
   void claim_folder() {
     check_campaign_folder(dir_);
     check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
+    // Every name checked before any folder is made, so that a refusal leaves nothing behind.
+    for (const char* sub : kCampaignSubfolders) {
+      std::error_code ec;
+      if (fs::exists(fs::symlink_status(dir_ / sub, ec)) && !fs::is_directory(dir_ / sub, ec))
+        throw ConfigError((dir_ / sub).lexically_normal().string(), "",
+                          fmt::format("the campaign's folder {}/ goes here, where something "
+                                      "else stands: remove or rename it",
+                                      sub));
+    }
     for (const char* sub : kCampaignSubfolders) {
       std::error_code ec;
       fs::create_directories(dir_ / sub, ec);
@@ -535,6 +544,7 @@ class Sweep {
                                       "the folder that holds the campaign)",
                                       sub, ec.message()));
     }
+    check_log_paths();
     const fs::path lock = dir_ / ".sweep.lock";
     const int lock_fd = open_regular_file(lock, O_RDWR | O_CREAT, "the sweep's lock");
     if (lock_fd < 0)
@@ -546,6 +556,18 @@ class Sweep {
                         "another sweep (or runs it left behind) is working in this folder; wait "
                         "for it to end, or stop it (its runs checkpoint on SIGTERM)");
     write_file_atomic(dir_ / "campaign.toml", campaign_file_text(c_));
+  }
+
+  /// Each run's and each preparation's log is appended to: anything but a file in a log's
+  /// place is refused here, before any job starts, rather than when its job starts (which would
+  /// stop the sweep and the runs it is watching).
+  void check_log_paths() const {
+    for (const CampaignRun& r : c_.runs) {
+      check_regular_file_if_present(dir_ / "logs" / (r.name + ".log"), "a run's log");
+      check_regular_file_if_present(
+          dir_ / "logs" / fmt::format("prepare_s{}_seed{}.log", r.system, r.seed),
+          "a preparation's log");
+    }
   }
 
   /// One packing per (system, seed): copied from [campaign.packing], kept from an earlier
