@@ -83,6 +83,20 @@ grep -q "case.toml: key 'measure.enabled': is false, but the run was measured" \
   "$work/unmeasured.err" || { echo "FAIL: $(cat "$work/unmeasured.err")"; exit 1; }
 [ "$before" = "$(md5sum "$work/unmeasured/run.h5" "$work/unmeasured/checkpoint.cbor")" ] ||
   { echo "FAIL: the refused resume changed the run's files"; exit 1; }
+# Any other [measure] key edited is refused naming that key in case.toml, with both values
+# (the edited stripes would otherwise be blamed on checkpoint.cbor, the rest on run.h5).
+for edit in "window|0.80000000000000004|0.4|is 0.4, but the run was measured with 0.8" \
+  "stripe_thickness|1.0|2.0|is 2, but the run was measured with 1"; do
+  IFS='|' read -r key was now says <<< "$edit"
+  rm -rf "$work/edited" && cp -r "$work/stopped" "$work/edited"
+  sed -i "s/^$key = $was$/$key = $now/" "$work/edited/case.toml"
+  grep -q "^$key = $now$" "$work/edited/case.toml" || { echo "FAIL: $key not edited"; exit 1; }
+  if "$exe" run -q --no-analyze --resume "$work/edited" > /dev/null 2> "$work/edited.err"; then
+    echo "FAIL: a resume with measure.$key edited went on"; exit 1
+  fi
+  grep -q "edited/case.toml: key 'measure.$key': $says" "$work/edited.err" ||
+    { echo "FAIL: measure.$key edited: $(cat "$work/edited.err")"; exit 1; }
+done
 "$exe" run -q --no-analyze --resume "$work/stopped" > /dev/null
 [ "$(progress "$work/stopped")" = "finished 12.0 1.2 12.0" ] ||
   { echo "FAIL: progress.json after the resume: $(progress "$work/stopped")"; exit 1; }

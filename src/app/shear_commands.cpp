@@ -1,6 +1,7 @@
 // `cdshear prepare` and `cdshear run`: the shear cell of the reference study (docs/model.md
 // sections 4 to 6).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <type_traits>
 
 #include "analysis_command.hpp"
 #include "build_info.hpp"
@@ -456,11 +458,6 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   } catch (const std::exception& e) {
     throw ConfigError(checkpoint, "observers.measurement", e.what());
   }
-  if (state.grain_moment.size() != s.world.disks.size() ||
-      state.window.stripes.area.size() != m->stripes() ||
-      state.window.top_stripes.area.size() != m->top_stripe_depths().size())
-    throw ConfigError(checkpoint, "observers.measurement",
-                      "does not match the run's disks or stripes");
   // Rows and windows completed up to the checkpoint; the data file may be ahead of it.
   RunData data = read_run_data_isolated(s.dir / "run.h5");
   const std::string data_file = (s.dir / "run.h5").string();
@@ -487,17 +484,45 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
                                   "{}; a measured run cannot change its time step (start a new "
                                   "run from this one's final state instead)",
                                   data.meta.dt, s.c.step.dt));
+  // [measure] is fixed for the whole run: an edit of case.toml is named by its key (the
+  // stripes of the checkpoint and run.h5 would not match those of the edited settings).
   const MeasureOptions& o = data.options;
-  if (o.sample_interval != s.c.measure.sample_interval || o.window != s.c.measure.window ||
-      o.stripe_thickness != s.c.measure.stripe_thickness ||
-      o.stripe_span != s.c.measure.stripe_span ||
-      o.boundary_thickness != s.c.measure.boundary_thickness ||
-      o.force_threshold != s.c.measure.force_threshold ||
-      o.contact_gap != s.c.measure.contact_gap || data.stripe_centres.size() != m->stripes() ||
+  const MeasureOptions& now = s.c.measure;
+  const auto shown = [](const auto& value) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(value)>, double>) {
+      return format_number(value);
+    } else {
+      std::vector<std::string> words;
+      for (const double x : value) words.push_back(format_number(x));
+      return fmt::format("[{}]", fmt::join(words, ", "));
+    }
+  };
+  const auto same_setting = [&](const char* key, const auto& in_file, const auto& in_case) {
+    if (in_file != in_case)
+      throw ConfigError((s.dir / "case.toml").string(), std::string("measure.") + key,
+                        fmt::format("is {}, but the run was measured with {} up to its checkpoint "
+                                    "(run.h5): [measure] cannot change within a run; set it back "
+                                    "(or start a new run from this one's final state)",
+                                    shown(in_case), shown(in_file)));
+  };
+  same_setting("sample_interval", o.sample_interval, now.sample_interval);
+  same_setting("window", o.window, now.window);
+  same_setting("stripe_thickness", o.stripe_thickness, now.stripe_thickness);
+  same_setting("stripe_span", o.stripe_span, now.stripe_span);
+  same_setting("boundary_thickness", o.boundary_thickness, now.boundary_thickness);
+  same_setting("force_threshold", o.force_threshold, now.force_threshold);
+  same_setting("contact_gap", o.contact_gap, now.contact_gap);
+  // The same settings give the same stripes; other stripes mean files of another cell.
+  if (data.stripe_centres.size() != m->stripes() ||
       data.top_stripe_depths != m->top_stripe_depths())
     throw ConfigError(data_file, "measure",
                       "was written with other [measure] settings than "
                       "case.toml's: the files do not belong together");
+  if (state.grain_moment.size() != s.world.disks.size() ||
+      state.window.stripes.area.size() != m->stripes() ||
+      state.window.top_stripes.area.size() != m->top_stripe_depths().size())
+    throw ConfigError(checkpoint, "observers.measurement",
+                      "does not match the run's disks or stripes");
   std::erase_if(data.series, [&](const SeriesRow& r) { return r.step > s.world.step; });
   std::erase_if(data.windows, [&](const WindowProfile& w) {
     return std::llround(w.t_end / s.c.step.dt) > static_cast<long long>(s.world.step);
