@@ -67,6 +67,13 @@ class StressBalance(unittest.TestCase):
         return detect_steady_state(time, series, starts, {"bulk_mu_eff": bulk_mu},
                                    balance=lambda windows: balance[windows])
 
+    def assert_not_balanced(self, run, excess, delta):
+        """The analysis of `run` is not steady for its stress, and measures `excess` in mu_eff."""
+        summary = analyze(run)
+        self.assertFalse(summary["steady"])
+        self.assertIn("stress not uniform", summary["steady_reason"])
+        self.assertAlmostEqual(summary["stress_balance"]["mean"], excess, delta=delta)
+
     def test_balanced_stress_is_steady(self):
         st = self.verdict(0.0)
         self.assertTrue(st["steady"], st["reason"])
@@ -92,10 +99,7 @@ class StressBalance(unittest.TestCase):
         run = steady_synthetic_run()
         self.assertTrue(analyze(run)["steady"])
         run["windows"]["stress"][..., 0, 1] *= 1.08
-        summary = analyze(run)
-        self.assertFalse(summary["steady"])
-        self.assertIn("stress not uniform", summary["steady_reason"])
-        self.assertAlmostEqual(summary["stress_balance"]["mean"], 0.08 * 0.30, delta=0.006)
+        self.assert_not_balanced(run, 0.08 * 0.30, delta=0.006)
 
     def test_the_balance_pairs_each_window_with_its_own_walls(self):
         # The shear stress inside and at the walls swinging together by 10% from window to
@@ -111,10 +115,7 @@ class StressBalance(unittest.TestCase):
         self.assertTrue(balanced["steady"], balanced["steady_reason"])
         self.assertLess(balanced["stress_balance"]["err"], 0.002)
         w["stress"][..., 0, 1] *= 1.03
-        summary = analyze(run)
-        self.assertFalse(summary["steady"])
-        self.assertIn("stress not uniform", summary["steady_reason"])
-        self.assertAlmostEqual(summary["stress_balance"]["mean"], 0.03 * 0.30, delta=0.002)
+        self.assert_not_balanced(run, 0.03 * 0.30, delta=0.002)
 
     def test_windows_without_the_walls_forces_do_not_count_toward_the_balance(self):
         # the interior 3% above the walls, but a wall normal force in the first two windows

@@ -16,7 +16,6 @@
 #include <memory>
 #include <optional>
 #include <sstream>
-#include <type_traits>
 
 #include "analysis_command.hpp"
 #include "build_info.hpp"
@@ -485,25 +484,17 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
                                   "run from this one's final state instead)",
                                   data.meta.dt, s.c.step.dt));
   // [measure] is fixed for the whole run: an edit of case.toml is named by its key (the
-  // stripes of the checkpoint and run.h5 would not match those of the edited settings).
+  // stripes of the checkpoint and run.h5 would not match those of the edited settings). The
+  // values are shown as fmt writes them, shortest round trip: two that differ never look alike.
   const MeasureOptions& o = data.options;
   const MeasureOptions& now = s.c.measure;
-  const auto shown = [](const auto& value) {
-    if constexpr (std::is_same_v<std::decay_t<decltype(value)>, double>) {
-      return format_number(value);
-    } else {
-      std::vector<std::string> words;
-      for (const double x : value) words.push_back(format_number(x));
-      return fmt::format("[{}]", fmt::join(words, ", "));
-    }
-  };
   const auto same_setting = [&](const char* key, const auto& in_file, const auto& in_case) {
     if (in_file != in_case)
       throw ConfigError((s.dir / "case.toml").string(), std::string("measure.") + key,
                         fmt::format("is {}, but the run was measured with {} up to its checkpoint "
                                     "(run.h5): [measure] cannot change within a run; set it back "
                                     "(or start a new run from this one's final state)",
-                                    shown(in_case), shown(in_file)));
+                                    in_case, in_file));
   };
   same_setting("sample_interval", o.sample_interval, now.sample_interval);
   same_setting("window", o.window, now.window);

@@ -558,15 +558,21 @@ class Sweep {
     write_file_atomic(dir_ / "campaign.toml", campaign_file_text(c_));
   }
 
+  /// The log of a job (a run, by its name, or a preparation): logs/<name>.log.
+  fs::path log_of(const std::string& job_name) const { return dir_ / "logs" / (job_name + ".log"); }
+
+  /// The job that prepares the packing of a run's (system, seed).
+  static std::string preparation_name(const CampaignRun& r) {
+    return fmt::format("prepare_s{}_seed{}", r.system, r.seed);
+  }
+
   /// Each run's and each preparation's log is appended to: anything but a file in a log's
   /// place is refused here, before any job starts, rather than when its job starts (which would
   /// stop the sweep and the runs it is watching).
   void check_log_paths() const {
     for (const CampaignRun& r : c_.runs) {
-      check_regular_file_if_present(dir_ / "logs" / (r.name + ".log"), "a run's log");
-      check_regular_file_if_present(
-          dir_ / "logs" / fmt::format("prepare_s{}_seed{}.log", r.system, r.seed),
-          "a preparation's log");
+      check_regular_file_if_present(log_of(r.name), "a run's log");
+      check_regular_file_if_present(log_of(preparation_name(r)), "a preparation's log");
     }
   }
 
@@ -600,7 +606,7 @@ class Sweep {
         continue;
       }
       Job j;
-      j.name = fmt::format("prepare_s{}_seed{}", r.system, r.seed);
+      j.name = preparation_name(r);
       j.argv = {exe_.string(),
                 "prepare",
                 "-q",
@@ -613,7 +619,7 @@ class Sweep {
                 "-o",
                 p.string()};
       for (const std::string& o : c_.overrides) j.argv.insert(j.argv.end(), {"--set", o});
-      j.log = dir_ / "logs" / (j.name + ".log");
+      j.log = log_of(j.name);
       j.cost = r.cost();
       prepare_jobs.push_back(j);
     }
@@ -658,7 +664,7 @@ class Sweep {
     const fs::path rdir = dir_ / "runs" / r.name;
     Job j;
     j.name = r.name;
-    j.log = dir_ / "logs" / (r.name + ".log");
+    j.log = log_of(r.name);
     j.cost = r.cost();
     if (state == RunState::kInterrupted || state == RunState::kFinished) {
       j.argv = {exe_.string(), "run", "--resume", rdir.string(), "--threads", threads_};
@@ -684,7 +690,7 @@ class Sweep {
   void plan_runs() {
     for (const CampaignRun& r : c_.runs) {
       const fs::path rdir = dir_ / "runs" / r.name;
-      const fs::path log = dir_ / "logs" / (r.name + ".log");
+      const fs::path log = log_of(r.name);
       const RunState state = run_state(rdir);
       if (state != RunState::kNew) {
         if (const std::string problem = folder_case_problem(rdir, r); !problem.empty()) {
@@ -735,9 +741,8 @@ class Sweep {
       }
       const fs::path packing = packing_of_.at({r.system, r.seed});
       if (!fs::exists(packing)) {
-        failed_.push_back(fmt::format(
-            "{}: its packing was not prepared, log {}", r.name,
-            (dir_ / "logs" / fmt::format("prepare_s{}_seed{}.log", r.system, r.seed)).string()));
+        failed_.push_back(fmt::format("{}: its packing was not prepared, log {}", r.name,
+                                      log_of(preparation_name(r)).string()));
         continue;
       }
       duration_of_.push_back(r.duration);
