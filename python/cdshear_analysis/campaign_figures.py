@@ -19,7 +19,6 @@ import numpy as np
 
 from . import fitting
 from .boundary_laws import h_label, layer_points, profile_crossing
-from .regime import SWITCH_FRACTION
 from .rundata import save_figure
 
 FIGURES = [
@@ -357,9 +356,9 @@ def bulk_by_h_figure(path, rows, boundary):
 
 
 def switch_time_figure(path, switch_predictions):
-    """Regime C: switch time / V against L_y. Measured: the switch duration (plateau to plateau,
-    the block from +-0.8 V to -+0.8 V: regime.SWITCH_FRACTION of T) / (SWITCH_FRACTION V),
-    comparable to the predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), the mean interval
+    """Regime C: switch time / V against L_y. Measured: the run's mean switch time T (the time
+    from +V to -V at each switch's fitted rate, regime.band_switches) / V, comparable to the
+    predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), the mean interval
     between switches / V, and for a run without a switch the time it was watched / V (open
     triangles: the interval lies above)."""
     plt, fig, ax = _figure()
@@ -369,12 +368,11 @@ def switch_time_figure(path, switch_predictions):
     for i, system in enumerate(systems):
         c = colours[i % len(colours)]
         sel = [e for e in switch_predictions if e["system"] == system and e["L_y"]]
-        for key, marker, label, scale in (
-                ("switch_duration", "o", f"switch duration / ({SWITCH_FRACTION:g} V)",
-                 SWITCH_FRACTION),
-                ("predicted_T", "x", "predicted T / V", 1.0),
-                ("mean_interval", "s", "mean interval / V", 1.0)):
-            pts = [(e["L_y"], e[key] / (scale * e["V"])) for e in sel if e.get(key)]
+        for key, marker, label in (
+                ("switch_time", "o", "measured T / V"),
+                ("predicted_T", "x", "predicted T / V"),
+                ("mean_interval", "s", "mean interval / V")):
+            pts = [(e["L_y"], e[key] / e["V"]) for e in sel if e.get(key)]
             if pts:
                 xs += [p[0] for p in pts]
                 ax.plot(*zip(*pts), marker, color=c, mfc="none" if marker == "s" else c,

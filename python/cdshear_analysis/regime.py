@@ -29,7 +29,8 @@ Run regime, from the window states' shares of the averaged time and the averaged
              of the samples within PLATEAU_LEVEL V of a wall's velocity; Sarle's bimodality
              coefficient is reported beside it);
   C          C+ and C- windows >= DOMINANT_SHARE, |u| > COM_LEVEL V in >= SAMPLE_SHARE of the
-             samples, and (if the band switches) the mean time on a plateau at least DWELL_RATIO
+             samples, the plateau (below) of each side holding >= INTERMITTENT_SHARE of them
+             found, and (if the band switches) the mean time on a plateau at least DWELL_RATIO
              switch durations;
   intermittent  windows in a positive state >= DOMINANT_SHARE, at least two of A, B, C with
              >= INTERMITTENT_SHARE each, the states told apart: at most GAP_SHARE of the samples
@@ -39,20 +40,29 @@ Run regime, from the window states' shares of the averaged time and the averaged
 regime_confidence: the share of the averaged window time whose own state agrees with the run's
 regime (A, B: that state; C: C+ and C-; intermittent: any positive state); NaN when undecided.
 
-Band switches: the block velocity is on the + plateau when |u - P+| <= PLATEAU_LEVEL V, on the -
-plateau likewise (P+- = +-V from block_vx; from com_vx, the median of that side's samples beyond
-+-COM_LEVEL V, when it lies beyond +-GAP_LEVELS[1] V). A switch is a change from one plateau to
-the other (excursions that return to the old plateau are none): start = the last sample on the
-old plateau, end = the first sample on the new one, so a switch from +V to -V spans the change
-from (1 - PLATEAU_LEVEL) V to the opposite, the fraction SWITCH_FRACTION of the time T of
-model.md section 8; a change that rests at 0 (B) on the way is one switch lasting through the
-rest (intermittent runs). delta_mu is taken over the stretch of the old plateau before the switch,
-while the block still moves at its plateau velocity: the stretch ends at the last sample before the
-start with u at or beyond the median of the old plateau's samples, and reaches PRE_SWITCH_TIME back,
-or to the previous switch's end if that is nearer (summary.switch_friction_difference). Switches are
-found over the whole series (a switch's delta_mu stretch stops at the previous one's end), but a run
-counts only those starting in its averaged span (switches_in): the summary's switches, their
-statistics and the regime test's dwell criterion are all over that span.
+Band switches. The plateaus P+ and P- are the medians of the samples beyond +-COM_LEVEL V (none
+for a side whose median lies within GAP_LEVELS[1] V of 0: the tail of a velocity fluctuating
+about 0 is no plateau). Switches are found on u averaged over SMOOTHING_DISPLACEMENT / V (centred),
+the time the walls take to move one mean diameter: the block velocity oscillates on its plateaus
+with about that period as the grains' layers pass (system 1 at V = 0.02: sample scatter 0.11 V,
+autocorrelation negative at 20 t, positive again at 45 t). The averaged u is on a plateau within
+PLATEAU_LEVEL V of it; a change from one plateau to the other is a switch when the block then
+stays off the old plateau for at least MIN_STAY_RATIO times the change took (and at least one
+averaging time): a brief touch of the other plateau is an excursion, like one that turns back
+before it, and a change that rests at 0 (B) on the way is one switch through the rest. A switch's
+start and end are those of the straight ramp from P_old to P_new, between the two plateaus held
+flat, that fits the samples of u around the change best (least squares over the change and as
+long again on each side): the model.md section 8 block accelerated at a constant rate by the
+friction difference, measured on the samples themselves, so the plateaus' scatter widens the
+error but does not shorten the duration as first and last threshold crossings do. duration =
+end - start, plateau to plateau; switch_time = the T of model.md section 8, the time from +V to
+-V at the fitted rate: duration 2V / |P_new - P_old| from block_vx, the duration itself from
+com_vx (its plateaus sit inside +-V by the sheared layer's share, the block's at +-V). delta_mu
+is taken over the stretch of the old plateau before the ramp starts, PRE_SWITCH_TIME long or back
+to the previous switch's end if that is nearer (summary.switch_friction_difference). Switches are
+found over the whole series, but a run counts only those starting in its averaged span
+(switches_in): the summary's switches, their statistics and the regime test's dwell criterion
+are all over that span.
 """
 import numpy as np
 
@@ -79,10 +89,11 @@ INTERMITTENT_SHARE = 0.2  # run intermittent: two regimes with at least 20% of t
 GAP_LEVELS = (0.3, 0.7)   # the gap between rest and wall: 0.3 V < |u| < 0.7 V ...
 GAP_SHARE = 0.2           # ... holding at most 20% of the samples: the states are told apart
 DWELL_RATIO = 5.0         # C: mean time on a plateau at least 5 switch durations
-PLATEAU_LEVEL = 0.2       # on a plateau: |u - plateau velocity| <= 0.2 V
-# Share of the T of model.md section 8 (from +V to -V) that a switch's duration spans.
-SWITCH_FRACTION = 1 - PLATEAU_LEVEL
+PLATEAU_LEVEL = 0.2       # on a plateau: the averaged u within 0.2 V of it
+SMOOTHING_DISPLACEMENT = 1.0  # switches found on u averaged while the walls move this far [d]
+MIN_STAY_RATIO = 1.0      # a new plateau holds at least as long as the change into it took
 PRE_SWITCH_TIME = 80.0    # delta_mu over this long a stretch of the old plateau before a switch
+FIT_GRID = 400            # ramp ends tried per pass of the least-squares fit (two passes)
 VISIT_LEVEL = 0.9         # com_vx visits both walls: beyond +0.9 V and below -0.9 V
 HISTOGRAM_RANGE = 1.2     # histograms over [-1.2 V, 1.2 V] ...
 HISTOGRAM_BINS = 24       # ... in bins of 0.1 V (values outside fall in the end bins)
@@ -264,13 +275,14 @@ def state_shares(table):
 # ---------------------------------------------------------------------------------------------
 # Band switches
 
-def plateau_velocities(u, velocity, source):
-    """(P+, P-): +-V from block_vx; from com_vx the median of the samples beyond +-COM_LEVEL V,
+def plateau_velocities(u, velocity, source="block_vx"):
+    """(P+, P-): the median of the samples beyond +COM_LEVEL V and of those beyond -COM_LEVEL V,
     NaN for a side without any or whose median lies within GAP_LEVELS[1] V of 0 (the tail of a
-    velocity fluctuating about 0 is no plateau)."""
-    if source == "block_vx":
-        return float(velocity), -float(velocity)
+    velocity fluctuating about 0 is no plateau). The same for both sources: block_vx sits near
+    +-V on its plateaus (less where the block slips on the resting layer), com_vx inside them by
+    the sheared layer's share."""
     u = np.asarray(u, dtype=float)
+    u = u[np.isfinite(u)]
     level = COM_LEVEL * velocity
     out = []
     for side in (u[u > level], -u[u < -level]):
@@ -279,9 +291,9 @@ def plateau_velocities(u, velocity, source):
     return out[0], -out[1]
 
 
-def band_states(u, velocity, plateaus=None):
-    """+1 on the + plateau, -1 on the - plateau (within PLATEAU_LEVEL V of P+ or P-), else 0."""
-    p_plus, p_minus = plateaus if plateaus is not None else (velocity, -velocity)
+def band_states(u, velocity, plateaus):
+    """+1 within PLATEAU_LEVEL V of P+, -1 within it of P-, else 0 (a NaN plateau: never)."""
+    p_plus, p_minus = plateaus
     u = np.asarray(u, dtype=float)
     level = PLATEAU_LEVEL * velocity
     with np.errstate(invalid="ignore"):
@@ -290,36 +302,142 @@ def band_states(u, velocity, plateaus=None):
     return np.where(plus, 1, np.where(minus, -1, 0))
 
 
-def band_switches(time, u, velocity, plateaus=None):
-    """Every switch of the shear band between the walls, plateau to plateau (module doc), as
-    dicts: start_time (last sample on the old plateau), end_time (first on the new one),
-    duration, from_state, to_state (+1: the block with the top wall), band ("bottom->top" or
-    "top->bottom"), and delta_mu_start_time, delta_mu_end_time: the stretch of the old plateau
-    before the switch over which summary.switch_friction_difference takes delta_mu. The stretch
-    ends at the last sample, at or before the start, where u was at or beyond the median of
-    the old plateau's samples (towards its wall): the block still at its plateau velocity, not
-    yet accelerating; it is PRE_SWITCH_TIME long, or reaches back to the previous switch's end."""
-    time, u = np.asarray(time, dtype=float), np.asarray(u, dtype=float)
-    states = band_states(u, velocity, plateaus)
-    median = {s: float(np.median(u[states == s])) for s in (1, -1) if (states == s).any()}
+def running_mean(time, u, width):
+    """The centred running mean of u over `width` time units (at least one sample; the finite
+    samples only; fewer at the ends of the series). Samples are taken as evenly spaced."""
+    u = np.asarray(u, dtype=float)
+    if len(u) < 2:
+        return u.copy()
+    interval = float(np.median(np.diff(time)))
+    half = int(round(0.5 * width / interval)) if interval > 0 else 0
+    finite = np.isfinite(u)
+    total = np.concatenate([[0.0], np.cumsum(np.where(finite, u, 0.0))])
+    count = np.concatenate([[0], np.cumsum(finite)])
+    i = np.arange(len(u))
+    lo, hi = np.maximum(i - half, 0), np.minimum(i + half + 1, len(u))
+    n = count[hi] - count[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, (total[hi] - total[lo]) / n, np.nan)
+
+
+def _plateau_changes(time, states, min_time):
+    """(last index on the old plateau, first index on the new one) of each confirmed change of
+    the averaged u from one plateau to the other (module doc): its last sample on the new
+    plateau before it is back on the old one comes at least max(MIN_STAY_RATIO x the change's
+    time, min_time) after its first."""
     on = np.flatnonzero(states)
-    changes = np.flatnonzero(np.diff(states[on]) != 0)
+    if not len(on):
+        return []
+    current, last_on_current, changes = int(states[on[0]]), int(on[0]), []
+    k = 0
+    while k < len(on):
+        i = int(on[k])
+        if states[i] == current:
+            last_on_current = i
+            k += 1
+            continue
+        # the averaged u reaches the other plateau at i: how long does it stay there (its last
+        # sample on it before it is back on the old one)?
+        back = np.flatnonzero(states[i:] == current)
+        until = i + int(back[0]) if len(back) else len(states)
+        stay_end = float(time[i + np.flatnonzero(states[i:until] == -current)[-1]])
+        needed = max(MIN_STAY_RATIO * (float(time[i]) - float(time[last_on_current])),
+                     min_time)
+        if stay_end - float(time[i]) >= needed:
+            changes.append((last_on_current, i))
+            current, last_on_current = int(states[i]), i
+            k += 1
+        else:   # an excursion: skip to its return to the old plateau (or the series' end)
+            if not len(back):
+                break
+            last_on_current = i + int(back[0])
+            k = int(np.searchsorted(on, last_on_current)) + 1
+    return changes
+
+
+def _ramp_residual(t, u, p_old, p_new, t1, t2):
+    """Sum of squares of u - ramp, the ramp at p_old up to t1, at p_new from t2 on and straight
+    in between, for arrays of t1 < t2 (from prefix sums: one pass over the samples)."""
+    c = [np.concatenate([[0.0], np.cumsum(x)]) for x in (np.ones_like(t), u, u * u, t, t * u,
+                                                         t * t)]
+    i1, i2 = np.searchsorted(t, t1, "right"), np.searchsorted(t, t2, "right")
+    n, su, suu, st, stu, stt = ((x[i2] - x[i1]) for x in c)
+    # old plateau: samples before i1; new plateau: from i2 on; ramp a + b t in between
+    old = c[2][i1] - 2 * p_old * c[1][i1] + p_old ** 2 * c[0][i1]
+    n_new, su_new, suu_new = (x[-1] - x[i2] for x in c[:3])
+    new = suu_new - 2 * p_new * su_new + p_new ** 2 * n_new
+    b = (p_new - p_old) / (t2 - t1)
+    a = p_old - b * t1
+    ramp = suu - 2 * a * su - 2 * b * stu + a * a * n + 2 * a * b * st + b * b * stt
+    return old + new + ramp
+
+
+def fit_ramp(t, u, p_old, p_new):
+    """(t1, t2): the straight ramp from p_old (held up to t1) to p_new (from t2) that fits the
+    samples (t, u) best in least squares, t[0] <= t1 < t2 <= t[-1]: a grid of FIT_GRID ends
+    over the samples' span, then one over two of its steps about the best pair."""
+    finite = np.isfinite(u)
+    t, u = np.asarray(t, dtype=float)[finite], np.asarray(u, dtype=float)[finite]
+    if len(t) < 2:
+        raise ValueError("fit_ramp: fewer than two finite samples")
+    origin = float(t[0])      # times from the first sample: no cancellation in the sums of t^2
+    t = t - origin
+    lo, hi = 0.0, float(t[-1])
+    best, step = None, (hi - lo) / (FIT_GRID - 1)
+    for _ in range(2):
+        if best is None:
+            g1 = g2 = np.linspace(lo, hi, FIT_GRID)
+        else:
+            g1 = np.clip(np.linspace(best[0] - 2 * step, best[0] + 2 * step, FIT_GRID), lo, hi)
+            g2 = np.clip(np.linspace(best[1] - 2 * step, best[1] + 2 * step, FIT_GRID), lo, hi)
+            step = 4 * step / (FIT_GRID - 1)
+        t1, t2 = (x.ravel() for x in np.meshgrid(g1, g2, indexing="ij"))
+        keep = t2 > t1
+        t1, t2 = t1[keep], t2[keep]
+        r = _ramp_residual(t, u, p_old, p_new, t1, t2)
+        k = int(np.argmin(r))
+        best = (float(t1[k]), float(t2[k]))
+    return best[0] + origin, best[1] + origin
+
+
+def band_switches(time, u, velocity, plateaus=None, source="block_vx"):
+    """Every switch of the shear band between the walls (module doc), as dicts: start_time and
+    end_time (the fitted ramp's ends), duration, switch_time (the T of model.md section 8),
+    from_state, to_state (+1: the block with the top wall), band ("bottom->top" or
+    "top->bottom"), and delta_mu_start_time, delta_mu_end_time: the stretch of the old plateau
+    before the ramp over which summary.switch_friction_difference takes delta_mu. plateaus:
+    (P+, P-), by default plateau_velocities of u."""
+    time, u = np.asarray(time, dtype=float), np.asarray(u, dtype=float)
+    if len(time) < 2 or not velocity > 0:
+        return []
+    plateaus = plateau_velocities(u, velocity, source) if plateaus is None else plateaus
+    width = SMOOTHING_DISPLACEMENT / velocity
+    states = band_states(running_mean(time, u, width), velocity, plateaus)
+    changes = _plateau_changes(time, states, width)
     switches = []
-    previous_end, previous_index = (float(time[0]) if len(time) else 0.0), 0
-    for k in changes:
-        old, new = on[k], on[k + 1]      # last sample on the old plateau, first on the new one
-        start, end = float(time[old]), float(time[new])
+    previous_end = float(time[0])
+    for k, (old, new) in enumerate(changes):
         from_state = int(states[old])
-        with np.errstate(invalid="ignore"):
-            at_plateau = np.flatnonzero(from_state * (u[previous_index:old + 1] -
-                                                      median[from_state]) >= 0)
-        quiet = float(time[previous_index + at_plateau[-1]]) if len(at_plateau) else start
-        switches.append(dict(start_time=start, end_time=end, duration=end - start,
-                             from_state=from_state, to_state=-from_state,
+        p_old, p_new = plateaus[0 if from_state > 0 else 1], plateaus[1 if from_state > 0 else 0]
+        # the fit's samples: the change and as long again (at least one averaging time) on
+        # each side, within the neighbouring changes
+        margin = max(time[new] - time[old], width)
+        lo = max(time[old] - margin, time[changes[k - 1][1]] if k else time[0])
+        hi = min(time[new] + margin, time[changes[k + 1][0]] if k + 1 < len(changes)
+                 else time[-1])
+        sel = (time >= lo) & (time <= hi) & np.isfinite(u)
+        start, end = (fit_ramp(time[sel], u[sel], p_old, p_new) if sel.sum() >= 2
+                      else (float(time[old]), float(time[new])))
+        duration = end - start
+        switch_time = (duration * 2 * velocity / abs(p_new - p_old) if source == "block_vx"
+                       else duration)
+        switches.append(dict(start_time=start, end_time=end, duration=duration,
+                             switch_time=switch_time, from_state=from_state,
+                             to_state=-from_state,
                              band="bottom->top" if from_state > 0 else "top->bottom",
-                             delta_mu_start_time=max(quiet - PRE_SWITCH_TIME, previous_end),
-                             delta_mu_end_time=quiet))
-        previous_end, previous_index = end, new
+                             delta_mu_start_time=max(start - PRE_SWITCH_TIME, previous_end),
+                             delta_mu_end_time=start))
+        previous_end = end
     return switches
 
 
@@ -373,6 +491,16 @@ def classify_run(table, u, switches, velocity, span, source="block_vx"):
                   f"{sw['mean_duration']:.3g} t ({sw['count']} switches)") if sw["count"] \
         else "no band switch"
     rest, wall = samples["rest"], samples["plus"] + samples["minus"]
+    # a side the block holds for a share of the time has its plateau, or no switch to or from
+    # it could be counted: a block beyond COM_LEVEL V but not at a wall's velocity is no C
+    plateaus = plateau_velocities(u, V, source)
+    unfound = [name for name, share, p in (("+", samples["plus"], plateaus[0]),
+                                           ("-", samples["minus"], plateaus[1]))
+               if share >= INTERMITTENT_SHARE and not np.isfinite(p)]
+    plateau_text = (f"no plateau on the {' and '.join(unfound)} side (the median of the samples "
+                    f"beyond {COM_LEVEL:g} V within {GAP_LEVELS[1]:g} V of 0)" if unfound else
+                    "plateaus " + " and ".join(f"{p / V:+.2f} V" for p in plateaus
+                                               if np.isfinite(p)))
     su = f"|{source}|"
     window_text = _shares_text(shares, n) if n else "no window"
     # One peak about 0: the histogram's fullest bin near 0 and no second peak at a wall (at most
@@ -402,6 +530,7 @@ def classify_run(table, u, switches, velocity, span, source="block_vx"):
                f"C windows {c_share:.0%} {ge(c_share, DOMINANT_SHARE)} {DOMINANT_SHARE:.0%}"),
               (wall >= SAMPLE_SHARE, f"{su} > {COM_LEVEL:g} V in {wall:.0%} of the samples "
                                      f"{ge(wall, SAMPLE_SHARE)} {SAMPLE_SHARE:.0%}"),
+              (not unfound, plateau_text),
               (dwell_ok, dwell_text)],
     }
 

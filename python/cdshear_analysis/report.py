@@ -108,6 +108,7 @@ BULK_QUANTITIES = [
     ("slip_top", ("slip", "top")),
     ("com_vx", ("com_vx",)),
     ("switch_duration", ("switch_duration",)),
+    ("switch_time", ("switch_time",)),
     ("switch_delta_mu", ("switch_delta_mu",)),
 ]
 # (column, path in summary.json) of the standard deviations, without an error column
@@ -767,27 +768,30 @@ def _html_transitions(transitions, preds):
         out.append("<table><tr><th>run</th><th>V</th><th>L_y</th><th>nu</th>"
                    "<th>delta_mu on the plateau</th><th>delta_mu (law, h nearest 10)</th>"
                    "<th>predicted T</th><th>delta_mu from the law, T from it, per h</th>"
-                   "<th>switches</th><th>measured duration</th>"
+                   "<th>switches</th><th>measured T</th><th>duration</th>"
                    "<th>mean interval</th><th>time / switch</th><th>delta_mu implied</th>"
                    "</tr>")
         for e in sw:
             pred = _fmt(e["predicted_T"]) if e["predicted_T"] is not None else \
                 f"<small>{html.escape(e['reason'])}</small>"
-            dur = _fmt(e["switch_duration"]) + (f" ± {_fmt(e['switch_duration_err'], 2)}"
-                                                 if e["switch_duration_err"] else "")
+            def with_err(key):
+                return _fmt(e.get(key)) + (f" ± {_fmt(e[key + '_err'], 2)}"
+                                           if e.get(key + "_err") else "")
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
                 _fmt(e.get("delta_mu_plateau")), _fmt(e["delta_mu"]), pred,
                 _delta_mu_law_text(e["delta_mu_law"]),
-                e["switch_count"], dur, _fmt(e["mean_interval"]),
+                e["switch_count"], with_err("switch_time"), with_err("switch_duration"),
+                _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
-        out.append("</table><p>Measured duration: plateau to plateau, the block velocity "
-                   "from ±0.8 V to ∓0.8 V (compare with 0.8 T, fits.json "
-                   "<code>predicted_T_levels</code>); delta_mu on the plateau: the walls' net "
-                   "friction before each switch, about zero by momentum balance (a check, not "
-                   "a prediction); the prediction takes the boundary law's delta_mu at the "
-                   "layers' jumps (h nearest 10); delta_mu implied: the "
-                   "friction difference that this duration needs. delta_mu from the law: "
+        out.append("</table><p>Measured T: the time from +V to -V at the rate of the "
+                   "straight ramp fitted to each switch, the runs' mean (compare with the "
+                   "predicted T); duration: that ramp from plateau to plateau; delta_mu on "
+                   "the plateau: the walls' net friction before each switch, positive where it "
+                   "pushes the block towards the new plateau, about zero by momentum balance "
+                   "(a check, not a prediction); the prediction takes the boundary law's "
+                   "delta_mu at the layers' jumps (h nearest 10); delta_mu implied: the "
+                   "friction difference that the measured T needs. delta_mu from the law: "
                    "|mu(bottom) - mu(top)| of the boundary law of B and C in h I_b at each "
                    "wall's measured velocity jump, per h, 68% interval in brackets, and the T "
                    "of that delta_mu.</p>")

@@ -67,11 +67,12 @@ def window_wall_friction(windows):
 
 
 def switch_friction_difference(series, time, switch):
-    """delta_mu before one band switch: |mean of (bottom_fx + top_fx)| / the mean normal force of a
-    wall, over the samples delta_mu_start_time < t <= delta_mu_end_time (the stretch of the old
-    plateau before the switch, regime.band_switches): the walls' net tangential force on the grains
-    per unit normal force in the quasi-steady state the switch leaves (model.md section 8: T = 2 rho
-    nu V L_y / (delta_mu sigma_yy)). By momentum balance it equals the grains' momentum change over
+    """delta_mu before one band switch: the mean of the walls' net tangential force on the
+    grains, -(bottom_fx + top_fx), along the switch's direction (to_state: +1 towards +V) / the
+    mean normal force of a wall, over the samples delta_mu_start_time < t <= delta_mu_end_time
+    (the stretch of the old plateau before the ramp, regime.band_switches): positive where the
+    walls already push the block towards the new plateau (model.md section 8: T = 2 rho nu V
+    L_y / (delta_mu sigma_yy)). By momentum balance it equals the grains' momentum change over
     the stretch, so on a plateau it measures how far the block already accelerates there. NaN
     without samples in the stretch."""
     sel = (time > switch["delta_mu_start_time"]) & (time <= switch["delta_mu_end_time"])
@@ -80,7 +81,8 @@ def switch_friction_difference(series, time, switch):
     fx = np.asarray(series["bottom_fx"], float)[sel] + np.asarray(series["top_fx"], float)[sel]
     fy = 0.5 * (np.abs(np.asarray(series["bottom_fy"], float)[sel])
                 + np.abs(np.asarray(series["top_fy"], float)[sel]))
-    return float(abs(np.mean(fx)) / np.mean(fy)) if np.mean(fy) > 0 else np.nan
+    return (float(-switch["to_state"] * np.mean(fx) / np.mean(fy)) if np.mean(fy) > 0
+            else np.nan)
 
 
 def holds_a_bulk(y, height, h):
@@ -205,8 +207,7 @@ def analyze(run):
     # found over the whole series (each delta_mu stretch stops at the previous switch's end),
     # kept over the averaged span only, as the regime test counts them: before it the block
     # may still wander between the walls' velocities with no band formed
-    switches = rg.switches_in(rg.band_switches(time, u, V, rg.plateau_velocities(u, V, u_source)),
-                              *span)
+    switches = rg.switches_in(rg.band_switches(time, u, V, source=u_source), *span)
     for sw in switches:
         sw["delta_mu"] = switch_friction_difference(s, time, sw)
     regime, confidence, criteria = rg.classify_run(table, u[after], switches, V, span, u_source)
@@ -250,6 +251,7 @@ def analyze(run):
             for name, (i, j) in (("xy", (0, 1)), ("yy", (1, 1))):
                 profiles[f"{part}_{name}"] = win(np.asarray(w[part])[..., i, j])
     durations = [sw["duration"] for sw in switches]
+    switch_times = [sw["switch_time"] for sw in switches]
     delta_mus = [sw["delta_mu"] for sw in switches if np.isfinite(sw["delta_mu"])]
     get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
     return {
@@ -296,6 +298,8 @@ def analyze(run):
             w, V, run["case"].get("shear", {}).get("initial_velocity", "linear")),
         "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
         if durations else mean_err(np.nan, np.nan),
+        "switch_time": mean_err(*window_mean(np.array(switch_times, dtype=float)))
+        if switch_times else mean_err(np.nan, np.nan),
         "switch_delta_mu": mean_err(*window_mean(np.array(delta_mus, dtype=float)))
         if delta_mus else mean_err(np.nan, np.nan),
         "solver": dict(capped_steps=int(np.nansum(s.get("capped_steps", [0]))),

@@ -20,9 +20,10 @@ profile has the two bands of thickness 3 below, the centre-of-mass velocity of t
   "noise"      no structure: white-noise profiles and u (std 0.4 V);
   "transient"  regime A whose wall friction and height relax as exp(-t / transient_tau)
                (mu from 0.55 to 0.30, L_y from 19 to 20).
-With `pre_switch_delta_mu` the bottom wall also carries a net tangential force pre_switch_delta_mu
-times the normal force over the `pre_switch_time` before each ramp of "C", "C_fast" and
-"intermittent" (a force the block does not follow: a check of the delta_mu measurement).
+With `pre_switch_delta_mu` the walls also push the grains towards the next level with a net
+tangential force pre_switch_delta_mu times the normal force (on the bottom wall) over the
+`pre_switch_time` before each ramp of "C", "C_fast" and "intermittent" (a force the block does not
+follow: a check of the delta_mu measurement).
 `block_column=False` leaves block_vx out (a file from before the column).
 Format version 2 (docs/run-data.md). Steady values: mu_wall = 0.30, L_y = 20 (nominal), bulk solid
 fraction 0.80, Z = 3 (force-carrying coordination 2.55).
@@ -132,9 +133,12 @@ def write_synthetic_run(run_dir, kind="A", duration=2000.0, velocity=0.5, time_r
     # Newton for the grains (rho = 1): the walls' net tangential force on them, -(bottom_fx +
     # top_fx), is their mass times the block's acceleration (nonzero during a switch only)
     block_force = n * mean_area * accel
-    held = np.zeros_like(t)                       # the force the block does not follow
-    for ts, _ in steps:
-        held[(t >= ts - pre_switch_time) & (t < ts)] = pre_switch_delta_mu
+    held = np.zeros_like(t)       # the force the block does not follow, towards the next level
+    level = start if kind in SWITCHING else 0.0
+    for ts, new_level in steps:
+        held[(t >= ts - pre_switch_time) & (t < ts)] = -np.sign(new_level - level) * \
+            pre_switch_delta_mu
+        level = new_level
     series = dict(
         step=np.round(t / dt).astype(np.int64), time=t, com_vx=com, height=height_t,
         solid_fraction=n * mean_area / (length_x * height_t),

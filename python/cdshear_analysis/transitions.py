@@ -20,7 +20,6 @@ cannot be computed is given with its reason.
 import math
 
 from . import fitting
-from .regime import SWITCH_FRACTION
 
 RHO = 1.0                  # model.md section 1: 2D mass density
 INERTIAL_MASS = math.pi / 4  # model.md sections 1 and 7: m in I = gamma_dot sqrt(m / sigma_yy)
@@ -172,7 +171,7 @@ def switch_predictions(rows, boundary=None):
         e = {"run": r["run"], "system": r["system"], "V": r["V"], "steady": r.get("steady"),
              "L_y": r.get("L_y"), "nu_bulk": r.get("nu_bulk"), "sigma_yy": r.get("_sigma_yy"),
              "rho": RHO, "delta_mu": None, "delta_mu_err": None, "delta_mu_source": None,
-             "predicted_T": None, "predicted_T_levels": None, "reason": None}
+             "predicted_T": None, "reason": None}
         sw = r.get("_switches") or []
         starts = sorted(s["start_time"] for s in sw if isinstance(s, dict)
                         and s.get("start_time") is not None)
@@ -183,6 +182,7 @@ def switch_predictions(rows, boundary=None):
         e.update(switch_count=len(sw), observed_time=observed,
                  switch_duration=r.get("switch_duration"),
                  switch_duration_err=r.get("switch_duration_err"),
+                 switch_time=r.get("switch_time"), switch_time_err=r.get("switch_time_err"),
                  mean_interval=((starts[-1] - starts[0]) / (len(starts) - 1)
                                 if len(starts) >= 2 else None),
                  time_per_switch=(observed / len(sw) if sw and observed else None))
@@ -194,13 +194,13 @@ def switch_predictions(rows, boundary=None):
         # by a friction difference that appears with the switch itself).
         e["delta_mu_plateau"] = r.get("switch_delta_mu")
         e["delta_mu_plateau_err"] = r.get("switch_delta_mu_err")
-        # the delta_mu that the measured duration implies (plateau to plateau, the block from
-        # +-SWITCH_FRACTION V to the other sign: a velocity change 2 SWITCH_FRACTION V)
-        d = e["switch_duration"]
-        if d and d > 0 and not _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]) \
+        # the delta_mu that the measured switch time implies (regime.band_switches: the T of
+        # model.md section 8 at each switch's fitted rate)
+        T = e["switch_time"]
+        if T and T > 0 and not _missing(e, ["V", "L_y", "nu_bulk", "sigma_yy"]) \
                 and e["sigma_yy"] > 0:
-            e["delta_mu_implied"] = (2 * SWITCH_FRACTION * RHO * e["nu_bulk"] * e["V"] * e["L_y"]
-                                     / (d * e["sigma_yy"]))
+            e["delta_mu_implied"] = 2 * RHO * e["nu_bulk"] * e["V"] * e["L_y"] / (
+                T * e["sigma_yy"])
         else:
             e["delta_mu_implied"] = None
         e["delta_mu_law"] = _delta_mu_law(r, e, boundary)
@@ -212,7 +212,6 @@ def switch_predictions(rows, boundary=None):
             best = min(by_h, key=lambda v: (abs(v["h"] - 10.0), v["h"]))
             T = best["predicted_T"]
             e.update(delta_mu=best["delta_mu"], predicted_T=T,
-                     predicted_T_levels=T * SWITCH_FRACTION,
                      delta_mu_source=f"the boundary law "
                                      f"{e['delta_mu_law'].get('law_name') or 'mu_hI_BC'} at "
                                      f"the layers' velocity jumps, h = {best['h']:g} "
@@ -311,8 +310,7 @@ def predictions(rows, fits, boundary=None, transitions=None):
                                   "estimate": measured["estimate"]} if measured else None)
         stability = symmetric_state_stability(rows, boundary)
     return {
-        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS,
-                      "switch_fraction": SWITCH_FRACTION},
+        "constants": {"rho": RHO, "inertial_mass": INERTIAL_MASS},
         "V_AB": v_ab,
         "symmetric_state_stability": stability,
         "switch_time_C": switch_predictions(rows, boundary),

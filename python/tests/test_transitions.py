@@ -135,7 +135,8 @@ class TransitionTest(unittest.TestCase):
 class PredictionTest(unittest.TestCase):
     def c_row(self, **kw):
         r = row(0.01, "C", L_y=20.0, nu_bulk=0.8, _sigma_yy=0.25, time_reached=5000.0,
-                switch_duration=30.0, switch_duration_err=2.0, switch_delta_mu=0.02,
+                switch_duration=30.0, switch_duration_err=2.0, switch_time=32.0,
+                switch_time_err=2.0, switch_delta_mu=0.02,
                 switch_delta_mu_err=0.004,
                 _switches=[{"start_time": 1000.0}, {"start_time": 2500.0},
                            {"start_time": 4000.0}])
@@ -153,8 +154,11 @@ class PredictionTest(unittest.TestCase):
         self.assertEqual(e["switch_count"], 3)
         self.assertAlmostEqual(e["mean_interval"], 1500.0)
         self.assertAlmostEqual(e["time_per_switch"], 5000.0 / 3)
-        # 2 * 0.8 * 0.8 * 0.01 * 20 / (30 * 0.25) = 0.256 / 7.5 (plateau to plateau: 1.6 V)
-        self.assertAlmostEqual(e["delta_mu_implied"], 0.256 / 7.5)
+        # from the measured T: 2 * 0.8 * 0.01 * 20 / (32 * 0.25) = 0.32 / 8
+        self.assertAlmostEqual(e["delta_mu_implied"], 0.32 / 8.0)
+        self.assertEqual((e["switch_time"], e["switch_time_err"]), (32.0, 2.0))
+        (e,) = tr.switch_predictions([self.c_row(switch_time=None)])
+        self.assertIsNone(e["delta_mu_implied"])
 
     def test_switches_are_timed_over_the_averaged_span(self):
         # summary.json keeps the switches of the averaged span: the time per switch is over it
@@ -169,7 +173,7 @@ class PredictionTest(unittest.TestCase):
 
     def test_switch_time_without_wall_frictions_says_what_is_missing(self):
         (e,) = tr.switch_predictions([self.c_row(switch_delta_mu=None, _switches=[],
-                                                 switch_duration=None)])
+                                                 switch_duration=None, switch_time=None)])
         self.assertIsNone(e["predicted_T"])
         self.assertIn("delta_mu", e["reason"])
         self.assertIsNone(e["delta_mu_plateau"])
