@@ -46,9 +46,10 @@ about 0 is no plateau). Switches are found on u averaged over SMOOTHING_DISPLACE
 the time the walls take to move one mean diameter: the block velocity oscillates on its plateaus
 with about that period as the grains' layers pass (system 1 at V = 0.02: sample scatter 0.11 V,
 autocorrelation negative at 20 t, positive again at 45 t). The averaged u is on a plateau within
-PLATEAU_LEVEL V of it; a change from one plateau to the other is a switch when the block then
-stays off the old plateau for at least MIN_STAY_RATIO times the change took (and at least one
-averaging time): a brief touch of the other plateau is an excursion, like one that turns back
+PLATEAU_LEVEL V of it; a change from one plateau to the other is a switch when the averaged u
+then stays on the new plateau (its last sample there before it is back on the old one) for at
+least MIN_STAY_RATIO times the change took and at least one averaging time (a change too close to
+the series' end to tell is none): a brief touch of the other plateau is an excursion, like one that turns back
 before it, and a change that rests at 0 (B) on the way is one switch through the rest. A switch's
 start and end are those of the straight ramp from P_old to P_new, between the two plateaus held
 flat, that fits the samples of u around the change best (least squares over the change and as
@@ -57,7 +58,8 @@ friction difference, measured on the samples themselves, so the plateaus' scatte
 error but does not shorten the duration as first and last threshold crossings do. duration =
 end - start, plateau to plateau; switch_time = the T of model.md section 8, the time from +V to
 -V at the fitted rate: duration 2V / |P_new - P_old| from block_vx, the duration itself from
-com_vx (its plateaus sit inside +-V by the sheared layer's share, the block's at +-V). delta_mu
+com_vx (its plateaus sit inside +-V by the sheared layer's share, the block's at +-V); both NaN
+where the fit's samples miss more than one averaging time in a row. delta_mu
 is taken over the stretch of the old plateau before the ramp starts, PRE_SWITCH_TIME long or back
 to the previous switch's end if that is nearer (summary.switch_friction_difference). Switches are
 found over the whole series, but a run counts only those starting in its averaged span
@@ -93,7 +95,8 @@ PLATEAU_LEVEL = 0.2       # on a plateau: the averaged u within 0.2 V of it
 SMOOTHING_DISPLACEMENT = 1.0  # switches found on u averaged while the walls move this far [d]
 MIN_STAY_RATIO = 1.0      # a new plateau holds at least as long as the change into it took
 PRE_SWITCH_TIME = 80.0    # delta_mu over this long a stretch of the old plateau before a switch
-FIT_GRID = 400            # ramp ends tried per pass of the least-squares fit (two passes)
+FIT_GRID = 400            # ramp ends tried over the fit's span, each end ...
+FIT_REFINE = 41           # ... then about the best pair, over two of the first grid's steps
 VISIT_LEVEL = 0.9         # com_vx visits both walls: beyond +0.9 V and below -0.9 V
 HISTOGRAM_RANGE = 1.2     # histograms over [-1.2 V, 1.2 V] ...
 HISTOGRAM_BINS = 24       # ... in bins of 0.1 V (values outside fall in the end bins)
@@ -309,7 +312,7 @@ def running_mean(time, u, width):
     if len(u) < 2:
         return u.copy()
     interval = float(np.median(np.diff(time)))
-    half = int(round(0.5 * width / interval)) if interval > 0 else 0
+    half = int(np.floor(0.5 * width / interval + 0.5)) if interval > 0 else 0
     finite = np.isfinite(u)
     total = np.concatenate([[0.0], np.cumsum(np.where(finite, u, 0.0))])
     count = np.concatenate([[0], np.cumsum(finite)])
@@ -375,7 +378,7 @@ def _ramp_residual(t, u, p_old, p_new, t1, t2):
 def fit_ramp(t, u, p_old, p_new):
     """(t1, t2): the straight ramp from p_old (held up to t1) to p_new (from t2) that fits the
     samples (t, u) best in least squares, t[0] <= t1 < t2 <= t[-1]: a grid of FIT_GRID ends
-    over the samples' span, then one over two of its steps about the best pair."""
+    over the samples' span, then one of FIT_REFINE over two of its steps about the best pair."""
     finite = np.isfinite(u)
     t, u = np.asarray(t, dtype=float)[finite], np.asarray(u, dtype=float)[finite]
     if len(t) < 2:
@@ -388,9 +391,10 @@ def fit_ramp(t, u, p_old, p_new):
         if best is None:
             g1 = g2 = np.linspace(lo, hi, FIT_GRID)
         else:
-            g1 = np.clip(np.linspace(best[0] - 2 * step, best[0] + 2 * step, FIT_GRID), lo, hi)
-            g2 = np.clip(np.linspace(best[1] - 2 * step, best[1] + 2 * step, FIT_GRID), lo, hi)
-            step = 4 * step / (FIT_GRID - 1)
+            g1 = np.clip(np.linspace(best[0] - 2 * step, best[0] + 2 * step, FIT_REFINE), lo,
+                         hi)
+            g2 = np.clip(np.linspace(best[1] - 2 * step, best[1] + 2 * step, FIT_REFINE), lo,
+                         hi)
         t1, t2 = (x.ravel() for x in np.meshgrid(g1, g2, indexing="ij"))
         keep = t2 > t1
         t1, t2 = t1[keep], t2[keep]
@@ -426,11 +430,15 @@ def band_switches(time, u, velocity, plateaus=None, source="block_vx"):
         hi = min(time[new] + margin, time[changes[k + 1][0]] if k + 1 < len(changes)
                  else time[-1])
         sel = (time >= lo) & (time <= hi) & np.isfinite(u)
-        start, end = (fit_ramp(time[sel], u[sel], p_old, p_new) if sel.sum() >= 2
-                      else (float(time[old]), float(time[new])))
-        duration = end - start
-        switch_time = (duration * 2 * velocity / abs(p_new - p_old) if source == "block_vx"
-                       else duration)
+        fitted = time[sel]
+        if len(fitted) >= 2 and np.diff(np.concatenate([[lo], fitted, [hi]])).max() <= width:
+            start, end = fit_ramp(fitted, u[sel], p_old, p_new)
+            duration = end - start
+            switch_time = (duration * 2 * velocity / abs(p_new - p_old)
+                           if source == "block_vx" else duration)
+        else:   # a gap in the samples: any ramp inside it fits, so the switch has no time
+            start, end = float(time[old]), float(time[new])
+            duration = switch_time = np.nan
         switches.append(dict(start_time=start, end_time=end, duration=duration,
                              switch_time=switch_time, from_state=from_state,
                              to_state=-from_state,
@@ -451,11 +459,12 @@ def switches_in(switches, t0, t1):
 
 def switch_statistics(switches, t0, t1):
     """Switches starting in [t0, t1] (switches_in): count, mean duration, and mean dwell =
-    (t1 - t0 - their durations) / (count + 1), the mean time on a plateau."""
+    (t1 - t0 - their durations) / (count + 1), the mean time on a plateau (the durations that
+    could be timed)."""
     sel = switches_in(switches, t0, t1)
-    durations = [sw["duration"] for sw in sel]
+    durations = [sw["duration"] for sw in sel if np.isfinite(sw["duration"])]
     dwell = (t1 - t0 - sum(durations)) / (len(sel) + 1) if t1 > t0 else np.nan
-    return dict(count=len(sel), mean_duration=float(np.mean(durations)) if sel else np.nan,
+    return dict(count=len(sel), mean_duration=float(np.mean(durations)) if durations else np.nan,
                 mean_dwell=float(dwell))
 
 

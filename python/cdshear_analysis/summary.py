@@ -250,8 +250,8 @@ def analyze(run):
         if part in w:
             for name, (i, j) in (("xy", (0, 1)), ("yy", (1, 1))):
                 profiles[f"{part}_{name}"] = win(np.asarray(w[part])[..., i, j])
-    durations = [sw["duration"] for sw in switches]
-    switch_times = [sw["switch_time"] for sw in switches]
+    durations = [sw["duration"] for sw in switches if np.isfinite(sw["duration"])]
+    switch_times = [sw["switch_time"] for sw in switches if np.isfinite(sw["switch_time"])]
     delta_mus = [sw["delta_mu"] for sw in switches if np.isfinite(sw["delta_mu"])]
     get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
     return {

@@ -303,6 +303,17 @@ class Switches(unittest.TestCase):
             self.assertAlmostEqual(sw["start_time"], start, delta=0.5)
             self.assertAlmostEqual(sw["duration"], 20.0, delta=0.5)
 
+    def test_a_switch_over_a_gap_in_the_samples_has_no_time(self):
+        # any ramp inside the gap fits the samples: the switch is found, its time is NaN
+        t = np.arange(0.0, 650.0, 0.1)
+        u = np.clip(1 - 2 * (t - 300) / 50, -1, 1)
+        u[(t > 280) & (t < 370)] = np.nan
+        (sw,) = rg.band_switches(t, 0.02 * u, 0.02)
+        self.assertTrue(np.isnan(sw["duration"]) and np.isnan(sw["switch_time"]))
+        stats = rg.switch_statistics([sw], 0.0, 650.0)
+        self.assertEqual(stats["count"], 1)
+        self.assertTrue(np.isnan(stats["mean_duration"]))
+
     def test_a_slipping_block_s_plateaus_are_its_own(self):
         # block_vx at +-0.75 V (the block slips on the resting layer): its switches are found
         # between its own plateaus, and T is the time from +V to -V at the fitted rate
