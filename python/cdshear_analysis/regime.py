@@ -49,8 +49,9 @@ autocorrelation negative at 20 t, positive again at 45 t). The averaged u is on 
 PLATEAU_LEVEL V of it; a change from one plateau to the other is a switch when the averaged u
 then stays on the new plateau (its last sample there before it is back on the old one) for at
 least MIN_STAY_RATIO times the change took and at least one averaging time (a change too close to
-the series' end to tell is none): a brief touch of the other plateau is an excursion, like one that turns back
-before it, and a change that rests at 0 (B) on the way is one switch through the rest. A switch's
+the series' end to tell is none): a brief touch of the other plateau is an excursion, like one
+that turns back before it, and a change that rests at 0 (B) on the way is one switch through the
+rest. A switch's
 start and end are those of the straight ramp from P_old to P_new, between the two plateaus held
 flat, that fits the samples of u around the change best (least squares over the change and as
 long again on each side): the model.md section 8 block accelerated at a constant rate by the
