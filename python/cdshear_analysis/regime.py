@@ -51,17 +51,16 @@ then stays on the new plateau (its last sample there before it is back on the ol
 least MIN_STAY_RATIO times the change took and at least one averaging time (a change too close to
 the series' end to tell is none): a brief touch of the other plateau is an excursion, like one
 that turns back before it, and a change that rests at 0 (B) on the way is one switch through the
-rest. A switch's
-start and end are those of the straight ramp from P_old to P_new, between the two plateaus held
-flat, that fits the samples of u around the change best (least squares over the change and as
-long again on each side): the model.md section 8 block accelerated at a constant rate by the
-friction difference, measured on the samples themselves, so the plateaus' scatter widens the
-error but does not shorten the duration as first and last threshold crossings do. duration =
-end - start, plateau to plateau; switch_time = the T of model.md section 8, the time from +V to
--V at the fitted rate: duration 2V / |P_new - P_old| from block_vx, the duration itself from
-com_vx (its plateaus sit inside +-V by the sheared layer's share, the block's at +-V); both NaN
-where the fit's samples miss more than one averaging time in a row. delta_mu
-is taken over the stretch of the old plateau before the ramp starts, PRE_SWITCH_TIME long or back
+rest. A switch's start and end are those of the straight ramp from P_old to P_new, between the
+two plateaus held flat, that fits the samples of u around the change best (least squares over
+the change and as long again on each side): the model.md section 8 block accelerated at a
+constant rate by the friction difference, measured on the samples themselves, so the plateaus'
+scatter widens the error but does not shorten the duration as first and last threshold crossings
+do. duration = end - start, plateau to plateau; switch_time = the T of model.md section 8, the
+time from +V to -V at the fitted rate: duration 2V / |P_new - P_old| from block_vx, the duration
+itself from com_vx (its plateaus sit inside +-V by the sheared layer's share, the block's at
++-V); both NaN where the fit's samples miss more than one averaging time in a row. delta_mu is
+taken over the stretch of the old plateau before the ramp starts, PRE_SWITCH_TIME long or back
 to the previous switch's end if that is nearer (summary.switch_friction_difference). Switches are
 found over the whole series, but a run counts only those starting in its averaged span
 (switches_in): the summary's switches, their statistics and the regime test's dwell criterion
@@ -279,7 +278,7 @@ def state_shares(table):
 # ---------------------------------------------------------------------------------------------
 # Band switches
 
-def plateau_velocities(u, velocity, source="block_vx"):
+def plateau_velocities(u, velocity):
     """(P+, P-): the median of the samples beyond +COM_LEVEL V and of those beyond -COM_LEVEL V,
     NaN for a side without any or whose median lies within GAP_LEVELS[1] V of 0 (the tail of a
     velocity fluctuating about 0 is no plateau). The same for both sources: block_vx sits near
@@ -405,17 +404,17 @@ def fit_ramp(t, u, p_old, p_new):
     return best[0] + origin, best[1] + origin
 
 
-def band_switches(time, u, velocity, plateaus=None, source="block_vx"):
+def band_switches(time, u, velocity, source="block_vx"):
     """Every switch of the shear band between the walls (module doc), as dicts: start_time and
     end_time (the fitted ramp's ends), duration, switch_time (the T of model.md section 8),
     from_state, to_state (+1: the block with the top wall), band ("bottom->top" or
     "top->bottom"), and delta_mu_start_time, delta_mu_end_time: the stretch of the old plateau
-    before the ramp over which summary.switch_friction_difference takes delta_mu. plateaus:
-    (P+, P-), by default plateau_velocities of u."""
+    before the ramp over which summary.switch_friction_difference takes delta_mu, between the
+    plateaus (P+, P-) of plateau_velocities."""
     time, u = np.asarray(time, dtype=float), np.asarray(u, dtype=float)
     if len(time) < 2 or not velocity > 0:
         return []
-    plateaus = plateau_velocities(u, velocity, source) if plateaus is None else plateaus
+    plateaus = plateau_velocities(u, velocity)
     width = SMOOTHING_DISPLACEMENT / velocity
     states = band_states(running_mean(time, u, width), velocity, plateaus)
     changes = _plateau_changes(time, states, width)
@@ -503,7 +502,7 @@ def classify_run(table, u, switches, velocity, span, source="block_vx"):
     rest, wall = samples["rest"], samples["plus"] + samples["minus"]
     # a side the block holds for a share of the time has its plateau, or no switch to or from
     # it could be counted: a block beyond COM_LEVEL V but not at a wall's velocity is no C
-    plateaus = plateau_velocities(u, V, source)
+    plateaus = plateau_velocities(u, V)
     unfound = [name for name, share, p in (("+", samples["plus"], plateaus[0]),
                                            ("-", samples["minus"], plateaus[1]))
                if share >= INTERMITTENT_SHARE and not np.isfinite(p)]

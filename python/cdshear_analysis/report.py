@@ -774,18 +774,15 @@ def _html_transitions(transitions, preds):
         for e in sw:
             pred = _fmt(e["predicted_T"]) if e["predicted_T"] is not None else \
                 f"<small>{html.escape(e['reason'])}</small>"
-            def with_err(key):
-                return _fmt(e.get(key)) + (f" ± {_fmt(e[key + '_err'], 2)}"
-                                           if e.get(key + "_err") else "")
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
                 _fmt(e.get("delta_mu_plateau")), _fmt(e["delta_mu"]), pred,
                 _delta_mu_law_text(e["delta_mu_law"]),
-                e["switch_count"], with_err("switch_time"), with_err("switch_duration"),
+                e["switch_count"], _pm(e, "switch_time"), _pm(e, "switch_duration"),
                 _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
         out.append("</table><p>Measured T: the time from +V to -V at the rate of the "
-                   "straight ramp fitted to each switch, the runs' mean (compare with the "
+                   "straight ramp fitted to each switch, the run's mean (compare with the "
                    "predicted T); duration: that ramp from plateau to plateau; delta_mu on "
                    "the plateau: the walls' net friction before each switch, positive where it "
                    "pushes the block towards the new plateau, about zero by momentum balance "

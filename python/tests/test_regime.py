@@ -344,17 +344,15 @@ class Switches(unittest.TestCase):
         # between the + plateau and -0.6 V (beyond -V/2, 0.4 V short of -V): no switch
         self.assertEqual(rg.band_switches(t, np.where(np.sin(t / 5) > 0, 1.0, -0.6), 1.0), [])
 
-    def test_plateaus_of_com_vx(self):
+    def test_plateaus_are_measured(self):
         rng = np.random.default_rng(1)
         u = np.concatenate([0.85 + 0.02 * rng.normal(size=500), -0.85 + 0.02 * rng.normal(
             size=500)])
-        p_plus, p_minus = rg.plateau_velocities(u, 1.0, "com_vx")
+        p_plus, p_minus = rg.plateau_velocities(u, 1.0)
         self.assertAlmostEqual(p_plus, 0.85, delta=0.01)
         self.assertAlmostEqual(p_minus, -0.85, delta=0.01)
-        self.assertEqual(rg.plateau_velocities(u, 1.0, "block_vx"), (p_plus, p_minus))
         # the tails of a velocity about 0 are no plateau
-        self.assertTrue(np.isnan(rg.plateau_velocities(0.2 * rng.normal(size=5000), 1.0,
-                                                       "com_vx")).all())
+        self.assertTrue(np.isnan(rg.plateau_velocities(0.2 * rng.normal(size=5000), 1.0)).all())
 
     def test_bimodality_coefficient(self):
         rng = np.random.default_rng(0)
