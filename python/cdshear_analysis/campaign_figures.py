@@ -360,9 +360,10 @@ def switch_time_figure(path, switch_predictions):
     from +V to -V at each switch's fitted rate, regime.band_switches) / V, comparable to the
     predicted T / V = 2 rho nu L_y / (delta_mu sigma_yy), the mean interval
     between switches / V, and for a run without a switch the time it was watched / V (open
-    triangles: the interval lies above)."""
+    triangles: the interval lies above); time / V on a logarithmic axis where its values span
+    more than a factor of 10."""
     plt, fig, ax = _figure()
-    xs = []
+    xs, ys = [], []
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     systems = sorted({e["system"] for e in switch_predictions if e["system"] is not None})
     for i, system in enumerate(systems):
@@ -375,6 +376,7 @@ def switch_time_figure(path, switch_predictions):
             pts = [(e["L_y"], e[key] / e["V"]) for e in sel if e.get(key)]
             if pts:
                 xs += [p[0] for p in pts]
+                ys += [p[1] for p in pts]
                 ax.plot(*zip(*pts), marker, color=c, mfc="none" if marker == "s" else c,
                         label=f"system {system}: {label}")
         # A run without a switch bounds the interval from below: the time it was watched.
@@ -382,13 +384,20 @@ def switch_time_figure(path, switch_predictions):
                   if e.get("switch_count") == 0 and e.get("observed_time")]
         if bounds:
             xs += [p[0] for p in bounds]
+            ys += [p[1] for p in bounds]
             ax.plot(*zip(*bounds), "^", color=c, mfc="none",
                     label=f"system {system}: no switch in time / V (interval above)")
     if xs and max(xs) < 10 * min(xs):
         # T / V grows in proportion to L_y: both axes from 0 (on a linear L_y axis), so that the
         # runs of one height are not spread over the whole axis by their L_y's small scatter
         ax.set_xlim(0, 1.1 * max(xs))
-        ax.set_ylim(0, 1.35 * ax.get_ylim()[1])  # room for the legend above the points
+        if max(ys) > 10 * min(ys):
+            # a measured switch time beside a watched time without switch can differ by a
+            # factor of 100: on a linear axis the switch times would sit on the axis
+            ax.set_yscale("log")
+            ax.set_ylim(min(ys) / 2, max(ys) * 20)   # room for the legend above the points
+        else:
+            ax.set_ylim(0, 1.35 * ax.get_ylim()[1])  # room for the legend above the points
     _finish(plt, fig, ax, path, "regime C: band switch time / V against L_y", "L_y [d]",
             "time / V [t^2 / d]", xs)
 
