@@ -11,7 +11,8 @@
 # longer duration extends finished runs, resumes an extension killed before its new final state
 # and reports one that failed before it started; `--progress-every` prints a progress line with an
 # estimate before any run has finished; a folder that is not a campaign's, or with something
-# else where its runs/ folder or a log goes, is refused untouched.
+# else where its runs/ folder or a log goes, is refused untouched; a run whose log cannot be
+# opened fails alone.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -348,6 +349,21 @@ grep -q "fifo/logs/s1_seed1_V0.5.log: is a folder in a run's log's place" fifo.o
   fail "the refusal does not name the folder: $(cat fifo.out)"
 rmdir fifo/logs/s1_seed1_V0.5.log
 "$exe" sweep fifo.toml -o fifo > fifo.out 2>&1 || fail "the campaign without the FIFO exited $?"
+
+# A run whose log cannot be opened (a symbolic link to itself, which the checks before the sweep
+# starts cannot look at) fails alone: the run started before it goes on to its end, the sweep
+# exits 1 with that one failure. V 0.5 is the costlier (more steps), so it starts first.
+campaign badlog "[0.25, 0.5]"
+mkdir -p badlog/logs && ln -s s1_seed1_V0.25.log badlog/logs/s1_seed1_V0.25.log
+rc=0; timeout 120 "$exe" sweep badlog.toml -o badlog --jobs 2 > badlog.out 2>&1 || rc=$?
+[ $rc -eq 1 ] || fail "a log that cannot be opened: exited $rc, not 1: $(cat badlog.out)"
+grep -q "s1_seed1_V0.25: .*s1_seed1_V0.25.log: Too many levels of symbolic links" badlog.out ||
+  fail "the run that could not start is not named with its cause: $(cat badlog.out)"
+grep -q "1/2 runs finished (0 earlier), 1 failed, 0 interrupted, 0 not started" badlog.out ||
+  fail "the failed start stopped the sweep: $(cat badlog.out)"
+grep -q "s1_seed1_V0.25: not started, exit 1" badlog.out || fail "no failure: $(cat badlog.out)"
+test -f badlog/runs/s1_seed1_V0.5/final_state.json ||
+  fail "V0.5 did not finish: $(cat badlog.out)"
 
 # A folder in the lock's place is named as the cause (not "another sweep is working").
 campaign locked "[0.5]"

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <numeric>
@@ -192,7 +193,22 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
       }
       while (!result.interrupted && next < order.size() && running.size() < limit) {
         const std::size_t j = order[next++];
-        running[start_job(jobs[j])] = {j, Clock::now()};
+        pid_t pid = -1;
+        try {
+          pid = start_job(jobs[j]);
+        } catch (const std::runtime_error& e) {
+          // A job that cannot start (its log cannot be opened, fork refused) fails alone with
+          // exit code 1, as under MPI; the runs going on are not stopped.
+          std::fprintf(stderr, "cdshear sweep%s: %s: %s\n",
+                       jobs[j].where.empty() ? "" : (" (" + jobs[j].where + ")").c_str(),
+                       jobs[j].name.c_str(), e.what());
+          result.ends.push_back({j, 1, 0.0});
+          if (on_end)
+            on_end(result.ends.back(),
+                   job_progress(result.ends.size(), running, order, next, result.interrupted));
+          continue;
+        }
+        running[pid] = {j, Clock::now()};
       }
       if (running.empty()) break;
       ticker.poll(result.ends.size(), running, order, next, result.interrupted);
@@ -214,8 +230,8 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
   } catch (...) {
-    // A failure of the sweep itself (a log that cannot be opened, fork, a callback): no run may
-    // go on unwatched, or a rerun would resume a folder that is still being written.
+    // A failure of the sweep itself (a callback): no run may go on unwatched, or a rerun would
+    // resume a folder that is still being written.
     std::vector<pid_t> pids;
     for (const auto& [pid, r] : running) pids.push_back(pid);
     stop_and_wait(pids);

@@ -100,7 +100,8 @@ struct ScheduleResult {
 /// g_stop_requested: once it is set, no job is started, SIGTERM is sent to every running child,
 /// and the call returns when they have exited. `also_stop`, if given, is polled the same way: a
 /// true answer is a stop request like g_stop_requested (the MPI worker passes "rank 0 asked to
-/// stop").
+/// stop"). A job that cannot start (its log cannot be opened, fork refused) ends at once with exit
+/// code 1, its reason on stderr; the others go on.
 ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
                         const JobEndCallback& on_end, const std::function<bool()>& also_stop = {},
                         const JobTick& tick = {});

@@ -245,7 +245,7 @@ int serve(int rank) {
         msg[0] = r.ends.front().exit_code;
         msg[1] = r.ends.front().seconds;
       }
-    } catch (const std::exception& e) {  // a log that cannot be opened, fork refused
+    } catch (const std::exception& e) {  // run_jobs itself failed (not a job that cannot start)
       std::fprintf(stderr, "cdshear sweep, MPI rank %d: %s: %s\n", rank, job.name.c_str(),
                    e.what());
     }
