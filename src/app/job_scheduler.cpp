@@ -136,6 +136,15 @@ pid_t start_job(const Job& job) {
   return pid;
 }
 
+std::optional<pid_t> start_job_or_report(const Job& job, const std::string& who) {
+  try {
+    return start_job(job);
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "cdshear sweep%s: %s: %s\n", who.c_str(), job.name.c_str(), e.what());
+    return std::nullopt;
+  }
+}
+
 std::optional<int> job_exit_code(pid_t pid) {
   int status = 0;
   const pid_t ended = ::waitpid(pid, &status, WNOHANG);
@@ -193,22 +202,16 @@ ScheduleResult run_jobs(const std::vector<Job>& jobs, int max_parallel,
       }
       while (!result.interrupted && next < order.size() && running.size() < limit) {
         const std::size_t j = order[next++];
-        pid_t pid = -1;
-        try {
-          pid = start_job(jobs[j]);
-        } catch (const std::runtime_error& e) {
-          // A job that cannot start (its log cannot be opened, fork refused) fails alone with
-          // exit code 1, as under MPI; the runs going on are not stopped.
-          std::fprintf(stderr, "cdshear sweep%s: %s: %s\n",
-                       jobs[j].where.empty() ? "" : (" (" + jobs[j].where + ")").c_str(),
-                       jobs[j].name.c_str(), e.what());
+        const std::optional<pid_t> pid =
+            start_job_or_report(jobs[j], jobs[j].where.empty() ? "" : " (" + jobs[j].where + ")");
+        if (!pid) {  // it fails alone; the runs going on are not stopped
           result.ends.push_back({j, 1, 0.0});
           if (on_end)
             on_end(result.ends.back(),
                    job_progress(result.ends.size(), running, order, next, result.interrupted));
           continue;
         }
-        running[pid] = {j, Clock::now()};
+        running[*pid] = {j, Clock::now()};
       }
       if (running.empty()) break;
       ticker.poll(result.ends.size(), running, order, next, result.interrupted);

@@ -129,6 +129,11 @@ std::string shell_quoted(const std::string& word);
 /// be opened or fork fails (exec failures show in the log and as exit status 127).
 pid_t start_job(const Job& job);
 
+/// start_job, or nothing when the job cannot start (its log cannot be opened, fork refused): its
+/// reason goes to stderr as "cdshear sweep<who>: <name>: <reason>", and the job fails alone
+/// (its scheduler counts it ended with exit code 1; the other jobs go on).
+std::optional<pid_t> start_job_or_report(const Job& job, const std::string& who);
+
 /// The exit code of the child `pid` started by start_job (128 + signal if a signal ended it) if
 /// it has ended, which reaps it; nothing while it runs. Does not wait.
 std::optional<int> job_exit_code(pid_t pid);

@@ -127,13 +127,11 @@ ScheduleResult schedule_on_ranks(const std::vector<Job>& jobs, int size,
         if (rank == 0) {
           Job job = jobs[j];
           job.where = here;
-          try {
-            local = start_job(job);
-          } catch (const std::runtime_error& e) {
-            // As on a worker (serve): that job fails with exit code 1, the sweep goes on.
-            std::fprintf(stderr, "cdshear sweep, MPI rank 0: %s: %s\n", job.name.c_str(), e.what());
-            not_started = true;
-          }
+          // As on a worker (serve): a job that cannot start fails with exit code 1, the sweep
+          // goes on.
+          const std::optional<pid_t> pid = start_job_or_report(job, ", MPI rank 0");
+          local = pid.value_or(-1);
+          not_started = !pid;
         } else {
           const std::string msg = encode(jobs[j]);
           MPI_Send(msg.data(), static_cast<int>(msg.size()), MPI_CHAR, rank, kJob, MPI_COMM_WORLD);
