@@ -358,11 +358,15 @@ def _plateau_changes(time, states, min_time):
     return changes
 
 
-def _ramp_residual(t, u, p_old, p_new, t1, t2):
+def _prefix_sums(t, u):
+    """The prefix sums of 1, u, u^2, t, t u, t^2 over the samples that _ramp_residual reads."""
+    return [np.concatenate([[0.0], np.cumsum(x)]) for x in (np.ones_like(t), u, u * u, t, t * u,
+                                                            t * t)]
+
+
+def _ramp_residual(t, c, p_old, p_new, t1, t2):
     """Sum of squares of u - ramp, the ramp at p_old up to t1, at p_new from t2 on and straight
-    in between, for arrays of t1 < t2 (from prefix sums: one pass over the samples)."""
-    c = [np.concatenate([[0.0], np.cumsum(x)]) for x in (np.ones_like(t), u, u * u, t, t * u,
-                                                         t * t)]
+    in between, for arrays of t1 < t2, from the samples' prefix sums c (_prefix_sums)."""
     i1, i2 = np.searchsorted(t, t1, "right"), np.searchsorted(t, t2, "right")
     n, su, suu, st, stu, stt = ((x[i2] - x[i1]) for x in c)
     # old plateau: samples before i1; new plateau: from i2 on; ramp a + b t in between
@@ -385,6 +389,7 @@ def fit_ramp(t, u, p_old, p_new):
         raise ValueError("fit_ramp: fewer than two finite samples")
     origin = float(t[0])      # times from the first sample: no cancellation in the sums of t^2
     t = t - origin
+    sums = _prefix_sums(t, u)
     lo, hi = 0.0, float(t[-1])
     best, step = None, (hi - lo) / (FIT_GRID - 1)
     for _ in range(2):
@@ -398,7 +403,7 @@ def fit_ramp(t, u, p_old, p_new):
         t1, t2 = (x.ravel() for x in np.meshgrid(g1, g2, indexing="ij"))
         keep = t2 > t1
         t1, t2 = t1[keep], t2[keep]
-        r = _ramp_residual(t, u, p_old, p_new, t1, t2)
+        r = _ramp_residual(t, sums, p_old, p_new, t1, t2)
         k = int(np.argmin(r))
         best = (float(t1[k]), float(t2[k]))
     return best[0] + origin, best[1] + origin

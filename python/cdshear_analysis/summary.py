@@ -250,10 +250,14 @@ def analyze(run):
         if part in w:
             for name, (i, j) in (("xy", (0, 1)), ("yy", (1, 1))):
                 profiles[f"{part}_{name}"] = win(np.asarray(w[part])[..., i, j])
-    durations = [sw["duration"] for sw in switches if np.isfinite(sw["duration"])]
-    switch_times = [sw["switch_time"] for sw in switches if np.isfinite(sw["switch_time"])]
-    delta_mus = [sw["delta_mu"] for sw in switches if np.isfinite(sw["delta_mu"])]
     get = lambda k, fn: float(fn(s[k])) if k in s and len(s[k]) else np.nan  # noqa: E731
+
+    def per_switch_mean(key):
+        """Mean and error of the switches' finite values of `key` (NaN, NaN without any)."""
+        values = [sw[key] for sw in switches if np.isfinite(sw[key])]
+        return (mean_err(*window_mean(np.array(values, dtype=float))) if values
+                else mean_err(np.nan, np.nan))
+
     return {
         "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION, "run_dir": run["run_dir"],
         "case": dict(n=a["n"], velocity=V, normal_stress=sigma, length_x=a["length_x"],
@@ -296,12 +300,9 @@ def analyze(run):
         "switches": switches,
         "profile_decay": profile_decay(
             w, V, run["case"].get("shear", {}).get("initial_velocity", "linear")),
-        "switch_duration": mean_err(*window_mean(np.array(durations, dtype=float)))
-        if durations else mean_err(np.nan, np.nan),
-        "switch_time": mean_err(*window_mean(np.array(switch_times, dtype=float)))
-        if switch_times else mean_err(np.nan, np.nan),
-        "switch_delta_mu": mean_err(*window_mean(np.array(delta_mus, dtype=float)))
-        if delta_mus else mean_err(np.nan, np.nan),
+        "switch_duration": per_switch_mean("duration"),
+        "switch_time": per_switch_mean("switch_time"),
+        "switch_delta_mu": per_switch_mean("delta_mu"),
         "solver": dict(capped_steps=int(np.nansum(s.get("capped_steps", [0]))),
                        steps=int(s["step"][-1]) if "step" in s and len(s["step"]) else 0,
                        max_sweeps=get("sweeps_max", np.nanmax),
