@@ -33,15 +33,28 @@ FIGURES = [
 AXIS_LABELS = {"V": "wall velocity V [d/t]", "I_bulk": "bulk inertial number I"}
 
 
-def _label_log_axis(ax):
+def _label_log_axis(ax, values=()):
     """A log x axis spanning less than two decades shows one labelled tick or none: label 1, 2
-    and 5 of every decade instead, in plain numbers."""
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+    and 5 of every decade instead, in plain numbers; 1 to 9 where that gives fewer than two ticks
+    in view, and the plotted values themselves where even that does (matplotlib would otherwise
+    fall back to dense linear ticks whose labels run into each other)."""
+    from matplotlib.ticker import (FixedLocator, FormatStrFormatter, LogLocator,
+                                   NullFormatter)
     lo, hi = ax.get_xlim()
-    if hi / lo < 100:
-        ax.xaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
-        ax.xaxis.set_minor_formatter(NullFormatter())
+    if hi / lo >= 100:
+        return
+    decades = range(int(np.floor(np.log10(lo))), int(np.ceil(np.log10(hi))) + 1)
+    locator = None
+    for subs in ((1.0, 2.0, 5.0), tuple(float(k) for k in range(1, 10))):
+        # counted here: LogLocator itself turns to linear ticks when one or none is in view
+        if sum(lo <= s * 10.0**e <= hi for e in decades for s in subs) >= 2:
+            locator = LogLocator(base=10, subs=subs)
+            break
+    if locator is None:
+        locator = FixedLocator(sorted({float(v) for v in values if lo <= v <= hi}))
+    ax.xaxis.set_major_locator(locator)
+    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
 
 
 BULK_LAWS = ("mu_power", "mu_linear", "nu_linear", "Z_power")   # report.FITS, fitted on bulk_rows
@@ -104,7 +117,7 @@ def _plot(path, title, xcol, ycol, fit_names, rows, fits):
         ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
     elif min(xs_all) > 0 and max(xs_all) / min(xs_all) >= 10:
         ax.set_xscale("log")
-        _label_log_axis(ax)
+        _label_log_axis(ax, xs_all)
     ax.set_xlabel(AXIS_LABELS.get(xcol, xcol))
     ax.set_ylabel(ycol or "slip velocity [d/t]")
     ax.set_title(title, fontsize=9)
@@ -158,7 +171,7 @@ def _plot_regimes(path, rows, transitions):
     if vs:
         ax.set_xscale("log")
         ax.set_xlim(min(vs) / 1.6, max(vs) * 1.6)
-        _label_log_axis(ax)
+        _label_log_axis(ax, vs)
         names = {None: "no regime", "other": "regime " + ", ".join(sorted(others))}
         handles = [ax.plot([], [], REGIME_MARKERS[g][0], color=REGIME_MARKERS[g][1], ms=7,
                            label=names.get(g, f"regime {g}"))[0]
@@ -198,7 +211,7 @@ def _finish(plt, fig, ax, path, title, xlabel, ylabel, xs, legend=True):
         ax.text(0.5, 0.5, "no values", ha="center", va="center", transform=ax.transAxes)
     elif min(xs) > 0 and max(xs) / min(xs) >= 10:
         ax.set_xscale("log")
-        _label_log_axis(ax)
+        _label_log_axis(ax, xs)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     # Titles longer than the axes are wrapped rather than cut at the figure's edge.

@@ -167,21 +167,35 @@ def velocity_profiles(run, summary):
     return fig
 
 
+def _velocity_limits(series):
+    """y limits of velocities in units of V: -1.25 to 1.35 (-V to +V, room for a label above),
+    widened to every finite value of `series` (arrays) with a 5% margin, so that overshoots past
+    the walls' velocities are drawn rather than cut."""
+    values = np.concatenate([np.asarray(v, dtype=float).ravel() for v in series] or [[]])
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return -1.25, 1.35
+    return min(-1.25, 1.05 * values.min()), max(1.35, 1.05 * values.max() + 0.1)
+
+
 def com_velocity(run, summary):
     s, a = run["series"], run["attrs"]
     V, strain = float(a["velocity"]), 2 * float(a["velocity"]) / float(a["height"])
     fig, (ax, side) = plt.subplots(1, 2, figsize=(9, 4), sharey=True,
                                    gridspec_kw=dict(width_ratios=[4, 1], wspace=0.05))
-    ax.plot(*_envelope(np.asarray(s["time"]) * strain, np.asarray(s["com_vx"]) / V), lw=0.5,
-            color="tab:blue", label="centre of mass")
+    com = _envelope(np.asarray(s["time"]) * strain, np.asarray(s["com_vx"]) / V)
+    ax.plot(*com, lw=0.5, color="tab:blue", label="centre of mass")
+    shown = [com[1]]
     if "block_vx" in s:     # the block (central half) the regime classifier reads
-        ax.plot(*_envelope(np.asarray(s["time"]) * strain, np.asarray(s["block_vx"]) / V),
-                lw=0.5, color="tab:orange", alpha=0.8, label="block (central half)")
+        block = _envelope(np.asarray(s["time"]) * strain, np.asarray(s["block_vx"]) / V)
+        ax.plot(*block, lw=0.5, color="tab:orange", alpha=0.8, label="block (central half)")
+        shown.append(block[1])
         ax.legend(loc="lower left", fontsize=7)
     for level in (-0.5, 0.5):
         ax.axhline(level, color="0.5", ls=":", lw=0.8)
     _mark_transient(ax, summary)
-    ax.set(xlabel="strain $2Vt/L_y$", ylabel="$v_{x,\\mathrm{com}} / V$", ylim=(-1.25, 1.35))
+    ax.set(xlabel="strain $2Vt/L_y$", ylabel="$v_{x,\\mathrm{com}} / V$",
+           ylim=_velocity_limits(shown))
     hist = summary["com_vx"]["histogram"]
     edges, counts = np.asarray(hist["edges"]) / V, np.asarray(hist["counts"], dtype=float)
     side.barh(0.5 * (edges[1:] + edges[:-1]), counts / max(counts.sum(), 1), height=np.diff(edges),

@@ -771,17 +771,19 @@ def _html_transitions(transitions, preds):
                    "<th>switches</th><th>measured T</th><th>duration</th>"
                    "<th>mean interval</th><th>time / switch</th><th>delta_mu implied</th>"
                    "</tr>")
+        notes = _Footnotes()
         for e in sw:
+            law = _delta_mu_law_text(e["delta_mu_law"], notes)   # first: pred may quote it
             pred = _fmt(e["predicted_T"]) if e["predicted_T"] is not None else \
-                f"<small>{html.escape(e['reason'])}</small>"
+                f"<small>{notes.text(e['reason'])}</small>"
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["L_y"]), _fmt(e["nu_bulk"]),
-                _fmt(e.get("delta_mu_plateau")), _fmt(e["delta_mu"]), pred,
-                _delta_mu_law_text(e["delta_mu_law"]),
+                _fmt(e.get("delta_mu_plateau")), _fmt(e["delta_mu"]), pred, law,
                 e["switch_count"], _pm(e, "switch_time"), _pm(e, "switch_duration"),
                 _fmt(e["mean_interval"]),
                 _fmt(e["time_per_switch"]), _fmt(e["delta_mu_implied"], 3)]) + "</tr>")
-        out.append("</table><p>Measured T: the time from +V to -V at the rate of the "
+        out.append("</table>" + notes.html() + "<p>Measured T: the time from +V to -V at the "
+                   "rate of the "
                    "straight ramp fitted to each switch, the run's mean (compare with the "
                    "predicted T); duration: that ramp from plateau to plateau; delta_mu on "
                    "the plateau: the walls' net friction before each switch, positive where it "
@@ -816,14 +818,47 @@ def _html_transitions(transitions, preds):
     return out
 
 
-def _delta_mu_law_text(d):
-    """The cell of delta_mu from the boundary law: per h, delta_mu [interval], T."""
+class _Footnotes:
+    """Reasons that a table's cells would repeat, each written once below the table: a cell
+    shows "note k" in place of the reason, and in place of a longer reason's part that is an
+    earlier note (the predicted T "not computed: no delta_mu from the boundary law (...)" holds
+    the reason of the law's cell of the same run)."""
+
+    def __init__(self):
+        self.reasons = []
+
+    def text(self, reason):
+        """The cell's escaped text for `reason`."""
+        reason = reason or ""
+        for k, known in enumerate(self.reasons, start=1):
+            if known == reason:
+                return f"see note {k}"
+            if known and known in reason:
+                head, tail = reason.split(known, 1)
+                return html.escape(head) + f"see note {k}" + html.escape(tail)
+        self.reasons.append(reason)
+        return f"see note {len(self.reasons)}"
+
+    def html(self):
+        """The notes, one paragraph, or nothing when no cell took one."""
+        if not self.reasons:
+            return ""
+        return "<p><small>" + "<br>".join(f"note {k}: {html.escape(r)}" for k, r in
+                                          enumerate(self.reasons, start=1)) + "</small></p>"
+
+
+def _delta_mu_law_text(d, notes=None):
+    """The cell of delta_mu from the boundary law: per h, delta_mu [interval], T; the reasons
+    of what is missing go to `notes` (a _Footnotes), or into the cell without one."""
+    def reason(text):
+        return notes.text(text) if notes is not None else html.escape(text or "")
+
     if d["status"] != "ok":
-        return f"<small>{html.escape(d['reason'] or '')}</small>"
+        return f"<small>{reason(d['reason'])}</small>"
     out = []
     for label, e in d["by_h"].items():
         if e["delta_mu"] is None:
-            out.append(f"{label}: <small>{html.escape(e['reason'] or '')}</small>")
+            out.append(f"{label}: <small>{reason(e['reason'])}</small>")
             continue
         iv = e["interval"]
         text = f"{label}: {_fmt(e['delta_mu'], 3)}"

@@ -515,5 +515,24 @@ class BulkThicknessTest(unittest.TestCase):
             self.assertTrue(all(r["bulk_h_note"] for r in rows if not r["bulk_h_reference"]))
 
 
+class FootnotesTest(unittest.TestCase):
+    """A reason that a table's cells would repeat is written once, below the table."""
+
+    def test_a_reason_repeated_or_quoted_by_other_cells_is_written_once(self):
+        notes = report._Footnotes()
+        law = "no B/C law in h I_b is determined: mu_hI_BC is undetermined (a < b)"
+        cells = [notes.text(law), notes.text(f"not computed: no delta_mu ({law})"),
+                 notes.text(law), notes.text("other")]
+        self.assertEqual(cells, ["see note 1", "not computed: no delta_mu (see note 1)",
+                                 "see note 1", "see note 2"])
+        text = notes.html()
+        self.assertEqual(text.count("mu_hI_BC is undetermined"), 1)
+        self.assertIn("(a &lt; b)", text)    # escaped once, in the note
+        self.assertIn("note 2: other", text)
+
+    def test_no_note_writes_nothing(self):
+        self.assertEqual(report._Footnotes().html(), "")
+
+
 if __name__ == "__main__":
     unittest.main()
