@@ -86,7 +86,8 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
   if (g_stop_requested.load()) return report_stopped_analysis(verb, run_dir);
   std::fflush(stdout);
   std::fflush(stderr);
-  const pid_t pid = fork();
+  // A stop sent to the child before Python installs its own handler ends it (default action).
+  const pid_t pid = fork_with_default_stops();
   if (pid < 0) {
     std::perror("error: fork");
     return 1;

@@ -97,25 +97,14 @@ pid_t start_job(const Job& job) {
   for (const std::string& a : job.argv) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   const pid_t parent = ::getpid();
-  // The stop signals are held from before the fork until the child has dropped the sweep's
-  // handlers: a stop sent to the child in between would otherwise only set the sweep's flag in
-  // the child's memory, which the exec discards, and the run would go on to its end.
-  sigset_t stops;
-  sigset_t before;
-  ::sigemptyset(&stops);
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaddset(&stops, signal);
-  ::pthread_sigmask(SIG_BLOCK, &stops, &before);
-  const pid_t pid = ::fork();
-  if (pid != 0) ::pthread_sigmask(SIG_SETMASK, &before, nullptr);
+  // The child has the stop signals' default actions until the run installs its own handlers: a
+  // stop sent to it before then ends it, before the run starts.
+  const pid_t pid = fork_with_default_stops();
   if (pid < 0) {
     ::close(fd);
     throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
   }
   if (pid == 0) {  // child: only async-signal-safe calls until exec
-    // Default actions until the run installs its own handlers; a stop already sent ends the
-    // child here, before the run starts.
-    for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal, SIG_DFL);
-    ::sigprocmask(SIG_SETMASK, &before, nullptr);
     // A sweep that dies without forwarding a stop (SIGKILL, out of memory) stops its runs too:
     // each writes its checkpoint on the SIGTERM, and a rerun resumes it.
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);

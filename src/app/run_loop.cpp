@@ -5,6 +5,8 @@
 #include "interval_stats.hpp"
 
 #include <fmt/format.h>
+#include <pthread.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -44,6 +46,22 @@ void install_stop_handlers() {
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
   std::signal(SIGHUP, on_stop_signal);  // a closed terminal or a batch system's hang-up
+}
+
+int fork_with_default_stops() {
+  sigset_t stops;
+  sigset_t before;
+  ::sigemptyset(&stops);
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaddset(&stops, signal);
+  ::pthread_sigmask(SIG_BLOCK, &stops, &before);
+  const pid_t pid = ::fork();
+  if (pid == 0) {  // a stop already sent to the child ends it when the mask is restored
+    for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal, SIG_DFL);
+    ::sigprocmask(SIG_SETMASK, &before, nullptr);
+  } else {
+    ::pthread_sigmask(SIG_SETMASK, &before, nullptr);
+  }
+  return pid;
 }
 
 namespace {

@@ -99,6 +99,14 @@ struct RunSummary {
 extern std::atomic<bool> g_stop_requested;
 void install_stop_handlers();
 
+/// fork() with the stop signals (SIGINT, SIGTERM, SIGHUP) held across it. The child starts with
+/// their default actions, then the caller's signal mask: a stop sent to the child before its exec
+/// ends it, where the inherited handler would only set g_stop_requested in the child's copy of
+/// this process's memory (which the exec discards) and the program it starts would run to its
+/// end. The parent gets its mask back; a stop sent to it meanwhile is delivered then. Returns
+/// fork()'s result; the child may call only async-signal-safe functions until it execs.
+int fork_with_default_stops();
+
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
                      const RunLoopSettings& settings, std::span<const ScheduledObserver> observers);
 
