@@ -820,7 +820,7 @@ def _html_transitions(transitions, preds):
 
 class _Footnotes:
     """Reasons that a table's cells would repeat, each written once below the table: a cell
-    shows "note k" in place of the reason, and in place of a longer reason's part that is an
+    shows "see note k" in place of the reason, and in place of a longer reason's part that is an
     earlier note (the predicted T "not computed: no delta_mu from the boundary law (...)" holds
     the reason of the law's cell of the same run)."""
 
