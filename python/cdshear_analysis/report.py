@@ -803,26 +803,27 @@ def _html_transitions(transitions, preds):
         out.append("<table><tr><th>run</th><th>V</th><th>I_bulk</th><th>law</th>"
                    "<th>d mu / d I</th><th>D</th><th>predicted T_SS</th>"
                    "<th>measured transient end</th></tr>")
+        notes = _Footnotes()
         for e in ss:
             pred = _fmt(e["predicted_T_SS"]) if e["predicted_T_SS"] is not None else \
-                f"<small>{html.escape(e['reason'])}</small>"
+                f"<small>{notes.text(e['reason'])}</small>"
             out.append("<tr>" + "".join(f"<td>{c}</td>" for c in [
                 html.escape(e["run"]), _fmt(e["V"]), _fmt(e["I_bulk"]),
                 _fmt(e["law"]) + (f" ({html.escape(e['law_status'])})"
                                   if e.get("law_status") not in (None, "ok") else ""),
                 _fmt(e["dmu_dI"]), _fmt(e["D"]), pred,
                 _fmt(e["measured_transient_end_time"])]) + "</tr>")
-        out.append("</table>")
+        out.append("</table>" + notes.html())
     else:
         out.append("<p>no run in regime A</p>")
     return out
 
 
 class _Footnotes:
-    """Reasons that a table's cells would repeat, each written once below the table: a cell
-    shows "see note k" in place of the reason, and in place of a longer reason's part that is an
-    earlier note (the predicted T "not computed: no delta_mu from the boundary law (...)" holds
-    the reason of the law's cell of the same run)."""
+    """Reasons that a table's cells would repeat (the predictions' "not computed: ..."), each
+    written once below the table: a cell shows "see note k" in place of the reason, and in place
+    of a longer reason's part that is an earlier note (the predicted T "not computed: no
+    delta_mu from the boundary law (...)" holds the reason of the law's cell of the same run)."""
 
     def __init__(self):
         self.reasons = []

@@ -530,6 +530,18 @@ class FootnotesTest(unittest.TestCase):
         self.assertIn("(a &lt; b)", text)    # escaped once, in the note
         self.assertIn("note 2: other", text)
 
+    def test_the_regime_a_table_writes_a_shared_reason_once(self):
+        reason = "not computed: no mu_eff(I) law whose parameters are determined (a < b)"
+        rows = [dict(run=f"s1_seed1_V{V}", V=V, I_bulk=0.1 * V, law=None, dmu_dI=None, D=None,
+                     predicted_T_SS=None, reason=reason, measured_transient_end_time=100.0)
+                for V in (1, 2, 3)]
+        preds = {"V_AB": {"status": "not available", "reason": "none"},
+                 "symmetric_state_stability": {"status": "not available", "reason": "none"},
+                 "switch_time_C": [], "steady_state_time_A": rows}
+        text = "".join(report._html_transitions({}, preds))
+        self.assertEqual(text.count("no mu_eff(I) law"), 1)
+        self.assertEqual(text.count("see note 1"), 3)
+
     def test_no_note_writes_nothing(self):
         self.assertEqual(report._Footnotes().html(), "")
 
