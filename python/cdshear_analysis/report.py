@@ -675,18 +675,21 @@ def _pm(row, col):
     return _fmt(v) + (f" ± {_fmt(e, 2)}" if e is not None else "")
 
 
-def _interval_text(e):
+def _interval_text(e, notes):
+    """A V_AB cell: the value [interval] (its notes), or the reason there is none; the long
+    reasons, which repeat across systems, go to `notes` (a _Footnotes)."""
     if e["V_AB"] is None:
-        return f"<small>{html.escape(e['reason'] or '')}</small>"
+        return f"<small>{notes.text(e['reason'])}</small>"
     iv = e["interval"]
     fr, ab = e.get("form_range"), e.get("allowed_B")
-    notes = ([f"law {e['law']}"] if e.get("law") not in (None, "mu_hI_BC") else []) + \
+    parts = ([f"law {e['law']}"] if e.get("law") not in (None, "mu_hI_BC") else []) + \
         (["extrapolated beyond the law's points"] if e.get("extrapolated") else []) + \
-        ([e["interval_note"]] if e.get("interval_note") else []) + \
         ([f"{_fmt(fr[0], 3)} to {_fmt(fr[1], 3)} over the exponents the points allow, B "
           f"{_fmt(ab[0], 2)} to {_fmt(ab[1], 2)}"] if fr and ab else [])
+    cell = [html.escape(p) for p in parts] + \
+        ([notes.text(e["interval_note"])] if e.get("interval_note") else [])
     return _fmt(e["V_AB"], 3) + (f" [{_fmt(iv[0], 3)}, {_fmt(iv[1], 3)}]" if iv else "") + \
-        (f" <small>({html.escape('; '.join(notes))})</small>" if notes else "")
+        (f" <small>({'; '.join(cell)})</small>" if cell else "")
 
 
 def _by_h_text(by_h):
@@ -706,16 +709,17 @@ def _html_v_ab(v_ab):
                "<th>measured V_AB (bracket)</th><th>from mu(h I_b), regimes B and C, all h</th>"
                "<th>the same, each h alone</th>"
                + "".join(f"<th>from mu(I_b), {h}</th>" for h in hs) + "</tr>")
+    notes = _Footnotes()
     for key, e in systems.items():
         m = e.get("measured")
         meas = "" if not m else (f"{_fmt(m['estimate'], 3) if m['estimate'] else '–'} "
                                  f"[{_fmt(m['bracket'][0]) or '–'}, "
                                  f"{_fmt(m['bracket'][1]) or '–'}]")
         out.append(f"<tr><td>{html.escape(key)}</td><td>{meas}</td>"
-                   f"<td>{_interval_text(e['from_hI_law'])}</td>"
+                   f"<td>{_interval_text(e['from_hI_law'], notes)}</td>"
                    f"<td>{_by_h_text(e.get('from_hI_law_by_h') or {})}</td>"
-                   + "".join(f"<td>{_interval_text(e[h])}</td>" for h in hs) + "</tr>")
-    return out + ["</table>"]
+                   + "".join(f"<td>{_interval_text(e[h], notes)}</td>" for h in hs) + "</tr>")
+    return out + ["</table>" + notes.html()]
 
 
 def _html_stability(st):

@@ -241,7 +241,7 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertAlmostEqual(e["V_AB"] * SCALE,
                                math.exp((0.40 - par["a"]["value"]) / par["b"]["value"]))
         self.assertTrue(e["extrapolated"])
-        self.assertIn("extrapolated", report._interval_text(e))
+        self.assertIn("extrapolated", report._interval_text(e, report._Footnotes()))
         # a C run's resting layer lies below the points, where the logarithm has no floor: no
         # delta_mu, and the switch prediction says why
         c_run = next(r for r in rows if r["regime"] == "C")
@@ -310,10 +310,11 @@ class BoundaryLawTest(unittest.TestCase):
         self.assertIn("once per run", choose(log=loose)["reason"])
         # no law: V_AB, the printed lines and the HTML say why
         nobody = dict(boundary, prediction_law=choose(log=worse))
-        e = bl.predict_v_ab(*log_campaign()[:2], nobody)["systems"]["1"]["from_hI_law"]
+        v_ab = bl.predict_v_ab(*log_campaign()[:2], nobody)
+        e = v_ab["systems"]["1"]["from_hI_law"]
         self.assertIsNone(e["V_AB"])
         self.assertIn("no B/C law in h I_b is determined", e["reason"])
-        self.assertIn("no B/C law", report._interval_text(e))
+        self.assertIn("no B/C law", "".join(report._html_v_ab(v_ab)))
         self.assertIn("B/C law for the predictions: none",
                       "\n".join(report.printed_lines({}, {}, {}, nobody)))
         self.assertIn("<b>none</b>", "".join(report._html_boundary(nobody)))

@@ -542,6 +542,23 @@ class FootnotesTest(unittest.TestCase):
         self.assertEqual(text.count("no mu_eff(I) law"), 1)
         self.assertEqual(text.count("see note 1"), 3)
 
+    def test_the_v_ab_table_writes_a_reason_shared_by_systems_once(self):
+        undetermined = "the boundary law is undetermined: the points do not constrain the form"
+        no_interval = "no interval: the parameter draws do not bracket V_AB"
+        law = dict(V_AB=0.58, interval=[0.5, 0.7], reason=None, interval_note=None,
+                   law="mu_hI_BC")
+        systems = {str(s): {"from_hI_law": law,
+                            "h3": dict(V_AB=None, interval=None, reason=undetermined,
+                                       interval_note=None),
+                            "h10": dict(V_AB=0.39 * s, interval=None, reason=None,
+                                        interval_note=no_interval)} for s in (1, 2, 3)}
+        text = "".join(report._html_v_ab({"status": "ok", "method": "m", "systems": systems}))
+        self.assertEqual(text.count("do not constrain the form"), 1)
+        self.assertEqual(text.count("do not bracket V_AB"), 1)
+        self.assertEqual(text.count("see note 1"), 3)
+        self.assertEqual(text.count("see note 2"), 3)
+        self.assertIn("1.17 <small>(see note 2)</small>", text)   # the value stays in its cell
+
     def test_no_note_writes_nothing(self):
         self.assertEqual(report._Footnotes().html(), "")
 
