@@ -150,6 +150,26 @@ if [ $rc -ne 130 ] || [ $(($(date +%s) - started)) -ge 30 ] ||
   echo "FAIL: a stopped analysis: exit $rc after $(($(date +%s) - started)) s:"; cat err.txt
   fails=$((fails + 1))
 fi
+# The analysis gets the package's folder ahead of the caller's PYTHONPATH, and the rest of the
+# environment as it was.
+printf '#!/bin/sh\nprintf "%%s|%%s\\n" "$PYTHONPATH" "$CDSHEAR_TEST_MARK" > "$0.env"\n' > env.sh
+chmod +x env.sh
+checks=$((checks + 1))
+env PYTHONPATH=/caller/path CDSHEAR_TEST_MARK=kept CDSHEAR_PYTHON="$work/env.sh" \
+  "$exe" analyze done > out.txt 2> err.txt; rc=$?
+if [ $rc -ne 0 ] || ! grep -qE '^/[^|]+:/caller/path\|kept$' env.sh.env ||
+  [ "$(grep -o /caller/path env.sh.env | wc -l)" -ne 1 ]; then
+  echo "FAIL: the analysis's environment (exit $rc):"; cat env.sh.env err.txt; fails=$((fails + 1))
+fi
+# An interpreter that the system cannot execute: its path and the reason, exit 127.
+printf 'not a program\n' > noexec.bin; chmod +x noexec.bin
+checks=$((checks + 1))
+env CDSHEAR_PYTHON="$work/noexec.bin" "$exe" analyze done > out.txt 2> err.txt; rc=$?
+if [ $rc -ne 127 ] || ! grep -qF "error: cannot start $work/noexec.bin: Exec format error" err.txt
+then
+  echo "FAIL: an interpreter that cannot be executed: exit $rc:"; cat err.txt
+  fails=$((fails + 1))
+fi
 expect_status2 "notarun" "$exe" plot notarun
 expect_status2 "nowhere" "$exe" analyze nowhere
 : > empty/run.h5

@@ -81,6 +81,19 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
                                  : run_dir.string();
   std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, folder};
   args.insert(args.end(), extra.begin(), extra.end());
+  // The child's argument and environment arrays are built here: between fork and exec it may
+  // not allocate (another thread of this process may hold the allocator's lock at the fork).
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const char* old_path = std::getenv("PYTHONPATH");
+  std::string python_path = "PYTHONPATH=" + package_dir;
+  if (old_path != nullptr && *old_path != '\0') python_path += std::string(":") + old_path;
+  std::vector<char*> envp;
+  for (char** e = environ; *e != nullptr; ++e)
+    if (std::strncmp(*e, "PYTHONPATH=", 11) != 0) envp.push_back(*e);
+  envp.push_back(python_path.data());
+  envp.push_back(nullptr);
   // A stop request before the analysis starts (a run's SIGTERM after its last step, or between
   // `analyze` and `plot`) starts nothing.
   if (g_stop_requested.load()) return report_stopped_analysis(verb, run_dir);
@@ -92,16 +105,18 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     std::perror("error: fork");
     return 1;
   }
-  if (pid == 0) {
-    const char* old_path = std::getenv("PYTHONPATH");
-    std::string path = package_dir;
-    if (old_path != nullptr && *old_path != '\0') path += std::string(":") + old_path;
-    setenv("PYTHONPATH", path.c_str(), 1);
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execv(python.c_str(), argv.data());
-    std::perror(("error: cannot start " + python).c_str());
+  if (pid == 0) {  // child: only async-signal-safe calls until exec
+    execve(python.c_str(), argv.data(), envp.data());
+    const int exec_error = errno;
+    const char head[] = "error: cannot start ";
+    const char* reason = strerrordesc_np(exec_error);  // a table lookup: no locale, no lock
+    if (reason == nullptr) reason = "unknown error";
+    if (::write(STDERR_FILENO, head, sizeof head - 1) < 0 ||
+        ::write(STDERR_FILENO, python.c_str(), python.size()) < 0 ||
+        ::write(STDERR_FILENO, ": ", 2) < 0 ||
+        ::write(STDERR_FILENO, reason, std::strlen(reason)) < 0 ||
+        ::write(STDERR_FILENO, "\n", 1) < 0) {
+    }
     _exit(127);
   }
   // cdshear's stop handlers catch SIGINT, SIGTERM and SIGHUP (run_loop.cpp), so a signal sent to

@@ -48,7 +48,7 @@ void install_stop_handlers() {
   std::signal(SIGHUP, on_stop_signal);  // a closed terminal or a batch system's hang-up
 }
 
-int fork_with_default_stops() {
+pid_t fork_with_default_stops() {
   sigset_t stops;
   sigset_t before;
   ::sigemptyset(&stops);

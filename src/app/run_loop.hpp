@@ -4,6 +4,8 @@
 // blown-up step; the caller decides what to write then.
 #pragma once
 
+#include <sys/types.h>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -105,7 +107,7 @@ void install_stop_handlers();
 /// this process's memory (which the exec discards) and the program it starts would run to its
 /// end. The parent gets its mask back; a stop sent to it meanwhile is delivered then. Returns
 /// fork()'s result; the child may call only async-signal-safe functions until it execs.
-int fork_with_default_stops();
+pid_t fork_with_default_stops();
 
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
                      const RunLoopSettings& settings, std::span<const ScheduledObserver> observers);
