@@ -26,6 +26,7 @@ import os
 import re
 import shutil
 import textwrap
+import time
 import tomllib
 
 from . import fitting
@@ -458,7 +459,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
                 rows.append(read_run(os.path.join(runs_dir, d), s))
             continue
         if not os.path.isfile(os.path.join(runs_dir, d, "summary.json")):
-            skipped.append((d, "not analysed: no summary.json (`cdshear analyze` it)"))
+            skipped.append((d, _not_analysed_reason(os.path.join(runs_dir, d))))
             continue
         s, why = usable_summary(os.path.join(runs_dir, d), reanalysed, reanalyse_stale)
         if s is None:
@@ -468,6 +469,13 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     for r in listed:
         if r not in entries:
             skipped.append((r, "not started: no run folder"))
+    # (with `until` every run is cut there on purpose)
+    unfinished = [r for r in rows if _unfinished(r)] if until is None else []
+    if unfinished:
+        notes.append("not finished, analysed over the time reached (still running or stopped; "
+                     "`cdshear sweep` resumes a campaign's runs, and analyses each at its end): "
+                     + ", ".join(f"{r['run']} (t = {r['time_reached']:.6g} of "
+                                 f"{r['duration']:.6g})" for r in unfinished))
     rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
@@ -483,6 +491,38 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
             "reanalysed": reanalysed, "notes": notes, "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
+
+
+def _unfinished(row):
+    """Whether a run's summary is of a run that had not reached its duration."""
+    return row.get("finished") is False and row.get("time_reached") is not None
+
+
+# A progress.json updated within this many seconds is of a run still going (it is rewritten
+# every 2 s of wall time while the run steps: docs/shear-cell.md).
+PROGRESS_FRESH_SECONDS = 60
+
+
+def _not_analysed_reason(run_dir):
+    """Why a run folder has no summary.json, from its progress.json where it has one (the run
+    still going, stopped before its end, or ended and not analysed)."""
+    fallback = "not analysed: no summary.json (`cdshear analyze` it)"
+    try:
+        with open_regular(os.path.join(run_dir, "progress.json"), encoding="utf-8") as f:
+            p = json.load(f)
+        state, t, duration = p["state"], float(p["time"]), float(p["duration"])
+        updated = float(p["updated_unix_seconds"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return fallback
+    where = f"t = {t:.6g} of {duration:.6g}"
+    if state == "running" and time.time() - updated < PROGRESS_FRESH_SECONDS:
+        return f"still running ({where}, progress.json): analysed at its end"
+    if state == "finished":
+        return fallback
+    if state == "running":   # a run killed without a chance to write (SIGKILL)
+        state = f"running when last written, {time.time() - updated:.0f} s ago: killed"
+    return (f"stopped before its end ({where}; progress.json: {state}): `cdshear sweep` or "
+            "`cdshear run --resume` continues it")
 
 
 def csv_columns(rows):
@@ -660,6 +700,8 @@ def runs_markdown(rows, campaign):
         name = r["run"]
         if r.get("bulk_h_reference") is not True and r.get("bulk_h") is not None:
             name += f" (bulk at h = {r['bulk_h']:g})"
+        if _unfinished(r):
+            name += f" (not finished: t = {r['time_reached']:.6g} of {r['duration']:.6g})"
         t_ss = _finite(r.get("transient_end_time")) if r.get("steady") else None
         cells = [name, r.get("regime") or "", "yes" if r.get("steady") else "no"]
         cells += [_pm_text(r.get(c), r.get(c + "_err")) for _, c in RUNS_MD_COLUMNS]
@@ -997,7 +1039,9 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
         cells = [html.escape(r["run"]), _fmt(r["system"]), _fmt(r["V"]),
                  steady if r["steady"] is not False else
                  f"<span title='{html.escape(r['steady_reason'] or '')}'>no</span>",
-                 html.escape(regime), _fmt(r["time_reached"]), _fmt(r["band_switches"])]
+                 html.escape(regime),
+                 _fmt(r["time_reached"]) + (" (not finished)" if _unfinished(r) else ""),
+                 _fmt(r["band_switches"])]
         cells += [_pm(r, c) for c in shown]
         out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     out.append("</table><h2>Fits of the bulk laws</h2><p>Over the steady runs in regime "

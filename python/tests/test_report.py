@@ -7,6 +7,7 @@ import os
 import re
 import shutil
 import tempfile
+import time
 import unittest
 
 import numpy as np
@@ -259,6 +260,50 @@ class ReportTest(unittest.TestCase):
         self.assertIn("s1_seed1_V1: not analysed", text)
         with open(os.path.join(self.d, "out", "runs.csv")) as f:
             self.assertEqual(len(list(csv.DictReader(f))), 1)
+
+    def test_a_run_still_going_or_stopped_is_named_so(self):
+        fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]},
+                      listed_extra=["s1_seed1_V1", "s1_seed1_V2", "s1_seed1_V3"])
+        now = time.time()
+        for run, state, updated in (("s1_seed1_V1", "running", now - 1),
+                                    ("s1_seed1_V2", "running", now - 3600),
+                                    ("s1_seed1_V3", "stopped", now - 3600)):
+            os.makedirs(os.path.join(self.d, "runs", run))
+            with open(os.path.join(self.d, "runs", run, "progress.json"), "w") as f:
+                json.dump({"format": "cdshear-progress", "version": 1, "state": state,
+                           "step": 137000, "time": 685.0, "duration": 16000.0,
+                           "updated_unix_seconds": updated}, f)
+        skipped = dict(report.collect(self.d)["skipped"])
+        self.assertEqual(skipped["s1_seed1_V1"],
+                         "still running (t = 685 of 16000, progress.json): analysed at its end")
+        self.assertIn("t = 685 of 16000; progress.json: running when last written, 36",
+                      skipped["s1_seed1_V2"])
+        self.assertIn("killed", skipped["s1_seed1_V2"])
+        self.assertIn("stopped before its end (t = 685 of 16000; progress.json: stopped)",
+                      skipped["s1_seed1_V3"])
+        # a progress.json that cannot be read: the plain reason
+        with open(os.path.join(self.d, "runs", "s1_seed1_V3", "progress.json"), "w") as f:
+            f.write("{")
+        self.assertIn("not analysed", dict(report.collect(self.d)["skipped"])["s1_seed1_V3"])
+
+    def test_a_run_analysed_before_its_end_is_marked(self):
+        fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0),
+                                              (0.2, 0.08, 0.32, 0.79, 2.9)]})
+        path = os.path.join(self.d, "runs", "s1_seed1_V0.2", "summary.json")
+        with open(path) as f:
+            s = json.load(f)
+        s["case"].update(finished=False, time=650.0, duration=16000.0)
+        with open(path, "w") as f:
+            json.dump(s, f)
+        r = report.collect(self.d)
+        self.assertEqual(len(r["rows"]), 2)        # kept, and said
+        note = [n for n in r["notes"] if n.startswith("not finished")]
+        self.assertEqual(len(note), 1)
+        self.assertIn("s1_seed1_V0.2 (t = 650 of 16000)", note[0])
+        self.assertNotIn("s1_seed1_V0.1", note[0])
+        self.assertIn("| s1_seed1_V0.2 (not finished: t = 650 of 16000) |",
+                      report.runs_markdown(r["rows"], "partial"))
+        self.assertNotIn("s1_seed1_V0.1 (not", report.runs_markdown(r["rows"], "partial"))
 
     def test_no_analysed_run_is_an_error_that_leaves_an_earlier_report_alone(self):
         fake_campaign(self.d, "running", {}, listed_extra=["s1_seed1_V1"])
