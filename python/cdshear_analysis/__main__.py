@@ -12,7 +12,9 @@ of bench/peers/side_by_side.sh (cdshear_analysis/peers.py); `... series-means RU
 `... series-pairs CHECK_DIR` the pairs of scripts/paired_check.sh; `... stress-balance
 RUN_DIR...` the interior stress against the walls' over each run's steady windows
 (cdshear_analysis/stress_balance.py); `... profile-decay RUN_DIR... --fits FITS` the decay
-time of each run's velocity profile against T_SS = L_y^2 / D (cdshear_analysis/relaxation.py).
+time of each run's velocity profile against T_SS = L_y^2 / D (cdshear_analysis/relaxation.py);
+`... switch-times RUN_DIR... [--against RUN_DIR...]` the band switches over whole runs, pooled,
+and two groups compared (cdshear_analysis/switch_statistics.py).
 A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
@@ -22,6 +24,18 @@ import math
 import os
 import sys
 import warnings
+
+
+def _write_json(path, data):
+    """Writes `data` to the JSON file `path` (indented): exit status 0, or 1 with the error."""
+    import json
+    try:
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=1)
+    except OSError as e:
+        print(f"error: {path}: cannot write: {e.strerror or e}", file=sys.stderr)
+        return 1
+    return 0
 
 
 def main(argv=None):
@@ -79,6 +93,13 @@ def main(argv=None):
     p_decay.add_argument("--fits", required=True, help="a report's fits.json (its bulk law)")
     p_decay.add_argument("--json", help="also write the table to this JSON file")
     p_decay.add_argument("--plot", help="also plot each run's decay against t / T_SS")
+    p_switch = commands.add_parser(
+        "switch-times", help="band switches over whole runs, pooled; two groups compared")
+    p_switch.add_argument("run_dirs", nargs="+")
+    p_switch.add_argument("--against", nargs="+", metavar="RUN_DIR",
+                          help="a second group of runs (another height): the ratios of their "
+                          "switch times and rates")
+    p_switch.add_argument("--json", help="also write the runs, groups and comparison here")
     p_means = commands.add_parser("series-means", help="means of run.h5 series after a time")
     p_means.add_argument("run_dir")
     p_means.add_argument("--after", type=float, required=True, help="samples with time > AFTER")
@@ -217,6 +238,30 @@ def main(argv=None):
                   f"{run_dir}  no complete window: nothing to compare")
         return 0
 
+    if args.command == "switch-times":
+        from .rundata import RunDataError, output_problem
+        from .switch_statistics import (compare_groups, format_table, group_statistics,
+                                        run_switches)
+        if args.json is not None and (why := output_problem(
+                args.json, list(args.run_dirs) + list(args.against or []))):
+            print(f"error: {args.json}: --json: {why}", file=sys.stderr)
+            return 2
+        try:
+            runs = [run_switches(d) for d in args.run_dirs]
+            against = [run_switches(d) for d in args.against or []]
+        except RunDataError as e:
+            print(f"error: {e.path}: {e.problem}", file=sys.stderr)
+            return 2
+        comparison = compare_groups(runs, against) if against else None
+        print(format_table(runs, against, comparison))
+        if args.json:
+            out = {"runs": runs, "group": group_statistics(runs)}
+            if against:
+                out.update(against=against, against_group=group_statistics(against),
+                           comparison=comparison)
+            return _write_json(args.json, out)
+        return 0
+
     if args.command == "profile-decay":
         import json
         from .relaxation import bulk_law_problem, decay_against_diffusion, format_decay_table
@@ -305,13 +350,7 @@ def main(argv=None):
             return 1
         print(format_side_by_side(result))
         if args.json:
-            import json
-            try:
-                with open(args.json, "w", encoding="utf-8") as f:
-                    json.dump(result, f, indent=1)
-            except OSError as e:
-                print(f"error: {args.json}: cannot write: {e.strerror or e}", file=sys.stderr)
-                return 1
+            return _write_json(args.json, result)
         return 0
 
     if args.command == "report":

@@ -1,0 +1,144 @@
+"""Band switches over whole runs, pooled over seeds and compared between two groups of runs.
+`python3 -m cdshear_analysis switch-times RUN_DIR... [--against RUN_DIR...]`; docs/validation.md,
+claim 7.
+
+A run's summary.json holds the switches of its averaged span only (the steady windows, or the
+last half of a run that is not steady). The switch time of regime C (model.md section 8, T = 2
+rho nu V L_y / (delta_mu sigma_yy)) belongs to every switch, so here each run's whole series of
+the block's velocity is searched (regime.band_switches: each switch timed by the straight ramp
+fitted between the plateaus), the runs of one group (the seeds of one system and V) pooled, and
+two groups (two heights) compared:
+
+- a group: its switches and the time its runs span (each run's first to last sample, the
+  start-up included, as a switch can come at any time); the switch rate (switches per time);
+  the switch time T over its switches with a finite time, its mean +- standard error (the
+  sample standard deviation / sqrt(count)), median and range, and T / V (each switch's T over
+  its run's V: groups at several V);
+- two groups: the ratio of their mean T with a 68% bootstrap interval (the switches of each group
+  drawn with replacement, RESAMPLES times, with a fixed seed: the same interval on every call),
+  and the ratio of their rates with the two-sided binomial test conditional on the total count
+  (under equal rates, each switch falls in the first group with the share of the time its runs
+  span).
+
+The switch times spread over a factor of ten in the runs measured (docs/campaigns.md, "What the
+taller cell shows"): a ratio of means needs a few tens of switches per group to be told from 1 or
+from 2. The bootstrap assumes the switches are independent; those of one run share its packing.
+"""
+import math
+import os
+
+import numpy as np
+
+from . import regime as rg
+from .rundata import load_run
+
+RESAMPLES = 20000          # bootstrap draws of the T ratio
+BOOTSTRAP_SEED = 1
+INTERVAL = (0.16, 0.84)    # the 68% interval's quantiles
+
+
+def run_switches(run_dir):
+    """One run's switches over its whole series: {"run", "V", "L_y" (the mean height), "time"
+    (its first to last sample), "switches" (count), "switch_times" (the finite T of each) and
+    "starts" (each switch's start time)}. Raises rundata.RunDataError for a run it cannot read."""
+    run = load_run(run_dir)
+    s = run["series"]
+    time = np.asarray(s["time"], dtype=float)
+    V = float(run["attrs"]["velocity"])
+    u, source = rg.block_velocity(s)
+    switches = rg.band_switches(time, u, V, source=source)
+    height = np.asarray(s["height"], dtype=float)
+    return {"run": os.path.basename(os.path.normpath(run_dir)), "V": V,
+            "L_y": float(np.nanmean(height)) if np.isfinite(height).any() else math.nan,
+            "time": float(time[-1] - time[0]) if len(time) > 1 else 0.0,
+            "switches": len(switches),
+            "switch_times": [float(w["switch_time"]) for w in switches
+                             if np.isfinite(w["switch_time"])],
+            "starts": [float(w["start_time"]) for w in switches]}
+
+
+def group_statistics(runs):
+    """The pooled switches of a group of runs (run_switches' dicts): {"runs", "switches", "time",
+    "rate" (switches per time unit; NaN without time), "timed" (switches with a finite T), "T"
+    and "T_err" (mean and standard error; the error NaN below two), "T_median", "T_min",
+    "T_max", "T_over_V" and "T_over_V_err", "L_y" (the runs' mean height)}."""
+    times = np.array([t for r in runs for t in r["switch_times"]], dtype=float)
+    per_v = np.array([t / r["V"] for r in runs for t in r["switch_times"]], dtype=float)
+    count = sum(r["switches"] for r in runs)
+    span = sum(r["time"] for r in runs)
+
+    def mean_err(x):
+        if not len(x):
+            return math.nan, math.nan
+        return float(np.mean(x)), (float(np.std(x, ddof=1) / math.sqrt(len(x)))
+                                   if len(x) > 1 else math.nan)
+
+    T, T_err = mean_err(times)
+    T_v, T_v_err = mean_err(per_v)
+    heights = [r["L_y"] for r in runs if math.isfinite(r["L_y"])]
+    return {"runs": len(runs), "switches": count, "time": span,
+            "rate": count / span if span > 0 else math.nan, "timed": len(times),
+            "T": T, "T_err": T_err,
+            "T_median": float(np.median(times)) if len(times) else math.nan,
+            "T_min": float(times.min()) if len(times) else math.nan,
+            "T_max": float(times.max()) if len(times) else math.nan,
+            "T_over_V": T_v, "T_over_V_err": T_v_err,
+            "L_y": float(np.mean(heights)) if heights else math.nan}
+
+
+def compare_groups(runs, against, resamples=RESAMPLES, seed=BOOTSTRAP_SEED):
+    """The first group (`runs`) against the second: {"T_ratio" (mean T of the first over the
+    second's), "T_ratio_interval" ([16%, 84%] of the bootstrap; None with fewer than two timed
+    switches in a group), "resamples", "seed", "rate_ratio", "rate_p" (two-sided binomial test of
+    equal rates given the total count; NaN without switches or time)}."""
+    from scipy import stats
+    a = np.array([t for r in runs for t in r["switch_times"]], dtype=float)
+    b = np.array([t for r in against for t in r["switch_times"]], dtype=float)
+    ga, gb = group_statistics(runs), group_statistics(against)
+    ratio = ga["T"] / gb["T"] if len(a) and len(b) and gb["T"] > 0 else math.nan
+    interval = None
+    if len(a) > 1 and len(b) > 1:
+        rng = np.random.default_rng(seed)
+        ratios = (rng.choice(a, (resamples, len(a))).mean(axis=1)
+                  / rng.choice(b, (resamples, len(b))).mean(axis=1))
+        interval = [float(q) for q in np.quantile(ratios, INTERVAL)]
+    n_a, n_b, t_a, t_b = ga["switches"], gb["switches"], ga["time"], gb["time"]
+    rate_ratio = ga["rate"] / gb["rate"] if gb["rate"] > 0 else math.nan
+    p = (float(stats.binomtest(n_a, n_a + n_b, t_a / (t_a + t_b)).pvalue)
+         if n_a + n_b > 0 and t_a > 0 and t_b > 0 else math.nan)
+    return {"T_ratio": ratio, "T_ratio_interval": interval, "resamples": resamples,
+            "seed": seed, "rate_ratio": rate_ratio, "rate_p": p}
+
+
+def _g(x, digits=3):
+    return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
+
+
+def format_table(runs, against=None, comparison=None):
+    """The printed table: each run, each group's pooled line, and the comparison."""
+    lines = [f"{'run':<24} {'V':>7} {'L_y':>6} {'time':>8} {'switches':>8}  T of each [t]"]
+    groups = [("runs", runs)] + ([("against", against)] if against else [])
+    for name, group in groups:
+        for r in group:
+            lines.append(f"{r['run']:<24} {r['V']:>7g} {_g(r['L_y']):>6} {r['time']:>8.0f} "
+                         f"{r['switches']:>8}  "
+                         + (", ".join(f"{t:.3g}" for t in r["switch_times"]) or "-"))
+    for name, group in groups:
+        g = group_statistics(group)
+        lines.append(
+            f"{name}: {g['runs']} runs (L_y {_g(g['L_y'])}), {g['switches']} switches in "
+            f"{g['time']:.0f} t (one per {_g(1 / g['rate'] if g['rate'] > 0 else math.nan, 4)} "
+            f"t); T = {_g(g['T'])} +- {_g(g['T_err'], 2)} t (median {_g(g['T_median'])}, "
+            f"{_g(g['T_min'])} to {_g(g['T_max'])}; {g['timed']} timed), T / V = "
+            f"{_g(g['T_over_V'], 4)} +- {_g(g['T_over_V_err'], 2)}")
+    if comparison:
+        iv = comparison["T_ratio_interval"]
+        lines.append(
+            f"T ratio (runs / against): {_g(comparison['T_ratio'])}, 68% bootstrap interval "
+            + (f"{_g(iv[0])} to {_g(iv[1])}" if iv else "n/a (fewer than two timed switches)")
+            + f" ({comparison['resamples']} resamples of the switches, seed {comparison['seed']})")
+        lines.append(
+            f"rate ratio (runs / against): {_g(comparison['rate_ratio'])}; two-sided p = "
+            f"{_g(comparison['rate_p'], 2)} (binomial test of equal rates, conditional on the "
+            "total count)")
+    return "\n".join(lines)

@@ -1,0 +1,107 @@
+"""Band switches over whole runs, pooled and compared (switch_statistics.py), on synthetic
+regime-C runs whose switches are known: ramps of a given duration at given times."""
+import contextlib
+import io
+import json
+import os
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+from scipy import stats  # noqa: E402
+
+from cdshear_analysis import switch_statistics as ss  # noqa: E402
+from cdshear_analysis.__main__ import main  # noqa: E402
+from cdshear_analysis.synthetic import write_synthetic_run  # noqa: E402
+
+DURATION = 2000.0
+V = 0.05
+
+
+class SwitchStatistics(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        d = cls.tmp.name
+        # group a: ramps of 20 t, three and two switches; group b: ramps of 40 t, two and one
+        cls.a = [os.path.join(d, "a", f"s1_seed{k}_V0.05") for k in (1, 2)]
+        cls.b = [os.path.join(d, "b", f"s2_seed{k}_V0.05") for k in (1, 2)]
+        for path, times, ramp, seed in ((cls.a[0], [400, 900, 1400], 20.0, 1),
+                                        (cls.a[1], [700, 1500], 20.0, 2),
+                                        (cls.b[0], [500, 1300], 40.0, 3),
+                                        (cls.b[1], [1000], 40.0, 4)):
+            write_synthetic_run(path, kind="C", duration=DURATION, velocity=V,
+                                switch_times=times, switch_duration=ramp, seed=seed)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_each_switch_is_found_and_timed_by_its_ramp(self):
+        for path, count, ramp in ((self.a[0], 3, 20.0), (self.a[1], 2, 20.0),
+                                  (self.b[0], 2, 40.0), (self.b[1], 1, 40.0)):
+            r = ss.run_switches(path)
+            self.assertEqual(r["switches"], count, path)
+            self.assertEqual(len(r["switch_times"]), count)
+            for t in r["switch_times"]:
+                self.assertAlmostEqual(t, ramp, delta=0.15 * ramp)
+            self.assertAlmostEqual(r["time"], DURATION, delta=1.0)   # first to last sample
+            self.assertAlmostEqual(r["L_y"], 20.0, delta=0.2)
+            self.assertEqual(r["V"], V)
+
+    def test_a_group_pools_its_runs(self):
+        runs = [ss.run_switches(p) for p in self.a]
+        g = ss.group_statistics(runs)
+        self.assertEqual((g["runs"], g["switches"], g["timed"]), (2, 5, 5))
+        self.assertAlmostEqual(g["time"], 2 * DURATION, delta=2.0)
+        self.assertAlmostEqual(g["rate"], 5 / g["time"])
+        times = [t for r in runs for t in r["switch_times"]]
+        self.assertAlmostEqual(g["T"], sum(times) / 5)
+        self.assertAlmostEqual(g["T_over_V"], g["T"] / V)
+        self.assertEqual((g["T_min"], g["T_max"]), (min(times), max(times)))
+
+    def test_two_groups_compared(self):
+        a = [ss.run_switches(p) for p in self.a]
+        b = [ss.run_switches(p) for p in self.b]
+        c = ss.compare_groups(a, b)
+        self.assertAlmostEqual(c["T_ratio"], 0.5, delta=0.08)
+        lo, hi = c["T_ratio_interval"]
+        self.assertLessEqual(lo, c["T_ratio"])
+        self.assertGreaterEqual(hi, c["T_ratio"])
+        self.assertEqual(c["T_ratio_interval"], ss.compare_groups(a, b)["T_ratio_interval"])
+        ga, gb = ss.group_statistics(a), ss.group_statistics(b)
+        self.assertAlmostEqual(c["rate_ratio"], (5 / ga["time"]) / (3 / gb["time"]))
+        self.assertAlmostEqual(
+            c["rate_p"], stats.binomtest(5, 8, ga["time"] / (ga["time"] + gb["time"])).pvalue)
+        # one timed switch in a group: a ratio, no interval
+        single = ss.compare_groups(a, [ss.run_switches(self.b[1])])
+        self.assertIsNone(single["T_ratio_interval"])
+        self.assertAlmostEqual(single["T_ratio"], 0.5, delta=0.08)
+
+    def test_command_line(self):
+        out = os.path.join(self.tmp.name, "switches.json")
+        text = io.StringIO()
+        with contextlib.redirect_stdout(text):
+            self.assertEqual(main(["switch-times", *self.b, "--against", *self.a,
+                                   "--json", out]), 0)
+        self.assertIn("against: 2 runs (L_y 20), 5 switches", text.getvalue())
+        self.assertIn("T ratio (runs / against): 2", text.getvalue())
+        with open(out) as f:
+            data = json.load(f)
+        self.assertEqual(data["group"]["switches"], 3)
+        self.assertEqual(data["against_group"]["switches"], 5)
+        self.assertAlmostEqual(data["comparison"]["T_ratio"], 2.0, delta=0.35)
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            missing = os.path.join(self.tmp.name, "nowhere")
+            self.assertEqual(main(["switch-times", missing]), 2)
+            self.assertIn(f"error: {missing}: no such folder", err.getvalue())
+            # the output may not overwrite an input
+            inside = os.path.join(self.a[0], "run.h5")
+            self.assertEqual(main(["switch-times", self.a[0], "--json", inside]), 2)
+
+
+if __name__ == "__main__":
+    unittest.main()
