@@ -27,11 +27,13 @@ import warnings
 
 
 def _write_json(path, data):
-    """Writes `data` to the JSON file `path` (indented): exit status 0, or 1 with the error."""
+    """Writes `data` to the JSON file `path` (indented; NaN and infinity as null, as in
+    summary.json): exit status 0, or 1 with the error."""
     import json
+    from .summary import jsonable
     try:
         with open(path, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=1)
+            json.dump(jsonable(data), f, indent=1)
     except OSError as e:
         print(f"error: {path}: cannot write: {e.strerror or e}", file=sys.stderr)
         return 1

@@ -29,7 +29,8 @@ class Campaign:
         uses: profiles, switches, layers).
     columns: {runs.csv column: numpy array over the rows}; numbers as float (NaN where a run has
         no value), text and flags as object arrays.
-    skipped: [(run, reason)] for every run left out (not started, not analysed, stale).
+    skipped: [(run, reason)] for every run left out (not started, still running, stopped, not
+        analysed, stale).
     """
     name: str
     folder: str

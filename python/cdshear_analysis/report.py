@@ -364,6 +364,8 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
         state = summary_state(s)
     except ReportError as e:   # cut short or garbled: analysed again like a stale one
         s, state = None, ("stale", f"summary.json: {e.problem}")
+    if state is None and (ended := _ended_since(run_dir, s)):
+        state = ("stale", ended)
     if state is None:
         damaged = case_problem(s)
         if damaged:
@@ -392,6 +394,20 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
         return None, f"{why}; analysed again, still {summary_state(s)[1]}"
     reanalysed.append((name, f"{why}: analysed again from {RUN_FILE}, summary.json rewritten"))
     return s, None
+
+
+def _ended_since(run_dir, s):
+    """Why summary `s` is outdated by the run's end (analysed while the run went on, the run
+    finished since: progress.json), or None."""
+    case = s.get("case") if isinstance(s, dict) else None
+    if not isinstance(case, dict) or case.get("finished") is not False or \
+            not _is_number(case.get("time")):
+        return None
+    p, _ = read_progress(run_dir)
+    if p is None or p["state"] != "finished" or p["time"] <= case["time"]:
+        return None
+    return (f"summary.json is of t = {case['time']:.6g}, before the run's end at "
+            f"t = {p['time']:.6g} (progress.json)")
 
 
 def summary_until(run_dir, time):
@@ -473,9 +489,9 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     unfinished = [r for r in rows if _unfinished(r)] if until is None else []
     if unfinished:
         notes.append("not finished, analysed over the time reached (still running or stopped; "
-                     "`cdshear sweep` resumes a campaign's runs, and analyses each at its end): "
-                     + ", ".join(f"{r['run']} (t = {r['time_reached']:.6g} of "
-                                 f"{r['duration']:.6g})" for r in unfinished))
+                     "once a run has ended the report analyses it again from run.h5): "
+                     + ", ".join(f"{r['run']} ({_reached_text(r['time_reached'], r['duration'])})"
+                                 for r in unfinished))
     rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
                              r["seed"] if r["seed"] is not None else 0,
                              r["V"] if r["V"] is not None else math.inf, r["run"]))
@@ -498,29 +514,61 @@ def _unfinished(row):
     return row.get("finished") is False and row.get("time_reached") is not None
 
 
+def _reached_text(t, duration):
+    """"t = T of D" (D left out where it is not known)."""
+    return f"t = {t:.6g}" + (f" of {duration:.6g}" if duration is not None else "")
+
+
 # A progress.json updated within this many seconds is of a run still going (it is rewritten
 # every 2 s of wall time while the run steps: docs/shear-cell.md).
 PROGRESS_FRESH_SECONDS = 60
+PROGRESS_STATES = ("running", "finished", "stopped", "interrupted", "blown up")
+
+
+def read_progress(run_dir):
+    """(progress, None) with the checked fields of RUN_DIR/progress.json (docs/shear-cell.md):
+    "state" (one of PROGRESS_STATES), "time" and "duration" [t], "age" (seconds since it was
+    written; 0 for a time stamp in the future); or (None, why it cannot be used), why None
+    where there is no progress.json."""
+    path = os.path.join(run_dir, "progress.json")
+    if not os.path.lexists(path):
+        return None, None
+    try:
+        with open_regular(path, encoding="utf-8") as f:
+            p = json.load(f)
+        if not isinstance(p, dict):
+            return None, "not a JSON object"
+        state, t, duration, updated = (p.get(k) for k in (
+            "state", "time", "duration", "updated_unix_seconds"))
+        if state not in PROGRESS_STATES:
+            return None, f"state is {str(state)[:40]!r}, not one of {', '.join(PROGRESS_STATES)}"
+        if not all(_is_number(x) and math.isfinite(x) for x in (t, duration, updated)) or \
+                t < 0 or duration <= 0:
+            return None, "time, duration or updated_unix_seconds is not a valid number"
+    except (OSError, ValueError, OverflowError, RecursionError) as e:
+        return None, f"cannot be read: {getattr(e, 'strerror', None) or e}"
+    return {"state": state, "time": float(t), "duration": float(duration),
+            "age": max(0.0, time.time() - float(updated))}, None
 
 
 def _not_analysed_reason(run_dir):
     """Why a run folder has no summary.json, from its progress.json where it has one (the run
-    still going, stopped before its end, or ended and not analysed)."""
+    still going, stopped before its end, blown up, or ended and not analysed)."""
     fallback = "not analysed: no summary.json (`cdshear analyze` it)"
-    try:
-        with open_regular(os.path.join(run_dir, "progress.json"), encoding="utf-8") as f:
-            p = json.load(f)
-        state, t, duration = p["state"], float(p["time"]), float(p["duration"])
-        updated = float(p["updated_unix_seconds"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return fallback
-    where = f"t = {t:.6g} of {duration:.6g}"
-    if state == "running" and time.time() - updated < PROGRESS_FRESH_SECONDS:
-        return f"still running ({where}, progress.json): analysed at its end"
+    p, why = read_progress(run_dir)
+    if p is None:
+        return fallback + (f"; its progress.json: {why}" if why else "")
+    where = _reached_text(p["time"], p["duration"])
+    state = p["state"]
     if state == "finished":
         return fallback
-    if state == "running":   # a run killed without a chance to write (SIGKILL)
-        state = f"running when last written, {time.time() - updated:.0f} s ago: killed"
+    if state == "running" and p["age"] < PROGRESS_FRESH_SECONDS:
+        return f"still running ({where}, progress.json): analysed at its end"
+    if state == "blown up":
+        return (f"blew up ({where}, progress.json): its log says why; resuming would repeat the "
+                "same steps (remove the folder to start it again)")
+    if state == "running":   # a run killed without a chance to write, or paused
+        state = f"running, not updated for {p['age']:.0f} s: killed or paused"
     return (f"stopped before its end ({where}; progress.json: {state}): `cdshear sweep` or "
             "`cdshear run --resume` continues it")
 
@@ -701,7 +749,7 @@ def runs_markdown(rows, campaign):
         if r.get("bulk_h_reference") is not True and r.get("bulk_h") is not None:
             name += f" (bulk at h = {r['bulk_h']:g})"
         if _unfinished(r):
-            name += f" (not finished: t = {r['time_reached']:.6g} of {r['duration']:.6g})"
+            name += f" (not finished: {_reached_text(r['time_reached'], r['duration'])})"
         t_ss = _finite(r.get("transient_end_time")) if r.get("steady") else None
         cells = [name, r.get("regime") or "", "yes" if r.get("steady") else "no"]
         cells += [_pm_text(r.get(c), r.get(c + "_err")) for _, c in RUNS_MD_COLUMNS]

@@ -31,6 +31,7 @@ import numpy as np
 
 from . import regime as rg
 from .rundata import load_run
+from .summary import pm as summary_pm
 
 RESAMPLES = 20000          # bootstrap draws of the T ratio
 BOOTSTRAP_SEED = 1
@@ -39,22 +40,31 @@ INTERVAL = (0.16, 0.84)    # the 68% interval's quantiles
 
 def run_switches(run_dir):
     """One run's switches over its whole series: {"run", "V", "L_y" (the mean height), "time"
-    (its first to last sample), "switches" (count), "switch_times" (the finite T of each) and
-    "starts" (each switch's start time)}. Raises rundata.RunDataError for a run it cannot read."""
+    (its first to last sample), "finished" (the run reached its duration), "duration",
+    "switches" (count), "switch_times" (each switch's T, None for one across a gap in the
+    samples, which has none) and "starts" (each switch's start time)}. Raises
+    rundata.RunDataError for a run it cannot read."""
     run = load_run(run_dir)
-    s = run["series"]
+    s, attrs = run["series"], run["attrs"]
     time = np.asarray(s["time"], dtype=float)
-    V = float(run["attrs"]["velocity"])
+    V = float(attrs["velocity"])
     u, source = rg.block_velocity(s)
     switches = rg.band_switches(time, u, V, source=source)
     height = np.asarray(s["height"], dtype=float)
     return {"run": os.path.basename(os.path.normpath(run_dir)), "V": V,
             "L_y": float(np.nanmean(height)) if np.isfinite(height).any() else math.nan,
             "time": float(time[-1] - time[0]) if len(time) > 1 else 0.0,
+            "finished": bool(attrs.get("finished", 0)), "duration": float(attrs["duration"]),
             "switches": len(switches),
-            "switch_times": [float(w["switch_time"]) for w in switches
-                             if np.isfinite(w["switch_time"])],
+            "switch_times": [float(w["switch_time"]) if np.isfinite(w["switch_time"]) else None
+                             for w in switches],
             "starts": [float(w["start_time"]) for w in switches]}
+
+
+def _timed(runs, per_velocity=False):
+    """The finite switch times of a group's runs (over each run's V with per_velocity)."""
+    return np.array([t / r["V"] if per_velocity else t for r in runs
+                     for t in r["switch_times"] if t is not None], dtype=float)
 
 
 def group_statistics(runs):
@@ -62,8 +72,7 @@ def group_statistics(runs):
     "rate" (switches per time unit; NaN without time), "timed" (switches with a finite T), "T"
     and "T_err" (mean and standard error; the error NaN below two), "T_median", "T_min",
     "T_max", "T_over_V" and "T_over_V_err", "L_y" (the runs' mean height)}."""
-    times = np.array([t for r in runs for t in r["switch_times"]], dtype=float)
-    per_v = np.array([t / r["V"] for r in runs for t in r["switch_times"]], dtype=float)
+    times, per_v = _timed(runs), _timed(runs, per_velocity=True)
     count = sum(r["switches"] for r in runs)
     span = sum(r["time"] for r in runs)
 
@@ -92,18 +101,18 @@ def compare_groups(runs, against, resamples=RESAMPLES, seed=BOOTSTRAP_SEED):
     switches in a group), "resamples", "seed", "rate_ratio", "rate_p" (two-sided binomial test of
     equal rates given the total count; NaN without switches or time)}."""
     from scipy import stats
-    a = np.array([t for r in runs for t in r["switch_times"]], dtype=float)
-    b = np.array([t for r in against for t in r["switch_times"]], dtype=float)
+    a, b = _timed(runs), _timed(against)
     ga, gb = group_statistics(runs), group_statistics(against)
     ratio = ga["T"] / gb["T"] if len(a) and len(b) and gb["T"] > 0 else math.nan
     interval = None
-    if len(a) > 1 and len(b) > 1:
+    if len(a) > 1 and len(b) > 1 and b.min() > 0:   # a T is positive: a ramp takes time
         rng = np.random.default_rng(seed)
         ratios = (rng.choice(a, (resamples, len(a))).mean(axis=1)
                   / rng.choice(b, (resamples, len(b))).mean(axis=1))
         interval = [float(q) for q in np.quantile(ratios, INTERVAL)]
     n_a, n_b, t_a, t_b = ga["switches"], gb["switches"], ga["time"], gb["time"]
-    rate_ratio = ga["rate"] / gb["rate"] if gb["rate"] > 0 else math.nan
+    rate_ratio = (ga["rate"] / gb["rate"] if gb["rate"] > 0 else
+                  math.inf if ga["rate"] > 0 else math.nan)
     p = (float(stats.binomtest(n_a, n_a + n_b, t_a / (t_a + t_b)).pvalue)
          if n_a + n_b > 0 and t_a > 0 and t_b > 0 else math.nan)
     return {"T_ratio": ratio, "T_ratio_interval": interval, "resamples": resamples,
@@ -111,7 +120,11 @@ def compare_groups(runs, against, resamples=RESAMPLES, seed=BOOTSTRAP_SEED):
 
 
 def _g(x, digits=3):
-    return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
+    return "n/a" if x is None or math.isnan(x) else f"{x:.{digits}g}"
+
+
+def _pm(mean, err):
+    return summary_pm({"mean": mean, "err": err})
 
 
 def format_table(runs, against=None, comparison=None):
@@ -122,15 +135,21 @@ def format_table(runs, against=None, comparison=None):
         for r in group:
             lines.append(f"{r['run']:<24} {r['V']:>7g} {_g(r['L_y']):>6} {r['time']:>8.0f} "
                          f"{r['switches']:>8}  "
-                         + (", ".join(f"{t:.3g}" for t in r["switch_times"]) or "-"))
+                         + (", ".join(_g(t) for t in r["switch_times"]) or "-")
+                         + ("" if r["finished"] else
+                            f"  (not finished: its duration is {r['duration']:g})"))
     for name, group in groups:
         g = group_statistics(group)
         lines.append(
             f"{name}: {g['runs']} runs (L_y {_g(g['L_y'])}), {g['switches']} switches in "
             f"{g['time']:.0f} t (one per {_g(1 / g['rate'] if g['rate'] > 0 else math.nan, 4)} "
-            f"t); T = {_g(g['T'])} +- {_g(g['T_err'], 2)} t (median {_g(g['T_median'])}, "
+            f"t); T = {_pm(g['T'], g['T_err'])} t (median {_g(g['T_median'])}, "
             f"{_g(g['T_min'])} to {_g(g['T_max'])}; {g['timed']} timed), T / V = "
-            f"{_g(g['T_over_V'], 4)} +- {_g(g['T_over_V_err'], 2)}")
+            f"{_pm(g['T_over_V'], g['T_over_V_err'])}")
+    unfinished = [r["run"] for _, group in groups for r in group if not r["finished"]]
+    if unfinished:
+        lines.append(f"warning: {', '.join(unfinished)} not finished (still running or "
+                     "stopped): counted over the time they reached")
     if comparison:
         iv = comparison["T_ratio_interval"]
         lines.append(

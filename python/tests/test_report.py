@@ -276,15 +276,33 @@ class ReportTest(unittest.TestCase):
         skipped = dict(report.collect(self.d)["skipped"])
         self.assertEqual(skipped["s1_seed1_V1"],
                          "still running (t = 685 of 16000, progress.json): analysed at its end")
-        self.assertIn("t = 685 of 16000; progress.json: running when last written, 36",
+        self.assertIn("t = 685 of 16000; progress.json: running, not updated for 36",
                       skipped["s1_seed1_V2"])
-        self.assertIn("killed", skipped["s1_seed1_V2"])
+        self.assertIn("killed or paused", skipped["s1_seed1_V2"])
         self.assertIn("stopped before its end (t = 685 of 16000; progress.json: stopped)",
                       skipped["s1_seed1_V3"])
-        # a progress.json that cannot be read: the plain reason
-        with open(os.path.join(self.d, "runs", "s1_seed1_V3", "progress.json"), "w") as f:
-            f.write("{")
-        self.assertIn("not analysed", dict(report.collect(self.d)["skipped"])["s1_seed1_V3"])
+        progress = os.path.join(self.d, "runs", "s1_seed1_V3", "progress.json")
+
+        def reason(text):
+            with open(progress, "w") as f:
+                f.write(text)
+            return dict(report.collect(self.d)["skipped"])["s1_seed1_V3"]
+
+        good = dict(state="blown up", time=685.0, duration=16000.0, updated_unix_seconds=now)
+        self.assertIn("blew up (t = 685 of 16000, progress.json)", reason(json.dumps(good)))
+        self.assertIn("remove the folder", reason(json.dumps(good)))
+        # a progress.json that cannot be used: the plain reason, and why
+        for text, why in (("{", "cannot be read"), ("[1]", "not a JSON object"),
+                          (json.dumps(dict(good, state=None)), "state is 'None'"),
+                          (json.dumps(dict(good, time="685")), "not a valid number"),
+                          (json.dumps(dict(good, duration=-5.0)), "not a valid number"),
+                          (json.dumps(dict(good, time=10 ** 400)), "cannot be read"),
+                          ("[" * 100000 + "]" * 100000, "cannot be read")):
+            with self.subTest(why=why):
+                got = reason(text)
+                self.assertIn("not analysed: no summary.json", got)
+                self.assertIn("; its progress.json: ", got)
+                self.assertIn(why, got)
 
     def test_a_run_analysed_before_its_end_is_marked(self):
         fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0),
@@ -304,6 +322,14 @@ class ReportTest(unittest.TestCase):
         self.assertIn("| s1_seed1_V0.2 (not finished: t = 650 of 16000) |",
                       report.runs_markdown(r["rows"], "partial"))
         self.assertNotIn("s1_seed1_V0.1 (not", report.runs_markdown(r["rows"], "partial"))
+        # the run has ended since (progress.json): the summary is outdated, analysed again
+        # from run.h5 (there is none here: left out, saying why)
+        with open(os.path.join(self.d, "runs", "s1_seed1_V0.2", "progress.json"), "w") as f:
+            json.dump({"state": "finished", "time": 16000.0, "duration": 16000.0,
+                       "updated_unix_seconds": time.time()}, f)
+        skipped = dict(report.collect(self.d)["skipped"])
+        self.assertIn("summary.json is of t = 650, before the run's end at t = 16000 "
+                      "(progress.json) and there is no run.h5", skipped["s1_seed1_V0.2"])
 
     def test_no_analysed_run_is_an_error_that_leaves_an_earlier_report_alone(self):
         fake_campaign(self.d, "running", {}, listed_extra=["s1_seed1_V1"])

@@ -3,6 +3,7 @@ regime-C runs whose switches are known: ramps of a given duration at given times
 import contextlib
 import io
 import json
+import math
 import os
 import sys
 import tempfile
@@ -34,6 +35,14 @@ class SwitchStatistics(unittest.TestCase):
                                         (cls.b[1], [1000], 40.0, 4)):
             write_synthetic_run(path, kind="C", duration=DURATION, velocity=V,
                                 switch_times=times, switch_duration=ramp, seed=seed)
+
+        # a run stopped at 1200 t of its 2000, and one without a switch (regime A)
+        cls.short = os.path.join(d, "c", "s1_seed3_V0.05")
+        write_synthetic_run(cls.short, kind="C", duration=DURATION, velocity=V,
+                            switch_times=[400, 900, 1400], switch_duration=20.0, seed=5,
+                            time_reached=1200.0)
+        cls.none = os.path.join(d, "c", "s1_seed4_V0.05")
+        write_synthetic_run(cls.none, kind="A", duration=DURATION, velocity=V, seed=6)
 
     @classmethod
     def tearDownClass(cls):
@@ -80,6 +89,34 @@ class SwitchStatistics(unittest.TestCase):
         self.assertIsNone(single["T_ratio_interval"])
         self.assertAlmostEqual(single["T_ratio"], 0.5, delta=0.08)
 
+    def test_a_run_not_finished_is_counted_over_its_time_and_said_so(self):
+        r = ss.run_switches(self.short)
+        self.assertFalse(r["finished"])
+        self.assertEqual(r["switches"], 2)                # the switch at 1400 t not reached
+        self.assertAlmostEqual(r["time"], 1200.0, delta=1.0)
+        self.assertTrue(ss.run_switches(self.a[0])["finished"])
+        text = ss.format_table([r, ss.run_switches(self.a[0])])
+        self.assertIn("(not finished: its duration is 2000)", text)
+        self.assertIn("warning: s1_seed3_V0.05 not finished", text)
+        self.assertNotIn("warning", ss.format_table([ss.run_switches(self.a[0])]))
+
+    def test_a_group_without_switches(self):
+        a = [ss.run_switches(p) for p in self.a]
+        none = [ss.run_switches(self.none)]
+        g = ss.group_statistics(none)
+        self.assertEqual((g["switches"], g["timed"], g["rate"]), (0, 0, 0.0))
+        self.assertTrue(math.isnan(g["T"]))
+        c = ss.compare_groups(a, none)
+        self.assertEqual(c["rate_ratio"], math.inf)       # switches against none
+        self.assertTrue(math.isnan(c["T_ratio"]))
+        self.assertIsNone(c["T_ratio_interval"])
+        # by hand: a spans 2/3 of the time; two-sided, the outcomes of 5 switches no likelier
+        # than all 5 in a: 5 in a, 0 in a, 1 in a
+        q = 2 / 3
+        self.assertAlmostEqual(c["rate_p"], q ** 5 + (1 - q) ** 5 + 5 * q * (1 - q) ** 4,
+                               delta=1e-3)
+        self.assertIn("rate ratio (runs / against): inf", ss.format_table(a, none, c))
+
     def test_command_line(self):
         out = os.path.join(self.tmp.name, "switches.json")
         text = io.StringIO()
@@ -88,8 +125,8 @@ class SwitchStatistics(unittest.TestCase):
                                    "--json", out]), 0)
         self.assertIn("against: 2 runs (L_y 20), 5 switches", text.getvalue())
         self.assertIn("T ratio (runs / against): 2", text.getvalue())
-        with open(out) as f:
-            data = json.load(f)
+        with open(out) as f:   # strict JSON: no NaN or Infinity
+            data = json.load(f, parse_constant=lambda c: self.fail(f"{c} in the JSON"))
         self.assertEqual(data["group"]["switches"], 3)
         self.assertEqual(data["against_group"]["switches"], 5)
         self.assertAlmostEqual(data["comparison"]["T_ratio"], 2.0, delta=0.35)
@@ -101,6 +138,14 @@ class SwitchStatistics(unittest.TestCase):
             # the output may not overwrite an input
             inside = os.path.join(self.a[0], "run.h5")
             self.assertEqual(main(["switch-times", self.a[0], "--json", inside]), 2)
+        # nothing to time in one group: nulls in the JSON
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.assertEqual(main(["switch-times", *self.a, "--against", self.none,
+                                   "--json", out]), 0)
+        with open(out) as f:
+            data = json.load(f, parse_constant=lambda c: self.fail(f"{c} in the JSON"))
+        self.assertIsNone(data["against_group"]["T"])
+        self.assertIsNone(data["comparison"]["rate_ratio"])
 
 
 if __name__ == "__main__":
