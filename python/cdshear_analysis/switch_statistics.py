@@ -31,6 +31,7 @@ import numpy as np
 
 from . import regime as rg
 from .rundata import load_run
+from .statistics import window_mean
 from .summary import pm as summary_pm
 
 RESAMPLES = 20000          # bootstrap draws of the T ratio
@@ -75,15 +76,8 @@ def group_statistics(runs):
     times, per_v = _timed(runs), _timed(runs, per_velocity=True)
     count = sum(r["switches"] for r in runs)
     span = sum(r["time"] for r in runs)
-
-    def mean_err(x):
-        if not len(x):
-            return math.nan, math.nan
-        return float(np.mean(x)), (float(np.std(x, ddof=1) / math.sqrt(len(x)))
-                                   if len(x) > 1 else math.nan)
-
-    T, T_err = mean_err(times)
-    T_v, T_v_err = mean_err(per_v)
+    T, T_err = window_mean(times)
+    T_v, T_v_err = window_mean(per_v)
     heights = [r["L_y"] for r in runs if math.isfinite(r["L_y"])]
     return {"runs": len(runs), "switches": count, "time": span,
             "rate": count / span if span > 0 else math.nan, "timed": len(times),
