@@ -404,13 +404,19 @@ def switch_time_figure(path, switch_predictions):
         # T / V grows in proportion to L_y: both axes from 0 (on a linear L_y axis), so that the
         # runs of one height are not spread over the whole axis by their L_y's small scatter
         ax.set_xlim(0, 1.1 * max(xs))
+        # The points in the lower part of the axes, the legend above them in the rest: each of
+        # its lines (font size 6 on axes about 3 inches tall) takes about 4.5% of the height;
+        # a legend too long for the axes goes beside them (_finish) and needs no room.
+        entries = len(ax.get_legend_handles_labels()[0])
+        points_share = 0.95 - (0.045 * entries if entries <= LEGEND_INSIDE_MAX else 0.0)
         if max(ys) > 10 * min(ys):
             # a measured switch time beside a watched time without switch can differ by a
             # factor of 100: on a linear axis the switch times would sit on the axis
             ax.set_yscale("log")
-            ax.set_ylim(min(ys) / 2, max(ys) * 20)   # room for the legend above the points
+            low, top = min(ys) / 2, max(ys) * 1.5
+            ax.set_ylim(low, low * (top / low) ** (1.0 / points_share))
         else:
-            ax.set_ylim(0, 1.35 * ax.get_ylim()[1])  # room for the legend above the points
+            ax.set_ylim(0, ax.get_ylim()[1] / points_share)
     _finish(plt, fig, ax, path, "regime C: band switch time / V against L_y", "L_y [d]",
             "time / V [t^2 / d]", xs)
 

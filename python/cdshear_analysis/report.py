@@ -1088,7 +1088,7 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
                  steady if r["steady"] is not False else
                  f"<span title='{html.escape(r['steady_reason'] or '')}'>no</span>",
                  html.escape(regime),
-                 _fmt(r["time_reached"]) + (" (not finished)" if _unfinished(r) else ""),
+                 _fmt(r["time_reached"], digits=7) + (" (not finished)" if _unfinished(r) else ""),
                  _fmt(r["band_switches"])]
         cells += [_pm(r, c) for c in shown]
         out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
