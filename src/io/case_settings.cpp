@@ -351,7 +351,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "smallest diameter: diameters are uniform in [diameter_min, diameter_max]",
             .phase = kBoth,
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "the disk's mass and moment of inertia normal numbers"},
           [](auto& c) -> auto& { return c.diameter_min; }),
       bind(
           S{.table = "system",
@@ -411,7 +412,8 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "mass",
             .meaning = "M_w, the mass of each wall along y",
             .lo = 1e-100,
-            .range_reason = "below it the wall's inverse mass would overflow the solver's sums"},
+            .range_reason = "below it the wall's inverse mass would overflow the solver's sums",
+            .constraint = "1 / wall_mass a normal number"},
           [](auto& c) -> auto& { return c.wall_mass; }),
       bind(
           S{.table = "shear",
@@ -563,7 +565,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "mass of the piston",
             .phase = kPreparation,
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "1 / piston_mass a normal number"},
           [](auto& c) -> auto& { return c.preparation.piston_mass; }),
       bind(
           S{.table = "preparation",
@@ -609,7 +612,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "the windows over which the equilibrium criteria are averaged",
             .phase = kPreparation,
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "<= max_time_per_phase"},
           [](auto& c) -> auto& { return c.preparation.window_time; }),
       bind(
           S{.table = "preparation",
@@ -618,7 +622,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "a phase that has not reached equilibrium after this long fails (exit 1)",
             .phase = kPreparation,
             .lo = 0.0,
-            .lo_open = true},
+            .lo_open = true,
+            .constraint = "at most 2e9 steps of min(dt, compression_dt)"},
           [](auto& c) -> auto& { return c.preparation.max_time_per_phase; }),
       bind(
           S{.table = "preparation",
@@ -683,7 +688,8 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "time between samples of the series and the profiles",
             .lo = 0.0,
             .lo_open = true,
-            .constraint = "shear.duration / sample_interval from 1 to 1e7 samples"},
+            .constraint = "with measure.enabled: shear.duration / sample_interval from 1 to 1e7 "
+                          "samples"},
           [](auto& c) -> auto& { return c.measure.sample_interval; }),
       bind(
           S{.table = "measure",
@@ -703,7 +709,7 @@ std::vector<CaseSetting> make_case_settings() {
             .meaning = "dy of the stripe profiles",
             .lo = 0.0,
             .lo_open = true,
-            .constraint = "stripes x windows <= 1e7 profile points"},
+            .constraint = "with measure.enabled: stripes x windows <= 1e7 profile points"},
           [](auto& c) -> auto& { return c.measure.stripe_thickness; }),
       bind(
           S{.table = "measure",
@@ -738,7 +744,7 @@ std::vector<CaseSetting> make_case_settings() {
                        "the sample (docs/measurements.md, \"Coordination number\")",
             .lo = 0.0,
             .lo_open = true,
-            .constraint = "<= step.contact_margin / 2"},
+            .constraint = "with measure.enabled: <= step.contact_margin / 2"},
           [](auto& c) -> auto& { return c.measure.contact_gap; }),
   };
   rows.insert(rows.end(), outputs.begin(), outputs.end());
