@@ -83,6 +83,17 @@ def fake_campaign(d, name, system_runs, listed_extra=()):
             f.write(f"#   {run}  duration 1000  dt 0.001  cost 5.1e+08\n")
 
 
+@contextlib.contextmanager
+def edited_summary(campaign_dir, run):
+    """RUN's summary.json in campaign_dir as a dict to edit, written back on leaving."""
+    path = os.path.join(campaign_dir, "runs", run, "summary.json")
+    with open(path) as f:
+        summary = json.load(f)
+    yield summary
+    with open(path, "w") as f:
+        json.dump(summary, f)
+
+
 def within(test, fit, truth, sigmas=2.0):
     for p, value in truth.items():
         got = fit["parameters"][p]
@@ -200,12 +211,8 @@ class ReportTest(unittest.TestCase):
     def test_nan_values_are_left_out(self):
         # Python's json writes and reads NaN; a summary edited by hand may hold it
         self.power_law_campaign()
-        path = os.path.join(self.d, "runs", "s1_seed1_V0.03", "summary.json")
-        with open(path) as f:
-            s = json.load(f)
-        s["bulk"]["mu_eff"]["mean"] = float("nan")
-        with open(path, "w") as f:
-            json.dump(s, f)
+        with edited_summary(self.d, "s1_seed1_V0.03") as s:
+            s["bulk"]["mu_eff"]["mean"] = float("nan")
         rows = report.collect(self.d)["rows"]
         self.assertIn("s1_seed1_V0.03", [r["run"] for r in rows])
         fit = report.fit_law("mu_power", rows)
@@ -307,12 +314,8 @@ class ReportTest(unittest.TestCase):
     def test_a_run_analysed_before_its_end_is_marked(self):
         fake_campaign(self.d, "partial", {1: [(0.1, 0.05, 0.3, 0.8, 3.0),
                                               (0.2, 0.08, 0.32, 0.79, 2.9)]})
-        path = os.path.join(self.d, "runs", "s1_seed1_V0.2", "summary.json")
-        with open(path) as f:
-            s = json.load(f)
-        s["case"].update(finished=False, time=650.0, duration=16000.0)
-        with open(path, "w") as f:
-            json.dump(s, f)
+        with edited_summary(self.d, "s1_seed1_V0.2") as s:
+            s["case"].update(finished=False, time=650.0, duration=16000.0)
         r = report.collect(self.d)
         self.assertEqual(len(r["rows"]), 2)        # kept, and said
         note = [n for n in r["notes"] if n.startswith("not finished")]
@@ -378,12 +381,8 @@ class ReportTest(unittest.TestCase):
     def test_a_regime_that_is_not_a_text_is_no_regime(self):
         """A damaged summary's regime (a number, a list) is left blank, not joined as text."""
         fake_campaign(self.d, "damaged", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]})
-        path = os.path.join(self.d, "runs", "s1_seed1_V0.1", "summary.json")
-        with open(path) as f:
-            summary = json.load(f)
-        summary["regime"] = 5
-        with open(path, "w") as f:
-            json.dump(summary, f)
+        with edited_summary(self.d, "s1_seed1_V0.1") as summary:
+            summary["regime"] = 5
         self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "out")]), 0)
         self.assertIsNone(report.collect(self.d)["rows"][0]["regime"])
 
@@ -467,16 +466,12 @@ class ReportTest(unittest.TestCase):
     def test_missing_quantities_give_empty_cells(self):
         fake_campaign(self.d, "holes", {1: [(0.1, 0.05, 0.3, 0.8, 3.0),
                                             (0.2, 0.1, 0.33, 0.79, 2.9)]})
-        path = os.path.join(self.d, "runs", "s1_seed1_V0.2", "summary.json")
-        with open(path) as f:
-            s = json.load(f)
-        del s["slip"], s["regions"], s["regime_confidence"]
-        s["bulk"]["coordination"] = {"mean": None, "err": None}   # NaN is written as null
-        s["bulk"]["solid_fraction"]["err"] = None                  # single window: no error
-        s["regime"] = None
-        s["com_vx"] = {"mean": "0.1", "err": None, "std": -0.01}  # a text, none, a negative
-        with open(path, "w") as f:
-            json.dump(s, f)
+        with edited_summary(self.d, "s1_seed1_V0.2") as s:
+            del s["slip"], s["regions"], s["regime_confidence"]
+            s["bulk"]["coordination"] = {"mean": None, "err": None}   # NaN is written as null
+            s["bulk"]["solid_fraction"]["err"] = None                  # single window: no error
+            s["regime"] = None
+            s["com_vx"] = {"mean": "0.1", "err": None, "std": -0.01}  # a text, none, negative
         self.assertEqual(main(["report", self.d]), 0)
         with open(os.path.join(self.d, "report", "runs.csv")) as f:
             rows = {r["run"]: r for r in csv.DictReader(f)}
