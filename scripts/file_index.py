@@ -19,6 +19,7 @@ SECTIONS = [
     ("src/io", "Files and configuration (library cdshear_io)"),
     ("src/app", "The executable cdshear: commands, run loop, processes"),
     ("python/cdshear_analysis", "Analysis package (Python)"),
+    ("python/tests", "Analysis package tests (Python unittest)"),
     ("tests", "Tests"),
     ("bench", "Benchmarks"),
     ("scripts", "Scripts"),

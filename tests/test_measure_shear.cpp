@@ -167,8 +167,8 @@ TEST(MeasuredStatic, PackingAtRestCarriesTheWallPressureThroughEveryStripe) {
   }
   const double wall_traction = 0.5 * (p.top_force.y - p.bottom_force.y) / world.domain.length_x;
   EXPECT_NEAR(weighted / p.height, wall_traction, 0.025 * c.normal_stress);
-  // At rest the force network is complete: Z (rattlers included) above 2, where a flow at
-  // V = 0.5 measures 1.3-1.5.
+  // At rest the packing holds together: Z (closed contacts, rattlers included) above 2, as in
+  // a flow at V = 0.5 (about 2.4, docs/measurements.md); an empty or broken count gives 0.
   EXPECT_GT(p.regions.at(0).bulk_coordination, 2.0);
 }
 

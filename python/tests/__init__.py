@@ -1,0 +1,2 @@
+"""The analysis package's tests, run from python/ with
+`/usr/bin/python3 -m unittest discover -s tests -t .`."""
