@@ -942,18 +942,15 @@ class _Footnotes:
                                           enumerate(self.reasons, start=1)) + "</small></p>"
 
 
-def _delta_mu_law_text(d, notes=None):
+def _delta_mu_law_text(d, notes):
     """The cell of delta_mu from the boundary law: per h, delta_mu [interval], T; the reasons
-    of what is missing go to `notes` (a _Footnotes), or into the cell without one."""
-    def reason(text):
-        return notes.text(text) if notes is not None else html.escape(text or "")
-
+    of what is missing go to `notes` (a _Footnotes)."""
     if d["status"] != "ok":
-        return f"<small>{reason(d['reason'])}</small>"
+        return f"<small>{notes.text(d['reason'])}</small>"
     out = []
     for label, e in d["by_h"].items():
         if e["delta_mu"] is None:
-            out.append(f"{label}: <small>{reason(e['reason'])}</small>")
+            out.append(f"{label}: <small>{notes.text(e['reason'])}</small>")
             continue
         iv = e["interval"]
         text = f"{label}: {_fmt(e['delta_mu'], 3)}"

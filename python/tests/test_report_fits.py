@@ -476,7 +476,7 @@ class DeltaMuFromTheLawTest(unittest.TestCase):
             e["predicted_T"] = None     # (transitions fills it in)
 
         def h5_cell():
-            return next(c for c in report._delta_mu_law_text(d).split("<br>")
+            return next(c for c in report._delta_mu_law_text(d, report._Footnotes()).split("<br>")
                         if c.startswith("h5: "))
         self.assertIn("<small>(extrapolated)</small>", h5_cell())
         # the flags come from the keys, not from the note's text
