@@ -13,7 +13,7 @@
 #include <system_error>
 
 #include "commands.hpp"
-#include "run_loop.hpp"
+#include "stop_signals.hpp"
 
 namespace cdshear {
 

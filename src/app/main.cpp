@@ -13,7 +13,7 @@
 #include "build_info.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
-#include "run_loop.hpp"
+#include "stop_signals.hpp"
 
 namespace {
 

@@ -33,7 +33,7 @@
 #include <thread>
 
 #include "config_error.hpp"
-#include "run_loop.hpp"
+#include "stop_signals.hpp"
 
 namespace cdshear {
 namespace {

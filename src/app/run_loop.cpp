@@ -5,23 +5,13 @@
 #include "interval_stats.hpp"
 
 #include <fmt/format.h>
-#include <pthread.h>
-#include <signal.h>
-#include <unistd.h>
 
 #include <chrono>
-#include <csignal>
 #include <cstdio>
 
 namespace cdshear {
 
-std::atomic<bool> g_stop_requested{false};
-
 namespace {
-extern "C" void on_stop_signal(int) {
-  g_stop_requested.store(true);
-}
-
 std::string format_duration(double s) {
   if (s < 60) return fmt::format("{:.0f}s", s);
   if (s < 3600) return fmt::format("{:.0f}m{:02.0f}s", std::floor(s / 60), std::fmod(s, 60));
@@ -40,31 +30,6 @@ void print_status_line(const World& world, const StepReport& r, const IntervalSt
       static_cast<unsigned long long>(interval.steps), interval.residual_max, interval.overlap_max,
       kinetic_energy(world), steps_per_second);
 }
-}  // namespace
-
-void install_stop_handlers() {
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-  std::signal(SIGHUP, on_stop_signal);  // a closed terminal or a batch system's hang-up
-}
-
-pid_t fork_with_default_stops() {
-  sigset_t stops;
-  sigset_t before;
-  ::sigemptyset(&stops);
-  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaddset(&stops, signal);
-  ::pthread_sigmask(SIG_BLOCK, &stops, &before);
-  const pid_t pid = ::fork();
-  if (pid == 0) {  // a stop already sent to the child ends it when the mask is restored
-    for (const int signal : {SIGINT, SIGTERM, SIGHUP}) ::signal(signal, SIG_DFL);
-    ::sigprocmask(SIG_SETMASK, &before, nullptr);
-  } else {
-    ::pthread_sigmask(SIG_SETMASK, &before, nullptr);
-  }
-  return pid;
-}
-
-namespace {
 
 /// One step's report into the run's totals (the last report, counts, largest values, seconds).
 void add_step(RunSummary& summary, const StepReport& r) {

@@ -4,9 +4,6 @@
 // blown-up step; the caller decides what to write then.
 #pragma once
 
-#include <sys/types.h>
-
-#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -16,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "contact_dynamics.hpp"
+#include "stop_signals.hpp"
 #include "world.hpp"
 
 namespace cdshear {
@@ -96,18 +94,6 @@ struct RunSummary {
   int thread_trials = 0, thread_watch_trials = 0;
   std::uint64_t steps_on_all_threads = 0;
 };
-
-/// Set by the SIGINT/SIGTERM handler; the loop stops after the current step.
-extern std::atomic<bool> g_stop_requested;
-void install_stop_handlers();
-
-/// fork() with the stop signals (SIGINT, SIGTERM, SIGHUP) held across it. The child starts with
-/// their default actions, then the caller's signal mask: a stop sent to the child before its exec
-/// ends it, where the inherited handler would only set g_stop_requested in the child's copy of
-/// this process's memory (which the exec discards) and the program it starts would run to its
-/// end. The parent gets its mask back; a stop sent to it meanwhile is delivered then. Returns
-/// fork()'s result; the child may call only async-signal-safe functions until it execs.
-pid_t fork_with_default_stops();
 
 RunSummary run_until(World& world, ContactDynamics& dynamics, const StepOptions& options,
                      const RunLoopSettings& settings, std::span<const ScheduledObserver> observers);

@@ -36,8 +36,8 @@
 #include "job_scheduler.hpp"
 #include "mpi_scheduler.hpp"
 #include "outputs.hpp"
-#include "run_loop.hpp"
 #include "run_session.hpp"
+#include "stop_signals.hpp"
 #include "toml_reader.hpp"
 
 namespace cdshear {
