@@ -119,8 +119,8 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     }
     _exit(127);
   }
-  // cdshear's stop handlers catch SIGINT, SIGTERM and SIGHUP (run_loop.cpp), so a signal sent to
-  // cdshear alone (`kill PID`, a batch system's signal to the main process) would leave the
+  // cdshear's stop handlers catch SIGINT, SIGTERM and SIGHUP (stop_signals.cpp), so a signal sent
+  // to cdshear alone (`kill PID`, a batch system's signal to the main process) would leave the
   // analysis running. It is passed on as SIGTERM: the analysis writes each file whole or not at
   // all (os.replace), so it stops with nothing half written. Polled every 20 ms, as the handler
   // only sets a flag and waitpid restarts after it. The analysis turns SIGTERM into Python's
