@@ -17,6 +17,7 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from .report import collect, csv_columns
+from .rundata import is_number
 
 
 @dataclass
@@ -54,8 +55,7 @@ class Campaign:
 
 def _column(values):
     """A float array when every value is a number or missing, else an object array."""
-    if all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
-           for v in values):
+    if all(v is None or is_number(v) for v in values):
         return np.array([np.nan if v is None else float(v) for v in values], dtype=float)
     return np.array(values, dtype=object)
 

@@ -577,5 +577,4 @@ def lammps_campaign(lammps_folder, campaign):
 
 def _positive_number(value, zero=False):
     """Whether value is a finite number above 0 (at or above it with zero=True)."""
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value) and (value >= 0 if zero else value > 0))
+    return is_number(value) and math.isfinite(value) and (value >= 0 if zero else value > 0)

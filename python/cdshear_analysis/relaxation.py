@@ -190,7 +190,7 @@ def _mean(summary, *keys):
     for k in keys:
         v = v.get(k) if isinstance(v, dict) else None
     v = v.get("mean") if isinstance(v, dict) else v
-    return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None
+    return float(v) if is_number(v) and math.isfinite(v) else None
 
 
 def _number(v):

@@ -672,7 +672,7 @@ def truncate_run(run, time):
     windows (and their regions) with t_end <= `time`, attrs time and step at the last sample kept
     and finished 0 when samples were dropped. The snapshot is left as it is (the run's last).
     Analysing the result gives the averages a run stopped at `time` would give."""
-    if not (isinstance(time, (int, float)) and np.isfinite(time) and time > 0):
+    if not (is_number(time) and np.isfinite(time) and time > 0):
         raise ValueError(f"truncation time must be a number > 0, got {time!r}")
     series_time = np.asarray(run["series"]["time"], dtype=float)
     keep = series_time <= time * (1 + 1e-12)

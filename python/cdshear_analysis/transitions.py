@@ -20,6 +20,7 @@ cannot be computed is given with its reason.
 import math
 
 from . import fitting
+from .rundata import is_number
 
 RHO = 1.0                  # model.md section 1: 2D mass density
 INERTIAL_MASS = math.pi / 4  # model.md sections 1 and 7: m in I = gamma_dot sqrt(m / sigma_yy)
@@ -177,8 +178,8 @@ def switch_predictions(rows, boundary=None):
                         and s.get("start_time") is not None)
         # the switches are those of the averaged span (summary.json): the time they cover
         averaged = r.get("_averaged_time")
-        observed = (averaged if isinstance(averaged, (int, float)) and math.isfinite(averaged)
-                    and averaged > 0 else r.get("time_reached"))
+        observed = (averaged if is_number(averaged) and math.isfinite(averaged) and averaged > 0
+                    else r.get("time_reached"))
         e.update(switch_count=len(sw), observed_time=observed,
                  switch_duration=r.get("switch_duration"),
                  switch_duration_err=r.get("switch_duration_err"),

@@ -14,7 +14,7 @@ import numpy as np
 
 from cdshear_analysis import RunDataError, load_run
 from cdshear_analysis.__main__ import main
-from cdshear_analysis.rundata import seal
+from cdshear_analysis.rundata import seal, truncate_run
 from cdshear_analysis.synthetic import write_synthetic_run
 
 
@@ -154,6 +154,15 @@ class NotPhysics(unittest.TestCase):
                for a, b in zip(w["t_start"], w["t_end"])}
         self.assertGreater(len(off), 1, "no sample sits on a window edge: the test checks nothing")
 
+
+    def test_truncation_takes_a_positive_time_only(self):
+        run = load_run(self.good)
+        kept = truncate_run(run, 200.0)
+        self.assertLessEqual(kept["series"]["time"][-1], 200.0)
+        self.assertLess(len(kept["series"]["time"]), len(run["series"]["time"]))
+        for bad in (True, 0, -1.0, float("nan"), "200"):
+            with self.subTest(time=bad), self.assertRaisesRegex(ValueError, "a number > 0"):
+                truncate_run(run, bad)
 
 if __name__ == "__main__":
     unittest.main()
