@@ -154,7 +154,6 @@ class NotPhysics(unittest.TestCase):
                for a, b in zip(w["t_start"], w["t_end"])}
         self.assertGreater(len(off), 1, "no sample sits on a window edge: the test checks nothing")
 
-
     def test_truncation_takes_a_positive_time_only(self):
         run = load_run(self.good)
         kept = truncate_run(run, 200.0)
@@ -163,6 +162,7 @@ class NotPhysics(unittest.TestCase):
         for bad in (True, 0, -1.0, float("nan"), "200"):
             with self.subTest(time=bad), self.assertRaisesRegex(ValueError, "a number > 0"):
                 truncate_run(run, bad)
+
 
 if __name__ == "__main__":
     unittest.main()
