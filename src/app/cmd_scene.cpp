@@ -14,6 +14,7 @@
 #include "run_loop.hpp"
 #include "run_session.hpp"
 #include "scene_file.hpp"
+#include "stop_signals.hpp"
 
 namespace cdshear {
 namespace {

@@ -3,6 +3,7 @@
 #include "thread_chooser.hpp"
 
 #include "interval_stats.hpp"
+#include "stop_signals.hpp"
 
 #include <fmt/format.h>
 

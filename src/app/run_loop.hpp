@@ -13,7 +13,6 @@
 #include <nlohmann/json.hpp>
 
 #include "contact_dynamics.hpp"
-#include "stop_signals.hpp"
 #include "world.hpp"
 
 namespace cdshear {

@@ -31,6 +31,7 @@
 #include "run_loop.hpp"
 #include "run_session.hpp"
 #include "scene.hpp"
+#include "stop_signals.hpp"
 
 namespace cdshear {
 namespace {
