@@ -454,6 +454,20 @@ def band_switches(time, u, velocity, source="block_vx"):
     return switches
 
 
+def whole_run_switches(time, switches, height):
+    """A run's band switches over its whole series (band_switches' list), as a summary keeps
+    them for switch_statistics: {"time" (first to last sample), "L_y" (the mean height; NaN
+    without one), "switch_times" (each switch's T, None for one across a gap in the samples),
+    "starts" (each switch's start_time)}."""
+    time, height = np.asarray(time, dtype=float), np.asarray(height, dtype=float)
+    finite = height[np.isfinite(height)]
+    return {"time": float(time[-1] - time[0]) if len(time) > 1 else 0.0,
+            "L_y": float(finite.mean()) if len(finite) else np.nan,
+            "switch_times": [float(w["switch_time"]) if np.isfinite(w["switch_time"]) else None
+                             for w in switches],
+            "starts": [float(w["start_time"]) for w in switches]}
+
+
 def switches_in(switches, t0, t1):
     """The switches starting in [t0, t1], the averaged span: the ones a run's regime, its
     switch count and its switch statistics are about. Before t0 the block is still in the

@@ -207,7 +207,8 @@ def analyze(run):
     # found over the whole series (each delta_mu stretch stops at the previous switch's end),
     # kept over the averaged span only, as the regime test counts them: before it the block
     # may still wander between the walls' velocities with no band formed
-    switches = rg.switches_in(rg.band_switches(time, u, V, source=u_source), *span)
+    every_switch = rg.band_switches(time, u, V, source=u_source)
+    switches = rg.switches_in(every_switch, *span)
     for sw in switches:
         sw["delta_mu"] = switch_friction_difference(s, time, sw)
     regime, confidence, criteria = rg.classify_run(table, u[after], switches, V, span, u_source)
@@ -298,6 +299,7 @@ def analyze(run):
         "regions": regions,
         "profiles": profiles,
         "switches": switches,
+        "whole_run_switches": rg.whole_run_switches(time, every_switch, s["height"]),
         "profile_decay": profile_decay(
             w, V, run["case"].get("shear", {}).get("initial_velocity", "linear")),
         "switch_duration": per_switch_mean("duration"),

@@ -30,7 +30,7 @@ import os
 import numpy as np
 
 from . import regime as rg
-from .rundata import load_run
+from .rundata import RUN_FILE, RunDataError, is_number, load_run
 from .statistics import window_mean
 from .summary import pm as summary_pm
 
@@ -43,23 +43,78 @@ def run_switches(run_dir):
     """One run's switches over its whole series: {"run", "V", "L_y" (the mean height), "time"
     (its first to last sample), "finished" (the run reached its duration), "duration",
     "switches" (count), "switch_times" (each switch's T, None for one across a gap in the
-    samples, which has none) and "starts" (each switch's start time)}. Raises
-    rundata.RunDataError for a run it cannot read."""
+    samples, which has none) and "starts" (each switch's start time)}. From run.h5 where the
+    folder holds one, else from its summary.json's `whole_run_switches` (what a clone keeps).
+    Raises rundata.RunDataError for a run it cannot read."""
+    if not os.path.exists(os.path.join(run_dir, RUN_FILE)) and os.path.isfile(
+            os.path.join(run_dir, "summary.json")):
+        return summary_switches(run_dir)
     run = load_run(run_dir)
     s, attrs = run["series"], run["attrs"]
     time = np.asarray(s["time"], dtype=float)
-    V = float(attrs["velocity"])
     u, source = rg.block_velocity(s)
-    switches = rg.band_switches(time, u, V, source=source)
-    height = np.asarray(s["height"], dtype=float)
-    return {"run": os.path.basename(os.path.normpath(run_dir)), "V": V,
-            "L_y": float(np.nanmean(height)) if np.isfinite(height).any() else math.nan,
-            "time": float(time[-1] - time[0]) if len(time) > 1 else 0.0,
-            "finished": bool(attrs.get("finished", 0)), "duration": float(attrs["duration"]),
-            "switches": len(switches),
-            "switch_times": [float(w["switch_time"]) if np.isfinite(w["switch_time"]) else None
-                             for w in switches],
-            "starts": [float(w["start_time"]) for w in switches]}
+    V = float(attrs["velocity"])
+    whole = rg.whole_run_switches(time, rg.band_switches(time, u, V, source=source),
+                                  s["height"])
+    return _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole)
+
+
+def _record(run_dir, V, finished, duration, whole):
+    return {"run": os.path.basename(os.path.normpath(run_dir)), "V": V, "L_y": whole["L_y"],
+            "time": whole["time"], "finished": finished, "duration": duration,
+            "switches": len(whole["starts"]), "switch_times": whole["switch_times"],
+            "starts": whole["starts"]}
+
+
+def summary_switches(run_dir):
+    """run_switches' record from RUN_DIR/summary.json alone: its `whole_run_switches` (the
+    analysis that wrote it searched the whole series of run.h5) and its case's velocity,
+    duration and finished flag. Raises rundata.RunDataError naming the file and the key that
+    is missing or not what it should be."""
+    from .report import ReportError, read_summary
+    path = os.path.join(run_dir, "summary.json")
+    try:
+        summary = read_summary(run_dir)
+    except ReportError as e:
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and it cannot be read: {e}")
+    if not isinstance(summary, dict):
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and it holds no JSON object")
+    whole = summary.get("whole_run_switches")
+    if whole is None:
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and no whole_run_switches key (an "
+                           "analysis older than that key wrote it): make the run again "
+                           "(`cdshear sweep CAMPAIGN --force`) to time its switches")
+    case = summary.get("case")
+
+    def bad(key, what):
+        return RunDataError(path, f"{key} is {what}")
+    if not isinstance(case, dict):
+        raise bad("case", "not an object")
+    V, duration, finished = case.get("velocity"), case.get("duration"), case.get("finished")
+    if not (is_number(V) and V > 0):
+        raise bad("case.velocity", f"{V!r}, not a positive number")
+    if not (is_number(duration) and duration > 0):
+        raise bad("case.duration", f"{duration!r}, not a positive number")
+    if not isinstance(finished, bool):
+        raise bad("case.finished", f"{finished!r}, not true or false")
+    if not isinstance(whole, dict):
+        raise bad("whole_run_switches", "not an object")
+    span, height = whole.get("time"), whole.get("L_y")
+    times, starts = whole.get("switch_times"), whole.get("starts")
+    if not (is_number(span) and span >= 0):
+        raise bad("whole_run_switches.time", f"{span!r}, not a number of at least 0")
+    if not (height is None or is_number(height)):
+        raise bad("whole_run_switches.L_y", f"{height!r}, not a number or null")
+    if not (isinstance(starts, list) and all(is_number(t) for t in starts)):
+        raise bad("whole_run_switches.starts", "not a list of numbers")
+    if not (isinstance(times, list) and len(times) == len(starts)
+            and all(t is None or (is_number(t) and t > 0) for t in times)):
+        raise bad("whole_run_switches.switch_times",
+                  "not a list of positive numbers or nulls, one per start")
+    whole = {"time": float(span), "L_y": math.nan if height is None else float(height),
+             "switch_times": [None if t is None else float(t) for t in times],
+             "starts": [float(t) for t in starts]}
+    return _record(run_dir, float(V), finished, float(duration), whole)
 
 
 def _timed(runs, per_velocity=False):

@@ -28,7 +28,7 @@ SUMMARY_KEYS = {
     "window_errors", "regime", "regime_confidence", "regime_criteria", "mu_eff_wall", "height",
     "solid_fraction", "com_vx", "bulk", "slip", "regions", "profiles", "switches",
     "switch_duration", "switch_time", "solver", "mu_eff_wall_bottom", "mu_eff_wall_top",
-    "switch_delta_mu",
+    "switch_delta_mu", "whole_run_switches",
     "profile_decay"}
 FIGURES = ["snapshot.png", "velocity_profiles.png", "com_velocity.png",
            "height_solid_fraction.png", "steady_profiles.png"]

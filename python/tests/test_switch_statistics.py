@@ -5,6 +5,7 @@ import io
 import json
 import math
 import os
+import shutil
 import sys
 import tempfile
 import unittest
@@ -15,6 +16,8 @@ from scipy import stats  # noqa: E402
 
 from cdshear_analysis import switch_statistics as ss  # noqa: E402
 from cdshear_analysis.__main__ import main  # noqa: E402
+from cdshear_analysis.rundata import RunDataError, load_run  # noqa: E402
+from cdshear_analysis.summary import analyze, jsonable, write_summary  # noqa: E402
 from cdshear_analysis.synthetic import write_synthetic_run  # noqa: E402
 
 DURATION = 2000.0
@@ -116,6 +119,57 @@ class SwitchStatistics(unittest.TestCase):
         self.assertAlmostEqual(c["rate_p"], q ** 5 + (1 - q) ** 5 + 5 * q * (1 - q) ** 4,
                                delta=1e-3)
         self.assertIn("rate ratio (runs / against): inf", ss.format_table(a, none, c))
+
+    def test_a_clone_times_the_switches_from_the_summary_alone(self):
+        # the summary of a run whose averaged span holds fewer switches than its whole series
+        # (a clone keeps summary.json, not run.h5): the same record as from run.h5
+        clone = os.path.join(self.tmp.name, "clone", "s1_seed1_V0.05")
+        shutil.copytree(self.a[0], clone)
+        from_run = ss.run_switches(clone)
+        summary = analyze(load_run(clone))
+        self.assertLess(len(summary["switches"]), from_run["switches"])
+        write_summary(summary, clone)
+        os.remove(os.path.join(clone, "run.h5"))
+        self.assertEqual(ss.run_switches(clone), from_run)
+        # a run stopped short, and one without a switch: counted alike from their summaries
+        for path in (self.short, self.none):
+            copy = os.path.join(self.tmp.name, "clone", os.path.basename(path))
+            shutil.copytree(path, copy)
+            write_summary(analyze(load_run(copy)), copy)
+            os.remove(os.path.join(copy, "run.h5"))
+            self.assertEqual(ss.run_switches(copy), ss.run_switches(path))
+
+    def test_a_summary_that_cannot_time_its_switches_says_which_key(self):
+        d = os.path.join(self.tmp.name, "bad", "s1_seed1_V0.05")
+        shutil.copytree(self.a[0], d)
+        good = json.loads(json.dumps(jsonable(analyze(load_run(d)))))
+        os.remove(os.path.join(d, "run.h5"))
+        path = os.path.join(d, "summary.json")
+        older = {k: v for k, v in good.items() if k != "whole_run_switches"}
+        uneven = json.loads(json.dumps(good))
+        uneven["whole_run_switches"]["starts"].pop()
+        boolean = json.loads(json.dumps(good))
+        boolean["whole_run_switches"]["time"] = True
+        negative = json.loads(json.dumps(good))
+        negative["whole_run_switches"]["switch_times"][0] = -20.0
+        slowless = json.loads(json.dumps(good))
+        slowless["case"]["velocity"] = 0
+        for summary, key in ((older, "no whole_run_switches key"),
+                             (uneven, "whole_run_switches.switch_times"),
+                             (boolean, "whole_run_switches.time"),
+                             (negative, "whole_run_switches.switch_times"),
+                             (slowless, "case.velocity"), ([], "no JSON object")):
+            with open(path, "w") as f:
+                json.dump(summary, f)
+            with self.assertRaises(RunDataError) as caught:
+                ss.run_switches(d)
+            self.assertEqual(caught.exception.path, path)
+            self.assertIn(key, caught.exception.problem)
+        with open(path, "w") as f:
+            f.write("{not json")
+        with self.assertRaises(RunDataError) as caught:
+            ss.run_switches(d)
+        self.assertIn("cannot be read", caught.exception.problem)
 
     def test_command_line(self):
         out = os.path.join(self.tmp.name, "switches.json")
