@@ -82,8 +82,8 @@ def summary_switches(run_dir):
     whole = summary.get("whole_run_switches")
     if whole is None:
         raise RunDataError(path, f"no {RUN_FILE} beside it, and no whole_run_switches key (an "
-                           "analysis older than that key wrote it): make the run again "
-                           "(`cdshear sweep CAMPAIGN --force`) to time its switches")
+                           "analysis older than that key wrote it): to time its switches, "
+                           "remove the run's folder and sweep its campaign again")
     case = summary.get("case")
 
     def bad(key, what):
