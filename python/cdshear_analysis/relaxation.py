@@ -189,8 +189,8 @@ def _mean(summary, *keys):
     v = summary
     for k in keys:
         v = v.get(k) if isinstance(v, dict) else None
-    v = v.get("mean") if isinstance(v, dict) else v
-    return float(v) if is_number(v) and math.isfinite(v) else None
+    v = _number(v.get("mean") if isinstance(v, dict) else v)
+    return None if v is None else float(v)
 
 
 def _number(v):

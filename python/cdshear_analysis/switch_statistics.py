@@ -76,7 +76,7 @@ def summary_switches(run_dir):
     try:
         summary = read_summary(run_dir)
     except ReportError as e:
-        raise RunDataError(path, f"no {RUN_FILE} beside it, and it cannot be read: {e}")
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and it cannot be read ({e.problem})")
     if not isinstance(summary, dict):
         raise RunDataError(path, f"no {RUN_FILE} beside it, and it holds no JSON object")
     whole = summary.get("whole_run_switches")
