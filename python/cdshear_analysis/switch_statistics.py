@@ -88,29 +88,32 @@ def summary_switches(run_dir):
 
     def bad(key, what):
         return RunDataError(path, f"{key} is {what}")
+
+    def finite(x):   # Python's JSON reads Infinity and NaN, which the writer never writes
+        return is_number(x) and math.isfinite(x)
     if not isinstance(case, dict):
         raise bad("case", "not an object")
     V, duration, finished = case.get("velocity"), case.get("duration"), case.get("finished")
-    if not (is_number(V) and V > 0):
-        raise bad("case.velocity", f"{V!r}, not a positive number")
-    if not (is_number(duration) and duration > 0):
-        raise bad("case.duration", f"{duration!r}, not a positive number")
+    if not (finite(V) and V > 0):
+        raise bad("case.velocity", f"{V!r}, not a finite positive number")
+    if not (finite(duration) and duration > 0):
+        raise bad("case.duration", f"{duration!r}, not a finite positive number")
     if not isinstance(finished, bool):
         raise bad("case.finished", f"{finished!r}, not true or false")
     if not isinstance(whole, dict):
         raise bad("whole_run_switches", "not an object")
     span, height = whole.get("time"), whole.get("L_y")
     times, starts = whole.get("switch_times"), whole.get("starts")
-    if not (is_number(span) and span >= 0):
-        raise bad("whole_run_switches.time", f"{span!r}, not a number of at least 0")
-    if not (height is None or is_number(height)):
-        raise bad("whole_run_switches.L_y", f"{height!r}, not a number or null")
-    if not (isinstance(starts, list) and all(is_number(t) for t in starts)):
-        raise bad("whole_run_switches.starts", "not a list of numbers")
+    if not (finite(span) and span >= 0):
+        raise bad("whole_run_switches.time", f"{span!r}, not a finite number of at least 0")
+    if not (height is None or finite(height)):
+        raise bad("whole_run_switches.L_y", f"{height!r}, not a finite number or null")
+    if not (isinstance(starts, list) and all(finite(t) for t in starts)):
+        raise bad("whole_run_switches.starts", "not a list of finite numbers")
     if not (isinstance(times, list) and len(times) == len(starts)
-            and all(t is None or (is_number(t) and t > 0) for t in times)):
+            and all(t is None or (finite(t) and t > 0) for t in times)):
         raise bad("whole_run_switches.switch_times",
-                  "not a list of positive numbers or nulls, one per start")
+                  "not a list of finite positive numbers or nulls, one per start")
     whole = {"time": float(span), "L_y": math.nan if height is None else float(height),
              "switch_times": [None if t is None else float(t) for t in times],
              "starts": [float(t) for t in starts]}

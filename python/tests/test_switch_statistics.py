@@ -154,11 +154,17 @@ class SwitchStatistics(unittest.TestCase):
         negative["whole_run_switches"]["switch_times"][0] = -20.0
         slowless = json.loads(json.dumps(good))
         slowless["case"]["velocity"] = 0
+        endless = json.loads(json.dumps(good))
+        endless["whole_run_switches"]["switch_times"][0] = math.inf
+        unmeasured = json.loads(json.dumps(good))
+        unmeasured["whole_run_switches"]["L_y"] = math.nan
         for summary, key in ((older, "no whole_run_switches key"),
                              (uneven, "whole_run_switches.switch_times"),
                              (boolean, "whole_run_switches.time"),
                              (negative, "whole_run_switches.switch_times"),
-                             (slowless, "case.velocity"), ([], "no JSON object")):
+                             (slowless, "case.velocity"), ([], "no JSON object"),
+                             (endless, "whole_run_switches.switch_times"),
+                             (unmeasured, "whole_run_switches.L_y")):
             with open(path, "w") as f:
                 json.dump(summary, f)
             with self.assertRaises(RunDataError) as caught:
