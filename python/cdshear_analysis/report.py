@@ -35,6 +35,7 @@ from .boundary_laws import fit_boundary
 from .boundary_laws import h_label as _h_label
 from .campaign_figures import write_figures
 from .fitting import finite as _finite
+from .rundata import is_measured_number
 from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
 from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths
@@ -59,8 +60,9 @@ class ReportError(Exception):
 # Reading the runs
 
 def _number(x):
-    """float(x) for a finite number (not a text, not true or false), else None."""
-    return _finite(x) if _is_number(x) else None
+    """float(x) for a finite number within rundata.MEASURED_MAGNITUDE_LIMIT (not a text, not
+    true or false), else None."""
+    return float(x) if is_measured_number(x) else None
 
 
 def _text(x):

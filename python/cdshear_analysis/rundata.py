@@ -33,6 +33,7 @@ sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
 import contextlib
 import errno
+import math
 import os
 import re
 import signal
@@ -299,6 +300,17 @@ IDENTITY_KEYS_RECORDED_LATER = ("initial_velocity",)
 def is_number(value):
     """A number (int or float, numpy's included), not a boolean nor a text."""
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
+# No quantity a run measures comes near this magnitude; a summary value beyond it was edited by
+# hand, and its squares would overflow the statistics that pool runs (1e300 ** 2 is infinite).
+MEASURED_MAGNITUDE_LIMIT = 1e100
+
+
+def is_measured_number(value):
+    """A number (is_number) that is finite and within MEASURED_MAGNITUDE_LIMIT in magnitude:
+    what a summary.json written by `analyze` holds where it holds a number."""
+    return is_number(value) and math.isfinite(value) and abs(value) <= MEASURED_MAGNITUDE_LIMIT
 
 
 def _check_physics(attrs, series, windows, n_stripes, path):

@@ -20,7 +20,8 @@ import json
 import math
 import os
 
-from .rundata import IDENTITY_KEYS, is_number, open_regular, run_info_paths, save_figure
+from .rundata import (IDENTITY_KEYS, is_measured_number, is_number, open_regular,
+                      run_info_paths, save_figure)
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -164,11 +165,14 @@ def _row(run_dir, key, value, summary, parts):
     for name, get in QUANTITIES:
         try:
             entry = get(summary)
-            row[name] = float(entry["mean"])
-            row[name + "_err"] = float(entry["err"])
-        except (KeyError, TypeError, ValueError):
-            row[name] = math.nan
-            row[name + "_err"] = math.nan
+            mean, err = entry["mean"], entry["err"]
+        except (KeyError, TypeError):
+            mean = err = None
+        # what `analyze` writes: a finite mean and an error >= 0 (null where it has none)
+        if is_measured_number(mean) and is_measured_number(err) and err >= 0:
+            row[name], row[name + "_err"] = float(mean), float(err)
+        else:
+            row[name] = row[name + "_err"] = math.nan
     com = summary.get("com_vx") or {}
     row["com_vx_std"] = float(com.get("std", math.nan))
     cost = run_cost([data for _, data in parts])

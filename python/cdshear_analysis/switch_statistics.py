@@ -46,7 +46,8 @@ def run_switches(run_dir):
     samples, which has none) and "starts" (each switch's start time)}. From run.h5 where the
     folder holds one, else from its summary.json's `whole_run_switches` (what a clone keeps).
     Raises rundata.RunDataError for a run it cannot read."""
-    if not os.path.exists(os.path.join(run_dir, RUN_FILE)) and os.path.isfile(
+    # lexists: a broken link or a folder in a file's place is read, and its error named
+    if not os.path.lexists(os.path.join(run_dir, RUN_FILE)) and os.path.lexists(
             os.path.join(run_dir, "summary.json")):
         return summary_switches(run_dir)
     run = load_run(run_dir)
@@ -71,7 +72,7 @@ def summary_switches(run_dir):
     analysis that wrote it searched the whole series of run.h5) and its case's velocity,
     duration and finished flag. Raises rundata.RunDataError naming the file and the key that
     is missing or not what it should be."""
-    from .report import ReportError, read_summary
+    from .report import ReportError, read_summary, summary_state
     path = os.path.join(run_dir, "summary.json")
     try:
         summary = read_summary(run_dir)
@@ -79,6 +80,8 @@ def summary_switches(run_dir):
         raise RunDataError(path, f"no {RUN_FILE} beside it, and it cannot be read ({e.problem})")
     if not isinstance(summary, dict):
         raise RunDataError(path, f"no {RUN_FILE} beside it, and it holds no JSON object")
+    if (state := summary_state(summary)) is not None:
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and {state[1]}")
     whole = summary.get("whole_run_switches")
     if whole is None:
         raise RunDataError(path, f"no {RUN_FILE} beside it, and no whole_run_switches key (an "
@@ -106,14 +109,16 @@ def summary_switches(run_dir):
     times, starts = whole.get("switch_times"), whole.get("starts")
     if not (finite(span) and span >= 0):
         raise bad("whole_run_switches.time", f"{span!r}, not a finite number of at least 0")
-    if not (height is None or finite(height)):
-        raise bad("whole_run_switches.L_y", f"{height!r}, not a finite number or null")
-    if not (isinstance(starts, list) and all(finite(t) for t in starts)):
-        raise bad("whole_run_switches.starts", "not a list of finite numbers")
+    if not (height is None or (finite(height) and height > 0)):
+        raise bad("whole_run_switches.L_y", f"{height!r}, not a positive number or null")
+    if not (isinstance(starts, list) and all(finite(t) and t >= 0 for t in starts)):
+        raise bad("whole_run_switches.starts", "not a list of numbers of at least 0")
+    # a switch's ramp lies within the series: 0 < T <= its span
     if not (isinstance(times, list) and len(times) == len(starts)
-            and all(t is None or (finite(t) and t > 0) for t in times)):
+            and all(t is None or (finite(t) and 0 < t <= span) for t in times)):
         raise bad("whole_run_switches.switch_times",
-                  "not a list of finite positive numbers or nulls, one per start")
+                  f"not a list of numbers in (0, {span!r}] (the time the series spans) or "
+                  "nulls, one per start")
     whole = {"time": float(span), "L_y": math.nan if height is None else float(height),
              "switch_times": [None if t is None else float(t) for t in times],
              "starts": [float(t) for t in starts]}

@@ -326,6 +326,41 @@ class StudyTest(unittest.TestCase):
             self.assertEqual(main(["study", d]), 0)
             self.assertTrue(os.path.isfile(os.path.join(d, "figures", "mu_eff_wall.png")))
 
+    def test_values_analyze_never_writes_are_left_out(self):
+        # a summary edited by hand: a negative or NaN error, an infinite mean, a mean whose
+        # square overflows; each such quantity is left out of its row, the others kept
+        edits = {"mu_eff_wall": {"mean": 0.3, "err": -5.0},
+                 "height": {"mean": 20.0, "err": float("nan")},
+                 "solid_fraction": {"mean": float("inf"), "err": 0.001},
+                 "slip": {"bottom": {"mean": 1e300, "err": 0.005},
+                          "top": {"mean": 0.05, "err": 0.005}}}
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
+            for k in (1, 2):
+                run = os.path.join(d, f"solver.max_sweeps={50 * k}")
+                fake_run(run, 0.30, 0.004, 50.0, 30.0)
+                with open(os.path.join(run, "summary.json")) as f:
+                    summary = json.load(f)
+                with open(os.path.join(run, "summary.json"), "w") as f:
+                    json.dump(dict(summary, **edits), f)
+            rows = study.collect(d)
+            for row in rows[1:]:
+                for name in ("mu_eff_wall", "height", "solid_fraction", "slip_bottom"):
+                    self.assertTrue(math.isnan(row[name]) and math.isnan(row[name + "_err"]))
+                self.assertEqual((row["slip_top"], row["bulk_mu_eff"]), (0.05, 0.30))
+            with redirect_stderr(io.StringIO()) as err, redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["study", d]), 0)
+            self.assertNotIn("Traceback", err.getvalue())
+            # a reference realization holding 1e300: the realizations' scatter stays finite
+            fake_run(os.path.join(d, "reference_seed2"), 0.26, 0.004, 100.0, 10.0)
+            with open(os.path.join(d, "reference_seed2", "summary.json")) as f:
+                summary = json.load(f)
+            summary["bulk"]["mu_eff"]["mean"] = 1e300
+            with open(os.path.join(d, "reference_seed2", "summary.json"), "w") as f:
+                json.dump(summary, f)
+            with redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["study-compare", d, d]), 0)
+
     def test_unreadable_summary_is_an_error_naming_the_file(self):
         with tempfile.TemporaryDirectory() as d:
             fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)

@@ -158,24 +158,37 @@ class SwitchStatistics(unittest.TestCase):
         endless["whole_run_switches"]["switch_times"][0] = math.inf
         unmeasured = json.loads(json.dumps(good))
         unmeasured["whole_run_switches"]["L_y"] = math.nan
+        longer = json.loads(json.dumps(good))   # a ramp longer than the series
+        longer["whole_run_switches"]["switch_times"][0] = 2 * good["whole_run_switches"]["time"]
+        before = json.loads(json.dumps(good))
+        before["whole_run_switches"]["starts"][0] = -1.0
+        newer = dict(good, version=good["version"] + 1)
         for summary, key in ((older, "no whole_run_switches key"),
                              (uneven, "whole_run_switches.switch_times"),
                              (boolean, "whole_run_switches.time"),
                              (negative, "whole_run_switches.switch_times"),
                              (slowless, "case.velocity"), ([], "no JSON object"),
                              (endless, "whole_run_switches.switch_times"),
-                             (unmeasured, "whole_run_switches.L_y")):
+                             (unmeasured, "whole_run_switches.L_y"),
+                             (longer, "whole_run_switches.switch_times"),
+                             (before, "whole_run_switches.starts"), (newer, "newer")):
             with open(path, "w") as f:
                 json.dump(summary, f)
             with self.assertRaises(RunDataError) as caught:
                 ss.run_switches(d)
             self.assertEqual(caught.exception.path, path)
             self.assertIn(key, caught.exception.problem)
-        with open(path, "w") as f:
-            f.write("{not json")
-        with self.assertRaises(RunDataError) as caught:
-            ss.run_switches(d)
-        self.assertIn("cannot be read", caught.exception.problem)
+        for broken in ("{not json", None):   # broken JSON; a folder in the file's place
+            os.remove(path)
+            if broken is None:
+                os.mkdir(path)
+            else:
+                with open(path, "w") as f:
+                    f.write(broken)
+            with self.assertRaises(RunDataError) as caught:
+                ss.run_switches(d)
+            self.assertEqual(caught.exception.path, path)
+            self.assertIn("cannot be read", caught.exception.problem)
 
     def test_command_line(self):
         out = os.path.join(self.tmp.name, "switches.json")
