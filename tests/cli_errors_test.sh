@@ -100,6 +100,14 @@ done
 cp mixed_0.2/run.h5 mixed_0.1/run.h5
 expect_error "run.h5: key 'velocity': the data are of a run with velocity = 0.2, case.toml says 0.1" \
   "$exe" run -q --no-analyze --resume mixed_0.1
+# and another realization's (same case, other solver seed)
+for seed in 1 2; do
+  "$exe" run -q --no-analyze --packing "$packing" -V 0.1 --set shear.duration=1 --stop-at 0.5 \
+    --set solver.seed=$seed -o "mixed_seed$seed" > /dev/null
+done
+cp mixed_seed2/run.h5 mixed_seed1/run.h5
+expect_error "run.h5: key 'solver_seed': the data are of a run with solver_seed = 2, case.toml says 1" \
+  "$exe" run -q --no-analyze --resume mixed_seed1
 
 # One writer per run folder: while a run is going, a resume of its folder and a new run forced
 # into it are refused naming the holder; once it has stopped, the resume goes on.

@@ -475,6 +475,9 @@ std::unique_ptr<ShearMeasurement> open_measurement(const ShearSession& s) {
   same_run("normal_stress", data.meta.normal_stress, s.c.normal_stress, "case.toml");
   same_run("height", data.meta.height, s.c.height, "case.toml");
   same_run("seed", static_cast<double>(data.meta.seed), static_cast<double>(s.c.seed), "case.toml");
+  // another realization of the same case (solver.seed) is another flow
+  same_run("solver_seed", static_cast<double>(data.meta.solver_seed),
+           static_cast<double>(s.c.step.solver.seed), "case.toml");
   same_run("length_x", data.meta.length_x, s.world.domain.length_x, "the checkpoint");
   // The step count, the samples and the windows are tied to the time step: a resume that
   // changes it (step.dt, step.dt_max, step.displacement_per_step) would mix two clocks.
