@@ -30,7 +30,7 @@ import os
 import numpy as np
 
 from . import regime as rg
-from .rundata import RUN_FILE, RunDataError, is_number, load_run
+from .rundata import RUN_FILE, RunDataError, is_measured_number, load_run
 from .statistics import window_mean
 from .summary import pm as summary_pm
 
@@ -92,8 +92,7 @@ def summary_switches(run_dir):
     def bad(key, what):
         return RunDataError(path, f"{key} is {what}")
 
-    def finite(x):   # Python's JSON reads Infinity and NaN, which the writer never writes
-        return is_number(x) and math.isfinite(x)
+    finite = is_measured_number   # Python reads Infinity and NaN, which analyze never writes
     if not isinstance(case, dict):
         raise bad("case", "not an object")
     V, duration, finished = case.get("velocity"), case.get("duration"), case.get("finished")
