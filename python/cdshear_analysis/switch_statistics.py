@@ -92,13 +92,14 @@ def summary_switches(run_dir):
     def bad(key, what):
         return RunDataError(path, f"{key} is {what}")
 
-    finite = is_measured_number   # Python reads Infinity and NaN, which analyze never writes
+    # numbers through is_measured_number: Python reads Infinity and NaN, which analyze never
+    # writes
     if not isinstance(case, dict):
         raise bad("case", "not an object")
     V, duration, finished = case.get("velocity"), case.get("duration"), case.get("finished")
-    if not (finite(V) and V > 0):
+    if not (is_measured_number(V) and V > 0):
         raise bad("case.velocity", f"{V!r}, not a finite positive number")
-    if not (finite(duration) and duration > 0):
+    if not (is_measured_number(duration) and duration > 0):
         raise bad("case.duration", f"{duration!r}, not a finite positive number")
     if not isinstance(finished, bool):
         raise bad("case.finished", f"{finished!r}, not true or false")
@@ -106,15 +107,15 @@ def summary_switches(run_dir):
         raise bad("whole_run_switches", "not an object")
     span, height = whole.get("time"), whole.get("L_y")
     times, starts = whole.get("switch_times"), whole.get("starts")
-    if not (finite(span) and span >= 0):
+    if not (is_measured_number(span) and span >= 0):
         raise bad("whole_run_switches.time", f"{span!r}, not a finite number of at least 0")
-    if not (height is None or (finite(height) and height > 0)):
+    if not (height is None or (is_measured_number(height) and height > 0)):
         raise bad("whole_run_switches.L_y", f"{height!r}, not a positive number or null")
-    if not (isinstance(starts, list) and all(finite(t) and t >= 0 for t in starts)):
+    if not (isinstance(starts, list) and all(is_measured_number(t) and t >= 0 for t in starts)):
         raise bad("whole_run_switches.starts", "not a list of numbers of at least 0")
     # a switch's ramp lies within the series: 0 < T <= its span
     if not (isinstance(times, list) and len(times) == len(starts)
-            and all(t is None or (finite(t) and 0 < t <= span) for t in times)):
+            and all(t is None or (is_measured_number(t) and 0 < t <= span) for t in times)):
         raise bad("whole_run_switches.switch_times",
                   f"not a list of numbers in (0, {span!r}] (the time the series spans) or "
                   "nulls, one per start")
