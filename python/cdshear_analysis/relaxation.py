@@ -198,8 +198,9 @@ def _number(v):
     return v if is_number(v) and math.isfinite(v) else None
 
 
-# The parameters of the bulk laws as a report names them (report.FITS).
-BULK_LAW_PARAMETERS = {"mu_power": ("mu_0", "A", "B"), "mu_linear": ("a", "b")}
+# The model family and parameters of the bulk laws as a report names them (report.FITS).
+BULK_LAWS = {"mu_power": ("power_plus", ("mu_0", "A", "B")),
+             "mu_linear": ("linear_plus", ("a", "b"))}
 
 
 def _range(v):
@@ -226,10 +227,12 @@ def bulk_law_problem(fits):
         params = law.get("parameters")
         if not params:
             continue   # a law not fitted: not usable, and said so per run
-        if not isinstance(law.get("model"), str):
-            return f"fits.{key}.model is not a text"
+        model, wanted = BULK_LAWS[key]
+        # the slope is taken from the model's formula (fitting.slope): the report's model only
+        if law.get("model") != model:
+            return (f"fits.{key}.model must be {model} (a report's fits.json), not "
+                    f"{law.get('model')!r}")
         # read by position (fitting.slope): the report's names, in its order
-        wanted = BULK_LAW_PARAMETERS[key]
         if not isinstance(params, dict) or list(params) != list(wanted):
             return (f"fits.{key}.parameters must be {', '.join(wanted)} in that order (a "
                     f"report's fits.json), not {', '.join(map(str, params)) or 'none'}")
@@ -237,6 +240,28 @@ def bulk_law_problem(fits):
             if not (isinstance(p, dict) and _number(p.get("value")) is not None):
                 return f"fits.{key}.parameters.{name}.value is not a finite number"
     return None
+
+
+def _bulk_slope(law, I):
+    """d mu / d I of a bulk law at I (fitting.slope), None where it is beyond the range of a
+    float (a hand-edited exponent: I^(B - 1) overflows)."""
+    from . import fitting
+    try:
+        slope = fitting.slope(law, I)
+    except (OverflowError, ZeroDivisionError):
+        return None
+    return slope if math.isfinite(slope) else None
+
+
+def _steady_state_time(law, e):
+    """(T_SS, D) of transitions.steady_state_time for the entry e, None where D or T_SS is not
+    a finite number above 0 (D below the smallest float, or L_y^2 / D beyond the largest)."""
+    from .transitions import steady_state_time
+    try:
+        T, D = steady_state_time(law, e["I_bulk"], e["L_y"], e["nu_bulk"], e["sigma_yy"])
+    except (OverflowError, ZeroDivisionError):
+        return None
+    return (T, D) if all(math.isfinite(v) and v > 0 for v in (T, D)) else None
 
 
 def decay_against_diffusion(summaries, fits):
@@ -248,7 +273,6 @@ def decay_against_diffusion(summaries, fits):
     boundary condition at every height), fitted to the logarithms weighted by tau's errors (the
     bulk law's own errors not propagated). Returns (entries, exponent dict or None)."""
     from . import fitting
-    from .transitions import steady_state_time
     law = next((k for k in ("mu_power", "mu_linear") if fitting.usable(fits.get(k))), None)
     entries = []
     for s in summaries:
@@ -271,16 +295,21 @@ def decay_against_diffusion(summaries, fits):
             e["reason"] = "no bulk law whose parameters are determined"
         elif missing:
             e["reason"] = "missing or not above 0: " + ", ".join(missing)
-        elif fitting.slope(fits[law], e["I_bulk"]) <= 0:
+        elif (slope := _bulk_slope(fits[law], e["I_bulk"])) is None:
+            e["reason"] = (f"d mu / d I at I_bulk = {e['I_bulk']:.3g} is beyond the range of a "
+                           f"number (the bulk law's parameters)")
+        elif slope <= 0:
             e["reason"] = f"d mu / d I <= 0 at I_bulk = {e['I_bulk']:.3g}: no diffusion"
         elif not (1e-150 < e["L_y"] < 1e150   # L_y^2 / D
                   and _finite_products(e["sigma_yy"], 1.0 / e["nu_bulk"], 1.0 / e["sigma_yy"])):
             e["reason"] = "L_y, nu_bulk or sigma_yy beyond the range T_SS can be taken from"
+        elif (T_and_D := _steady_state_time(fits[law], e)) is None:
+            e["reason"] = (f"T_SS = L_y^2 / D is beyond the range of a number (d mu / d I = "
+                           f"{slope:.3g} from the bulk law's parameters)")
         else:
-            e["T_SS"], e["D"] = steady_state_time(fits[law], e["I_bulk"], e["L_y"], e["nu_bulk"],
-                                                  e["sigma_yy"])
-            if e["tau"] is not None:
-                e["tau_over_T_SS"] = e["tau"] / e["T_SS"]
+            e["T_SS"], e["D"] = T_and_D
+            if e["tau"] is not None and math.isfinite(ratio := e["tau"] / e["T_SS"]):
+                e["tau_over_T_SS"] = ratio
             if isinstance(d.get("reason"), str) and d["reason"]:
                 e["reason"] = d["reason"]
             elif e["tau"] is None or not (e["tau_err"] or 0) > 0 or not e["tau"] > 0:
@@ -323,8 +352,10 @@ def _finite_products(*values):
 def format_decay_table(entries, exponent):
     """The table `profile-decay` prints."""
     def fixed(v, decimals):
-        # Fixed-point in the table's columns; beyond them (a damaged or diverged value), 3 digits.
-        return f"{v:.{decimals}f}" if abs(v) < 1e6 else f"{v:.3g}"
+        # Fixed-point in the table's columns; beyond them (a damaged or diverged value, or one
+        # that would print as 0), 3 significant digits.
+        return f"{v:.{decimals}f}" if v == 0 or 10.0 ** -decimals <= abs(v) < 1e6 \
+            else f"{v:.3g}"
 
     def f(v, width, decimals):
         return "-" if v is None else format(fixed(v, decimals), f">{width}")

@@ -188,6 +188,27 @@ class AgainstDiffusion(unittest.TestCase):
             relaxation.decay_against_diffusion(runs, {"mu_power": LAW})[1]["p"], 1.5, places=9)
 
 
+    def test_bulk_law_parameters_beyond_the_range_of_a_number_give_a_reason(self):
+        # A hand-edited fits.json: I^(B - 1) overflows, or D is below the smallest float (T_SS
+        # would divide by 0), or D so large that tau / T_SS overflows. Each run says why.
+        run = summary_of("L22", 22.0, 0.01, 1e300)
+        power = dict(LAW, parameters=dict(LAW["parameters"], B={"value": -1e5}))
+        linear = {"model": "linear_plus", "status": "ok",
+                  "parameters": {"a": {"value": 0.1}, "b": {"value": 5e-324}}}
+        for fits, words in (({"mu_power": power}, "d mu / d I at I_bulk = 0.01 is beyond"),
+                            ({"mu_linear": linear}, "T_SS = L_y^2 / D is beyond")):
+            self.assertIsNone(relaxation.bulk_law_problem(fits))
+            (e,), _ = relaxation.decay_against_diffusion([run], fits)
+            self.assertFalse(e["used"])
+            self.assertIn(words, e["reason"])
+            self.assertIsNone(e["T_SS"])
+        linear["parameters"]["b"]["value"] = 1e308
+        (e,), _ = relaxation.decay_against_diffusion([run], {"mu_linear": linear})
+        self.assertGreater(e["T_SS"], 0)
+        self.assertIsNone(e["tau_over_T_SS"])   # 1e300 / T_SS overflows: left out
+        self.assertFalse(e["used"])
+
+
 class ProfileDecayCommand(unittest.TestCase):
     def test_prints_each_run_against_the_bulk_law_and_refuses_bad_files(self):
         with tempfile.TemporaryDirectory() as d:
@@ -254,6 +275,10 @@ class ProfileDecayCommand(unittest.TestCase):
                 self.assertEqual(f.read(), summary_bytes)
             params = LAW["parameters"]
             for law, problem in (("ok", "fits.mu_power is not an object"),
+                                 # the slope comes from the report's model for the law only
+                                 (dict(LAW, model="linear_plus"),
+                                  "fits.mu_power.model must be power_plus"),
+                                 (dict(LAW, model="banana"), "not 'banana'"),
                                  (dict(LAW, parameters=[1, 2, 3]), "fits.mu_power.parameters"),
                                  (dict(LAW, parameters={"mu_0": params["mu_0"]}),
                                   "must be mu_0, A, B in that order"),
