@@ -312,7 +312,9 @@ def running_mean(time, u, width):
     if len(u) < 2:
         return u.copy()
     interval = float(np.median(np.diff(time)))
-    half = int(np.floor(0.5 * width / interval + 0.5)) if interval > 0 else 0
+    # samples each side; the whole series where width / interval is beyond it (or not finite)
+    span = 0.5 * width / interval + 0.5 if interval > 0 else 0.0
+    half = int(np.floor(span)) if span < len(u) else len(u)
     finite = np.isfinite(u)
     total = np.concatenate([[0.0], np.cumsum(np.where(finite, u, 0.0))])
     count = np.concatenate([[0], np.cumsum(finite)])

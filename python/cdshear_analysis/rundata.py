@@ -494,16 +494,33 @@ def _read(f, run_dir, path):
     if snapshot is not None:
         _check_snapshot(snapshot, path)
     case = {}
-    for text in (attrs.get("case_toml"), _read_text(os.path.join(run_dir, "case.toml"))):
+    for source, text in (("its case_toml", attrs.get("case_toml")),
+                         ("case.toml", _read_text(os.path.join(run_dir, "case.toml")))):
         try:
             case = tomllib.loads(text) if isinstance(text, str) else {}
         except tomllib.TOMLDecodeError:
             case = {}
         if case:
+            _check_case_agrees(attrs, case, source, path)
             break
     return dict(run_dir=run_dir, path=path, attrs=attrs, case=case, series=series,
                 windows=windows, regions=regions, top_stripes=top_stripes,
                 snapshot=snapshot)
+
+
+# Root attributes that restate a key of the run's case: (attribute, TOML table, TOML key).
+CASE_ATTRS = (("velocity", "shear", "velocity"), ("normal_stress", "shear", "normal_stress"))
+
+
+def _check_case_agrees(attrs, case, source, path):
+    """Refuses a run.h5 whose wall velocity or pressure is not its case's (`cdshear run` writes
+    both from one value): the file was changed after the run wrote it."""
+    for attr, table, key in CASE_ATTRS:
+        values = case.get(table)
+        value = values.get(key) if isinstance(values, dict) else None
+        if is_number(value) and not math.isclose(value, attrs[attr], rel_tol=1e-9):
+            raise RunDataError(path, f"attribute {attr} is {attrs[attr]!r}, but {source} has "
+                                     f"{table}.{key} = {value!r}: one was changed after the run")
 
 
 # The /windows profiles the analysis reads (after the version conversions), by their shape

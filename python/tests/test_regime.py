@@ -250,6 +250,19 @@ class Classifier(unittest.TestCase):
         self.assertLess(self.summaries["transient"]["transient_end_time"], 700.0)
 
 
+class RunningMean(unittest.TestCase):
+    def test_a_width_beyond_the_series_averages_all_of_it(self):
+        t = np.arange(0.0, 10.0, 0.5)
+        u = np.sin(t)
+        u[3] = np.nan                         # left out of every mean
+        whole = np.nanmean(u)
+        # a width of 5e-324 / 1e-300 overflows to infinity; NaN is no width at all
+        for width in (1e3, 1.0 / 5e-300, np.inf, np.nan):
+            np.testing.assert_allclose(rg.running_mean(t, u, width), whole, rtol=1e-12)
+        # one sample each side: the mean of three neighbours
+        self.assertAlmostEqual(rg.running_mean(t, u, 1.0)[10], np.mean(u[9:12]), places=12)
+
+
 class Switches(unittest.TestCase):
     def test_durations_run_plateau_to_plateau(self):
         t = np.arange(0.0, 1000.0, 0.5)

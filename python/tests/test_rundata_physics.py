@@ -1,7 +1,8 @@
 """run.h5 files that are sealed but are not a shear run (V of 0, NaN or text, a negative height,
-time running backwards, no stripes, a window of 0, every physical series NaN, arrays of the wrong
-rank, a dataset larger than the file) are refused by load_run naming the attribute or dataset,
-and `analyze` exits 2 with the message and no traceback: no regime is ever given to them."""
+time running backwards, no stripes, a window of 0, a V or pressure not its case's, every physical
+series NaN, arrays of the wrong rank, a dataset larger than the file) are refused by load_run naming
+the attribute or dataset, and `analyze` exits 2 with the message and no traceback: no regime is ever
+given to them."""
 import contextlib
 import io
 import os
@@ -95,6 +96,11 @@ CASES = [
     ("layer h text", set_group_attr("windows/regions", "h", "abc"), "('abc') is not a number"),
     ("no radius", delete("snapshot/radius"), "missing dataset(s) /snapshot/radius"),
     ("short x", replace("snapshot/x", lambda v: v[:-1]), "must be lists of one length"),
+    # an attribute changed by hand, not its case: a V of 5e-324 stopped the regime's smoothing
+    ("V not the case's", set_attr("velocity", 5e-324),
+     "attribute velocity is 5e-324, but its case_toml has shear.velocity = "),
+    ("pressure not the case's", set_attr("normal_stress", 2.5),
+     "attribute normal_stress is 2.5, but its case_toml has shear.normal_stress = "),
 ]
 
 
