@@ -232,6 +232,7 @@ def combine(rows):
     for name, _ in QUANTITIES:
         kept = [r for r in rows if math.isfinite(r[name]) and math.isfinite(r[name + "_err"]) and
                 r[name + "_err"] > 0]
+        out[name + "_realizations"] = len(kept)   # those whose value the mean holds
         if not kept:
             out[name] = out[name + "_err"] = math.nan
             continue
@@ -358,6 +359,12 @@ def counted(k, noun):
     return f"{k} {noun}" if k == 1 else f"{k} {noun}s"
 
 
+def _part(k, n):
+    """" (k of n runs)" where a combined quantity holds the values of k realizations of n (the
+    others' were left out: not finite, or without an error above 0), else ""."""
+    return f" ({k} of {counted(n, 'run')})" if k < n else ""
+
+
 def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
     """The comparison as a Markdown table, a quantity that `agrees` finds apart (more than two
     combined errors) marked "(differs)" as in study.md, Welch's p-value of each quantity, the
@@ -372,7 +379,9 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
         else:
             text = f"{diff:+.2f}" + (" (differs)" if agrees(b, a, name) is False else "")
         p_text = "n/a" if math.isnan(p) else f"{p:.2g}"
-        out.append(f"| {name} | {xa:.5g} ± {ea:.2g} | {xb:.5g} ± {eb:.2g} | {text} | {p_text} |")
+        cells = [f"{x:.5g} ± {e:.2g}" + _part(row.get(name + "_realizations", n), n)
+                 for x, e, row, n in ((xa, ea, a, na), (xb, eb, b, nb))]
+        out.append(f"| {name} | {cells[0]} | {cells[1]} | {text} | {p_text} |")
     for name, fmt in (("mean_sweeps", "{:.1f}"), ("capped_share", "{:.2%}"),
                       ("wall_s_per_time", "{:.4f}")):
         out.append(f"| {name} | {fmt.format(a[name])} | {fmt.format(b[name])} | | |")

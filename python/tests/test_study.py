@@ -358,8 +358,13 @@ class StudyTest(unittest.TestCase):
             summary["bulk"]["mu_eff"]["mean"] = 1e300
             with open(os.path.join(d, "reference_seed2", "summary.json"), "w") as f:
                 json.dump(summary, f)
-            with redirect_stdout(io.StringIO()):
+            with redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(main(["study-compare", d, d]), 0)
+            # the value left out is said beside the mean of the other realization
+            line = next(x for x in out.getvalue().splitlines() if x.startswith("| bulk_mu_eff"))
+            self.assertEqual(line.count("(1 of 2 runs)"), 2, line)
+            line = next(x for x in out.getvalue().splitlines() if x.startswith("| slip_top"))
+            self.assertNotIn(" of 2 runs", line)
 
     def test_unreadable_summary_is_an_error_naming_the_file(self):
         with tempfile.TemporaryDirectory() as d:
