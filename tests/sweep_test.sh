@@ -7,9 +7,10 @@
 # SIGTERM exits 130, and
 # the next one keeps the finished runs untouched (run_info.json unchanged), resumes the
 # interrupted one from its checkpoint and finishes all; a run killed between its last step and
-# its analysis is analysed, not run again; a changed campaign for the same folder is refused; a
-# longer duration extends finished runs, resumes an extension killed before its new final state
-# and reports one that failed before it started; `--progress-every` prints a progress line with an
+# its analysis is analysed, not run again; a changed campaign for the same folder (or the
+# folder's campaign.toml edited by hand) is refused; a longer duration extends finished runs,
+# resumes an extension killed before its new final state and reports one that failed before it
+# started; `--progress-every` prints a progress line with an
 # estimate before any run has finished; a folder that is not a campaign's, or with something
 # else where its runs/ folder or a log goes, is refused untouched; a run whose log cannot be
 # opened fails alone.
@@ -235,6 +236,18 @@ campaign three "[0.25, 0.5, 2.0]" 20
 rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
+# The folder's own campaign.toml edited by hand and swept: its header's fingerprint names the
+# change; unedited, it sweeps as before (nothing to do).
+cp -r stopped edited
+"$exe" sweep edited/campaign.toml -o edited > unedited.out 2>&1 ||
+  fail "the folder's own campaign.toml: $(cat unedited.out)"
+grep -q "3 finished earlier" unedited.out || fail "unedited record: $(cat unedited.out)"
+sed -i 's/\(velocities = \[ *0.25, 0.5, \)1.0/\12.0/' edited/campaign.toml
+grep -q "0.5, 2.0" edited/campaign.toml || fail "the test's edit missed: $(cat edited/campaign.toml)"
+rc=0; "$exe" sweep edited/campaign.toml -o edited > edited.out 2>&1 || rc=$?
+[ $rc -eq 2 ] || fail "a hand-edited campaign.toml exited $rc, not 2: $(cat edited.out)"
+grep -q "changed after the sweep wrote it: fingerprint" edited.out ||
+  fail "the refusal does not name the edit: $(cat edited.out)"
 
 # 3b. A longer duration (--force) extends the finished runs from their last checkpoint, to the
 # state a run asked for the longer duration from the start reaches; an extension stopped before

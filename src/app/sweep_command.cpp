@@ -449,11 +449,34 @@ std::string stale_packing(const fs::path& p, const std::string& source,
   return {};
 }
 
-/// Refuses a campaign that differs from the one DIR was made for, unless --force.
-void check_same_campaign(const fs::path& file, const Campaign& c, bool force) {
+/// The fingerprint in the header of a sweep's campaign.toml ("...; fingerprint X."), or empty.
+std::string recorded_fingerprint(const fs::path& file) {
+  const std::string text = read_run_file(file, "the campaign's file").value_or(std::string());
+  const std::string_view first_line = std::string_view(text).substr(0, text.find('\n'));
+  const std::size_t at = first_line.find("; fingerprint ");
+  if (at == std::string_view::npos) return {};
+  const std::string_view rest = first_line.substr(at + std::string_view("; fingerprint ").size());
+  return std::string(rest.substr(0, rest.find('.')));
+}
+
+/// Refuses a campaign that differs from the one DIR was made for, unless --force. Swept from
+/// DIR/campaign.toml itself, a hand edit of that file shows as no difference: its fingerprint
+/// (of the campaign the sweep wrote) then names the change.
+void check_same_campaign(const fs::path& file, const fs::path& campaign_file, const Campaign& c,
+                         bool force) {
   if (!fs::exists(file)) return;
   const toml::table before = parse_toml_file(file.string());
-  const std::vector<std::string> diff = campaign_differences(before, campaign_to_toml(c));
+  const toml::table now = campaign_to_toml(c);
+  std::vector<std::string> diff = campaign_differences(before, now);
+  std::error_code ec;
+  if (diff.empty() && fs::equivalent(file, campaign_file, ec)) {
+    const std::string recorded = recorded_fingerprint(file);
+    if (!recorded.empty() && recorded != campaign_fingerprint(now))
+      diff.push_back(
+          fmt::format("the file was changed after the sweep wrote it: fingerprint {} "
+                      "in its header, {} of its campaign",
+                      recorded, campaign_fingerprint(now)));
+  }
   if (diff.empty()) return;
   const std::string list = fmt::format("{}", fmt::join(diff, "; "));
   if (!force)
@@ -525,7 +548,7 @@ class Sweep {
   /// that died still hold it.
   void claim_folder() {
     check_campaign_folder(dir_);
-    check_same_campaign(dir_ / "campaign.toml", c_, args_.force);
+    check_same_campaign(dir_ / "campaign.toml", args_.file, c_, args_.force);
     // Every name checked before any folder is made, so that a refusal leaves nothing behind.
     for (const char* sub : kCampaignSubfolders) {
       std::error_code ec;
