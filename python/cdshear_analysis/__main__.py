@@ -198,11 +198,13 @@ def main(argv=None):
             if args.windows < 0:   # checked before the comparison is printed
                 raise StudyError("--windows", f"must be at least 1 (0: none), not {args.windows}")
             a, b, lines, skipped = compare_references(args.dir_a, args.dir_b)
-            print(format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped), end="")
+            # every part made before any is printed: an error prints nothing but itself
+            text = format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped)
             if args.windows:
-                print(format_windows(args.dir_a, args.dir_b,
-                                     windowed_means(args.dir_a, args.windows),
-                                     windowed_means(args.dir_b, args.windows)), end="")
+                text += format_windows(args.dir_a, args.dir_b,
+                                       windowed_means(args.dir_a, args.windows),
+                                       windowed_means(args.dir_b, args.windows))
+            print(text, end="")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2

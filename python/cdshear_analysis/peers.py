@@ -32,7 +32,7 @@ import tomllib
 
 import numpy as np
 
-from .rundata import is_number, open_regular, write_text_atomically
+from .rundata import is_number, open_regular, unique_keys, write_text_atomically
 from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -54,7 +54,7 @@ def load_packing(path):
     """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
     try:
         with open_regular(path, encoding="utf-8") as f:
-            packing = json.load(f, object_pairs_hook=_unique_keys)
+            packing = json.load(f, object_pairs_hook=unique_keys)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
     except RecursionError:
@@ -65,17 +65,6 @@ def load_packing(path):
         if key not in packing:
             raise PeerError(path, f"packing has no '{key}'")
     return packing
-
-
-def _unique_keys(pairs):
-    """A JSON object as a dict, refusing a key given twice (json keeps the last silently, where
-    `cdshear` refuses the file)."""
-    out = {}
-    for key, value in pairs:
-        if key in out:
-            raise ValueError(f"the key '{key}' is given twice in one object")
-        out[key] = value
-    return out
 
 
 def ripple(wall_radius, spacing, grain_radius):
@@ -480,7 +469,7 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
     meta_path = os.path.join(run_dir, "run.json")
     try:
         with open_regular(meta_path, encoding="utf-8") as f:
-            meta = json.load(f)
+            meta = json.load(f, object_pairs_hook=unique_keys)
     except (OSError, ValueError) as e:
         raise PeerError(meta_path, f"cannot read the run's record: {e}") from e
     if not isinstance(meta, dict):

@@ -38,7 +38,8 @@ from .fitting import finite as _finite
 from .rundata import is_measured_number
 from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
-from .rundata import RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths
+from .rundata import (RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths,
+                      unique_keys)
 from .rundata import what_is, write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
@@ -149,7 +150,7 @@ def read_json(path):
     ReportError when it cannot be read or parsed."""
     try:
         with open_regular(path, encoding="utf-8") as f:
-            return json.load(f)
+            return json.load(f, object_pairs_hook=unique_keys)
     except (OSError, ValueError) as e:
         raise ReportError(path, f"cannot read: {e}") from None
     except RecursionError:

@@ -76,6 +76,18 @@ def open_regular(path, mode="r", **kwargs):
     return open(path, mode, **kwargs)
 
 
+def unique_keys(pairs):
+    """A JSON object as a dict, refusing a key given twice (json keeps the last silently, where
+    `cdshear` refuses the file): the object_pairs_hook of every JSON reader of the analysis. The
+    refusal is a ValueError, which each reports as "cannot read"."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"the key '{key}' is given twice in one object")
+        out[key] = value
+    return out
+
+
 def kind_of(mode):
     """A file's kind in words, from its st_mode: a file, a folder, a FIFO, a device or socket."""
     return ("a file" if stat.S_ISREG(mode) else "a folder" if stat.S_ISDIR(mode)

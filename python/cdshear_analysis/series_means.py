@@ -72,7 +72,10 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
     if load is None:
         from .rundata import load_run as load
     diffs, bases, pairs = {key: [] for key in keys}, {key: [] for key in keys}, 0
-    names = sorted(os.listdir(check_dir)) if os.path.isdir(check_dir) else []
+    if not os.path.isdir(check_dir):
+        raise SeriesError(f"{check_dir}: " + ("not a folder" if os.path.lexists(check_dir)
+                                              else "no such folder"))
+    names = sorted(os.listdir(check_dir))
     for name in names:
         sides = [os.path.join(check_dir, name, side) for side in ("a", "b")]
         if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):

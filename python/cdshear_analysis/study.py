@@ -21,7 +21,7 @@ import math
 import os
 
 from .rundata import (IDENTITY_KEYS, is_measured_number, is_number, open_regular,
-                      run_info_paths, save_figure)
+                      run_info_paths, save_figure, unique_keys)
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -48,7 +48,7 @@ class StudyError(Exception):
 def _read_json(path):
     try:
         with open_regular(path, encoding="utf-8") as f:
-            return json.load(f)
+            return json.load(f, object_pairs_hook=unique_keys)
     except FileNotFoundError:
         raise StudyError(path, "missing (run `cdshear analyze` on the run first)") from None
     except (OSError, ValueError) as e:
@@ -551,7 +551,11 @@ def write_study(rows, study_dir):
             for name in shown:
                 ok = agrees(r, ref, name) if r is not ref else True
                 mark = "" if ok in (True, None) else " (differs)"
-                cells.append(f"{r[name]:.4f} ± {r[name + '_err']:.4f}{mark}")
+                if not math.isfinite(r[name]):   # left out (not measured, or not a number)
+                    cells.append("n/a")
+                    continue
+                part = _part(r.get(name + "_realizations", 1), r.get("realizations", 1))
+                cells.append(f"{r[name]:.4f} ± {r[name + '_err']:.4f}{part}{mark}")
             steady = "yes" if r["steady"] else "no"
             f.write(f"| {label} | {steady} | " + " | ".join(cells) +
                     f" | {r['mean_sweeps']:.0f} | {100 * r['capped_share']:.0f}% |"

@@ -282,3 +282,18 @@ class DamagedSummaryTest(unittest.TestCase):
             with self.assertRaises(report.ReportError) as caught:
                 report.read_json(path)
             self.assertIn("nested too deeply", str(caught.exception))
+
+    def test_a_key_given_twice_is_a_report_error_naming_it(self):
+        # json keeps the last value silently; a summary or fits.json edited into holding two
+        # answers for one key is refused, as cdshear refuses such a file
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "summary.json")
+            with open(path, "w") as f:
+                f.write('{"format": "cdshear-summary", "regime": "A", "x": {"regime": "B"}, '
+                        '"regime": "C"}')
+            with self.assertRaises(report.ReportError) as caught:
+                report.read_json(path)
+            self.assertIn("the key 'regime' is given twice", str(caught.exception))
+            with open(path, "w") as f:
+                f.write('{"regime": "A", "x": {"regime": "B"}}')   # once per object: read
+            self.assertEqual(report.read_json(path)["x"], {"regime": "B"})

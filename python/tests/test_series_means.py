@@ -134,7 +134,15 @@ class PairedDifferences(unittest.TestCase):
             err = io.StringIO()
             with redirect_stderr(err):
                 self.assertEqual(main(["series-pairs", d]), 2)
-            self.assertIn(d, err.getvalue())
+            self.assertIn(f"{d}: no pair with both sides done", err.getvalue())
+            # a folder that is not there, or a file, is said to be so, not to hold no pair
+            missing, a_file = os.path.join(d, "none"), os.path.join(d, "file")
+            open(a_file, "w").close()
+            for path, problem in ((missing, "no such folder"), (a_file, "not a folder")):
+                err = io.StringIO()
+                with redirect_stderr(err):
+                    self.assertEqual(main(["series-pairs", path]), 2)
+                self.assertIn(f"{path}: {problem}", err.getvalue())
 
     def test_bad_start_or_window_names_the_pair(self):
         with tempfile.TemporaryDirectory() as d:

@@ -273,8 +273,9 @@ class StudyTest(unittest.TestCase):
                     self.assertNotIn("time window", plain.getvalue())
                     self.assertEqual(main(["study-compare", a, b, "--windows", "-1"]), 2)
                 os.remove(os.path.join(b, "reference_seed2", "run.h5"))
-                with redirect_stdout(io.StringIO()):
+                with redirect_stdout(io.StringIO()) as out:
                     self.assertEqual(main(["study-compare", a, b, "--windows", "2"]), 2)
+                self.assertEqual(out.getvalue(), "")   # no table above the error
             self.assertIn(os.path.join(b, "reference_seed2", "run.h5") + ": missing",
                           err.getvalue())
             # A damaged or unsealed run.h5, a FIFO in its place, and more windows than samples
@@ -351,6 +352,12 @@ class StudyTest(unittest.TestCase):
             with redirect_stderr(io.StringIO()) as err, redirect_stdout(io.StringIO()):
                 self.assertEqual(main(["study", d]), 0)
             self.assertNotIn("Traceback", err.getvalue())
+            with open(os.path.join(d, "study.md"), encoding="utf-8") as f:
+                table = f.read()
+            line = next(x for x in table.splitlines() if x.startswith("| solver.max_sweeps=50 "))
+            # mu_eff_wall, solid_fraction and slip_bottom of the shown five: said not there
+            self.assertEqual(line.count("| n/a "), 3, line)
+            self.assertNotIn("nan", line)
             # a reference realization holding 1e300: the realizations' scatter stays finite
             fake_run(os.path.join(d, "reference_seed2"), 0.26, 0.004, 100.0, 10.0)
             with open(os.path.join(d, "reference_seed2", "summary.json")) as f:
@@ -360,6 +367,11 @@ class StudyTest(unittest.TestCase):
                 json.dump(summary, f)
             with redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(main(["study-compare", d, d]), 0)
+            with redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["study", d]), 0)
+            with open(os.path.join(d, "study.md"), encoding="utf-8") as f:
+                line = next(x for x in f.read().splitlines() if x.startswith("| reference "))
+            self.assertIn("(1 of 2 runs)", line)   # bulk_mu_eff, from reference alone
             # the value left out is said beside the mean of the other realization
             line = next(x for x in out.getvalue().splitlines() if x.startswith("| bulk_mu_eff"))
             self.assertEqual(line.count("(1 of 2 runs)"), 2, line)
