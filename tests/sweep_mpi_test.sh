@@ -151,7 +151,7 @@ grep -q "MPI rank 0: s1_seed1_V0.5: .*s1_seed1_V0.5.log: Too many levels of symb
   fail "rank 0 did not report the job it could not start: $(cat badlog.out)"
 grep -q "1/2 runs finished (0 earlier), 1 failed, 0 interrupted, 0 not started" badlog.out ||
   fail "rank 0's failed start stopped the sweep: $(cat badlog.out)"
-grep -q "failed: s1_seed1_V0.5: not started, exit 1" badlog.out ||
+grep -q "failed: s1_seed1_V0.5: exit 1, nothing to resume from" badlog.out ||
   fail "no failure: $(cat badlog.out)"
 test -f badlog/runs/s1_seed1_V0.25/final_state.json ||
   fail "V0.25 did not finish: $(cat badlog.out)"

@@ -147,7 +147,7 @@ rm broken/runs/s1_seed1_V1/final_state.json
 echo "not a checkpoint" > broken/runs/s1_seed1_V1/checkpoint.cbor
 "$exe" sweep measured.toml -o broken > broken.out 2>&1 &&
   fail "a run with a damaged checkpoint passed"
-grep -q "s1_seed1_V1: interrupted, exit 2, log .*: error: .*checkpoint.cbor" broken.out ||
+grep -q "s1_seed1_V1: exit 2, its checkpoint kept, log .*: error: .*checkpoint.cbor" broken.out ||
   fail "the failed run's error is not in the sweep's account: $(cat broken.out)"
 
 # 1c. A campaign folder as git keeps it (each run's case.toml, run_info*.json and summary.json;
@@ -374,7 +374,7 @@ grep -q "s1_seed1_V0.25: .*s1_seed1_V0.25.log: Too many levels of symbolic links
   fail "the run that could not start is not named with its cause: $(cat badlog.out)"
 grep -q "1/2 runs finished (0 earlier), 1 failed, 0 interrupted, 0 not started" badlog.out ||
   fail "the failed start stopped the sweep: $(cat badlog.out)"
-grep -q "s1_seed1_V0.25: not started, exit 1" badlog.out || fail "no failure: $(cat badlog.out)"
+grep -q "s1_seed1_V0.25: exit 1, nothing to resume from" badlog.out || fail "no failure: $(cat badlog.out)"
 test -f badlog/runs/s1_seed1_V0.5/final_state.json ||
   fail "V0.5 did not finish: $(cat badlog.out)"
 

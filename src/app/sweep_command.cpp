@@ -59,6 +59,21 @@ struct SweepArgs {
 /// What a run folder holds, from its files (docs/campaigns.md, "Resume rules").
 enum class RunState { kNew, kFinished, kInterrupted, kBlownUp };
 
+/// What a failed run left in its folder, for the failure's line (the cause is its exit and its
+/// log, not this state: a run that failed on resume is still "interrupted").
+const char* failed_folder_state(RunState s) {
+  switch (s) {
+    case RunState::kInterrupted:
+      return "its checkpoint kept";
+    case RunState::kBlownUp:
+      return "blown up";
+    case RunState::kNew:
+    case RunState::kFinished:
+      break;
+  }
+  return "nothing to resume from";
+}
+
 const char* state_name(RunState s) {
   switch (s) {
     case RunState::kNew:
@@ -844,8 +859,9 @@ class Sweep {
       interrupted_.push_back(fmt::format("{} (log {})", j.name, j.log.string()));
       what = "interrupted";
     } else {
-      failed_.push_back(fmt::format("{}: {}, exit {}, log {}{}", j.name, state_name(after),
-                                    e.exit_code, j.log.string(), failure_cause(j.log)));
+      failed_.push_back(fmt::format("{}: exit {}, {}, log {}{}", j.name, e.exit_code,
+                                    failed_folder_state(after), j.log.string(),
+                                    failure_cause(j.log)));
       what = fmt::format("FAILED (exit {}, log {})", e.exit_code, j.log.string());
     }
     if (args_.quiet) return;
