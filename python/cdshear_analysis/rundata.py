@@ -520,8 +520,9 @@ def _read(f, run_dir, path):
                 snapshot=snapshot)
 
 
-# Root attributes that restate a key of the run's case: (attribute, TOML table, TOML key).
-CASE_ATTRS = (("velocity", "shear", "velocity"), ("normal_stress", "shear", "normal_stress"))
+# Root attributes that restate a key of the run's case: (attribute, TOML table, TOML key), from
+# IDENTITY_KEYS, whose summary keys are these attributes' names.
+CASE_ATTRS = tuple(k for k in IDENTITY_KEYS if k[0] in ("velocity", "normal_stress"))
 
 
 def _check_case_agrees(attrs, case, source, path):

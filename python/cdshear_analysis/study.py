@@ -549,11 +549,11 @@ def write_study(rows, study_dir):
                 label = "reference" if n == 1 else f"reference ({n} runs combined)"
             cells = []
             for name in shown:
-                ok = agrees(r, ref, name) if r is not ref else True
-                mark = "" if ok in (True, None) else " (differs)"
                 if not math.isfinite(r[name]):   # left out (not measured, or not a number)
                     cells.append("n/a")
                     continue
+                ok = agrees(r, ref, name) if r is not ref else True
+                mark = "" if ok in (True, None) else " (differs)"
                 part = _part(r.get(name + "_realizations", 1), r.get("realizations", 1))
                 cells.append(f"{r[name]:.4f} ± {r[name + '_err']:.4f}{part}{mark}")
             steady = "yes" if r["steady"] else "no"
