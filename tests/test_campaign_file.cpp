@@ -157,6 +157,13 @@ TEST(CampaignFile, ResolvedCampaignReadsBackToItself) {
   ASSERT_EQ(diff.size(), 1u);
   EXPECT_EQ(diff[0].rfind("campaign.velocities: ", 0), 0u) << diff[0];
   EXPECT_NE(campaign_fingerprint(campaign_to_toml(changed)), campaign_fingerprint(resolved));
+  // the file's header holds the fingerprint of the campaign below it; a user's file holds none
+  const std::string written = campaign_file_text(c);
+  ASSERT_TRUE(written.starts_with(kResolvedCampaignHeader));
+  EXPECT_EQ(recorded_fingerprint(written), campaign_fingerprint(resolved));
+  EXPECT_EQ(recorded_fingerprint(campaign_file_text(changed)),
+            campaign_fingerprint(campaign_to_toml(changed)));
+  EXPECT_EQ(recorded_fingerprint("[campaign]\nname = \"x\"\n# ; fingerprint 0123.\n"), "");
 }
 
 TEST(CampaignFile, GroupsGiveEachPurposeItsOwnRuns) {

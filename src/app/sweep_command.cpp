@@ -464,16 +464,6 @@ std::string stale_packing(const fs::path& p, const std::string& source,
   return {};
 }
 
-/// The fingerprint in the header of a sweep's campaign.toml ("...; fingerprint X."), or empty.
-std::string recorded_fingerprint(const fs::path& file) {
-  const std::string text = read_run_file(file, "the campaign's file").value_or(std::string());
-  const std::string_view first_line = std::string_view(text).substr(0, text.find('\n'));
-  const std::size_t at = first_line.find("; fingerprint ");
-  if (at == std::string_view::npos) return {};
-  const std::string_view rest = first_line.substr(at + std::string_view("; fingerprint ").size());
-  return std::string(rest.substr(0, rest.find('.')));
-}
-
 /// Refuses a campaign that differs from the one DIR was made for, unless --force. Swept from
 /// DIR/campaign.toml itself, a hand edit of that file shows as no difference: its fingerprint
 /// (of the campaign the sweep wrote) then names the change.
@@ -485,7 +475,8 @@ void check_same_campaign(const fs::path& file, const fs::path& campaign_file, co
   std::vector<std::string> diff = campaign_differences(before, now);
   std::error_code ec;
   if (diff.empty() && fs::equivalent(file, campaign_file, ec)) {
-    const std::string recorded = recorded_fingerprint(file);
+    const std::string recorded =
+        recorded_fingerprint(read_run_file(file, "the campaign's file").value_or(std::string()));
     if (!recorded.empty() && recorded != campaign_fingerprint(now))
       diff.push_back(
           fmt::format("the file was changed after the sweep wrote it: fingerprint {} "

@@ -501,10 +501,23 @@ std::string campaign_fingerprint(const toml::table& resolved) {
   return fmt::format("{:016x}", h);
 }
 
+namespace {
+/// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
+constexpr std::string_view kFingerprintWords = "; fingerprint ";
+}  // namespace
+
+std::string recorded_fingerprint(std::string_view text) {
+  const std::string_view first_line = text.substr(0, text.find('\n'));
+  const std::size_t at = first_line.find(kFingerprintWords);
+  if (at == std::string_view::npos) return {};
+  const std::string_view rest = first_line.substr(at + kFingerprintWords.size());
+  return std::string(rest.substr(0, rest.find('.')));
+}
+
 std::string campaign_file_text(const Campaign& c) {
   const toml::table t = campaign_to_toml(c);
   std::ostringstream text;
-  text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep; fingerprint "
+  text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep" << kFingerprintWords
        << campaign_fingerprint(t) << ".\n"
        << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
        << t << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";

@@ -91,6 +91,10 @@ std::string campaign_file_text(const Campaign& c);
 /// A short fingerprint (16 hex digits, FNV-1a 64) of the resolved campaign's TOML text.
 std::string campaign_fingerprint(const toml::table& resolved);
 
+/// The fingerprint that campaign_file_text wrote in the header (first line) of `text`, or empty
+/// where that line holds none (a user's own campaign file).
+std::string recorded_fingerprint(std::string_view text);
+
 /// The keys (dotted) whose values differ between two resolved campaigns, as
 /// "key: OLD -> NEW" lines; empty when they are the same.
 std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after);
