@@ -233,7 +233,7 @@ done
 
 # Runaway sizes, zero-step runs and numbers that do not fit are refused before anything is
 # prepared or written (docs/reliability.md).
-expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-300 is more than the limit" "$exe" run -q --set step.dt=1e-300
+expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-90 is more than the limit" "$exe" run -q --set step.dt=1e-90
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is more than" "$exe" run -q --set shear.duration=1e30
 expect_error "key 'shear.velocity': V = 1e+308 sets the time step to 2e-311" "$exe" run -q -V 1e308
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
@@ -527,6 +527,41 @@ cp "$data/hdf5_hang_run.h5" hang/run.h5
 expect_status2 "crash: the analysis (\`analyze\`) died of signal 11" "$exe" analyze crash
 expect_status2 "hang: the analysis (\`analyze\`) gave up reading run.h5 after its time limit" \
   env CDSHEAR_READ_TIME_LIMIT=3 "$exe" analyze hang
+
+# A dotted key of thousands of parts is refused before the TOML library builds its tables by
+# recursion (which overflowed the stack), by every reader of TOML files.
+/usr/bin/python3 -c "print('a' + '.a' * 40000 + ' = 1')" > deep.toml
+expect_status2 "deep.toml: line 1 holds a dotted key of more than 16 parts" "$exe" settings deep.toml
+expect_status2 "deep.toml: line 1 holds a dotted key of more than 16 parts" "$exe" scene deep.toml -o never
+expect_status2 "deep.toml: line 1 holds a dotted key of more than 16 parts" "$exe" sweep deep.toml --dry-run -o never
+# Time steps too short for the solver's sums: given, or made by the auto rule.
+expect_error "key 'step.dt': must be >= 1e-100, got 1e-170" \
+  "$exe" run -q --packing "$packing" --set step.dt=1e-170 --set shear.duration=3e-170
+expect_error "key 'step.dt': \"auto\" gives min(dt_max, displacement_per_step / V)" \
+  "$exe" run -q --packing "$packing" --set step.displacement_per_step=1e-120 --set shear.duration=1e-115 \
+  --set measure.enabled=false
+expect_error "key 'step.dt': must be at least 1e-100, got 4.94066e-324" \
+  "$exe" scene "$scene" --set step.dt=5e-324 --set run.duration=1e-323 -o never
+# A scene whose series would hold no row.
+expect_error "key 'run.sample_every': is 1000000000 steps, more than the run's" \
+  "$exe" scene "$scene" --set run.sample_every=1000000000 -o never
+# A packing disk far outside its period (its wrap would place it outside the cell).
+/usr/bin/python3 -c "
+import json, sys
+d = json.load(open(sys.argv[1])); d['disks_xyr'][0][0] = 1e20
+json.dump(d, open('far_packing.json', 'w'))" "$packing"
+expect_error "key 'disks_xyr[0]': x = 1e+20 is more than a million periods" \
+  "$exe" run -q --packing far_packing.json --set measure.enabled=false -o never
+# Snapshots: none in the run's time, or a typo's count of them.
+expect_error "key 'output.snapshot_interval': is longer than shear.duration" \
+  "$exe" run -q --packing "$packing" --set shear.duration=0.1 --set output.snapshot_interval=5 -o never
+expect_error "key 'output.snapshot_interval': 1e+299 snapshots over the duration 0.1" \
+  "$exe" run -q --packing "$packing" --set shear.duration=0.1 --set output.snapshot_interval=1e-300 -o never
+test ! -e never || { echo "FAIL: a refused run left never/"; fails=$((fails + 1)); }
+# `prepare` writes to a case's preparation.packing, where `run` of that case looks for it: its
+# destination is checked there before anything is prepared.
+printf '[preparation]\npacking = "a_folder"\n' > own_packing.toml
+expect_error "a_folder: exists and is not a regular file" "$exe" prepare -q own_packing.toml
 
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <bit>
 #include <functional>
 
@@ -267,6 +268,53 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   r.diameter_min = 1e-100;  // a moment of inertia of about 1e-400: zero
   s.random_disks = {r};
   EXPECT_EQ(key_of(s), "random_disks[0].diameter_min");
+  s = {};
+  s.domain = {true, 10.0};
+  s.walls = {testing::fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}),
+             testing::fixed_wall("side", {1.0, 0.0}, {1.0, 0.0})};  // across the period
+  s.disks = {disk({3.0, 0.5}, 0.5)};
+  EXPECT_EQ(key_of(s), "walls[1].normal");
+  s.domain = {};  // without a period the same wall is a side wall
+  EXPECT_EQ(key_of(s), "(no error)");
+}
+
+TEST(BadInput, ATomlKeyOfManyPartsIsRefusedBeforeTheLibraryRecursesOverIt) {
+  // A key of 40 000 parts overflowed the stack inside the TOML library (exit 139).
+  std::string deep = "a";
+  for (int i = 0; i < 40000; ++i) deep += ".a";
+  const ConfigError e = load_error(scene_text() + deep + " = 1\n");
+  EXPECT_NE(std::string(e.what()).find("holds a dotted key of more than 16 parts"),
+            std::string::npos)
+      << e.what();
+  const std::string line = "line " + std::to_string(std::ranges::count(scene_text(), '\n') + 1);
+  EXPECT_NE(std::string(e.what()).find(line), std::string::npos) << e.what();
+  // 16 parts pass (and are read as usual); so do paths, numbers and arrays of them.
+  std::string sixteen = "a";
+  for (int i = 1; i < 16; ++i) sixteen += ".a";
+  EXPECT_EQ(too_deep_toml_key(sixteen + " = 1\n"), "");
+  EXPECT_NE(too_deep_toml_key(sixteen + ".a = 1\n"), "");
+  EXPECT_NE(too_deep_toml_key("[" + sixteen + ".a]\n"), "");
+  EXPECT_NE(too_deep_toml_key("x = {" + sixteen + ".a = 1}\n"), "");
+  EXPECT_EQ(
+      too_deep_toml_key("p = \"" + std::string(20, '.') + "/../../../../../../../../../.x\"\n"),
+      "");
+  std::string numbers = "v = [";
+  for (int i = 0; i < 100; ++i) numbers += "0.5, ";
+  EXPECT_EQ(too_deep_toml_key(numbers + "1.5]\n"), "");
+}
+
+TEST(BadInput, SceneWallNamesCannotRepeatAFixedColumnOfTheSeries) {
+  // A wall named "momentum" heads momentum_x and momentum_y, which the series already has.
+  std::string text = scene_text();
+  text.replace(text.find("\"floor\""), 7, "\"momentum\"");
+  expect_names(load_error(text), "walls[0].name", "would head the column momentum_x");
+}
+
+TEST(BadInput, SceneOverlapToleranceMustBeBelowTheAbortBound) {
+  // Two coincident disks with overlap_tolerance = 2 ran to the end, one thrown at 1000 d/t.
+  const ConfigError e =
+      load_error(scene_text("dt = 1e-3\nabort_overlap = 0.1\n", "", "overlap_tolerance = 2.0\n"));
+  expect_names(e, "overlap_tolerance", "must be less than step.abort_overlap (0.1)");
 }
 
 TEST(BadInput, NumbersTooSmallToInvertAreRefusedNotTurnedIntoNaN) {

@@ -63,7 +63,8 @@ SceneDefinition random_scene(std::mt19937_64& rng, bool periodic, double lx, dou
     s.disks.push_back(disk({x, uy(rng)}, ur(rng)));
   }
   s.walls.push_back(fixed_wall("floor", {0.0, 0.3}, {0.0, 1.0}));
-  s.walls.push_back(fixed_wall("tilted", {0.0, ly}, {0.3, -1.0}));
+  // A tilted ceiling where x is not periodic (across a period a wall must lie along x).
+  s.walls.push_back(fixed_wall("ceiling", {0.0, ly}, {periodic ? 0.0 : 0.3, -1.0}));
   return s;
 }
 

@@ -344,9 +344,12 @@ TEST(ShearCaseErrors, BadValuesNameTheKey) {
   // on the time step when that was given, and a window longer than the limit is refused.
   expect_case_error(with({"preparation.max_time_per_phase=1e300"}),
                     "preparation.max_time_per_phase", "more than the limit");
-  expect_case_error(with({"preparation.dt=1e-300"}), "preparation.dt", "more than the limit");
-  expect_case_error(with({"preparation.compression_dt=1e-300"}), "preparation.compression_dt",
+  expect_case_error(with({"preparation.dt=1e-90"}), "preparation.dt", "more than the limit");
+  expect_case_error(with({"preparation.compression_dt=1e-90"}), "preparation.compression_dt",
                     "more than the limit");
+  // Shorter still, a step overflows the solver's sums.
+  expect_case_error(with({"preparation.dt=1e-300"}), "preparation.dt", "must be >= 1e-100");
+  expect_case_error(with({"step.dt_max=1e-300"}), "step.dt_max", "must be >= 1e-100");
   expect_case_error(with({"preparation.window_time=3000"}), "preparation.window_time",
                     "at most preparation.max_time_per_phase");
   EXPECT_EQ(load_case(with({"preparation.window_time=2000"})).preparation.window_time, 2000.0);

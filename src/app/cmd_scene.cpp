@@ -44,6 +44,12 @@ int run_scene(const SceneArgs& args) {
   }
   const std::uint64_t end_step = checked_end_step(
       sf.run.duration, sf.step.dt, 0, sf.source_of({"run.duration", "step.dt"}), "run.duration");
+  if (sf.run.sample_every > end_step)  // rows are written at the multiples of sample_every
+    throw ConfigError(sf.source_of({"run.sample_every", "run.duration", "step.dt"}),
+                      "run.sample_every",
+                      fmt::format("is {} steps, more than the run's {} (run.duration / step.dt): "
+                                  "timeseries.csv would hold no row",
+                                  sf.run.sample_every, end_step));
   const std::filesystem::path dir(args.out_dir);
   const FolderLock lock = claim_output_folder(dir, args.force, "");
   {

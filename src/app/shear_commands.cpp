@@ -223,6 +223,13 @@ bool end_files_written(const fs::path& dir, std::uint64_t step) {
 void plan_run(ShearSession& s) {
   ShearCase& c = s.c;
   s.dt_warning = resolve_step_rules(c);
+  if (!(c.step.dt >= kMinTimeStep))  // a given dt is checked where the case is read
+    throw ConfigError(
+        s.case_source, "step.dt",
+        fmt::format("\"auto\" gives min(dt_max, displacement_per_step / V) = {:.3g}, "
+                    "below {:.0e} ({}): give a longer step.displacement_per_step or a "
+                    "smaller V",
+                    c.step.dt, kMinTimeStep, kMinTimeStepReason));
   // A run killed after its last step's checkpoint and before its end's files (run.h5 marked
   // finished, final_state.json, run_info) resumes with no step left: it writes them.
   const bool may_end_here = s.resuming && !end_files_written(s.dir, s.world.step);
@@ -756,9 +763,11 @@ struct PrepareArgs {
 
 int run_prepare(const PrepareArgs& args) {
   const ShearCase c = load_case(to_source(args.c));
-  const fs::path out = args.output.empty()
-                           ? fs::path("packings") / packing_cache_name(c.preparation)
-                           : fs::path(args.output);
+  // Where `run` looks for the case's packing: -o, else preparation.packing, else the cache.
+  const fs::path out = !args.output.empty() ? fs::path(args.output)
+                       : !c.packing_file.empty()
+                           ? fs::path(c.packing_file)
+                           : fs::path("packings") / packing_cache_name(c.preparation);
   check_packing_destination(out);  // before the preparation, not after it
   const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
   write_packing(out, p);
@@ -776,7 +785,8 @@ void register_shear_commands(CLI::App& app) {
       "Prepare a packing (model.md section 5): settle, then compress with a piston to equilibrium");
   add_case_options(p, prep->c, false);
   p->add_option("-o,--output", prep->output,
-                "packing file; default packings/<parameters>.json (the cache `run` uses)")
+                "packing file; default preparation.packing, else packings/<parameters>.json (the "
+                "cache `run` uses)")
       ->check(kNonEmptyPath);
   p->callback([prep]() {
     if (const int rc = run_prepare(*prep); rc != 0) throw CLI::RuntimeError(rc);

@@ -150,6 +150,12 @@ void validate_scene(const SceneDefinition& s) {
                        n == 0.0 ? "is zero"
                                 : "must have a finite length whose inverse is finite, got length " +
                                       short_number(n));
+    // A disk's periodic images meet no wall: one across the period would let them through it.
+    if (s.domain.periodic_x && w.normal.x != 0.0)
+      throw SceneError(indexed("walls", i, "normal"),
+                       "must be along y ([0, 1] or [0, -1]) where x is periodic: a wall across "
+                       "the period does not hold the disks' periodic images",
+                       "domain.periodic_x");
     if (!(w.friction >= 0.0)) throw SceneError(indexed("walls", i, "friction"), "must be >= 0");
     const bool free = w.mode_x == AxisMode::kFree || w.mode_y == AxisMode::kFree;
     if (const std::string why = body_mass_problem(w.mass); free && !why.empty())

@@ -103,6 +103,10 @@ double angular_momentum(const World& world);
 double max_radius(const World& world);
 /// Wraps disk positions into [0, L_x) and updates the image counters (no-op if not periodic).
 void wrap_positions(World& world);
+/// How far from 0, in periods L_x, a disk may start (scene files, packings): beyond it the
+/// wrapped place within the period loses its digits (x - floor(x / L_x) L_x at x = 1e20, L_x = 20
+/// gives -16384, outside the cell) and the period count its range.
+inline constexpr double kMaxPeriodsFromOrigin = 1e6;
 /// FNV-1a hash of every position, velocity, angle, image counter and wall state: equal worlds
 /// hash equal; used by determinism and resume tests.
 std::uint64_t state_hash(const World& world);

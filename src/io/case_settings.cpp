@@ -441,16 +441,16 @@ std::vector<CaseSetting> make_case_settings() {
             .type = kNumberOrAuto,
             .unit = "t",
             .meaning = "time step; \"auto\": min(dt_max, displacement_per_step / V)",
-            .lo = 0.0,
-            .lo_open = true},
+            .lo = kMinTimeStep,
+            .range_reason = std::string(kMinTimeStepReason)},
           [](auto& c) -> auto& { return c.dt; }),
       bind(
           S{.table = "step",
             .key = "dt_max",
             .unit = "t",
             .meaning = "longest time step of the auto rule",
-            .lo = 0.0,
-            .lo_open = true},
+            .lo = kMinTimeStep,
+            .range_reason = std::string(kMinTimeStepReason)},
           [](auto& c) -> auto& { return c.dt_max; }),
       bind(
           S{.table = "step",
@@ -525,8 +525,8 @@ std::vector<CaseSetting> make_case_settings() {
           S{.table = "preparation",
             .key = "packing",
             .type = kString,
-            .meaning = "packing file to shear; \"\": packings/<parameters>.json, prepared if "
-                       "absent",
+            .meaning = "packing file to shear, and the one `cdshear prepare` writes; \"\": "
+                       "packings/<parameters>.json, prepared if absent",
             .phase = kPreparation},
           [](auto& c) -> auto& { return c.packing_file; }),
       bind(
@@ -631,8 +631,8 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "t",
             .meaning = "time step of the settling phase",
             .phase = kPreparation,
-            .lo = 0.0,
-            .lo_open = true},
+            .lo = kMinTimeStep,
+            .range_reason = std::string(kMinTimeStepReason)},
           [](auto& c) -> auto& { return c.preparation.step.dt; }),
       bind(
           S{.table = "preparation",
@@ -640,8 +640,8 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "t",
             .meaning = "time step of the compression phase",
             .phase = kPreparation,
-            .lo = 0.0,
-            .lo_open = true},
+            .lo = kMinTimeStep,
+            .range_reason = std::string(kMinTimeStepReason)},
           [](auto& c) -> auto& { return c.preparation.compression_dt; }),
   };
   rows.insert(rows.end(), more.begin(), more.end());
@@ -672,7 +672,8 @@ std::vector<CaseSetting> make_case_settings() {
             .key = "snapshot_interval",
             .unit = "t",
             .meaning = "time between ParaView snapshots, snapshots/*.pvd (0: none)",
-            .lo = 0.0},
+            .lo = 0.0,
+            .constraint = "if > 0: shear.duration / snapshot_interval from 1 to 1e5"},
           [](auto& c) -> auto& { return c.snapshot_interval; }),
       // [measure]: model.md section 7, into run.h5.
       bind(

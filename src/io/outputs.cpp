@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <fmt/os.h>
+#include <fmt/ranges.h>
 
 #include <unistd.h>
 
@@ -78,10 +79,9 @@ nlohmann::json state_to_json(const World& world) {
 TimeSeriesWriter::TimeSeriesWriter(const std::filesystem::path& path, const World& world)
     : out_(path, std::ios::trunc) {
   if (!out_) throw WriteError(path.string(), "cannot open for writing");
-  out_ << "step,time,kinetic_energy,momentum_x,momentum_y,contacts,active_contacts,"
-          "capped_steps,sweeps_mean,sweeps_max,residual_max,max_overlap";
+  out_ << fmt::format("{}", fmt::join(kColumns, ","));
   for (const Wall& w : world.walls)
-    out_ << fmt::format(",{0}_x,{0}_y,{0}_vx,{0}_vy,{0}_fx,{0}_fy,{0}_jx,{0}_jy", w.name);
+    for (const std::string_view suffix : kWallColumnSuffixes) out_ << ',' << w.name << suffix;
   out_ << '\n';
   out_.flush();
 }

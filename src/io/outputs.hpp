@@ -3,10 +3,12 @@
 // file.
 #pragma once
 
+#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -35,6 +37,14 @@ nlohmann::json state_to_json(const World& world);
 /// measured.
 class TimeSeriesWriter {
  public:
+  /// The columns before the walls', then each wall's: its name followed by each suffix.
+  static constexpr std::array<std::string_view, 12> kColumns = {
+      "step",        "time",       "kinetic_energy",  "momentum_x",
+      "momentum_y",  "contacts",   "active_contacts", "capped_steps",
+      "sweeps_mean", "sweeps_max", "residual_max",    "max_overlap"};
+  static constexpr std::array<std::string_view, 8> kWallColumnSuffixes = {
+      "_x", "_y", "_vx", "_vy", "_fx", "_fy", "_jx", "_jy"};
+
   TimeSeriesWriter(const std::filesystem::path& path, const World& world);
   void write(const World& world, const StepReport& report, const IntervalStats& interval);
 

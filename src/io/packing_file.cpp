@@ -16,6 +16,7 @@
 #include "config_error.hpp"
 #include "json_reading.hpp"
 #include "outputs.hpp"
+#include "world.hpp"
 
 namespace cdshear {
 
@@ -254,6 +255,11 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
                         fmt::format("diameter {} outside the packing's diameter_min to "
                                     "diameter_max ({} to {})",
                                     2 * d.radius, p.diameter_min, p.diameter_max));
+    if (!(std::abs(d.position.x) <= kMaxPeriodsFromOrigin * p.length_x))
+      throw ConfigError(file, key,
+                        fmt::format("x = {} is more than a million periods (length_x = {}) from "
+                                    "0: give the disk's place within the period",
+                                    d.position.x, p.length_x));
     if (d.position.y - d.radius < -overlap_tolerance ||
         d.position.y + d.radius > p.height + overlap_tolerance)
       throw ConfigError(

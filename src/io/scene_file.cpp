@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "case_settings.hpp"
+#include "outputs.hpp"
 
 namespace cdshear {
 
@@ -49,6 +50,9 @@ SolverOptions read_solver_options(TomlReader& solver, SolverOptions s) {
 StepOptions read_step_options(TomlReader& step, TomlReader& solver) {
   StepOptions o;
   o.dt = step.positive("dt", o.dt);
+  if (o.dt < kMinTimeStep)
+    step.fail("dt", "must be at least " + format_number(kMinTimeStep) + ", got " +
+                        format_number(o.dt) + " (" + std::string(kMinTimeStepReason) + ")");
   o.contact_margin = step.non_negative("contact_margin", o.contact_margin);
   o.displacement_bound = step.positive("displacement_bound", o.displacement_bound);
   o.abort_overlap = step.positive("abort_overlap", o.abort_overlap);
@@ -105,6 +109,11 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
              "spaces (Unicode spaces, controls and invisible characters included)");
     for (const Wall& other : s.walls)
       if (other.name == wall.name) w.fail("name", "'" + wall.name + "' names two walls");
+    for (const std::string_view suffix : TimeSeriesWriter::kWallColumnSuffixes)
+      for (const std::string_view column : TimeSeriesWriter::kColumns)
+        if (wall.name + std::string(suffix) == column)
+          w.fail("name", "'" + wall.name + "' would head the column " + std::string(column) +
+                             " of timeseries.csv twice");
     wall.point = w.vec2("point");
     wall.normal = w.vec2("normal");
     if (!(length(wall.normal) > 0.0)) w.fail("normal", "must not be zero");
@@ -121,9 +130,8 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   for (TomlReader& d : root.tables("disks")) {
     DiskSpec disk;
     disk.position = d.vec2("position");
-    // A periodic x keeps a period count and the place within the period: beyond a million periods
-    // the place loses its digits (at 1e20 nothing of it is left) and the count its range.
-    if (s.domain.periodic_x && !(std::abs(disk.position.x) <= 1e6 * s.domain.length_x))
+    if (s.domain.periodic_x &&
+        !(std::abs(disk.position.x) <= kMaxPeriodsFromOrigin * s.domain.length_x))
       d.fail_between("position", {"domain.length_x"},
                      "x = " + format_number(disk.position.x) +
                          " is more than a million periods (domain.length_x = " +
@@ -148,6 +156,11 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
     s.random_disks.push_back(spec);
   }
   s.overlap_tolerance = root.non_negative("overlap_tolerance", 1e-9);
+  if (!(s.overlap_tolerance < out.step.abort_overlap))
+    root.fail_between("overlap_tolerance", {"step.abort_overlap"},
+                      "must be less than step.abort_overlap (" +
+                          format_number(out.step.abort_overlap) +
+                          "): a scene cannot start from an overlap its run would stop at");
   root.finish();
   return out;
 }

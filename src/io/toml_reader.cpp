@@ -6,10 +6,33 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace cdshear {
+
+std::string too_deep_toml_key(std::string_view text) {
+  // A key, dotted or not, lies between two of these characters on one line (TOML keys never span
+  // lines): after a line's start, '[', '{' or ',', before '=' or ']'. Counting the dots of each
+  // stretch between them bounds every key's parts; a number has at most one dot, and two dots
+  // in a row (a path's "../") belong to no key.
+  constexpr std::string_view kKeyEnds = "=,{}[]#\n";
+  std::size_t line = 1, dots = 0;
+  char previous = '\0';
+  for (const char ch : text) {
+    const char before = std::exchange(previous, ch);
+    if (kKeyEnds.find(ch) != std::string_view::npos || (ch == '.' && before == '.')) {
+      dots = 0;
+      if (ch == '\n') ++line;
+    } else if (ch == '.' && ++dots >= kMaxTomlKeyParts) {
+      return fmt::format("line {} holds a dotted key of more than {} parts (a.b.c has 3)", line,
+                         kMaxTomlKeyParts);
+    }
+  }
+  return {};
+}
 
 toml::table parse_toml_file(const std::string& path) {
   if (!std::filesystem::exists(path)) throw ConfigError(path, "", "file not found");
@@ -17,6 +40,12 @@ toml::table parse_toml_file(const std::string& path) {
     throw ConfigError(path, "", "is a directory, not a TOML file");
   if (!std::filesystem::is_regular_file(path))
     throw ConfigError(path, "", "is not a regular file (a pipe or a device?)");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in && !text.str().empty())
+    if (const std::string where = too_deep_toml_key(text.str()); !where.empty())
+      throw ConfigError(path, "", where);
   try {
     return toml::parse_file(path);
   } catch (const toml::parse_error& e) {

@@ -11,6 +11,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "config_error.hpp"
@@ -27,8 +28,25 @@ inline constexpr std::int64_t kMaxStepInterval = 1'000'000'000'000;
 /// 250 steps/s; a larger count is a typo (dt, duration or V off by orders of magnitude).
 /// `cdshear run` (checked_end_step) and campaign files (read_campaign) refuse more.
 inline constexpr double kMaxRunSteps = 2e9;
+/// The shortest time step (docs/reliability.md): the solver divides gaps by dt and sums squares
+/// of the quotients, which overflow for far shorter steps (a shear step of 1e-170 turned the
+/// walls' positions to NaN at step 1, a scene step of 5e-324 its forces); the margin keeps every
+/// product of dt with the case's numbers finite.
+inline constexpr double kMinTimeStep = 1e-100;
+inline constexpr std::string_view kMinTimeStepReason =
+    "below it the solver's sums of gap / dt squared overflow";
 
-/// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error).
+/// The most parts a dotted key of a TOML file may have (`a.b.c` has 3). toml++ builds a dotted
+/// key's tables by recursion, one stack frame per part: a key of tens of thousands of parts
+/// overflows the stack. No case, scene or campaign key has more than 4 parts.
+inline constexpr std::size_t kMaxTomlKeyParts = 16;
+
+/// Where `text` holds a dotted key of more than kMaxTomlKeyParts parts: "line N, ..."; empty
+/// where none does. Conservative: a run of dots outside a key (in a string) counts too.
+std::string too_deep_toml_key(std::string_view text);
+
+/// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error, a
+/// key of more than kMaxTomlKeyParts parts).
 toml::table parse_toml_file(const std::string& path);
 
 /// Where an overridden key's value comes from, by dotted key: "--set a.b=1", "--velocity".
