@@ -673,7 +673,7 @@ std::vector<CaseSetting> make_case_settings() {
             .unit = "t",
             .meaning = "time between ParaView snapshots, snapshots/*.pvd (0: none)",
             .lo = 0.0,
-            .constraint = "if > 0: shear.duration / snapshot_interval from 1 to 1e5"},
+            .constraint = "if > 0: at most 1e5 snapshots over shear.duration"},
           [](auto& c) -> auto& { return c.snapshot_interval; }),
       // [measure]: model.md section 7, into run.h5.
       bind(
