@@ -223,13 +223,6 @@ bool end_files_written(const fs::path& dir, std::uint64_t step) {
 void plan_run(ShearSession& s) {
   ShearCase& c = s.c;
   s.dt_warning = resolve_step_rules(c);
-  if (!(c.step.dt >= kMinTimeStep))  // a given dt is checked where the case is read
-    throw ConfigError(
-        s.case_source, "step.dt",
-        fmt::format("\"auto\" gives min(dt_max, displacement_per_step / V) = {:.3g}, "
-                    "below {:.0e} ({}): give a longer step.displacement_per_step or a "
-                    "smaller V",
-                    c.step.dt, kMinTimeStep, kMinTimeStepReason));
   // A run killed after its last step's checkpoint and before its end's files (run.h5 marked
   // finished, final_state.json, run_info) resumes with no step left: it writes them.
   const bool may_end_here = s.resuming && !end_files_written(s.dir, s.world.step);

@@ -477,11 +477,12 @@ void check_same_campaign(const fs::path& file, const fs::path& campaign_file, co
   if (diff.empty() && fs::equivalent(file, campaign_file, ec)) {
     const std::string recorded =
         recorded_fingerprint(read_run_file(file, "the campaign's file").value_or(std::string()));
-    if (!recorded.empty() && recorded != campaign_fingerprint(now))
+    if (const std::string fingerprint = campaign_fingerprint(now);
+        !recorded.empty() && recorded != fingerprint)
       diff.push_back(
           fmt::format("the file was changed after the sweep wrote it: fingerprint {} "
                       "in its header, {} of its campaign",
-                      recorded, campaign_fingerprint(now)));
+                      recorded, fingerprint));
   }
   if (diff.empty()) return;
   const std::string list = fmt::format("{}", fmt::join(diff, "; "));

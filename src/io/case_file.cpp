@@ -192,6 +192,15 @@ void check_constraints(const ShearCase& c, TableReaders& t) {
                       "beyond 1.5 GB): thicker stripes or longer windows",
                       stripes, windows, kMaxProfilePoints));
   }
+  // A given step is bounded by its range; the auto rule's, from V, here (after the run's size:
+  // a V so large also asks for too many steps).
+  if (!c.dt)
+    if (const double dt = default_time_step(c); !(dt >= kMinTimeStep))
+      t["step"].fail_between(
+          "dt", {"shear.velocity", "step.displacement_per_step", "step.dt_max"},
+          fmt::format("\"auto\" gives min(dt_max, displacement_per_step / V) = {:.3g}, below "
+                      "{:.0e} ({}): give a longer step.displacement_per_step or a smaller V",
+                      dt, kMinTimeStep, kMinTimeStepReason));
 }
 
 }  // namespace

@@ -41,13 +41,14 @@ toml::table parse_toml_file(const std::string& path) {
   if (!std::filesystem::is_regular_file(path))
     throw ConfigError(path, "", "is not a regular file (a pipe or a device?)");
   std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in && !text.str().empty())
-    if (const std::string where = too_deep_toml_key(text.str()); !where.empty())
-      throw ConfigError(path, "", where);
+  std::ostringstream read;
+  read << in.rdbuf();
   try {
-    return toml::parse_file(path);
+    if (!in) return toml::parse_file(path);  // unreadable: the library names the cause
+    const std::string text = std::move(read).str();
+    if (const std::string where = too_deep_toml_key(text); !where.empty())
+      throw ConfigError(path, "", where);
+    return toml::parse(text, path);  // the text read once, scanned and parsed
   } catch (const toml::parse_error& e) {
     std::ostringstream where;
     where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
