@@ -36,6 +36,8 @@ expect_error "--set material.density=1e-320: key 'random_disks[0].diameter_min':
 # An array of tables is the file's: no --set empties, replaces or adds to it.
 expect_error "--set walls=[]: key 'walls': an array of tables" "$exe" scene "$scene" --set 'walls=[]' -o never
 expect_error "key 'disks': an array of tables" "$exe" scene "$scene" --set 'disks=[{position=[1,1],radius=0.5}]' -o never
+expect_error "key 'walls.normal': an array of tables ([[walls]])" "$exe" scene "$scene" --set 'walls.normal={x=0.0,y=1.0}' -o never
+expect_error "key 'walls.friction': an array of tables ([[walls]])" "$exe" scene "$scene" --set walls.friction=0.3 -o never
 # A place in a periodic x beyond a million periods (its wrap would lose it).
 printf '[run]\nduration=0.05\n[domain]\nperiodic_x=true\nlength_x=10\n[[disks]]\nposition=[1e20,2]\nradius=1\n' > far_scene.toml
 expect_error "far_scene.toml: key 'disks[0].position': x = 1e+20 is more than a million periods" "$exe" scene far_scene.toml -o never
@@ -556,6 +558,14 @@ expect_error "key 'disks_xyr[0]': x = 1e+20 is more than a million periods" \
 expect_error "key 'output.snapshot_interval': 1e+299 snapshots over the duration 0.1" \
   "$exe" run -q --packing "$packing" --set shear.duration=0.1 --set output.snapshot_interval=1e-300 -o never
 test ! -e never || { echo "FAIL: a refused run left never/"; fails=$((fails + 1)); }
+# An interval longer than the run is a resume's to reach: this leg writes no snapshot, so it
+# makes no snapshots/ and does not name one.
+checks=$((checks + 1))
+if ! "$exe" run --packing "$packing" --set shear.duration=0.02 --set output.snapshot_interval=1 \
+     --set measure.enabled=false --no-analyze -o short_leg > out.txt 2> err.txt ||
+   [ -e short_leg/snapshots ] || grep -q "snapshots" out.txt; then
+  echo "FAIL: a leg shorter than the snapshot interval:"; cat out.txt err.txt; fails=$((fails + 1))
+fi
 # `prepare` writes to a case's preparation.packing, where `run` of that case looks for it: its
 # destination is checked there before anything is prepared.
 printf '[preparation]\npacking = "a_folder"\n' > own_packing.toml

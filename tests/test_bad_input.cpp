@@ -317,6 +317,36 @@ TEST(BadInput, SceneOverlapToleranceMustBeBelowTheAbortBound) {
   expect_names(e, "overlap_tolerance", "must be less than step.abort_overlap (0.1)");
 }
 
+TEST(BadInput, SceneWallValuesItsModesWouldIgnoreAreRefused) {
+  // The floor is fixed on both axes unless a test says otherwise. Each value below used to be
+  // read and then ignored by the wall's modes, so the scene ran as if it were not there.
+  const auto floor_with = [](const std::string& keys) {
+    std::string text = scene_text();
+    text.replace(text.find("normal = [0.0, 1.0]\n"), 20, "normal = [0.0, 1.0]\n" + keys);
+    return text;
+  };
+  expect_names(load_error(floor_with("velocity = [0.5, 0.0]\n")), "walls[0].velocity",
+               "x = 0.5 on a fixed axis (mode_x = \"fixed\")");
+  expect_names(load_error(floor_with("mode_x = \"imposed\"\nvelocity = [0.5, -1.0]\n")),
+               "walls[0].velocity", "y = -1 on a fixed axis (mode_y = \"fixed\")");
+  expect_names(load_error(floor_with("mode_x = \"imposed\"\nmass = 3.0\n")), "walls[0].mass",
+               "is used on free axes only");
+  expect_names(load_error(floor_with("mode_y = \"free\"\nmass = 3.0\nforce = [1.0, -2.0]\n")),
+               "walls[0].force", "x = 1 on an axis that is not free (mode_x)");
+  // What each mode uses is accepted: an imposed x velocity, a free y axis with its mass, force
+  // and starting velocity.
+  TempDir dir("wall_modes");
+  const SceneFile sf = load_scene_file(
+      dir.write("scene.toml",
+                floor_with("mode_x = \"imposed\"\nmode_y = \"free\"\nvelocity = [0.5, -1.0]\n"
+                           "mass = 3.0\nforce = [0.0, -2.0]\n")),
+      {});
+  ASSERT_EQ(sf.scene.walls.size(), 1u);
+  EXPECT_EQ(sf.scene.walls[0].velocity.x, 0.5);
+  EXPECT_EQ(sf.scene.walls[0].mass, 3.0);
+  EXPECT_EQ(sf.scene.walls[0].applied_force.y, -2.0);
+}
+
 TEST(BadInput, NumbersTooSmallToInvertAreRefusedNotTurnedIntoNaN) {
   // A wall normal is divided by its length, a disk's mass and inertia are inverted: a length
   // of 1e-320 has an infinite inverse, a radius of 1e-160 a zero moment of inertia. The files

@@ -80,6 +80,8 @@ class SnapshotObserver : public Observer {
   SnapshotObserver(std::filesystem::path dir, double dt, std::uint64_t every,
                    std::uint64_t resumed_step = 0);
   void observe(const World& world, const ContactDynamics& dynamics, const StepReport&) override;
+  /// True once a snapshot is listed (written by this run or kept from before a resume).
+  bool any() const { return !particles_.empty(); }
 
  private:
   void add(std::uint64_t step, double time);

@@ -122,8 +122,27 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
     wall.mode_y = parse_axis_mode(w, "mode_y");
     wall.velocity = w.vec2("velocity", Vec2{});
     const bool free = wall.mode_x == AxisMode::kFree || wall.mode_y == AxisMode::kFree;
-    wall.mass = free ? w.positive("mass") : w.non_negative("mass", 0.0);
+    if (!free && w.has("mass"))
+      w.fail_between("mass", {w.full_key("mode_x"), w.full_key("mode_y")},
+                     "is used on free axes only, and neither mode_x nor mode_y is \"free\"");
+    wall.mass = free ? w.positive("mass") : 0.0;
     wall.applied_force = w.vec2("force", Vec2{});
+    // A value the wall's modes would ignore is a mistake in the file: refuse it, naming the mode.
+    const auto check_axis = [&](const char* axis, AxisMode mode, double velocity, double force) {
+      const std::string mode_key = std::string("mode_") + axis;
+      if (mode == AxisMode::kFixed && velocity != 0.0)
+        w.fail_between("velocity", {w.full_key(mode_key)},
+                       std::string(axis) + " = " + format_number(velocity) + " on a fixed axis (" +
+                           mode_key + " = \"fixed\"), which does not move: give " + mode_key +
+                           " = \"imposed\" to drive the wall at it, \"free\" to start it with it");
+      if (mode != AxisMode::kFree && force != 0.0)
+        w.fail_between("force", {w.full_key(mode_key)},
+                       std::string(axis) + " = " + format_number(force) +
+                           " on an axis that is not free (" + mode_key +
+                           "): an applied force acts on free axes only");
+    };
+    check_axis("x", wall.mode_x, wall.velocity.x, wall.applied_force.x);
+    check_axis("y", wall.mode_y, wall.velocity.y, wall.applied_force.y);
     w.finish();
     s.walls.push_back(wall);
   }

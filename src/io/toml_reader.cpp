@@ -117,6 +117,25 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
                           key);
       parsed = toml::parse("v = \"" + value + "\"");  // a bare word: --set solver.order=random
     }
+    // A --set neither replaces nor adds nor reaches into an array of tables ([[walls]],
+    // [[disks]]): its entries are not addressed one by one, and `walls=[]` would drop the file's
+    // walls unseen. Checked first, so that `walls.normal={...}` is not sent to a table's advice.
+    if (parsed.get("v")->is_array_of_tables())
+      throw ConfigError("--set " + item, key,
+                        "an array of tables ([[" + key +
+                            "]]) is given in the file, not by --set: its entries cannot be "
+                            "replaced or added this way",
+                        key);
+    for (auto dot = key.find('.');; dot = key.find('.', dot + 1)) {
+      const std::string prefix = key.substr(0, dot);
+      if (root.at_path(prefix).is_array_of_tables())
+        throw ConfigError("--set " + item, key,
+                          "an array of tables ([[" + prefix +
+                              "]]) is given in the file, not by --set: its entries cannot be "
+                              "replaced, added or changed this way",
+                          key);
+      if (dot == std::string::npos) break;
+    }
     // A TOML inline table defines the whole table: `--set shear={velocity=0.4}` would drop the
     // case file's other shear keys back to their defaults, unseen. One key per --set instead.
     if (parsed.get("v")->is_table())
@@ -124,15 +143,6 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
                         "a table value would replace every key of '" + key +
                             "' (the case file's included); give one key per --set: --set " + key +
                             ".KEY=VALUE",
-                        key);
-    // Nor does a --set replace or add an array of tables ([[walls]], [[disks]]): its entries are
-    // not addressed one by one, and `walls=[]` would drop the file's walls unseen.
-    const toml::node_view<toml::node> existing = root.at_path(key);
-    if (parsed.get("v")->is_array_of_tables() || existing.is_array_of_tables())
-      throw ConfigError("--set " + item, key,
-                        "an array of tables ([[" + key +
-                            "]]) is given in the file, not by --set: its entries cannot be "
-                            "replaced or added this way",
                         key);
     if (sources != nullptr) (*sources)[key] = "--set " + item;
     toml::table* at = &root;
