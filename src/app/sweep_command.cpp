@@ -470,13 +470,16 @@ std::string stale_packing(const fs::path& p, const std::string& source,
 void check_same_campaign(const fs::path& file, const fs::path& campaign_file, const Campaign& c,
                          bool force) {
   if (!fs::exists(file)) return;
-  const toml::table before = parse_toml_file(file.string());
+  // Read once, as the runs' files are (a FIFO in its place does not block); what cannot be read
+  // goes to parse_toml_file, which names the cause.
+  const std::optional<std::string> text = read_run_file(file, "the campaign's file");
+  const toml::table before =
+      text ? parse_toml_text(*text, file.string()) : parse_toml_file(file.string());
   const toml::table now = campaign_to_toml(c);
   std::vector<std::string> diff = campaign_differences(before, now);
   std::error_code ec;
   if (diff.empty() && fs::equivalent(file, campaign_file, ec)) {
-    const std::string recorded =
-        recorded_fingerprint(read_run_file(file, "the campaign's file").value_or(std::string()));
+    const std::string recorded = recorded_fingerprint(text.value_or(std::string()));
     if (const std::string fingerprint = campaign_fingerprint(now);
         !recorded.empty() && recorded != fingerprint)
       diff.push_back(

@@ -34,6 +34,16 @@ std::string too_deep_toml_key(std::string_view text) {
   return {};
 }
 
+namespace {
+/// The library's parse error as ours, naming the file, line and column.
+ConfigError toml_syntax_error(const std::string& path, const toml::parse_error& e) {
+  std::ostringstream where;
+  where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
+  return ConfigError(path, "",
+                     "TOML syntax error at " + where.str() + ": " + std::string(e.description()));
+}
+}  // namespace
+
 toml::table parse_toml_file(const std::string& path) {
   if (!std::filesystem::exists(path)) throw ConfigError(path, "", "file not found");
   if (std::filesystem::is_directory(path))
@@ -43,17 +53,23 @@ toml::table parse_toml_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream read;
   read << in.rdbuf();
+  if (!in) {
+    try {
+      return toml::parse_file(path);  // unreadable: the library names the cause
+    } catch (const toml::parse_error& e) {
+      throw toml_syntax_error(path, e);
+    }
+  }
+  return parse_toml_text(std::move(read).str(), path);  // the text read once, scanned and parsed
+}
+
+toml::table parse_toml_text(const std::string& text, const std::string& path) {
+  if (const std::string where = too_deep_toml_key(text); !where.empty())
+    throw ConfigError(path, "", where);
   try {
-    if (!in) return toml::parse_file(path);  // unreadable: the library names the cause
-    const std::string text = std::move(read).str();
-    if (const std::string where = too_deep_toml_key(text); !where.empty())
-      throw ConfigError(path, "", where);
-    return toml::parse(text, path);  // the text read once, scanned and parsed
+    return toml::parse(text, path);
   } catch (const toml::parse_error& e) {
-    std::ostringstream where;
-    where << "line " << e.source().begin.line << ", column " << e.source().begin.column;
-    throw ConfigError(path, "",
-                      "TOML syntax error at " + where.str() + ": " + std::string(e.description()));
+    throw toml_syntax_error(path, e);
   }
 }
 

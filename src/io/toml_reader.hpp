@@ -48,6 +48,9 @@ std::string too_deep_toml_key(std::string_view text);
 /// Parses a TOML file; throws ConfigError naming the file (missing, unreadable, syntax error, a
 /// key of more than kMaxTomlKeyParts parts).
 toml::table parse_toml_file(const std::string& path);
+/// Parses the TOML `text` read from `path`; throws ConfigError naming `path` (syntax error, a key
+/// of more than kMaxTomlKeyParts parts).
+toml::table parse_toml_text(const std::string& text, const std::string& path);
 
 /// Where an overridden key's value comes from, by dotted key: "--set a.b=1", "--velocity".
 using OverrideSources = std::map<std::string, std::string>;
