@@ -470,7 +470,7 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
     try:
         with open_regular(meta_path, encoding="utf-8") as f:
             meta = json.load(f, object_pairs_hook=unique_keys)
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, RecursionError) as e:
         raise PeerError(meta_path, f"cannot read the run's record: {e}") from e
     if not isinstance(meta, dict):
         raise PeerError(meta_path, "the run's record is not a JSON object")
@@ -542,7 +542,7 @@ def lammps_campaign(lammps_folder, campaign):
         try:
             with open_regular(os.path.join(ref_dir, "case.toml"), encoding="utf-8") as f:
                 measure = tomllib.loads(f.read()).get("measure", {})
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             pass
         start = summary.get("averaging_start_time")
         if not _positive_number(start, zero=True):

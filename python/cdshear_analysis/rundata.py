@@ -506,11 +506,14 @@ def _read(f, run_dir, path):
     if snapshot is not None:
         _check_snapshot(snapshot, path)
     case = {}
-    for source, text in (("its case_toml", attrs.get("case_toml")),
-                         ("case.toml", _read_text(os.path.join(run_dir, "case.toml")))):
+    # run.h5's own copy first; the folder's case.toml is read only where that gives none, and one
+    # that cannot be decoded (not UTF-8, not TOML, nested too deeply) gives none either.
+    for source, text in (("its case_toml", lambda: attrs.get("case_toml")),
+                         ("case.toml", lambda: _read_text(os.path.join(run_dir, "case.toml")))):
         try:
-            case = tomllib.loads(text) if isinstance(text, str) else {}
-        except tomllib.TOMLDecodeError:
+            value = text()
+            case = tomllib.loads(value) if isinstance(value, str) else {}
+        except (ValueError, RecursionError):   # UnicodeDecodeError and TOMLDecodeError included
             case = {}
         if case:
             _check_case_agrees(attrs, case, source, path)
@@ -673,7 +676,7 @@ def missing_run_file(run_dir):
     case = os.path.join(run_dir, "case.toml")
     try:   # _read_text: None for no file (or a FIFO); ValueError: TOML or UTF-8 decoding
         measured = tomllib.loads(_read_text(case) or "").get("measure", {}).get("enabled", True)
-    except (ValueError, AttributeError):
+    except (ValueError, AttributeError, RecursionError):
         measured = True
     if measured is False:
         return (f"a run with measure.enabled = false: it wrote no {RUN_FILE}, so there is "

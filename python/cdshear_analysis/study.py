@@ -20,8 +20,8 @@ import json
 import math
 import os
 
-from .rundata import (IDENTITY_KEYS, is_measured_number, is_number, open_regular,
-                      run_info_paths, save_figure, unique_keys)
+from .rundata import (IDENTITY_KEYS, MEASURED_MAGNITUDE_LIMIT, is_measured_number, is_number,
+                      open_regular, run_info_paths, save_figure, unique_keys)
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -53,6 +53,8 @@ def _read_json(path):
         raise StudyError(path, "missing (run `cdshear analyze` on the run first)") from None
     except (OSError, ValueError) as e:
         raise StudyError(path, f"cannot read: {e}") from None
+    except RecursionError:
+        raise StudyError(path, "cannot read: nested too deeply") from None
 
 
 def _number(text):
@@ -175,6 +177,8 @@ def _row(run_dir, key, value, summary, parts):
             row[name] = row[name + "_err"] = math.nan
     com = summary.get("com_vx") or {}
     row["com_vx_std"] = float(com.get("std", math.nan))
+    for path, data in parts:
+        _check_run_figures(path, data)
     cost = run_cost([data for _, data in parts])
     row["mean_sweeps"] = cost["mean_sweeps"]
     row["capped_share"] = cost["capped_steps"] / cost["steps"] if cost["steps"] else math.nan
@@ -185,6 +189,42 @@ def _row(run_dir, key, value, summary, parts):
     row["wall_s_per_time"] = cost["wall_seconds"] / covered if covered > 0 else math.nan
     row["averaged_time"] = averaged_time(summary)   # its weight in `combine`
     return row
+
+
+# The solver figures of a run_info file's summary that the study's table sums; `cdshear run` writes
+# each as a number >= 0 (the counts whole), with no more capped steps than steps.
+_RUN_FIGURES = (("steps", True), ("capped_steps", True), ("mean_sweeps", False),
+                ("wall_seconds", False), ("largest_overlap", False))
+
+
+def _is_run_figure(value, whole):
+    if not is_number(value):
+        return False
+    try:
+        v = float(value)
+    except OverflowError:   # an integer beyond any float
+        return False
+    return 0 <= v <= MEASURED_MAGNITUDE_LIMIT and (not whole or v.is_integer())
+
+
+def _check_run_figures(path, data):
+    """Refuses (StudyError naming the file and key) a run_info file whose figures are not what
+    `cdshear run` writes: a missing, negative, non-finite or textual value would enter the table's
+    sums as a number or as zero."""
+    figures = data.get("summary")
+    if not isinstance(figures, dict):
+        raise StudyError(path, "has no 'summary' object (not a run_info file `cdshear run` wrote)")
+    for key, whole in _RUN_FIGURES:
+        value = figures.get(key)
+        if not _is_run_figure(value, whole):
+            shown = json.dumps(value)
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            kind = "a whole number" if whole else "a number"
+            raise StudyError(path, f"summary.{key} = {shown}: expected {kind} from 0 to "
+                                   f"{MEASURED_MAGNITUDE_LIMIT:g} (what `cdshear run` writes)")
+    if figures["capped_steps"] > figures["steps"]:
+        raise StudyError(path, f"summary.capped_steps = {figures['capped_steps']} is more than "
+                               f"summary.steps = {figures['steps']}")
 
 
 def run_cost(parts):

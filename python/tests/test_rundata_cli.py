@@ -114,6 +114,10 @@ class RunData(unittest.TestCase):
         os.makedirs(stopped)
         with open(os.path.join(stopped, "case.toml"), "wb") as f:
             f.write(b"[system]\nn = 511 # \xff not UTF-8\n")
+        deep = os.path.join(d, "deep")   # stopped, its case.toml nested beyond Python's recursion
+        os.makedirs(deep)
+        with open(os.path.join(deep, "case.toml"), "w") as f:
+            f.write("a = " + "[" * 100000 + "]" * 100000 + "\n")
         cloned = os.path.join(d, "cloned")   # a clone keeps a finished run's summary only
         os.makedirs(cloned)
         with open(os.path.join(cloned, "summary.json"), "w") as f:
@@ -122,6 +126,7 @@ class RunData(unittest.TestCase):
                  ("not_a_run", os.path.join(d, "not_a_run"), "not a run folder (no run.h5)"),
                  ("unmeasured", unmeasured, "measure.enabled = false: it wrote no run.h5"),
                  ("stopped", stopped, "the run stopped before its first checkpoint"),
+                 ("deep", deep, "the run stopped before its first checkpoint"),
                  ("cloned", cloned, "a finished run without its run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),
@@ -131,7 +136,7 @@ class RunData(unittest.TestCase):
         for command in ("analyze", "plot"):
             for name, path, problem in cases:
                 with self.subTest(command=command, case=name):
-                    folders = ("nowhere", "not_a_run", "unmeasured", "stopped", "cloned")
+                    folders = ("nowhere", "not_a_run", "unmeasured", "stopped", "deep", "cloned")
                     folder = path if name in folders else os.path.dirname(path)
                     result = run_module(command, folder)
                     self.assertEqual(result.returncode, 2, result.stderr)
@@ -385,6 +390,16 @@ class SpecialFiles(unittest.TestCase):
         self.fifo("runC", "case.toml")
         result = run_module("analyze", run_dir)
         self.assertEqual(result.returncode, 0, result.stderr)
+
+    def test_analyze_of_a_run_whose_case_toml_cannot_be_decoded_reads_run_h5s_own(self):
+        # run.h5 carries its case; a damaged case.toml beside it is not blamed on run.h5.
+        run_dir = os.path.join(self.tmp.name, "runD")
+        write_synthetic_run(run_dir, kind="A", duration=400.0, seed=4)
+        with open(os.path.join(run_dir, "case.toml"), "wb") as f:
+            f.write(b"\xff\xfe not UTF-8\n")
+        result = run_module("analyze", run_dir)
+        self.assertEqual(result.returncode, 0, result.stderr)
+        self.assertTrue(os.path.isfile(os.path.join(run_dir, "summary.json")))
 
 
 if __name__ == "__main__":

@@ -395,18 +395,36 @@ class StudyTest(unittest.TestCase):
             fake_run(run, 0.30, 0.004, 50.0, 30.0)
             with open(os.path.join(run, "summary.json")) as f:
                 good = json.load(f)
+            with open(os.path.join(run, "run_info.json")) as f:
+                info = json.load(f)["summary"]
             for name, content, problem in (
                     ("summary.json", [1, 2], "summary.json: is not a JSON object"),
                     ("summary.json", dict(good, case={"time": "abc"}), "of the wrong type"),
                     ("summary.json", dict(good, com_vx=3), "of the wrong type"),
                     ("run_info.json", "str", "run_info.json: is not a JSON object"),
-                    ("run_info.json", {"summary": {"steps": "many"}}, "of the wrong type"),
+                    ("run_info.json", {"summary": {"steps": "many"}},
+                     'run_info.json: summary.steps = "many": expected a whole number from 0'),
                     ("summary.json", dict(good, com_vx={"std": 10 ** 400}), "of the wrong type"),
-                    ("run_info.json", {"summary": {"steps": 10 ** 400}}, "of the wrong type")):
+                    ("run_info.json", {"summary": {"steps": 10 ** 400}},
+                     "summary.steps = 1000000000000000000000000000000000000..."),
+                    # figures `cdshear run` never writes, which the sums took as numbers or as 0
+                    ("run_info.json", {"summary": dict(info, wall_seconds=-30.0)},
+                     "summary.wall_seconds = -30.0: expected a number from 0 to 1e+100"),
+                    ("run_info.json", {"summary": dict(info, mean_sweeps="1e9")},
+                     'summary.mean_sweeps = "1e9"'),
+                    ("run_info.json", {"summary": dict(info, steps=12.5)},
+                     "summary.steps = 12.5: expected a whole number"),
+                    ("run_info.json", {"summary": dict(info, capped_steps=2000)},
+                     "summary.capped_steps = 2000 is more than summary.steps = 1000"),
+                    ("run_info.json", {"a": 1}, "run_info.json: has no 'summary' object"),
+                    ("summary.json", "deep", "summary.json: cannot read: nested too deeply")):
                 shutil.rmtree(run)
                 fake_run(run, 0.30, 0.004, 50.0, 30.0)
                 with open(os.path.join(run, name), "w") as f:
-                    json.dump(content, f)
+                    if content == "deep":
+                        f.write("[" * 100000 + "]" * 100000)
+                    else:
+                        json.dump(content, f)
                 with self.assertRaises(study.StudyError) as e:
                     study.collect(d)
                 self.assertIn(problem, f"{e.exception.path}: {e.exception.problem}")
