@@ -554,6 +554,9 @@ d = json.load(open(sys.argv[1])); d['disks_xyr'][0][0] = 1e20
 json.dump(d, open('far_packing.json', 'w'))" "$packing"
 expect_error "key 'disks_xyr[0]': x = 1e+20 is more than a million periods" \
   "$exe" run -q --packing far_packing.json --set measure.enabled=false -o never
+# A sweep's progress lines: below a second they would come at every poll of the runs.
+expect_error "--progress-every: must be 0 (no progress lines) or at least 1 s, got 1e-300" \
+  "$exe" sweep no_campaign.toml --progress-every 1e-300
 # Snapshots: a typo's count of them.
 expect_error "key 'output.snapshot_interval': 1e+299 snapshots over the duration 0.1" \
   "$exe" run -q --packing "$packing" --set shear.duration=0.1 --set output.snapshot_interval=1e-300 -o never

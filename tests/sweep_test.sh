@@ -59,6 +59,12 @@ cp swapped/runs/s1_seed1_V1/final_state.json swapped/runs/s1_seed1_V0.25/final_s
 "$exe" sweep two.toml -o swapped > swapped.out 2>&1 && fail "a swapped final state was accepted"
 grep -q "s1_seed1_V0.25: .*final_state.json is of another run (velocity = 1.0, its case.toml says 0.25)" \
   swapped.out || fail "swapped final state: $(cat swapped.out)"
+# A finished run's case.toml emptied (or only comments) is named, not read as the defaults.
+cp -r "$dir" emptied
+printf '# c\n' > emptied/runs/s1_seed1_V1/case.toml
+"$exe" sweep two.toml -o emptied > emptied.out 2>&1 && fail "an emptied case.toml was accepted"
+grep -q "s1_seed1_V1: .*case.toml: is empty: a run's case.toml holds its whole case" emptied.out ||
+  fail "an emptied case.toml: $(cat emptied.out)"
 # A whole run folder copied into another run's place is neither skipped nor resumed as that run.
 cp -r "$dir" moved
 rm -r moved/runs/s1_seed1_V0.25

@@ -62,6 +62,11 @@ class FolderLock {
 /// The file of a FolderLock, in the folder it guards.
 inline constexpr const char* kFolderLockName = ".cdshear.lock";
 
+/// Why a run folder's case.toml that holds no key is refused (a resume and a sweep alike): read
+/// as a case, it would be the defaults, not the run's case.
+inline constexpr const char* kEmptyRunCaseProblem =
+    "is empty: a run's case.toml holds its whole case (restore it)";
+
 /// The one rule of every command that writes a folder: a folder another cdshear is writing is
 /// refused (FolderLock); a folder holding anything is refused (ConfigError naming it and what it
 /// holds, with `hint` on how to continue) unless `force`. Creates the folder and returns its

@@ -240,8 +240,7 @@ void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
   } catch (const toml::parse_error&) {
     return;  // load_case has read it already; nothing to compare if it cannot be read again
   }
-  if (written.empty())
-    throw ConfigError(file, "", "is empty: a run's case.toml holds its whole case (restore it)");
+  if (written.empty()) throw ConfigError(file, "", kEmptyRunCaseProblem);
   const toml::table resolved = case_to_toml(c);
   for (const std::string& key : keys_missing_from(written, resolved)) {
     std::ostringstream value;

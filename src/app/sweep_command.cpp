@@ -261,7 +261,10 @@ FolderCase folder_case(const fs::path& run_dir) {
   CaseSource source;
   source.file = (run_dir / "case.toml").string();
   try {
-    return {load_case(source), ""};
+    ShearCase c = load_case(source);
+    if (parse_toml_file(source.file).empty())  // the defaults, not the run's case
+      throw ConfigError(source.file, "", kEmptyRunCaseProblem);
+    return {std::move(c), ""};
   } catch (const ConfigError& e) {
     return {std::nullopt, std::string("its case.toml cannot be read: ") + e.what()};
   }
@@ -985,13 +988,15 @@ void register_sweep_command(CLI::App& app) {
   s->add_option_function<double>(
        "--progress-every",
        [args](double seconds) {
-         if (!(seconds >= 0.0) || !std::isfinite(seconds))
-           throw ConfigError("--progress-every", "",
-                             fmt::format("must be a number of seconds >= 0, got {}", seconds));
+         // Below a second the lines would come at every poll of the runs (50 ms).
+         if (!(seconds == 0.0 || seconds >= 1.0) || !std::isfinite(seconds))
+           throw ConfigError(
+               "--progress-every", "",
+               fmt::format("must be 0 (no progress lines) or at least 1 s, got {}", seconds));
          args->progress_every = seconds;
        },
        "seconds between progress lines with a time estimate from the running runs' progress "
-       "(default 600; 0: none)")
+       "(default 600, at least 1; 0: none)")
       ->transform(kNonEmptyNumber)
       ->type_name("SECONDS");
   s->add_flag("--force", args->force,
