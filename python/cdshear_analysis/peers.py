@@ -82,6 +82,10 @@ WALL_CROSSING_TOLERANCE = 0.01
 SOLID_FRACTION_RANGE = (0.01, 1.0)
 
 
+# As cdshear's kMaxPeriodsFromOrigin (src/core/world.hpp).
+MAX_PERIODS_FROM_ORIGIN = 1e6
+
+
 def _check_packing_geometry(packing, xyr, lx, height):
     """What `cdshear`'s read_packing checks of the disks against the cell: the count `n`, the
     diameters within diameter_min to diameter_max, no disk crossing a wall, and a solid fraction
@@ -100,6 +104,14 @@ def _check_packing_geometry(packing, xyr, lx, height):
             i = int(np.argmax(outside))
             raise PeerError("packing", f"disks_xyr[{i}]: diameter {diameters[i]!r} outside "
                                        f"diameter_min to diameter_max ({bounds[0]} to {bounds[1]})")
+    # cdshear refuses a disk more than a million periods from x = 0 (kMaxPeriodsFromOrigin):
+    # its place within the period would be lost to rounding.
+    far = np.abs(xyr[:, 0]) > MAX_PERIODS_FROM_ORIGIN * lx
+    if far.any():
+        i = int(np.argmax(far))
+        raise PeerError("packing", f"disks_xyr[{i}]: x = {xyr[i, 0]!r} is more than a million "
+                                   f"periods (length_x = {lx!r}) from 0: give the disk's place "
+                                   f"within the period")
     y, r = xyr[:, 1], xyr[:, 2]
     crossing = (y - r < -WALL_CROSSING_TOLERANCE) | (y + r > height + WALL_CROSSING_TOLERANCE)
     if crossing.any():

@@ -698,6 +698,12 @@ def load_run(run_dir):
                            else "not a folder (expected a run folder holding run.h5)")
     path = os.path.join(run_dir, RUN_FILE)
     if not os.path.isfile(path):
+        if os.path.lexists(path):   # there, but no file: a folder, a FIFO, a link to nowhere
+            try:
+                problem = f"not a regular file ({kind_of(os.stat(path).st_mode)})"
+            except OSError as e:
+                problem = f"cannot be read: {e.strerror}"
+            raise RunDataError(path, problem)
         raise RunDataError(run_dir, missing_run_file(run_dir))
     if os.path.getsize(path) == 0:
         raise RunDataError(path, "empty file")

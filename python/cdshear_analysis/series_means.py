@@ -37,10 +37,13 @@ def series_means(run_data, after, keys, before=float("inf")):
     time = np.asarray(series["time"], dtype=float)
     chosen = (time > after) & (time <= before)
     count = int(chosen.sum())
+    window = f"after t = {after:g}" + ("" if np.isinf(before) else f" up to t = {before:g}")
     if count == 0:
-        window = f"after t = {after:g}" + ("" if np.isinf(before) else f" up to t = {before:g}")
         raise SeriesError(f"no sample {window} (samples from t = {time.min():g} to {time.max():g})"
                           if time.size else "the run has no samples")
+    if count == 1:   # a mean without an error bar would be printed as "+- nan"
+        raise SeriesError(f"one sample {window}: a mean's error needs at least two "
+                          f"(samples from t = {time.min():g} to {time.max():g})")
     out = {}
     for key in keys:
         if key not in series:

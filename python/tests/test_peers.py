@@ -156,7 +156,10 @@ class PackingToLammps(unittest.TestCase):
                                      (dict(diameter_min=0), "diameter_min and diameter_max"),
                                      (dict(diameter_max=0.85), r"disks_xyr\[0\]: diameter 0.9"),
                                      (dict(disks_xyr=[[1.0, 3.9, 0.5]], n=1),
-                                      r"disks_xyr\[0\] crosses a wall")):
+                                      r"disks_xyr\[0\] crosses a wall"),
+                                     (dict(disks_xyr=[[1e20, 0.45, 0.45]], n=1),
+                                      r"disks_xyr\[0\]: x = 1e\+20 is more than a million "
+                                      r"periods")):
                 with open(bad, "w") as f:
                     json.dump(dict(PACKING, **changed), f)
                 with self.assertRaisesRegex(PeerError, problem):

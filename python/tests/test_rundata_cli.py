@@ -118,6 +118,11 @@ class RunData(unittest.TestCase):
         os.makedirs(deep)
         with open(os.path.join(deep, "case.toml"), "w") as f:
             f.write("a = " + "[" * 100000 + "]" * 100000 + "\n")
+        looped = os.path.join(d, "looped")   # run.h5 a link to itself: named with the reason
+        os.makedirs(looped)
+        os.symlink("run.h5", os.path.join(looped, "run.h5"))
+        foldered = os.path.join(d, "foldered")   # a folder in run.h5's place
+        os.makedirs(os.path.join(foldered, "run.h5"))
         cloned = os.path.join(d, "cloned")   # a clone keeps a finished run's summary only
         os.makedirs(cloned)
         with open(os.path.join(cloned, "summary.json"), "w") as f:
@@ -127,6 +132,9 @@ class RunData(unittest.TestCase):
                  ("unmeasured", unmeasured, "measure.enabled = false: it wrote no run.h5"),
                  ("stopped", stopped, "the run stopped before its first checkpoint"),
                  ("deep", deep, "the run stopped before its first checkpoint"),
+                 ("looped", os.path.join(looped, "run.h5"),
+                  "cannot be read: Too many levels of symbolic links"),
+                 ("foldered", os.path.join(foldered, "run.h5"), "not a regular file (a folder)"),
                  ("cloned", cloned, "a finished run without its run.h5"),
                  ("empty", os.path.join(d, "empty", "run.h5"), "empty file"),
                  ("text", os.path.join(d, "text", "run.h5"), "HDF5"),

@@ -77,6 +77,11 @@ class SeriesMeans(unittest.TestCase):
         with self.assertRaises(SeriesError) as e:
             series_means(self.run_data, last, ["height"])
         self.assertIn("no sample after", e.exception.problem)
+        # one sample: a mean with no error bar, which used to print as "+- nan"
+        next_to_last = float(np.asarray(self.run_data["series"]["time"])[-2])
+        with self.assertRaises(SeriesError) as e:
+            series_means(self.run_data, next_to_last, ["height"])
+        self.assertIn("one sample after", e.exception.problem)
         with self.assertRaises(SeriesError) as e:
             series_means(self.run_data, 0.0, ["no_such_series"])
         self.assertIn("no series 'no_such_series'", e.exception.problem)
