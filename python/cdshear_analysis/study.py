@@ -177,9 +177,7 @@ def _row(run_dir, key, value, summary, parts):
             row[name] = row[name + "_err"] = math.nan
     com = summary.get("com_vx") or {}
     row["com_vx_std"] = float(com.get("std", math.nan))
-    for path, data in parts:
-        _check_run_figures(path, data)
-    cost = run_cost([data for _, data in parts])
+    cost = run_cost(parts)
     row["mean_sweeps"] = cost["mean_sweeps"]
     row["capped_share"] = cost["capped_steps"] / cost["steps"] if cost["steps"] else math.nan
     row["largest_overlap"] = cost["largest_overlap"]
@@ -228,22 +226,23 @@ def _check_run_figures(path, data):
 
 
 def run_cost(parts):
-    """The solver figures and the wall time of a run over its recorded sittings (the parsed
-    run_info files, rundata.run_info_paths), each of which reports only the steps it ran. Mean
-    sweeps are weighted by steps; simulated_time is the sum of steps times dt (NaN where a
-    record gives no dt)."""
+    """The solver figures and the wall time of a run over its recorded sittings ((path, parsed
+    run_info file) pairs, rundata.run_info_paths), each of which reports only the steps it ran;
+    each record's figures checked first (_check_run_figures). Mean sweeps are weighted by steps;
+    simulated_time is the sum of steps times dt (NaN where a record gives no dt)."""
     steps = capped = sweeps = wall = simulated = 0.0
     overlap = math.nan
-    for part in parts:
-        p = part.get("summary", {})
-        n = float(p.get("steps", 0) or 0)
+    for path, part in parts:
+        _check_run_figures(path, part)
+        p = part["summary"]
+        n = float(p["steps"])
         steps += n
-        capped += float(p.get("capped_steps", 0) or 0)
-        sweeps += n * float(p.get("mean_sweeps", 0) or 0)
-        wall += float(p.get("wall_seconds", 0) or 0)
+        capped += float(p["capped_steps"])
+        sweeps += n * float(p["mean_sweeps"])
+        wall += float(p["wall_seconds"])
         dt = part.get("dt")
         simulated += n * float(dt) if is_number(dt) else math.nan
-        o = float(p.get("largest_overlap", math.nan))
+        o = float(p["largest_overlap"])
         overlap = o if math.isnan(overlap) else max(overlap, o)
     return {"steps": steps, "capped_steps": capped, "wall_seconds": wall,
             "simulated_time": simulated,
