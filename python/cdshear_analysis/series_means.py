@@ -83,22 +83,19 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         sides = [os.path.join(check_dir, name, side) for side in ("a", "b")]
         if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):
             continue
-        start_file = os.path.join(sides[0], "paired_check.start")
+        pair = os.path.join(check_dir, name)
+        start = _read_start(os.path.join(sides[0], "paired_check.start"))
+        b_start_file = os.path.join(sides[1], "paired_check.start")
+        if os.path.lexists(b_start_file) and (b_start := _read_start(b_start_file)) != start:
+            raise SeriesError(f"{pair}: b/ started at t = {b_start:g}, a/ at t = {start:g}: "
+                              "not resumed from one checkpoint")
         try:
-            with open_regular(start_file, encoding="utf-8") as f:
-                text = f.read().strip()
-        except (OSError, ValueError) as e:
-            raise SeriesError(f"{start_file}: cannot read: {e}") from None
-        try:
-            start = float(text)
-        except ValueError:
-            start = math.nan
-        if not math.isfinite(start):
-            raise SeriesError(f"{start_file}: {text!r} is not a time")
-        try:
-            a, b = (series_means(load(d), start, keys) for d in sides)
+            runs = [load(d) for d in sides]
+            a, b = (series_means(run, start, keys) for run in runs)
         except SeriesError as e:
-            raise SeriesError(f"{os.path.join(check_dir, name)}: {e.problem}") from None
+            raise SeriesError(f"{pair}: {e.problem}") from None
+        if problem := _history_difference(runs, start, keys):
+            raise SeriesError(f"{pair}: {problem}: not resumed from one checkpoint")
         for key in keys:
             diffs[key].append(b[key][0] - a[key][0])
             bases[key].append(a[key][0])
@@ -111,6 +108,42 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         err = float(np.std(d, ddof=1) / math.sqrt(pairs)) if pairs > 1 else math.nan
         out[key] = (float(np.mean(bases[key])), float(np.mean(d)), err)
     return out, pairs
+
+
+def _read_start(start_file):
+    """The time in a side's paired_check.start."""
+    try:
+        with open_regular(start_file, encoding="utf-8") as f:
+            text = f.read().strip()
+    except (OSError, ValueError) as e:
+        raise SeriesError(f"{start_file}: cannot read: {e}") from None
+    try:
+        start = float(text)
+    except ValueError:
+        start = math.nan
+    if not math.isfinite(start):
+        raise SeriesError(f"{start_file}: {text!r} is not a time")
+    return start
+
+
+def _history_difference(runs, start, keys):
+    """How the two sides' series differ up to the start, or None. Both sides resume one copied
+    checkpoint, so what run.h5 holds up to that time is the original run's, sample for sample;
+    sides that differ there are two runs' (another seed, velocity or system), and their
+    difference would be the cases', not the executables' or settings'."""
+    kept = []
+    for run in runs:
+        time = np.asarray(run["series"]["time"], dtype=float)
+        kept.append((time <= start, time))
+    (chosen_a, time_a), (chosen_b, time_b) = kept
+    if not np.array_equal(time_a[chosen_a], time_b[chosen_b]):
+        return f"a/ and b/ have other sample times up to t = {start:g}"
+    for key in keys:
+        values = [np.asarray(run["series"][key], dtype=float)[chosen]
+                  for run, (chosen, _) in zip(runs, kept)]
+        if not np.array_equal(values[0], values[1], equal_nan=True):
+            return f"a/ and b/ differ in '{key}' up to t = {start:g}"
+    return None
 
 
 def format_paired_differences(result):

@@ -179,6 +179,41 @@ class PairedDifferences(unittest.TestCase):
             with self.assertRaisesRegex(SeriesError, f"{start}: cannot read: .*FIFO"):
                 paired_differences(d, ("x",), load=lambda folder: runs[folder])
 
+    def test_sides_not_resumed_from_one_checkpoint_are_refused(self):
+        # Two runs' folders put side by side as a pair (another velocity, say) differ before the
+        # start; their difference would be the cases', so the pair is refused, naming it.
+        with tempfile.TemporaryDirectory() as d:
+            pair = os.path.join(d, "1_seed1")
+            runs = {}
+            for side in ("a", "b"):
+                folder = os.path.join(pair, side)
+                os.makedirs(folder)
+                open(os.path.join(folder, "paired_check.done"), "w").close()
+                with open(os.path.join(folder, "paired_check.start"), "w") as f:
+                    f.write("5\n")
+                t = np.arange(0.5, 10.0, 0.5)
+                runs[folder] = {"series": {"time": t, "x": np.where(t > 5.0, 2.0, 1.0)}}
+
+            def pairs():
+                return paired_differences(d, ("x",), load=lambda folder: runs[folder])
+
+            self.assertEqual(pairs()[1], 1)   # one shared history: accepted
+            b = os.path.join(pair, "b")
+            runs[b]["series"]["x"] = np.where(runs[b]["series"]["time"] > 5.0, 2.0, 1.5)
+            with self.assertRaisesRegex(SeriesError, f"^{pair}: a/ and b/ differ in 'x' up to "
+                                        "t = 5: not resumed from one checkpoint"):
+                pairs()
+            runs[b]["series"] = {"time": np.arange(0.25, 10.0, 0.5), "x": np.ones(20)}
+            with self.assertRaisesRegex(SeriesError, "other sample times up to t = 5"):
+                pairs()
+            runs[b]["series"] = dict(runs[os.path.join(pair, "a")]["series"])
+            self.assertEqual(pairs()[1], 1)
+            with open(os.path.join(b, "paired_check.start"), "w") as f:
+                f.write("6\n")
+            with self.assertRaisesRegex(SeriesError, f"^{pair}: b/ started at t = 6, a/ at "
+                                        "t = 5: not resumed"):
+                pairs()
+
 
 if __name__ == "__main__":
     unittest.main()
