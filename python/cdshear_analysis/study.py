@@ -93,6 +93,19 @@ def read_run(run_dir, key, value):
             from None
 
 
+def folder_name_problem(key, text):
+    """Why a run folder's name `KEY=TEXT` names no case setting, or None: KEY must be a dotted
+    key of non-empty parts (`solver.max_sweeps`), and TEXT, when it reads as a number, a finite
+    one (no case key takes nan or inf)."""
+    if not key or not all(part and all(c.isalnum() or c in "_-" for c in part)
+                          for part in key.split(".")):
+        return f"{key!r} before '=' is not a case key (such as solver.max_sweeps)"
+    value = _number(text)
+    if value is not None and not math.isfinite(value):
+        return f"{key} = {text}: not a finite number, which no case key takes"
+    return None
+
+
 def setting_problem(run_dir, key, text):
     """Why the run in the folder `KEY=TEXT` does not hold KEY = TEXT in its case.toml (a run
     copied or renamed into the wrong folder), or None; None too without a case.toml or with a
@@ -339,6 +352,8 @@ def collect(study_dir, skipped=None):
                 skipped.append(name)
             continue
         key, text = name.split("=", 1)
+        if why := folder_name_problem(key, text):
+            raise StudyError(path, why)
         if why := setting_problem(path, key, text):
             raise StudyError(path, why)
         value = _number(text)

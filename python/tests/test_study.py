@@ -441,6 +441,21 @@ class StudyTest(unittest.TestCase):
             with open(os.path.join(run, "case.toml"), "w") as f:
                 f.write("[solver]\nmax_sweeps = 50\n")
             self.assertEqual(len(study.collect(d)), 2)
+            # A folder name that names no setting, or a value no case key takes.
+            for bad, problem in (("=50", "'' before '=' is not a case key"),
+                                 ("solver..max_sweeps=50", "'solver..max_sweeps' before '='"),
+                                 ("solver max_sweeps=50", "'solver max_sweeps' before '='"),
+                                 ("solver.relaxation=nan", "solver.relaxation = nan: not a "
+                                  "finite number"),
+                                 ("solver.relaxation=-inf", "= -inf: not a finite number")):
+                os.rename(run, os.path.join(d, bad))
+                run = os.path.join(d, bad)
+                with self.assertRaises(study.StudyError) as e:
+                    study.collect(d)
+                self.assertEqual(e.exception.path, run)
+                self.assertIn(problem, e.exception.problem)
+            os.rename(run, os.path.join(d, "solver.max_sweeps=50"))
+            run = os.path.join(d, "solver.max_sweeps=50")
             # Outputs that cannot be written: exit 1 naming them, no traceback.
             os.mkdir(os.path.join(d, "study.csv"))
             with redirect_stderr(io.StringIO()) as err, redirect_stdout(io.StringIO()):
