@@ -368,10 +368,12 @@ def main(argv=None):
 
         report = None
         out_dir = args.out_dir or os.path.join(args.campaign_dir, "report")
-        if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        if os.path.lexists(out_dir) and not os.path.isdir(out_dir):
             # Refused before the campaign is read: a report goes into a folder.
-            print(f"error: {out_dir}: -o: is a file, not a folder (the report writes runs.md, "
-                  "runs.csv, fits.json, index.html and figures/ into it)", file=sys.stderr)
+            from .rundata import what_is
+            print(f"error: {out_dir}: -o: is {what_is(out_dir)}, not a folder (the report "
+                  "writes runs.md, runs.csv, fits.json, index.html and figures/ into it)",
+                  file=sys.stderr)
             return 2
         try:
             report = collect(args.campaign_dir)

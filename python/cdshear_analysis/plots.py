@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection, LineCollection  # noqa: E402
 
-from .rundata import RunDataError, run_files_in, save_figure  # noqa: E402
+from .rundata import RunDataError, run_files_in, save_figure, what_is  # noqa: E402
 
 DPI = 120
 MAX_PROFILES = 10          # velocity profiles drawn at most
@@ -265,7 +265,10 @@ def check_figure_folder(run_dir, out_dir):
     """Raises RunDataError when out_dir is another run's folder or that run's figures/ folder:
     the figures written there would replace that run's own (its figures/ is where `cdshear sweep`
     looks for them), or a campaign's runs/ folder or a new folder in it (a report reads each folder
-    there as a run's). The run's own folder and anything else are accepted."""
+    there as a run's), or something other than a folder (a file, /dev/null, a link that leads
+    nowhere or into a loop). The run's own folder and anything else are accepted."""
+    if os.path.lexists(out_dir) and not os.path.isdir(out_dir):
+        raise RunDataError(out_dir, f"-o: is {what_is(out_dir)}, not a folder")
     own = os.path.realpath(run_dir)
     where = os.path.realpath(out_dir)
     for runs in (where, os.path.dirname(where)):

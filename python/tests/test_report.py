@@ -153,6 +153,19 @@ class ReportTest(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(self.d, "runs", "new")))
         self.assertFalse(os.path.exists(os.path.join(self.d, "runs", "runs.csv")))
         self.assertEqual(os.listdir(other_run), ["summary.json"])
+        # no folder: named as what it is (a link into a loop said "cannot write" after the
+        # whole report was made)
+        loop = os.path.join(self.d, "loop")
+        os.symlink(loop, loop)
+        for out, what in ((os.devnull, "a device or socket"),
+                          (os.path.join(self.d, "campaign.toml"), "a file"),
+                          (loop, "a link that cannot be followed")):
+            err = io.StringIO()
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+                self.assertEqual(cli_main(["report", self.d, "-o", out]), 2, out)
+            self.assertIn(f"error: {out}: -o: is {what}", err.getvalue())
+            self.assertIn("not a folder", err.getvalue())
+        os.remove(loop)
         # elsewhere, the same report is written
         self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "elsewhere")]), 0)
 

@@ -214,6 +214,18 @@ class EndToEnd(unittest.TestCase):
                     self.assertIn(f"holds {RUN_FILE}", result.stderr)
                     self.assertEqual(os.listdir(os.path.join(other, "figures")), [])
                     self.assertFalse(any(f.endswith(".png") for f in os.listdir(other)))
+            # Not a folder: named as what it is, where making the folder said "File exists".
+            loop = os.path.join(d, "loop")
+            os.symlink(loop, loop)
+            a_file = os.path.join(d, "a_file")
+            open(a_file, "w").close()
+            for target, what in ((os.devnull, "a device or socket"), (a_file, "a file"),
+                                 (loop, "a link that cannot be followed")):
+                with self.subTest(target=target):
+                    result = run_module("plot", run_dir, "-o", target)
+                    self.assertEqual(result.returncode, 2, result.stderr)
+                    self.assertIn(f"error: {target}: -o: is {what}", result.stderr)
+                    self.assertIn("not a folder", result.stderr)
             # A campaign's runs/ folder holds runs only: figures there would be listed as one.
             campaign = os.path.join(d, "campaign")
             os.makedirs(os.path.join(campaign, "runs"))
