@@ -151,8 +151,12 @@ def main(argv=None):
         except (ReportError, PeerError) as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
-        for run, why in peers.skipped:
+        for run, why in campaign.skipped + peers.skipped:
             print(f"left out: {run}: {why}")
+        if not items:
+            print(f"error: {args.lammps_folder}: no LAMMPS run beside an analysed run of "
+                  f"{args.campaign}: nothing to compare", file=sys.stderr)
+            return 2
         print(format_campaigns(items, args.campaign, "LAMMPS"))
         return 0
 
@@ -163,6 +167,9 @@ def main(argv=None):
         try:
             if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
                 raise ReportError("--until", f"must be a time > 0, got {args.until:g}")
+            if os.path.realpath(args.campaign_a) == os.path.realpath(args.campaign_b):
+                raise ReportError(args.campaign_b, f"is {args.campaign_a} again: a campaign "
+                                                   "compared with itself differs by nothing")
             a = load_campaign(args.campaign_a, args.until)
             b = load_campaign(args.campaign_b, args.until)
         except ReportError as e:
@@ -244,8 +251,8 @@ def main(argv=None):
 
     if args.command == "switch-times":
         from .rundata import RunDataError, output_problem
-        from .switch_statistics import (compare_groups, format_table, group_statistics,
-                                        run_switches)
+        from .switch_statistics import (compare_groups, format_table, group_problem,
+                                        group_statistics, repeated_folder, run_switches)
         if args.json is not None and (why := output_problem(
                 args.json, list(args.run_dirs) + list(args.against or []))):
             print(f"error: {args.json}: --json: {why}", file=sys.stderr)
@@ -256,6 +263,13 @@ def main(argv=None):
         except RunDataError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
+        both = list(args.run_dirs) + list(args.against or [])
+        for problem in (group_problem(runs, args.run_dirs),
+                        group_problem(against, args.against or []),
+                        repeated_folder(both)):   # a run in both groups
+            if problem:
+                print(f"error: {problem}", file=sys.stderr)
+                return 2
         comparison = compare_groups(runs, against) if against else None
         print(format_table(runs, against, comparison))
         if args.json:
@@ -269,16 +283,21 @@ def main(argv=None):
     if args.command == "profile-decay":
         import json
         from .relaxation import bulk_law_problem, decay_against_diffusion, format_decay_table
-        from .report import ReportError, read_json, read_summary
+        from .report import ReportError, identity_problem, read_json, read_summary
         from .rundata import output_problem
         from .summary import SUMMARY_FORMAT
+        from .switch_statistics import repeated_folder
         summaries = []
         try:
+            if repeated := repeated_folder(args.run_dirs):
+                raise ReportError("run_dirs", repeated)
             for run_dir in args.run_dirs:
                 data = read_summary(run_dir)
                 path = os.path.join(run_dir, "summary.json")
                 if not isinstance(data, dict) or data.get("format") != SUMMARY_FORMAT:
                     raise ReportError(path, "not a cdshear summary")
+                if other := identity_problem(run_dir, data):
+                    raise ReportError(path, other)
                 data["run"] = os.path.basename(os.path.normpath(run_dir))
                 summaries.append(data)
             fits = read_json(args.fits)

@@ -11,6 +11,7 @@ is of an older version is left out (listed in `skipped`), where `cdshear report`
 it again from run.h5.
 """
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,14 +81,21 @@ COMPARED = ("mu_eff_wall", "mu_eff_bulk", "nu_bulk", "Z_bulk", "I_bulk", "L_y", 
             "com_vx_std")
 
 
+# The case values besides V and n that a run and its namesake must share to be compared: the
+# row's key and the summary's name for it (report.read_run).
+CASE_KEYS = (("_sigma_yy", "normal_stress"), ("_height", "height"),
+             ("_initial_velocity", "initial_velocity"))
+
+
 def compare_campaigns(a, b, quantities=COMPARED, until=None):
     """The runs of campaign b that campaign a has too (the same run name: system, seed, V),
     compared quantity by quantity: a list of {"run", "system", "V", "time_a", "time_b" (the times
     the two analyses reached), "regime_a", "regime_b", "<q>": {"a", "b", "diff" (b - a),
     "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is missing)}}. A run
-    whose two cases differ in V or in the number of disks is not compared: its item holds
-    "mismatch" (the reason) and no quantity. a and b are Campaign objects or folders; folders are
-    read with `until` (load_campaign)."""
+    whose two cases differ in V, the number of disks, the normal stress, the height or the
+    initial velocity (the last three where both rows hold them), or whose two folders are one,
+    is not compared: its item holds "mismatch" (the reason) and no quantity. a and b are
+    Campaign objects or folders; folders are read with `until` (load_campaign)."""
     a = a if isinstance(a, Campaign) else load_campaign(a, until)
     b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
@@ -101,6 +109,13 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
                 "regime_a": ra.get("regime"), "regime_b": rb.get("regime")}
         differ = [f"{key} {ra.get(key)} in a, {rb.get(key)} in b" for key in ("V", "n")
                   if ra.get(key) != rb.get(key)]
+        # compared where both summaries hold them (not a LAMMPS run's row, nor an older summary)
+        differ += [f"{name} {ra[key]} in a, {rb[key]} in b" for key, name in CASE_KEYS
+                   if ra.get(key) is not None and rb.get(key) is not None
+                   and ra[key] != rb[key]]
+        if os.path.realpath(os.path.join(a.folder, "runs", rb["run"])) == \
+                os.path.realpath(os.path.join(b.folder, "runs", rb["run"])):
+            differ.append("one run folder in both campaigns (a link)")
         if differ:
             item["mismatch"] = "; ".join(differ)
             out.append(item)

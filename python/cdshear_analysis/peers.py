@@ -32,7 +32,7 @@ import tomllib
 
 import numpy as np
 
-from .rundata import is_number, open_regular, unique_keys, write_text_atomically
+from .rundata import is_number, open_regular, unique_keys, what_is, write_text_atomically
 from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -486,13 +486,23 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
         raise PeerError(meta_path, f"cannot read the run's record: {e}") from e
     if not isinstance(meta, dict):
         raise PeerError(meta_path, "the run's record is not a JSON object")
-    wall_radius = read_vars(os.path.join(run_dir, "packing.data.vars")).get("wall_radius")
+    name = os.path.basename(os.path.normpath(run_dir))
+    if meta.get("run", name) != name:   # the script writes the folder's name
+        raise PeerError(meta_path, f"is the record of run {meta.get('run')!r}, not of {name!r} "
+                                   "(a run.json copied from another run's folder)")
+    for key in ("velocity", "duration"):
+        if not (is_number(meta.get(key)) and math.isfinite(meta[key]) and meta[key] > 0):
+            raise PeerError(meta_path, f"{key} = {meta.get(key)!r}: expected a number > 0 "
+                                       "(lammps_campaign.sh writes the run's)")
+    variables = read_vars(os.path.join(run_dir, "packing.data.vars"))
+    wall_radius, n_grains = variables.get("wall_radius"), variables.get("n_grains")
     if wall_radius is None:
         raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
     series_path = os.path.join(run_dir, "lammps", "series.txt")
     series = lammps_series(series_path)
     est = estimates_after(series, start_time, series_path)
-    row = {"run": meta.get("run", os.path.basename(run_dir)), "V": meta.get("velocity"),
+    row = {"run": name, "V": meta["velocity"], "duration": meta["duration"],
+           "n": int(n_grains) if n_grains is not None and float(n_grains).is_integer() else None,
            "kappa": meta.get("kappa"), "mu_eff_wall": est["mu_eff"],
            "mu_eff_wall_err": est["mu_eff_err"], "L_y": est["height"],
            "L_y_err": est["height_err"], "solid_fraction": est["solid_fraction"],
@@ -538,6 +548,10 @@ def lammps_campaign(lammps_folder, campaign):
     from .campaign import Campaign, _column, load_campaign
     from .report import ReportError, read_summary
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
+    if not os.path.isdir(lammps_folder):
+        raise PeerError(lammps_folder, f"is {what_is(lammps_folder)}, not the folder of the LAMMPS "
+                                       "runs" if os.path.lexists(lammps_folder) else
+                        "no such folder (the OUT of bench/peers/lammps_campaign.sh)")
     rows, skipped = [], []
     for ref in campaign.rows:
         run_dir = os.path.join(lammps_folder, ref["run"])
@@ -568,6 +582,12 @@ def lammps_campaign(lammps_folder, campaign):
                                         "measure.window > 0 to average the LAMMPS run as it"))
             continue
         row = lammps_run_row(run_dir, float(start), ref.get("bulk_h"), float(dy), float(window))
+        if not (_positive_number(ref.get("duration"))
+                and math.isclose(row["duration"], ref["duration"], rel_tol=1e-9)):
+            skipped.append((ref["run"], f"LAMMPS ran {row['duration']:g} t, the campaign's run "
+                                        f"{ref.get('duration')} t: their averages would cover "
+                                        "other times"))
+            continue
         row.update(system=ref.get("system"), seed=ref.get("seed"), regime="not classified")
         rows.append(row)
     keys = sorted({k for r in rows for k in r})

@@ -231,6 +231,27 @@ def identity_problem(run_dir, s):
     return None
 
 
+def run_file_identity_problem(run, run_dir):
+    """None when the loaded run.h5 (rundata.load_run) belongs to RUN_DIR: the case it holds
+    (its case_toml) has the seed and the identity of RUN_DIR/case.toml where both give them;
+    else why not, for a run.h5 copied from another run's folder (the summary's own check,
+    identity_problem, cannot see it where run.h5 is analysed afresh)."""
+    try:
+        with open_regular(os.path.join(run_dir, "case.toml"), encoding="utf-8") as f:
+            folder_case = tomllib.loads(f.read())
+    except (OSError, ValueError, RecursionError):
+        return None
+    held = run.get("case") or {}
+    for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
+                                                     if k != "duration"):
+        mine, theirs = (c.get(table, {}).get(key) if isinstance(c.get(table), dict) else None
+                        for c in (folder_case, held))
+        if mine is not None and theirs is not None and mine != theirs:
+            return f"{RUN_FILE} is of another run ({table}.{key} = {theirs!r}, the folder's " \
+                   f"case.toml says {mine!r})"
+    return None
+
+
 def reanalyse(run_dir):
     """Analyse RUN_DIR/run.h5 again and rewrite RUN_DIR/summary.json, as `cdshear analyze`
     does (rundata.load_run, summary.analyze, summary.write_summary), and redraw the run's
@@ -290,6 +311,9 @@ def read_run(run_dir, s=None):
         row[col] = _non_negative(_entry(s, *keys))
     # for transitions.predictions (not in runs.csv): sigma_yy and the switches
     row["_sigma_yy"] = _finite(case.get("normal_stress"))
+    # the rest of the case that two campaigns' namesakes must share (campaign.compare_campaigns)
+    row["_height"] = _finite(case.get("height"))
+    row["_initial_velocity"] = _text(case.get("initial_velocity"))
     # the time the run's averages cover, its weight among the seeds of one point of a fit
     # (fitting.combine; NaN when the summary does not say where the averaging starts)
     row["_averaged_time"] = averaged_time(s)
@@ -422,6 +446,8 @@ def summary_until(run_dir, time):
         run = load_run(run_dir)
     except RunDataError as e:
         return None, f"its run data cannot be read: {e.problem}"
+    if other := run_file_identity_problem(run, run_dir):
+        return None, other
     reached = float(run["attrs"]["time"])
     if reached < time * (1 - 1e-9):
         return None, f"reached t = {reached:.6g} only, before {time:g}"

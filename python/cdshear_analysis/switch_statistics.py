@@ -57,14 +57,47 @@ def run_switches(run_dir):
     V = float(attrs["velocity"])
     whole = rg.whole_run_switches(time, rg.band_switches(time, u, V, source=source),
                                   s["height"])
-    return _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole)
+    case = {key: float(attrs[key]) for key in CASE_KEYS}
+    return _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole,
+                   case)
 
 
-def _record(run_dir, V, finished, duration, whole):
+# The case values the runs of one group share (a group is the seeds of one system, at one or
+# several V): the grain count, the cell's nominal height and the normal stress.
+CASE_KEYS = ("n", "height", "normal_stress")
+
+
+def _record(run_dir, V, finished, duration, whole, case):
     return {"run": os.path.basename(os.path.normpath(run_dir)), "V": V, "L_y": whole["L_y"],
             "time": whole["time"], "finished": finished, "duration": duration,
             "switches": len(whole["starts"]), "switch_times": whole["switch_times"],
-            "starts": whole["starts"]}
+            "starts": whole["starts"], **case}
+
+
+def repeated_folder(dirs):
+    """Why the run folders `dirs` cannot be pooled as distinct runs (one given twice, by another
+    path or through a link), or None."""
+    seen = {}
+    for d in dirs:
+        where = os.path.realpath(d)
+        if where in seen:
+            return f"{d} is {seen[where]} again: each run counts once"
+        seen[where] = d
+    return None
+
+
+def group_problem(runs, dirs):
+    """Why the runs of one group (run_switches records, read from `dirs`) cannot be pooled, or
+    None: a folder given twice (repeated_folder), or runs of another system or normal stress
+    (CASE_KEYS) than the first's."""
+    if repeated := repeated_folder(dirs):
+        return repeated
+    for run, d in zip(runs, dirs):
+        for key in CASE_KEYS:
+            if run[key] != runs[0][key]:
+                return (f"{d} has {key} {run[key]:g}, {dirs[0]} {runs[0][key]:g}: a group pools "
+                        "the seeds of one system and normal stress")
+    return None
 
 
 def summary_switches(run_dir):
@@ -72,7 +105,7 @@ def summary_switches(run_dir):
     analysis that wrote it searched the whole series of run.h5) and its case's velocity,
     duration and finished flag. Raises rundata.RunDataError naming the file and the key that
     is missing or not what it should be."""
-    from .report import ReportError, read_summary, summary_state
+    from .report import ReportError, identity_problem, read_summary, summary_state
     path = os.path.join(run_dir, "summary.json")
     try:
         summary = read_summary(run_dir)
@@ -103,6 +136,11 @@ def summary_switches(run_dir):
         raise bad("case.duration", f"{duration!r}, not a finite positive number")
     if not isinstance(finished, bool):
         raise bad("case.finished", f"{finished!r}, not true or false")
+    for key in CASE_KEYS:
+        if not (is_measured_number(case.get(key)) and case[key] > 0):
+            raise bad(f"case.{key}", f"{case.get(key)!r}, not a finite positive number")
+    if other := identity_problem(run_dir, summary):
+        raise RunDataError(path, f"no {RUN_FILE} beside it, and {other}")
     if not isinstance(whole, dict):
         raise bad("whole_run_switches", "not an object")
     span, height = whole.get("time"), whole.get("L_y")
@@ -122,7 +160,8 @@ def summary_switches(run_dir):
     whole = {"time": float(span), "L_y": math.nan if height is None else float(height),
              "switch_times": [None if t is None else float(t) for t in times],
              "starts": [float(t) for t in starts]}
-    return _record(run_dir, float(V), finished, float(duration), whole)
+    return _record(run_dir, float(V), finished, float(duration), whole,
+                   {key: float(case[key]) for key in CASE_KEYS})
 
 
 def _timed(runs, per_velocity=False):

@@ -4,6 +4,7 @@ import contextlib
 import csv
 import io
 import json
+import shutil
 import math
 import os
 import re
@@ -106,6 +107,47 @@ class CompareCampaigns(unittest.TestCase):
             self.assertEqual((items[0]["regime_a"], items[0]["regime_b"]), ("A", "B"))
             self.assertEqual(main(["campaign-compare", a, b]), 0)
             self.assertEqual(main(["campaign-compare", a, os.path.join(d, "none")]), 2)
+
+    def test_runs_of_other_cases_one_folder_or_one_campaign_are_not_compared(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            for name in ("s1_seed1_V1", "s1_seed2_V1", "s1_seed3_V1", "s1_seed4_V1"):
+                fake_summary(os.path.join(a, "runs", name), 1.0, 0.05, 0.30, 0.80, 3.0)
+                if name != "s1_seed4_V1":
+                    fake_summary(os.path.join(b, "runs", name), 1.0, 0.05, 0.31, 0.80, 3.0)
+            # b's seed 4 is a's own folder, linked; seeds 2 and 3 are of another case
+            os.symlink(os.path.join(a, "runs", "s1_seed4_V1"),
+                       os.path.join(b, "runs", "s1_seed4_V1"))
+            for name, key, value in (("s1_seed2_V1", "normal_stress", 0.5),
+                                     ("s1_seed3_V1", "initial_velocity", "rest")):
+                path = os.path.join(b, "runs", name, "summary.json")
+                with open(path) as f:
+                    summary = json.load(f)
+                summary["case"][key] = value
+                with open(path, "w") as f:
+                    json.dump(summary, f)
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertNotIn("mismatch", items["s1_seed1_V1"])
+            self.assertEqual(items["s1_seed2_V1"]["mismatch"], "normal_stress 0.25 in a, 0.5 in b")
+            # a's summaries say nothing of the initial velocity (older ones): not compared
+            self.assertNotIn("mismatch", items["s1_seed3_V1"])
+            path = os.path.join(a, "runs", "s1_seed3_V1", "summary.json")
+            with open(path) as f:
+                summary = json.load(f)
+            summary["case"]["initial_velocity"] = "linear"
+            with open(path, "w") as f:
+                json.dump(summary, f)
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertEqual(items["s1_seed3_V1"]["mismatch"],
+                             "initial_velocity linear in a, rest in b")
+            self.assertEqual(items["s1_seed4_V1"]["mismatch"],
+                             "one run folder in both campaigns (a link)")
+            # One campaign twice, by another path or through a link: refused.
+            os.symlink(a, os.path.join(d, "a_link"))
+            for again in (a, os.path.join(d, "a_link"), os.path.join(a, ".")):
+                with contextlib.redirect_stderr(io.StringIO()) as err:
+                    self.assertEqual(cli_main(["campaign-compare", a, again]), 2)
+                self.assertIn(f"{again}: is {a} again", err.getvalue())
 
     def test_seeds_paired_by_system_and_velocity(self):
         with tempfile.TemporaryDirectory() as d:
@@ -272,3 +314,11 @@ class CompareUntil(unittest.TestCase):
             self.assertEqual(items[0]["mu_eff_wall"]["diff"], 0.0)
             self.assertEqual(main(["campaign-compare", a, b, "--until", "400"]), 0)
             self.assertEqual(main(["campaign-compare", a, b, "--until", "-1"]), 2)
+            # A run.h5 copied from another seed's folder: its summary.json is not read, so
+            # its own case (seed 1) is checked against the folder's (seed 3).
+            third = os.path.join(b, "runs", "s1_seed3_V0.5")
+            write_synthetic_run(third, duration=800.0, seed=3)
+            shutil.copy(os.path.join(b, "runs", "s1_seed1_V0.5", "run.h5"), third)
+            skipped = dict(load_campaign(b, until=400.0).skipped)
+            self.assertEqual(skipped["s1_seed3_V0.5"], "run.h5 is of another run (system.seed "
+                                                       "= 1, the folder's case.toml says 3)")

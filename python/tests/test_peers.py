@@ -316,7 +316,8 @@ def write_lammps_run(folder, name, bulk_rows, mu, top_line=20.0):
     with open(os.path.join(run_dir, "run.json"), "w") as f:
         json.dump({"run": name, "velocity": 0.05, "duration": 100.0, "kappa": 2e4}, f)
     with open(os.path.join(run_dir, "packing.data.vars"), "w") as f:
-        f.write("# test\nvariable wall_radius equal 0.5\nvariable length_x equal 10.0\n")
+        f.write("# test\nvariable wall_radius equal 0.5\nvariable length_x equal 10.0\n"
+                "variable n_grains equal 511\n")
     with open(os.path.join(run_dir, "lammps", "series.txt"), "w") as f:
         f.write("# Time-averaged data\n# TimeStep v_now ...\n")
         for k in range(1, 1001):
@@ -387,7 +388,7 @@ class BesideACampaign(unittest.TestCase):
                 with open(os.path.join(run, "case.toml"), "w") as f:
                     f.write("[measure]\nstripe_thickness = 1.0\n"
                             + ("window = 10.0\n" if k < 4 else ""))
-                cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05,
+                cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05, "n": 511,
                                 "duration": 100.0, "bulk_h": 5.0, "regime": "C",
                                 "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
                                 "L_y_err": 0.01, "nu_bulk": 0.007, "nu_bulk_err": 0.001})
@@ -410,6 +411,38 @@ class BesideACampaign(unittest.TestCase):
             self.assertAlmostEqual(paired["L_y"]["mean"], 0.2, places=10)
             self.assertAlmostEqual(paired["nu_bulk"]["mean"], 0.25 * math.pi / 100 - 0.007,
                                    places=12)
+            # The LAMMPS run's grain count is its packing's: another system's is not paired.
+            cd_rows[0]["n"] = 5119
+            items = compare_campaigns(campaign, lammps_campaign(peers_dir, campaign))
+            self.assertIn("n 5119 in a, 511 in b", items[0]["mismatch"])
+            cd_rows[0]["n"] = 511
+            # A LAMMPS run of another length averages other times: left out, saying so.
+            cd_rows[1]["duration"] = 400.0
+            peers = lammps_campaign(peers_dir, campaign)
+            self.assertEqual([r["run"] for r in peers.rows], ["s1_seed1_V0.05"])
+            self.assertIn(("s1_seed2_V0.05", "LAMMPS ran 100 t, the campaign's run 400.0 t: "
+                           "their averages would cover other times"), peers.skipped)
+            cd_rows[1]["duration"] = 100.0
+            # A run.json copied from another run's folder, or without its velocity.
+            record = os.path.join(peers_dir, "s1_seed2_V0.05", "run.json")
+            for content, problem in (({"run": "s1_seed1_V0.05", "velocity": 0.05,
+                                       "duration": 100.0}, "is the record of run 's1_seed1"),
+                                     ({"run": ["x"], "velocity": 0.05, "duration": 100.0},
+                                      "is the record of run ['x']"),
+                                     ({"run": "s1_seed2_V0.05", "duration": 100.0},
+                                      "velocity = None: expected a number > 0")):
+                with open(record, "w") as f:
+                    json.dump(content, f)
+                with self.assertRaises(PeerError) as caught:
+                    lammps_campaign(peers_dir, campaign)
+                self.assertEqual(caught.exception.path, record)
+                self.assertIn(problem, caught.exception.problem)
+            # No folder of LAMMPS runs: an error, not every run "left out".
+            for folder, problem in ((os.path.join(tmp, "none"), "no such folder"),
+                                    (record, "is a file, not the folder of the LAMMPS runs")):
+                with self.assertRaises(PeerError) as caught:
+                    lammps_campaign(folder, campaign)
+                self.assertIn(problem, caught.exception.problem)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ import io
 import json
 import math
 import os
+import shutil
 import tempfile
 import unittest
 
@@ -235,6 +236,18 @@ class ProfileDecayCommand(unittest.TestCase):
             dmu_dI = 0.89 * 0.81 * I ** (0.81 - 1.0)
             D = dmu_dI * math.sqrt(math.pi / 4 / sigma) * sigma / entry["nu_bulk"]
             self.assertAlmostEqual(entry["T_SS"] / (entry["L_y"] ** 2 / D), 1.0, places=12)
+            # One run given twice, or a summary.json copied from another run's folder.
+            copy = os.path.join(d, "s5_seed7_V2")
+            os.makedirs(copy)
+            shutil.copy(os.path.join(run, "summary.json"), copy)
+            for runs, problem in (([run, run + os.sep], f"{run + os.sep} is {run} again: each "
+                                   "run counts once"),
+                                  ([run, copy], f"{copy}/summary.json: summary.json is of "
+                                   "another run")):
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    self.assertEqual(main(["profile-decay", *runs, "--fits", fits]), 2)
+                self.assertIn(problem, err.getvalue())
             for content in ({"runs": []}, [1, 2], "{"):
                 with open(fits, "w") as f:
                     f.write(content if isinstance(content, str) else json.dumps(content))
@@ -297,18 +310,22 @@ class ProfileDecayCommand(unittest.TestCase):
                 self.assertIn(problem, err.getvalue())
             with open(fits, "w") as f:
                 json.dump({"fits": {"mu_power": LAW}}, f)
-            # A summary whose sigma_yy is not above 0 or whose tau is no number: a reason, no
-            # traceback.
+            # A summary whose sigma_yy is not its case.toml's (not above 0): refused as another
+            # run's; one whose tau is no number: a reason, no traceback.
             with open(summary_path) as f:
                 good = json.load(f)
-            for changed in (dict(good, case=dict(good["case"], normal_stress=-0.25)),
-                            dict(good, profile_decay=dict(good["profile_decay"], tau="abc",
-                                                          reason=None))):
-                with open(summary_path, "w") as f:
-                    json.dump(changed, f)
-                out = io.StringIO()
-                with contextlib.redirect_stdout(out):
-                    self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
+            with open(summary_path, "w") as f:
+                json.dump(dict(good, case=dict(good["case"], normal_stress=-0.25)), f)
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err):
+                self.assertEqual(main(["profile-decay", run, "--fits", fits]), 2)
+            self.assertIn("summary.json is of another run (normal_stress = -0.25", err.getvalue())
+            with open(summary_path, "w") as f:
+                json.dump(dict(good, profile_decay=dict(good["profile_decay"], tau="abc",
+                                                        reason=None)), f)
+            out = io.StringIO()
+            with contextlib.redirect_stdout(out):
+                self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
             self.assertIn("no decay time tau", out.getvalue())
             # Values a damaged summary may hold: each run said why it is not used (or shown
             # without the value), never a traceback; a negative tau is not used.

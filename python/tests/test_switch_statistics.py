@@ -139,6 +139,38 @@ class SwitchStatistics(unittest.TestCase):
             os.remove(os.path.join(copy, "run.h5"))
             self.assertEqual(ss.run_switches(copy), ss.run_switches(path))
 
+    def test_each_run_counts_once_and_a_group_is_of_one_system(self):
+        d = os.path.join(self.tmp.name, "once")
+        os.makedirs(d)
+        link = os.path.join(d, "link")
+        os.symlink(self.a[0], link)
+        other = os.path.join(d, "s1_seed9_V0.05")   # another normal stress
+        write_synthetic_run(other, kind="C", duration=DURATION, velocity=V, normal_stress=1.0,
+                            switch_times=[500], seed=9)
+        copied = os.path.join(d, "s1_seed8_V0.05")   # a summary.json of another run alone
+        os.makedirs(copied)
+        write_summary(analyze(load_run(self.a[1])), copied)
+        with open(os.path.join(copied, "summary.json")) as f:
+            summary = json.load(f)
+        summary["run_dir"] = self.a[1]
+        with open(os.path.join(copied, "summary.json"), "w") as f:
+            json.dump(summary, f)
+        for args, problem in (
+                ([self.a[0], self.a[0] + os.sep], f"{self.a[0] + os.sep} is {self.a[0]} again"),
+                ([self.a[0], link], f"{link} is {self.a[0]} again: each run counts once"),
+                ([self.a[0], "--against", self.b[0], link], f"{link} is {self.a[0]} again"),
+                ([self.a[0], other], f"{other} has normal_stress 1, {self.a[0]} 0.25: a group "
+                                     "pools the seeds of one system and normal stress"),
+                ([self.a[0], copied], "no run.h5 beside it, and summary.json is of another "
+                                      f"run (run_dir '{self.a[1]}')")):
+            err = io.StringIO()
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+                self.assertEqual(main(["switch-times", *args]), 2, args)
+            self.assertIn(problem, err.getvalue())
+        # groups of other systems are what --against compares
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.assertEqual(main(["switch-times", self.a[0], "--against", other]), 0)
+
     def test_a_summary_that_cannot_time_its_switches_says_which_key(self):
         d = os.path.join(self.tmp.name, "bad", "s1_seed1_V0.05")
         shutil.copytree(self.a[0], d)
