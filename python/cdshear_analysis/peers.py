@@ -361,10 +361,13 @@ def max_overlap_from_dump(path):
 def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seconds):
     """Both codes' figures as a dict: wall seconds per simulated time unit, their ratio, the
     second-half estimates (mu_eff, solid fraction, height), LAMMPS' largest overlap."""
-    cd = second_half_estimates(cdshear_series(cdshear_run), duration,
-                               os.path.join(cdshear_run, "run.h5"))
+    cd_series, cd_path = cdshear_series(cdshear_run), os.path.join(cdshear_run, "run.h5")
     series_path = os.path.join(lammps_dir, "series.txt")
-    lm = second_half_estimates(lammps_series(series_path), duration, series_path)
+    lm_series = lammps_series(series_path)
+    for series, path in ((cd_series, cd_path), (lm_series, series_path)):
+        _check_ends_at(series, duration, path)
+    cd = second_half_estimates(cd_series, duration, cd_path)
+    lm = second_half_estimates(lm_series, duration, series_path)
     cd["seconds_per_time"] = cdshear_seconds / duration
     lm["seconds_per_time"] = lammps_seconds / duration
     dump = os.path.join(lammps_dir, "dump.txt")
@@ -376,6 +379,17 @@ def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seco
         cd["max_overlap"] = float(np.nanmax(overlap))
     return dict(duration=duration, cdshear=cd, lammps=lm,
                 ratio=lm["seconds_per_time"] / cd["seconds_per_time"])
+
+
+def _check_ends_at(series, duration, name):
+    """Raises PeerError unless the series' last sample lies within two sample intervals of
+    `duration`: the second half and the wall seconds per time unit are of a run that long."""
+    t = series["time"]
+    spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if len(t) and abs(float(t[-1]) - duration) > max(2.0 * spacing, 1e-9 * duration):
+        raise PeerError(name, f"its samples end at t = {float(t[-1]):g}, not at --duration "
+                              f"{duration:g}: its second half and seconds per time unit would "
+                              "be of another run length")
 
 
 def format_side_by_side(result):

@@ -232,10 +232,19 @@ class SideBySideInput(unittest.TestCase):
                 self.assertEqual(out.returncode, 2, out.stderr)
                 self.assertIn(f"error: {series}: {problem}", out.stderr)
             np.savetxt(series, good)
-            out = self.side_by_side(run, lammps, duration="1e6")
+            # A duration other than the runs': their second half and seconds per time unit
+            # would be of another length (a shorter one averaged to the runs' end).
+            for duration, end in (("1e6", "100"), ("50", "100")):
+                out = self.side_by_side(run, lammps, duration=duration)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn(f"run.h5: its samples end at t = {end}, not at --duration "
+                              f"{float(duration):g}", out.stderr)
+            np.savetxt(series, good[:200])
+            out = self.side_by_side(run, lammps)
             self.assertEqual(out.returncode, 2, out.stderr)
-            self.assertIn("run.h5: only 0 samples after t = 500000 (half of --duration)",
+            self.assertIn(f"{series}: its samples end at t = 49.75, not at --duration 100",
                           out.stderr)
+            np.savetxt(series, good)
             with open(os.path.join(lammps, "dump.txt"), "w") as f:
                 f.write("ITEM: TIMESTEP\n100\n")
             out = self.side_by_side(run, lammps)
