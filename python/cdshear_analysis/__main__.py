@@ -250,9 +250,9 @@ def main(argv=None):
         return 0
 
     if args.command == "switch-times":
-        from .rundata import RunDataError, output_problem
+        from .rundata import RunDataError, output_problem, repeated_folder
         from .switch_statistics import (compare_groups, format_table, group_problem,
-                                        group_statistics, repeated_folder, run_switches)
+                                        group_statistics, run_switches)
         if args.json is not None and (why := output_problem(
                 args.json, list(args.run_dirs) + list(args.against or []))):
             print(f"error: {args.json}: --json: {why}", file=sys.stderr)
@@ -284,9 +284,8 @@ def main(argv=None):
         import json
         from .relaxation import bulk_law_problem, decay_against_diffusion, format_decay_table
         from .report import ReportError, identity_problem, read_json, read_summary
-        from .rundata import output_problem
+        from .rundata import output_problem, repeated_folder
         from .summary import SUMMARY_FORMAT
-        from .switch_statistics import repeated_folder
         summaries = []
         try:
             if repeated := repeated_folder(args.run_dirs):

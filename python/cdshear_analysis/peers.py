@@ -28,11 +28,11 @@ m = pi r^2 (2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for 
 import json
 import math
 import os
-import tomllib
 
 import numpy as np
 
-from .rundata import is_number, open_regular, unique_keys, what_is, write_text_atomically
+from .rundata import (MEASURED_MAGNITUDE_LIMIT, folder_case, is_number, open_regular, unique_keys,
+                      what_is, write_text_atomically)
 from .statistics import block_average, window_mean
 
 GRAIN_TYPE, BOTTOM_TYPE, TOP_TYPE = 1, 2, 3
@@ -231,9 +231,11 @@ def lammps_series(path):
         raise PeerError(path, f"cannot read LAMMPS series: {e}") from e
     if table.shape[0] == 0 or table.shape[1] != len(names):
         raise PeerError(path, f"expected rows of {len(names)} columns, got {table.shape}")
-    if not np.all(np.isfinite(table)):
-        row = int(np.argmax(~np.all(np.isfinite(table), axis=1)))
-        raise PeerError(path, f"row {row + 1} of the samples holds a value that is not finite")
+    bad = ~np.isfinite(table) | (np.abs(np.nan_to_num(table)) > MEASURED_MAGNITUDE_LIMIT)
+    if np.any(bad):
+        row = int(np.argmax(bad.any(axis=1)))
+        raise PeerError(path, f"row {row + 1} of the samples holds a value that is not finite "
+                              f"or beyond {MEASURED_MAGNITUDE_LIMIT:g} in magnitude")
     if table.shape[0] > 1 and np.any(np.diff(table[:, 1]) <= 0):
         row = int(np.argmax(np.diff(table[:, 1]) <= 0)) + 1
         raise PeerError(path, f"time does not increase at row {row + 1} of the samples")
@@ -578,12 +580,8 @@ def lammps_campaign(lammps_folder, campaign):
         except ReportError:
             summary = None
         summary = summary if isinstance(summary, dict) else {}
-        measure = {}
-        try:
-            with open_regular(os.path.join(ref_dir, "case.toml"), encoding="utf-8") as f:
-                measure = tomllib.loads(f.read()).get("measure", {})
-        except (OSError, ValueError, RecursionError):
-            pass
+        measure = (folder_case(ref_dir) or {}).get("measure", {})
+        measure = measure if isinstance(measure, dict) else {}
         start = summary.get("averaging_start_time")
         if not _positive_number(start, zero=True):
             if not _positive_number(ref.get("duration")):

@@ -40,7 +40,7 @@ from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
 from .rundata import (RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths,
                       unique_keys)
-from .rundata import what_is, write_text_atomically
+from .rundata import folder_case, what_is, write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -206,15 +206,6 @@ def case_problem(s):
     return None
 
 
-def _folder_case(run_dir):
-    """RUN_DIR/case.toml parsed, or None where it is missing or cannot be read."""
-    try:
-        with open_regular(os.path.join(run_dir, "case.toml"), encoding="utf-8") as f:
-            return tomllib.loads(f.read())
-    except (OSError, ValueError, RecursionError):
-        return None
-
-
 def identity_problem(run_dir, s):
     """None when the summary s belongs to RUN_DIR: the folder it names (`run_dir`) has this
     folder's name, and its case agrees with RUN_DIR/case.toml where there is one; else why not,
@@ -223,7 +214,7 @@ def identity_problem(run_dir, s):
     written_in = s.get("run_dir")
     if isinstance(written_in, str) and os.path.basename(os.path.normpath(written_in)) != name:
         return f"summary.json is of another run (run_dir {written_in!r})"
-    if (case_toml := _folder_case(run_dir)) is None:
+    if (case_toml := folder_case(run_dir)) is None:
         return None   # no case.toml to compare with (a summary kept alone, or a damaged case)
     case = s.get("case", {})
     for key, table, toml_key in IDENTITY_KEYS:
@@ -242,13 +233,13 @@ def run_file_identity_problem(run, run_dir):
     (its case_toml) has the seed and the identity of RUN_DIR/case.toml where both give them;
     else why not, for a run.h5 copied from another run's folder (the summary's own check,
     identity_problem, cannot see it where run.h5 is analysed afresh)."""
-    if (folder_case := _folder_case(run_dir)) is None:
+    if (in_folder := folder_case(run_dir)) is None:
         return None
     held = run.get("case") or {}
     for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
                                                      if k != "duration"):
         mine, theirs = (c.get(table, {}).get(key) if isinstance(c.get(table), dict) else None
-                        for c in (folder_case, held))
+                        for c in (in_folder, held))
         if mine is not None and theirs is not None and mine != theirs:
             return f"{RUN_FILE} is of another run ({table}.{key} = {theirs!r}, the folder's " \
                    f"case.toml says {mine!r})"

@@ -294,6 +294,9 @@ def _check_lengths(data, keys, length, what, path, one_value=()):
 POSITIVE_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window")
 NON_NEGATIVE_ATTRS = ("time",)
 # Per-interval counts of the series: whole numbers >= 0 where present.
+# The walls' forces: finite at every sample and window (a NaN there is not an empty stripe).
+WALL_FORCE_SERIES = ("bottom_fx", "bottom_fy", "top_fx", "top_fy")
+WALL_FORCE_WINDOWS = ("bottom_force", "top_force")
 COUNT_SERIES = ("step", "contacts", "force_carrying", "closed", "capped_steps", "sweeps_max")
 # Read when present (older files lack some): each must then be a finite number > 0.
 OPTIONAL_POSITIVE_ATTRS = ("inertial_mass", "sample_interval", "dt", "stripe_thickness")
@@ -307,6 +310,27 @@ IDENTITY_KEYS = (("n", "system", "n"), ("height", "system", "height"),
                  ("initial_velocity", "shear", "initial_velocity"))
 # Keys that summaries of an earlier cdshear do not hold: compared only where the summary has them.
 IDENTITY_KEYS_RECORDED_LATER = ("initial_velocity",)
+
+
+def folder_case(run_dir):
+    """RUN_DIR/case.toml parsed, or None where it is missing or cannot be read."""
+    try:
+        with open_regular(os.path.join(run_dir, "case.toml"), encoding="utf-8") as f:
+            return tomllib.loads(f.read())
+    except (OSError, ValueError, RecursionError):
+        return None
+
+
+def repeated_folder(dirs):
+    """Why the run folders `dirs` cannot be pooled as distinct runs (one given twice, by another
+    path or through a link), or None."""
+    seen = {}
+    for d in dirs:
+        where = os.path.realpath(d)
+        if where in seen:
+            return f"{d} is {seen[where]} again: each run counts once"
+        seen[where] = d
+    return None
 
 
 def is_number(value):
@@ -391,6 +415,33 @@ def _check_physics(attrs, series, windows, n_stripes, path):
                     or np.any(te <= ts)):
         raise RunDataError(path, "/windows/t_start and t_end do not make windows of positive "
                                  "length")
+    _check_magnitudes(series, "/series", path)
+    _check_magnitudes(windows, "/windows", path)
+    for data, group, names in ((series, "/series", WALL_FORCE_SERIES),
+                               (windows, "/windows", WALL_FORCE_WINDOWS)):
+        for k in (k for k in names if k in data and np.size(data[k])):
+            nan = np.isnan(np.asarray(data[k], dtype=float)).reshape(len(data[k]), -1)
+            if np.any(nan):
+                raise RunDataError(path, f"{group}/{k} is NaN at row "
+                                         f"{int(np.argmax(nan.any(axis=1)))}: cdshear writes the "
+                                         "walls' forces at every sample and window")
+
+
+def _check_magnitudes(datasets, group, path):
+    """Refuses an infinite value, or one beyond MEASURED_MAGNITUDE_LIMIT, in any dataset of numbers
+    of `group` (naming the dataset and its first such row): cdshear writes neither (an empty
+    stripe's values are NaN), and the estimators that square or sum them would overflow."""
+    for k, v in datasets.items():
+        a = np.asarray(v)
+        if a.dtype.kind != "f" or a.size == 0:
+            continue
+        bad = np.isinf(a) | (np.abs(np.nan_to_num(a)) > MEASURED_MAGNITUDE_LIMIT)
+        if np.any(bad):
+            row = int(np.argmax(bad.reshape(len(a), -1).any(axis=1))) if a.ndim else 0
+            value = a.reshape(-1)[int(np.argmax(bad.reshape(-1)))]
+            raise RunDataError(path, f"{group}/{k} holds {value:g} at row {row}: no measured "
+                                     f"quantity comes near {MEASURED_MAGNITUDE_LIMIT:g} in "
+                                     "magnitude")
 
 
 def _check_structure(f, path):
@@ -464,6 +515,7 @@ def _read(f, run_dir, path):
             if not (np.isfinite(data["h"]) and data["h"] > 0):
                 raise RunDataError(path, f"/windows/regions/{label}: attribute h = "
                                          f"{data['h']:g}: a layer's thickness must be > 0")
+            _check_magnitudes(data, f"/windows/regions/{label}", path)
             regions[label] = data
     regions = dict(sorted(regions.items(), key=lambda item: item[1]["h"]))
     top_stripes = None
@@ -476,6 +528,7 @@ def _read(f, run_dir, path):
                                + ", ".join(f"/windows/top_stripes/{k}" for k in missing))
         _check_lengths(top_stripes, [k for k in top_stripes if k != "depth"], n_windows,
                        "/windows/top_stripes", path)
+        _check_magnitudes(top_stripes, "/windows/top_stripes", path)
         for k in TOP_STRIPE_DATASETS[1:]:
             if top_stripes[k].shape[1:2] != (len(top_stripes["depth"]),):
                 raise RunDataError(path, f"/windows/top_stripes/{k} has shape "

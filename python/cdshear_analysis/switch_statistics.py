@@ -30,7 +30,7 @@ import os
 import numpy as np
 
 from . import regime as rg
-from .rundata import RUN_FILE, RunDataError, is_measured_number, load_run
+from .rundata import RUN_FILE, RunDataError, is_measured_number, load_run, repeated_folder
 from .statistics import window_mean
 from .summary import pm as summary_pm
 
@@ -72,18 +72,6 @@ def _record(run_dir, V, finished, duration, whole, case):
             "time": whole["time"], "finished": finished, "duration": duration,
             "switches": len(whole["starts"]), "switch_times": whole["switch_times"],
             "starts": whole["starts"], **case}
-
-
-def repeated_folder(dirs):
-    """Why the run folders `dirs` cannot be pooled as distinct runs (one given twice, by another
-    path or through a link), or None."""
-    seen = {}
-    for d in dirs:
-        where = os.path.realpath(d)
-        if where in seen:
-            return f"{d} is {seen[where]} again: each run counts once"
-        seen[where] = d
-    return None
 
 
 def group_problem(runs, dirs):

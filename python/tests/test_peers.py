@@ -220,12 +220,15 @@ class SideBySideInput(unittest.TestCase):
             # A LAMMPS series without normal force, with NaN, or with time running back; a
             # duration longer than the runs: each named by its file.
             good = np.loadtxt(series)
-            no_load, nan, back = good.copy(), good.copy(), good.copy()
+            no_load, nan, huge, back = good.copy(), good.copy(), good.copy(), good.copy()
             no_load[:, [3, 5]] = 0.0   # bottom_fy, top_fy
             nan[4, 4] = np.nan
+            huge[6, 2] = 1e300   # bottom_fx: would print a 300-digit mu_eff
             back[4, 1] = 0.5
             for table, problem in ((no_load, "no normal force on the walls"),
                                    (nan, "row 5 of the samples holds a value"),
+                                   (huge, "row 7 of the samples holds a value that is not "
+                                          "finite or beyond 1e+100"),
                                    (back, "time does not increase at row 5")):
                 np.savetxt(series, table)
                 out = self.side_by_side(run, lammps)

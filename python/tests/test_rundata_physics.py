@@ -1,6 +1,7 @@
 """run.h5 files that are sealed but are not a shear run (V of 0, NaN or text, a negative height,
 time running backwards, no stripes, a window of 0, a V or pressure not its case's, every physical
-series NaN, arrays of the wrong rank, a dataset larger than the file) are refused by load_run naming
+series NaN, arrays of the wrong rank, a dataset larger than the file, an infinite or 1e200 value,
+a NaN wall force) are refused by load_run naming
 the attribute or dataset, and `analyze` exits 2 with the message and no traceback: no regime is ever
 given to them."""
 import contextlib
@@ -43,6 +44,21 @@ def set_group_attr(parent, name, value):
     """The attribute `name` of the first group under `parent` (a region: h5, h10...)."""
     def damage(f):
         f[parent][next(iter(f[parent]))].attrs[name] = value
+    return damage
+
+
+def at(values, row, value):
+    """A copy of `values` (float) with row `row` set to `value` (every column of that row)."""
+    values = np.array(values, dtype=float)
+    values[row] = value
+    return values
+
+
+def replace_in_region(name, make):
+    """replace() for the dataset `name` of the first region under /windows/regions."""
+    def damage(f):
+        region = next(iter(f["windows/regions"]))
+        replace(f"windows/regions/{region}/{name}", make)(f)
     return damage
 
 
@@ -101,6 +117,20 @@ CASES = [
      "attribute velocity is 5e-324, but its case_toml has shear.velocity = "),
     ("pressure not the case's", set_attr("normal_stress", 2.5),
      "attribute normal_stress is 2.5, but its case_toml has shear.normal_stress = "),
+    # values no run measures, which would print a 300-digit mu_eff or overflow a squared sum
+    ("1e300 wall force", replace("series/bottom_fx", lambda v: at(v, 7, 1e300)),
+     "/series/bottom_fx holds 1e+300 at row 7"),
+    ("infinite window force", replace("windows/bottom_force", lambda v: at(v, 2, np.inf)),
+     "/windows/bottom_force holds inf at row 2"),
+    ("1e200 stripe stress", replace("windows/stress", lambda v: at(v, 3, -1e200)),
+     "/windows/stress holds -1e+200 at row 3"),
+    ("1e200 layer value", replace_in_region("bulk_mu_eff", lambda v: at(v, 1, 1e200)),
+     "bulk_mu_eff holds 1e+200 at row 1"),
+    # the walls' forces are never NaN: a NaN there is not an empty stripe to skip
+    ("NaN fy sample", replace("series/top_fy", lambda v: at(v, 4, np.nan)),
+     "/series/top_fy is NaN at row 4"),
+    ("NaN window force", replace("windows/top_force", lambda v: at(v, 4, np.nan)),
+     "/windows/top_force is NaN at row 4"),
 ]
 
 
