@@ -93,10 +93,12 @@ void register_scene_command(CLI::App& app);
 /// `cdshear prepare ...` and `cdshear run ...` (shear cell)
 void register_shear_commands(CLI::App& app);
 
-/// `cdshear settings [CASE] [--system K] [-V V] [--set key=value ...] [--markdown]`
+/// `cdshear settings [CASE] [--system K] [-V V] [--set key=value ...] [--markdown]
+/// [--scene-solver]`
 void register_settings_command(CLI::App& app);
 
-/// `cdshear sweep CAMPAIGN.toml [-o DIR] [--jobs N] [--threads N] [-q] [--force]`
+/// `cdshear sweep CAMPAIGN.toml [-o DIR] [--jobs N] [--threads N] [-q] [--force] [--dry-run]
+/// [--progress-every S]`
 void register_sweep_command(CLI::App& app);
 
 }  // namespace cdshear

@@ -1,6 +1,6 @@
-// Output files written during and after a run: the global time series (CSV) and full states
-// (JSON). Every file is written to a temporary name and renamed, so a reader never sees half a
-// file.
+// Output files written during and after a run: the global time series (CSV, appended row by
+// row) and full states (JSON, written to a temporary name and renamed, so a reader never sees
+// half a state).
 #pragma once
 
 #include <array>
