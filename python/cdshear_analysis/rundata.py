@@ -293,10 +293,10 @@ def _check_lengths(data, keys, length, what, path, one_value=()):
 # finite and >= 0: what `cdshear run` writes; anything else is not a run of this model.
 POSITIVE_ATTRS = ("n", "length_x", "height", "velocity", "normal_stress", "duration", "window")
 NON_NEGATIVE_ATTRS = ("time",)
-# Per-interval counts of the series: whole numbers >= 0 where present.
 # The walls' forces: finite at every sample and window (a NaN there is not an empty stripe).
 WALL_FORCE_SERIES = ("bottom_fx", "bottom_fy", "top_fx", "top_fy")
 WALL_FORCE_WINDOWS = ("bottom_force", "top_force")
+# Per-interval counts of the series: whole numbers >= 0 where present.
 COUNT_SERIES = ("step", "contacts", "force_carrying", "closed", "capped_steps", "sweeps_max")
 # Read when present (older files lack some): each must then be a finite number > 0.
 OPTIONAL_POSITIVE_ATTRS = ("inertial_mass", "sample_interval", "dt", "stripe_thickness")
