@@ -507,7 +507,7 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
         raise PeerError(meta_path, f"is the record of run {meta.get('run')!r}, not of {name!r} "
                                    "(a run.json copied from another run's folder)")
     for key in ("velocity", "duration"):
-        if not (is_number(meta.get(key)) and math.isfinite(meta[key]) and meta[key] > 0):
+        if not _positive_number(meta.get(key)):
             raise PeerError(meta_path, f"{key} = {meta.get(key)!r}: expected a number > 0 "
                                        "(lammps_campaign.sh writes the run's)")
     variables = read_vars(os.path.join(run_dir, "packing.data.vars"))

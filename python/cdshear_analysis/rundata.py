@@ -345,8 +345,12 @@ MEASURED_MAGNITUDE_LIMIT = 1e100
 
 def is_measured_number(value):
     """A number (is_number) that is finite and within MEASURED_MAGNITUDE_LIMIT in magnitude:
-    what a summary.json written by `analyze` holds where it holds a number."""
-    return is_number(value) and math.isfinite(value) and abs(value) <= MEASURED_MAGNITUDE_LIMIT
+    what a summary.json written by `analyze` holds where it holds a number (an integer too large
+    for any float, which JSON can hold, is not one)."""
+    try:
+        return is_number(value) and math.isfinite(value) and abs(value) <= MEASURED_MAGNITUDE_LIMIT
+    except OverflowError:
+        return False
 
 
 def _check_physics(attrs, series, windows, n_stripes, path):

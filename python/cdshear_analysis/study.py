@@ -209,13 +209,7 @@ _RUN_FIGURES = (("steps", True), ("capped_steps", True), ("mean_sweeps", False),
 
 
 def _is_run_figure(value, whole):
-    if not is_number(value):
-        return False
-    try:
-        v = float(value)
-    except OverflowError:   # an integer beyond any float
-        return False
-    return 0 <= v <= MEASURED_MAGNITUDE_LIMIT and (not whole or v.is_integer())
+    return is_measured_number(value) and value >= 0 and (not whole or float(value).is_integer())
 
 
 def _check_run_figures(path, data):
