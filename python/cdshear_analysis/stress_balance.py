@@ -1,7 +1,8 @@
 """The check of docs/model.md section 7 of the measured stress against the walls: over a run's
-steady windows, the interior (bulk) sigma_yy, sigma_xy and mu_eff against the walls' normal stress,
-shear stress and friction, each difference as mean and standard error over the windows (the windows
-are 80 t long: nearly independent), and the sizes of the kinetic and rotational parts.
+steady windows (those with a measured interior), the interior (bulk) sigma_yy, sigma_xy and mu_eff
+against the walls' normal stress, shear stress and friction, each difference as mean and standard
+error over the windows (the windows are 80 t long: nearly independent), and the sizes of the
+kinetic and rotational parts.
 
 The walls' stresses of a window come from its exact mean forces: sigma_yy,wall = (|f_y,bottom| +
 |f_y,top|) / (2 L_x), sigma_xy,wall = (f_x,top - f_x,bottom) / (2 L_x) (the grains' force on each
@@ -11,6 +12,8 @@ In steady shear the momentum balance makes them equal; the grain-scale scatter o
 stresses (docs/measurements.md) averages out over the bulk's stripes and the windows.
 
 `python3 -m cdshear_analysis stress-balance RUN_DIR...` prints one line per run."""
+import warnings
+
 import numpy as np
 
 from .rundata import RunDataError
@@ -39,13 +42,22 @@ def stress_balance(run, summary=None):
     if lo is None or hi is None or len(sel) == 0:
         return None
     inside = (y >= lo) & (y <= hi)   # closed, as the bulk's regions (profiles.region_quantities)
+    if "stress" in w:
+        # only the windows with a measured interior: one whose bulk stripes are all empty has
+        # no interior stress, and counting it would claim a window the means do not hold
+        interior_stress = np.asarray(w["stress"], dtype=float)[sel][:, inside]
+        sel = sel[np.isfinite(interior_stress).any(axis=1).all(axis=(1, 2))]
+        if len(sel) == 0:
+            return None
     fb = np.asarray(w["bottom_force"], dtype=float).reshape(-1, 2)[sel]
     ft = np.asarray(w["top_force"], dtype=float).reshape(-1, 2)[sel]
 
     def interior(name, i, j):
         if name not in w:
             return np.full(len(sel), np.nan)
-        return np.nanmean(np.asarray(w[name], dtype=float)[sel][:, inside, i, j], axis=1)
+        with warnings.catch_warnings():   # a stripe-less kinetic part is NaN, and stays so
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return np.nanmean(np.asarray(w[name], dtype=float)[sel][:, inside, i, j], axis=1)
     syy, sxy = interior("stress", 1, 1), interior("stress", 0, 1)
     wall_yy = (np.abs(fb[:, 1]) + np.abs(ft[:, 1])) / (2 * lx)
     wall_xy = (ft[:, 0] - fb[:, 0]) / (2 * lx)

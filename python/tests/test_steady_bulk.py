@@ -158,12 +158,17 @@ class ProfileReach(unittest.TestCase):
 class StressBalanceTable(unittest.TestCase):
     """stress_balance.py: the interior stress against the walls' over the steady windows."""
 
-    def test_a_balanced_run_agrees_and_an_offset_is_measured(self):
-        from cdshear_analysis.stress_balance import format_line, stress_balance
+    @staticmethod
+    def steady_run():
+        """A loaded 2000-t synthetic regime-A run, its summary, and its folder's name."""
         with tempfile.TemporaryDirectory() as d:
             write_synthetic_run(d, kind="A", duration=2000.0)
             run = load_run(d)
-        summary = analyze(run)
+        return run, analyze(run), d
+
+    def test_a_balanced_run_agrees_and_an_offset_is_measured(self):
+        from cdshear_analysis.stress_balance import format_line, stress_balance
+        run, summary, d = self.steady_run()
         b = stress_balance(run, summary)
         for name in ("sigma_yy_diff", "sigma_xy_diff", "mu_eff_diff"):
             mean, err = b[name]
@@ -175,6 +180,25 @@ class StressBalanceTable(unittest.TestCase):
         self.assertAlmostEqual(shifted["sigma_yy_diff"][0] - b["sigma_yy_diff"][0], 0.02,
                                places=9)
         self.assertIn("sigma_yy", format_line(d, shifted))
+
+    def test_a_window_without_a_measured_interior_is_not_counted(self):
+        from cdshear_analysis.stress_balance import stress_balance
+        run, summary, _ = self.steady_run()
+        whole = stress_balance(run, summary)
+        # the bulk's stripes of one steady window emptied (NaN, as an empty stripe is written)
+        first = int(summary["steady_window_indices"][0])
+        lo, hi = summary["bulk"]["y_range"]
+        y = np.asarray(run["windows"]["y"], dtype=float)
+        for name in ("stress", "kinetic_stress", "rotational_stress"):
+            run["windows"][name] = np.array(run["windows"][name], dtype=float)
+            run["windows"][name][first, (y >= lo) & (y <= hi)] = np.nan
+        emptied = stress_balance(run, summary)
+        self.assertEqual(emptied["windows"], whole["windows"] - 1)
+        # the walls' side is averaged over the same windows as the interior
+        rest = dict(summary, steady_window_indices=summary["steady_window_indices"][1:])
+        for name, pair in stress_balance(run, rest).items():
+            if isinstance(pair, tuple):
+                self.assertEqual(emptied[name][0], pair[0], name)
 
 
 class OlderRunFiles(unittest.TestCase):
