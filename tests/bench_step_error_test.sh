@@ -12,7 +12,8 @@
 # (with --reuse, from a factorisation kept from the sample before too), and so does
 # bench/adaptive_coarse.py's two-level preconditioner, and its six-level cycle, in one iteration
 # where every coarse space is the whole space (with --bootstrap, kept to a sample's copy), and
-# bench/schwarz_blocks.py's overlapping blocks where one block holds every unknown.
+# bench/schwarz_blocks.py's overlapping blocks where one block holds every unknown; so does
+# bench/window_solve.py's window where it holds the whole cell.
 # Usage: bench_step_error_test.sh CDSHEAR_BENCH WORKDIR
 set -uo pipefail
 bench=$1; work=$2
@@ -22,6 +23,7 @@ solution_set=$(cd "$(dirname "$0")/../bench" && pwd)/solution_set.py
 known_statuses=$(cd "$(dirname "$0")/../bench" && pwd)/known_statuses.py
 adaptive_coarse=$(cd "$(dirname "$0")/../bench" && pwd)/adaptive_coarse.py
 schwarz_blocks=$(cd "$(dirname "$0")/../bench" && pwd)/schwarz_blocks.py
+window_solve=$(cd "$(dirname "$0")/../bench" && pwd)/window_solve.py
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fails=0
 common=(--sizes 100 --no-static --steps 10 --warmup 20 --step-error 2 --step-error-spacing 5
@@ -225,6 +227,25 @@ schwarz_check 1 whole --cell 1000 --overlap 0
 schwarz_check 1 grown --cell 0.3 --overlap 1000
 schwarz_check 1 coarse --cell 0.3 --overlap 1000 --coarse
 schwarz_check 0 disks --cell 0.3 --overlap 0
+# bench/window_solve.py: a window taller than the cell holds every contact, and its solve (the
+# sweeps to convergence with nothing frozen) ends on the reference's step, which the reference's
+# own impulses in it reach exactly; a window 1 d tall without a ring leaves some of the error.
+window_check() {  # NAME PATTERN(awk, on the solved and oracle shares) OPTIONS...
+  local name=$1 pattern=$2; shift 2
+  if ! /usr/bin/python3 "$window_solve" "${samples[0]}" "$@" > "window_$name.txt" 2>&1; then
+    echo "FAIL: window_solve.py $* on the dumped samples failed"
+    cat "window_$name.txt"; fails=$((fails + 1)); return
+  fi
+  local met
+  met=$(awk -F'; ' '/^sample_/ { split($3, s, " / "); if ('"$pattern"') n++ } END { print n + 0 }' \
+          "window_$name.txt")
+  if [[ $met != 2 ]]; then
+    echo "FAIL: window_solve.py $*: expected ($pattern) on 2 samples, got $met"
+    cat "window_$name.txt"; fails=$((fails + 1))
+  fi
+}
+window_check whole 's[1] + 0 < 1e-6 && s[2] + 0 == 0' --height 1000
+window_check thin 's[2] + 0 > 1e-3' --height 1 --overlap 0
 # --reference-newton with --polish: the polish is 1 sweep and the active-set iterations from the
 # tested impulses, and ends on a solution (natural-map residual and contact-law violation at
 # round-off) on every sample.
