@@ -125,13 +125,17 @@ class StepProblem:
         """|R - R_ref| / |R_ref|, the per-step error of docs/step-error.md."""
         return np.linalg.norm(r - self.reference) / np.linalg.norm(self.reference)
 
-    def natural_map_distance(self, r):
-        """|R - R'|, R'_n = max(0, R_n - u_n / w_nn), R'_t = clamp(R_t - u_t / w_tt, -mu R'_n,
-        mu R'_n): zero exactly where R and u meet the contact laws."""
+    def natural_map(self, r):
+        """R', R'_n = max(0, R_n - u_n / w_nn), R'_t = clamp(R_t - u_t / w_tt, -mu R'_n, mu R'_n):
+        R itself exactly where R and u meet the contact laws."""
         u = self.w @ r + self.q
         n = np.maximum(0.0, r[0::2] - u[0::2] / self.diagonal[0::2])
         t = np.clip(r[1::2] - u[1::2] / self.diagonal[1::2], -self.mu * n, self.mu * n)
-        return np.linalg.norm(r - np.stack([n, t], 1).ravel())
+        return np.stack([n, t], 1).ravel()
+
+    def natural_map_distance(self, r):
+        """|R - R'| (natural_map): zero exactly where R and u meet the contact laws."""
+        return np.linalg.norm(r - self.natural_map(r))
 
 
 class Sample:

@@ -37,11 +37,7 @@ from coarse_space import ARM_Y, BODY_A, StepProblem, sample_stems
 
 def per_contact_residual(problem, r):
     """|R_k - R'_k|^2 per contact, R' the natural map of coarse_space.StepProblem."""
-    u = problem.w @ r + problem.q
-    d = problem.diagonal
-    n = np.maximum(0.0, r[0::2] - u[0::2] / d[0::2])
-    t = np.clip(r[1::2] - u[1::2] / d[1::2], -problem.mu * n, problem.mu * n)
-    return (r[0::2] - n) ** 2 + (r[1::2] - t) ** 2
+    return ((r - problem.natural_map(r)) ** 2).reshape(-1, 2).sum(1)
 
 
 def contact_heights(stem, problem):
@@ -64,8 +60,8 @@ def solve_window(problem, r, inside, relaxation, tolerance, max_sweeps):
     """r with the contacts `inside` solved to convergence, the others frozen: projected
     Gauss-Seidel on the window's dense block (the fixed point R = R' of the natural map on the
     window). Returns (r, sweeps, last change over |R_window|)."""
-    rows = np.stack([2 * np.flatnonzero(inside), 2 * np.flatnonzero(inside) + 1], 1).ravel()
-    w = problem.w.tocsc()
+    rows = np.flatnonzero(np.repeat(inside, 2))   # each contact's normal and tangential row
+    w = problem.w.tocsr()
     block = np.asfortranarray(w[rows][:, rows].toarray())
     r = r.copy()
     window = r[rows].copy()
@@ -121,9 +117,7 @@ def main():
         solved, sweeps, change = solve_window(problem, tested, inside, args.relaxation,
                                               args.tolerance, args.max_sweeps)
         error = np.linalg.norm(tested - reference)
-        oracle = tested.copy()
-        rows = np.stack([2 * np.flatnonzero(inside), 2 * np.flatnonzero(inside) + 1], 1).ravel()
-        oracle[rows] = reference[rows]
+        oracle = np.where(np.repeat(inside, 2), reference, tested)
         e2 = ((tested - reference) ** 2).reshape(-1, 2).sum(1)
         best_bottom, _ = best_window(y, e2, args.height, args.step)
         best_in = (y >= best_bottom - args.overlap) & (y < best_bottom + args.height

@@ -4,10 +4,10 @@ import contextlib
 import csv
 import io
 import json
-import shutil
 import math
 import os
 import re
+import shutil
 import tempfile
 import unittest
 
