@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Writes docs/file-index.md: every source file of the repository with the first sentence of its
-own header comment (C++ `//` lines, a Python module docstring, a script's first comment), so the
-index is never out of date by hand. `--check` exits 1 when the committed index differs from what
-the files say now (the test suite runs it: file_index_current).
+own header comment (C++ `//` lines, a Python module docstring, a script's or CMake module's first
+comment), so the index is never out of date by hand. `--check` exits 1 when the committed index
+differs from what the files say now (the test suite runs it: file_index_current).
 
 Usage: /usr/bin/python3 scripts/file_index.py [--check] [SOURCE_DIR]
 """
@@ -24,8 +24,10 @@ SECTIONS = [
     ("bench", "Benchmarks"),
     ("scripts", "Scripts"),
     ("fuzz", "Fuzzing"),
+    ("campaigns", "Campaign helpers (the campaigns themselves are TOML files: docs/campaigns.md)"),
+    ("cmake", "CMake modules"),
 ]
-SOURCE = re.compile(r"\.(hpp|cpp|py|sh)$")
+SOURCE = re.compile(r"\.(hpp|cpp|py|sh|cmake)$")
 
 
 def first_sentence(text):
@@ -45,7 +47,7 @@ def description(path):
             doc = None
         return first_sentence(doc) if doc else ""
     lines = text.splitlines()
-    prefix = "#" if path.endswith(".sh") else "//"
+    prefix = "#" if path.endswith((".sh", ".cmake")) else "//"
     comment = []
     for line in lines:
         s = line.strip()
