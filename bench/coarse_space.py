@@ -116,6 +116,7 @@ class StepProblem:
         self.tested = contacts[:, [TESTED_N, TESTED_T]].ravel()
         self.mu = contacts[:, FRICTION]
         self.contacts = contacts  # the dump's rows, columns as above
+        self.bodies = bodies  # the dump's rows: x, y, 1/m along x and y, 1/I, velocities
         self.q = h @ bodies[:, VELOCITY].ravel() - self.w @ self.reference
         self.q[0::2] += contacts[:, GAP] / self.dt
         self.diagonal = self.w.diagonal()

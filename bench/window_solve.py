@@ -35,16 +35,20 @@ import numpy as np
 from coarse_space import ARM_Y, BODY_A, StepProblem, sample_stems
 
 
-def per_contact_residual(problem, r):
-    """|R_k - R'_k|^2 per contact, R' the natural map of coarse_space.StepProblem."""
-    return ((r - problem.natural_map(r)) ** 2).reshape(-1, 2).sum(1)
+def per_contact(v):
+    """|v_k|^2 per contact of a vector with the normal and tangential rows interleaved."""
+    return (v ** 2).reshape(-1, 2).sum(1)
 
 
-def contact_heights(stem, problem):
+def contact_heights(problem):
     """Each candidate contact's point's height (body A's centre plus its arm)."""
-    bodies = np.loadtxt(stem + "_bodies.txt", comments="#", ndmin=2)
     c = problem.contacts
-    return bodies[c[:, BODY_A].astype(int), 1] + c[:, ARM_Y]
+    return problem.bodies[c[:, BODY_A].astype(int), 1] + c[:, ARM_Y]
+
+
+def in_window(y, bottom, height, overlap):
+    """The contacts of the window [bottom, bottom + height) grown by overlap on each side."""
+    return (y >= bottom - overlap) & (y < bottom + height + overlap)
 
 
 def best_window(y, weight, height, step):
@@ -110,18 +114,16 @@ def main():
         t0 = time.perf_counter()
         problem = StepProblem(stem)
         tested, reference = problem.tested, problem.reference
-        y = contact_heights(stem, problem)
-        bottom, share = best_window(y, per_contact_residual(problem, tested), args.height,
-                                    args.step)
-        inside = (y >= bottom - args.overlap) & (y < bottom + args.height + args.overlap)
+        y = contact_heights(problem)
+        bottom, share = best_window(y, per_contact(tested - problem.natural_map(tested)),
+                                    args.height, args.step)
+        inside = in_window(y, bottom, args.height, args.overlap)
         solved, sweeps, change = solve_window(problem, tested, inside, args.relaxation,
                                               args.tolerance, args.max_sweeps)
         error = np.linalg.norm(tested - reference)
         oracle = np.where(np.repeat(inside, 2), reference, tested)
-        e2 = ((tested - reference) ** 2).reshape(-1, 2).sum(1)
-        best_bottom, _ = best_window(y, e2, args.height, args.step)
-        best_in = (y >= best_bottom - args.overlap) & (y < best_bottom + args.height
-                                                       + args.overlap)
+        best_bottom, _ = best_window(y, per_contact(tested - reference), args.height, args.step)
+        best_in = in_window(y, best_bottom, args.height, args.overlap)
         best = np.where(np.repeat(best_in, 2), reference, tested)
         print(f"{stem.split('/')[-1]}: {problem.error(tested):.2e}; y {bottom:.1f} to "
               f"{bottom + args.height:.1f} ({share:.2f}, {inside.mean():.3f}); "
