@@ -137,9 +137,11 @@ TEST(BadInput, WallNamesAreWordsThatCanHeadACsvColumn) {
   // ASCII separators and controls; a C1 control, Unicode spaces (no-break, em, ideographic) and
   // invisible characters (zero-width space, byte-order mark), as TOML escapes.
   for (const std::string bad :
-       {"a b", "a,b", "a'b", "a\\u0000b", "a\\u001bb", "a\\tb", "", "a\\u0085b", "a\\u00a0b",
-        "a\\u2003b", "a\\u3000b", "a\\u200bb", "a\\ufeffb", "\\u00ad"})
+       {"a b", "a,b", "a'b", "a\\u001bb", "a\\tb", "", "a\\u0085b", "a\\u00a0b", "a\\u2003b",
+        "a\\u3000b", "a\\u200bb", "a\\ufeffb", "\\u00ad"})
     expect_names(load_error(named(bad)), "walls[0].name", "printable characters");
+  // A NUL ends a C string (a path would open a shorter name): no string setting takes one.
+  expect_names(load_error(named("a\\u0000b")), "walls[0].name", "holds a NUL character");
   TempDir dir("wall_names");
   EXPECT_EQ(load_scene_file(dir.write("scene.toml", named("sol_\u00e9")), {}).scene.walls[0].name,
             "sol_\xc3\xa9");  // UTF-8 letters are printable
@@ -215,6 +217,25 @@ TEST(BadInput, OverlappingDisksAreRefusedByTheSceneBuilder) {
     EXPECT_EQ(e.key(), "disks");
     const std::string what = e.what();
     EXPECT_NE(what.find("disk 0 and disk 1 overlap by 0.1"), std::string::npos) << what;
+  }
+}
+
+TEST(BadInput, DisksPiledOnOnePointAreRefusedWithoutListingEveryPair) {
+  // 2000 disks at one point (a packing written with every position the same): every pair is
+  // within reach, 2 million of them. The builder refuses the pile from the first disks of the
+  // crowded cell (overlap 1 between two of radius 0.5), not from the largest overlap over every
+  // pair, which is the last two disks' 1.2.
+  SceneDefinition s;
+  for (int i = 0; i < 1998; ++i) s.disks.push_back(disk({5.0, 5.0}, 0.5));
+  s.disks.push_back(disk({5.0, 5.0}, 0.6));
+  s.disks.push_back(disk({5.0, 5.0}, 0.6));
+  try {
+    build_world(s);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "disks");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("disk 0 and disk 1 overlap by 1 "), std::string::npos) << what;
   }
 }
 

@@ -23,6 +23,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "job_scheduler.hpp"
+#include "json_reading.hpp"
 #include "measurement_state.hpp"
 #include "observers.hpp"
 #include "outputs.hpp"
@@ -321,11 +322,11 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError(checkpoint_file, "case",
                       "holds no case identity: not a shear-run checkpoint");
   if (const std::string key = differing_identity_key(cp.case_identity, identity); !key.empty())
-    throw ConfigError(
-        checkpoint_file, "case." + key,
-        fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
-                    "belongs to another run",
-                    key, cp.case_identity.at(key).dump(), src.file, identity.at(key).dump()));
+    throw ConfigError(checkpoint_file, "case." + key,
+                      fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
+                                  "belongs to another run",
+                                  key, json_shown(cp.case_identity.at(key)), src.file,
+                                  json_shown(identity.at(key))));
   if (cp.world.disks.size() != s.c.n)
     throw ConfigError(checkpoint_file, "disks",
                       fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));

@@ -34,6 +34,7 @@
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "job_scheduler.hpp"
+#include "json_reading.hpp"
 #include "mpi_scheduler.hpp"
 #include "outputs.hpp"
 #include "run_session.hpp"
@@ -283,7 +284,7 @@ std::string summary_problem(const fs::path& run_dir) {
   if (written_path.filename().empty()) written_path = written_path.parent_path();  // "DIR/"
   if (written_in.is_string() && written_path.filename() != run_dir.filename())
     return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
-                       (run_dir / "summary.json").string(), written_in.dump());
+                       (run_dir / "summary.json").string(), json_shown(written_in));
   const FolderCase folder = folder_case(run_dir);
   if (!folder.c) return folder.problem;
   const ShearCase& c = *folder.c;
@@ -299,8 +300,8 @@ std::string summary_problem(const fs::path& run_dir) {
       return fmt::format(
           "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one "
           "again",
-          (run_dir / "summary.json").string(), key, summary.value(key, nlohmann::json()).dump(),
-          value.dump());
+          (run_dir / "summary.json").string(), key,
+          json_shown(summary.value(key, nlohmann::json())), json_shown(value));
   }
   return "";
 }
@@ -326,7 +327,7 @@ std::string final_state_problem(const fs::path& run_dir) {
     return fmt::format(
         "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
         "this one again",
-        file.string(), key, state["case"].at(key).dump(), identity.at(key).dump());
+        file.string(), key, json_shown(state["case"].at(key)), json_shown(identity.at(key)));
   return "";
 }
 
@@ -343,8 +344,8 @@ std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
     return fmt::format(
         "{} is of another run ({} = {} where the campaign's run has {}): remove {} to run this "
         "one",
-        (run_dir / "case.toml").string(), key, held.at(key).dump(), r.identity.at(key).dump(),
-        run_dir.string());
+        (run_dir / "case.toml").string(), key, json_shown(held.at(key)),
+        json_shown(r.identity.at(key)), run_dir.string());
   return "";
 }
 

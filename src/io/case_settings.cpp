@@ -465,7 +465,8 @@ std::vector<CaseSetting> make_case_settings() {
             .key = "contact_margin",
             .unit = "d",
             .meaning = "candidate contacts: pairs whose gap is below this",
-            .lo = 0.0},
+            .lo = 0.0,
+            .hi = 1.0},
           [](auto& c) -> auto& { return c.step.contact_margin; }),
       bind(
           S{.table = "step",

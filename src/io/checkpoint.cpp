@@ -129,12 +129,6 @@ std::string seal_line(const std::vector<std::uint8_t>& body) {
   return line;
 }
 
-/// A value as an error message shows it: its JSON, shortened.
-std::string shown(const json& v) {
-  std::string text = v.dump();
-  return text.size() > 60 ? text.substr(0, 57) + "..." : text;
-}
-
 /// Typed reads of a checkpoint's fields: a field that is missing or of another type is named by
 /// its path (`disks.vx`, `walls[1].mass`, `contacts.rn[7]`) with the type it must have, never by
 /// the JSON library's words.
@@ -150,12 +144,12 @@ struct CheckpointFields {
     return *it;
   }
   double number(const json& v, const std::string& path) const {
-    if (!v.is_number()) throw ConfigError(file, path, "must be a number, not " + shown(v));
+    if (!v.is_number()) throw ConfigError(file, path, "must be a number, not " + json_shown(v));
     return v.get<double>();
   }
   Vec2 vec2(const json& v, const std::string& path) const {
     if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number())
-      throw ConfigError(file, path, "must be two numbers [x, y], not " + shown(v));
+      throw ConfigError(file, path, "must be two numbers [x, y], not " + json_shown(v));
     return {v[0].get<double>(), v[1].get<double>()};
   }
   /// A list of numbers.
@@ -179,7 +173,7 @@ struct CheckpointFields {
     if (!whole_in(v, low, high))
       throw ConfigError(
           file, path,
-          fmt::format("must be a whole number from {} to {}, not {}", low, high, shown(v)));
+          fmt::format("must be a whole number from {} to {}, not {}", low, high, json_shown(v)));
     return v.is_number_unsigned() ? static_cast<std::int64_t>(v.get<std::uint64_t>())
                                   : v.get<std::int64_t>();
   }
@@ -343,16 +337,17 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (!j.is_object() || !j.contains("format") || j.at("format") != "cdshear-checkpoint")
     throw ConfigError(file, "format", "not a cdshear checkpoint");
   if (f.at(j, "", "version") != 1)
-    throw ConfigError(file, "version", "unsupported checkpoint version " + j.at("version").dump());
+    throw ConfigError(file, "version",
+                      "unsupported checkpoint version " + json_shown(j.at("version")));
   World& w = cp.world;
   w.time = f.number(f.at(j, "", "time"), "time");
   const json& step = f.at(j, "", "step");
   if (!step.is_number_unsigned())
-    throw ConfigError(file, "step", "must be a whole number >= 0, not " + shown(step));
+    throw ConfigError(file, "step", "must be a whole number >= 0, not " + json_shown(step));
   w.step = step.get<std::uint64_t>();
   const json& periodic = f.at(j, "", "periodic_x");
   if (!periodic.is_boolean())
-    throw ConfigError(file, "periodic_x", "must be true or false, not " + shown(periodic));
+    throw ConfigError(file, "periodic_x", "must be true or false, not " + json_shown(periodic));
   w.domain.periodic_x = periodic.get<bool>();
   w.domain.length_x = f.number(f.at(j, "", "length_x"), "length_x");
   w.body_force = f.vec2(f.at(j, "", "body_force"), "body_force");

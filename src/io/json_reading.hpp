@@ -25,4 +25,41 @@ inline bool is_whole_number(const nlohmann::json& v) {
   return v.is_number_unsigned() || (v.is_number_integer() && v.get<std::int64_t>() >= 0);
 }
 
+namespace detail {
+/// Appends v's JSON to text, arrays and objects nested deeper than `depth_left` levels as [...] and
+/// {...}, and stops adding elements once text holds more than `limit` characters.
+inline void append_json_shown(const nlohmann::json& v, int depth_left, std::size_t limit,
+                              std::string& text) {
+  if (!v.is_structured()) {
+    text += v.dump();
+    return;
+  }
+  const bool array = v.is_array();
+  if (depth_left == 0 && !v.empty()) {
+    text += array ? "[...]" : "{...}";
+    return;
+  }
+  text += array ? '[' : '{';
+  bool first = true;
+  for (auto it = v.begin(); it != v.end() && text.size() <= limit; ++it) {
+    if (!first) text += ',';
+    first = false;
+    if (!array) text += nlohmann::json(it.key()).dump() + ':';
+    append_json_shown(*it, depth_left - 1, limit, text);
+  }
+  text += array ? ']' : '}';
+}
+}  // namespace detail
+
+/// A value as an error message shows it: its JSON, cut to 60 characters, arrays and objects
+/// nested more than four levels deep shown as [...] and {...}. (The library's dump() recurses once
+/// per level: a packing whose `n` was 100 000 nested brackets overflowed the stack while its error
+/// was written.)
+inline std::string json_shown(const nlohmann::json& v) {
+  constexpr std::size_t kLimit = 60;
+  std::string text;
+  detail::append_json_shown(v, 4, kLimit, text);
+  return text.size() > kLimit ? text.substr(0, kLimit - 3) + "..." : text;
+}
+
 }  // namespace cdshear

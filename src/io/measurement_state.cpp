@@ -70,7 +70,7 @@ void check_count(const json& j, const char* pointer, const char* name, std::uint
                              (largest == std::numeric_limits<std::uint64_t>::max()
                                   ? std::string(">= 0")
                                   : "from 0 to " + std::to_string(largest)) +
-                             ", not " + v.dump());
+                             ", not " + json_shown(v));
 }
 
 }  // namespace

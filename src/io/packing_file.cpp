@@ -163,11 +163,11 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
                         "unknown key (a packing holds the keys `cdshear prepare` writes)");
   if (j.contains("version") && j.at("version") != kPackingVersion)
     throw ConfigError(file, "version",
-                      fmt::format("is {}; this cdshear reads version {}", j.at("version").dump(),
-                                  kPackingVersion));
+                      fmt::format("is {}; this cdshear reads version {}",
+                                  json_shown(j.at("version")), kPackingVersion));
   auto number = [&](const char* key) {
     const nlohmann::json& v = need(key);
-    if (!v.is_number()) throw ConfigError(file, key, "must be a number, not " + v.dump());
+    if (!v.is_number()) throw ConfigError(file, key, "must be a number, not " + json_shown(v));
     return v.get<double>();
   };
   Packing p;
@@ -179,9 +179,9 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
   // the case's.
   if (const nlohmann::json& seed = need("seed");
       !is_whole_number(seed) || seed.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX))
-    throw ConfigError(
-        file, "seed",
-        "must be a whole number from 0 to " + std::to_string(INT64_MAX) + ", not " + seed.dump());
+    throw ConfigError(file, "seed",
+                      "must be a whole number from 0 to " + std::to_string(INT64_MAX) + ", not " +
+                          json_shown(seed));
   p.seed = j.at("seed").get<std::uint64_t>();
   p.piston_stress = number("piston_stress");
   p.preparation_time = j.contains("preparation_time") ? number("preparation_time") : 0.0;
@@ -189,14 +189,14 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     if (j.contains(key) && !j.at(key).is_string())
       throw ConfigError(
           file, key,
-          "must be a string (the program that prepared the packing), not " + j.at(key).dump());
+          "must be a string (the program that prepared the packing), not " + json_shown(j.at(key)));
   if (j.contains("build")) p.build = j.at("build").get<std::string>();
   // How the preparation's numerics behaved: optional (a packing written by hand need not say),
   // but a count is a whole number >= 0 and no count exceeds the steps it counts.
   auto count = [&](const char* key) -> std::uint64_t {
     if (!j.contains(key)) return 0;
     if (!is_whole_number(j.at(key)))
-      throw ConfigError(file, key, "must be a whole number >= 0, not " + j.at(key).dump());
+      throw ConfigError(file, key, "must be a whole number >= 0, not " + json_shown(j.at(key)));
     return j.at(key).get<std::uint64_t>();
   };
   p.preparation_steps = count("preparation_steps");
@@ -220,17 +220,15 @@ Packing read_packing(const std::filesystem::path& path, double overlap_tolerance
     const nlohmann::json& d = list[i];
     if (!d.is_array() || d.size() != 3 || !d[0].is_number() || !d[1].is_number() ||
         !d[2].is_number()) {
-      std::string shown = d.dump();
-      if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
       throw ConfigError(file, fmt::format("disks_xyr[{}]", i),
-                        "must be [x, y, r], three numbers, not " + shown);
+                        "must be [x, y, r], three numbers, not " + json_shown(d));
     }
     p.disks.push_back({{d[0].get<double>(), d[1].get<double>()}, d[2].get<double>()});
   }
   if (j.contains("n") && (!j.at("n").is_number_unsigned() || j.at("n") != p.disks.size()))
     throw ConfigError(
         file, "n",
-        fmt::format("is {}, but disks_xyr lists {} disks", j.at("n").dump(), p.disks.size()));
+        fmt::format("is {}, but disks_xyr lists {} disks", json_shown(j.at("n")), p.disks.size()));
   for (const auto& [key, value] : {std::pair{"height", p.height}, {"length_x", p.length_x}})
     if (!(value > 0) || !std::isfinite(value))
       throw ConfigError(file, key, fmt::format("must be a finite number > 0, not {}", value));

@@ -363,7 +363,12 @@ std::string TomlReader::string(const std::string& key, std::optional<std::string
     return *fallback;
   }
   if (!n->is_string()) fail(key, "must be a string");
-  return *n->value<std::string>();
+  std::string text = *n->value<std::string>();
+  // A path is handed to the system as a C string, which ends at the first NUL: "p.json\u0000x"
+  // would open p.json while the run recorded the whole string. No setting takes one.
+  if (text.find('\0') != std::string::npos)
+    fail(key, "holds a NUL character (\\u0000), which no setting takes");
+  return text;
 }
 
 Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
