@@ -325,8 +325,8 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError(checkpoint_file, "case." + key,
                       fmt::format("the checkpoint is of a run with {} = {}, {} says {}: it "
                                   "belongs to another run",
-                                  key, json_shown(cp.case_identity.at(key)), src.file,
-                                  json_shown(identity.at(key))));
+                                  key, json_shown(cp.case_identity.at(key), kComparedValueLimit),
+                                  src.file, json_shown(identity.at(key), kComparedValueLimit)));
   if (cp.world.disks.size() != s.c.n)
     throw ConfigError(checkpoint_file, "disks",
                       fmt::format("holds {} disks, the case {}", cp.world.disks.size(), s.c.n));

@@ -284,7 +284,8 @@ std::string summary_problem(const fs::path& run_dir) {
   if (written_path.filename().empty()) written_path = written_path.parent_path();  // "DIR/"
   if (written_in.is_string() && written_path.filename() != run_dir.filename())
     return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
-                       (run_dir / "summary.json").string(), json_shown(written_in));
+                       (run_dir / "summary.json").string(),
+                       json_shown(written_in, kComparedValueLimit));
   const FolderCase folder = folder_case(run_dir);
   if (!folder.c) return folder.problem;
   const ShearCase& c = *folder.c;
@@ -301,7 +302,8 @@ std::string summary_problem(const fs::path& run_dir) {
           "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one "
           "again",
           (run_dir / "summary.json").string(), key,
-          json_shown(summary.value(key, nlohmann::json())), json_shown(value));
+          json_shown(summary.value(key, nlohmann::json()), kComparedValueLimit),
+          json_shown(value, kComparedValueLimit));
   }
   return "";
 }
@@ -327,7 +329,8 @@ std::string final_state_problem(const fs::path& run_dir) {
     return fmt::format(
         "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
         "this one again",
-        file.string(), key, json_shown(state["case"].at(key)), json_shown(identity.at(key)));
+        file.string(), key, json_shown(state["case"].at(key), kComparedValueLimit),
+        json_shown(identity.at(key), kComparedValueLimit));
   return "";
 }
 
@@ -344,8 +347,8 @@ std::string folder_case_problem(const fs::path& run_dir, const CampaignRun& r) {
     return fmt::format(
         "{} is of another run ({} = {} where the campaign's run has {}): remove {} to run this "
         "one",
-        (run_dir / "case.toml").string(), key, json_shown(held.at(key)),
-        json_shown(r.identity.at(key)), run_dir.string());
+        (run_dir / "case.toml").string(), key, json_shown(held.at(key), kComparedValueLimit),
+        json_shown(r.identity.at(key), kComparedValueLimit), run_dir.string());
   return "";
 }
 

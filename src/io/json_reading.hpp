@@ -51,15 +51,17 @@ inline void append_json_shown(const nlohmann::json& v, int depth_left, std::size
 }
 }  // namespace detail
 
-/// A value as an error message shows it: its JSON, cut to 60 characters, arrays and objects
+/// A value as an error message shows it: its JSON, cut to `limit` characters, arrays and objects
 /// nested more than four levels deep shown as [...] and {...}. (The library's dump() recurses once
 /// per level: a packing whose `n` was 100 000 nested brackets overflowed the stack while its error
-/// was written.)
-inline std::string json_shown(const nlohmann::json& v) {
-  constexpr std::size_t kLimit = 60;
+/// was written.) A value the message compares with another (a path) takes a larger limit.
+inline std::string json_shown(const nlohmann::json& v, std::size_t limit = 60) {
   std::string text;
-  detail::append_json_shown(v, 4, kLimit, text);
-  return text.size() > kLimit ? text.substr(0, kLimit - 3) + "..." : text;
+  detail::append_json_shown(v, 4, limit, text);
+  return text.size() > limit ? text.substr(0, limit - 3) + "..." : text;
 }
+
+/// The limit of json_shown for a value compared with another in the message: a case's whole path.
+inline constexpr std::size_t kComparedValueLimit = 4096;
 
 }  // namespace cdshear
