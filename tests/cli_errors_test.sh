@@ -239,9 +239,9 @@ expect_error "key 'step.dt': shear.duration = 240 in steps of 1e-90 is more than
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of 0.004 is more than" "$exe" run -q --set shear.duration=1e30
 expect_error "key 'shear.velocity': V = 1e+308 sets the time step to 2e-311" "$exe" run -q -V 1e308
 expect_error "key 'shear.duration': shear.duration = 1e+30 in steps of" "$exe" settings --set shear.duration=1e30
-# Control characters in a value are shown escaped: a NUL would end the message, an escape act on
-# the terminal.
-expect_error "got 'lin\x00ear'" "$exe" settings --set 'shear.initial_velocity="lin\u0000ear"'
+# A NUL in a string is refused by name (it would end a path); other control characters in a value
+# are shown escaped (an escape would act on the terminal).
+expect_error "key 'shear.initial_velocity': holds a NUL character" "$exe" settings --set 'shear.initial_velocity="lin\u0000ear"'
 expect_error "got 'lin\x1b[31mear'" "$exe" settings --set 'shear.initial_velocity="lin\u001b[31mear"'
 # The key given on the command line is the one named, not the built-in speed beside it.
 expect_error "--set shear.duration=1e7: key 'shear.duration': shear.duration = 1e+07 in steps of 0.004" \
