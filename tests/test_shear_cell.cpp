@@ -437,17 +437,14 @@ TEST(ShearCaseErrors, PackingMetadataAreCheckedByKey) {
 TEST(ShearCaseErrors, ADeeplyNestedPackingValueIsShownShortened) {
   // `n` as 100 000 nested arrays: the parser takes it, and the error shows it cut short instead of
   // printing it whole (which recursed once per level and overflowed the stack).
-  std::ifstream in(CDSHEAR_SYSTEM1_PACKING);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string text = testing::read_text(CDSHEAR_SYSTEM1_PACKING);
   const std::size_t at = text.find("\"n\": ");
   ASSERT_NE(at, std::string::npos);
   const std::size_t value = at + 5, end = text.find_first_not_of("0123456789", value);
   text.replace(value, end - value, std::string(100000, '[') + std::string(100000, ']'));
   testing::TempDir dir("deep_packing");
-  const std::filesystem::path path = dir.path() / "deep.json";
-  std::ofstream(path) << text;
   try {
-    read_packing(path);
+    read_packing(dir.write("deep.json", text));
     ADD_FAILURE() << "a nested n was accepted";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.key(), "n") << e.what();

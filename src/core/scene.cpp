@@ -139,8 +139,9 @@ std::optional<OverlapReport> overlap_in_a_crowded_cell(const World& world, doubl
   if (!(most < 1e6)) return std::nullopt;  // tiny disks beside large ones: no useful bound
   const auto fit = static_cast<std::size_t>(most);
   std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>> cells(n);
-  // Cells beyond +-1e15 widths (and non-finite positions) are joined into one: a cell crowded
-  // only by that join is passed over below.
+  // Binned by sorting, not with CellList, whose grid spans the disks' bounding box (a stray disk
+  // far away would make it as large). Cells beyond +-1e15 widths (and non-finite positions) are
+  // joined into one: a cell crowded only by that join is passed over below.
   const auto cell_of = [h](double x) {
     const double c = std::floor(x / h);
     return std::isfinite(c) ? static_cast<std::int64_t>(std::clamp(c, -1e15, 1e15)) : 0;
