@@ -76,6 +76,26 @@ done
 checks=$((checks + 1))
 test -f done/run_info.json || { echo "FAIL: the forced run wrote no run_info.json"; fails=$((fails + 1)); }
 
+# A case or scene file of the user's own kept in the output folder is never written over, --force
+# or not; a run folder's own case.toml (written by cdshear) runs again there with --force.
+mkdir -p own_case own_scene
+printf '# my case\n[shear]\nduration = 0.2\n' > own_case/case.toml
+cp "$scene" own_scene/scene.toml
+for force in "" --force; do
+  expect_error "own_case/case.toml: was not written by cdshear" \
+    "$exe" run -q --no-analyze own_case/case.toml --packing "$packing" -o own_case $force
+  expect_error "own_scene/scene.toml: was not written by cdshear" \
+    "$exe" scene -q own_scene/scene.toml --set run.duration=0.2 -o own_scene $force
+done
+checks=$((checks + 1))
+grep -q "# my case" own_case/case.toml && cmp -s "$scene" own_scene/scene.toml &&
+  [ "$(ls own_case own_scene)" = "$(printf 'own_case:\ncase.toml\n\nown_scene:\nscene.toml')" ] ||
+  { echo "FAIL: a refused run touched the user's own case or scene file"; fails=$((fails + 1)); }
+checks=$((checks + 1))
+"$exe" run -q --no-analyze done/case.toml -o done --force > /dev/null 2>&1 &&
+  head -1 done/case.toml | grep -q "^# Resolved case written by cdshear" ||
+  { echo "FAIL: a run folder's own case.toml did not run again in it"; fails=$((fails + 1)); }
+
 # An output folder that cannot be made is refused before any packing is prepared (a case without
 # a cached packing would otherwise prepare one first), and nothing is left behind.
 expect_error "/proc/cdshear_x: cannot create the output folder" \

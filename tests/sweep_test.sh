@@ -3,7 +3,8 @@
 # measurement, a few time units per run): every run finishes from one packing; a second sweep
 # redoes nothing (and refuses a final state or a run folder copied from another run, and takes
 # a run killed between its final state and its interrupted state's removal as finished), nor
-# does one in a folder kept as git keeps it (summaries, no final states); a sweep stopped by
+# does one in a folder kept as git keeps it (summaries, no final states), nor one whose
+# progress.json was last written before its end; a sweep stopped by
 # SIGTERM exits 130, and
 # the next one keeps the finished runs untouched (run_info.json unchanged), resumes the
 # interrupted one from its checkpoint and finishes all; a run killed between its last step and
@@ -79,6 +80,15 @@ test -f stale/runs/s1_seed1_V1/checkpoint.cbor || fail "the finished run kept no
 cp stale/runs/s1_seed1_V1/final_state.json stale/runs/s1_seed1_V1/interrupted_state.json
 "$exe" sweep two.toml -o stale > stale.out 2>&1 || fail "a stale interrupted state: $(cat stale.out)"
 grep -q "2 finished earlier" stale.out || fail "a stale interrupted state: $(cat stale.out)"
+# A run whose last progress.json write failed (it only warns) keeps an earlier "running" line:
+# its final state of the file's own end step makes it finished, not resumed past its end.
+cp -r "$dir" unwritten
+sed -i 's/"state": "finished"/"state": "running"/; s/"step": \([0-9]*\)/"step": 1/' \
+  unwritten/runs/s1_seed1_V1/progress.json
+grep -q '"step": 1,' unwritten/runs/s1_seed1_V1/progress.json || fail "progress.json not edited"
+"$exe" sweep two.toml -o unwritten > unwritten.out 2>&1 ||
+  fail "a stale progress file: $(cat unwritten.out)"
+grep -q "2 finished earlier" unwritten.out || fail "a stale progress file: $(cat unwritten.out)"
 
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
 # is not run again (every step is done); a missing summary.json is

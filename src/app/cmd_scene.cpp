@@ -54,7 +54,7 @@ int run_scene(const SceneArgs& args) {
   const FolderLock lock = claim_output_folder(dir, args.force, "");
   {
     std::ostringstream resolved;
-    resolved << sf.resolved << '\n';
+    resolved << kResolvedSceneHeader << CDSHEAR_VERSION << ".\n" << sf.resolved << '\n';
     write_file_atomic(dir / "scene.toml", resolved.str());
   }
 

@@ -5,6 +5,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <fstream>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -201,6 +202,22 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
   // Locked before anything in it is looked at: another run may be writing it.
   FolderLock lock;
   if (fs::is_directory(dir)) lock = FolderLock::take(dir);
+  for (const auto& [name, header] : {std::pair{"case.toml", kResolvedCaseHeader},
+                                     std::pair{"scene.toml", kResolvedSceneHeader}}) {
+    const fs::path file = dir / name;
+    std::error_code ec;
+    // A link is replaced, not written through (write_file_atomic renames over it).
+    if (!fs::is_regular_file(fs::symlink_status(file, ec))) continue;
+    std::string start(header.size(), '\0');
+    std::ifstream in(file, std::ios::binary);
+    in.read(start.data(), static_cast<std::streamsize>(start.size()));
+    if (in && start == header) continue;
+    throw ConfigError(
+        file.string(), "",
+        "was not written by cdshear (a case or scene file of your own, kept in the "
+        "output folder?): the command would write over it, --force or not; move it out "
+        "of the folder or choose another -o");
+  }
   if (!force && !folder_is_free(dir, lock.held())) {
     std::vector<std::string> names;
     for (const fs::directory_entry& e : fs::directory_iterator(dir))

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -67,10 +68,18 @@ inline constexpr const char* kFolderLockName = ".cdshear.lock";
 inline constexpr const char* kEmptyRunCaseProblem =
     "is empty: a run's case.toml holds its whole case (restore it)";
 
+/// The first words of the case.toml a run writes in its folder (the resolved case) and of the
+/// scene.toml a scene command writes: a file of that name that does not begin with them is the
+/// user's own (the case file being run, kept in its output folder), and no command replaces it.
+inline constexpr std::string_view kResolvedCaseHeader = "# Resolved case written by cdshear ";
+inline constexpr std::string_view kResolvedSceneHeader = "# Resolved scene written by cdshear ";
+
 /// The one rule of every command that writes a folder: a folder another cdshear is writing is
-/// refused (FolderLock); a folder holding anything is refused (ConfigError naming it and what it
-/// holds, with `hint` on how to continue) unless `force`. Creates the folder and returns its
-/// lock; removes nothing.
+/// refused (FolderLock); a folder holding a case.toml or scene.toml of the user's own (a regular
+/// file without kResolvedCaseHeader, kResolvedSceneHeader) is refused, `force` or not, since
+/// `--force` would replace it; a folder holding anything else is refused (ConfigError naming it
+/// and what it holds, with `hint` on how to continue) unless `force`. Creates the folder and
+/// returns its lock; removes nothing.
 FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
                               const std::string& hint);
 

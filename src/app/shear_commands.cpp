@@ -187,7 +187,7 @@ std::string resolved_case_text(const ShearCase& c, const std::string& packing,
   toml::table resolved = case_to_toml(c);
   resolved["preparation"].as_table()->insert_or_assign("packing", packing);
   std::ostringstream text;
-  text << "# Resolved case written by cdshear " CDSHEAR_VERSION;
+  text << kResolvedCaseHeader << CDSHEAR_VERSION;
   if (!dir.empty()) text << "; `cdshear run --resume " << path_for_comment(dir) << "` continues it";
   text << ".\n" << resolved << '\n';
   return text.str();

@@ -99,9 +99,12 @@ nlohmann::json case_of(const nlohmann::json& summary) {
 }
 
 /// True when the run's progress.json says its last sitting ended before its end step (`step` <
-/// `end_step`). A finished run being extended (`run --resume --set shear.duration=T`) keeps its
-/// earlier final_state.json until it reaches the new end; a run that ends writes its progress
-/// ("finished", step = end_step) before its final state.
+/// `end_step`) and that end lies past the final state's step: an extension of a finished run
+/// (`run --resume --set shear.duration=T`), which keeps its earlier final_state.json until it
+/// reaches the new end, stopped short. A run that ends writes its progress ("finished", step =
+/// end_step) before its final state; where that write failed (a progress file is a courtesy:
+/// a full disk or a read-only file only warns), the file still holds an earlier "running" line
+/// whose end is the final state's own step, and the run is finished.
 bool stopped_before_its_end(const fs::path& dir);
 
 /// True when the folder's interrupted_state.json is of a stop after its final state: an
@@ -234,8 +237,11 @@ bool stopped_before_its_end(const fs::path& dir) {
   if (j.is_discarded() || !j.is_object()) return false;
   const auto step = j.find("step");
   const auto end = j.find("end_step");
-  return step != j.end() && end != j.end() && step->is_number_unsigned() &&
-         end->is_number_unsigned() && step->get<std::uint64_t>() < end->get<std::uint64_t>();
+  if (step == j.end() || end == j.end() || !step->is_number_unsigned() ||
+      !end->is_number_unsigned() || step->get<std::uint64_t>() >= end->get<std::uint64_t>())
+    return false;
+  const std::optional<std::uint64_t> ended = recorded_step(dir / "final_state.json");
+  return !ended || end->get<std::uint64_t>() > *ended;
 }
 
 bool interrupted_after_final_state(const fs::path& dir) {
