@@ -516,6 +516,15 @@ checks=$((checks + 1))
 echo "a file" > plain_file
 expect_status2 "plain_file/sub: cannot create the output folder: Not a directory" \
   "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o plain_file/sub
+ln -s "$work/nowhere/folder" dangling
+expect_status2 "dangling: is a symbolic link to $work/nowhere/folder, which does not exist" \
+  "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o dangling
+# The time-step warning prints a tiny displacement bound as given, not as 0.000000.
+"$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
+  --set shear.duration=0.01 --set step.displacement_bound=1e-300 -o tiny_bound > out.txt 2>&1
+checks=$((checks + 1))
+grep -q "above step.displacement_bound = 1e-300;" out.txt ||
+  { echo "FAIL: the tiny bound's warning: $(cat out.txt)"; fails=$((fails + 1)); }
 # A blow-up that a resume goes past leaves no stale blowup_state.json behind; its message prints
 # a tiny bound as given.
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.1 -o blown > /dev/null

@@ -436,6 +436,30 @@ TEST(BadInput, OverrideWithATableValueIsRefusedNotAppliedAsAWholeTable) {
   EXPECT_EQ(s.relaxation, 1.5);  // the file's key kept beside the override
 }
 
+TEST(BadInput, AnOverrideInsideAValueBlamesTheOverrideThatGaveTheValue) {
+  // `--set solver=1 --set solver.seed=4`: the first --set is the mistake, not the second.
+  TempDir dir("override_inside_value");
+  const std::string path = dir.write("scene.toml", scene_text());
+  try {
+    load_scene_file(path, {"solver=1", "solver.seed=4"});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "solver");
+    EXPECT_EQ(e.given_key(), "solver");
+    EXPECT_NE(std::string(e.what()).find("--set solver=1"), std::string::npos) << e.what();
+    EXPECT_NE(e.problem().find("--set solver.seed=4 cannot set a key inside it"), std::string::npos)
+        << e.what();
+  }
+  // A value the file gives (run.duration) is named, on the --set that reaches inside it.
+  try {
+    load_scene_file(path, {"run.duration.x=4"});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "run.duration.x");
+    EXPECT_NE(e.problem().find("'run.duration' is not a table"), std::string::npos) << e.what();
+  }
+}
+
 TEST(BadInput, APackingDestinationIsCheckedBeforeAnythingIsPrepared) {
   const TempDir dir("packing_destination");
   const auto expect_refused = [](const std::filesystem::path& path, const std::string& words) {

@@ -687,6 +687,13 @@ TEST(RunDataFile, MissingEmptyAndTruncatedFilesAreClearErrors) {
   flipped[flipped.size() / 2] = static_cast<char>(flipped[flipped.size() / 2] ^ 0x10);
   { std::ofstream(dir / "flipped.h5", std::ios::binary) << flipped; }
   expect_error(dir / "flipped.h5", "does not match the checksum");
+  // A seal whose size is negative (not read as 2^64 - 5) is no seal.
+  std::string negative = bytes;
+  const std::size_t size_at = negative.find(" size=") + 6;
+  ASSERT_LT(size_at, negative.find('\n'));
+  negative.replace(size_at, 0, "-");
+  { std::ofstream(dir / "negative.h5", std::ios::binary) << negative; }
+  expect_error(dir / "negative.h5", "has no cdshear seal");
 }
 
 }  // namespace

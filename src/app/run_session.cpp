@@ -230,6 +230,10 @@ FolderLock lock_output_folder(const std::filesystem::path& dir, bool force,
                                   fmt::join(names, ", "), hint.empty() ? "" : hint + ", "));
   }
   std::error_code ec;
+  if (fs::is_symlink(fs::symlink_status(dir, ec)) && !fs::exists(dir, ec))
+    throw ConfigError(dir.string(), "",
+                      "is a symbolic link to " + fs::read_symlink(dir, ec).string() +
+                          ", which does not exist: make that folder, or choose another -o");
   fs::create_directories(dir, ec);
   if (ec)  // a file in the path, a read-only or special file system, a name too long...
     throw ConfigError(dir.string(), "", "cannot create the output folder: " + ec.message());

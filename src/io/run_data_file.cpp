@@ -106,8 +106,11 @@ void check_seal(const H5Context& ctx, const fs::path& path) {
   in.read(line, sizeof line - 1);
   unsigned crc = 0;
   unsigned long long size = 0;
+  // %llu would take "size=-5" as 2^64 - 5: the size must start with a digit.
+  const char* size_text = std::strstr(line, " size=");
   if (std::strncmp(line, kSealPrefix, std::strlen(kSealPrefix)) != 0 ||
-      std::sscanf(line + std::strlen(kSealPrefix), "%8x size=%llu", &crc, &size) != 2)
+      std::sscanf(line + std::strlen(kSealPrefix), "%8x size=%llu", &crc, &size) != 2 ||
+      size_text == nullptr || !std::isdigit(static_cast<unsigned char>(size_text[6])))
     ctx.fail("",
              "has no cdshear seal: not a run.h5 written by cdshear, or damaged (empty or "
              "truncated?)");

@@ -171,8 +171,18 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
         at->insert(part, toml::table{});
         next = at->get(part);
       }
-      if (!next->is_table())
-        throw ConfigError("--set " + item, key, "'" + part + "' is not a table", key);
+      if (!next->is_table()) {
+        // An earlier --set that gave the table a value (`--set shear=1 --set shear.velocity=1`)
+        // is the one to blame; otherwise the file gave it one.
+        const std::string so_far = key.substr(0, key.size() - rest.size() - 1);
+        if (sources != nullptr)
+          if (const auto earlier = sources->find(so_far); earlier != sources->end())
+            throw ConfigError(
+                earlier->second, so_far,
+                "gives '" + so_far + "' a value, so --set " + item + " cannot set a key inside it",
+                so_far);
+        throw ConfigError("--set " + item, key, "'" + so_far + "' is not a table", key);
+      }
       at = next->as_table();
     }
     at->insert_or_assign(rest, *parsed.get("v"));

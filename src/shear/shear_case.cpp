@@ -30,12 +30,14 @@ std::string resolve_step_rules(ShearCase& c) {
                                          ? *c.residual_tolerance
                                          : default_residual_tolerance(c.velocity, c.step.dt);
   const double per_step = c.velocity * c.step.dt;
-  if (per_step > c.step.displacement_bound)
-    return "step.dt = " + std::to_string(c.step.dt) +
-           " moves the walls by V dt = " + std::to_string(per_step) +
-           " per step, above step.displacement_bound = " +
-           std::to_string(c.step.displacement_bound) +
-           "; the default rule would give dt = " + std::to_string(default_time_step(c));
+  if (per_step > c.step.displacement_bound) {
+    char text[256];  // %g: a bound of 1e-300 is not "0.000000"
+    std::snprintf(text, sizeof text,
+                  "step.dt = %.6g moves the walls by V dt = %.6g per step, above "
+                  "step.displacement_bound = %.6g; the default rule would give dt = %.6g",
+                  c.step.dt, per_step, c.step.displacement_bound, default_time_step(c));
+    return text;
+  }
   return {};
 }
 
