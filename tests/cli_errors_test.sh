@@ -525,6 +525,14 @@ expect_status2 "dangling: is a symbolic link to $work/nowhere/folder, which does
 checks=$((checks + 1))
 grep -q "above step.displacement_bound = 1e-300;" out.txt ||
   { echo "FAIL: the tiny bound's warning: $(cat out.txt)"; fails=$((fails + 1)); }
+grep -q "warning: packing" out.txt &&
+  { echo "FAIL: a warning of the packing's own stress: $(cat out.txt)"; fails=$((fails + 1)); }
+# A packing compressed under another piston stress than the case's preparation is named.
+"$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
+  --set shear.duration=0.01 --set preparation.piston_stress=0.3 -o other_stress > out.txt 2>&1
+checks=$((checks + 2))
+grep -q "was compressed under piston_stress 0.25, the case's preparation.piston_stress is 0.3" \
+  out.txt || { echo "FAIL: no piston-stress warning: $(cat out.txt)"; fails=$((fails + 1)); }
 # A blow-up that a resume goes past leaves no stale blowup_state.json behind; its message prints
 # a tiny bound as given.
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.1 -o blown > /dev/null

@@ -139,6 +139,14 @@ void check_packing_matches(const ShearCase& c, const Packing& p, const fs::path&
     std::fprintf(stderr, "warning: packing %s was placed with seed %llu, the case says %llu\n",
                  file.c_str(), static_cast<unsigned long long>(p.seed),
                  static_cast<unsigned long long>(c.seed));
+  // A packing compressed under another stress is another initial density: the run is valid, but
+  // not the experiment the case's preparation describes.
+  const double asked = c.preparation.piston_stress;
+  if (std::abs(p.piston_stress - asked) > 1e-9 * std::abs(asked))
+    std::fprintf(stderr,
+                 "warning: packing %s was compressed under piston_stress %.6g, the case's "
+                 "preparation.piston_stress is %.6g\n",
+                 file.c_str(), p.piston_stress, asked);
 }
 
 struct RunArgs {
