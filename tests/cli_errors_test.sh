@@ -527,6 +527,13 @@ grep -q "above step.displacement_bound = 1e-300;" out.txt ||
   { echo "FAIL: the tiny bound's warning: $(cat out.txt)"; fails=$((fails + 1)); }
 grep -q "warning: packing" out.txt &&
   { echo "FAIL: a warning of the packing's own stress: $(cat out.txt)"; fails=$((fails + 1)); }
+# A prepared packing too narrow for a shear cell is refused before it is cached, and leaves no
+# packings/ folder behind.
+mkdir -p narrow
+expect_status2 "the prepared packing (L_x" \
+  env -C narrow "$exe" run -q --set system.n=1 --set system.height=1.01 -o imp
+checks=$((checks + 1))
+[ -z "$(ls -A narrow)" ] || { echo "FAIL: a refused narrow cell left $(ls -A narrow)"; fails=$((fails + 1)); }
 # A packing compressed under another piston stress than the case's preparation is named.
 "$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
   --set shear.duration=0.01 --set preparation.piston_stress=0.3 -o other_stress > out.txt 2>&1

@@ -104,8 +104,11 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
   return p;
 }
 
-/// The packing of a case: its packing file, or the cache entry (prepared if absent).
-std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
+/// The packing of a case: its packing file, or the cache entry (prepared if absent). A packing
+/// prepared here whose cell cannot be sheared (a period under three largest diameters: too few
+/// disks for the height) is refused before it is cached, blaming `case_source`'s system.n.
+std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
+                                            const std::string& case_source) {
   const double tolerance = packing_wall_tolerance(c);
   if (!c.packing_file.empty()) return {read_packing(c.packing_file, tolerance), c.packing_file};
   const fs::path cached = fs::path("packings") / packing_cache_name(c.preparation);
@@ -126,6 +129,16 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet) {
   }
   check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);
+  try {
+    build_shear_world(c, p);
+  } catch (const SceneError& e) {
+    std::error_code ec;
+    fs::remove(cached.parent_path(), ec);  // only if empty: the folder made for it
+    throw ConfigError(case_source, "system.n",
+                      fmt::format("the prepared packing (L_x {:.6g}, not cached) makes no shear "
+                                  "cell: {}; give more disks or a smaller system.height",
+                                  p.length_x, e.what()));
+  }
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
   return {p, cached};
@@ -389,7 +402,7 @@ void open_new(const RunArgs& args, ShearSession& s) {
                                   ? "continue it with --resume " + s.dir.string()
                                   : std::string());
   try {
-    auto [packing, path] = obtain_packing(c, args.c.quiet);
+    auto [packing, path] = obtain_packing(c, args.c.quiet, s.case_source);
     s.packing_used = path.string();
     check_packing_matches(c, packing, path);
     try {
