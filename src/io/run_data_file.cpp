@@ -6,6 +6,7 @@
 #include <hdf5.h>
 #include <zlib.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
