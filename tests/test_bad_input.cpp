@@ -436,6 +436,23 @@ TEST(BadInput, OverrideWithATableValueIsRefusedNotAppliedAsAWholeTable) {
   EXPECT_EQ(s.relaxation, 1.5);  // the file's key kept beside the override
 }
 
+TEST(BadInput, ASceneContactMarginWiderThanTheLargestDiskIsRefused) {
+  // scene_text's disks have radius 0.5: a margin of one diameter is taken, a wider one is not.
+  TempDir dir("scene_margin");
+  const std::string path = dir.write("scene.toml", scene_text());
+  EXPECT_EQ(load_scene_file(path, {"step.contact_margin=1.0"}).step.contact_margin, 1.0);
+  try {
+    load_scene_file(path, {"step.contact_margin=1.5"});
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "step.contact_margin");
+    EXPECT_NE(std::string(e.what()).find("--set step.contact_margin=1.5"), std::string::npos)
+        << e.what();
+    EXPECT_NE(e.problem().find("more than the largest disk's diameter (1)"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(BadInput, AnOverrideInsideAValueBlamesTheOverrideThatGaveTheValue) {
   // `--set solver=1 --set solver.seed=4`: the first --set is the mistake, not the second.
   TempDir dir("override_inside_value");

@@ -180,6 +180,22 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
                       "must be less than step.abort_overlap (" +
                           format_number(out.step.abort_overlap) +
                           "): a scene cannot start from an overlap its run would stop at");
+  // As a case's step.contact_margin is at most 1 d: a margin wider than the largest disk makes
+  // nearly every pair a candidate contact (1e300 listed all of them, gigabytes for a few
+  // thousand disks). The default margin stays allowed whatever the disks' size (a scene's units
+  // are its own).
+  double largest_diameter = 0.0;
+  for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2.0 * d.radius);
+  for (const RandomDisksSpec& r : s.random_disks)
+    largest_diameter = std::max(largest_diameter, r.diameter_max);
+  const double default_margin = StepOptions{}.contact_margin;
+  if (out.step.contact_margin > std::max(largest_diameter, default_margin))
+    root.fail_between("step.contact_margin", {"disks", "random_disks"},
+                      "is " + format_number(out.step.contact_margin) +
+                          ", more than the largest disk's diameter (" +
+                          format_number(largest_diameter) + ") and the default " +
+                          format_number(default_margin) +
+                          ": nearly every pair would be a candidate contact");
   root.finish();
   return out;
 }
