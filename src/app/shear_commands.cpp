@@ -132,12 +132,16 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
   try {
     build_shear_world(c, p);
   } catch (const SceneError& e) {
-    std::error_code ec;
-    fs::remove(cached.parent_path(), ec);  // only if empty: the folder made for it
-    throw ConfigError(case_source, "system.n",
-                      fmt::format("the prepared packing (L_x {:.6g}, not cached) makes no shear "
-                                  "cell: {}; give more disks or a smaller system.height",
-                                  p.length_x, e.what()));
+    // Only a period too short is the case's doing; any other problem is the packing's, reported
+    // by the run's own build of the cell with the cached file named, as for a given packing.
+    if (e.key() == "domain.length_x") {
+      std::error_code ec;
+      fs::remove(cached.parent_path(), ec);  // only if empty: the folder made for it
+      throw ConfigError(case_source, "system.n",
+                        fmt::format("the prepared packing (L_x {:.6g}, not cached) makes no "
+                                    "shear cell: {}; give more disks or a smaller system.height",
+                                    p.length_x, e.what()));
+    }
   }
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
