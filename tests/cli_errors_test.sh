@@ -534,6 +534,18 @@ expect_status2 "the prepared packing (L_x" \
   env -C narrow "$exe" run -q --set system.n=1 --set system.height=1.01 -o imp
 checks=$((checks + 1))
 [ -z "$(ls -A narrow)" ] || { echo "FAIL: a refused narrow cell left $(ls -A narrow)"; fails=$((fails + 1)); }
+# So is one that `prepare` makes (a campaign's packings come from it): to the cache, to a new
+# folder (removed) and to a folder of the user's (kept, empty).
+expect_status2 "the prepared packing (L_x" \
+  env -C narrow "$exe" prepare -q --set system.n=1 --set system.height=1.01
+expect_status2 "not written to new/p.json" \
+  env -C narrow "$exe" prepare -q --set system.n=1 --set system.height=1.01 -o new/p.json
+mkdir -p narrow/mine
+expect_status2 "makes no shear cell" \
+  env -C narrow "$exe" prepare -q --set system.n=1 --set system.height=1.01 -o mine/p.json
+checks=$((checks + 1))
+[ "$(ls -A narrow)" = mine ] && [ -z "$(ls -A narrow/mine)" ] ||
+  { echo "FAIL: prepare's refused narrow cell left $(ls -AR narrow)"; fails=$((fails + 1)); }
 # A packing compressed under another piston stress than the case's preparation is named.
 "$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
   --set shear.duration=0.01 --set preparation.piston_stress=0.3 -o other_stress > out.txt 2>&1

@@ -14,6 +14,7 @@
 #include <limits>
 #include <string>
 
+#include "case_file.hpp"
 #include "cdshear_git.hpp"
 #include "checkpoint.hpp"
 #include "config_error.hpp"
@@ -467,13 +468,31 @@ TEST(BadInput, AnOverrideInsideAValueBlamesTheOverrideThatGaveTheValue) {
     EXPECT_NE(e.problem().find("--set solver.seed=4 cannot set a key inside it"), std::string::npos)
         << e.what();
   }
-  // A value the file gives (run.duration) is named, on the --set that reaches inside it.
+  // A value the file gives (run.duration) is named, with the file, on the --set that reaches
+  // inside it.
   try {
     load_scene_file(path, {"run.duration.x=4"});
     ADD_FAILURE() << "no ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.key(), "run.duration.x");
-    EXPECT_NE(e.problem().find("'run.duration' is not a table"), std::string::npos) << e.what();
+    EXPECT_NE(e.problem().find("'run.duration' is not a table: " + path + " gives it a value"),
+              std::string::npos)
+        << e.what();
+  }
+  // The same in a case file.
+  CaseSource source;
+  source.file = dir.write("case.toml", "shear = 1\n");
+  source.overrides = {"shear.velocity=0.3"};
+  try {
+    load_case(source);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "shear.velocity");
+    EXPECT_NE(std::string(e.what()).find("--set shear.velocity=0.3"), std::string::npos)
+        << e.what();
+    EXPECT_NE(e.problem().find("'shear' is not a table: " + source.file + " gives it a value"),
+              std::string::npos)
+        << e.what();
   }
 }
 

@@ -104,9 +104,44 @@ Packing prepare_with_progress(const PreparationOptions& o, bool quiet) {
   return p;
 }
 
+/// Where a case comes from, for error messages: its file (or the built-in default) and whether
+/// --set overrides changed it.
+std::string case_source_of(const CaseArgs& a) {
+  return (a.file.empty() ? std::string("built-in default case") : a.file) +
+         (a.overrides.empty() ? "" : " (with --set overrides)");
+}
+
+/// Refuses a freshly prepared packing, before it is written to `destination`, whose shear cell
+/// cannot be built because its period is under three largest diameters (too few disks for the
+/// height): the case's doing, blamed on `case_source`'s system.n. `destination`'s folder is
+/// removed if `made_folder` and it is empty. Any other problem of the cell is the packing's,
+/// reported by the run's own build with the file named, as for a given packing.
+void refuse_a_packing_without_a_cell(const ShearCase& c, const Packing& p,
+                                     const fs::path& destination, bool made_folder,
+                                     const std::string& case_source) {
+  try {
+    build_shear_world(c, p);
+  } catch (const SceneError& e) {
+    if (e.key() != "domain.length_x") return;
+    if (made_folder) {
+      std::error_code ec;
+      fs::remove(destination.parent_path(), ec);  // only if empty
+    }
+    throw ConfigError(case_source, "system.n",
+                      fmt::format("the prepared packing (L_x {:.6g}, not written to {}) makes no "
+                                  "shear cell: {}; give more disks or a smaller system.height",
+                                  p.length_x, destination.string(), e.what()));
+  }
+}
+
+/// True when `path`'s folder has yet to be made (check_packing_destination makes it).
+bool makes_its_folder(const fs::path& path) {
+  return path.has_parent_path() && !fs::exists(path.parent_path());
+}
+
 /// The packing of a case: its packing file, or the cache entry (prepared if absent). A packing
-/// prepared here whose cell cannot be sheared (a period under three largest diameters: too few
-/// disks for the height) is refused before it is cached, blaming `case_source`'s system.n.
+/// prepared here whose cell cannot be sheared is refused before it is cached
+/// (refuse_a_packing_without_a_cell).
 std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
                                             const std::string& case_source) {
   const double tolerance = packing_wall_tolerance(c);
@@ -127,22 +162,10 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
           p.build.c_str(), here.c_str());
     return {std::move(p), cached};
   }
+  const bool made_folder = makes_its_folder(cached);
   check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);
-  try {
-    build_shear_world(c, p);
-  } catch (const SceneError& e) {
-    // Only a period too short is the case's doing; any other problem is the packing's, reported
-    // by the run's own build of the cell with the cached file named, as for a given packing.
-    if (e.key() == "domain.length_x") {
-      std::error_code ec;
-      fs::remove(cached.parent_path(), ec);  // only if empty: the folder made for it
-      throw ConfigError(case_source, "system.n",
-                        fmt::format("the prepared packing (L_x {:.6g}, not cached) makes no "
-                                    "shear cell: {}; give more disks or a smaller system.height",
-                                    p.length_x, e.what()));
-    }
-  }
+  refuse_a_packing_without_a_cell(c, p, cached, made_folder, case_source);
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
   return {p, cached};
@@ -375,8 +398,7 @@ std::uint64_t checked_stop_step(const RunArgs& args, const ShearSession& s);
 void open_new(const RunArgs& args, ShearSession& s) {
   ShearCase& c = s.c;
   c = load_case(to_source(args.c));
-  s.case_source = (args.c.file.empty() ? std::string("built-in default case") : args.c.file) +
-                  (args.c.overrides.empty() ? "" : " (with --set overrides)");
+  s.case_source = case_source_of(args.c);
   if (!args.packing.empty()) c.packing_file = args.packing;
   plan_run(s);  // the new world starts at step 0
   // --stop-at too, before the folder is claimed and the packing prepared
@@ -786,8 +808,10 @@ int run_prepare(const PrepareArgs& args) {
                        : !c.packing_file.empty()
                            ? fs::path(c.packing_file)
                            : fs::path("packings") / packing_cache_name(c.preparation);
+  const bool made_folder = makes_its_folder(out);
   check_packing_destination(out);  // before the preparation, not after it
   const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
+  refuse_a_packing_without_a_cell(c, p, out, made_folder, case_source_of(args.c));
   write_packing(out, p);
   std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
               p.solid_fraction);

@@ -276,7 +276,7 @@ ShearCase load_case(const CaseSource& src) {
     table["shear"].as_table()->insert_or_assign("velocity", *src.velocity);
     (*sources)["shear.velocity"] = "--velocity";
   }
-  apply_overrides(table, src.overrides, sources.get());
+  apply_overrides(table, src.overrides, sources.get(), src.file);
   if (src.system && !src.file.empty())
     check_file_keeps_system(table, src.file, *src.system, c, *sources);
   if (src.velocity && *src.velocity <= 0.0)

@@ -66,7 +66,7 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   SceneFile out;
   out.resolved = parse_toml_file(path);
   auto sources = std::make_shared<OverrideSources>();
-  apply_overrides(out.resolved, overrides, sources.get());
+  apply_overrides(out.resolved, overrides, sources.get(), path);
   out.file = path;
   out.sources = sources;
   TomlReader root(out.resolved, path, "", sources);

@@ -110,7 +110,7 @@ std::string override_key(const std::string& item) {
 }
 
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
-                     OverrideSources* sources) {
+                     OverrideSources* sources, const std::string& file) {
   for (const std::string& item : overrides) {
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
@@ -181,7 +181,10 @@ void apply_overrides(toml::table& root, const std::vector<std::string>& override
                 earlier->second, so_far,
                 "gives '" + so_far + "' a value, so --set " + item + " cannot set a key inside it",
                 so_far);
-        throw ConfigError("--set " + item, key, "'" + so_far + "' is not a table", key);
+        throw ConfigError("--set " + item, key,
+                          "'" + so_far + "' is not a table" +
+                              (file.empty() ? std::string() : ": " + file + " gives it a value"),
+                          key);
       }
       at = next->as_table();
     }

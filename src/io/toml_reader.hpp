@@ -69,9 +69,11 @@ std::string override_key(const std::string& item);
 /// is a string) to `root`, creating intermediate tables, and records each key's source in
 /// `sources` (if given) so that a bad value is blamed on the --set, not on the file. Throws
 /// ConfigError naming the override for a key that is not a case key (case_key_problem), or a
-/// value that is not TOML or holds a newline.
+/// value that is not TOML or holds a newline. `file` names where `root`'s own values come from,
+/// for an override that reaches inside one of them (`--set shear.velocity=1` where the file gives
+/// `shear = 1`); empty when `root` has no file.
 void apply_overrides(toml::table& root, const std::vector<std::string>& overrides,
-                     OverrideSources* sources = nullptr);
+                     OverrideSources* sources = nullptr, const std::string& file = "");
 
 /// The source to blame for a problem of a value, or of a condition between values, at the full
 /// dotted `keys`: the command line's --set (or --velocity) of the first of them given there (or
