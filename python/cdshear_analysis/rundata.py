@@ -143,12 +143,34 @@ def run_files_in(folder):
     return [f for f in RUN_FOLDER_FILES if os.path.lexists(os.path.join(folder, f))]
 
 
+# What a run's sittings write beside RUN_FOLDER_FILES and run_info.json: the state a stopped or
+# failed sitting left (a resume reads it) and the record of each resumed sitting.
+RUN_STATE_FILES = ("progress.json", "interrupted_state.json", "blowup_state.json")
+
+
+def _is_packing(path):
+    """True when `path` holds a cdshear packing (a JSON object of format "cdshear-packing"),
+    looked for in its first and last 4 KiB: `cdshear prepare` writes its keys in order, the disks
+    before "format" and only short values after it."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+            f.seek(max(0, os.fstat(f.fileno()).st_size - 4096))
+            tail = f.read(4096)
+    except OSError:
+        return False
+    pattern = re.compile(rb'"format"\s*:\s*"cdshear-packing"')
+    return pattern.search(head) is not None or pattern.search(tail) is not None
+
+
 def output_problem(path, inputs=()):
     """Why a command may not write the file `path`, or None. An existing file is replaced, as
     any output is, unless it is one of the command's `inputs` (files or folders it reads), a
-    file inside an input folder, or a run's own file (RUN_FOLDER_FILES or run_info.json in a
-    folder that run_marks_in calls a run's): those hold results the command would lose. A
-    folder, or a file in a folder that does not exist, cannot be written."""
+    file inside an input folder, a run's own file (RUN_FOLDER_FILES, run_info.json,
+    RUN_STATE_FILES or a resumed sitting's run_info_resume_*.json in a folder that run_marks_in
+    calls a run's), a TOML file (a case, scene or campaign file: no command here writes one) or
+    a cdshear packing: those hold what the command would lose. A folder, or a file in a folder
+    that does not exist, cannot be written."""
     where = os.path.realpath(path)
     if os.path.isdir(path):
         return "is a folder, not a file"
@@ -161,10 +183,16 @@ def output_problem(path, inputs=()):
             return "is one of the command's inputs: writing it would replace what it reads"
         if os.path.isdir(source) and where.startswith(source + os.sep) and os.path.exists(where):
             return f"is a file of the input folder {source}: writing it would replace it"
-    if os.path.basename(where) in RUN_FOLDER_FILES + ("run_info.json",) and \
-            (marks := run_marks_in(folder)):
+    name = os.path.basename(where)
+    if (name in RUN_FOLDER_FILES + ("run_info.json",) + RUN_STATE_FILES
+            or RESUMED_INFO.fullmatch(name)) and (marks := run_marks_in(folder)):
         return (f"is a run's own file ({folder} holds {', '.join(marks)}): writing it would "
                 f"replace it")
+    if os.path.isfile(where) and name.endswith(".toml"):
+        return ("is a TOML file (a case, scene or campaign file), which no output here is: "
+                "writing it would replace it")
+    if os.path.isfile(where) and _is_packing(where):
+        return "is a cdshear packing: writing it would replace it"
     return None
 
 

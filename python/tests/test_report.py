@@ -422,6 +422,34 @@ class ReportTest(unittest.TestCase):
             f.write("{}\n")
         self.assertIsNone(output_problem(os.path.join(lone, "summary.json")))
 
+    def test_state_campaign_and_packing_files_are_not_written_over(self):
+        """A run's sitting records, a campaign's (or any) TOML file and a packing are refused as
+        outputs: `switch-times --json` once replaced a campaign.toml and its packings."""
+        from cdshear_analysis.rundata import output_problem
+        run = os.path.join(self.d, "runs", "s1_seed1_V0.1")
+        fake_summary(run, 0.1, 0.05, 0.3, 0.8, 3.0)
+        with open(os.path.join(run, "case.toml"), "w") as f:
+            f.write("[shear]\n")
+        for name in ("progress.json", "interrupted_state.json", "blowup_state.json",
+                     "run_info_resume_400.json", "run_info_resume_400_2.json"):
+            with open(os.path.join(run, name), "w") as f:
+                f.write("{}\n")
+            self.assertIn("is a run's own file", output_problem(os.path.join(run, name)) or "")
+        campaign = os.path.join(self.d, "campaign.toml")
+        with open(campaign, "w") as f:
+            f.write("[campaign]\n")
+        self.assertIn("is a TOML file", output_problem(campaign) or "")
+        self.assertIsNone(output_problem(os.path.join(self.d, "new.toml")))
+        packing = os.path.join(self.d, "p.json")
+        with open(packing, "w") as f:  # as `cdshear prepare` writes it: keys in order
+            f.write('{"disks_xyr": [' + ", ".join(["[1.0, 2.0, 0.5]"] * 2000) +
+                    '], "format": "cdshear-packing", "n": 2000}\n')
+        self.assertIn("is a cdshear packing", output_problem(packing) or "")
+        other = os.path.join(self.d, "other.json")
+        with open(other, "w") as f:
+            f.write('{"format": "something else"}\n')
+        self.assertIsNone(output_problem(other))
+
     def test_a_run_folder_that_is_a_file_or_a_loop_is_named_as_such(self):
         fake_campaign(self.d, "odd", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]},
                       listed_extra=["s1_seed1_V1", "s1_seed1_V2"])
