@@ -206,6 +206,20 @@ def case_problem(s):
     return None
 
 
+def _is_utf8(name):
+    """Whether a name from os.listdir is UTF-8 text (Python keeps other bytes as surrogates)."""
+    try:
+        name.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _shown_name(name):
+    """A name from os.listdir as printable text: bytes that are not UTF-8 as \\xNN."""
+    return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
 def identity_problem(run_dir, s):
     """None when the summary s belongs to RUN_DIR: the folder it names (`run_dir`) has this
     folder's name, and its case agrees with RUN_DIR/case.toml where there is one; else why not,
@@ -223,7 +237,13 @@ def identity_problem(run_dir, s):
         if key in IDENTITY_KEYS_RECORDED_LATER and key not in case:
             continue
         if want is not None and case.get(key) != want:
-            return f"summary.json is of another run ({key} = {case.get(key)!r}, its case.toml " \
+            had = case.get(key)
+            if key == "duration" and _is_number(had) and _is_number(want) and had < want:
+                # case.toml asks for a longer run than the one analysed: the run's own, extended
+                return (f"summary.json is of the run before its case.toml asked for duration = "
+                        f"{want!r} (the summary's {had!r}): `cdshear run --resume {run_dir}` runs "
+                        f"it on to that end and analyses it")
+            return f"summary.json is of another run ({key} = {had!r}, its case.toml " \
                    f"says {want!r})"
     return None
 
@@ -393,6 +413,8 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
             return None, f"summary.json {damaged} (`cdshear analyze` the run to write it " \
                          f"again)"
         other = identity_problem(run_dir, s)
+        if other and "--resume" in other:   # the advice is in it
+            return None, other
         if other:
             return None, f"{other}: left out (`cdshear analyze` the run to write its own)"
         return s, None
@@ -481,6 +503,10 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     if os.path.lexists(runs_dir) and not os.path.isdir(runs_dir):
         raise ReportError(runs_dir, f"is {what_is(runs_dir)}, not the folder of the runs")
     entries = sorted(os.listdir(runs_dir)) if os.path.isdir(runs_dir) else []
+    for d in entries:   # names the report's text, tables and HTML cannot hold as they are
+        if not _is_utf8(d):
+            skipped.append((_shown_name(d), "its folder's name is not UTF-8 text: rename it"))
+    entries = [d for d in entries if _is_utf8(d)]
     folders = [d for d in entries if os.path.isdir(os.path.join(runs_dir, d))]
     for d in entries:   # a run's place taken by a file or a link that leads nowhere
         if d not in folders and (d in listed or RUN_NAME.match(d)):

@@ -223,6 +223,28 @@ class DamagedSummaryTest(unittest.TestCase):
                 run, dict(started, case=dict(started["case"], initial_velocity="rest"))))
             self.assertNotIn("initial_velocity", own["case"])
             self.assertIsNone(report.identity_problem(run, own))
+            # case.toml asking for a longer run: the run's own summary, before a resume
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write(f"[shear]\nvelocity = 0.5\nduration = {2 * own['case']['duration']!r}\n")
+            summary, why = report.usable_summary(run, [])
+            self.assertIsNone(summary)
+            self.assertIn("before its case.toml asked for duration = 2000.0", why)
+            self.assertIn(f"`cdshear run --resume {run}`", why)
+            self.assertNotIn("cdshear analyze", why)
+
+    def test_a_run_folder_whose_name_is_not_utf8_is_left_out_before_anything_is_written(self):
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "latin", {1: [(0.5, 0.025, 0.35, 0.8, 3.0),
+                                           (1.0, 0.05, 0.4, 0.8, 3.0)]})
+            runs = os.fsencode(os.path.join(d, "runs"))
+            os.rename(os.path.join(runs, b"s1_seed1_V1"), os.path.join(runs, b"s1_seed1_V1\xe9"))
+            out = os.path.join(d, "out")
+            with contextlib.redirect_stdout(io.StringIO()) as printed:
+                self.assertEqual(cli_main(["report", d, "-o", out]), 0)
+            self.assertIn("left out s1_seed1_V1\\xe9: its folder's name is not UTF-8 text",
+                          printed.getvalue())
+            with open(os.path.join(out, "runs.csv")) as f:
+                self.assertEqual([r["run"] for r in csv.DictReader(f)], ["s1_seed1_V0.5"])
 
     def test_a_summary_cut_short_is_left_out_not_fatal(self):
         with tempfile.TemporaryDirectory() as d:
