@@ -527,8 +527,16 @@ def _read(f, run_dir, path):
     if "step" in series and isinstance(dt, (float, np.floating)) and np.isfinite(dt) and dt > 0:
         # A sample's time as its step x dt, the windows' t_start and t_end: files written before
         # cdshear wrote it so hold the summed time, which drifts from it by about 1e-11 and put
-        # a sample on a window's edge into the next window.
-        series["time"] = np.asarray(series["step"], dtype=float) * dt
+        # a sample on a window's edge into the next window. The two clocks must agree, or dt or
+        # the steps are not the run's.
+        clock = np.asarray(series["step"], dtype=float) * dt
+        summed = np.asarray(series["time"], dtype=float)
+        if clock.size and np.max(np.abs(clock - summed)) > 1e-6 * max(1.0, np.max(np.abs(summed))):
+            k = int(np.argmax(np.abs(clock - summed)))
+            raise RunDataError(path, f"/series/step x attribute dt ({dt:g}) gives {clock[k]:g} at "
+                                     f"row {k}, where /series/time holds {summed[k]:g}: dt or "
+                                     "/series/step is not the run's")
+        series["time"] = clock
         step = attrs.get("step")
         if isinstance(step, (int, np.integer, float, np.floating)) and np.isfinite(step):
             attrs["time"] = float(step) * dt   # how far the file goes, on the same clock

@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from .rundata import open_regular
+from .rundata import IDENTITY_KEYS, open_regular
 from .statistics import block_average
 
 
@@ -121,8 +121,9 @@ def _read_start(start_file):
         start = float(text)
     except ValueError:
         start = math.nan
-    if not math.isfinite(start):
-        raise SeriesError(f"{start_file}: {text!r} is not a time")
+    if not math.isfinite(start) or start <= 0:
+        raise SeriesError(f"{start_file}: {text!r} is not a time > 0 (a checkpoint's, which both "
+                          "sides resume)")
     return start
 
 
@@ -130,12 +131,22 @@ def _history_difference(runs, start, keys):
     """How the two sides' series differ up to the start, or None. Both sides resume one copied
     checkpoint, so what run.h5 holds up to that time is the original run's, sample for sample;
     sides that differ there are two runs' (another seed, velocity or system), and their
-    difference would be the cases', not the executables' or settings'."""
+    difference would be the cases', not the executables' or settings'. Their cases must agree
+    too (the seed and the identity keys but the duration), and the history must hold a sample."""
+    cases = [run.get("case") or {} for run in runs]
+    for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
+                                                    if k != "duration"):
+        a, b = ((c.get(table) or {}).get(key) if isinstance(c.get(table), dict) else None
+                for c in cases)
+        if a != b:
+            return f"a/ and b/ are other cases ({table}.{key} {a!r} and {b!r})"
     kept = []
     for run in runs:
         time = np.asarray(run["series"]["time"], dtype=float)
         kept.append((time <= start, time))
     (chosen_a, time_a), (chosen_b, time_b) = kept
+    if not chosen_a.any() or not chosen_b.any():
+        return f"no sample up to t = {start:g} to compare the two sides' history with"
     if not np.array_equal(time_a[chosen_a], time_b[chosen_b]):
         return f"a/ and b/ have other sample times up to t = {start:g}"
     for key in keys:

@@ -131,6 +131,11 @@ CASES = [
      "/series/top_fy is NaN at row 4"),
     ("NaN window force", replace("windows/top_force", lambda v: at(v, 4, np.nan)),
      "/windows/top_force is NaN at row 4"),
+    # the two clocks: a dt or a step that is not the run's moved every time unseen
+    ("dt ten times", lambda f: f.attrs.modify("dt", 10 * float(f.attrs["dt"])),
+     "/series/step x attribute dt"),
+    ("a step back", replace("series/step", lambda v: at(v, 5, v[4] - 1)),
+     "where /series/time holds"),
 ]
 
 

@@ -162,6 +162,8 @@ class PairedDifferences(unittest.TestCase):
             pair = os.path.join(d, "1_seed1")
             for text, problem in (("abc\n", f"{start}: 'abc' is not a time"),
                                   ("nan", f"{start}: 'nan' is not a time"),
+                                  ("0", f"{start}: '0' is not a time > 0"),
+                                  ("-1", f"{start}: '-1' is not a time > 0"),
                                   ("1e9", f"{pair}: no sample after t = 1e+09")):
                 with open(start, "w") as f:
                     f.write(text)
@@ -212,6 +214,21 @@ class PairedDifferences(unittest.TestCase):
                 f.write("6\n")
             with self.assertRaisesRegex(SeriesError, f"^{pair}: b/ started at t = 6, a/ at "
                                         "t = 5: not resumed"):
+                pairs()
+            # Before any sample there is no history to compare: refused, not taken as shared.
+            for side in ("a", "b"):
+                with open(os.path.join(pair, side, "paired_check.start"), "w") as f:
+                    f.write("0.25\n")
+            with self.assertRaisesRegex(SeriesError, "no sample up to t = 0.25"):
+                pairs()
+            for side in ("a", "b"):
+                with open(os.path.join(pair, side, "paired_check.start"), "w") as f:
+                    f.write("5\n")
+            # Two cases (another wall speed) are refused though their histories agree.
+            self.assertEqual(pairs()[1], 1)
+            runs[os.path.join(pair, "a")]["case"] = {"shear": {"velocity": 0.5}}
+            runs[b]["case"] = {"shear": {"velocity": 1.0}}
+            with self.assertRaisesRegex(SeriesError, "other cases \\(shear.velocity 0.5 and 1.0"):
                 pairs()
 
 
