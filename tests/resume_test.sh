@@ -137,6 +137,15 @@ test ! -e "$work/ended/final_state.json.tmp.12345" ||
 if "$exe" run -q --no-analyze --resume "$work/ended" > /dev/null 2>&1; then
   echo "FAIL: a finished run resumed with nothing to do"; exit 1
 fi
+# A refused resume changes nothing: a killed write's temporary (where a failed rename leaves the
+# newest data) stays for the user.
+echo partial > "$work/ended/run.h5.tmp.12345"
+if "$exe" run -q --no-analyze --resume "$work/ended" --set measure.window=2 > /dev/null 2>&1; then
+  echo "FAIL: a resume changing measure.window was accepted"; exit 1
+fi
+test -e "$work/ended/run.h5.tmp.12345" ||
+  { echo "FAIL: a refused resume removed a killed write's temporary file"; exit 1; }
+rm "$work/ended/run.h5.tmp.12345"
 
 # An extension stopped by --stop-at ends there when resumed with its stop as the duration: its
 # final_state.json is still of the earlier end, not of the step it stopped at.

@@ -332,7 +332,6 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
                  : "a run folder without checkpoint.cbor: the run stopped before its first "
                    "checkpoint (or the file was removed), so it cannot go on; run it again from "
                    "its case.toml (-o with --force, or another folder)");
-  remove_stale_temporaries(s.dir);
   CaseSource src;
   src.file = (s.dir / "case.toml").string();
   src.overrides = args.c.overrides;
@@ -725,7 +724,10 @@ int run_shear(const RunArgs& args) {
   // Observers: measurement (every step), snapshots, then the checkpoint, which writes run.h5
   // first and stores the measurement's running state.
   const std::unique_ptr<ShearMeasurement> measurement = open_measurement(s);
-  // Every check passed: overrides given to a resume hold for later resumes too.
+  // Every check passed. What killed writes left goes only now: a refused resume changes nothing
+  // (a rename that failed leaves the newest data in such a temporary, named in its error).
+  if (s.resuming) remove_stale_temporaries(s.dir);
+  // Overrides given to a resume hold for later resumes too.
   if (s.resuming && !args.c.overrides.empty())
     write_file_atomic(s.dir / "case.toml", resolved_case_text(c, c.packing_file, s.dir));
   bool finished = false;

@@ -6,6 +6,8 @@
 
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -23,7 +25,9 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& tex
   std::error_code ec;
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw WriteError(tmp.string(), "cannot open for writing");
+    if (!out)
+      throw WriteError(tmp.string(),
+                       "cannot open for writing (" + std::string(std::strerror(errno)) + ")");
     out << text;
     out.flush();
     if (!out) {
@@ -33,7 +37,9 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& tex
     }
   }
   std::filesystem::rename(tmp, path, ec);
-  if (ec) throw WriteError(path.string(), "cannot rename the new file into place: " + ec.message());
+  if (ec)
+    throw WriteError(path.string(), "cannot rename the new file " + tmp.string() + " into place: " +
+                                        ec.message() + " (that file holds the new content)");
 }
 
 namespace {

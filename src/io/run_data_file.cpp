@@ -586,7 +586,10 @@ void write_run_data(const fs::path& path, const RunMetadata& meta, const ShearMe
   }
   std::error_code ec;
   fs::rename(tmp, path, ec);
-  if (ec) throw WriteError(path.string(), "cannot rename the new data file: " + ec.message());
+  if (ec)
+    throw WriteError(path.string(), "cannot rename the new data file " + tmp.string() +
+                                        " into place: " + ec.message() +
+                                        " (that file holds the newest data)");
 }
 
 namespace {
