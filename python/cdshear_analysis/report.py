@@ -220,6 +220,31 @@ def _shown_name(name):
     return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
+def _name_problem(run_dir):
+    """Why a run folder's name (s<system>_seed<seed>_V<V>, which the report reads the system and
+    seed from) is not its run's, from its case.toml's seed and wall speed, or None (also where
+    the name is not of that form or case.toml gives neither)."""
+    m = RUN_NAME.match(os.path.basename(os.path.normpath(run_dir)))
+    case = folder_case(run_dir)
+    if m is None or case is None:
+        return None
+    seed = (case.get("system") or {}).get("seed") if isinstance(case.get("system"), dict) else None
+    velocity = (case.get("shear") or {}).get("velocity") if isinstance(case.get("shear"),
+                                                                       dict) else None
+    try:
+        named_v = float(m.group(3))
+    except ValueError:
+        named_v = None
+    if isinstance(seed, int) and seed != int(m.group(2)):
+        return (f"its name says seed {m.group(2)}, its case.toml seed {seed}: a folder renamed "
+                f"or copied in by hand")
+    if _is_number(velocity) and named_v is not None and \
+            abs(velocity - named_v) > 1e-9 * max(abs(velocity), abs(named_v)):
+        return (f"its name says V = {m.group(3)}, its case.toml {velocity!r}: a folder renamed "
+                f"or copied in by hand")
+    return None
+
+
 def identity_problem(run_dir, s):
     """None when the summary s belongs to RUN_DIR: the folder it names (`run_dir`) has this
     folder's name, and its case agrees with RUN_DIR/case.toml where there is one; else why not,
@@ -516,6 +541,9 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     rows = []
     reanalysed = []
     for d in folders:
+        if renamed := _name_problem(os.path.join(runs_dir, d)):
+            skipped.append((d, renamed))
+            continue
         if until is not None:
             s, why = summary_until(os.path.join(runs_dir, d), until)
             if s is None:

@@ -296,7 +296,7 @@ class CompareUntil(unittest.TestCase):
                 write_synthetic_run(os.path.join(c, "runs", "s1_seed1_V0.5"), kind="transient",
                                     duration=800.0, transient_tau=200.0)
             write_synthetic_run(os.path.join(b, "runs", "s1_seed2_V0.5"), duration=800.0,
-                                time_reached=300.0)
+                                time_reached=300.0, seed=2)
             for run in ("a/runs/s1_seed1_V0.5", "b/runs/s1_seed1_V0.5", "b/runs/s1_seed2_V0.5"):
                 # summaries of the runs as they ended: what --until must not read
                 self.assertEqual(main(["analyze", os.path.join(d, run)]), 0)

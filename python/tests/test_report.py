@@ -537,9 +537,9 @@ class ReportTest(unittest.TestCase):
         # one too short for any window (not steady, window quantities null).
         runs = os.path.join(self.d, "runs")
         write_synthetic_run(os.path.join(runs, "s1_seed1_V0.5"), kind="A", duration=800.0)
-        write_synthetic_run(os.path.join(runs, "s1_seed1_V0.05"), kind="C", velocity=0.05,
+        write_synthetic_run(os.path.join(runs, "s1_seed2_V0.05"), kind="C", velocity=0.05,
                             duration=1600.0, seed=2)
-        write_synthetic_run(os.path.join(runs, "s1_seed2_V0.5"), kind="A", duration=40.0)
+        write_synthetic_run(os.path.join(runs, "s1_seed2_V0.5"), kind="A", duration=40.0, seed=2)
         for name in os.listdir(runs):
             self.assertEqual(main(["analyze", os.path.join(runs, name), "--quiet"]), 0)
         self.assertEqual(main(["report", self.d]), 0)   # no campaign.toml: the folder's name
@@ -562,7 +562,7 @@ class ReportTest(unittest.TestCase):
         self.assertAlmostEqual(float(a["com_vx"]), s["com_vx"]["mean"])
         self.assertAlmostEqual(float(a["com_vx_err"]), s["com_vx"]["err"])
         self.assertAlmostEqual(float(a["com_vx_std"]), s["com_vx"]["std"])
-        c = rows["s1_seed1_V0.05"]
+        c = rows["s1_seed2_V0.05"]
         # regime C: the centre of mass near +V or -V, its scatter of the order of V
         self.assertGreater(float(c["com_vx_std"]), 0.2 * 0.05)
         self.assertGreater(float(c["com_vx_std"]), 5 * float(a["com_vx_std"]) * 0.05 / 0.5)

@@ -7,6 +7,7 @@ import csv
 import io
 import json
 import os
+import shutil
 import tempfile
 import unittest
 
@@ -231,6 +232,26 @@ class DamagedSummaryTest(unittest.TestCase):
             self.assertIn("before its case.toml asked for duration = 2000.0", why)
             self.assertIn(f"`cdshear run --resume {run}`", why)
             self.assertNotIn("cdshear analyze", why)
+
+    def test_a_run_folder_renamed_to_another_seed_or_speed_is_left_out(self):
+        """The report reads a run's seed from its folder's name: a folder renamed (or copied in)
+        by hand would be pooled as another seed, or listed under another V."""
+        with tempfile.TemporaryDirectory() as d:
+            fake_campaign(d, "renamed", {1: [(0.5, 0.025, 0.35, 0.8, 3.0),
+                                             (1.0, 0.05, 0.4, 0.8, 3.0)]})
+            runs = os.path.join(d, "runs")
+            for run, v in (("s1_seed1_V0.5", 0.5), ("s1_seed1_V1", 1.0)):
+                with open(os.path.join(runs, run, "case.toml"), "w") as f:
+                    f.write(f"[system]\nseed = 1\n[shear]\nvelocity = {v!r}\n"
+                            "duration = 1000.0\n")
+            self.assertEqual(len(report.collect(d)["rows"]), 2)
+            os.rename(os.path.join(runs, "s1_seed1_V1"), os.path.join(runs, "s1_seed3_V1"))
+            shutil.copytree(os.path.join(runs, "s1_seed1_V0.5"), os.path.join(runs, "s1_seed1_V2"))
+            collected = report.collect(d)
+            self.assertEqual([r["run"] for r in collected["rows"]], ["s1_seed1_V0.5"])
+            why = dict(collected["skipped"])
+            self.assertIn("its name says seed 3, its case.toml seed 1", why["s1_seed3_V1"])
+            self.assertIn("its name says V = 2, its case.toml 0.5", why["s1_seed1_V2"])
 
     def test_a_run_folder_whose_name_is_not_utf8_is_left_out_before_anything_is_written(self):
         with tempfile.TemporaryDirectory() as d:
