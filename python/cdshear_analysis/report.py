@@ -37,7 +37,7 @@ from .campaign_figures import write_figures
 from .fitting import finite as _finite
 from .rundata import is_measured_number
 from .rundata import is_number as _is_number
-from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER
+from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER, identity_pairs
 from .rundata import (RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths,
                       unique_keys)
 from .rundata import folder_case, what_is, write_text_atomically
@@ -228,9 +228,8 @@ def _name_problem(run_dir):
     case = folder_case(run_dir)
     if m is None or case is None:
         return None
-    seed = (case.get("system") or {}).get("seed") if isinstance(case.get("system"), dict) else None
-    velocity = (case.get("shear") or {}).get("velocity") if isinstance(case.get("shear"),
-                                                                       dict) else None
+    seed = case["system"].get("seed") if isinstance(case.get("system"), dict) else None
+    velocity = case["shear"].get("velocity") if isinstance(case.get("shear"), dict) else None
     try:
         named_v = float(m.group(3))
     except ValueError:
@@ -280,11 +279,7 @@ def run_file_identity_problem(run, run_dir):
     identity_problem, cannot see it where run.h5 is analysed afresh)."""
     if (in_folder := folder_case(run_dir)) is None:
         return None
-    held = run.get("case") or {}
-    for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
-                                                     if k != "duration"):
-        mine, theirs = (c.get(table, {}).get(key) if isinstance(c.get(table), dict) else None
-                        for c in (in_folder, held))
+    for table, key, mine, theirs in identity_pairs(in_folder, run.get("case") or {}):
         if mine is not None and theirs is not None and mine != theirs:
             return f"{RUN_FILE} is of another run ({table}.{key} = {theirs!r}, the folder's " \
                    f"case.toml says {mine!r})"

@@ -340,6 +340,16 @@ IDENTITY_KEYS = (("n", "system", "n"), ("height", "system", "height"),
 IDENTITY_KEYS_RECORDED_LATER = ("initial_velocity",)
 
 
+def identity_pairs(case_a, case_b):
+    """(table, key, a's value, b's value) for the seed and each identity key but the duration of
+    two cases as case.toml holds them (dicts of tables); a value is None where its case does not
+    give it. What tells two runs apart, whatever their lengths."""
+    for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
+                                                    if k != "duration"):
+        yield (table, key) + tuple(c[table].get(key) if isinstance(c.get(table), dict) else None
+                                   for c in (case_a, case_b))
+
+
 def folder_case(run_dir):
     """RUN_DIR/case.toml parsed, or None where it is missing or cannot be read."""
     try:

@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from .rundata import IDENTITY_KEYS, open_regular
+from .rundata import identity_pairs, open_regular
 from .statistics import block_average
 
 
@@ -133,11 +133,7 @@ def _history_difference(runs, start, keys):
     sides that differ there are two runs' (another seed, velocity or system), and their
     difference would be the cases', not the executables' or settings'. Their cases must agree
     too (the seed and the identity keys but the duration), and the history must hold a sample."""
-    cases = [run.get("case") or {} for run in runs]
-    for table, key in (("system", "seed"),) + tuple((t, k) for _, t, k in IDENTITY_KEYS
-                                                    if k != "duration"):
-        a, b = ((c.get(table) or {}).get(key) if isinstance(c.get(table), dict) else None
-                for c in cases)
+    for table, key, a, b in identity_pairs(*(run.get("case") or {} for run in runs)):
         if a != b:
             return f"a/ and b/ are other cases ({table}.{key} {a!r} and {b!r})"
     kept = []
