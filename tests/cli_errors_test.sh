@@ -42,6 +42,12 @@ expect_error "key 'walls.friction': an array of tables ([[walls]])" "$exe" scene
 printf '[run]\nduration=0.05\n[domain]\nperiodic_x=true\nlength_x=10\n[[disks]]\nposition=[1e20,2]\nradius=1\n' > far_scene.toml
 expect_error "far_scene.toml: key 'disks[0].position': x = 1e+20 is more than a million periods" "$exe" scene far_scene.toml -o never
 expect_error "not a cdshear run folder" "$exe" run -q --resume "$work"
+expect_error "--resume $work/absent: no such folder" "$exe" run -q --resume "$work/absent"
+ln -sfn "$work/absent" "$work/to_nothing"
+expect_error "--resume $work/to_nothing: a link to nothing: no such folder" \
+  "$exe" run -q --resume "$work/to_nothing"
+rm -f "$work/pipe" && mkfifo "$work/pipe"
+expect_error "--resume $work/pipe: is not a folder" "$exe" run -q --resume "$work/pipe"
 
 # A finished run folder is not overwritten, and --resume accepts only numerics/output changes.
 "$exe" run -q --no-analyze --packing "$packing" --set shear.duration=0.2 -o done > /dev/null
@@ -424,6 +430,16 @@ head -c 2000 "$packing" > cut.json
 expect_error "cut.json: not valid JSON: parse error at line" "$exe" run -q --packing cut.json
 if grep -q "json.exception" err.txt; then
   echo "FAIL: the JSON library's tag in: $(cat err.txt)"; fails=$((fails + 1))
+fi
+
+# What a killed write of a packing left (NAME.tmp.PID) is removed when the packing is written
+# again, unless its process still runs (4194305 is above any process number Linux gives).
+mkdir -p litter && : > litter/p.json.tmp.4194305 && : > "litter/p.json.tmp.$$"
+checks=$((checks + 1))
+if ! "$exe" prepare -q --set system.n=37 --set system.height=6 -o litter/p.json > /dev/null \
+  2> err.txt || [ -e litter/p.json.tmp.4194305 ] || [ ! -e "litter/p.json.tmp.$$" ] ||
+  [ ! -s litter/p.json ]; then
+  echo "FAIL: a dead writer's packing temporary: $(ls litter) $(cat err.txt)"; fails=$((fails + 1))
 fi
 
 # The packing cache (`packings/`, named by the preparation's settings) says when another build

@@ -209,5 +209,17 @@ warning=$("$exe" run -q --no-analyze --resume "$work/older" 2>&1 >/dev/null)
 if ! grep -q "case.toml does not set solver.relaxation (written by an earlier cdshear): this resume runs with today's value 1.6" <<<"$warning"; then
   echo "FAIL: resuming a case.toml without solver.relaxation gave no warning: $warning"; status=1
 fi
+# Resumed with another snapshot interval, particles.pvd still lists the snapshots of the
+# earlier interval, at their times, beside those of the new one.
+"$exe" run "${common[@]}" --set shear.duration=5 --stop-at 3.2 -o "$work/regrid" > /dev/null
+"$exe" run -q --no-analyze --resume "$work/regrid" --set output.snapshot_interval=1.5 > /dev/null
+listed=$(grep -o 'timestep="[^"]*" file="particles_[0-9]*.vtp"' \
+  "$work/regrid/snapshots/particles.pvd" | sed 's/timestep="\([^"]*\)".*/\1/' | tr '\n' ' ')
+on_disk=$(ls "$work/regrid/snapshots" | grep -c '^particles_[0-9]*\.vtp$')
+if [ "$listed" != "1 2 3 4.5 " ] || [ "$on_disk" -ne 4 ]; then
+  echo "FAIL: particles.pvd after a resume with another snapshot interval lists '$listed' of" \
+    "$on_disk files"
+  status=1
+fi
 [ $status -eq 0 ] && echo "resume_test: stopped and killed runs resumed bit-identically"
 exit $status

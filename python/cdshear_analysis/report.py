@@ -47,6 +47,12 @@ from .transitions import find_transitions, predictions
 REPORT_FORMAT = "cdshear-report-fits"
 REPORT_VERSION = 3
 RUN_NAME = re.compile(r"^s(\d+)_seed(\d+)_V(.+)$")  # campaign_run_name() in campaign_file.cpp
+# n, L_y [d] and sigma_yy of each system of model.md section 6, as `cdshear run --system K` sets
+# them (apply_system_preset in src/shear/shear_case.cpp; test_report_stale compares the two).
+SYSTEM_PRESETS = {1: (511, 20.0, 0.25), 2: (1023, 40.0, 0.25), 3: (1023, 40.0, 0.0625),
+                  4: (3199, 50.0, 0.25), 5: (2047, 80.0, 0.25), 6: (3071, 120.0, 0.25),
+                  7: (5119, 200.0, 0.25)}
+SYSTEM_KEYS = (("system", "n"), ("system", "height"), ("shear", "normal_stress"))
 LINEAR_RANGE = (0.03, 0.2)  # model.md section 8: linear fits of mu_eff and nu on 0.03 < I < 0.2
 
 
@@ -220,14 +226,42 @@ def _shown_name(name):
     return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
-def _name_problem(run_dir):
+def system_values(campaign_set):
+    """{system: {(table, key): value}}: the n, L_y and sigma_yy (SYSTEM_KEYS) that a campaign
+    whose [set] table is `campaign_set` (a dict; {} for none) gives the runs of each system:
+    the preset's, or [set]'s where it overrides one (as the sweep passes [set] on after
+    --system)."""
+    out = {}
+    for system, preset in SYSTEM_PRESETS.items():
+        values = dict(zip(SYSTEM_KEYS, preset))
+        for table, key in SYSTEM_KEYS:
+            given = campaign_set.get(table) if isinstance(campaign_set, dict) else None
+            if isinstance(given, dict) and key in given:
+                values[(table, key)] = given[key]
+        out[system] = values
+    return out
+
+
+def _same_number(a, b):
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
+
+
+def _name_problem(run_dir, systems=None):
     """Why a run folder's name (s<system>_seed<seed>_V<V>, which the report reads the system and
-    seed from) is not its run's, from its case.toml's seed and wall speed, or None (also where
-    the name is not of that form or case.toml gives neither)."""
+    seed from) is not its run's, from its case.toml's seed, wall speed and, with `systems`
+    (system_values of the campaign), its n, L_y and sigma_yy; or None (also where the name is
+    not of that form or case.toml gives none of them)."""
     m = RUN_NAME.match(os.path.basename(os.path.normpath(run_dir)))
     case = folder_case(run_dir)
     if m is None or case is None:
         return None
+    named_system = int(m.group(1))
+    for (table, key), want in (systems or {}).get(named_system, {}).items():
+        held = case[table].get(key) if isinstance(case.get(table), dict) else None
+        if _is_number(held) and _is_number(want) and not _same_number(held, want):
+            return (f"its name says system {named_system}, whose runs have {table}.{key} = "
+                    f"{want!r} in this campaign, its case.toml {held!r}: a run of another "
+                    f"system, renamed or copied in by hand")
     seed = case["system"].get("seed") if isinstance(case.get("system"), dict) else None
     velocity = case["shear"].get("velocity") if isinstance(case.get("shear"), dict) else None
     try:
@@ -237,8 +271,7 @@ def _name_problem(run_dir):
     if isinstance(seed, int) and seed != int(m.group(2)):
         return (f"its name says seed {m.group(2)}, its case.toml seed {seed}: a folder renamed "
                 f"or copied in by hand")
-    if _is_number(velocity) and named_v is not None and \
-            abs(velocity - named_v) > 1e-9 * max(abs(velocity), abs(named_v)):
+    if _is_number(velocity) and named_v is not None and not _same_number(velocity, named_v):
         return (f"its name says V = {m.group(3)}, its case.toml {velocity!r}: a folder renamed "
                 f"or copied in by hand")
     return None
@@ -369,8 +402,9 @@ def read_run(run_dir, s=None):
 
 
 def campaign_runs(campaign_toml):
-    """(name, [run names], text) from a resolved campaign.toml: [campaign].name, the runs listed
-    in its closing comment (`#   s1_seed1_V0.5  duration ...`) and the whole file."""
+    """(name, [run names], text, set) from a resolved campaign.toml: [campaign].name, the runs
+    listed in its closing comment (`#   s1_seed1_V0.5  duration ...`), the whole file and its
+    [set] table (the case overrides of every run; {} where it has none)."""
     try:
         with open_regular(campaign_toml, "rb") as f:
             raw = f.read()
@@ -384,7 +418,8 @@ def campaign_runs(campaign_toml):
     name = name if isinstance(name, str) else None
     text = raw.decode("utf-8")
     runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", text, re.M)
-    return name, runs, text
+    overrides = data.get("set")
+    return name, runs, text, overrides if isinstance(overrides, dict) else {}
 
 
 def _build_of(path):
@@ -507,7 +542,8 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     skipped = []
     notes = []
     if os.path.isfile(toml_path):
-        name, listed, text = campaign_runs(toml_path)
+        name, listed, text, overrides = campaign_runs(toml_path)
+        systems = system_values(overrides)
         if not name:
             notes.append("campaign.toml gives no [campaign] name, as every file a sweep writes "
                          "does (not a sweep's file, or edited): the campaign name is the "
@@ -516,6 +552,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
         raise ReportError(toml_path, f"is {what_is(toml_path)}, not the campaign's file")
     else:
         name, listed, text = None, [], None
+        systems = None   # its [set] may have changed the systems' n or L_y: not checked
         notes.append("campaign.toml is missing: the campaign name is the folder's")
     if not name:
         name = os.path.basename(os.path.normpath(campaign_dir))
@@ -536,7 +573,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     rows = []
     reanalysed = []
     for d in folders:
-        if renamed := _name_problem(os.path.join(runs_dir, d)):
+        if renamed := _name_problem(os.path.join(runs_dir, d), systems):
             skipped.append((d, renamed))
             continue
         if until is not None:

@@ -33,6 +33,7 @@ sampled step) becomes force_carrying_coordination and Z is NaN (not measured).
 """
 import contextlib
 import errno
+import json
 import math
 import os
 import re
@@ -359,15 +360,43 @@ def folder_case(run_dir):
         return None
 
 
+def end_state(run_dir):
+    """(step, state hash) at the end of the run's newest sitting that says so (its run_info
+    file, run_info_paths), or None where no record gives both. Runs are deterministic: two
+    folders that end in the same state at the same step hold one run, copied, or run twice from
+    the same packing and seeds."""
+    for path in reversed(run_info_paths(run_dir)):
+        try:
+            with open_regular(path, encoding="utf-8") as f:
+                info = json.load(f)
+        except (OSError, ValueError, RecursionError):
+            continue
+        step = info.get("step") if isinstance(info, dict) else None
+        state_hash = info.get("state_hash") if isinstance(info, dict) else None
+        if isinstance(step, int) and not isinstance(step, bool) and \
+                isinstance(state_hash, str) and state_hash:
+            return step, state_hash
+    return None
+
+
 def repeated_folder(dirs):
-    """Why the run folders `dirs` cannot be pooled as distinct runs (one given twice, by another
-    path or through a link), or None."""
+    """Why the run folders `dirs` cannot be pooled as distinct runs, or None: one given twice (by
+    another path or through a link), or two that hold the same run (end_state: a copy, or a run
+    repeated with the same packing and seeds), which would count one realization twice."""
     seen = {}
+    ends = {}
     for d in dirs:
         where = os.path.realpath(d)
         if where in seen:
             return f"{d} is {seen[where]} again: each run counts once"
         seen[where] = d
+        state = end_state(d)
+        if state in ends:
+            return (f"{d} holds the run {ends[state]} holds (both end at step {state[0]} in "
+                    f"state {state[1]}: a copy, or the same packing and seeds run again): each "
+                    f"run counts once")
+        if state is not None:
+            ends[state] = d
     return None
 
 

@@ -21,7 +21,7 @@ import math
 import os
 
 from .rundata import (IDENTITY_KEYS, MEASURED_MAGNITUDE_LIMIT, is_measured_number, is_number,
-                      open_regular, run_info_paths, save_figure, unique_keys)
+                      open_regular, repeated_folder, run_info_paths, save_figure, unique_keys)
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -325,6 +325,8 @@ def _references(study_dir, skipped):
         rows.append(read_run(path, None, None))
     if not rows:
         raise StudyError(study_dir, "no analysed `reference` run folder")
+    if repeated := repeated_folder([os.path.join(study_dir, row["run"]) for row in rows]):
+        raise StudyError(study_dir, f"realizations of the reference: {repeated}")
     for row in rows[1:]:
         if why := case_difference(row, rows[0]):
             raise StudyError(os.path.join(study_dir, row["run"]), why)

@@ -7,6 +7,7 @@ import csv
 import io
 import json
 import os
+import re
 import shutil
 import tempfile
 import unittest
@@ -15,7 +16,7 @@ from cdshear_analysis import report
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION
 from cdshear_analysis.synthetic import write_synthetic_run
-from tests.test_report import fake_campaign
+from tests.test_report import edited_summary, fake_campaign
 
 OLD = SUMMARY_VERSION - 1
 
@@ -25,6 +26,18 @@ def run_report(d):
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
         rc = cli_main(["report", d])
     return rc, out.getvalue()
+
+
+def two_runs_with_their_cases(d):
+    """A campaign in D of two system-1 runs, s1_seed1_V0.5 and s1_seed1_V1, each with the
+    case.toml values that tell a run's system, seed and V; returns the folder of its runs."""
+    fake_campaign(d, "named", {1: [(0.5, 0.025, 0.35, 0.8, 3.0), (1.0, 0.05, 0.4, 0.8, 3.0)]})
+    runs = os.path.join(d, "runs")
+    for run, v in (("s1_seed1_V0.5", 0.5), ("s1_seed1_V1", 1.0)):
+        with open(os.path.join(runs, run, "case.toml"), "w") as f:
+            f.write(f"[system]\nseed = 1\nn = 511\nheight = 20.0\n[shear]\n"
+                    f"velocity = {v!r}\nnormal_stress = 0.25\nduration = 1000.0\n")
+    return runs
 
 
 class StaleSummaryTest(unittest.TestCase):
@@ -53,7 +66,7 @@ class StaleSummaryTest(unittest.TestCase):
         write("s2_seed1_V0.1", {})
         # older, with run.h5: analysed for real, then made stale
         cls.rerun = os.path.join(runs, "s2_seed1_V0.5")
-        write_synthetic_run(cls.rerun, kind="A", duration=800.0)
+        write_synthetic_run(cls.rerun, kind="A", duration=800.0, n=1023, height=40.0)
         assert cli_main(["analyze", cls.rerun, "--quiet"]) == 0
         with open(os.path.join(cls.rerun, "summary.json")) as f:
             fresh = json.load(f)
@@ -237,13 +250,7 @@ class DamagedSummaryTest(unittest.TestCase):
         """The report reads a run's seed from its folder's name: a folder renamed (or copied in)
         by hand would be pooled as another seed, or listed under another V."""
         with tempfile.TemporaryDirectory() as d:
-            fake_campaign(d, "renamed", {1: [(0.5, 0.025, 0.35, 0.8, 3.0),
-                                             (1.0, 0.05, 0.4, 0.8, 3.0)]})
-            runs = os.path.join(d, "runs")
-            for run, v in (("s1_seed1_V0.5", 0.5), ("s1_seed1_V1", 1.0)):
-                with open(os.path.join(runs, run, "case.toml"), "w") as f:
-                    f.write(f"[system]\nseed = 1\n[shear]\nvelocity = {v!r}\n"
-                            "duration = 1000.0\n")
+            runs = two_runs_with_their_cases(d)
             self.assertEqual(len(report.collect(d)["rows"]), 2)
             os.rename(os.path.join(runs, "s1_seed1_V1"), os.path.join(runs, "s1_seed3_V1"))
             shutil.copytree(os.path.join(runs, "s1_seed1_V0.5"), os.path.join(runs, "s1_seed1_V2"))
@@ -252,6 +259,50 @@ class DamagedSummaryTest(unittest.TestCase):
             why = dict(collected["skipped"])
             self.assertIn("its name says seed 3, its case.toml seed 1", why["s1_seed3_V1"])
             self.assertIn("its name says V = 2, its case.toml 0.5", why["s1_seed1_V2"])
+
+    def test_a_run_of_another_system_copied_in_under_a_systems_name_is_left_out(self):
+        """The report reads a run's system from its folder's name, and fits each system's runs
+        together: a system-1 run copied in as a system-2 run (seed and V matching) would be
+        pooled with system 2's. Its n, L_y and sigma_yy are compared with those that the
+        campaign gives system 2: the preset's unless the campaign's [set] changes them."""
+        with tempfile.TemporaryDirectory() as d:
+            runs = two_runs_with_their_cases(d)
+            for copy in ("s2_seed1_V1", "s3_seed1_V1"):
+                shutil.copytree(os.path.join(runs, "s1_seed1_V1"), os.path.join(runs, copy))
+                with edited_summary(d, copy) as s:
+                    s["run_dir"] = os.path.join(runs, copy)
+            collected = report.collect(d)
+            self.assertEqual([r["run"] for r in collected["rows"]],
+                             ["s1_seed1_V0.5", "s1_seed1_V1"])
+            why = dict(collected["skipped"])
+            self.assertIn("its name says system 2, whose runs have system.n = 1023 in this "
+                          "campaign, its case.toml 511", why["s2_seed1_V1"])
+            self.assertIn("system 3", why["s3_seed1_V1"])
+            # a campaign of small cells: [set] gives every system its n and L_y
+            with open(os.path.join(d, "campaign.toml")) as f:
+                text = f.read()
+            with open(os.path.join(d, "campaign.toml"), "w") as f:
+                f.write(text.replace("[set]\n", "[set.system]\nn = 511\nheight = 20.0\n"))
+            collected = report.collect(d)
+            self.assertEqual([r["run"] for r in collected["rows"]],
+                             ["s1_seed1_V0.5", "s1_seed1_V1", "s2_seed1_V1"])
+            # s3 holds sigma_yy 0.25, where system 3's is 0.0625
+            self.assertIn("its name says system 3, whose runs have shear.normal_stress = 0.0625 "
+                          "in this campaign, its case.toml 0.25",
+                          dict(collected["skipped"])["s3_seed1_V1"])
+
+    def test_the_system_presets_are_the_executables(self):
+        source = os.path.join(os.path.dirname(__file__), "..", "..", "src", "shear",
+                              "shear_case.cpp")
+        with open(source) as f:
+            text = f.read()
+        body = text[text.index("void apply_system_preset("):]
+        body = body[body.index("rows[] = {"):]
+        body = body[:body.index("};")]
+        rows = re.findall(r"\{(\d+),\s*(\d+),\s*([\d.]+),\s*\d+\}", body)
+        self.assertEqual(len(rows), 7)
+        self.assertEqual({k + 1: (int(n), float(h), float(s)) for k, (n, h, s) in enumerate(rows)},
+                         report.SYSTEM_PRESETS)
 
     def test_a_run_folder_whose_name_is_not_utf8_is_left_out_before_anything_is_written(self):
         with tempfile.TemporaryDirectory() as d:

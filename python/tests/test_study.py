@@ -131,6 +131,28 @@ class StudyTest(unittest.TestCase):
             with open(os.path.join(d, "study.md")) as f:
                 self.assertIn("| reference (2 runs combined) | yes |", f.read())
 
+    def test_a_copy_of_a_realization_is_refused(self):
+        """Runs are deterministic: two realizations that end in the same state at the same step
+        (their run_info files) are one run, which combined would shrink the error by sqrt(2)."""
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.24, 0.004, 900.0, 500.0)
+            fake_run(os.path.join(d, "reference_seed2"), 0.27, 0.002, 900.0, 500.0)
+            for name, state in (("reference", "1a2b"), ("reference_seed2", "3c4d")):
+                with open(os.path.join(d, name, "run_info.json"), "r+") as f:
+                    info = json.load(f)
+                    f.seek(0)
+                    json.dump(dict(info, step=1000, state_hash=state), f)
+            self.assertEqual(study.collect(d)[0]["realizations"], 2)
+            shutil.copytree(os.path.join(d, "reference"), os.path.join(d, "reference_seed3"))
+            with self.assertRaisesRegex(study.StudyError, "reference_seed3 holds the run "
+                                        f"{os.path.join(d, 'reference')} holds .both end at "
+                                        "step 1000 in state 1a2b"):
+                study.collect(d)
+            err = io.StringIO()
+            with redirect_stderr(err):
+                self.assertEqual(main(["study", d]), 2)
+            self.assertIn("realizations of the reference:", err.getvalue())
+
     def test_realizations_that_say_their_averaged_time_are_weighted_by_it(self):
         with tempfile.TemporaryDirectory() as d:
             # Averages over 300 and 100 time units (weights 3:1), whatever their error bars:

@@ -155,8 +155,18 @@ class SwitchStatistics(unittest.TestCase):
         summary["run_dir"] = self.a[1]
         with open(os.path.join(copied, "summary.json"), "w") as f:
             json.dump(summary, f)
+        # a run copied to another folder: its last sitting's record ends in the same state
+        kept = os.path.join(d, "kept", "s1_seed1_V0.05")
+        shutil.copytree(self.a[0], kept)
+        with open(os.path.join(kept, "run_info.json"), "w") as f:
+            json.dump({"step": 400000, "state_hash": "0954b4486515332d"}, f)
+        copy = os.path.join(d, "copy", "s1_seed1_V0.05")
+        shutil.copytree(kept, copy)
         for args, problem in (
                 ([self.a[0], self.a[0] + os.sep], f"{self.a[0] + os.sep} is {self.a[0]} again"),
+                ([kept, self.a[1], copy], f"{copy} holds the run {kept} holds (both end at step "
+                                          "400000 in state 0954b4486515332d"),
+                ([kept, "--against", copy], f"{copy} holds the run {kept} holds"),
                 ([self.a[0], link], f"{link} is {self.a[0]} again: each run counts once"),
                 ([self.a[0], "--against", self.b[0], link], f"{link} is {self.a[0]} again"),
                 ([self.a[0], other], f"{other} has normal_stress 1, {self.a[0]} 0.25: a group "

@@ -2,15 +2,58 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <string>
+#include <vector>
+
 namespace cdshear {
 
-SnapshotObserver::SnapshotObserver(std::filesystem::path dir, double dt, std::uint64_t every,
-                                   std::uint64_t resumed_step)
+namespace {
+
+/// The time each file of a .pvd that write_pvd wrote is listed at; empty where it cannot be
+/// read.
+std::map<std::string, double> listed_times(const std::filesystem::path& pvd) {
+  std::map<std::string, double> times;
+  std::ifstream in(pvd);
+  const std::regex entry(R"re(<DataSet timestep="([^"]+)" file="([^"]+)"/>)re");
+  std::string line;
+  std::smatch m;
+  while (std::getline(in, line))
+    if (std::regex_search(line, m, entry)) {
+      char* end = nullptr;
+      const double t = std::strtod(m[1].str().c_str(), &end);
+      if (end && *end == '\0' && std::isfinite(t)) times[m[2].str()] = t;
+    }
+  return times;
+}
+
+}  // namespace
+
+SnapshotObserver::SnapshotObserver(std::filesystem::path dir, double dt, std::uint64_t resumed_step)
     : dir_(std::move(dir)), dt_(dt) {
   // The folder is made at the first snapshot: a run that ends before one leaves none.
-  for (std::uint64_t s = every; s <= resumed_step; s += every)
-    if (std::filesystem::exists(dir_ / fmt::format("particles_{:010}.vtp", s)))
-      add(s, static_cast<double>(s) * dt);
+  std::error_code ec;
+  if (resumed_step == 0 || !std::filesystem::is_directory(dir_, ec)) return;
+  const std::map<std::string, double> times = listed_times(dir_ / "particles.pvd");
+  std::vector<std::uint64_t> steps;
+  const std::regex name(R"(particles_([0-9]{10})\.vtp)");
+  for (const auto& e : std::filesystem::directory_iterator(dir_, ec)) {
+    std::smatch m;
+    const std::string file = e.path().filename().string();
+    if (!std::regex_match(file, m, name)) continue;
+    const std::uint64_t s = std::stoull(m[1].str());
+    if (s > 0 && s <= resumed_step) steps.push_back(s);
+  }
+  std::sort(steps.begin(), steps.end());
+  for (const std::uint64_t s : steps) {
+    const auto listed = times.find(fmt::format("particles_{:010}.vtp", s));
+    add(s, listed != times.end() ? listed->second : static_cast<double>(s) * dt);
+  }
 }
 
 void SnapshotObserver::add(std::uint64_t step, double time) {

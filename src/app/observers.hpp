@@ -74,11 +74,12 @@ class MeasurementObserver : public Observer {
 };
 
 /// particles_<step>.vtp and contacts_<step>.vtp in `dir`, listed in particles.pvd and
-/// contacts.pvd. On resume, snapshots up to the resumed step that exist on disk are kept.
+/// contacts.pvd. On resume, every snapshot on disk up to the resumed step is listed again,
+/// whatever interval wrote it, at the time the earlier particles.pvd gave it (step x dt where
+/// it gave none).
 class SnapshotObserver : public Observer {
  public:
-  SnapshotObserver(std::filesystem::path dir, double dt, std::uint64_t every,
-                   std::uint64_t resumed_step = 0);
+  SnapshotObserver(std::filesystem::path dir, double dt, std::uint64_t resumed_step = 0);
   void observe(const World& world, const ContactDynamics& dynamics, const StepReport&) override;
   /// True once a snapshot is listed (written by this run or kept from before a resume).
   bool any() const { return !particles_.empty(); }

@@ -166,6 +166,7 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
   check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);
   refuse_a_packing_without_a_cell(c, p, cached, made_folder, case_source);
+  remove_dead_writers_temporaries(cached);
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
   return {p, cached};
@@ -312,7 +313,16 @@ void open_resumed(const RunArgs& args, ShearSession& s) {
     throw ConfigError("--resume " + s.dir.string(), "",
                       "a case file, --system, --velocity, --packing, -o and --force cannot be "
                       "combined with --resume: the run continues with its own case.toml");
-  if (fs::is_regular_file(s.dir))
+  std::error_code error;
+  const fs::file_status status = fs::status(s.dir, error);  // through a link, to what it names
+  if (!fs::exists(status))
+    throw ConfigError("--resume " + s.dir.string(), "",
+                      fs::is_symlink(fs::symlink_status(s.dir, error))
+                          ? "a link to nothing: no such folder"
+                          : "no such folder");
+  if (!fs::is_directory(status) && !fs::is_regular_file(status))
+    throw ConfigError("--resume " + s.dir.string(), "", "is not a folder");
+  if (fs::is_regular_file(status))
     throw ConfigError("--resume " + s.dir.string(), "",
                       "is a file: --resume takes the run's folder (" +
                           (s.dir.has_parent_path() ? s.dir.parent_path().string() : ".") + ")");
@@ -748,8 +758,8 @@ int run_shear(const RunArgs& args) {
   if (measurement) observers.push_back({1, &measuring.emplace(*measurement)});
   std::unique_ptr<SnapshotObserver> snapshots;
   if (const std::uint64_t every = steps_of(c.snapshot_interval, dt); every > 0) {
-    snapshots = std::make_unique<SnapshotObserver>(s.dir / "snapshots", dt, every,
-                                                   s.resuming ? s.world.step : 0);
+    snapshots =
+        std::make_unique<SnapshotObserver>(s.dir / "snapshots", dt, s.resuming ? s.world.step : 0);
     observers.push_back({every, snapshots.get()});
   }
   if (const std::uint64_t every = steps_of(c.checkpoint_interval, dt); every > 0)
@@ -814,6 +824,7 @@ int run_prepare(const PrepareArgs& args) {
   check_packing_destination(out);  // before the preparation, not after it
   const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
   refuse_a_packing_without_a_cell(c, p, out, made_folder, case_source_of(args.c));
+  remove_dead_writers_temporaries(out);
   write_packing(out, p);
   std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
               p.solid_fraction);

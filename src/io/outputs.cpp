@@ -4,6 +4,7 @@
 #include <fmt/os.h>
 #include <fmt/ranges.h>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -18,6 +19,26 @@ namespace cdshear {
 
 std::filesystem::path temporary_path(const std::filesystem::path& path) {
   return path.string() + ".tmp." + std::to_string(::getpid());
+}
+
+void remove_dead_writers_temporaries(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  const std::string prefix = path.filename().string() + ".tmp.";
+  const fs::path folder = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
+    const std::string name = e.path().filename().string();
+    if (!name.starts_with(prefix) || name.size() == prefix.size() ||
+        name.size() > prefix.size() + 9)
+      continue;
+    const std::string digits = name.substr(prefix.size());
+    if (digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    const long pid = std::stol(digits);
+    // kill(pid, 0) sends nothing: ESRCH says no process has that number.
+    if (pid > 0 && pid != ::getpid() && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH &&
+        e.is_regular_file(ec))
+      fs::remove(e.path(), ec);
+  }
 }
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& text) {

@@ -22,6 +22,11 @@ namespace cdshear {
 /// same folder, unique per process (two runs sharing a folder or a packing cache never share one).
 std::filesystem::path temporary_path(const std::filesystem::path& path);
 
+/// Removes what killed writes to `path` left: its temporary_path of every process that no longer
+/// runs (a process still running may be writing it). For files that can be made again, such as
+/// a packing; a run's folder keeps its own rule (remove_stale_temporaries, run_session.hpp).
+void remove_dead_writers_temporaries(const std::filesystem::path& path);
+
 /// Writes `text` to `path` atomically (temporary_path, then rename).
 void write_file_atomic(const std::filesystem::path& path, const std::string& text);
 
