@@ -41,6 +41,9 @@ def _write_json(path, data):
 
 
 def main(argv=None):
+    # Every figure is written to a file (Agg): a backend named in the environment is of no use
+    # here, and one matplotlib does not know stops its import with a traceback.
+    os.environ["MPLBACKEND"] = "Agg"
     parser = argparse.ArgumentParser(prog="cdshear_analysis", description=__doc__.split("\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
     p_analyze = commands.add_parser("analyze", help="write RUN_DIR/summary.json, print a report")
@@ -431,17 +434,22 @@ def main(argv=None):
         else:
             from .plots import plot_run
             out_dir = args.out_dir or os.path.join(args.run_dir, "figures")
-            skipped = []
+            skipped, failed = [], []
             try:
-                written = plot_run(run, summary, out_dir, skipped)
-            except OSError as e:   # a full disk: each figure is written whole or not at all
-                print(f"error: {e.filename or out_dir}: cannot write: {e.strerror or e}",
-                      file=sys.stderr)
-                return 1
+                written = plot_run(run, summary, out_dir, skipped, failed)
+            except OSError as e:   # the figure folder cannot be listed
+                failed.append(e)
+                written = []
             for name in written:
                 print(name)
             for name, reason in skipped:
                 print(f"skipped {name}: {reason}")
+            for e in failed:   # a full disk, a folder in a figure's place: each figure is
+                # written whole or not at all, and the others are written
+                print(f"error: {e.filename or out_dir}: cannot write: {e.strerror or e}",
+                      file=sys.stderr)
+            if failed:
+                return 1
     except RunDataError as e:
         print(f"error: {e.path}: {e.problem}", file=sys.stderr)
         return 2

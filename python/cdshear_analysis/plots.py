@@ -290,10 +290,11 @@ def check_figure_folder(run_dir, out_dir):
                                         f"{os.path.join(run_dir, 'figures')})")
 
 
-def plot_run(run, summary, out_dir, skipped=None):
+def plot_run(run, summary, out_dir, skipped=None, failed=None):
     """Write every figure the run can have into out_dir; returns the paths written. Figures it
     cannot have (the profiles of a run without a complete window) are appended to `skipped`
-    (when given) as (file name, reason)."""
+    (when given) as (file name, reason). A figure that cannot be written raises its OSError, or,
+    with a list `failed`, is appended to it (the OSError) and the other figures are written."""
     summary = _arrays(summary)
     try:
         os.makedirs(out_dir, exist_ok=True)
@@ -312,6 +313,11 @@ def plot_run(run, summary, out_dir, skipped=None):
         # takes it for complete (sweep_command.cpp, analysis_incomplete).
         try:
             save_figure(fig, path, dpi=DPI, bbox_inches="tight")
+        except OSError as e:
+            if failed is None:
+                raise
+            failed.append(e)
+            continue
         finally:
             plt.close(fig)
         written.append(path)

@@ -531,18 +531,26 @@ def format_windows(dir_a, dir_b, a, b):
     _, kb, qb = b
     diff = lambda x, ex, y, ey: ((y - x) / math.hypot(ex, ey)  # noqa: E731
                                  if math.hypot(ex, ey) > 0 else math.nan)
+    # one realization has no scatter, hence no error: said so, where "± nan" stood
+    pm = lambda x, e: f"{x:.5g} ± {e:.2g}" if math.isfinite(e) else f"{x:.5g} (no error)"  # noqa
+    in_errors = lambda d: f"{d:+.2f}" if math.isfinite(d) else "n/a"  # noqa: E731
     out = []
     for quantity in WINDOW_QUANTITIES:
         out += ["", f"| {quantity}, time window | {dir_a} ({counted(ka, 'run')}) | "
                 f"{dir_b} ({counted(kb, 'run')}) | "
                 "difference / combined error |", "|---|---|---|---|"]
         for i, ((xa, ea), (xb, eb)) in enumerate(zip(qa[quantity], qb[quantity])):
-            out.append(f"| {edges[i]:.6g} to {edges[i + 1]:.6g} | {xa:.5g} ± {ea:.2g} | "
-                       f"{xb:.5g} ± {eb:.2g} | {diff(xa, ea, xb, eb):+.2f} |")
+            out.append(f"| {edges[i]:.6g} to {edges[i + 1]:.6g} | {pm(xa, ea)} | "
+                       f"{pm(xb, eb)} | {in_errors(diff(xa, ea, xb, eb))} |")
         for name, series in ((dir_a, qa[quantity]), (dir_b, qb[quantity])):
+            if len(series) < 2:
+                continue   # one window: no drift to show
             (x0, e0), (x1, e1) = series[0], series[-1]
             out.append(f"drift of {quantity} in {name}, last window - first: {x1 - x0:+.4g} "
-                       f"({diff(x0, e0, x1, e1):+.2f} combined errors)")
+                       f"({in_errors(diff(x0, e0, x1, e1))} combined errors)")
+    if min(ka, kb) < 2:
+        out += ["", "A folder of one realization has no error: its windows' scatter between "
+                "realizations is what gives one."]
     return "\n".join(out) + "\n"
 
 

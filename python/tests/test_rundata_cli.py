@@ -198,6 +198,21 @@ class EndToEnd(unittest.TestCase):
             out = os.path.join(d, "elsewhere")
             self.assertEqual(run_module("plot", run_dir, "-o", out).returncode, 0)
             self.assertEqual(sorted(os.listdir(out)), sorted(FIGURES))
+            # A figure that cannot be written (a folder in its place) is named, exit 1, and the
+            # others are written; a backend named in the environment plays no part.
+            blocked = os.path.join(d, "blocked")
+            first = next(iter(FIGURES))
+            os.makedirs(os.path.join(blocked, first, "inside"))
+            env = dict(os.environ, PYTHONPATH=PYTHON_DIR, MPLBACKEND="no_such_backend")
+            result = subprocess.run([sys.executable, "-m", "cdshear_analysis", "plot", run_dir,
+                                     "-o", blocked], env=env, capture_output=True, text=True,
+                                    timeout=120)
+            self.assertEqual(result.returncode, 1, result.stderr)
+            self.assertIn(f"error: {os.path.join(blocked, first)}: cannot write:", result.stderr)
+            self.assertNotIn("Traceback", result.stderr)
+            self.assertEqual(sorted(os.listdir(blocked)), sorted(FIGURES))
+            for name in list(FIGURES)[1:]:
+                self.assertIn(os.path.join(blocked, name), result.stdout)
             # Its own folder may hold them; another run's folder or figures/ may not.
             self.assertEqual(run_module("plot", run_dir, "-o", run_dir).returncode, 0)
             other = os.path.join(d, "other")

@@ -289,6 +289,18 @@ class StudyTest(unittest.TestCase):
             self.assertIn(f"drift of solid_fraction in {b}, last window - first: +0.0025 "
                           "(+0.35 combined errors)", text)
             self.assertIn(f"drift of solid_fraction in {a}, last window - first: +0 ", text)
+            # One realization has no error, and one window no drift: said so, never "nan".
+            c = os.path.join(d, "c")
+            series_run(os.path.join(c, "reference"), 1e-4, 0.80, 0.2)
+            with redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(main(["study-compare", a, c, "--windows", "1"]), 0)
+            windows = out.getvalue()[out.getvalue().index("time window"):]
+            c_mean = np.mean(0.80 + 1e-4 * np.arange(0.5, 100.25, 0.5))   # its samples' mean
+            self.assertIn(f"| 0 to 100 | 0.805 ± 0.005 | {c_mean:.5g} (no error) | n/a |",
+                          windows)
+            self.assertIn("A folder of one realization has no error", windows)
+            self.assertNotIn("nan", windows)
+            self.assertNotIn("drift", windows)
             with redirect_stderr(io.StringIO()) as err:
                 with redirect_stdout(io.StringIO()) as plain:
                     self.assertEqual(main(["study-compare", a, b, "--windows", "0"]), 0)
