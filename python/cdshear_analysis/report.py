@@ -281,12 +281,19 @@ def identity_problem(run_dir, s):
     """None when the summary s belongs to RUN_DIR: the folder it names (`run_dir`) has this
     folder's name, and its case agrees with RUN_DIR/case.toml where there is one; else why not,
     for a summary.json copied from another run."""
+    return _identity(run_dir, s)[0]
+
+
+def _identity(run_dir, s):
+    """(identity_problem's answer, extended): `extended` is True where the summary is the run's
+    own from before its case.toml asked for a longer duration, the answer then saying how to
+    run it on."""
     name = os.path.basename(os.path.normpath(run_dir))
     written_in = s.get("run_dir")
     if isinstance(written_in, str) and os.path.basename(os.path.normpath(written_in)) != name:
-        return f"summary.json is of another run (run_dir {written_in!r})"
+        return f"summary.json is of another run (run_dir {written_in!r})", False
     if (case_toml := folder_case(run_dir)) is None:
-        return None   # no case.toml to compare with (a summary kept alone, or a damaged case)
+        return None, False   # no case.toml to compare with (a summary kept alone, or damaged)
     case = s.get("case", {})
     for key, table, toml_key in IDENTITY_KEYS:
         values = case_toml.get(table)
@@ -299,10 +306,10 @@ def identity_problem(run_dir, s):
                 # case.toml asks for a longer run than the one analysed: the run's own, extended
                 return (f"summary.json is of the run before its case.toml asked for duration = "
                         f"{want!r} (the summary's {had!r}): `cdshear run --resume {run_dir}` runs "
-                        f"it on to that end and analyses it")
+                        f"it on to that end and analyses it"), True
             return f"summary.json is of another run ({key} = {had!r}, its case.toml " \
-                   f"says {want!r})"
-    return None
+                   f"says {want!r})", False
+    return None, False
 
 
 def run_file_identity_problem(run, run_dir):
@@ -467,8 +474,8 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
         if damaged:
             return None, f"summary.json {damaged} (`cdshear analyze` the run to write it " \
                          f"again)"
-        other = identity_problem(run_dir, s)
-        if other and "--resume" in other:   # the advice is in it
+        other, extended = _identity(run_dir, s)
+        if extended:   # the advice is in it
             return None, other
         if other:
             return None, f"{other}: left out (`cdshear analyze` the run to write its own)"
