@@ -132,16 +132,6 @@ bool all_digits(std::string_view digits) {
          std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
-/// What a killed atomic write (write_file_atomic) leaves, <name>.tmp.<pid>: <name>; none for
-/// any other name.
-std::optional<std::string_view> temporary_of(std::string_view name) {
-  if (const auto tmp = name.rfind(".tmp.");
-      tmp != std::string_view::npos && all_digits(name.substr(tmp + 5)) && tmp > 0 &&
-      name.substr(0, tmp).find(".tmp.") == std::string_view::npos)
-    return name.substr(0, tmp);
-  return std::nullopt;
-}
-
 /// The files a run or scene command writes at the top of its folder: fixed names, and
 /// run_info.json, run_info_resume_<step>.json, run_info_resume_<step>_<k>.json, and what a
 /// killed atomic write of any of them leaves: <name>.tmp.<pid>.

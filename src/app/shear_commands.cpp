@@ -166,7 +166,6 @@ std::pair<Packing, fs::path> obtain_packing(const ShearCase& c, bool quiet,
   check_packing_destination(cached);  // before the preparation, not after it
   Packing p = prepare_with_progress(c.preparation, quiet);
   refuse_a_packing_without_a_cell(c, p, cached, made_folder, case_source);
-  remove_dead_writers_temporaries(cached);
   write_packing(cached, p);
   std::printf("packing written to %s\n", cached.c_str());
   return {p, cached};
@@ -824,7 +823,6 @@ int run_prepare(const PrepareArgs& args) {
   check_packing_destination(out);  // before the preparation, not after it
   const Packing p = prepare_with_progress(c.preparation, args.c.quiet);
   refuse_a_packing_without_a_cell(c, p, out, made_folder, case_source_of(args.c));
-  remove_dead_writers_temporaries(out);
   write_packing(out, p);
   std::printf("packing written to %s (L_x %.6f, solid fraction %.5f)\n", out.c_str(), p.length_x,
               p.solid_fraction);

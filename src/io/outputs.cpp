@@ -9,8 +9,10 @@
 
 #include <cerrno>
 #include <cstring>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 #include "config_error.hpp"
@@ -21,19 +23,29 @@ std::filesystem::path temporary_path(const std::filesystem::path& path) {
   return path.string() + ".tmp." + std::to_string(::getpid());
 }
 
+std::optional<std::string_view> temporary_of(std::string_view name) {
+  constexpr std::string_view infix = ".tmp.";
+  const auto tmp = name.rfind(infix);
+  if (tmp == std::string_view::npos || tmp == 0 ||
+      name.substr(0, tmp).find(infix) != std::string_view::npos)
+    return std::nullopt;
+  const std::string_view pid = name.substr(tmp + infix.size());
+  if (pid.empty() || pid.find_first_not_of("0123456789") != std::string_view::npos)
+    return std::nullopt;
+  return name.substr(0, tmp);
+}
+
 void remove_dead_writers_temporaries(const std::filesystem::path& path) {
   namespace fs = std::filesystem;
-  const std::string prefix = path.filename().string() + ".tmp.";
+  const std::string target = path.filename().string();
   const fs::path folder = path.has_parent_path() ? path.parent_path() : fs::path(".");
   std::error_code ec;
   for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
     const std::string name = e.path().filename().string();
-    if (!name.starts_with(prefix) || name.size() == prefix.size() ||
-        name.size() > prefix.size() + 9)
-      continue;
-    const std::string digits = name.substr(prefix.size());
-    if (digits.find_first_not_of("0123456789") != std::string::npos) continue;
-    const long pid = std::stol(digits);
+    const std::optional<std::string_view> of = temporary_of(name);
+    // Process numbers have at most 7 digits (Linux's largest is 4194304).
+    if (!of || *of != target || name.size() > target.size() + 5 + 9) continue;
+    const long pid = std::stol(name.substr(target.size() + 5));
     // kill(pid, 0) sends nothing: ESRCH says no process has that number.
     if (pid > 0 && pid != ::getpid() && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH &&
         e.is_regular_file(ec))

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -22,9 +23,14 @@ namespace cdshear {
 /// same folder, unique per process (two runs sharing a folder or a packing cache never share one).
 std::filesystem::path temporary_path(const std::filesystem::path& path);
 
+/// The inverse of temporary_path on a file name: for <name>.tmp.<pid> (what a killed atomic write
+/// leaves), <name>; none for any other name.
+std::optional<std::string_view> temporary_of(std::string_view name);
+
 /// Removes what killed writes to `path` left: its temporary_path of every process that no longer
 /// runs (a process still running may be writing it). For files that can be made again, such as
-/// a packing; a run's folder keeps its own rule (remove_stale_temporaries, run_session.hpp).
+/// a packing (write_packing calls it); a run's folder keeps its own rule
+/// (remove_stale_temporaries, run_session.hpp).
 void remove_dead_writers_temporaries(const std::filesystem::path& path);
 
 /// Writes `text` to `path` atomically (temporary_path, then rename).

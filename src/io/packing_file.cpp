@@ -56,6 +56,7 @@ nlohmann::json packing_json(const Packing& p) {
 void write_packing(const std::filesystem::path& path, const Packing& p) {
   const nlohmann::json j = packing_json(p);
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  remove_dead_writers_temporaries(path);  // a packing is made again: its killed writes' files go
   write_file_atomic(path, j.dump(1) + "\n");
 }
 

@@ -10,6 +10,8 @@
 
 namespace cdshear {
 
+/// Writes `packing` to `path` atomically, first removing the temporaries that killed writes of it
+/// left (remove_dead_writers_temporaries).
 void write_packing(const std::filesystem::path& path, const Packing& packing);
 /// Checks, before a packing is prepared (minutes to hours), that write_packing will be able to
 /// write it to `path`: a file name, not a folder; nothing but a regular file in its place (a FIFO
