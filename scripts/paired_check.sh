@@ -12,10 +12,11 @@
 #   SET_B="solver.newton_iterations=16" scripts/paired_check.sh OUT_DIR DURATION RUN_DIR...
 #
 # OUT_DIR/<k>_<run>/{a,b}: the resumed copies (a folder already done is kept: rerun to finish
-# an interrupted check). Environment: CDSHEAR_A, CDSHEAR_B [both $CDSHEAR, else build/cdshear];
-# SET_A, SET_B [none]: case settings set on that side's resume, KEY=VALUE words separated by
-# spaces (a value without spaces; not shear.duration, which DURATION sets); THREADS [1]. A side
-# already done with another executable or other settings is an error: give a new OUT_DIR.
+# an interrupted check). Each RUN_DIR once. Environment: CDSHEAR_A, CDSHEAR_B [both $CDSHEAR,
+# else build/cdshear]; SET_A, SET_B [none]: case settings set on that side's resume, KEY=VALUE
+# words separated by spaces (a value without spaces; not shear.duration, which DURATION sets);
+# THREADS [1]. A side already done with another executable, other settings or another DURATION
+# is an error: give a new OUT_DIR.
 set -euo pipefail
 
 if [[ $# -lt 3 || "$1" == -h || "$1" == --help ]]; then
@@ -48,7 +49,14 @@ done
 if [[ "${bin[A]}" -ef "${bin[B]}" && "${sets_A[*]}" == "${sets_B[*]}" ]]; then
   echo "error: sides A and B are the same executable with the same settings" >&2; exit 2
 fi
-for run in "$@"; do require_checkpoint_run "$run"; done
+declare -A given
+for run in "$@"; do
+  require_checkpoint_run "$run"
+  where=$(cd "$run" && pwd -P)
+  [[ -z "${given[$where]:-}" ]] ||
+    { echo "error: $run: given twice (as ${given[$where]}): each run pairs once" >&2; exit 2; }
+  given[$where]=$run
+done
 mkdir -p "$out"
 
 k=0
@@ -62,6 +70,10 @@ for run in "$@"; do
     if [[ -f "$dir/paired_check.done" ]]; then
       [[ ! -f "$dir/paired_check.side" || "$(cat "$dir/paired_check.side")" == "$made_with" ]] ||
         { echo "error: $dir: made by $(cat "$dir/paired_check.side"), not $made_with" >&2; exit 2; }
+      [[ ! -f "$dir/paired_check.duration" ||
+         "$(cat "$dir/paired_check.duration")" == "$duration" ]] ||
+        { echo "error: $dir: made for DURATION $(cat "$dir/paired_check.duration"), not" \
+            "$duration: give a new OUT_DIR" >&2; exit 2; }
       continue
     fi
     rm -rf "$dir" && mkdir -p "$dir"
@@ -73,6 +85,7 @@ for run in "$@"; do
       { echo "error: $dir: the resume failed (see $dir/paired_check.log)" >&2; exit 1; }
     echo "$start" > "$dir/paired_check.start"
     echo "$made_with" > "$dir/paired_check.side"
+    echo "$duration" > "$dir/paired_check.duration"
     touch "$dir/paired_check.done"
   done
   echo "$pair: done"

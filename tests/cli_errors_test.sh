@@ -218,8 +218,9 @@ expect_status2 "truncated/run.h5" "$exe" plot truncated
 expect_error "/nowhere/cdshear_analysis: the analysis package is not there (from CDSHEAR_ANALYSIS_DIR)" \
   env CDSHEAR_ANALYSIS_DIR=/nowhere "$exe" analyze done
 # report: not a campaign folder, an unreadable summary.json or campaign.toml
-expect_status2 "nowhere: not a folder" "$exe" report nowhere
+expect_status2 "nowhere: no such folder" "$exe" report nowhere
 touch report_file
+expect_status2 "report_file: is a file, not a campaign folder" "$exe" report report_file
 expect_status2 "report_file: -o: is a file, not a folder" "$exe" report -o report_file badcampaign
 expect_status2 "notarun/runs: no run folders" "$exe" report notarun
 mkdir -p badcampaign/runs/s1_seed1_V1

@@ -143,10 +143,11 @@ def main(argv=None):
         return 0
 
     if args.command == "lammps-compare":
-        from .campaign import (compare_campaigns, format_comparison as format_campaigns,
-                               load_campaign)
+        from .campaign import (compare_campaigns, compared_count,
+                               format_comparison as format_campaigns, load_campaign)
         from .peers import PeerError, lammps_campaign
         from .report import ReportError
+        from .rundata import is_number
         try:   # both errors name a path and its problem
             campaign = load_campaign(args.campaign)
             peers = lammps_campaign(args.lammps_folder, campaign)
@@ -156,16 +157,26 @@ def main(argv=None):
             return 2
         for run, why in campaign.skipped + peers.skipped:
             print(f"left out: {run}: {why}")
+        for text in campaign.notes:
+            print(f"note: {text}")
         if not items:
             print(f"error: {args.lammps_folder}: no LAMMPS run beside an analysed run of "
                   f"{args.campaign}: nothing to compare", file=sys.stderr)
             return 2
+        kappas = {r.get("kappa") for r in peers.rows}   # one (lammps_campaign refuses more)
+        if len(kappas) == 1 and is_number(kappa := kappas.pop()):
+            print(f"the LAMMPS runs' normal stiffness: kappa = {kappa:g}")
         print(format_campaigns(items, args.campaign, "LAMMPS"))
+        if not compared_count(items):
+            print(f"error: {args.lammps_folder}: no LAMMPS run could be compared with its "
+                  f"namesake in {args.campaign} (each is 'not compared' above)", file=sys.stderr)
+            return 2
         return 0
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import format_paired_markdown, load_campaign, unequal_times
+        from .campaign import (compared_count, format_paired_markdown, load_campaign,
+                               other_packings, unequal_times)
         from .report import ReportError
         try:
             if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
@@ -181,6 +192,8 @@ def main(argv=None):
         for name, c in ((args.campaign_a, a), (args.campaign_b, b)):
             for run, why in c.skipped:
                 print(f"left out of {name}: {run}: {why}")
+            for text in c.notes:
+                print(f"note on {name}: {text}")
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
         items = compare_campaigns(a, b)
@@ -195,6 +208,17 @@ def main(argv=None):
                   f"in the two campaigns ({run}: t = {_time(time_a)} in a, {_time(time_b)} in "
                   f"b): their averages cover different stretches of the flow; --until T "
                   f"compares them at a common time")
+        packings = other_packings(items, a, b)
+        if packings:
+            run, packing_a, packing_b = packings[0]
+            print(f"note: {len(packings)} of the {len(items)} shared runs start from other "
+                  f"packings in the two campaigns ({run}: {packing_a} and {packing_b} differ): "
+                  f"their paired differences hold the packings' scatter as well")
+        if not compared_count(items):
+            print(format_campaigns(items, args.campaign_a, args.campaign_b))
+            print(f"error: {args.campaign_b}: none of the runs it shares with {args.campaign_a} "
+                  f"could be compared (each is 'not compared' above)", file=sys.stderr)
+            return 2
         if args.markdown:
             print(format_paired_markdown(items, args.campaign_a, args.campaign_b))
         else:

@@ -10,6 +10,7 @@ every column), read from each run's summary.json. Loading never writes: a run wh
 is of an older version is left out (listed in `skipped`), where `cdshear report` would analyse
 it again from run.h5.
 """
+import filecmp
 import math
 import os
 from dataclasses import dataclass, field
@@ -18,7 +19,7 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from .report import collect, csv_columns
-from .rundata import is_number
+from .rundata import end_state, folder_case, is_number
 
 
 @dataclass
@@ -33,12 +34,14 @@ class Campaign:
         no value), text and flags as object arrays.
     skipped: [(run, reason)] for every run left out (not started, still running, stopped, not
         analysed, stale).
+    notes: the report's notes on the runs kept (unfinished runs, copies of a run in runs/).
     """
     name: str
     folder: str
     rows: list
     columns: dict = field(default_factory=dict)
     skipped: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
 
     def frame(self):
         """The runs table as a pandas DataFrame (pandas is optional: Debian's python3-pandas)."""
@@ -71,7 +74,7 @@ def load_campaign(folder, until=None):
     rows = report["rows"]
     columns = {c: _column([r.get(c) for r in rows]) for c in csv_columns(rows)}
     return Campaign(name=report["campaign"], folder=folder, rows=rows, columns=columns,
-                    skipped=list(report["skipped"]))
+                    skipped=list(report["skipped"]), notes=list(report["notes"]))
 
 
 # The quantities compared between two campaigns (runs.csv columns X, with their standard errors
@@ -93,13 +96,16 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
     the two analyses reached), "regime_a", "regime_b", "<q>": {"a", "b", "diff" (b - a),
     "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is missing)}}. A run
     whose two cases differ in V, the number of disks, the normal stress, the height or the
-    initial velocity (the last three where both rows hold them), or whose two folders are one,
-    is not compared: its item holds "mismatch" (the reason) and no quantity. a and b are
-    Campaign objects or folders; folders are read with `until` (load_campaign)."""
+    initial velocity (the last three where both rows hold them), whose two folders are one or
+    hold one run (a copy: both end in the same state), or that is a second folder of a system,
+    seed and V already compared (a copy kept beside the run in both runs/), is not compared: its
+    item holds "mismatch" (the reason) and no quantity. a and b are Campaign objects or folders;
+    folders are read with `until` (load_campaign)."""
     a = a if isinstance(a, Campaign) else load_campaign(a, until)
     b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
     out = []
+    compared = {}   # (system, seed, V) -> the run compared for it
     for rb in b.rows:
         ra = by_name.get(rb["run"])
         if ra is None:
@@ -113,9 +119,20 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
         differ += [f"{name} {ra[key]} in a, {rb[key]} in b" for key, name in CASE_KEYS
                    if ra.get(key) is not None and rb.get(key) is not None
                    and ra[key] != rb[key]]
-        if os.path.realpath(os.path.join(a.folder, "runs", rb["run"])) == \
-                os.path.realpath(os.path.join(b.folder, "runs", rb["run"])):
+        dir_a, dir_b = (os.path.join(c.folder, "runs", rb["run"]) for c in (a, b))
+        if os.path.realpath(dir_a) == os.path.realpath(dir_b):
             differ.append("one run folder in both campaigns (a link)")
+        elif (state := end_state(dir_a)) is not None and state == end_state(dir_b):
+            differ.append(f"one run in both campaigns (both end at step {state[0]} in state "
+                          f"{state[1]}: a copy, or settings that change nothing in this case)")
+        key = (rb.get("system"), rb.get("seed"), rb.get("V"))
+        if not differ and None not in key:
+            if key in compared:
+                differ.append(f"{compared[key]} is system {key[0]}, seed {key[1]}, V = "
+                              f"{key[2]:g} too and is compared: each seed pairs once (a copy "
+                              f"kept in runs/)")
+            else:
+                compared[key] = rb["run"]
         if differ:
             item["mismatch"] = "; ".join(differ)
             out.append(item)
@@ -220,6 +237,37 @@ def unequal_times(items):
     (compare_campaigns' `until`)."""
     return [(it["run"], it["time_a"], it["time_b"]) for it in items
             if "mismatch" not in it and not _same_time(it["time_a"], it["time_b"])]
+
+
+def other_packings(items, a, b):
+    """The compared runs whose two cases start from packing files of other contents
+    [(run, packing_a, packing_b)] (case.toml's preparation.packing, where both files are there to
+    read): their differences hold the packings' scatter as well, which pairing by seed is meant
+    to take out. a and b are the two Campaign objects compared."""
+    out = []
+    for it in items:
+        if "mismatch" in it:
+            continue
+        paths = []
+        for c in (a, b):
+            preparation = (folder_case(os.path.join(c.folder, "runs", it["run"])) or {}) \
+                .get("preparation")
+            path = preparation.get("packing") if isinstance(preparation, dict) else None
+            paths.append(path if isinstance(path, str) and os.path.isfile(path) else None)
+        if None in paths or os.path.realpath(paths[0]) == os.path.realpath(paths[1]):
+            continue
+        try:
+            same = filecmp.cmp(paths[0], paths[1], shallow=False)
+        except OSError:
+            continue
+        if not same:
+            out.append((it["run"], paths[0], paths[1]))
+    return out
+
+
+def compared_count(items):
+    """How many of the shared runs were compared (those without a mismatch)."""
+    return sum("mismatch" not in it for it in items)
 
 
 def _same_time(a, b):

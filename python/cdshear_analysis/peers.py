@@ -28,6 +28,7 @@ m = pi r^2 (2D density 1), so the column holds m / (4/3 pi r^3) = 3 / (4 r) for 
 import json
 import math
 import os
+import warnings
 
 import numpy as np
 
@@ -225,12 +226,16 @@ def lammps_series(path):
     names = ("step", "time", "bottom_fx", "bottom_fy", "top_fx", "top_fy", "height",
              "solid_fraction", "com_vx")
     try:
-        with open_regular(path, encoding="utf-8") as f:
+        with open_regular(path, encoding="utf-8") as f, warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)   # "input contained no data": below
             table = np.loadtxt(f, comments="#", ndmin=2)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read LAMMPS series: {e}") from e
-    if table.shape[0] == 0 or table.shape[1] != len(names):
-        raise PeerError(path, f"expected rows of {len(names)} columns, got {table.shape}")
+    if table.shape[0] == 0:
+        raise PeerError(path, "holds no sample (only comments, or nothing): the LAMMPS run "
+                              "wrote none")
+    if table.shape[1] != len(names):
+        raise PeerError(path, f"expected rows of {len(names)} columns, got {table.shape[1]}")
     bad = ~np.isfinite(table) | (np.abs(np.nan_to_num(table)) > MEASURED_MAGNITUDE_LIMIT)
     if np.any(bad):
         row = int(np.argmax(bad.any(axis=1)))
@@ -383,15 +388,22 @@ def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seco
                 ratio=lm["seconds_per_time"] / cd["seconds_per_time"])
 
 
-def _check_ends_at(series, duration, name):
+# Why a LAMMPS run's files that end before its run.json's duration cannot be averaged.
+CUT = ("cut short (the run stopped early, or the file was cut): its averages would be of "
+       "another stretch of the flow than its namesake's")
+
+
+def _check_ends_at(series, duration, name, said="--duration",
+                   because="its second half and seconds per time unit would be of another run "
+                           "length", samples="samples"):
     """Raises PeerError unless the series' last sample lies within two sample intervals of
-    `duration`: the second half and the wall seconds per time unit are of a run that long."""
+    `duration` (`said`: where that duration comes from): the second half and the wall seconds per
+    time unit are of a run that long."""
     t = series["time"]
     spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if len(t) and abs(float(t[-1]) - duration) > max(2.0 * spacing, 1e-9 * duration):
-        raise PeerError(name, f"its samples end at t = {float(t[-1]):g}, not at --duration "
-                              f"{duration:g}: its second half and seconds per time unit would "
-                              "be of another run length")
+        raise PeerError(name, f"its {samples} end at t = {float(t[-1]):g}, not at {said} "
+                              f"{duration:g}: {because}")
 
 
 def format_side_by_side(result):
@@ -516,6 +528,7 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
         raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
     series_path = os.path.join(run_dir, "lammps", "series.txt")
     series = lammps_series(series_path)
+    _check_ends_at(series, meta["duration"], series_path, "run.json's duration", CUT)
     est = estimates_after(series, start_time, series_path)
     row = {"run": name, "V": meta["velocity"], "duration": meta["duration"],
            "n": int(n_grains) if n_grains is not None and float(n_grains).is_integer() else None,
@@ -525,12 +538,15 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
            "solid_fraction_err": est["solid_fraction_err"]}
     if bulk_h is None:
         return row
-    snaps, lx = read_dump(os.path.join(run_dir, "lammps", "dump.txt"))
+    dump_path = os.path.join(run_dir, "lammps", "dump.txt")
+    snaps, lx = read_dump(dump_path)
     # the series' times are printed to six digits: steps per time unit from its whole span,
     # and a snapshot's window from its time to within a thousandth of a time unit
     steps_per_time = ((series["step"][-1] - series["step"][0])
                       / (series["time"][-1] - series["time"][0]))
     last_time = snaps[-1][0] / steps_per_time
+    _check_ends_at({"time": np.array([step / steps_per_time for step, _ in snaps])},
+                   meta["duration"], dump_path, "run.json's duration", CUT, "snapshots")
     first_window = math.ceil(start_time / window - 1e-6)
     windows = {}
     for step, rows in snaps:
@@ -562,7 +578,7 @@ def lammps_campaign(lammps_folder, campaign):
     measure.stripe_thickness and measure.window). Runs without a finished LAMMPS run, or whose
     case.toml lacks those two, are left out (listed in `skipped`)."""
     from .campaign import Campaign, _column, load_campaign
-    from .report import ReportError, read_summary
+    from .report import ReportError, read_summary, reached_text
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)
     if not os.path.isdir(lammps_folder):
         raise PeerError(lammps_folder, f"is {what_is(lammps_folder)}, not the folder of the LAMMPS "
@@ -573,6 +589,14 @@ def lammps_campaign(lammps_folder, campaign):
         run_dir = os.path.join(lammps_folder, ref["run"])
         if not os.path.exists(os.path.join(run_dir, "run.json")):
             skipped.append((ref["run"], "no finished LAMMPS run"))
+            continue
+        if ref.get("finished") is False:
+            reached = ref.get("time_reached")
+            skipped.append((ref["run"], "the campaign's run is not finished"
+                                        + (f" ({reached_text(reached, ref.get('duration'))})"
+                                           if is_number(reached) else "")
+                                        + ": the finished LAMMPS run's averages would cover "
+                                        "other times"))
             continue
         ref_dir = os.path.join(campaign.folder, "runs", ref["run"])
         try:
@@ -602,6 +626,15 @@ def lammps_campaign(lammps_folder, campaign):
             continue
         row.update(system=ref.get("system"), seed=ref.get("seed"), regime="not classified")
         rows.append(row)
+    kappas = {}
+    for row in rows:
+        kappas.setdefault(row.get("kappa"), row["run"])
+    if len(kappas) > 1:
+        made = ", ".join(f"{run}: {kappa:g}" if is_number(kappa) else f"{run}: {kappa!r}"
+                         for kappa, run in kappas.items())
+        raise PeerError(lammps_folder, f"its runs were made with other contact stiffnesses "
+                                       f"(run.json's kappa; {made}): pooled, they would mix two "
+                                       "models; run them again with one kappa")
     keys = sorted({k for r in rows for k in r})
     columns = {k: _column([r.get(k) for r in rows]) for k in keys}
     return Campaign(name=f"LAMMPS beside {campaign.name}", folder=lammps_folder, rows=rows,

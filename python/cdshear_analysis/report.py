@@ -544,7 +544,8 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     run.h5 as it stood then (summary_until), its summary.json not read nor written; a run that
     has not reached `until` is left out."""
     if not os.path.isdir(campaign_dir):
-        raise ReportError(campaign_dir, "not a folder")
+        raise ReportError(campaign_dir, f"is {what_is(campaign_dir)}, not a campaign folder"
+                          if os.path.lexists(campaign_dir) else "no such folder")
     toml_path = os.path.join(campaign_dir, "campaign.toml")
     skipped = []
     notes = []
@@ -606,7 +607,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     if unfinished:
         notes.append("not finished, analysed over the time reached (still running or stopped; "
                      "once a run has ended the report analyses it again from run.h5): "
-                     + ", ".join(f"{r['run']} ({_reached_text(r['time_reached'], r['duration'])})"
+                     + ", ".join(f"{r['run']} ({reached_text(r['time_reached'], r['duration'])})"
                                  for r in unfinished))
     rows.sort(key=lambda r: (r["system"] if r["system"] is not None else 1 << 30,
                              r["seed"] if r["seed"] is not None else 0,
@@ -630,7 +631,7 @@ def _unfinished(row):
     return row.get("finished") is False and row.get("time_reached") is not None
 
 
-def _reached_text(t, duration):
+def reached_text(t, duration):
     """"t = T of D" (D left out where it is not known)."""
     return f"t = {t:.6g}" + (f" of {duration:.6g}" if duration is not None else "")
 
@@ -674,7 +675,7 @@ def _not_analysed_reason(run_dir):
     p, why = read_progress(run_dir)
     if p is None:
         return fallback + (f"; its progress.json: {why}" if why else "")
-    where = _reached_text(p["time"], p["duration"])
+    where = reached_text(p["time"], p["duration"])
     state = p["state"]
     if state == "finished":
         return fallback
@@ -865,7 +866,7 @@ def runs_markdown(rows, campaign):
         if r.get("bulk_h_reference") is not True and r.get("bulk_h") is not None:
             name += f" (bulk at h = {r['bulk_h']:g})"
         if _unfinished(r):
-            name += f" (not finished: {_reached_text(r['time_reached'], r['duration'])})"
+            name += f" (not finished: {reached_text(r['time_reached'], r['duration'])})"
         t_ss = _finite(r.get("transient_end_time")) if r.get("steady") else None
         cells = [name, r.get("regime") or "", "yes" if r.get("steady") else "no"]
         cells += [_pm_text(r.get(c), r.get(c + "_err")) for _, c in RUNS_MD_COLUMNS]

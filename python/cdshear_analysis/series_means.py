@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from .rundata import identity_pairs, open_regular
+from .rundata import end_state, identity_pairs, open_regular, repeated_folder
 from .statistics import block_average
 
 
@@ -69,9 +69,13 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
     """The pairs of a scripts/paired_check.sh folder: every subfolder with a/ and b/ both done
     (paired_check.done), each side resumed from one checkpoint at the time in
     paired_check.start. Per pair and key, the difference b - a of the series' means after that
-    time; over the pairs, {key: (mean of a's means, mean difference, its standard error from
-    the pairs' scatter, std(ddof 1) / sqrt(k), NaN for one pair)} and the pair count. Raises
-    SeriesError when no pair is done."""
+    time, both sides' up to the same end; over the pairs, {key: (mean of a's means, mean
+    difference, its standard error from the pairs' scatter, std(ddof 1) / sqrt(k), NaN for one
+    pair)}, the pair count and notes [text] (pairs left out, pairs whose sides ran one flow).
+    Raises SeriesError when no pair is done, when a pair's b/ is its a/ (a link, or a copy made
+    as a/ was), when two pairs hold one run (a run given twice, a pair copied or linked), when
+    the pairs' sides were made with other executables or settings (paired_check.side), or when
+    a pair's sides end at other times."""
     if load is None:
         from .rundata import load_run as load
     diffs, bases, pairs = {key: [] for key in keys}, {key: [] for key in keys}, 0
@@ -79,11 +83,30 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         raise SeriesError(f"{check_dir}: " + ("not a folder" if os.path.lexists(check_dir)
                                               else "no such folder"))
     names = sorted(os.listdir(check_dir))
+    notes, kept_a, made_with, same_flow = [], [], ({}, {}), []
     for name in names:
-        sides = [os.path.join(check_dir, name, side) for side in ("a", "b")]
-        if not all(os.path.exists(os.path.join(d, "paired_check.done")) for d in sides):
-            continue
         pair = os.path.join(check_dir, name)
+        sides = [os.path.join(pair, side) for side in ("a", "b")]
+        done = [os.path.exists(os.path.join(d, "paired_check.done")) for d in sides]
+        if not all(done):
+            if os.path.isdir(pair) and any(os.path.lexists(d) for d in sides):
+                undone = "neither side done" if not any(done) else \
+                    ("b/ not done" if done[0] else "a/ not done")
+                notes.append(f"left out: {pair}: {undone} (paired_check.sh stopped before it; "
+                             "run it again to finish)")
+            continue
+        if os.path.realpath(sides[0]) == os.path.realpath(sides[1]):
+            raise SeriesError(f"{pair}: b/ is a/ (a link): a side compared with itself")
+        texts = [_read_side(d) for d in sides]
+        if texts[0] is not None and texts[0] == texts[1]:
+            raise SeriesError(f"{pair}: b/ was made as a/ was ({texts[0]!r} in both "
+                              "paired_check.side): a copy of a/, not a second side")
+        for k, text in enumerate(texts):
+            if text is not None:
+                made_with[k].setdefault(text, pair)
+        kept_a.append(sides[0])
+        if why := repeated_folder(kept_a):   # before its run.h5 files are read
+            raise SeriesError(f"{check_dir}: two pairs hold one run's sides: {why}")
         start = _read_start(os.path.join(sides[0], "paired_check.start"))
         b_start_file = os.path.join(sides[1], "paired_check.start")
         if os.path.lexists(b_start_file) and (b_start := _read_start(b_start_file)) != start:
@@ -91,23 +114,64 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
                               "not resumed from one checkpoint")
         try:
             runs = [load(d) for d in sides]
-            a, b = (series_means(run, start, keys) for run in runs)
+            if problem := _history_difference(runs, start, keys):
+                raise SeriesError(f"{problem}: not resumed from one checkpoint")
+            end = _common_end(runs)
+            a, b = (series_means(run, start, keys, end) for run in runs)
         except SeriesError as e:
             raise SeriesError(f"{pair}: {e.problem}") from None
-        if problem := _history_difference(runs, start, keys):
-            raise SeriesError(f"{pair}: {problem}: not resumed from one checkpoint")
+        if (state := end_state(sides[0])) is not None and state == end_state(sides[1]):
+            same_flow.append(name)
         for key in keys:
             diffs[key].append(b[key][0] - a[key][0])
             bases[key].append(a[key][0])
         pairs += 1
     if pairs == 0:
         raise SeriesError(f"{check_dir}: no pair with both sides done (a/ and b/)")
+    for k, side in enumerate("ab"):
+        if len(made_with[k]) > 1:
+            (text_1, pair_1), (text_2, pair_2) = list(made_with[k].items())[:2]
+            raise SeriesError(f"{check_dir}: the pairs' {side}/ sides were made otherwise "
+                              f"({pair_1}: {text_1!r}, {pair_2}: {text_2!r} in "
+                              "paired_check.side): pooled, they would mix two comparisons")
+    if same_flow:
+        notes.append(f"{len(same_flow)} of the {pairs} pairs ended in one state on both sides "
+                     f"({', '.join(same_flow)}): the two sides computed one flow there, a "
+                     "difference of zero")
     out = {}
     for key in keys:
         d = np.asarray(diffs[key])
         err = float(np.std(d, ddof=1) / math.sqrt(pairs)) if pairs > 1 else math.nan
         out[key] = (float(np.mean(bases[key])), float(np.mean(d)), err)
-    return out, pairs
+    return out, pairs, notes
+
+
+def _read_side(side_dir):
+    """The text of a side's paired_check.side (the executable and settings it was made with),
+    or None where there is none to read."""
+    try:
+        with open_regular(os.path.join(side_dir, "paired_check.side"), encoding="utf-8") as f:
+            return f.read().strip()
+    except (OSError, ValueError):
+        return None
+
+
+def _common_end(runs):
+    """The time both sides' series reach: their last samples must agree (to a thousandth of a
+    sample interval), else the sides ran for other durations (a side kept from a check with
+    another DURATION) and their means would cover other windows."""
+    ends = []
+    for run in runs:
+        time = np.asarray(run["series"]["time"], dtype=float)
+        if not time.size:
+            raise SeriesError("a side has no samples")
+        ends.append((float(time[-1]), float(np.median(np.diff(time))) if time.size > 1 else 0.0))
+    (end_a, step_a), (end_b, _) = ends
+    if abs(end_a - end_b) > max(1e-3 * step_a, 1e-12 * abs(end_a)):
+        raise SeriesError(f"a/ ends at t = {end_a:g}, b/ at t = {end_b:g}: sides of other "
+                          "durations (a side kept from a check with another DURATION); give "
+                          "paired_check.sh a new OUT_DIR")
+    return max(end_a, end_b)
 
 
 def _read_start(start_file):
@@ -154,10 +218,16 @@ def _history_difference(runs, start, keys):
 
 
 def format_paired_differences(result):
-    out, pairs = result
-    lines = [f"{pairs} pairs (b - a, each pair from one checkpoint; error from the pairs' "
-             "scatter):"]
+    out, pairs, notes = result
+    lines = [f"note: {text}" for text in notes]
+    lines.append(f"{pairs} pairs (b - a, each pair from one checkpoint; error from the pairs' "
+                 "scatter):" if pairs > 1 else "1 pair (b - a, from one checkpoint; an error "
+                 "needs the scatter of two pairs or more):")
     for key, (base, diff, err) in out.items():
-        rel = f" ({100 * diff / base:+.2f}% +- {100 * err / abs(base):.2f}%)" if base else ""
-        lines.append(f"{key:<16} a {base:.6g}  b - a {diff:+.4g} +- {err:.2g}{rel}")
+        if pairs > 1:
+            rel = f" ({100 * diff / base:+.2f}% +- {100 * err / abs(base):.2f}%)" if base else ""
+            lines.append(f"{key:<16} a {base:.6g}  b - a {diff:+.4g} +- {err:.2g}{rel}")
+        else:
+            rel = f" ({100 * diff / base:+.2f}%)" if base else ""
+            lines.append(f"{key:<16} a {base:.6g}  b - a {diff:+.4g}{rel}")
     return "\n".join(lines)

@@ -17,7 +17,8 @@ import cdshear_analysis
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
 from cdshear_analysis.campaign import (compare_campaigns, format_comparison,
-                                       format_paired_markdown, paired_differences, unequal_times)
+                                       format_paired_markdown, other_packings, paired_differences,
+                                       unequal_times)
 from cdshear_analysis.report import ReportError
 
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -148,6 +149,80 @@ class CompareCampaigns(unittest.TestCase):
                 with contextlib.redirect_stderr(io.StringIO()) as err:
                     self.assertEqual(cli_main(["campaign-compare", a, again]), 2)
                 self.assertIn(f"{again}: is {a} again", err.getvalue())
+
+    def test_one_run_in_both_or_a_copy_in_runs_is_compared_once(self):
+        def run_info(run_dir, state):
+            with open(os.path.join(run_dir, "run_info.json"), "w") as f:
+                json.dump({"step": 1000, "state_hash": state}, f)
+
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            for seed, shift in ((1, 0.01), (2, 0.02), (3, 0.06)):
+                name = f"s1_seed{seed}_V0.05"
+                for side, mu in ((a, 0.2), (b, 0.2 + shift)):
+                    fake_summary(os.path.join(side, "runs", name), 0.05, 1e-4, mu, 0.83, 2.8)
+                    run_info(os.path.join(side, "runs", name), f"{os.path.basename(side)}{seed}")
+            self.assertEqual(paired_differences(compare_campaigns(a, b))[0]["runs"], 3)
+            # b's seed 3 ends in a's state: one run in both campaigns (a copy), not a pair
+            run_info(os.path.join(b, "runs", "s1_seed3_V0.05"), "a3")
+            # a backup of seed 1 kept beside it in both runs/: that seed pairs once
+            for side in (a, b):
+                fake_summary(os.path.join(side, "runs", "s1_seed1_V0.05.bak"), 0.05, 1e-4, 0.5,
+                             0.83, 2.8)
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertEqual(items["s1_seed3_V0.05"]["mismatch"],
+                             "one run in both campaigns (both end at step 1000 in state a3: a "
+                             "copy, or settings that change nothing in this case)")
+            self.assertEqual(items["s1_seed1_V0.05.bak"]["mismatch"],
+                             "s1_seed1_V0.05 is system 1, seed 1, V = 0.05 too and is compared: "
+                             "each seed pairs once (a copy kept in runs/)")
+            (group,) = paired_differences(list(items.values()))
+            self.assertEqual(group["runs"], 2)
+            self.assertAlmostEqual(group["mu_eff_bulk"]["mean"], 0.015)
+            # the report's note on the copy is kept, and printed
+            self.assertTrue(any("s1_seed1_V0.05, s1_seed1_V0.05.bak are the same run" in n
+                                for n in load_campaign(a).notes))
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
+            self.assertIn(f"note on {a}: s1_seed1_V0.05, s1_seed1_V0.05.bak are the same run",
+                          out.getvalue())
+            self.assertIn("s1_seed3_V0.05: not compared: one run in both", out.getvalue())
+            # Nothing left to compare (every shared run one in both): an error, exit 2.
+            for seed in (1, 2):
+                run_info(os.path.join(b, "runs", f"s1_seed{seed}_V0.05"), f"a{seed}")
+            for side in (a, b):
+                shutil.rmtree(os.path.join(side, "runs", "s1_seed1_V0.05.bak"))
+            with contextlib.redirect_stdout(io.StringIO()) as out, \
+                    contextlib.redirect_stderr(io.StringIO()) as err:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 2)
+            self.assertIn("s1_seed2_V0.05: not compared: one run in both", out.getvalue())
+            self.assertIn(f"error: {b}: none of the runs it shares with {a} could be compared",
+                          err.getvalue())
+
+    def test_runs_started_from_other_packings_are_named(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            packings = {}
+            for side, content in ((a, "[1]"), (b, "[2]")):
+                run = os.path.join(side, "runs", "s1_seed1_V0.05")
+                fake_summary(run, 0.05, 1e-4, 0.2, 0.83, 2.8)
+                packings[side] = os.path.join(side, "packing.json")
+                with open(packings[side], "w") as f:
+                    f.write(content)
+                with open(os.path.join(run, "case.toml"), "w") as f:
+                    f.write(f"[preparation]\npacking = {json.dumps(packings[side])}\n")
+            ca, cb = load_campaign(a), load_campaign(b)
+            items = compare_campaigns(ca, cb)
+            self.assertEqual(other_packings(items, ca, cb),
+                             [("s1_seed1_V0.05", packings[a], packings[b])])
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
+            self.assertIn(f"note: 1 of the 1 shared runs start from other packings in the two "
+                          f"campaigns (s1_seed1_V0.05: {packings[a]} and {packings[b]} differ)",
+                          out.getvalue())
+            with open(packings[b], "w") as f:   # the same packing, copied: nothing to say
+                f.write("[1]")
+            self.assertEqual(other_packings(items, ca, cb), [])
 
     def test_seeds_paired_by_system_and_velocity(self):
         with tempfile.TemporaryDirectory() as d:

@@ -9,6 +9,7 @@ import subprocess
 import sys
 import tempfile
 import unittest
+import warnings
 
 import numpy as np
 
@@ -316,6 +317,14 @@ class Estimates(unittest.TestCase):
                 f.write("477 0.25 1\n")
             with self.assertRaises(PeerError):
                 lammps_series(path)
+            # No sample at all: said so, without numpy's warning on stderr.
+            for content in ("", "# Time-averaged data\n"):
+                with open(path, "w") as f:
+                    f.write(content)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("error")
+                    with self.assertRaisesRegex(PeerError, f"^{path}: holds no sample"):
+                        lammps_series(path)
 
 
 def write_lammps_run(folder, name, bulk_rows, mu, top_line=20.0):
@@ -345,6 +354,18 @@ def write_lammps_run(folder, name, bulk_rows, mu, top_line=20.0):
             for r in list(rows) + walls:
                 f.write(" ".join(f"{v:g}" for v in r) + "\n")
     return run_dir
+
+
+def write_campaign_run(campaign_dir, name, window=True):
+    """A campaign's run folder as lammps_campaign reads it: summary.json's averaging start
+    (t = 30) and case.toml's stripes of 1 d and, with `window`, windows of 10 t."""
+    run = os.path.join(campaign_dir, "runs", name)
+    os.makedirs(run)
+    with open(os.path.join(run, "summary.json"), "w") as f:
+        json.dump({"averaging_start_time": 30.0}, f)
+    with open(os.path.join(run, "case.toml"), "w") as f:
+        f.write("[measure]\nstripe_thickness = 1.0\n" + ("window = 10.0\n" if window else ""))
+    return name
 
 
 class BesideACampaign(unittest.TestCase):
@@ -392,14 +413,7 @@ class BesideACampaign(unittest.TestCase):
             peers_dir, campaign_dir = os.path.join(tmp, "lammps"), os.path.join(tmp, "campaign")
             cd_rows = []
             for k in (1, 2, 3, 4):   # 3: no LAMMPS run; 4: a case.toml without the window
-                name = f"s1_seed{k}_V0.05"
-                run = os.path.join(campaign_dir, "runs", name)
-                os.makedirs(run)
-                with open(os.path.join(run, "summary.json"), "w") as f:
-                    json.dump({"averaging_start_time": 30.0}, f)
-                with open(os.path.join(run, "case.toml"), "w") as f:
-                    f.write("[measure]\nstripe_thickness = 1.0\n"
-                            + ("window = 10.0\n" if k < 4 else ""))
+                name = write_campaign_run(campaign_dir, f"s1_seed{k}_V0.05", window=k < 4)
                 cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05, "n": 511,
                                 "duration": 100.0, "bulk_h": 5.0, "regime": "C",
                                 "mu_eff_wall": 0.25, "mu_eff_wall_err": 0.01, "L_y": 20.1,
@@ -455,6 +469,60 @@ class BesideACampaign(unittest.TestCase):
                 with self.assertRaises(PeerError) as caught:
                     lammps_campaign(folder, campaign)
                 self.assertIn(problem, caught.exception.problem)
+
+    def test_cut_short_unfinished_or_mixed_runs_are_not_averaged(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            peers_dir, campaign_dir = os.path.join(tmp, "lammps"), os.path.join(tmp, "campaign")
+            cd_rows = []
+            for k in (1, 2):
+                name = write_campaign_run(campaign_dir, f"s1_seed{k}_V0.05")
+                cd_rows.append({"run": name, "system": 1, "seed": k, "V": 0.05, "n": 511,
+                                "duration": 100.0, "bulk_h": 5.0, "finished": True,
+                                "time_reached": 100.0})
+                write_lammps_run(peers_dir, name, lambda k: [[1, 1, 5.0, 10.0, 0.5]],
+                                 lambda t: 0.3)
+            campaign = Campaign(name="fake", folder=campaign_dir, rows=cd_rows)
+            self.assertEqual(len(lammps_campaign(peers_dir, campaign).rows), 2)
+            # The campaign's run stopped at t = 60: the LAMMPS run's 100 t would be averaged
+            # over other times.
+            cd_rows[1].update(finished=False, time_reached=60.0)
+            peers = lammps_campaign(peers_dir, campaign)
+            self.assertEqual([r["run"] for r in peers.rows], ["s1_seed1_V0.05"])
+            self.assertEqual(peers.skipped, [("s1_seed2_V0.05", "the campaign's run is not "
+                                              "finished (t = 60 of 100): the finished LAMMPS "
+                                              "run's averages would cover other times")])
+            cd_rows[1].update(finished=True, time_reached=100.0)
+            # Runs of two contact stiffnesses are not pooled.
+            record = os.path.join(peers_dir, "s1_seed2_V0.05", "run.json")
+            with open(record) as f:
+                meta = json.load(f)
+            with open(record, "w") as f:
+                json.dump(dict(meta, kappa=1000.0), f)
+            with self.assertRaises(PeerError) as caught:
+                lammps_campaign(peers_dir, campaign)
+            self.assertEqual(caught.exception.path, peers_dir)
+            self.assertIn("other contact stiffnesses (run.json's kappa; s1_seed1_V0.05: 20000, "
+                          "s1_seed2_V0.05: 1000)", caught.exception.problem)
+            with open(record, "w") as f:
+                json.dump(meta, f)
+            # A series or a dump that stops before run.json's duration (a file cut short).
+            series = os.path.join(peers_dir, "s1_seed2_V0.05", "lammps", "series.txt")
+            dump = os.path.join(peers_dir, "s1_seed2_V0.05", "lammps", "dump.txt")
+            for path, keep, problem in ((series, 602, "its samples end at t = 59.95, not at "
+                                         "run.json's duration 100: cut short"),
+                                        (dump, 9 * 60 + 3 * 60, "its snapshots end at t = 59, "
+                                         "not at run.json's duration 100: cut short")):
+                with open(path) as f:
+                    whole = f.read()
+                with open(path, "w") as f:
+                    f.write("".join(whole.splitlines(keepends=True)[:keep]))
+                with self.assertRaises(PeerError) as caught:
+                    lammps_campaign(peers_dir, campaign)
+                self.assertEqual(caught.exception.path, path)
+                self.assertIn(problem, caught.exception.problem)
+                with open(path, "w") as f:
+                    f.write(whole)
+            self.assertEqual(len(lammps_campaign(peers_dir, campaign).rows), 2)
 
 
 if __name__ == "__main__":

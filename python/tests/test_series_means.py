@@ -1,6 +1,8 @@
 """series_means: means of run.h5 series after a time, and the command's errors."""
 import io
+import json
 import os
+import shutil
 import tempfile
 import unittest
 from contextlib import redirect_stderr, redirect_stdout
@@ -122,14 +124,18 @@ class PairedDifferences(unittest.TestCase):
                     runs[folder] = {"series": {"time": t, "x": np.where(t > start, value, 100.0)}}
             # an unfinished pair (b not done) is left out
             os.makedirs(os.path.join(d, "4_seed9", "a"))
-            out, pairs = paired_differences(d, ("x",), load=lambda folder: runs[folder])
+            out, pairs, notes = paired_differences(d, ("x",), load=lambda folder: runs[folder])
             self.assertEqual(pairs, 3)
+            self.assertEqual(notes, [f"left out: {os.path.join(d, '4_seed9')}: neither side "
+                                     "done (paired_check.sh stopped before it; run it again to "
+                                     "finish)"])
             base, diff, err = out["x"]
             self.assertAlmostEqual(base, 51.0)
             self.assertAlmostEqual(diff, 3.0)
             self.assertAlmostEqual(err, np.std(offsets, ddof=1) / np.sqrt(3))
-            text = format_paired_differences((out, pairs))
+            text = format_paired_differences((out, pairs, notes))
             self.assertIn("3 pairs", text)
+            self.assertIn("note: left out: ", text)
             self.assertIn("b - a +3 +- 1.5 (+5.88% +- 3.00%)", text)
 
     def test_no_pair_done_is_an_error_naming_the_folder(self):
@@ -230,6 +236,85 @@ class PairedDifferences(unittest.TestCase):
             runs[b]["case"] = {"shear": {"velocity": 1.0}}
             with self.assertRaisesRegex(SeriesError, "other cases \\(shear.velocity 0.5 and 1.0"):
                 pairs()
+
+    def test_a_side_or_a_run_counted_twice_or_made_otherwise_is_refused(self):
+        # Three pairs from checkpoints at t = 5: a = 1 after it, b = 1 + k for pair k.
+        with tempfile.TemporaryDirectory() as d:
+            runs = {}
+
+            def side(pair, name, value, state, made="build/cdshear", end=10.0):
+                folder = os.path.join(d, pair, name)
+                os.makedirs(folder, exist_ok=True)
+                for file, text in (("paired_check.done", ""), ("paired_check.start", "5\n"),
+                                   ("paired_check.side", made + "\n"),
+                                   ("run_info.json", json.dumps({"step": 2000,
+                                                                 "state_hash": state}))):
+                    with open(os.path.join(folder, file), "w") as f:
+                        f.write(text)
+                t = np.arange(0.5, end + 0.25, 0.5)
+                runs[folder] = {"series": {"time": t, "x": np.where(t > 5.0, value, 0.0)}}
+
+            for k in (1, 2, 3):
+                side(f"{k}_run{k}", "a", 1.0, f"a{k}")
+                side(f"{k}_run{k}", "b", 1.0 + k, f"b{k}", "build/cdshear --set s=1")
+
+            def pairs():
+                return paired_differences(d, ("x",), load=lambda folder: runs[folder])
+
+            out, count, notes = pairs()
+            self.assertEqual((count, out["x"][1], notes), (3, 2.0, []))
+            # A pair linked under another name, or a run's pair copied: one run's sides twice.
+            os.symlink(os.path.join(d, "1_run1"), os.path.join(d, "4_link"))
+            with self.assertRaisesRegex(SeriesError, f"^{d}: two pairs hold one run's sides: "
+                                        f"{d}/4_link/a is {d}/1_run1/a again"):
+                pairs()
+            os.remove(os.path.join(d, "4_link"))
+            side("4_copy", "a", 1.0, "a2")
+            side("4_copy", "b", 3.0, "b2", "build/cdshear --set s=1")
+            with self.assertRaisesRegex(SeriesError, f"{d}/4_copy/a holds the run {d}/2_run2/a "
+                                        "holds \\(both end at step 2000 in state a2"):
+                pairs()
+            shutil.rmtree(os.path.join(d, "4_copy"))
+            # A fourth pair made with another setting on its b/ side: not pooled with the others.
+            side("4_run4", "a", 1.0, "a4")
+            side("4_run4", "b", 2.0, "b4", "build/cdshear --set s=2")
+            with self.assertRaisesRegex(SeriesError, "the pairs' b/ sides were made otherwise "
+                                        f"\\({d}/1_run1: 'build/cdshear --set s=1', {d}/4_run4: "
+                                        "'build/cdshear --set s=2' in paired_check.side\\)"):
+                pairs()
+            shutil.rmtree(os.path.join(d, "4_run4"))
+            # b/ a link to a/, or a copy of it (made as a/ was): no second side.
+            pair = os.path.join(d, "3_run3")
+            shutil.rmtree(os.path.join(pair, "b"))
+            os.symlink("a", os.path.join(pair, "b"))
+            with self.assertRaisesRegex(SeriesError, f"^{pair}: b/ is a/ \\(a link\\)"):
+                pairs()
+            os.remove(os.path.join(pair, "b"))
+            shutil.copytree(os.path.join(pair, "a"), os.path.join(pair, "b"))
+            runs[os.path.join(pair, "b")] = runs[os.path.join(pair, "a")]
+            with self.assertRaisesRegex(SeriesError, f"^{pair}: b/ was made as a/ was "
+                                        "\\('build/cdshear' in both"):
+                pairs()
+            # Sides made otherwise that computed one flow (one end state): kept, with a note.
+            with open(os.path.join(pair, "b", "paired_check.side"), "w") as f:
+                f.write("build/cdshear --set s=1\n")
+            out, count, notes = pairs()
+            self.assertEqual((count, out["x"][1]), (3, 1.0))
+            self.assertEqual(notes, ["1 of the 3 pairs ended in one state on both sides (3_run3): "
+                                     "the two sides computed one flow there, a difference of "
+                                     "zero"])
+            # A b/ side that ran for a shorter time (kept from a check with another DURATION).
+            side("3_run3", "b", 4.0, "b3", "build/cdshear --set s=1", end=7.0)
+            with self.assertRaisesRegex(SeriesError, f"^{pair}: a/ ends at t = 10, b/ at t = 7: "
+                                        "sides of other durations"):
+                pairs()
+            # One pair: its difference, without an error it cannot have.
+            for k in (2, 3):
+                shutil.rmtree(os.path.join(d, f"{k}_run{k}"))
+            text = format_paired_differences(pairs())
+            self.assertIn("1 pair (b - a, from one checkpoint; an error needs", text)
+            self.assertIn("x                a 1  b - a +1 (+100.00%)", text)
+            self.assertNotIn("nan", text)
 
 
 if __name__ == "__main__":
