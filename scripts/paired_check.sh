@@ -52,7 +52,7 @@ fi
 declare -A given
 for run in "$@"; do
   require_checkpoint_run "$run"
-  where=$(cd "$run" && pwd -P)
+  where=$(CDPATH='' cd -- "$run" && pwd -P)
   [[ -z "${given[$where]:-}" ]] ||
     { echo "error: $run: given twice (as ${given[$where]}): each run pairs once" >&2; exit 2; }
   given[$where]=$run
@@ -62,7 +62,7 @@ mkdir -p "$out"
 k=0
 for run in "$@"; do
   k=$((k + 1))
-  pair="$out/${k}_$(basename "$(cd "$run" && pwd)")"
+  pair="$out/${k}_$(basename "$(CDPATH='' cd -- "$run" && pwd)")"
   for side in A B; do
     dir="$pair/${side,,}"
     if [[ $side == A ]]; then sets=("${sets_A[@]}"); else sets=("${sets_B[@]}"); fi
@@ -70,8 +70,9 @@ for run in "$@"; do
     if [[ -f "$dir/paired_check.done" ]]; then
       [[ ! -f "$dir/paired_check.side" || "$(cat "$dir/paired_check.side")" == "$made_with" ]] ||
         { echo "error: $dir: made by $(cat "$dir/paired_check.side"), not $made_with" >&2; exit 2; }
-      [[ ! -f "$dir/paired_check.duration" ||
-         "$(cat "$dir/paired_check.duration")" == "$duration" ]] ||
+      [[ ! -f "$dir/paired_check.duration" ]] ||
+        awk -v made="$(cat "$dir/paired_check.duration")" -v asked="$duration" \
+          'BEGIN { exit !(made + 0 == asked + 0) }' ||
         { echo "error: $dir: made for DURATION $(cat "$dir/paired_check.duration"), not" \
             "$duration: give a new OUT_DIR" >&2; exit 2; }
       continue

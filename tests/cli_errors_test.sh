@@ -647,5 +647,22 @@ fi
 printf '[preparation]\npacking = "a_folder"\n' > own_packing.toml
 expect_error "a_folder: exists and is not a regular file" "$exe" prepare -q own_packing.toml
 
+# scripts/paired_check.sh: a run given twice (another path), and a side kept from another
+# DURATION (checked before anything is resumed; 20.0 and 20 are one DURATION)
+paired="$(cd "$(dirname "$0")/../scripts" && pwd)/paired_check.sh"
+mkdir -p paired_run && touch paired_run/case.toml paired_run/checkpoint.cbor paired_run/run.h5
+expect_status2 "./paired_run/: given twice (as paired_run): each run pairs once" \
+  env CDSHEAR="$exe" SET_B="solver.relaxation=1.4" "$paired" paired_out 4 paired_run ./paired_run/
+mkdir -p paired_out/1_paired_run/a
+printf '%s \n' "$exe" > paired_out/1_paired_run/a/paired_check.side
+echo 20 > paired_out/1_paired_run/a/paired_check.duration
+touch paired_out/1_paired_run/a/paired_check.done
+mkdir -p paired_out/1_paired_run/b && echo other > paired_out/1_paired_run/b/paired_check.side
+touch paired_out/1_paired_run/b/paired_check.done
+expect_status2 "paired_out/1_paired_run/a: made for DURATION 20, not 4: give a new OUT_DIR" \
+  env CDSHEAR="$exe" SET_B="solver.relaxation=1.4" "$paired" paired_out 4 paired_run
+expect_status2 "paired_out/1_paired_run/b: made by other, not" \
+  env CDSHEAR="$exe" SET_B="solver.relaxation=1.4" "$paired" paired_out 20.0 paired_run
+
 echo "cli_errors_test: $((checks - fails)) passed, $fails failed"
 [ $fails -eq 0 ]

@@ -175,7 +175,7 @@ def main(argv=None):
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import (compared_count, format_paired_markdown, load_campaign,
+        from .campaign import (compared_count, format_paired_markdown, load_campaign, one_flow,
                                other_packings, unequal_times)
         from .report import ReportError
         try:
@@ -208,6 +208,10 @@ def main(argv=None):
                   f"in the two campaigns ({run}: t = {_time(time_a)} in a, {_time(time_b)} in "
                   f"b): their averages cover different stretches of the flow; --until T "
                   f"compares them at a common time")
+        if same := one_flow(items):
+            print(f"note: {len(same)} of the {len(items)} shared runs end in the same state in "
+                  f"both campaigns ({', '.join(same)}): the two computed one flow there, a "
+                  f"difference of zero")
         packings = other_packings(items, a, b)
         if packings:
             run, packing_a, packing_b = packings[0]

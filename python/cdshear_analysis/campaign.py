@@ -11,6 +11,7 @@ is of an older version is left out (listed in `skipped`), where `cdshear report`
 it again from run.h5.
 """
 import filecmp
+import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ import numpy as np
 from scipy.stats import t as student_t
 
 from .report import collect, csv_columns
-from .rundata import end_state, folder_case, is_number
+from .rundata import end_state, folder_case, is_number, open_regular, run_info_paths
 
 
 @dataclass
@@ -34,7 +35,8 @@ class Campaign:
         no value), text and flags as object arrays.
     skipped: [(run, reason)] for every run left out (not started, still running, stopped, not
         analysed, stale).
-    notes: the report's notes on the runs kept (unfinished runs, copies of a run in runs/).
+    notes: the report's notes on the campaign's file (campaign.toml missing, or without a name);
+        its notes on the runs (unfinished, copies in runs/) are for a report, which pools them.
     """
     name: str
     folder: str
@@ -74,7 +76,7 @@ def load_campaign(folder, until=None):
     rows = report["rows"]
     columns = {c: _column([r.get(c) for r in rows]) for c in csv_columns(rows)}
     return Campaign(name=report["campaign"], folder=folder, rows=rows, columns=columns,
-                    skipped=list(report["skipped"]), notes=list(report["notes"]))
+                    skipped=list(report["skipped"]), notes=list(report["campaign_notes"]))
 
 
 # The quantities compared between two campaigns (runs.csv columns X, with their standard errors
@@ -97,10 +99,12 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
     "combined_errors" ((b - a) / sqrt(err_a^2 + err_b^2), NaN where an error is missing)}}. A run
     whose two cases differ in V, the number of disks, the normal stress, the height or the
     initial velocity (the last three where both rows hold them), whose two folders are one or
-    hold one run (a copy: both end in the same state), or that is a second folder of a system,
-    seed and V already compared (a copy kept beside the run in both runs/), is not compared: its
-    item holds "mismatch" (the reason) and no quantity. a and b are Campaign objects or folders;
-    folders are read with `until` (load_campaign)."""
+    hold a copy of one run (both end in the same state, from the same case.toml and build), or
+    that is a second folder of a system, seed and V already compared (a copy kept beside the run
+    in both runs/), is not compared: its item holds "mismatch" (the reason) and no quantity. A run
+    that ends in the same state in both from other cases or builds (a setting or a build that
+    changes nothing there) is compared, its item marked "one_flow". a and b are Campaign objects
+    or folders; folders are read with `until` (load_campaign)."""
     a = a if isinstance(a, Campaign) else load_campaign(a, until)
     b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
@@ -123,8 +127,11 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
         if os.path.realpath(dir_a) == os.path.realpath(dir_b):
             differ.append("one run folder in both campaigns (a link)")
         elif (state := end_state(dir_a)) is not None and state == end_state(dir_b):
-            differ.append(f"one run in both campaigns (both end at step {state[0]} in state "
-                          f"{state[1]}: a copy, or settings that change nothing in this case)")
+            if folder_case(dir_a) == folder_case(dir_b) and _build(dir_a) == _build(dir_b):
+                differ.append(f"one run in both campaigns (both end at step {state[0]} in state "
+                              f"{state[1]}, from the same case.toml and build): a copy")
+            else:
+                item["one_flow"] = True
         key = (rb.get("system"), rb.get("seed"), rb.get("V"))
         if not differ and None not in key:
             if key in compared:
@@ -237,6 +244,25 @@ def unequal_times(items):
     (compare_campaigns' `until`)."""
     return [(it["run"], it["time_a"], it["time_b"]) for it in items
             if "mismatch" not in it and not _same_time(it["time_a"], it["time_b"])]
+
+
+def _build(run_dir):
+    """The build record ("build" of its first run_info file that holds one), or None."""
+    for path in run_info_paths(run_dir):
+        try:
+            with open_regular(path, encoding="utf-8") as f:
+                info = json.load(f)
+        except (OSError, ValueError, RecursionError):
+            continue
+        if isinstance(info, dict) and info.get("build") is not None:
+            return info["build"]
+    return None
+
+
+def one_flow(items):
+    """The compared runs that end in the same state in both campaigns from other cases or builds
+    (compare_campaigns' "one_flow"): the two computed one flow there, a difference of zero."""
+    return [it["run"] for it in items if it.get("one_flow")]
 
 
 def other_packings(items, a, b):

@@ -388,20 +388,21 @@ def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seco
                 ratio=lm["seconds_per_time"] / cd["seconds_per_time"])
 
 
-# Why a LAMMPS run's files that end before its run.json's duration cannot be averaged.
-CUT = ("cut short (the run stopped early, or the file was cut): its averages would be of "
-       "another stretch of the flow than its namesake's")
-
-
 def _check_ends_at(series, duration, name, said="--duration",
                    because="its second half and seconds per time unit would be of another run "
                            "length", samples="samples"):
-    """Raises PeerError unless the series' last sample lies within two sample intervals of
-    `duration` (`said`: where that duration comes from): the second half and the wall seconds per
-    time unit are of a run that long."""
+    """Raises PeerError, naming the file `name`, unless the series' last sample lies within two
+    sample intervals of `duration` (`said`: where that duration comes from; `because`: why it
+    matters, None for a run's own record: its averages then cover another stretch of the flow
+    than its namesake's)."""
     t = series["time"]
     spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if len(t) and abs(float(t[-1]) - duration) > max(2.0 * spacing, 1e-9 * duration):
+        if because is None:
+            because = ("cut short (the run stopped early, or the file was cut)"
+                       if float(t[-1]) < duration else "longer than the run it records (another "
+                       "run's file?)") + ": its averages would be of another stretch of the " \
+                "flow than its namesake's"
         raise PeerError(name, f"its {samples} end at t = {float(t[-1]):g}, not at {said} "
                               f"{duration:g}: {because}")
 
@@ -522,13 +523,16 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
         if not _positive_number(meta.get(key)):
             raise PeerError(meta_path, f"{key} = {meta.get(key)!r}: expected a number > 0 "
                                        "(lammps_campaign.sh writes the run's)")
+    if meta.get("kappa") is not None and not _positive_number(meta["kappa"]):
+        raise PeerError(meta_path, f"kappa = {meta['kappa']!r}: expected a number > 0 (the "
+                                   "normal stiffness lammps_campaign.sh ran with)")
     variables = read_vars(os.path.join(run_dir, "packing.data.vars"))
     wall_radius, n_grains = variables.get("wall_radius"), variables.get("n_grains")
     if wall_radius is None:
         raise PeerError(os.path.join(run_dir, "packing.data.vars"), "no wall_radius")
     series_path = os.path.join(run_dir, "lammps", "series.txt")
     series = lammps_series(series_path)
-    _check_ends_at(series, meta["duration"], series_path, "run.json's duration", CUT)
+    _check_ends_at(series, meta["duration"], series_path, "run.json's duration", None)
     est = estimates_after(series, start_time, series_path)
     row = {"run": name, "V": meta["velocity"], "duration": meta["duration"],
            "n": int(n_grains) if n_grains is not None and float(n_grains).is_integer() else None,
@@ -546,7 +550,7 @@ def lammps_run_row(run_dir, start_time, bulk_h, stripe_thickness=1.0, window=80.
                       / (series["time"][-1] - series["time"][0]))
     last_time = snaps[-1][0] / steps_per_time
     _check_ends_at({"time": np.array([step / steps_per_time for step, _ in snaps])},
-                   meta["duration"], dump_path, "run.json's duration", CUT, "snapshots")
+                   meta["duration"], dump_path, "run.json's duration", None, "snapshots")
     first_window = math.ceil(start_time / window - 1e-6)
     windows = {}
     for step, rows in snaps:
@@ -575,8 +579,10 @@ def lammps_campaign(lammps_folder, campaign):
     campaign.Campaign whose rows average each run as its namesake in `campaign` (a Campaign or
     a folder) is averaged: from its averaging start (summary.json's averaging_start_time, else
     the second half), with its bulk's h, its stripes' thickness and its window (case.toml's
-    measure.stripe_thickness and measure.window). Runs without a finished LAMMPS run, or whose
-    case.toml lacks those two, are left out (listed in `skipped`)."""
+    measure.stripe_thickness and measure.window). Runs without a finished LAMMPS run, whose own run
+    is not finished, whose case.toml lacks those two, or whose LAMMPS run is of another duration
+    are left out (listed in `skipped`). Raises PeerError for a LAMMPS run whose files cannot be
+    read or end before or after its run.json's duration, and for runs of two stiffnesses."""
     from .campaign import Campaign, _column, load_campaign
     from .report import ReportError, read_summary, reached_text
     campaign = campaign if isinstance(campaign, Campaign) else load_campaign(campaign)

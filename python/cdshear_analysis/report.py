@@ -539,8 +539,9 @@ def summary_until(run_dir, time):
 def collect(campaign_dir, reanalyse_stale=True, until=None):
     """{"campaign": name, "campaign_dir", "rows": [...], "skipped": [(run, reason)] (the runs
     left out), "reanalysed": [(run, reason)] (stale summaries analysed again; with
-    reanalyse_stale False none is, and nothing is written), "notes": [text]} (notes: about the
-    campaign folder, not about a run). With `until` (a time [t]) every run is analysed from its
+    reanalyse_stale False none is, and nothing is written), "notes": [text] (about the campaign
+    folder and its runs kept: unfinished ones, copies pooled), "campaign_notes": [text] (those
+    about its campaign.toml alone)}. With `until` (a time [t]) every run is analysed from its
     run.h5 as it stood then (summary_until), its summary.json not read nor written; a run that
     has not reached `until` is left out."""
     if not os.path.isdir(campaign_dir):
@@ -562,6 +563,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
         name, listed, text = None, [], None
         systems = None   # its [set] may have changed the systems' n or L_y: not checked
         notes.append("campaign.toml is missing: the campaign name is the folder's")
+    campaign_notes = list(notes)   # about the campaign's file, not its runs
     if not name:
         name = os.path.basename(os.path.normpath(campaign_dir))
     runs_dir = os.path.join(campaign_dir, "runs")
@@ -622,7 +624,8 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
                          f"V = {v:g}): each is pooled, so that seed weighs {len(names)} times; "
                          f"move the copies out of runs/")
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
-            "reanalysed": reanalysed, "notes": notes, "campaign_toml": text,
+            "reanalysed": reanalysed, "notes": notes, "campaign_notes": campaign_notes,
+            "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
 
 

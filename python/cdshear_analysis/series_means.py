@@ -69,13 +69,13 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
     """The pairs of a scripts/paired_check.sh folder: every subfolder with a/ and b/ both done
     (paired_check.done), each side resumed from one checkpoint at the time in
     paired_check.start. Per pair and key, the difference b - a of the series' means after that
-    time, both sides' up to the same end; over the pairs, {key: (mean of a's means, mean
-    difference, its standard error from the pairs' scatter, std(ddof 1) / sqrt(k), NaN for one
-    pair)}, the pair count and notes [text] (pairs left out, pairs whose sides ran one flow).
-    Raises SeriesError when no pair is done, when a pair's b/ is its a/ (a link, or a copy made
-    as a/ was), when two pairs hold one run (a run given twice, a pair copied or linked), when
-    the pairs' sides were made with other executables or settings (paired_check.side), or when
-    a pair's sides end at other times."""
+    time; over the pairs, {key: (mean of a's means, mean difference, its standard error from the
+    pairs' scatter, std(ddof 1) / sqrt(k), NaN for one pair)}, the pair count and notes [text]
+    (pairs left out, pairs whose sides ran one flow). Raises SeriesError when no pair is done,
+    when a pair's b/ is its a/ (a link, or a copy made as a/ was), when two pairs hold one run
+    (a run given twice, a pair copied or linked), when the pairs' sides were made with other
+    executables or settings (paired_check.side), when a pair's sides end at other times, or
+    when the pairs ran for other durations."""
     if load is None:
         from .rundata import load_run as load
     diffs, bases, pairs = {key: [] for key in keys}, {key: [] for key in keys}, 0
@@ -83,7 +83,7 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         raise SeriesError(f"{check_dir}: " + ("not a folder" if os.path.lexists(check_dir)
                                               else "no such folder"))
     names = sorted(os.listdir(check_dir))
-    notes, kept_a, made_with, same_flow = [], [], ({}, {}), []
+    notes, kept_a, made_with, same_flow, spans = [], [], ({}, {}), [], {}
     for name in names:
         pair = os.path.join(check_dir, name)
         sides = [os.path.join(pair, side) for side in ("a", "b")]
@@ -114,12 +114,18 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
                               "not resumed from one checkpoint")
         try:
             runs = [load(d) for d in sides]
+            for run in runs:   # named before the history is compared
+                missing = [k for k in ("time",) + tuple(keys) if k not in run["series"]]
+                if missing:
+                    raise SeriesError(f"no series '{missing[0]}' (have: "
+                                      f"{', '.join(sorted(run['series']))})")
             if problem := _history_difference(runs, start, keys):
                 raise SeriesError(f"{problem}: not resumed from one checkpoint")
             end = _common_end(runs)
-            a, b = (series_means(run, start, keys, end) for run in runs)
+            a, b = (series_means(run, start, keys) for run in runs)
         except SeriesError as e:
             raise SeriesError(f"{pair}: {e.problem}") from None
+        spans.setdefault(round(end - start, 9), pair)
         if (state := end_state(sides[0])) is not None and state == end_state(sides[1]):
             same_flow.append(name)
         for key in keys:
@@ -134,6 +140,11 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
             raise SeriesError(f"{check_dir}: the pairs' {side}/ sides were made otherwise "
                               f"({pair_1}: {text_1!r}, {pair_2}: {text_2!r} in "
                               "paired_check.side): pooled, they would mix two comparisons")
+    if len(spans) > 1:
+        (span_1, pair_1), (span_2, pair_2) = list(spans.items())[:2]
+        raise SeriesError(f"{check_dir}: the pairs ran for other durations ({pair_1}: {span_1:g} "
+                          f"t, {pair_2}: {span_2:g} t after the checkpoint): pooled, their "
+                          "differences would be over other windows")
     if same_flow:
         notes.append(f"{len(same_flow)} of the {pairs} pairs ended in one state on both sides "
                      f"({', '.join(same_flow)}): the two sides computed one flow there, a "
@@ -159,7 +170,7 @@ def _read_side(side_dir):
 def _common_end(runs):
     """The time both sides' series reach: their last samples must agree (to a thousandth of a
     sample interval), else the sides ran for other durations (a side kept from a check with
-    another DURATION) and their means would cover other windows."""
+    another DURATION) and their means would cover other windows. SeriesError if not."""
     ends = []
     for run in runs:
         time = np.asarray(run["series"]["time"], dtype=float)
@@ -171,7 +182,7 @@ def _common_end(runs):
         raise SeriesError(f"a/ ends at t = {end_a:g}, b/ at t = {end_b:g}: sides of other "
                           "durations (a side kept from a check with another DURATION); give "
                           "paired_check.sh a new OUT_DIR")
-    return max(end_a, end_b)
+    return end_a
 
 
 def _read_start(start_file):

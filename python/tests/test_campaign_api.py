@@ -171,22 +171,35 @@ class CompareCampaigns(unittest.TestCase):
                              0.83, 2.8)
             items = {it["run"]: it for it in compare_campaigns(a, b)}
             self.assertEqual(items["s1_seed3_V0.05"]["mismatch"],
-                             "one run in both campaigns (both end at step 1000 in state a3: a "
-                             "copy, or settings that change nothing in this case)")
+                             "one run in both campaigns (both end at step 1000 in state a3, from "
+                             "the same case.toml and build): a copy")
             self.assertEqual(items["s1_seed1_V0.05.bak"]["mismatch"],
                              "s1_seed1_V0.05 is system 1, seed 1, V = 0.05 too and is compared: "
                              "each seed pairs once (a copy kept in runs/)")
             (group,) = paired_differences(list(items.values()))
             self.assertEqual(group["runs"], 2)
             self.assertAlmostEqual(group["mu_eff_bulk"]["mean"], 0.015)
-            # the report's note on the copy is kept, and printed
-            self.assertTrue(any("s1_seed1_V0.05, s1_seed1_V0.05.bak are the same run" in n
-                                for n in load_campaign(a).notes))
+            # the campaign's notes are on its file; the report's on its copies (each pooled in a
+            # report) do not hold here
+            self.assertEqual(load_campaign(a).notes,
+                             ["campaign.toml is missing: the campaign name is the folder's"])
             with contextlib.redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
-            self.assertIn(f"note on {a}: s1_seed1_V0.05, s1_seed1_V0.05.bak are the same run",
-                          out.getvalue())
+            self.assertIn(f"note on {a}: campaign.toml is missing", out.getvalue())
+            self.assertNotIn("are the same run", out.getvalue())
             self.assertIn("s1_seed3_V0.05: not compared: one run in both", out.getvalue())
+            # The same end state from another case (a setting that changes nothing there) is
+            # one flow computed twice: compared, a difference of zero, with a note.
+            with open(os.path.join(b, "runs", "s1_seed3_V0.05", "case.toml"), "w") as f:
+                f.write("[output]\nstatus_interval = 7.0\n")
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertNotIn("mismatch", items["s1_seed3_V0.05"])
+            self.assertTrue(items["s1_seed3_V0.05"]["one_flow"])
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
+            self.assertIn("note: 1 of the 4 shared runs end in the same state in both campaigns "
+                          "(s1_seed3_V0.05): the two computed one flow there", out.getvalue())
+            os.remove(os.path.join(b, "runs", "s1_seed3_V0.05", "case.toml"))
             # Nothing left to compare (every shared run one in both): an error, exit 2.
             for seed in (1, 2):
                 run_info(os.path.join(b, "runs", f"s1_seed{seed}_V0.05"), f"a{seed}")

@@ -2,6 +2,8 @@
 diameters, masses, wall rows), overlaps of a snapshot, the common second-half estimator, a
 LAMMPS run's bulk solid fraction from exact circular segments and its pairing with a campaign's
 runs. No LAMMPS needed."""
+import contextlib
+import io
 import json
 import math
 import os
@@ -10,9 +12,11 @@ import sys
 import tempfile
 import unittest
 import warnings
+from unittest import mock
 
 import numpy as np
 
+from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis.campaign import Campaign, compare_campaigns, paired_differences
 from cdshear_analysis.peers import (PeerError, lammps_campaign, lammps_series,
                                     max_overlap, packing_to_lammps, ripple, second_half_estimates,
@@ -505,6 +509,43 @@ class BesideACampaign(unittest.TestCase):
                           "s1_seed2_V0.05: 1000)", caught.exception.problem)
             with open(record, "w") as f:
                 json.dump(meta, f)
+            # A kappa that is no number is named, not a traceback.
+            with open(record, "w") as f:
+                json.dump(dict(meta, kappa=[2e4]), f)
+            with self.assertRaises(PeerError) as caught:
+                lammps_campaign(peers_dir, campaign)
+            self.assertEqual((caught.exception.path, caught.exception.problem),
+                             (record, "kappa = [20000.0]: expected a number > 0 (the normal "
+                                      "stiffness lammps_campaign.sh ran with)"))
+            # A run.json of a shorter run than its files hold: another run's files.
+            with open(record, "w") as f:
+                json.dump(dict(meta, duration=50.0), f)
+            cd_rows[1]["duration"] = 50.0
+            with self.assertRaises(PeerError) as caught:
+                lammps_campaign(peers_dir, campaign)
+            self.assertIn("its samples end at t = 99.95, not at run.json's duration 50: longer "
+                          "than the run it records", caught.exception.problem)
+            cd_rows[1]["duration"] = 100.0
+            with open(record, "w") as f:
+                json.dump(meta, f)
+            # The command line (its campaign the rows above): the stiffness is printed; nothing
+            # compared is an error (exit 2).
+            def compare():
+                with mock.patch("cdshear_analysis.campaign.load_campaign", lambda _: campaign):
+                    return cli_main(["lammps-compare", campaign_dir, peers_dir])
+
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(compare(), 0)
+            self.assertIn("the LAMMPS runs' normal stiffness: kappa = 20000", out.getvalue())
+            for row in cd_rows:
+                row["n"] = 1023
+            with contextlib.redirect_stdout(io.StringIO()) as out, \
+                    contextlib.redirect_stderr(io.StringIO()) as err:
+                self.assertEqual(compare(), 2)
+            self.assertIn("s1_seed1_V0.05: not compared: n 1023 in a, 511 in b", out.getvalue())
+            self.assertIn(f"error: {peers_dir}: no LAMMPS run could be compared", err.getvalue())
+            for row in cd_rows:
+                row["n"] = 511
             # A series or a dump that stops before run.json's duration (a file cut short).
             series = os.path.join(peers_dir, "s1_seed2_V0.05", "lammps", "series.txt")
             dump = os.path.join(peers_dir, "s1_seed2_V0.05", "lammps", "dump.txt")

@@ -275,6 +275,21 @@ class PairedDifferences(unittest.TestCase):
                                         "holds \\(both end at step 2000 in state a2"):
                 pairs()
             shutil.rmtree(os.path.join(d, "4_copy"))
+            # A fourth pair run for 2 t after its checkpoint, where the others ran 5 t.
+            side("4_run4", "a", 1.0, "a4", end=7.0)
+            side("4_run4", "b", 2.0, "b4", "build/cdshear --set s=1", end=7.0)
+            with self.assertRaisesRegex(SeriesError, f"^{d}: the pairs ran for other durations "
+                                        f"\\({d}/1_run1: 5 t, {d}/4_run4: 2 t after"):
+                pairs()
+            shutil.rmtree(os.path.join(d, "4_run4"))
+            # A side without one of the series (an older build's run.h5): named, not a KeyError.
+            a1 = os.path.join(d, "1_run1", "a")
+            whole = runs[a1]
+            runs[a1] = {"series": {"time": whole["series"]["time"]}}
+            with self.assertRaisesRegex(SeriesError, f"^{d}/1_run1: no series 'x' \\(have: "
+                                        "time\\)"):
+                pairs()
+            runs[a1] = whole
             # A fourth pair made with another setting on its b/ side: not pooled with the others.
             side("4_run4", "a", 1.0, "a4")
             side("4_run4", "b", 2.0, "b4", "build/cdshear --set s=2")
