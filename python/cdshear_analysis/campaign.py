@@ -11,7 +11,6 @@ is of an older version is left out (listed in `skipped`), where `cdshear report`
 it again from run.h5.
 """
 import filecmp
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -19,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import t as student_t
 
-from .report import collect, csv_columns
-from .rundata import end_state, folder_case, is_number, open_regular, run_info_paths
+from .report import builds_of, collect, csv_columns
+from .rundata import end_state, folder_case, is_number
 
 
 @dataclass
@@ -127,7 +126,7 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
         if os.path.realpath(dir_a) == os.path.realpath(dir_b):
             differ.append("one run folder in both campaigns (a link)")
         elif (state := end_state(dir_a)) is not None and state == end_state(dir_b):
-            if folder_case(dir_a) == folder_case(dir_b) and _build(dir_a) == _build(dir_b):
+            if folder_case(dir_a) == folder_case(dir_b) and builds_of(dir_a) == builds_of(dir_b):
                 differ.append(f"one run in both campaigns (both end at step {state[0]} in state "
                               f"{state[1]}, from the same case.toml and build): a copy")
             else:
@@ -244,19 +243,6 @@ def unequal_times(items):
     (compare_campaigns' `until`)."""
     return [(it["run"], it["time_a"], it["time_b"]) for it in items
             if "mismatch" not in it and not _same_time(it["time_a"], it["time_b"])]
-
-
-def _build(run_dir):
-    """The build record ("build" of its first run_info file that holds one), or None."""
-    for path in run_info_paths(run_dir):
-        try:
-            with open_regular(path, encoding="utf-8") as f:
-                info = json.load(f)
-        except (OSError, ValueError, RecursionError):
-            continue
-        if isinstance(info, dict) and info.get("build") is not None:
-            return info["build"]
-    return None
 
 
 def one_flow(items):

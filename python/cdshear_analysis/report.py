@@ -442,6 +442,12 @@ def _build_of(path):
         return None
 
 
+def builds_of(run_dir):
+    """The builds that wrote a run's run_info files, one per sitting (_build_of): a set, empty
+    where none can be read."""
+    return {b for b in map(_build_of, run_info_paths(run_dir)) if b is not None}
+
+
 def software(campaign_text, run_dirs):
     """What made the campaign: the sweep's version (first line of campaign.toml, "written by
     cdshear X sweep") and {version: number of runs} from each run's run_info files (run_info.json
@@ -450,8 +456,7 @@ def software(campaign_text, run_dirs):
     m = re.search(r"written by (\S+) (\S+) sweep", campaign_text or "")
     versions = {}
     for d in run_dirs:
-        builds = {b for b in map(_build_of, run_info_paths(d)) if b is not None}
-        for v in sorted(builds) or ["unknown (no readable run_info.json)"]:
+        for v in sorted(builds_of(d)) or ["unknown (no readable run_info.json)"]:
             versions[v] = versions.get(v, 0) + 1
     return {"sweep": f"{m.group(1)} {m.group(2)}" if m else None, "runs": versions}
 
