@@ -434,12 +434,14 @@ if grep -q "json.exception" err.txt; then
 fi
 
 # What a killed write of a packing left (NAME.tmp.PID) is removed when the packing is written
-# again, unless its process still runs (4194305 is above any process number Linux gives).
+# again, unless its process still runs (4194305 is above any process number Linux gives); a
+# number too long for any process is not a writer's, and is left.
 mkdir -p litter && : > litter/p.json.tmp.4194305 && : > "litter/p.json.tmp.$$"
+: > litter/p.json.tmp.12345678901234567890123
 checks=$((checks + 1))
 if ! "$exe" prepare -q --set system.n=37 --set system.height=6 -o litter/p.json > /dev/null \
   2> err.txt || [ -e litter/p.json.tmp.4194305 ] || [ ! -e "litter/p.json.tmp.$$" ] ||
-  [ ! -s litter/p.json ]; then
+  [ ! -e litter/p.json.tmp.12345678901234567890123 ] || [ ! -s litter/p.json ]; then
   echo "FAIL: a dead writer's packing temporary: $(ls litter) $(cat err.txt)"; fails=$((fails + 1))
 fi
 

@@ -20,6 +20,7 @@ window is analysed (not steady, series values over the last half) and plotted wi
 profile figures. Bad input:
 `error: <file>: <problem>` on stderr, exit status 2."""
 import argparse
+import codecs
 import math
 import os
 import sys
@@ -40,10 +41,28 @@ def _write_json(path, data):
     return 0
 
 
+def _escape_unencodable(error):
+    """An encoding error handler for the output streams: the bytes of a file name that is not
+    UTF-8 (held as surrogates) written back as they were, any other character the locale's
+    encoding lacks as a backslash escape; never a UnicodeEncodeError traceback."""
+    try:
+        return codecs.lookup_error("surrogateescape")(error)
+    except UnicodeError:
+        return codecs.lookup_error("backslashreplace")(error)
+
+
+codecs.register_error("cdshear_analysis.escape", _escape_unencodable)
+
+
 def main(argv=None):
     # Every figure is written to a file (Agg): a backend named in the environment is of no use
     # here, and one matplotlib does not know stops its import with a traceback.
     os.environ["MPLBACKEND"] = "Agg"
+    # A folder's name that is not UTF-8 printed under a locale whose stdout is strict
+    # (en_US.UTF-8, where C.UTF-8 escapes surrogates already).
+    for stream in (sys.stdout, sys.stderr):
+        if callable(getattr(stream, "reconfigure", None)):
+            stream.reconfigure(errors="cdshear_analysis.escape")
     parser = argparse.ArgumentParser(prog="cdshear_analysis", description=__doc__.split("\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
     p_analyze = commands.add_parser("analyze", help="write RUN_DIR/summary.json, print a report")

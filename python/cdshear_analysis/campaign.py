@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import t as student_t
 
-from .report import builds_of, collect, csv_columns
+from .report import RUN_NAME, builds_of, collect, csv_columns
 from .rundata import end_state, folder_case, is_number
 
 
@@ -36,6 +36,7 @@ class Campaign:
         analysed, stale).
     notes: the report's notes on the campaign's file (campaign.toml missing, or without a name);
         its notes on the runs (unfinished, copies in runs/) are for a report, which pools them.
+    listed: the run names its campaign.toml lists (none without the file).
     """
     name: str
     folder: str
@@ -43,6 +44,7 @@ class Campaign:
     columns: dict = field(default_factory=dict)
     skipped: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    listed: list = field(default_factory=list)
 
     def frame(self):
         """The runs table as a pandas DataFrame (pandas is optional: Debian's python3-pandas)."""
@@ -75,7 +77,8 @@ def load_campaign(folder, until=None):
     rows = report["rows"]
     columns = {c: _column([r.get(c) for r in rows]) for c in csv_columns(rows)}
     return Campaign(name=report["campaign"], folder=folder, rows=rows, columns=columns,
-                    skipped=list(report["skipped"]), notes=list(report["campaign_notes"]))
+                    skipped=list(report["skipped"]), notes=list(report["campaign_notes"]),
+                    listed=report["listed"])
 
 
 # The quantities compared between two campaigns (runs.csv columns X, with their standard errors
@@ -100,7 +103,9 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
     initial velocity (the last three where both rows hold them), whose two folders are one or
     hold a copy of one run (both end in the same state, from the same case.toml and build), or
     that is a second folder of a system, seed and V already compared (a copy kept beside the run
-    in both runs/), is not compared: its item holds "mismatch" (the reason) and no quantity. A run
+    in both runs/; of two such folders the one b's campaign.toml lists, else one whose name reads
+    as a run's, is compared), is not compared: its item holds "mismatch" (the reason) and no
+    quantity. A run
     that ends in the same state in both from other cases or builds (a setting or a build that
     changes nothing there) is compared, its item marked "one_flow". a and b are Campaign objects
     or folders; folders are read with `until` (load_campaign)."""
@@ -109,7 +114,7 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
     by_name = {r["run"]: r for r in a.rows}
     out = []
     compared = {}   # (system, seed, V) -> the run compared for it
-    for rb in b.rows:
+    for rb in sorted(b.rows, key=lambda r: _copy_rank(r["run"], b.listed)):
         ra = by_name.get(rb["run"])
         if ra is None:
             continue
@@ -154,6 +159,19 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
                        "combined_errors": diff / err if err > 0 else math.nan}
         out.append(item)
     return out
+
+
+def _copy_rank(run, listed):
+    """Which of a seed's folders compare_campaigns compares first: 0 for the name campaign.toml
+    lists, 1 for a name that reads as a run's (s<system>_seed<seed>_V<number>), 2 for others (a
+    backup's: s1_seed1_V0.05.bak). Python's sort is stable: the rows' order stays within a rank."""
+    if run in listed:
+        return 0
+    m = RUN_NAME.match(run)
+    try:
+        return 1 if m is not None and math.isfinite(float(m.group(3))) else 2
+    except ValueError:
+        return 2
 
 
 def paired_differences(items):

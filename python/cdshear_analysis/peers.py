@@ -55,7 +55,11 @@ def load_packing(path):
     """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
     try:
         with open_regular(path, encoding="utf-8") as f:
-            packing = json.load(f, object_pairs_hook=unique_keys)
+            # An integer past 64 bits is a double to cdshear's JSON reader (so 1e400's digits are
+            # infinite, refused as such), not a Python int that overflows float() later.
+            packing = json.load(f, object_pairs_hook=unique_keys,
+                                parse_int=lambda s: int(s) if len(s.lstrip("-")) <= 19
+                                else float(s))
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
     except RecursionError:
@@ -86,11 +90,59 @@ SOLID_FRACTION_RANGE = (0.01, 1.0)
 # As cdshear's kMaxPeriodsFromOrigin (src/core/world.hpp).
 MAX_PERIODS_FROM_ORIGIN = 1e6
 
+# The keys `cdshear prepare` writes (packing_json, src/io/packing_file.cpp), the only ones
+# read_packing takes, and the version it reads.
+PACKING_KEYS = frozenset((
+    "format", "version", "program_version", "build", "n", "height", "length_x", "diameter_min",
+    "diameter_max", "seed", "solid_fraction", "piston_stress", "preparation_time",
+    "preparation_steps", "capped_steps", "displacement_warnings", "largest_overlap",
+    "disks_xyr"))
+PACKING_VERSION = 1
+
+
+def _check_packing_keys(packing):
+    """What `cdshear`'s read_packing refuses of the file's keys before the disks: a key it does
+    not write, another version, and `n` that is not a whole number (511.0)."""
+    for key in packing:
+        if key not in PACKING_KEYS:
+            raise PeerError("packing", f"{key}: unknown key (a packing holds the keys `cdshear "
+                                       f"prepare` writes)")
+    if "version" in packing and not (is_number(packing["version"])
+                                     and packing["version"] == PACKING_VERSION):
+        raise PeerError("packing", f"version is {packing['version']!r}; cdshear reads version "
+                                   f"{PACKING_VERSION}")
+    n = packing.get("n")
+    if n is not None and not (isinstance(n, int) and not isinstance(n, bool)):
+        raise PeerError("packing", f"n must be a whole number, not {n!r}")
+
+
+def _largest_overlap(xyr, lx):
+    """(i, j, overlap) of the two disks that overlap most, x periodic with period lx, or None
+    when no two touch. The pairs within two largest radii come from a k-d tree, whose periodic
+    box needs every coordinate inside it: y is shifted and given a period no pair can span."""
+    from scipy.spatial import cKDTree
+    x = np.mod(xyr[:, 0], lx)
+    x[x >= lx] = 0.0          # mod can round up to lx itself
+    y, r = xyr[:, 1] - xyr[:, 1].min(), xyr[:, 2]
+    reach = 2.0 * float(r.max())
+    span = float(y.max()) + 2.0 * reach + 1.0
+    pairs = cKDTree(np.column_stack([x, y]), boxsize=[lx, span]).query_pairs(
+        reach, output_type="ndarray")
+    if len(pairs) == 0:
+        return None
+    i, j = pairs[:, 0], pairs[:, 1]
+    dx = x[i] - x[j]
+    dx -= lx * np.round(dx / lx)
+    overlap = r[i] + r[j] - np.hypot(dx, y[i] - y[j])
+    k = int(np.argmax(overlap))
+    return int(i[k]), int(j[k]), float(overlap[k])
+
 
 def _check_packing_geometry(packing, xyr, lx, height):
     """What `cdshear`'s read_packing checks of the disks against the cell: the count `n`, the
-    diameters within diameter_min to diameter_max, no disk crossing a wall, and a solid fraction
-    a preparation can give (a length_x typed 1e308 would make a wall of 1e308 disks)."""
+    diameters within diameter_min to diameter_max, no disk crossing a wall, a solid fraction
+    a preparation can give (a length_x typed 1e308 would make a wall of 1e308 disks) and the
+    file's own solid_fraction; and what a shear run's build refuses: two disks overlapping."""
     if "n" in packing and not (is_number(packing["n"]) and packing["n"] == len(xyr)):
         raise PeerError("packing", f"n is {packing['n']!r}, but disks_xyr lists {len(xyr)} disks")
     bounds = [packing.get(k) for k in ("diameter_min", "diameter_max")]
@@ -124,6 +176,20 @@ def _check_packing_geometry(packing, xyr, lx, height):
         raise PeerError("packing", f"the disks fill {solid_fraction:.3g} of length_x x height, "
                                    f"outside {SOLID_FRACTION_RANGE[0]} to "
                                    f"{SOLID_FRACTION_RANGE[1]}: a cell of another size")
+    # The file's own figure is the disks' (read_packing): one that disagrees says the disks or
+    # the cell were edited without it.
+    given = packing.get("solid_fraction")
+    if given is not None and not (is_number(given)
+                                  and abs(given - solid_fraction) <= 1e-9 * solid_fraction):
+        raise PeerError("packing", f"solid_fraction is {given!r}, but the disks fill "
+                                   f"{solid_fraction!r} of L_x x L_y = {lx!r} x {height!r} (were "
+                                   f"the disks, length_x or height edited?)")
+    # Two disks overlapping more than a shear run takes of a packing (its build refuses them).
+    worst = _largest_overlap(xyr, lx)
+    if worst is not None and worst[2] > WALL_CROSSING_TOLERANCE:
+        i, j, overlap = worst
+        raise PeerError("packing", f"disks_xyr[{i}] and disks_xyr[{j}] overlap by {overlap:.6g} "
+                                   f"(tolerance {WALL_CROSSING_TOLERANCE}, as a shear run's)")
 
 
 def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACING,
@@ -137,6 +203,7 @@ def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACIN
     type 3), so their tops are the wall lines. Box: x [0, length_x) periodic, y from
     -2 R_w - margin to height + 2 R_w + margin (fixed), z [-0.5, 0.5] (2D).
     """
+    _check_packing_keys(packing)
     for key in ("length_x", "height"):
         if not is_number(packing[key]):
             raise PeerError("packing", f"{key} must be a number, got {packing[key]!r}")

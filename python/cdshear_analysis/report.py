@@ -546,9 +546,9 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
     left out), "reanalysed": [(run, reason)] (stale summaries analysed again; with
     reanalyse_stale False none is, and nothing is written), "notes": [text] (about the campaign
     folder and its runs kept: unfinished ones, copies pooled), "campaign_notes": [text] (those
-    about its campaign.toml alone)}. With `until` (a time [t]) every run is analysed from its
-    run.h5 as it stood then (summary_until), its summary.json not read nor written; a run that
-    has not reached `until` is left out."""
+    about its campaign.toml alone), "listed": [run names its campaign.toml lists]}. With `until`
+    (a time [t]) every run is analysed from its run.h5 as it stood then (summary_until), its
+    summary.json not read nor written; a run that has not reached `until` is left out."""
     if not os.path.isdir(campaign_dir):
         raise ReportError(campaign_dir, f"is {what_is(campaign_dir)}, not a campaign folder"
                           if os.path.lexists(campaign_dir) else "no such folder")
@@ -630,6 +630,7 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
                          f"move the copies out of runs/")
     return {"campaign": name, "campaign_dir": campaign_dir, "rows": rows, "skipped": skipped,
             "reanalysed": reanalysed, "notes": notes, "campaign_notes": campaign_notes,
+            "listed": list(listed),
             "campaign_toml": text,
             "software": software(text, [os.path.join(runs_dir, r["run"]) for r in rows])}
 

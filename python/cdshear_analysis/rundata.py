@@ -170,14 +170,18 @@ def output_problem(path, inputs=()):
     file inside an input folder, a run's own file (RUN_FOLDER_FILES, run_info.json,
     RUN_STATE_FILES or a resumed sitting's run_info_resume_*.json in a folder that run_marks_in
     calls a run's), a TOML file (a case, scene or campaign file: no command here writes one) or
-    a cdshear packing: those hold what the command would lose. A folder, or a file in a folder
-    that does not exist, cannot be written."""
+    a cdshear packing: those hold what the command would lose. A folder, a FIFO or a device (the
+    rename that puts a new file in place would replace it: /dev/null as root), or a file in a
+    folder that does not exist or is no folder, cannot be written."""
     where = os.path.realpath(path)
     if os.path.isdir(path):
         return "is a folder, not a file"
+    if os.path.lexists(where) and not os.path.isfile(where):
+        return f"is {what_is(where)}, not a file: writing the output would replace it"
     folder = os.path.dirname(where)
     if not os.path.isdir(folder):
-        return f"its folder {folder} does not exist"
+        return (f"its folder {folder} is {what_is(folder)}, not a folder"
+                if os.path.lexists(folder) else f"its folder {folder} does not exist")
     for source in inputs:
         source = os.path.realpath(source)
         if where == source:

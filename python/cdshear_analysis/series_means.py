@@ -30,14 +30,23 @@ class SeriesError(Exception):
         self.problem = problem
 
 
-def series_means(run_data, after, keys, before=float("inf")):
+def series_means(run_data, after, keys, before=float("inf"), finite_needed=2):
     """{key: (mean, standard error, samples, samples per block, plateau found)} over the samples
-    with after < time <= before; the error by block averaging."""
+    with after < time <= before; the error by block averaging. Raises SeriesError when the window
+    holds fewer than two samples, when `before` lies past the last sample by more than a sample
+    interval (the mean would cover a shorter stretch than the one asked for: a run stopped
+    early), or when a key has fewer than `finite_needed` finite values there (NaN: a wall that
+    carries no normal force has no friction ratio)."""
     series = run_data["series"]
     time = np.asarray(series["time"], dtype=float)
     chosen = (time > after) & (time <= before)
     count = int(chosen.sum())
     window = f"after t = {after:g}" + ("" if np.isinf(before) else f" up to t = {before:g}")
+    if np.isfinite(before) and time.size > 1 and \
+            before > time[-1] + float(np.median(np.diff(time))) * (1 + 1e-9):
+        raise SeriesError(f"the samples end at t = {time[-1]:g}, before t = {before:g}: a mean "
+                          f"{window} would cover a shorter stretch (a run stopped early: resume "
+                          f"it, or give --before {time[-1]:g})")
     if count == 0:
         raise SeriesError(f"no sample {window} (samples from t = {time.min():g} to {time.max():g})"
                           if time.size else "the run has no samples")
@@ -50,6 +59,9 @@ def series_means(run_data, after, keys, before=float("inf")):
             raise SeriesError(f"no series '{key}' (have: {', '.join(sorted(series))})")
         values = np.asarray(series[key], dtype=float)[chosen]
         b = block_average(values)   # its mean, error and count leave out non-finite samples
+        if int(b["n"]) < finite_needed:
+            raise SeriesError(f"{key}: {int(b['n'])} finite of its {count} samples {window} (the "
+                              f"others are NaN or infinite): a mean's error needs at least two")
         out[key] = (float(b["mean"]), float(b["err"]), int(b["n"]), b["block_size"], b["converged"])
     return out
 
@@ -122,7 +134,8 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
             if problem := _history_difference(runs, start, keys):
                 raise SeriesError(f"{problem}: not resumed from one checkpoint")
             end = _common_end(runs)
-            a, b = (series_means(run, start, keys) for run in runs)
+            # a key without finite values there gives NaN, named in the table
+            a, b = (series_means(run, start, keys, finite_needed=0) for run in runs)
         except SeriesError as e:
             raise SeriesError(f"{pair}: {e.problem}") from None
         spans.setdefault(round(end - start, 9), pair)

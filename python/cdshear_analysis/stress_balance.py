@@ -12,6 +12,7 @@ In steady shear the momentum balance makes them equal; the grain-scale scatter o
 stresses (docs/measurements.md) averages out over the bulk's stripes and the windows.
 
 `python3 -m cdshear_analysis stress-balance RUN_DIR...` prints one line per run."""
+import math
 import warnings
 
 import numpy as np
@@ -66,6 +67,8 @@ def stress_balance(run, summary=None):
     return {
         "velocity": float(run["attrs"]["velocity"]), "windows": int(len(sel)),
         "steady": bool(summary["steady"]), "bulk_h": summary["bulk"]["h"],
+        "finished": bool(summary["case"]["finished"]), "time": summary["case"]["time"],
+        "duration": summary["case"]["duration"],
         "sigma_yy": _pm(syy), "sigma_yy_wall": _pm(wall_yy), "sigma_yy_diff": _pm(syy - wall_yy),
         "sigma_xy": _pm(sxy), "sigma_xy_wall": _pm(wall_xy), "sigma_xy_diff": _pm(sxy - wall_xy),
         "mu_eff": _pm(mu_in), "mu_eff_wall": _pm(mu_wall), "mu_eff_diff": _pm(mu_in - mu_wall),
@@ -77,10 +80,16 @@ def stress_balance(run, summary=None):
 
 
 def format_line(name, b):
-    """One line of the printed table."""
+    """One line of the printed table: each mean +- its error over the windows (the mean alone
+    where one window gives no error), and whether the run is steady and finished."""
     def f(pair, digits=4):
-        return f"{pair[0]:+.{digits}f}±{pair[1]:.{digits}f}"
+        return f"{pair[0]:+.{digits}f}" + (f"±{pair[1]:.{digits}f}" if math.isfinite(pair[1])
+                                            else "")
     steady = '' if b['steady'] else ' (NOT steady)'
+    if b['windows'] < 2:
+        steady += ' (one window: no error estimate)'
+    if not b.get('finished', True):
+        steady += f" (NOT finished: t = {b['time']:g} of {b['duration']:g})"
     return (f"{name}  V {b['velocity']:g}  {b['windows']} windows{steady}"
             f"  sigma_yy {f(b['sigma_yy'])} wall {f(b['sigma_yy_wall'])}"
             f" diff {f(b['sigma_yy_diff'])}"

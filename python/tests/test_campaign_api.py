@@ -179,6 +179,31 @@ class CompareCampaigns(unittest.TestCase):
             (group,) = paired_differences(list(items.values()))
             self.assertEqual(group["runs"], 2)
             self.assertAlmostEqual(group["mu_eff_bulk"]["mean"], 0.015)
+            # A backup whose name sorts first (V written ".05") is still the one left out when
+            # campaign.toml lists the run's own folder; without the file, the folder whose name
+            # reads as a run's goes first.
+            for side in (a, b):
+                shutil.rmtree(os.path.join(side, "runs", "s1_seed1_V0.05.bak"))
+                fake_summary(os.path.join(side, "runs", "s1_seed1_V.05"), 0.05, 1e-4, 0.5, 0.83,
+                             2.8)
+            self.assertLess("s1_seed1_V.05", "s1_seed1_V0.05")
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertIn("each seed pairs once", items["s1_seed1_V0.05"]["mismatch"])
+            with open(os.path.join(b, "campaign.toml"), "w") as f:
+                f.write('[campaign]\nname = "b"\n# runs:\n#   s1_seed1_V0.05  duration 100\n'
+                        '#   s1_seed2_V0.05  duration 100\n#   s1_seed3_V0.05  duration 100\n')
+            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            self.assertNotIn("mismatch", items["s1_seed1_V0.05"])
+            self.assertEqual(items["s1_seed1_V.05"]["mismatch"],
+                             "s1_seed1_V0.05 is system 1, seed 1, V = 0.05 too and is compared: "
+                             "each seed pairs once (a copy kept in runs/)")
+            self.assertAlmostEqual(paired_differences(list(items.values()))[0]["mu_eff_bulk"]
+                                   ["mean"], 0.015)
+            os.remove(os.path.join(b, "campaign.toml"))
+            for side in (a, b):
+                shutil.rmtree(os.path.join(side, "runs", "s1_seed1_V.05"))
+                fake_summary(os.path.join(side, "runs", "s1_seed1_V0.05.bak"), 0.05, 1e-4, 0.5,
+                             0.83, 2.8)
             # the campaign's notes are on its file; the report's on its copies (each pooled in a
             # report) do not hold here
             self.assertEqual(load_campaign(a).notes,

@@ -8,6 +8,7 @@ import json
 import math
 import os
 import subprocess
+import stat
 import sys
 import tempfile
 import unittest
@@ -164,11 +165,27 @@ class PackingToLammps(unittest.TestCase):
                                       r"disks_xyr\[0\] crosses a wall"),
                                      (dict(disks_xyr=[[1e20, 0.45, 0.45]], n=1),
                                       r"disks_xyr\[0\]: x = 1e\+20 is more than a million "
-                                      r"periods")):
+                                      r"periods"),
+                                     (dict(extra=1), "extra: unknown key"),
+                                     (dict(version=2), "version is 2; cdshear reads version 1"),
+                                     (dict(n=3.0), "n must be a whole number, not 3.0"),
+                                     (dict(solid_fraction=0.5), "solid_fraction is 0.5, but the "
+                                                                "disks fill 0.0962"),
+                                     # disk 3 overlaps disk 0 across the period only
+                                     (dict(disks_xyr=PACKING["disks_xyr"] + [[4.6, 0.45, 0.45]],
+                                           n=4),
+                                      r"disks_xyr\[0\] and disks_xyr\[3\] overlap by 0.51 ")):
                 with open(bad, "w") as f:
                     json.dump(dict(PACKING, **changed), f)
                 with self.assertRaisesRegex(PeerError, problem):
                     write_lammps_packing(bad, os.path.join(tmp, "b.data"))
+            # An integer past 64 bits is a double, as cdshear reads it: 1e400's digits are
+            # infinite, not an OverflowError.
+            with open(bad, "w") as f:
+                f.write(json.dumps(dict(PACKING, length_x=5)).replace('"length_x": 5',
+                                                                      '"length_x": 1' + "0" * 400))
+            with self.assertRaisesRegex(PeerError, "must be finite"):
+                write_lammps_packing(bad, os.path.join(tmp, "b.data"))
             with open(bad, "w") as f:
                 f.write(json.dumps(PACKING)[:-1] + ', "height": 99}')
             with self.assertRaisesRegex(PeerError, "'height' is given twice"):
@@ -179,9 +196,15 @@ class PackingToLammps(unittest.TestCase):
             write_synthetic_run(run, kind="A", duration=100.0)
             with open(packing, "rb") as f:
                 packing_bytes = f.read()
+            fifo = os.path.join(tmp, "fifo")
+            os.mkfifo(fifo)   # the rename would replace it (as root, /dev/null)
             for target, problem in ((packing, "is one of the command's inputs"),
                                     (os.path.join(run, "run.h5"), "is a run's own file"),
-                                    (tmp, "is a folder")):
+                                    (tmp, "is a folder"),
+                                    (fifo, "is a FIFO, not a file"),
+                                    (os.path.join(packing, "x.data"),
+                                     f"its folder {os.path.realpath(packing)} is a file, not a "
+                                     f"folder")):
                 out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "lammps-data",
                                       packing, "-o", target],
                                      cwd=PYTHON_DIR, capture_output=True, text=True)
@@ -190,6 +213,7 @@ class PackingToLammps(unittest.TestCase):
                                 out.stderr)
             with open(packing, "rb") as f:
                 self.assertEqual(f.read(), packing_bytes)
+            self.assertTrue(stat.S_ISFIFO(os.lstat(fifo).st_mode))
             load_run(run)   # still a sealed run
 
 

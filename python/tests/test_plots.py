@@ -90,15 +90,10 @@ class ForceKeepsOnlyItsOwnFigures(unittest.TestCase):
     src/app/run_session.cpp (is_run_figure) and must name the same files as plots.FIGURES."""
 
     def test_the_executable_knows_every_figure_plot_writes(self):
-        import os
         import re
         from cdshear_analysis.plots import FIGURES
-        source = os.path.join(os.path.dirname(__file__), "..", "..", "src", "app",
-                              "run_session.cpp")
-        with open(source) as f:
-            text = f.read()
-        body = text[text.index("bool is_run_figure("):]
-        body = body[:body.index("return false;")]
+        from tests.cpp_source import source_part
+        body = source_part("src/app/run_session.cpp", "bool is_run_figure(", "return false;")
         self.assertEqual(set(re.findall(r'"([\w.]+\.png)"', body)), set(FIGURES))
 
 

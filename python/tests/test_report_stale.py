@@ -17,6 +17,7 @@ from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis.summary import SUMMARY_FORMAT, SUMMARY_VERSION
 from cdshear_analysis.synthetic import write_synthetic_run
 from tests.test_report import edited_summary, fake_campaign
+from tests.cpp_source import source_part
 
 OLD = SUMMARY_VERSION - 1
 
@@ -292,13 +293,8 @@ class DamagedSummaryTest(unittest.TestCase):
                           dict(collected["skipped"])["s3_seed1_V1"])
 
     def test_the_system_presets_are_the_executables(self):
-        source = os.path.join(os.path.dirname(__file__), "..", "..", "src", "shear",
-                              "shear_case.cpp")
-        with open(source) as f:
-            text = f.read()
-        body = text[text.index("void apply_system_preset("):]
-        body = body[body.index("rows[] = {"):]
-        body = body[:body.index("};")]
+        body = source_part("src/shear/shear_case.cpp", "void apply_system_preset(", "};",
+                           after="rows[] = {")
         rows = re.findall(r"\{(\d+),\s*(\d+),\s*([\d.]+),\s*\d+\}", body)
         self.assertEqual(len(rows), 7)
         self.assertEqual({k + 1: (int(n), float(h), float(s)) for k, (n, h, s) in enumerate(rows)},

@@ -439,3 +439,18 @@ class SpecialFiles(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class OutputEncoding(unittest.TestCase):
+    def test_a_folder_name_that_is_not_utf8_prints_as_its_bytes_under_a_strict_locale(self):
+        # stdout strict, as under en_US.UTF-8 (C.UTF-8 escapes surrogates itself): the name's
+        # bytes come back as they were, not a UnicodeEncodeError traceback.
+        with tempfile.TemporaryDirectory() as tmp:
+            run = os.path.join(os.fsencode(tmp), b"run\xff")
+            write_synthetic_run(os.fsdecode(run), kind="A", duration=100.0)
+            env = dict(os.environ, PYTHONPATH=PYTHON_DIR, PYTHONIOENCODING="utf-8:strict")
+            out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "stress-balance",
+                                  run], env=env, capture_output=True, timeout=120)
+            self.assertEqual(out.returncode, 0, out.stderr)
+            self.assertNotIn(b"Traceback", out.stderr)
+            self.assertIn(run, out.stdout)

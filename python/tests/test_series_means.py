@@ -74,6 +74,37 @@ class SeriesMeans(unittest.TestCase):
             series_means(self.run_data, before, ["height"], after)
         self.assertIn("up to t =", e.exception.problem)
 
+    def test_a_window_past_the_last_sample_or_a_series_without_two_numbers_is_an_error(self):
+        time = np.asarray(self.run_data["series"]["time"])
+        step = float(time[1] - time[0])
+        last = float(time[-1])
+        # A --before up to one sample interval past the end is the whole run; further, the mean
+        # would cover a shorter stretch than the one asked for (a run stopped early).
+        self.assertEqual(series_means(self.run_data, 0.0, ["height"], last + step)["height"][2],
+                         len(time))
+        with self.assertRaises(SeriesError) as e:
+            series_means(self.run_data, 0.0, ["height"], last + 3 * step)
+        self.assertIn(f"the samples end at t = {last:g}, before t = {last + 3 * step:g}",
+                      e.exception.problem)
+        err = io.StringIO()
+        with redirect_stderr(err):
+            status = main(["series-means", self.run_dir, "--after", "0", "--before",
+                           str(2 * last), "--key", "height"])
+        self.assertEqual(status, 2)
+        self.assertIn(f"give --before {last:g}", err.getvalue())
+        # NaN where the time has samples (a wall without normal force has no friction ratio):
+        # one finite value, or none, is refused as one sample is; the pairs' table keeps NaN.
+        for finite in (1, 0):
+            values = np.full(len(time), np.nan)
+            values[len(time) - finite:] = 0.3
+            run = {"series": dict(self.run_data["series"], bottom_mu=values)}
+            with self.assertRaises(SeriesError) as e:
+                series_means(run, 0.0, ["bottom_mu"])
+            self.assertIn(f"bottom_mu: {finite} finite of its {len(time)} samples",
+                          e.exception.problem)
+            self.assertEqual(series_means(run, 0.0, ["bottom_mu"], finite_needed=0)
+                             ["bottom_mu"][2], finite)
+
     def test_no_sample_after_the_time_and_unknown_series_are_errors(self):
         last = float(np.asarray(self.run_data["series"]["time"])[-1])
         with self.assertRaises(SeriesError) as e:

@@ -180,6 +180,16 @@ class StressBalanceTable(unittest.TestCase):
         self.assertAlmostEqual(shifted["sigma_yy_diff"][0] - b["sigma_yy_diff"][0], 0.02,
                                places=9)
         self.assertIn("sigma_yy", format_line(d, shifted))
+        self.assertNotIn("no error estimate", format_line(d, shifted))
+        # One window gives no error: the means alone, said so, never "+-nan"; a run that has
+        # not reached its duration is named.
+        one = stress_balance(run, dict(summary, steady_window_indices=summary[
+            "steady_window_indices"][:1], case=dict(summary["case"], finished=False, time=30.0)))
+        self.assertEqual(one["windows"], 1)
+        line = format_line(d, one)
+        self.assertNotIn("nan", line)
+        self.assertIn("1 windows (one window: no error estimate) (NOT finished: t = 30 of "
+                      f"{summary['case']['duration']:g})", line)
 
     def test_a_window_without_a_measured_interior_is_not_counted(self):
         from cdshear_analysis.stress_balance import stress_balance

@@ -8,11 +8,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 #include "config_error.hpp"
@@ -23,7 +25,15 @@ std::filesystem::path temporary_path(const std::filesystem::path& path) {
   return path.string() + ".tmp." + std::to_string(::getpid());
 }
 
-std::optional<std::string_view> temporary_of(std::string_view name) {
+namespace {
+
+/// A temporary's name split at its infix: the file it writes and its writer's process number.
+struct TemporaryName {
+  std::string_view written;
+  std::string_view pid_digits;
+};
+
+std::optional<TemporaryName> split_temporary(std::string_view name) {
   constexpr std::string_view infix = ".tmp.";
   const auto tmp = name.rfind(infix);
   if (tmp == std::string_view::npos || tmp == 0 ||
@@ -32,7 +42,14 @@ std::optional<std::string_view> temporary_of(std::string_view name) {
   const std::string_view pid = name.substr(tmp + infix.size());
   if (pid.empty() || pid.find_first_not_of("0123456789") != std::string_view::npos)
     return std::nullopt;
-  return name.substr(0, tmp);
+  return TemporaryName{name.substr(0, tmp), pid};
+}
+
+}  // namespace
+
+std::optional<std::string_view> temporary_of(std::string_view name) {
+  const std::optional<TemporaryName> parts = split_temporary(name);
+  return parts ? std::optional<std::string_view>(parts->written) : std::nullopt;
 }
 
 void remove_dead_writers_temporaries(const std::filesystem::path& path) {
@@ -42,10 +59,15 @@ void remove_dead_writers_temporaries(const std::filesystem::path& path) {
   std::error_code ec;
   for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
     const std::string name = e.path().filename().string();
-    const std::optional<std::string_view> of = temporary_of(name);
-    // Process numbers have at most 7 digits (Linux's largest is 4194304).
-    if (!of || *of != target || name.size() > target.size() + 5 + 9) continue;
-    const long pid = std::stol(name.substr(target.size() + 5));
+    const std::optional<TemporaryName> parts = split_temporary(name);
+    if (!parts || parts->written != target) continue;
+    // Process numbers have at most 7 digits (Linux's largest is 4194304); a longer number is no
+    // process's.
+    long pid = 0;
+    const std::string_view digits = parts->pid_digits;
+    if (digits.size() > 9 ||
+        std::from_chars(digits.data(), digits.data() + digits.size(), pid).ec != std::errc())
+      continue;
     // kill(pid, 0) sends nothing: ESRCH says no process has that number.
     if (pid > 0 && pid != ::getpid() && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH &&
         e.is_regular_file(ec))
