@@ -105,16 +105,17 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
     that is a second folder of a system, seed and V already compared (a copy kept beside the run
     in both runs/; of two such folders the one b's campaign.toml lists, else one whose name reads
     as a run's, is compared), is not compared: its item holds "mismatch" (the reason) and no
-    quantity. A run
+    quantity; the items keep b's row order. A run
     that ends in the same state in both from other cases or builds (a setting or a build that
     changes nothing there) is compared, its item marked "one_flow". a and b are Campaign objects
     or folders; folders are read with `until` (load_campaign)."""
     a = a if isinstance(a, Campaign) else load_campaign(a, until)
     b = b if isinstance(b, Campaign) else load_campaign(b, until)
     by_name = {r["run"]: r for r in a.rows}
-    out = []
+    out = []   # (b's row index, item)
     compared = {}   # (system, seed, V) -> the run compared for it
-    for rb in sorted(b.rows, key=lambda r: _copy_rank(r["run"], b.listed)):
+    # the listed folder of a seed first, so that its copies are the ones left out
+    for index, rb in sorted(enumerate(b.rows), key=lambda p: _copy_rank(p[1]["run"], b.listed)):
         ra = by_name.get(rb["run"])
         if ra is None:
             continue
@@ -146,7 +147,7 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
                 compared[key] = rb["run"]
         if differ:
             item["mismatch"] = "; ".join(differ)
-            out.append(item)
+            out.append((index, item))
             continue
         for q in quantities:
             va, vb = ra.get(q), rb.get(q)
@@ -157,8 +158,8 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
             err = math.hypot(ea, eb) if ea is not None and eb is not None else math.nan
             item[q] = {"a": va, "b": vb, "diff": diff,
                        "combined_errors": diff / err if err > 0 else math.nan}
-        out.append(item)
-    return out
+        out.append((index, item))
+    return [item for _, item in sorted(out, key=lambda p: p[0])]
 
 
 def _copy_rank(run, listed):

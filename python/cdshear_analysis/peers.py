@@ -51,15 +51,22 @@ class PeerError(Exception):
         self.path, self.problem = path, problem
 
 
+def _json_integer(text):
+    """A JSON integer as cdshear's reader takes it: a whole number within 64 bits stays one;
+    beyond, a double (infinite past 1e308, then refused as not finite, where cdshear refuses the
+    file), never a Python int that overflows float() later."""
+    if len(text.lstrip("-")) <= 20:
+        value = int(text)
+        if -2 ** 63 <= value < 2 ** 64:
+            return value
+    return float(text)
+
+
 def load_packing(path):
     """The packing JSON of `cdshear prepare` (format "cdshear-packing") as a dict."""
     try:
         with open_regular(path, encoding="utf-8") as f:
-            # An integer past 64 bits is a double to cdshear's JSON reader (so 1e400's digits are
-            # infinite, refused as such), not a Python int that overflows float() later.
-            packing = json.load(f, object_pairs_hook=unique_keys,
-                                parse_int=lambda s: int(s) if len(s.lstrip("-")) <= 19
-                                else float(s))
+            packing = json.load(f, object_pairs_hook=unique_keys, parse_int=_json_integer)
     except (OSError, ValueError) as e:
         raise PeerError(path, f"cannot read packing: {e}") from e
     except RecursionError:
@@ -125,7 +132,7 @@ def _largest_overlap(xyr, lx):
     x[x >= lx] = 0.0          # mod can round up to lx itself
     y, r = xyr[:, 1] - xyr[:, 1].min(), xyr[:, 2]
     reach = 2.0 * float(r.max())
-    span = float(y.max()) + 2.0 * reach + 1.0
+    span = float(np.nextafter(float(y.max()) + 2.0 * reach + 1.0, np.inf))
     pairs = cKDTree(np.column_stack([x, y]), boxsize=[lx, span]).query_pairs(
         reach, output_type="ndarray")
     if len(pairs) == 0:
@@ -171,6 +178,10 @@ def _check_packing_geometry(packing, xyr, lx, height):
         i = int(np.argmax(crossing))
         raise PeerError("packing", f"disks_xyr[{i}] crosses a wall (y = {y[i]!r}, r = {r[i]!r}, "
                                    f"L_y = {height!r})")
+    # cdshear's shear cell needs a period of three largest diameters (its build refuses less)
+    if lx < 3.0 * 2.0 * float(r.max()):
+        raise PeerError("packing", f"length_x {lx!r} is shorter than 3 largest diameters "
+                                   f"({2.0 * float(r.max())!r}): no shear cell")
     solid_fraction = float(np.sum(np.pi * r * r)) / (lx * height)
     if not SOLID_FRACTION_RANGE[0] <= solid_fraction <= SOLID_FRACTION_RANGE[1]:
         raise PeerError("packing", f"the disks fill {solid_fraction:.3g} of length_x x height, "
@@ -189,7 +200,8 @@ def _check_packing_geometry(packing, xyr, lx, height):
     if worst is not None and worst[2] > WALL_CROSSING_TOLERANCE:
         i, j, overlap = worst
         raise PeerError("packing", f"disks_xyr[{i}] and disks_xyr[{j}] overlap by {overlap:.6g} "
-                                   f"(tolerance {WALL_CROSSING_TOLERANCE}, as a shear run's)")
+                                   f"(tolerance {WALL_CROSSING_TOLERANCE}, a shear run's at the "
+                                   f"default step.abort_overlap)")
 
 
 def packing_to_lammps(packing, wall_radius=WALL_RADIUS, wall_spacing=WALL_SPACING,

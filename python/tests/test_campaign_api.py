@@ -192,8 +192,14 @@ class CompareCampaigns(unittest.TestCase):
             with open(os.path.join(b, "campaign.toml"), "w") as f:
                 f.write('[campaign]\nname = "b"\n# runs:\n#   s1_seed1_V0.05  duration 100\n'
                         '#   s1_seed2_V0.05  duration 100\n#   s1_seed3_V0.05  duration 100\n')
-            items = {it["run"]: it for it in compare_campaigns(a, b)}
+            listed_first = compare_campaigns(a, b)
+            items = {it["run"]: it for it in listed_first}
             self.assertNotIn("mismatch", items["s1_seed1_V0.05"])
+            # the items keep b's rows' order, listed or not
+            self.assertEqual([it["run"] for it in listed_first],
+                             [r["run"] for r in load_campaign(b).rows
+                              if r["run"] in {it["run"] for it in listed_first}])
+            self.assertEqual(listed_first[0]["run"], "s1_seed1_V.05")
             self.assertEqual(items["s1_seed1_V.05"]["mismatch"],
                              "s1_seed1_V0.05 is system 1, seed 1, V = 0.05 too and is compared: "
                              "each seed pairs once (a copy kept in runs/)")

@@ -167,6 +167,8 @@ class PackingToLammps(unittest.TestCase):
                                       r"disks_xyr\[0\]: x = 1e\+20 is more than a million "
                                       r"periods"),
                                      (dict(extra=1), "extra: unknown key"),
+                                     (dict(length_x=2.9, disks_xyr=[[1.0, 1.5, 0.5]], n=1),
+                                      "length_x 2.9 is shorter than 3 largest diameters"),
                                      (dict(version=2), "version is 2; cdshear reads version 1"),
                                      (dict(n=3.0), "n must be a whole number, not 3.0"),
                                      (dict(solid_fraction=0.5), "solid_fraction is 0.5, but the "

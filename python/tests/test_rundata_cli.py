@@ -437,10 +437,6 @@ class SpecialFiles(unittest.TestCase):
         self.assertTrue(os.path.isfile(os.path.join(run_dir, "summary.json")))
 
 
-if __name__ == "__main__":
-    unittest.main()
-
-
 class OutputEncoding(unittest.TestCase):
     def test_a_folder_name_that_is_not_utf8_prints_as_its_bytes_under_a_strict_locale(self):
         # stdout strict, as under en_US.UTF-8 (C.UTF-8 escapes surrogates itself): the name's
@@ -454,3 +450,7 @@ class OutputEncoding(unittest.TestCase):
             self.assertEqual(out.returncode, 0, out.stderr)
             self.assertNotIn(b"Traceback", out.stderr)
             self.assertIn(run, out.stdout)
+
+
+if __name__ == "__main__":
+    unittest.main()
