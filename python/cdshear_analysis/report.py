@@ -242,10 +242,6 @@ def system_values(campaign_set):
     return out
 
 
-def _same_number(a, b):
-    return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
-
-
 def _name_problem(run_dir, systems=None):
     """Why a run folder's name (s<system>_seed<seed>_V<V>, which the report reads the system and
     seed from) is not its run's, from its case.toml's seed, wall speed and, with `systems`
@@ -258,7 +254,7 @@ def _name_problem(run_dir, systems=None):
     named_system = int(m.group(1))
     for (table, key), want in (systems or {}).get(named_system, {}).items():
         held = case[table].get(key) if isinstance(case.get(table), dict) else None
-        if _is_number(held) and _is_number(want) and not _same_number(held, want):
+        if _is_number(held) and _is_number(want) and not math.isclose(held, want, rel_tol=1e-9):
             return (f"its name says system {named_system}, whose runs have {table}.{key} = "
                     f"{want!r} in this campaign, its case.toml {held!r}: a run of another "
                     f"system, renamed or copied in by hand")
@@ -271,7 +267,8 @@ def _name_problem(run_dir, systems=None):
     if isinstance(seed, int) and seed != int(m.group(2)):
         return (f"its name says seed {m.group(2)}, its case.toml seed {seed}: a folder renamed "
                 f"or copied in by hand")
-    if _is_number(velocity) and named_v is not None and not _same_number(velocity, named_v):
+    if _is_number(velocity) and named_v is not None and \
+            not math.isclose(velocity, named_v, rel_tol=1e-9):
         return (f"its name says V = {m.group(3)}, its case.toml {velocity!r}: a folder renamed "
                 f"or copied in by hand")
     return None

@@ -383,25 +383,36 @@ def end_state(run_dir):
     return None
 
 
-def repeated_folder(dirs):
-    """Why the run folders `dirs` cannot be pooled as distinct runs, or None: one given twice (by
-    another path or through a link), or two that hold the same run (end_state: a copy, or a run
-    repeated with the same packing and seeds), which would count one realization twice."""
-    seen = {}
-    ends = {}
-    for d in dirs:
+class DistinctRuns:
+    """Run folders taken one at a time, each checked against those before it (each folder's
+    end_state read once): `add(d)` says why d cannot be pooled with them, or None."""
+
+    def __init__(self):
+        self._places, self._ends = {}, {}
+
+    def add(self, d):
+        """Why the run folder d repeats one added before, or None (then d is kept): the same
+        folder by another path or through a link, or the same run (end_state: a copy, or a run
+        repeated with the same packing and seeds), which would count one realization twice."""
         where = os.path.realpath(d)
-        if where in seen:
-            return f"{d} is {seen[where]} again: each run counts once"
-        seen[where] = d
+        if where in self._places:
+            return f"{d} is {self._places[where]} again: each run counts once"
+        self._places[where] = d
         state = end_state(d)
-        if state in ends:
-            return (f"{d} holds the run {ends[state]} holds (both end at step {state[0]} in "
-                    f"state {state[1]}: a copy, or the same packing and seeds run again): each "
-                    f"run counts once")
+        if state in self._ends:
+            return (f"{d} holds the run {self._ends[state]} holds (both end at step {state[0]} "
+                    f"in state {state[1]}: a copy, or the same packing and seeds run again): "
+                    f"each run counts once")
         if state is not None:
-            ends[state] = d
-    return None
+            self._ends[state] = d
+        return None
+
+
+def repeated_folder(dirs):
+    """Why the run folders `dirs` cannot be pooled as distinct runs, or None (DistinctRuns.add
+    of each in turn)."""
+    runs = DistinctRuns()
+    return next((why for why in map(runs.add, dirs) if why is not None), None)
 
 
 def is_number(value):

@@ -20,7 +20,7 @@ import os
 
 import numpy as np
 
-from .rundata import end_state, identity_pairs, open_regular, repeated_folder
+from .rundata import DistinctRuns, end_state, identity_pairs, open_regular
 from .statistics import block_average
 
 
@@ -43,7 +43,7 @@ def series_means(run_data, after, keys, before=float("inf"), finite_needed=2):
     count = int(chosen.sum())
     window = f"after t = {after:g}" + ("" if np.isinf(before) else f" up to t = {before:g}")
     if np.isfinite(before) and time.size > 1 and \
-            before > time[-1] + float(np.median(np.diff(time))) * (1 + 1e-9):
+            before > time[-1] + _sample_interval(time) * (1 + 1e-9):
         raise SeriesError(f"the samples end at t = {time[-1]:g}, before t = {before:g}: a mean "
                           f"{window} would cover a shorter stretch (a run stopped early: resume "
                           f"it, or give --before {time[-1]:g})")
@@ -95,7 +95,7 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         raise SeriesError(f"{check_dir}: " + ("not a folder" if os.path.lexists(check_dir)
                                               else "no such folder"))
     names = sorted(os.listdir(check_dir))
-    notes, kept_a, made_with, same_flow, spans = [], [], ({}, {}), [], {}
+    notes, a_sides, made_with, same_flow, spans = [], DistinctRuns(), ({}, {}), [], {}
     for name in names:
         pair = os.path.join(check_dir, name)
         sides = [os.path.join(pair, side) for side in ("a", "b")]
@@ -116,8 +116,7 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
         for k, text in enumerate(texts):
             if text is not None:
                 made_with[k].setdefault(text, pair)
-        kept_a.append(sides[0])
-        if why := repeated_folder(kept_a):   # before its run.h5 files are read
+        if why := a_sides.add(sides[0]):   # before its run.h5 files are read
             raise SeriesError(f"{check_dir}: two pairs hold one run's sides: {why}")
         start = _read_start(os.path.join(sides[0], "paired_check.start"))
         b_start_file = os.path.join(sides[1], "paired_check.start")
@@ -170,6 +169,11 @@ def paired_differences(check_dir, keys=PAIRED_KEYS, load=None):
     return out, pairs, notes
 
 
+def _sample_interval(time):
+    """The series' time between two samples (the median step; 0 for fewer than two samples)."""
+    return float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+
+
 def _read_side(side_dir):
     """The text of a side's paired_check.side (the executable and settings it was made with),
     or None where there is none to read."""
@@ -189,7 +193,7 @@ def _common_end(runs):
         time = np.asarray(run["series"]["time"], dtype=float)
         if not time.size:
             raise SeriesError("a side has no samples")
-        ends.append((float(time[-1]), float(np.median(np.diff(time))) if time.size > 1 else 0.0))
+        ends.append((float(time[-1]), _sample_interval(time)))
     (end_a, step_a), (end_b, _) = ends
     if abs(end_a - end_b) > max(1e-3 * step_a, 1e-12 * abs(end_a)):
         raise SeriesError(f"a/ ends at t = {end_a:g}, b/ at t = {end_b:g}: sides of other "
