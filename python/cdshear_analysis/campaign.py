@@ -323,7 +323,7 @@ def _rounded(x, digits):
 def format_paired_markdown(items, name_a="a", name_b="b"):
     """The seeds paired by system and V as Markdown tables (docs/accuracy.md's form): per
     quantity, each campaign's mean over the pairs +- its standard error, and b - a paired with
-    its t."""
+    its t. The shared runs that were not compared follow as a list, each with its reason."""
     lines = []
     for g in paired_differences(items):
         shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
@@ -339,4 +339,10 @@ def format_paired_markdown(items, name_a="a", name_b="b"):
             label = q if v["n"] == g["runs"] else f"{q} ({v['n']} pairs)"
             lines.append(f"| {label} | {_mean_se(v['a'])} | {_mean_se(v['b'])} | {diff} "
                          f"({_rounded(v['t'], 2):+.2f}) |")
-    return "\n".join(lines) if lines else "no system and V with two seeds in both campaigns"
+    if not lines:
+        lines.append("no system and V with two seeds in both campaigns")
+    mismatched = [it for it in items if "mismatch" in it]
+    if mismatched:
+        lines += ["", "Not compared:", ""]
+        lines += [f"- `{it['run']}`: {it['mismatch']}" for it in mismatched]
+    return "\n".join(lines)

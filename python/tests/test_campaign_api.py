@@ -354,7 +354,13 @@ class CompareEdgeCases(unittest.TestCase):
             # the same +0.02 in every pair: no scatter, an infinite t
             self.assertEqual(group["mu_eff_bulk"]["t"], math.inf)
             self.assertEqual(group["mu_eff_bulk"]["p"], 0.0)
-            self.assertIn("| Z_bulk (2 pairs) |", format_paired_markdown(items))
+            table = format_paired_markdown(items)
+            self.assertIn("| Z_bulk (2 pairs) |", table)
+            # the run not compared is named in the Markdown as well, with its reason
+            self.assertTrue(table.endswith("\n\nNot compared:\n\n- `s1_seed4_V0.05`: V 0.05 in "
+                                           "a, 2.0 in b; n 511 in a, 4000 in b"))
+            self.assertIn("no system and V with two seeds in both campaigns\n\nNot compared:",
+                          format_paired_markdown(mismatched))
             self.assertEqual(unequal_times(items), [("s1_seed1_V0.05", 1000.0, 500.0)])
             with contextlib.redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
