@@ -158,6 +158,19 @@ for _ in $(seq 600); do [ -f early/case.toml ] && break; sleep 0.05; done
 expect_error "another cdshear is writing this folder (pid $early_pid on " "$exe" run -q --resume early
 kill -TERM $early_pid; wait $early_pid 2> /dev/null
 
+# A scene stopped by a signal writes its state, exits 130 and says that it does not resume.
+printf '[run]\nduration=1e6\n[[walls]]\npoint=[0,0]\nnormal=[0,1]\n' > endless_scene.toml
+printf '[[disks]]\nposition=[0,5]\nradius=1\n' >> endless_scene.toml
+"$exe" scene -q endless_scene.toml -o endless > scene_out.txt 2>&1 & scene_pid=$!
+for _ in $(seq 600); do [ -f endless/timeseries.csv ] && break; sleep 0.05; done
+sleep 0.2
+kill -TERM $scene_pid; wait $scene_pid; rc=$?
+checks=$((checks + 1))
+if [ $rc -ne 130 ] || [ ! -f endless/interrupted_state.json ] ||
+  ! grep -qF "a scene does not resume: run it again with --force" scene_out.txt; then
+  echo "FAIL: a stopped scene: exit $rc:"; cat scene_out.txt; fails=$((fails + 1))
+fi
+
 # analyze and plot: a folder that is not a run, an empty and a truncated run.h5 give a clear
 # error naming the file, with exit status 2.
 expect_status2() {  # expect_status2 "words in the message" command...

@@ -282,7 +282,7 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   r.region_min = {0.0, -1e308};
   r.region_max = {10.0, 1e308};  // each finite, the height not
   s.random_disks = {r};
-  EXPECT_EQ(key_of(s), "random_disks[0].region");
+  EXPECT_EQ(key_of(s), "random_disks[0].region_max");
   s = {};
   r = {};
   r.count = 3;
@@ -298,6 +298,66 @@ TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
   EXPECT_EQ(key_of(s), "walls[1].normal");
   s.domain = {};  // without a period the same wall is a side wall
   EXPECT_EQ(key_of(s), "(no error)");
+}
+
+TEST(BadInput, APlacementThatAWallPreventsNamesTheWall) {
+  // A box [0, 10] x [0, 10] whose right wall's normal points out of the box: no disk fits, and
+  // the message names that wall, not the region's size.
+  SceneDefinition s;
+  s.walls = {testing::fixed_wall("floor", {0.0, 0.0}, {0.0, 1.0}),
+             testing::fixed_wall("right", {10.0, 0.0}, {1.0, 0.0})};
+  RandomDisksSpec r;
+  r.count = 10;
+  r.region_max = {10.0, 10.0};
+  s.random_disks = {r};
+  try {
+    build_world(s);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_EQ(e.key(), "random_disks[0].count");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("could place only 0 of 10"), std::string::npos) << what;
+    EXPECT_NE(what.find("wholly behind wall 'right' (normal (1, 0))"), std::string::npos) << what;
+    EXPECT_EQ(what.find("floor"), std::string::npos) << what;
+  }
+  s.walls[1].normal = {-1.0, 0.0};  // pointing into the box: the ten disks fit
+  EXPECT_EQ(build_world(s).disks.size(), 10u);
+  s.random_disks[0].count = 1000;  // too many: the usual advice, no wall named
+  try {
+    build_world(s);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("enlarge the region or lower the count"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BadInput, APeriodTooShortGivesTheLargestDiameter) {
+  SceneDefinition s;
+  s.domain = {true, 2.5};
+  s.disks = {disk({0.5, 0.5}, 0.5)};
+  try {
+    build_world(s);
+    ADD_FAILURE() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("period 2.5 is shorter than 3 largest diameters (3 x 1)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BadInput, RandomDiskKeysNameTheirDefaultsAndTheirPeriod) {
+  const std::string group = "[[random_disks]]\ncount = 3\nregion_min = [0.0, 1.0]\n";
+  // diameter_max alone under diameter_min's default: the message says where 0.8 comes from
+  expect_names(load_error(scene_text("dt = 1e-3\n", group + "region_max = [10.0, 5.0]\n"
+                                                            "diameter_max = 0.5\n")),
+               "random_disks[0].diameter_max", "which is 0.8 when not given");
+  // a region a billion periods from the origin, as an explicit disk there is refused
+  const std::string periodic = "[domain]\nperiodic_x = true\nlength_x = 10.0\n";
+  expect_names(
+      load_error(scene_text("dt = 1e-3\n", group + "region_max = [1e15, 5.0]\n", periodic)),
+      "random_disks[0].region_max", "more than a million periods");
 }
 
 TEST(BadInput, ATomlKeyOfManyPartsIsRefusedBeforeTheLibraryRecursesOverIt) {
@@ -437,7 +497,7 @@ TEST(BadInput, OverrideWithATableValueIsRefusedNotAppliedAsAWholeTable) {
   EXPECT_EQ(s.relaxation, 1.5);  // the file's key kept beside the override
 }
 
-TEST(BadInput, ASceneContactMarginWiderThanTheLargestDiskIsRefused) {
+TEST(BadInput, ASceneContactMarginWiderThanTheDisksIsRefused) {
   // scene_text's disks have radius 0.5: a margin of one diameter is taken, a wider one is not.
   TempDir dir("scene_margin");
   const std::string path = dir.write("scene.toml", scene_text());
@@ -449,8 +509,27 @@ TEST(BadInput, ASceneContactMarginWiderThanTheLargestDiskIsRefused) {
     EXPECT_EQ(e.key(), "step.contact_margin");
     EXPECT_NE(std::string(e.what()).find("--set step.contact_margin=1.5"), std::string::npos)
         << e.what();
-    EXPECT_NE(e.problem().find("more than the largest disk's diameter (1)"), std::string::npos)
+    EXPECT_NE(e.problem().find("more than the disks' mean diameter (1)"), std::string::npos)
         << e.what();
+  }
+  // One large disk far off, or a group of no disks with large ones, does not lift the bound:
+  // the mean of 1, 1 and 100 is 34, of 1, 1 and nothing 1.
+  const std::string large = "[[disks]]\nposition = [1000.0, 0.5]\nradius = 50.0\n";
+  const std::string none =
+      "[[random_disks]]\ncount = 0\nregion_min = [0.0, 0.0]\n"
+      "region_max = [1.0, 1.0]\ndiameter_min = 100.0\ndiameter_max = 100.0\n";
+  for (const std::string& extra : {large, none}) {
+    const std::string text = scene_text() + extra;
+    const std::string bound = extra == large ? "(34)" : "(1)";
+    const double wide = extra == large ? 40.0 : 1.5;
+    const std::string file = dir.write("extra.toml", text);
+    EXPECT_EQ(load_scene_file(file, {"step.contact_margin=1.0"}).step.contact_margin, 1.0);
+    try {
+      load_scene_file(file, {"step.contact_margin=" + std::to_string(wide)});
+      ADD_FAILURE() << "no ConfigError for " << extra;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(e.problem().find("mean diameter " + bound), std::string::npos) << e.what();
+    }
   }
 }
 

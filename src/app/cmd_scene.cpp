@@ -76,6 +76,9 @@ int run_scene(const SceneArgs& args) {
   RunEnd end;
   end.dir = dir;
   end.reached_end = world.step >= end_step;
+  end.resume_hint =
+      "; a scene does not resume: run it again with --force to start over (`cdshear run` "
+      "resumes from its checkpoints)";
   end.info = {{"scene", args.file}, {"overrides", args.overrides}, {"seed", sf.step.solver.seed}};
   const int status = finish_run(end, world, summary);
   if (status == 0)

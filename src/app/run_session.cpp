@@ -88,10 +88,12 @@ FolderLock FolderLock::take_once(const std::filesystem::path& dir) {
     const ssize_t got = ::pread(lock.fd_, holder, sizeof holder - 1, 0);
     std::string who(holder, got > 0 ? static_cast<std::size_t>(got) : 0);
     while (!who.empty() && (who.back() == '\n' || who.back() == '\0')) who.pop_back();
-    throw ConfigError(dir.string(), "",
-                      "another cdshear is writing this folder (" +
-                          (who.empty() ? std::string("holder unknown") : who) +
-                          "); wait for it to end, or stop it (a run checkpoints on SIGTERM)");
+    throw ConfigError(
+        dir.string(), "",
+        "another cdshear is writing this folder (" +
+            (who.empty() ? std::string("holder unknown") : who) +
+            "); wait for it to end, or stop it (SIGTERM stops it after its current step, where a "
+            "shear run writes a checkpoint to resume from)");
   }
   char host[256] = {};
   ::gethostname(host, sizeof host - 1);

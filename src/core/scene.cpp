@@ -79,6 +79,33 @@ class PlacementGrid {
   std::unordered_map<std::int64_t, std::vector<std::size_t>> cells_;
 };
 
+/// v in the shortest form printf's %g gives it (core code has no formatting library).
+std::string shortest_text(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+/// The walls that leave no room in a group's region: every point of it behind the wall or within
+/// the smallest radius of it (a wall whose normal points away from the disks' side, the usual
+/// slip), as advice for the placement's failure; nullopt when no wall does.
+std::optional<std::string> walls_excluding(const std::vector<Wall>& walls,
+                                           const RandomDisksSpec& spec) {
+  std::string names;
+  for (const Wall& w : walls) {
+    const Vec2 n = (1.0 / length(w.normal)) * w.normal;
+    // The region's corner furthest in front of the wall.
+    const Vec2 front{n.x > 0.0 ? spec.region_max.x : spec.region_min.x,
+                     n.y > 0.0 ? spec.region_max.y : spec.region_min.y};
+    if (dot(front - w.point, n) < 0.5 * spec.diameter_min)
+      names += (names.empty() ? "'" : ", '") + w.name + "' (normal (" + shortest_text(w.normal.x) +
+               ", " + shortest_text(w.normal.y) + "))";
+  }
+  if (names.empty()) return std::nullopt;
+  return "the region lies wholly behind wall " + names +
+         ": a wall's normal points to the side the disks may fill; check its sign";
+}
+
 void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, double density,
                   const std::atomic<bool>* cancel) {
   const std::string base = "random_disks";
@@ -97,8 +124,10 @@ void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, 
     const double x_hi = full_period ? lx : spec.region_max.x - r;
     const double y_lo = spec.region_min.y + r, y_hi = spec.region_max.y - r;
     if (x_hi <= x_lo || y_hi <= y_lo)
-      throw SceneError(indexed(base, group, "region"),
-                       "region is smaller than a disk of diameter " + std::to_string(2 * r));
+      throw SceneError(indexed(base, group, "region_max"),
+                       "the region (region_min to region_max) is smaller than a disk of "
+                       "diameter " +
+                           shortest_text(2 * r));
     bool placed = false;
     for (int attempt = 0; attempt < spec.max_attempts_per_disk && !placed; ++attempt) {
       Vec2 p{rng.uniform(x_lo, x_hi), rng.uniform(y_lo, y_hi)};
@@ -111,10 +140,11 @@ void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, 
       placed = true;
     }
     if (!placed)
-      throw SceneError(indexed(base, group, "count"),
-                       "could place only " + std::to_string(k) + " of " +
-                           std::to_string(spec.count) +
-                           " disks without overlap; enlarge the region or lower the count");
+      throw SceneError(
+          indexed(base, group, "count"),
+          "could place only " + std::to_string(k) + " of " + std::to_string(spec.count) +
+              " disks without overlap; " +
+              walls_excluding(world.walls, spec).value_or("enlarge the region or lower the count"));
   }
 }
 
@@ -233,18 +263,20 @@ void validate_scene(const SceneDefinition& s) {
                                  diameter == r.diameter_min ? "diameter_min" : "diameter_max"),
                          why, "material.density");
     if (!(r.region_max.x > r.region_min.x) || !(r.region_max.y > r.region_min.y))
-      throw SceneError(indexed("random_disks", i, "region"), "max must exceed min on both axes");
+      throw SceneError(indexed("random_disks", i, "region_max"),
+                       "must exceed region_min on both axes");
     if (!std::isfinite(r.region_max.x - r.region_min.x) ||
         !std::isfinite(r.region_max.y - r.region_min.y))
-      throw SceneError(indexed("random_disks", i, "region"),
-                       "its width and height must be finite numbers (region_max - region_min "
-                       "overflows)");
+      throw SceneError(indexed("random_disks", i, "region_max"),
+                       "the region's width and height must be finite numbers (region_max - "
+                       "region_min overflows)");
     largest_diameter = std::max(largest_diameter, r.diameter_max);
   }
   if (s.domain.periodic_x && s.domain.length_x < 3.0 * largest_diameter)
-    throw SceneError("domain.length_x",
-                     "period " + std::to_string(s.domain.length_x) +
-                         " is shorter than 3 largest diameters; contacts would be ambiguous");
+    throw SceneError("domain.length_x", "period " + shortest_text(s.domain.length_x) +
+                                            " is shorter than 3 largest diameters (3 x " +
+                                            shortest_text(largest_diameter) +
+                                            "); contacts would be ambiguous");
 }
 
 World build_world(const SceneDefinition& s, const std::atomic<bool>* cancel) {

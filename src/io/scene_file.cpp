@@ -169,6 +169,22 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
     spec.region_max = r.vec2("region_max");
     spec.diameter_min = r.positive("diameter_min", 0.8);
     spec.diameter_max = r.positive("diameter_max", 1.0);
+    // The scene builder checks the order; here the file is known, and with it which bound the
+    // file left at its default.
+    if (spec.diameter_max < spec.diameter_min && !r.has("diameter_min"))
+      r.fail("diameter_max",
+             "is " + format_number(spec.diameter_max) + ", below diameter_min, which is " +
+                 format_number(spec.diameter_min) + " when not given: give diameter_min as well");
+    if (s.domain.periodic_x)
+      for (const auto& [key, corner] :
+           {std::pair{"region_min", spec.region_min}, std::pair{"region_max", spec.region_max}})
+        if (!(std::abs(corner.x) <= kMaxPeriodsFromOrigin * s.domain.length_x))
+          r.fail_between(key, {"domain.length_x"},
+                         "x = " + format_number(corner.x) +
+                             " is more than a million periods (domain.length_x = " +
+                             format_number(s.domain.length_x) +
+                             ") from 0, where doubles no longer resolve a disk's place: give "
+                             "the region within the period");
     spec.seed = static_cast<std::uint64_t>(
         r.integer_in("seed", 0, std::numeric_limits<std::int64_t>::max(), 1));
     r.finish();
@@ -180,21 +196,25 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
                       "must be less than step.abort_overlap (" +
                           format_number(out.step.abort_overlap) +
                           "): a scene cannot start from an overlap its run would stop at");
-  // As a case's step.contact_margin is at most 1 d: a margin wider than the largest disk makes
-  // nearly every pair a candidate contact (1e300 listed all of them, gigabytes for a few
-  // thousand disks). The default margin stays allowed whatever the disks' size (a scene's units
-  // are its own).
-  double largest_diameter = 0.0;
-  for (const DiskSpec& d : s.disks) largest_diameter = std::max(largest_diameter, 2.0 * d.radius);
-  for (const RandomDisksSpec& r : s.random_disks)
-    largest_diameter = std::max(largest_diameter, r.diameter_max);
+  // As a case's step.contact_margin is at most 1 d: a margin wider than the disks makes nearly
+  // every pair a candidate contact (1e300 listed all of them, gigabytes for a few thousand
+  // disks). The bound is the disks' mean diameter, each disk counted once (a random group at the
+  // middle of its range, a group of none not at all), so that one large disk among many small
+  // ones does not lift it. The default margin stays allowed whatever the disks' size (a scene's
+  // units are its own).
+  double diameters = 0.0, disk_count = 0.0;
+  for (const DiskSpec& d : s.disks) diameters += 2.0 * d.radius, disk_count += 1.0;
+  for (const RandomDisksSpec& r : s.random_disks) {
+    const auto count = static_cast<double>(r.count);
+    diameters += count * 0.5 * (r.diameter_min + r.diameter_max), disk_count += count;
+  }
+  const double mean_diameter = disk_count > 0.0 ? diameters / disk_count : 0.0;
   const double default_margin = StepOptions{}.contact_margin;
-  if (out.step.contact_margin > std::max(largest_diameter, default_margin))
+  if (out.step.contact_margin > std::max(mean_diameter, default_margin))
     root.fail_between("step.contact_margin", {"disks", "random_disks"},
                       "is " + format_number(out.step.contact_margin) +
-                          ", more than the largest disk's diameter (" +
-                          format_number(largest_diameter) + ") and the default " +
-                          format_number(default_margin) +
+                          ", more than the disks' mean diameter (" + format_number(mean_diameter) +
+                          ") and the default " + format_number(default_margin) +
                           ": nearly every pair would be a candidate contact");
   root.finish();
   return out;
