@@ -249,8 +249,8 @@ def main(argv=None):
         return 0
 
     if args.command == "study-compare":
-        from .study import (StudyError, compare_references, format_comparison, format_windows,
-                            windowed_means)
+        from .study import (StudyError, common_windows, compare_references, format_comparison,
+                            format_windows)
         try:
             if args.windows < 0:   # checked before the comparison is printed
                 raise StudyError("--windows", f"must be at least 1 (0: none), not {args.windows}")
@@ -259,8 +259,7 @@ def main(argv=None):
             text = format_comparison(args.dir_a, args.dir_b, a, b, lines, skipped)
             if args.windows:
                 text += format_windows(args.dir_a, args.dir_b,
-                                       windowed_means(args.dir_a, args.windows),
-                                       windowed_means(args.dir_b, args.windows))
+                                       *common_windows(args.dir_a, args.dir_b, args.windows))
             print(text, end="")
         except StudyError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
@@ -362,11 +361,19 @@ def main(argv=None):
             if args.plot is not None and not args.plot.lower().endswith(".png"):
                 raise ReportError(args.plot, "--plot: the figure is a PNG file: its name must "
                                              "end in .png")
+            if args.json is not None and args.plot is not None and \
+                    os.path.realpath(args.json) == os.path.realpath(args.plot):
+                raise ReportError(args.plot, "--plot: the file --json names: one would replace "
+                                             "the other")
         except ReportError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
         entries, exponent = decay_against_diffusion(summaries, fits)
         print(format_decay_table(entries, exponent))
+        if args.plot and not any(e["used"] for e in entries):
+            print(f"error: {args.plot}: --plot: no run is used (each row above says why): no "
+                  f"figure to draw; nothing written", file=sys.stderr)
+            return 2
         try:
             if args.json:
                 with open(args.json, "w", encoding="utf-8") as f:
@@ -411,6 +418,11 @@ def main(argv=None):
                                   ("--lammps-seconds", args.lammps_seconds)):
                 if not (math.isfinite(value) and value > 0):
                     raise PeerError(option, f"must be a number > 0, got {value:g}")
+            for option, value in (("--cdshear-seconds", args.cdshear_seconds),
+                                  ("--lammps-seconds", args.lammps_seconds)):
+                if not 1e-6 <= value <= 1e9:   # a microsecond to thirty years of wall time
+                    raise PeerError(option, f"{value:g} s is no run's wall time (1e-06 to 1e+09 "
+                                            f"s)")
             result = side_by_side(args.cdshear_run, args.lammps_dir, args.duration,
                                   args.cdshear_seconds, args.lammps_seconds)
         except (PeerError, RunDataError) as e:

@@ -397,6 +397,9 @@ def read_dump(path):
                 raise PeerError(path, f"the snapshot from line {i + 1} is cut short or not "
                                       f"numbers (ITEM: TIMESTEP, NUMBER OF ATOMS, BOX BOUNDS, "
                                       f"ATOMS id type x y radius, then one row per atom)") from None
+            if count <= 0:
+                raise PeerError(path, f"the snapshot from line {i + 1} holds no atoms (NUMBER OF "
+                                      f"ATOMS {count})")
             if rows.shape != (count, 5) or not (np.all(np.isfinite(rows)) and xhi > xlo):
                 raise PeerError(path, f"the snapshot from line {i + 1}: expected {count} rows "
                                       f"of 5 finite numbers and xhi > xlo")
@@ -457,14 +460,28 @@ def side_by_side(cdshear_run, lammps_dir, duration, cdshear_seconds, lammps_seco
     cd["seconds_per_time"] = cdshear_seconds / duration
     lm["seconds_per_time"] = lammps_seconds / duration
     dump = os.path.join(lammps_dir, "dump.txt")
-    if os.path.exists(dump):
-        lm["max_overlap"], lm["mean_max_overlap"], lm["snapshots"] = max_overlap_from_dump(dump)
     from .rundata import load_run
-    overlap = load_run(cdshear_run)["series"].get("overlap_max")
+    run = load_run(cdshear_run)
+    if os.path.exists(dump):
+        _check_same_cell(dump, run["attrs"], cd_path)
+        lm["max_overlap"], lm["mean_max_overlap"], lm["snapshots"] = max_overlap_from_dump(dump)
+    overlap = run["series"].get("overlap_max")
     if overlap is not None and len(overlap):
         cd["max_overlap"] = float(np.nanmax(overlap))
     return dict(duration=duration, cdshear=cd, lammps=lm,
                 ratio=lm["seconds_per_time"] / cd["seconds_per_time"])
+
+
+def _check_same_cell(dump, attrs, run_path):
+    """PeerError unless the LAMMPS dump's first snapshot holds the cdshear run's number of grains
+    in a box of its L_x (run.h5's attributes n and length_x, to 1e-6): two codes' figures of
+    other systems would read as a comparison of codes."""
+    snaps, lx = read_dump(dump)
+    grains = int(np.count_nonzero(snaps[0][1][:, 1].astype(int) == GRAIN_TYPE))
+    n, length_x = int(attrs["n"]), float(attrs["length_x"])
+    if grains != n or not math.isclose(lx, length_x, rel_tol=1e-6):
+        raise PeerError(dump, f"holds {grains} grains in a box {lx:.6g} wide where {run_path} "
+                              f"has {n} in {length_x:.6g}: a run of another system")
 
 
 def _check_ends_at(series, duration, name, said="--duration",

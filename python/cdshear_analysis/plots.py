@@ -337,26 +337,25 @@ def plot_profile_decay(summaries, entries, path):
     """profile-decay --plot: each run's coefficient along its decaying shape, less the fitted
     c_inf (relaxation.py), against t / T_SS on a log scale, with its fitted exponential and the
     slopes of the two walls' slowest modes from rest, exp(-4 pi^2 t / T_SS) and exp(-pi^2 t /
-    T_SS), over the fit's range."""
+    T_SS), over the fit's range. The used runs alone (decay_against_diffusion's `used`: their
+    series checked, their fits resolved); ValueError when there is none."""
     from .relaxation import TAU_OVER_T_SS
+    used = [(s.get("profile_decay"), e) for s, e in zip(summaries, entries) if e["used"]]
+    if not used:
+        raise ValueError("no run is used (each row of the table says why): no figure to draw")
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     bounds_drawn, low, high = False, np.inf, 0.0
-    for s, e in zip(summaries, entries):
-        d = s.get("profile_decay") or {}
-        if d.get("c") is None or e["T_SS"] is None or d.get("c_inf") is None:
-            continue
+    for d, e in used:
         t = np.asarray(d["t"], dtype=float)
         c = np.asarray([np.nan if v is None else v for v in d["c"]], dtype=float) - d["c_inf"]
-        label = f"{e['run']} (L_y {e['L_y']:.0f})"
-        if e["tau_over_T_SS"] is not None:
-            label += f": tau / T_SS {e['tau_over_T_SS']:.3f}" + ("" if e["used"] else ", not used")
+        label = f"{e['run']} (L_y {e['L_y']:.0f}): tau / T_SS {e['tau_over_T_SS']:.3f}"
         positive = np.where(c > 0, c, np.nan)
         points = ax.plot(t / e["T_SS"], positive, ".", ms=3, label=label)[0]
         if np.isfinite(positive).any():
             low, high = min(low, np.nanmin(positive)), max(high, np.nanmax(positive))
-        t0 = d["fit_range"][0]
-        x = np.linspace(t0, d["fit_range"][1], 100)
-        ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / d["tau"]), "-", lw=1,
+        t0, t1 = e["fit_range"]
+        x = np.linspace(t0, t1, 100)
+        ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / e["tau"]), "-", lw=1,
                 color=points.get_color())
         for (mode, ratio), style in zip(TAU_OVER_T_SS.items(), (":", "--")):
             ax.plot(x / e["T_SS"], d["c_0"] * np.exp(-(x - t0) / (ratio * e["T_SS"])), style,

@@ -284,6 +284,7 @@ def decay_against_diffusion(summaries, fits):
              "sigma_yy": _mean(s, "case", "normal_stress"), "tau": _number(d.get("tau")),
              "tau_err": _number(d.get("tau_err")), "fit_range": _range(d.get("fit_range")),
              "shape_overlap": _overlaps(d.get("shape_overlap")), "law": law, "D": None,
+             "n": _whole(s.get("case", {}).get("n") if isinstance(s.get("case"), dict) else None),
              "T_SS": None,
              "tau_over_T_SS": None, "used": False, "reason": None}
         # Each must be a number above 0 (L_y^2 / D and sqrt(m / sigma_yy) need it).
@@ -317,6 +318,8 @@ def decay_against_diffusion(summaries, fits):
             elif not _finite_products(e["tau"] * e["D"], e["tau"] / e["tau_err"],
                                       e["T_SS"]) or e["tau"] / e["tau_err"] > 1e150:
                 e["reason"] = "tau or its error beyond the range a weight can be taken from"
+            elif (why := _series_problem(d)) is not None:
+                e["reason"] = why
             elif e["initial_velocity"] != "rest":
                 e["reason"] = "not started at rest"
             elif e["regime"] != "A" or not e["steady"]:
@@ -326,7 +329,9 @@ def decay_against_diffusion(summaries, fits):
         entries.append(e)
     use = [e for e in entries if e["used"]]
     exponent = None
-    if len({round(e["L_y"]) for e in use}) >= 2:
+    # Heights of other systems (numbers of disks): one system's L_y moves with V by its dilation
+    # alone, a few percent, which no power law of the height is to be read from.
+    if len({e["n"] for e in use}) >= 2 and None not in {e["n"] for e in use}:
         x = np.log([e["L_y"] for e in use])
         z = np.log([e["tau"] * e["D"] for e in use])
         w = np.array([(e["tau"] / e["tau_err"]) ** 2 for e in use])
@@ -341,6 +346,42 @@ def decay_against_diffusion(summaries, fits):
                     "note": "error from tau's errors alone, scaled by sqrt(chi2/dof) when above 1"
                             + ("" if dof > 0 else "; no degree of freedom left to check it")}
     return entries, exponent
+
+
+def _whole(v):
+    """v when it is a whole number (a count of disks), else None."""
+    return v if isinstance(v, int) and not isinstance(v, bool) else None
+
+
+def _series_problem(d):
+    """Why summary.json's profile_decay holds no series to draw (`t`, `c`: lists of one length,
+    times finite, coefficients numbers or null; `c_0`, `c_inf` finite numbers; `fit_range` two),
+    or None."""
+    t, c = d.get("t"), d.get("c")
+    if not isinstance(t, list) or not isinstance(c, list) or len(t) != len(c) or not t:
+        return "profile_decay.t and .c are not series of one length in summary.json"
+    if not all(_number(v) is not None for v in t) or \
+            not all(v is None or _number(v) is not None for v in c):
+        return "profile_decay.t or .c holds a value that is not a finite number in summary.json"
+    if _number(d.get("c_0")) is None or _number(d.get("c_inf")) is None:
+        return "profile_decay.c_0 or .c_inf is not a finite number in summary.json"
+    if _range(d.get("fit_range")) is None:
+        return "profile_decay.fit_range is not two finite numbers in summary.json"
+    return None
+
+
+def exponent_absence(entries):
+    """Why no exponent of the height is fitted over the used entries (decay_against_diffusion),
+    or None where one is: it needs used runs of two systems or more."""
+    use = [e for e in entries if e["used"]]
+    systems = {e["n"] for e in use}
+    if not use or (len(systems) >= 2 and None not in systems):
+        return None
+    if None in systems:
+        return "no exponent of the height: a used run's summary gives no number of disks"
+    return (f"no exponent of the height: the {len(use)} used run{'s' if len(use) > 1 else ''} "
+            f"{'are' if len(use) > 1 else 'is'} of one system (n = {use[0]['n']}); it needs two "
+            f"systems or more")
 
 
 def _finite_products(*values):
@@ -377,6 +418,8 @@ def format_decay_table(entries, exponent):
                  f"{TAU_OVER_T_SS['sin_2pi_eta']:.4f} (sin(2 pi y / L_y), walls holding the "
                  f"grains) to 1 / pi^2 = {TAU_OVER_T_SS['cos_pi_eta']:.4f} (cos(pi y / L_y), "
                  f"walls sliding); sin2, cos1: the decaying shape's overlap with each")
+    if why := exponent_absence(entries):
+        lines.append(why)
     if exponent:
         lines.append(f"tau D proportional to L_y^p: p = {exponent['p']:.2f} +- "
                      f"{exponent['p_err']:.2f} over {exponent['runs']} runs (2 for a diffusion; "

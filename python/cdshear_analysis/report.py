@@ -157,7 +157,11 @@ def read_json(path):
     try:
         with open_regular(path, encoding="utf-8") as f:
             return json.load(f, object_pairs_hook=unique_keys)
-    except (OSError, ValueError) as e:
+    except FileNotFoundError:
+        raise ReportError(path, "missing") from None
+    except OSError as e:   # the reason alone: the message names the path already
+        raise ReportError(path, f"cannot read: {e.strerror or e}") from None
+    except ValueError as e:
         raise ReportError(path, f"cannot read: {e}") from None
     except RecursionError:
         raise ReportError(path, "cannot read: its JSON is nested too deeply") from None
@@ -165,8 +169,14 @@ def read_json(path):
 
 def read_summary(run_dir):
     """The parsed RUN_DIR/summary.json (any JSON value); ReportError when it cannot be read or
-    parsed."""
-    return read_json(os.path.join(run_dir, "summary.json"))
+    parsed, saying to analyse the run where it is missing."""
+    try:
+        return read_json(os.path.join(run_dir, "summary.json"))
+    except ReportError as e:
+        if e.problem == "missing":
+            raise ReportError(e.path, f"missing: the run is not analysed (`cdshear analyze "
+                                      f"{run_dir}`)") from None
+        raise
 
 
 def summary_state(s):

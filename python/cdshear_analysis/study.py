@@ -106,23 +106,35 @@ def folder_name_problem(key, text):
     return None
 
 
-def setting_problem(run_dir, key, text):
-    """Why the run in the folder `KEY=TEXT` does not hold KEY = TEXT in its case.toml (a run
-    copied or renamed into the wrong folder), or None; None too without a case.toml or with a
-    key it does not hold."""
+def _case_toml(run_dir):
+    """(path, parsed case.toml of the run) or (path, None) without one; StudyError when it
+    cannot be read."""
     import tomllib
     path = os.path.join(run_dir, "case.toml")
     try:
         with open_regular(path, encoding="utf-8") as f:
-            case = tomllib.loads(f.read())
+            return path, tomllib.loads(f.read())
     except FileNotFoundError:
-        return None
+        return path, None
     except (OSError, ValueError, RecursionError) as e:
-        return f"{path}: cannot read: {e}"
+        raise StudyError(path, f"cannot read: {e}") from None
+
+
+def setting_problem(run_dir, key, text):
+    """Why the run in the folder `KEY=TEXT` does not hold KEY = TEXT in its case.toml (a run
+    copied or renamed into the wrong folder, or a KEY misspelt: `cdshear run` writes every key
+    of a case), or None; None too without a case.toml."""
+    try:
+        path, case = _case_toml(run_dir)
+    except StudyError as e:
+        return f"{e.path}: {e.problem}"
+    if case is None:
+        return None
     table, _, name = key.rpartition(".")
     values = case.get(table) if table else case
     if not isinstance(values, dict) or name not in values:
-        return None
+        return (f"{path}: holds no key {key} (misspelt?): the folder's name is the `--set` its "
+                f"run was made with, KEY=VALUE, KEY a key of case.toml")
     held = values[name]
     if isinstance(held, bool):
         same = text.lower() == str(held).lower()
@@ -169,6 +181,30 @@ def case_difference(row, reference, varied=None, reference_name=None):
     return None
 
 
+# case.toml's tables whose every key changes what a run's quantities mean: two runs analysed
+# with other windows, stripes or contact gaps measure other things, whatever the solver.
+_MEASURE_TABLE = "measure"
+
+
+def measure_difference(run_dir, reference_dir, varied=None):
+    """Why the run in run_dir was measured otherwise than the one in reference_dir (the first key
+    of case.toml's [measure] that both hold with other values, but `varied`), or None; None too
+    where either has no case.toml."""
+    path, case = _case_toml(run_dir)
+    reference_path, reference = _case_toml(reference_dir)
+    if case is None or reference is None:
+        return None
+    mine, theirs = case.get(_MEASURE_TABLE), reference.get(_MEASURE_TABLE)
+    if not isinstance(mine, dict) or not isinstance(theirs, dict):
+        return None
+    for name in sorted(set(mine) & set(theirs)):
+        key = f"{_MEASURE_TABLE}.{name}"
+        if key != varied and mine[name] != theirs[name]:
+            return (f"{key} = {mine[name]!r} where {reference_path} has {theirs[name]!r}: "
+                    f"its quantities are measured otherwise")
+    return None
+
+
 def _row(run_dir, key, value, summary, parts):
     for path, data in [(os.path.join(run_dir, "summary.json"), summary)] + parts:
         if not isinstance(data, dict):
@@ -176,7 +212,8 @@ def _row(run_dir, key, value, summary, parts):
     case = summary.get("case", {})
     row = {"key": key, "value": value, "run": os.path.basename(run_dir),
            "steady": summary.get("steady") is True,   # "false" (a text) is not steady
-           "case": {name: case[name] for name, _ in SHARED_CASE if name in case}}
+           "case": {name: case[name] for name, _ in SHARED_CASE if name in case},
+           "time": float(case["time"]) if is_measured_number(case.get("time")) else math.nan}
     for name, get in QUANTITIES:
         try:
             entry = get(summary)
@@ -327,9 +364,11 @@ def _references(study_dir, skipped):
         raise StudyError(study_dir, "no analysed `reference` run folder")
     if repeated := repeated_folder([os.path.join(study_dir, row["run"]) for row in rows]):
         raise StudyError(study_dir, f"realizations of the reference: {repeated}")
+    first = os.path.join(study_dir, rows[0]["run"])
     for row in rows[1:]:
-        if why := case_difference(row, rows[0]):
-            raise StudyError(os.path.join(study_dir, row["run"]), why)
+        path = os.path.join(study_dir, row["run"])
+        if why := case_difference(row, rows[0]) or measure_difference(path, first):
+            raise StudyError(path, why)
     return rows
 
 
@@ -354,7 +393,9 @@ def collect(study_dir, skipped=None):
             raise StudyError(path, why)
         value = _number(text)
         row = read_run(path, key, value if value is not None else text)
-        if why := case_difference(row, references[0], varied=key):
+        if why := (case_difference(row, references[0], varied=key) or
+                   measure_difference(path, os.path.join(study_dir, references[0]["run"]),
+                                      varied=key)):
             raise StudyError(path, why)
         rows.append(row)
     return [combine(references)] + rows
@@ -384,13 +425,25 @@ def compare_references(dir_a, dir_b):
     (`welch_p`). Returns (combined row a, combined row b, lines, skipped), each line (quantity,
     a, err_a, b, err_b, difference in combined errors (NaN when both errors are 0 or missing),
     p (NaN with fewer than two realizations on a side)), skipped the run folders left out (no
-    summary.json yet) as paths."""
+    summary.json yet) as paths. A folder compared with itself, one realization in both, and
+    realizations measured otherwise (case.toml's [measure]) are refused; the combined rows hold
+    their realizations' times reached ("times"), which format_comparison compares."""
+    if os.path.realpath(dir_a) == os.path.realpath(dir_b):
+        raise StudyError(dir_b, f"is {dir_a} again: a folder compared with itself differs by "
+                                f"nothing")
     skipped_a, skipped_b = [], []
     runs_a, runs_b = _references(dir_a, skipped_a), _references(dir_b, skipped_b)
     reference_a = os.path.join(dir_a, runs_a[0]["run"])
-    if why := case_difference(runs_b[0], runs_a[0], reference_name=reference_a):
-        raise StudyError(os.path.join(dir_b, runs_b[0]["run"]), why)
+    reference_b = os.path.join(dir_b, runs_b[0]["run"])
+    if why := (case_difference(runs_b[0], runs_a[0], reference_name=reference_a) or
+               measure_difference(reference_b, reference_a)):
+        raise StudyError(reference_b, why)
+    # one run in both folders (a copy, or a link) would be compared with itself
+    if why := repeated_folder([os.path.join(dir_a, r["run"]) for r in runs_a] +
+                              [os.path.join(dir_b, r["run"]) for r in runs_b]):
+        raise StudyError(dir_b, f"shares a realization with {dir_a}: {why}")
     a, b = combine(runs_a), combine(runs_b)
+    a["times"], b["times"] = [r["time"] for r in runs_a], [r["time"] for r in runs_b]
     skipped = ([os.path.join(dir_a, n) for n in skipped_a] +
                [os.path.join(dir_b, n) for n in skipped_b])
     lines = []
@@ -445,6 +498,12 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
                    f"{1 - 0.95 ** n:.0%} of the time; below {0.05 / n:.2g} "
                    f"(0.05 / {n}, Bonferroni), at most 5% of the time.")
     out += [f"left out {path}: no summary.json yet" for path in skipped]
+    times_a, times_b = a.get("times", []), b.get("times", [])
+    if not all(math.isclose(x, y, rel_tol=1e-9) for x in times_a for y in times_b):
+        shown = lambda ts: ", ".join(f"{t:g}" for t in sorted(set(ts)))  # noqa: E731
+        out.append(f"note: the realizations stand at t = {shown(times_a)} in {dir_a} and "
+                   f"{shown(times_b)} in {dir_b}: their averages cover different stretches of "
+                   f"the flow")
     return "\n".join(out) + "\n"
 
 
@@ -483,14 +542,15 @@ def _realization_series(run_dir):
                             "mu_eff_wall": wall_friction_series(series)}
 
 
-def windowed_means(study_dir, windows):
+def windowed_means(study_dir, windows, until=None):
     """How the realizations of a study folder (`reference`, `reference_<anything>` with
     summary.json, as `collect` takes them) move over time: [0, t_end] (t_end the end of the
     shortest one) cut into `windows` equal windows, and for each quantity of WINDOW_QUANTITIES
     and each window the mean over the realizations of their window means, with its error from
     their scatter, std / sqrt(k) (NaN for one realization). Shows whether a flow is still
     drifting, and whether two builds differ by a constant or by a rate (docs/accuracy.md,
-    "System 1, V = 0.05"). Returns (edges, k, {quantity: [(mean, err) per window]})."""
+    "System 1, V = 0.05"). `until`: t_end at most this (the end of another folder compared with
+    this one). Returns (edges, k, {quantity: [(mean, err) per window]})."""
     import numpy as np
     if windows < 1:
         raise StudyError(study_dir, f"--windows must be at least 1, not {windows}")
@@ -500,6 +560,8 @@ def windowed_means(study_dir, windows):
         raise StudyError(study_dir, "no analysed `reference` run folder")
     runs = [_realization_series(os.path.join(study_dir, n)) for n in names]
     t_end = min(float(t[-1]) if t.size else 0.0 for t, _ in runs)
+    if until is not None:
+        t_end = min(t_end, until)
     if t_end <= 0.0:
         raise StudyError(study_dir, "a realization has no samples")
     fewest = min(int(np.count_nonzero(t <= t_end)) for t, _ in runs)
@@ -524,11 +586,27 @@ def windowed_means(study_dir, windows):
     return edges, len(runs), out
 
 
+def common_windows(dir_a, dir_b, windows):
+    """windowed_means of both folders over one [0, t_end], t_end the end of the shorter of the
+    two (each folder's shortest realization), so that a window's row holds the same stretch of
+    time in both."""
+    a, b = windowed_means(dir_a, windows), windowed_means(dir_b, windows)
+    end = min(a[0][-1], b[0][-1])
+    if a[0][-1] > end:
+        a = windowed_means(dir_a, windows, until=end)
+    if b[0][-1] > end:
+        b = windowed_means(dir_b, windows, until=end)
+    return a, b
+
+
 def format_windows(dir_a, dir_b, a, b):
     """Both folders' windowed means side by side (Markdown), each window's difference b - a in
-    combined errors, and each folder's drift, last window minus first in combined errors."""
+    combined errors, and each folder's drift, last window minus first in combined errors; a and
+    b cut into the same windows (common_windows)."""
     edges, ka, qa = a
-    _, kb, qb = b
+    edges_b, kb, qb = b
+    if list(edges) != list(edges_b):
+        raise ValueError("format_windows: the two folders' windows differ (common_windows)")
     diff = lambda x, ex, y, ey: ((y - x) / math.hypot(ex, ey)  # noqa: E731
                                  if math.hypot(ex, ey) > 0 else math.nan)
     # one realization has no scatter, hence no error: said so, where "± nan" stood

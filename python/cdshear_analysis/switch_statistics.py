@@ -43,14 +43,19 @@ def run_switches(run_dir):
     """One run's switches over its whole series: {"run", "V", "L_y" (the mean height), "time"
     (its first to last sample), "finished" (the run reached its duration), "duration",
     "switches" (count), "switch_times" (each switch's T, None for one across a gap in the
-    samples, which has none) and "starts" (each switch's start time)}. From run.h5 where the
-    folder holds one, else from its summary.json's `whole_run_switches` (what a clone keeps).
+    samples, which has none) and "starts" (each switch's start time)}, and from run.h5 "seeds"
+    (packing seed, solver seed). From run.h5 where the folder holds one (refused when it is of
+    another run than the folder's case.toml), else from its summary.json's
+    `whole_run_switches` (what a clone keeps).
     Raises rundata.RunDataError for a run it cannot read."""
     # lexists: a broken link or a folder in a file's place is read, and its error named
     if not os.path.lexists(os.path.join(run_dir, RUN_FILE)) and os.path.lexists(
             os.path.join(run_dir, "summary.json")):
         return summary_switches(run_dir)
+    from .report import run_file_identity_problem
     run = load_run(run_dir)
+    if why := run_file_identity_problem(run, run_dir):
+        raise RunDataError(os.path.join(run_dir, RUN_FILE), why)
     s, attrs = run["series"], run["attrs"]
     time = np.asarray(s["time"], dtype=float)
     u, source = rg.block_velocity(s)
@@ -58,8 +63,18 @@ def run_switches(run_dir):
     whole = rg.whole_run_switches(time, rg.band_switches(time, u, V, source=source),
                                   s["height"])
     case = {key: float(attrs[key]) for key in CASE_KEYS}
-    return _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole,
-                   case)
+    record = _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole,
+                     case)
+    # run.h5's own seeds (its attributes `seed`, `solver_seed`): what tells one run by them
+    seeds = tuple(attrs.get(key) for key in ("seed", "solver_seed"))
+    record["seeds"] = None if any(isinstance(s, str) or s is None for s in seeds) else \
+        tuple(int(s) for s in seeds)
+    return record
+
+
+def _counted(k, one, many):
+    """k and its noun: "1 run", "2 runs"."""
+    return f"{k} {one if k == 1 else many}"
 
 
 # The case values the runs of one group share (a group is the seeds of one system, at one or
@@ -80,6 +95,18 @@ def group_problem(runs, dirs):
     (CASE_KEYS) than the first's."""
     if repeated := repeated_folder(dirs):
         return repeated
+    # Folders whose run_info files are gone (no end state to tell a copy by): one case, seeds and
+    # V make one run, whatever the folder (runs are deterministic; two builds' runs of them are
+    # not independent either).
+    seen = {}
+    for run, d in zip(runs, dirs):
+        if run.get("seeds") is None:
+            continue
+        identity = (run["seeds"], run["V"]) + tuple(run[key] for key in CASE_KEYS)
+        if identity in seen:
+            return (f"{d} holds the run {seen[identity]} holds (packing seed {run['seeds'][0]}, "
+                    f"solver seed {run['seeds'][1]}, V = {run['V']:g}): each run counts once")
+        seen[identity] = d
     for run, d in zip(runs, dirs):
         for key in CASE_KEYS:
             if run[key] != runs[0][key]:
@@ -225,7 +252,8 @@ def format_table(runs, against=None, comparison=None):
     for name, group in groups:
         g = group_statistics(group)
         lines.append(
-            f"{name}: {g['runs']} runs (L_y {_g(g['L_y'])}), {g['switches']} switches in "
+            f"{name}: {_counted(g['runs'], 'run', 'runs')} (L_y {_g(g['L_y'])}), "
+            f"{_counted(g['switches'], 'switch', 'switches')} in "
             f"{g['time']:.0f} t (one per {_g(1 / g['rate'] if g['rate'] > 0 else math.nan, 4)} "
             f"t); T = {_pm(g['T'], g['T_err'])} t (median {_g(g['T_median'])}, "
             f"{_g(g['T_min'])} to {_g(g['T_max'])}; {g['timed']} timed), T / V = "

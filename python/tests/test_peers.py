@@ -284,7 +284,31 @@ class SideBySideInput(unittest.TestCase):
             out = self.side_by_side(run, lammps)
             self.assertEqual(out.returncode, 2, out.stderr)
             self.assertIn("dump.txt: the snapshot from line 1 is cut short", out.stderr)
+            # a dump of no atoms, and one of another system than the run's
+            attrs = load_run(run)["attrs"]
+            for rows, problem in (([], "the snapshot from line 1 holds no atoms"),
+                                  ([[1, 1, 1.0, 2.0, 0.5], [2, 1, 3.0, 2.0, 0.5]],
+                                   f"holds 2 grains in a box 10 wide where {run}/run.h5 has "
+                                   f"{int(attrs['n'])} in {float(attrs['length_x']):.6g}")):
+                with open(os.path.join(lammps, "dump.txt"), "w") as f:
+                    f.write(f"ITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n{len(rows)}\n"
+                            "ITEM: BOX BOUNDS pp ff pp\n0 10\n-1 30\n-0.5 0.5\n"
+                            "ITEM: ATOMS id type x y radius\n" +
+                            "".join(" ".join(map(str, r)) + "\n" for r in rows))
+                out = self.side_by_side(run, lammps)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn(problem, out.stderr)
             os.unlink(os.path.join(lammps, "dump.txt"))
+            # wall times no run takes: refused, not printed with 300 digits
+            for seconds in ("1e-320", "1e300"):
+                out = subprocess.run([sys.executable, "-m", "cdshear_analysis", "side-by-side",
+                                      "--cdshear-run", run, "--lammps-dir", lammps, "--duration",
+                                      "100", "--cdshear-seconds", seconds, "--lammps-seconds",
+                                      "2"], cwd=PYTHON_DIR, capture_output=True, text=True,
+                                     timeout=60)
+                self.assertEqual(out.returncode, 2, out.stderr)
+                self.assertIn(f"error: --cdshear-seconds: {float(seconds):g} s is no run's wall "
+                              "time", out.stderr)
             os.unlink(series)
             os.mkfifo(series)   # refused, not waited on
             out = self.side_by_side(run, lammps)

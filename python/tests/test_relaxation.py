@@ -156,21 +156,23 @@ class ProfileDecay(unittest.TestCase):
         self.assertIn("complete windows", out["reason"])
 
 
-def summary_of(run, L_y, I, tau, start="rest", regime="A", steady=True):
+def summary_of(run, L_y, I, tau, start="rest", regime="A", steady=True, n=511):
     return {"run": run, "regime": regime, "steady": steady, "height": {"mean": L_y},
             "bulk": {"inertial_number": {"mean": I}, "solid_fraction": {"mean": 0.8}},
-            "case": {"normal_stress": 0.25},
+            "case": {"normal_stress": 0.25, "n": n},
             "profile_decay": {"initial_velocity": start, "tau": tau, "tau_err": 0.02 * tau,
-                              "resolved": True, "reason": None, "fit_range": [10.0, 900.0]}}
+                              "resolved": True, "reason": None, "fit_range": [10.0, 900.0],
+                              "t": [10.0, 20.0, 30.0], "c": [0.1, None, 0.05], "c_0": 0.1,
+                              "c_inf": 0.0}}
 
 
 class AgainstDiffusion(unittest.TestCase):
     def test_a_decay_time_as_l_squared_over_d_gives_the_exponent_two(self):
         from cdshear_analysis.transitions import steady_state_time
         runs = []
-        for L, I in ((22.0, 0.10), (43.0, 0.05), (84.0, 0.025)):
+        for L, I, n in ((22.0, 0.10, 511), (43.0, 0.05, 1023), (84.0, 0.025, 2047)):
             T, _ = steady_state_time(LAW, I, L, 0.8, 0.25)
-            runs.append(summary_of(f"L{L:g}", L, I, 0.06 * T))
+            runs.append(summary_of(f"L{L:g}", L, I, 0.06 * T, n=n))
         runs.append(summary_of("linear", 22.0, 0.1, 5.0, start="linear"))
         runs.append(summary_of("slow", 22.0, 0.01, 5.0, regime="B"))
         entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
@@ -187,6 +189,52 @@ class AgainstDiffusion(unittest.TestCase):
             r["profile_decay"]["tau_err"] = 0.02 * r["profile_decay"]["tau"]
         self.assertAlmostEqual(
             relaxation.decay_against_diffusion(runs, {"mu_power": LAW})[1]["p"], 1.5, places=9)
+        self.assertIsNone(relaxation.exponent_absence(entries))
+
+    def test_one_system_at_several_heights_gives_no_exponent(self):
+        # One system whose L_y moves with V by its dilation (23 and 24 rounded): no power law of
+        # the height, and the table says why.
+        from cdshear_analysis.transitions import steady_state_time
+        runs = []
+        for L, I in ((22.7, 0.10), (23.7, 0.05)):
+            T, _ = steady_state_time(LAW, I, L, 0.8, 0.25)
+            runs.append(summary_of(f"L{L:g}", L, I, 0.06 * T))
+        entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
+        self.assertEqual([e["used"] for e in entries], [True, True])
+        self.assertIsNone(exponent)
+        self.assertIn("no exponent of the height: the 2 used runs are of one system (n = 511)",
+                      relaxation.format_decay_table(entries, exponent))
+
+    def test_the_figure_draws_the_used_runs_alone(self):
+        from cdshear_analysis.plots import plot_profile_decay
+        from cdshear_analysis.transitions import steady_state_time
+        T, _ = steady_state_time(LAW, 0.1, 22.0, 0.8, 0.25)
+        used = summary_of("L22", 22.0, 0.1, 0.06 * T)
+        damaged = summary_of("damaged", 22.0, 0.1, 0.06 * T)
+        damaged["profile_decay"]["tau"] = "12"   # read as missing: not used, not drawn
+        entries, _ = relaxation.decay_against_diffusion([used, damaged], {"mu_power": LAW})
+        self.assertEqual([e["used"] for e in entries], [True, False])
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "decay.png")
+            plot_profile_decay([used, damaged], entries, path)
+            with open(path, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+            with self.assertRaisesRegex(ValueError, "no run is used"):
+                plot_profile_decay([damaged], entries[1:], os.path.join(d, "none.png"))
+            self.assertFalse(os.path.exists(os.path.join(d, "none.png")))
+
+    def test_a_damaged_series_is_not_used(self):
+        from cdshear_analysis.transitions import steady_state_time
+        T, _ = steady_state_time(LAW, 0.1, 22.0, 0.8, 0.25)
+        for change, words in (({"t": [10.0, 20.0]}, "not series of one length"),
+                              ({"c": [0.1, "x", 0.05]}, "not a finite number"),
+                              ({"c_inf": None}, "c_inf is not a finite number"),
+                              ({"fit_range": None}, "fit_range is not two finite numbers")):
+            run = summary_of("L22", 22.0, 0.1, 0.06 * T)
+            run["profile_decay"].update(change)
+            (e,), _ = relaxation.decay_against_diffusion([run], {"mu_power": LAW})
+            self.assertFalse(e["used"])
+            self.assertIn(words, e["reason"])
 
 
     def test_bulk_law_parameters_beyond_the_range_of_a_number_give_a_reason(self):
@@ -279,6 +327,10 @@ class ProfileDecayCommand(unittest.TestCase):
                     (["--json", summary_path], "--json: is a file of the input folder"),
                     (["--json", fits], "--json: is one of the command's inputs"),
                     (["--plot", os.path.join(d, "decay.xyz")], "must end in .png"),
+                    (["--plot", os.path.join(d, "x.png"), "--json", os.path.join(d, "x.png")],
+                     "--plot: the file --json names"),
+                    # no run used (the run started from the linear profile): no figure
+                    (["--plot", os.path.join(d, "x.png")], "--plot: no run is used"),
                     (["--plot", d], "--plot: is a folder")):
                 err = io.StringIO()
                 with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):

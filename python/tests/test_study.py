@@ -285,6 +285,11 @@ class StudyTest(unittest.TestCase):
                 self.assertEqual(main(["study-compare", a, b, "--windows", "2"]), 0)
             text = out.getvalue()
             self.assertIn(f"| solid_fraction, time window | {a} (2 runs) | {b} (2 runs) |", text)
+            # both folders cut at b's end, t = 50: a's rows hold the same stretches as b's
+            self.assertIn("| 0 to 25 | 0.805 ± 0.005 | ", text)
+            self.assertNotIn("to 100", text)
+            (edges_a, _, _), (edges_b, _, _) = study.common_windows(a, b, 2)
+            self.assertEqual(list(edges_a), list(edges_b))
             # b's drift: 1e-4 x 25 = 0.0025 over errors of 0.005 each: 0.0025 / 0.00707.
             self.assertIn(f"drift of solid_fraction in {b}, last window - first: +0.0025 "
                           "(+0.35 combined errors)", text)
@@ -399,8 +404,11 @@ class StudyTest(unittest.TestCase):
             summary["bulk"]["mu_eff"]["mean"] = 1e300
             with open(os.path.join(d, "reference_seed2", "summary.json"), "w") as f:
                 json.dump(summary, f)
+            twin = d + "_twin"   # the same values in a second folder (a folder is not
+            shutil.copytree(d, twin)   # compared with itself)
+            self.addCleanup(shutil.rmtree, twin)
             with redirect_stdout(io.StringIO()) as out:
-                self.assertEqual(main(["study-compare", d, d]), 0)
+                self.assertEqual(main(["study-compare", d, twin]), 0)
             with redirect_stdout(io.StringIO()):
                 self.assertEqual(main(["study", d]), 0)
             with open(os.path.join(d, "study.md"), encoding="utf-8") as f:
@@ -527,7 +535,61 @@ class StudyTest(unittest.TestCase):
                      case=dict(case, initial_velocity="linear"))
             with self.assertRaisesRegex(study.StudyError, "shear.initial_velocity = 'linear'"):
                 study.compare_references(d, other)
-            self.assertEqual(len(study.compare_references(d, d)[2]), len(study.QUANTITIES))
+            with self.assertRaisesRegex(study.StudyError, "a folder compared with itself"):
+                study.compare_references(d, d)
+            twin = os.path.join(d, "twin")
+            shutil.copytree(os.path.join(d, "reference"), os.path.join(twin, "reference"))
+            self.assertEqual(len(study.compare_references(d, twin)[2]), len(study.QUANTITIES))
+
+    def test_folders_and_settings_that_would_compare_unlike_runs_are_refused(self):
+        def write_case(run, text):
+            with open(os.path.join(run, "case.toml"), "w") as f:
+                f.write(text)
+
+        measure = "[measure]\nwindow = 5.0\n"
+        with tempfile.TemporaryDirectory() as d:
+            fake_run(os.path.join(d, "reference"), 0.26, 0.004, 100.0, 10.0)
+            write_case(os.path.join(d, "reference"), measure + "[solver]\nnewton_iterations = 8\n")
+            # a misspelt key: case.toml, which holds every key of a case, lacks it
+            run = os.path.join(d, "solver.newton_iteration=0")
+            fake_run(run, 0.30, 0.004, 50.0, 30.0)
+            write_case(run, measure + "[solver]\nnewton_iterations = 0\n")
+            with self.assertRaisesRegex(study.StudyError, "holds no key solver.newton_iteration "
+                                                          r"\(misspelt\?\)"):
+                study.collect(d)
+            os.rename(run, os.path.join(d, "bogus.key=7"))
+            with self.assertRaisesRegex(study.StudyError, "holds no key bogus.key"):
+                study.collect(d)
+            run = os.path.join(d, "solver.newton_iterations=0")
+            os.rename(os.path.join(d, "bogus.key=7"), run)
+            self.assertEqual(len(study.collect(d)), 2)
+            # measured otherwise: refused, unless the window is the setting studied
+            write_case(run, "[measure]\nwindow = 2.0\n[solver]\nnewton_iterations = 0\n")
+            with self.assertRaisesRegex(study.StudyError, "measure.window = 2.0 where .*reference"
+                                                          ".case.toml has 5.0"):
+                study.collect(d)
+            os.rename(run, os.path.join(d, "measure.window=2"))
+            write_case(os.path.join(d, "measure.window=2"), "[measure]\nwindow = 2.0\n")
+            self.assertEqual([r["key"] for r in study.collect(d)], [None, "measure.window"])
+            # study-compare: another folder measured otherwise, one realization in both, and
+            # realizations that stand at other times (noted)
+            other = os.path.join(d, "other")
+            fake_run(os.path.join(other, "reference"), 0.26, 0.004, 100.0, 10.0, time=40.0)
+            write_case(os.path.join(other, "reference"), "[measure]\nwindow = 2.0\n")
+            with self.assertRaisesRegex(study.StudyError, "measure.window = 2.0 where"):
+                study.compare_references(d, other)
+            write_case(os.path.join(other, "reference"), measure)
+            with redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(main(["study-compare", d, other]), 0)
+            self.assertIn(f"note: the realizations stand at t = 100 in {d} and 40 in {other}",
+                          out.getvalue())
+            for folder in (os.path.join(d, "reference"), os.path.join(other, "reference")):
+                with open(os.path.join(folder, "run_info.json")) as f:
+                    info = json.load(f)
+                with open(os.path.join(folder, "run_info.json"), "w") as f:
+                    json.dump(dict(info, step=1000, state_hash="0954b4486515332d"), f)
+            with self.assertRaisesRegex(study.StudyError, "shares a realization with"):
+                study.compare_references(d, other)
 
 
 if __name__ == "__main__":

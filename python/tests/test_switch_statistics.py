@@ -130,6 +130,8 @@ class SwitchStatistics(unittest.TestCase):
         self.assertLess(len(summary["switches"]), from_run["switches"])
         write_summary(summary, clone)
         os.remove(os.path.join(clone, "run.h5"))
+        # all but the seeds, which run.h5 alone gives
+        self.assertEqual(from_run.pop("seeds"), (1, 1))
         self.assertEqual(ss.run_switches(clone), from_run)
         # a run stopped short, and one without a switch: counted alike from their summaries
         for path in (self.short, self.none):
@@ -137,7 +139,9 @@ class SwitchStatistics(unittest.TestCase):
             shutil.copytree(path, copy)
             write_summary(analyze(load_run(copy)), copy)
             os.remove(os.path.join(copy, "run.h5"))
-            self.assertEqual(ss.run_switches(copy), ss.run_switches(path))
+            from_run = ss.run_switches(path)
+            del from_run["seeds"]
+            self.assertEqual(ss.run_switches(copy), from_run)
 
     def test_each_run_counts_once_and_a_group_is_of_one_system(self):
         d = os.path.join(self.tmp.name, "once")
@@ -162,6 +166,16 @@ class SwitchStatistics(unittest.TestCase):
             json.dump({"step": 400000, "state_hash": "0954b4486515332d"}, f)
         copy = os.path.join(d, "copy", "s1_seed1_V0.05")
         shutil.copytree(kept, copy)
+        # a run.h5 with its case.toml alone (no run_info file to tell a copy by), and a run.h5
+        # in the folder of another seed
+        bare = os.path.join(d, "bare", "a")
+        os.makedirs(bare)
+        shutil.copy(os.path.join(self.a[0], "run.h5"), bare)
+        if os.path.exists(os.path.join(self.a[0], "case.toml")):
+            shutil.copy(os.path.join(self.a[0], "case.toml"), bare)
+        moved = os.path.join(d, "moved", "s1_seed2_V0.05")
+        shutil.copytree(self.a[1], moved)
+        shutil.copy(os.path.join(self.a[0], "run.h5"), moved)
         for args, problem in (
                 ([self.a[0], self.a[0] + os.sep], f"{self.a[0] + os.sep} is {self.a[0]} again"),
                 ([kept, self.a[1], copy], f"{copy} holds the run {kept} holds (both end at step "
@@ -172,7 +186,11 @@ class SwitchStatistics(unittest.TestCase):
                 ([self.a[0], other], f"{other} has normal_stress 1, {self.a[0]} 0.25: a group "
                                      "pools the seeds of one system and normal stress"),
                 ([self.a[0], copied], "no run.h5 beside it, and summary.json is of another "
-                                      f"run (run_dir '{self.a[1]}')")):
+                                      f"run (run_dir '{self.a[1]}')"),
+                ([self.a[0], self.a[1], bare], f"{bare} holds the run {self.a[0]} holds "
+                                               "(packing seed 1, solver seed 1, V = 0.05)"),
+                ([self.a[0], moved], f"{moved}/run.h5: run.h5 is of another run (system.seed = "
+                                     "1, the folder's case.toml says 2)")):
             err = io.StringIO()
             with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
                 self.assertEqual(main(["switch-times", *args]), 2, args)
