@@ -284,7 +284,7 @@ def decay_against_diffusion(summaries, fits):
              "sigma_yy": _mean(s, "case", "normal_stress"), "tau": _number(d.get("tau")),
              "tau_err": _number(d.get("tau_err")), "fit_range": _range(d.get("fit_range")),
              "shape_overlap": _overlaps(d.get("shape_overlap")), "law": law, "D": None,
-             "n": _whole(s.get("case", {}).get("n") if isinstance(s.get("case"), dict) else None),
+             "system": _system(s.get("case")),
              "T_SS": None,
              "tau_over_T_SS": None, "used": False, "reason": None}
         # Each must be a number above 0 (L_y^2 / D and sqrt(m / sigma_yy) need it).
@@ -329,9 +329,10 @@ def decay_against_diffusion(summaries, fits):
         entries.append(e)
     use = [e for e in entries if e["used"]]
     exponent = None
-    # Heights of other systems (numbers of disks): one system's L_y moves with V by its dilation
-    # alone, a few percent, which no power law of the height is to be read from.
-    if len({e["n"] for e in use}) >= 2 and None not in {e["n"] for e in use}:
+    # Heights of other systems (numbers of disks and nominal heights): one system's L_y moves
+    # with V by its dilation alone, a few percent, which no power law of the height is to be read
+    # from; and two measured heights at least, or the fit has no slope to take.
+    if exponent_absence(entries) is None and len(use) >= 2:
         x = np.log([e["L_y"] for e in use])
         z = np.log([e["tau"] * e["D"] for e in use])
         w = np.array([(e["tau"] / e["tau_err"]) ** 2 for e in use])
@@ -348,9 +349,13 @@ def decay_against_diffusion(summaries, fits):
     return entries, exponent
 
 
-def _whole(v):
-    """v when it is a whole number (a count of disks), else None."""
-    return v if isinstance(v, int) and not isinstance(v, bool) else None
+def _system(case):
+    """(n, nominal height) of a summary's case, the system a run is of; None where either is
+    missing or not a number."""
+    case = case if isinstance(case, dict) else {}
+    n, height = case.get("n"), _number(case.get("height"))
+    whole = isinstance(n, int) and not isinstance(n, bool)
+    return (n, height) if whole and height is not None else None
 
 
 def _series_problem(d):
@@ -372,16 +377,23 @@ def _series_problem(d):
 
 def exponent_absence(entries):
     """Why no exponent of the height is fitted over the used entries (decay_against_diffusion),
-    or None where one is: it needs used runs of two systems or more."""
+    or None where one is (or no run is used): it needs used runs of two systems or more (n and
+    nominal height) at two measured heights or more."""
     use = [e for e in entries if e["used"]]
-    systems = {e["n"] for e in use}
-    if not use or (len(systems) >= 2 and None not in systems):
+    systems = {e["system"] for e in use}
+    if not use:
         return None
     if None in systems:
-        return "no exponent of the height: a used run's summary gives no number of disks"
-    return (f"no exponent of the height: the {len(use)} used run{'s' if len(use) > 1 else ''} "
-            f"{'are' if len(use) > 1 else 'is'} of one system (n = {use[0]['n']}); it needs two "
-            f"systems or more")
+        return ("no exponent of the height: a used run's summary gives no number of disks or "
+                "nominal height")
+    if len(systems) < 2:
+        n, height = use[0]["system"]
+        return (f"no exponent of the height: the {len(use)} used "
+                f"run{'s are' if len(use) > 1 else ' is'} of one system (n = {n}, height "
+                f"{height:g}); it needs two systems or more")
+    if len({e["L_y"] for e in use}) < 2:
+        return "no exponent of the height: the used runs' measured heights are one"
+    return None
 
 
 def _finite_products(*values):

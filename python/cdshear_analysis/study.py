@@ -20,8 +20,9 @@ import json
 import math
 import os
 
-from .rundata import (IDENTITY_KEYS, MEASURED_MAGNITUDE_LIMIT, is_measured_number, is_number,
-                      open_regular, repeated_folder, run_info_paths, save_figure, unique_keys)
+from .rundata import (IDENTITY_KEYS, MEASURED_MAGNITUDE_LIMIT, end_state, folder_case,
+                      is_measured_number, is_number, open_regular, repeated_folder,
+                      run_info_paths, save_figure, unique_keys)
 from .statistics import time_weighted_mean, weighted_mean
 
 # (name in the tables, how to read value and error from summary.json)
@@ -189,9 +190,13 @@ _MEASURE_TABLE = "measure"
 def measure_difference(run_dir, reference_dir, varied=None):
     """Why the run in run_dir was measured otherwise than the one in reference_dir (the first key
     of case.toml's [measure] that both hold with other values, but `varied`), or None; None too
-    where either has no case.toml."""
-    path, case = _case_toml(run_dir)
-    reference_path, reference = _case_toml(reference_dir)
+    where either has no case.toml or one that cannot be read (a realization's run.h5 holds its
+    own copy; a setting's row is refused for it by setting_problem)."""
+    try:
+        _, case = _case_toml(run_dir)
+        reference_path, reference = _case_toml(reference_dir)
+    except StudyError:
+        return None
     if case is None or reference is None:
         return None
     mine, theirs = case.get(_MEASURE_TABLE), reference.get(_MEASURE_TABLE)
@@ -416,6 +421,26 @@ def welch_p(values_a, values_b):
     return float(stats.ttest_ind(a, b, equal_var=False).pvalue)
 
 
+def shared_realization(dirs_a, dirs_b):
+    """Why a realization of dirs_b is one of dirs_a (the same folder by another path or a link,
+    or a copy: the same end state, case.toml and build), or None."""
+    from .report import builds_of
+    places = {os.path.realpath(d): d for d in dirs_a}
+    ends = {}
+    for d in dirs_a:
+        if (state := end_state(d)) is not None:
+            ends.setdefault(state, d)
+    for d in dirs_b:
+        if (mine := places.get(os.path.realpath(d))) is not None:
+            return f"{d} is {mine} again"
+        state = end_state(d)
+        if (theirs := ends.get(state)) is not None and state is not None and \
+                folder_case(d) == folder_case(theirs) and builds_of(d) == builds_of(theirs):
+            return (f"{d} is a copy of {theirs} (both end at step {state[0]} in state {state[1]} "
+                    f"from the same case.toml and build)")
+    return None
+
+
 def compare_references(dir_a, dir_b):
     """Two builds or settings, each a study folder of realizations (`reference`,
     `reference_seed2`, ...: the same case with other solver seeds), compared as in
@@ -438,9 +463,11 @@ def compare_references(dir_a, dir_b):
     if why := (case_difference(runs_b[0], runs_a[0], reference_name=reference_a) or
                measure_difference(reference_b, reference_a)):
         raise StudyError(reference_b, why)
-    # one run in both folders (a copy, or a link) would be compared with itself
-    if why := repeated_folder([os.path.join(dir_a, r["run"]) for r in runs_a] +
-                              [os.path.join(dir_b, r["run"]) for r in runs_b]):
+    # one run in both folders (a link, or a copy: the same end state from the same case.toml and
+    # build) would be compared with itself; the same end state from another build or case is
+    # two builds computing one flow, what study-compare is for
+    if why := shared_realization([os.path.join(dir_a, r["run"]) for r in runs_a],
+                                 [os.path.join(dir_b, r["run"]) for r in runs_b]):
         raise StudyError(dir_b, f"shares a realization with {dir_a}: {why}")
     a, b = combine(runs_a), combine(runs_b)
     a["times"], b["times"] = [r["time"] for r in runs_a], [r["time"] for r in runs_b]
@@ -498,8 +525,11 @@ def format_comparison(dir_a, dir_b, a, b, lines, skipped=()):
                    f"{1 - 0.95 ** n:.0%} of the time; below {0.05 / n:.2g} "
                    f"(0.05 / {n}, Bonferroni), at most 5% of the time.")
     out += [f"left out {path}: no summary.json yet" for path in skipped]
-    times_a, times_b = a.get("times", []), b.get("times", [])
-    if not all(math.isclose(x, y, rel_tol=1e-9) for x in times_a for y in times_b):
+    times_a = [t for t in a.get("times", []) if math.isfinite(t)]
+    times_b = [t for t in b.get("times", []) if math.isfinite(t)]
+    if times_a and times_b and not all(
+            math.isclose(x, y, rel_tol=1e-9) for x, y in ((min(times_a), min(times_b)),
+                                                          (max(times_a), max(times_b)))):
         shown = lambda ts: ", ".join(f"{t:g}" for t in sorted(set(ts)))  # noqa: E731
         out.append(f"note: the realizations stand at t = {shown(times_a)} in {dir_a} and "
                    f"{shown(times_b)} in {dir_b}: their averages cover different stretches of "

@@ -43,10 +43,9 @@ def run_switches(run_dir):
     """One run's switches over its whole series: {"run", "V", "L_y" (the mean height), "time"
     (its first to last sample), "finished" (the run reached its duration), "duration",
     "switches" (count), "switch_times" (each switch's T, None for one across a gap in the
-    samples, which has none) and "starts" (each switch's start time)}, and from run.h5 "seeds"
-    (packing seed, solver seed). From run.h5 where the folder holds one (refused when it is of
-    another run than the folder's case.toml), else from its summary.json's
-    `whole_run_switches` (what a clone keeps).
+    samples, which has none) and "starts" (each switch's start time)}. From run.h5 where the
+    folder holds one (refused when it is of another run than the folder's case.toml), else from
+    its summary.json's `whole_run_switches` (what a clone keeps).
     Raises rundata.RunDataError for a run it cannot read."""
     # lexists: a broken link or a folder in a file's place is read, and its error named
     if not os.path.lexists(os.path.join(run_dir, RUN_FILE)) and os.path.lexists(
@@ -63,13 +62,8 @@ def run_switches(run_dir):
     whole = rg.whole_run_switches(time, rg.band_switches(time, u, V, source=source),
                                   s["height"])
     case = {key: float(attrs[key]) for key in CASE_KEYS}
-    record = _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole,
-                     case)
-    # run.h5's own seeds (its attributes `seed`, `solver_seed`): what tells one run by them
-    seeds = tuple(attrs.get(key) for key in ("seed", "solver_seed"))
-    record["seeds"] = None if any(isinstance(s, str) or s is None for s in seeds) else \
-        tuple(int(s) for s in seeds)
-    return record
+    return _record(run_dir, V, bool(attrs.get("finished", 0)), float(attrs["duration"]), whole,
+                   case)
 
 
 def _counted(k, one, many):
@@ -91,27 +85,45 @@ def _record(run_dir, V, finished, duration, whole, case):
 
 def group_problem(runs, dirs):
     """Why the runs of one group (run_switches records, read from `dirs`) cannot be pooled, or
-    None: a folder given twice (repeated_folder), or runs of another system or normal stress
-    (CASE_KEYS) than the first's."""
-    if repeated := repeated_folder(dirs):
+    None: a folder given twice or one run copied (repeated_folder), two folders without an end
+    state to tell a copy by whose case.toml files are one (the same_case_problem), or runs of
+    another system or normal stress (CASE_KEYS) than the first's."""
+    if repeated := repeated_folder(dirs) or same_case_problem(dirs):
         return repeated
-    # Folders whose run_info files are gone (no end state to tell a copy by): one case, seeds and
-    # V make one run, whatever the folder (runs are deterministic; two builds' runs of them are
-    # not independent either).
-    seen = {}
-    for run, d in zip(runs, dirs):
-        if run.get("seeds") is None:
-            continue
-        identity = (run["seeds"], run["V"]) + tuple(run[key] for key in CASE_KEYS)
-        if identity in seen:
-            return (f"{d} holds the run {seen[identity]} holds (packing seed {run['seeds'][0]}, "
-                    f"solver seed {run['seeds'][1]}, V = {run['V']:g}): each run counts once")
-        seen[identity] = d
     for run, d in zip(runs, dirs):
         for key in CASE_KEYS:
             if run[key] != runs[0][key]:
                 return (f"{d} has {key} {run[key]:g}, {dirs[0]} {runs[0][key]:g}: a group pools "
                         "the seeds of one system and normal stress")
+    return None
+
+
+def _case_identity(case):
+    """A resolved case (case.toml) as one comparable text, less what does not change the flow:
+    its [output] table and the packing file's path (a copy of the run keeps the packing but may
+    name it from elsewhere)."""
+    import json
+    kept = {table: values for table, values in case.items() if table != "output"}
+    if isinstance(kept.get("preparation"), dict):
+        kept["preparation"] = {k: v for k, v in kept["preparation"].items() if k != "packing"}
+    return json.dumps(kept, sort_keys=True, default=str)
+
+
+def same_case_problem(dirs):
+    """Why two of the folders hold one run, told by their case.toml where neither has an end
+    state in a run_info file (rundata.end_state, which repeated_folder compares: such a folder
+    was copied with its run.h5 alone, or its records are lost): one case, seeds included, is one
+    run, runs being deterministic; or None."""
+    from .rundata import end_state, folder_case
+    seen = {}
+    for d in dirs:
+        if end_state(d) is not None or (case := folder_case(d)) is None:
+            continue
+        identity = _case_identity(case)
+        if identity in seen:
+            return (f"{d} holds the run {seen[identity]} holds (the same case.toml, seeds "
+                    f"included, and no run_info file to tell them apart): each run counts once")
+        seen[identity] = d
     return None
 
 

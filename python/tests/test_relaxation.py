@@ -156,10 +156,10 @@ class ProfileDecay(unittest.TestCase):
         self.assertIn("complete windows", out["reason"])
 
 
-def summary_of(run, L_y, I, tau, start="rest", regime="A", steady=True, n=511):
+def summary_of(run, L_y, I, tau, start="rest", regime="A", steady=True, n=511, height=20.0):
     return {"run": run, "regime": regime, "steady": steady, "height": {"mean": L_y},
             "bulk": {"inertial_number": {"mean": I}, "solid_fraction": {"mean": 0.8}},
-            "case": {"normal_stress": 0.25, "n": n},
+            "case": {"normal_stress": 0.25, "n": n, "height": height},
             "profile_decay": {"initial_velocity": start, "tau": tau, "tau_err": 0.02 * tau,
                               "resolved": True, "reason": None, "fit_range": [10.0, 900.0],
                               "t": [10.0, 20.0, 30.0], "c": [0.1, None, 0.05], "c_0": 0.1,
@@ -202,8 +202,17 @@ class AgainstDiffusion(unittest.TestCase):
         entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
         self.assertEqual([e["used"] for e in entries], [True, True])
         self.assertIsNone(exponent)
-        self.assertIn("no exponent of the height: the 2 used runs are of one system (n = 511)",
+        self.assertIn("no exponent of the height: the 2 used runs are of one system (n = 511, "
+                      "height 20)", relaxation.format_decay_table(entries, exponent))
+        # two systems at one measured height (a wider cell): no slope to fit, said so
+        runs[1] = summary_of("wide", 22.7, 0.05, runs[1]["profile_decay"]["tau"], n=1023)
+        entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
+        self.assertIsNone(exponent)
+        self.assertIn("the used runs' measured heights are one",
                       relaxation.format_decay_table(entries, exponent))
+        # one n at two nominal heights: two systems
+        runs[1] = summary_of("tall", 43.0, 0.05, runs[1]["profile_decay"]["tau"], height=40.0)
+        self.assertIsNotNone(relaxation.decay_against_diffusion(runs, {"mu_power": LAW})[1])
 
     def test_the_figure_draws_the_used_runs_alone(self):
         from cdshear_analysis.plots import plot_profile_decay

@@ -588,7 +588,13 @@ class StudyTest(unittest.TestCase):
                     info = json.load(f)
                 with open(os.path.join(folder, "run_info.json"), "w") as f:
                     json.dump(dict(info, step=1000, state_hash="0954b4486515332d"), f)
-            with self.assertRaisesRegex(study.StudyError, "shares a realization with"):
+            # the same end state from another case.toml (or build): one flow computed twice,
+            # compared; from the same case.toml and build: a copy, refused
+            self.assertEqual(len(study.compare_references(d, other)[2]), len(study.QUANTITIES))
+            shutil.copy(os.path.join(d, "reference", "case.toml"),
+                        os.path.join(other, "reference"))
+            with self.assertRaisesRegex(study.StudyError, "shares a realization with .* is a "
+                                                          "copy of .*step 1000"):
                 study.compare_references(d, other)
 
 

@@ -206,7 +206,7 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   for (const DiskSpec& d : s.disks) diameters += 2.0 * d.radius, disk_count += 1.0;
   for (const RandomDisksSpec& r : s.random_disks) {
     const auto count = static_cast<double>(r.count);
-    diameters += count * 0.5 * (r.diameter_min + r.diameter_max), disk_count += count;
+    diameters += count * (0.5 * r.diameter_min + 0.5 * r.diameter_max), disk_count += count;
   }
   const double mean_diameter = disk_count > 0.0 ? diameters / disk_count : 0.0;
   const double default_margin = StepOptions{}.contact_margin;
