@@ -192,13 +192,10 @@ def measure_difference(run_dir, reference_dir, varied=None):
     of case.toml's [measure] that both hold with other values, but `varied`), or None; None too
     where either has no case.toml or one that cannot be read (a realization's run.h5 holds its
     own copy; a setting's row is refused for it by setting_problem)."""
-    try:
-        _, case = _case_toml(run_dir)
-        reference_path, reference = _case_toml(reference_dir)
-    except StudyError:
-        return None
+    case, reference = folder_case(run_dir), folder_case(reference_dir)
     if case is None or reference is None:
         return None
+    reference_path = os.path.join(reference_dir, "case.toml")
     mine, theirs = case.get(_MEASURE_TABLE), reference.get(_MEASURE_TABLE)
     if not isinstance(mine, dict) or not isinstance(theirs, dict):
         return None

@@ -79,13 +79,6 @@ class PlacementGrid {
   std::unordered_map<std::int64_t, std::vector<std::size_t>> cells_;
 };
 
-/// v in the shortest form printf's %g gives it (core code has no formatting library).
-std::string shortest_text(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", v);
-  return text;
-}
-
 /// The walls that leave no room in a group's region: every point of it behind the wall or within
 /// the smallest radius of it (a wall whose normal points away from the disks' side, the usual
 /// slip), as advice for the placement's failure; nullopt when no wall does.
@@ -98,8 +91,8 @@ std::optional<std::string> walls_excluding(const std::vector<Wall>& walls,
     const Vec2 front{n.x > 0.0 ? spec.region_max.x : spec.region_min.x,
                      n.y > 0.0 ? spec.region_max.y : spec.region_min.y};
     if (dot(front - w.point, n) < 0.5 * spec.diameter_min)
-      names += (names.empty() ? "'" : ", '") + w.name + "' (normal (" + shortest_text(w.normal.x) +
-               ", " + shortest_text(w.normal.y) + "))";
+      names += (names.empty() ? "'" : ", '") + w.name + "' (normal (" + short_number(w.normal.x) +
+               ", " + short_number(w.normal.y) + "))";
   }
   if (names.empty()) return std::nullopt;
   return "the region lies wholly behind wall " + names +
@@ -127,7 +120,7 @@ void place_random(World& world, const RandomDisksSpec& spec, std::size_t group, 
       throw SceneError(indexed(base, group, "region_max"),
                        "the region (region_min to region_max) is smaller than a disk of "
                        "diameter " +
-                           shortest_text(2 * r));
+                           short_number(2 * r));
     bool placed = false;
     for (int attempt = 0; attempt < spec.max_attempts_per_disk && !placed; ++attempt) {
       Vec2 p{rng.uniform(x_lo, x_hi), rng.uniform(y_lo, y_hi)};
@@ -273,9 +266,9 @@ void validate_scene(const SceneDefinition& s) {
     largest_diameter = std::max(largest_diameter, r.diameter_max);
   }
   if (s.domain.periodic_x && s.domain.length_x < 3.0 * largest_diameter)
-    throw SceneError("domain.length_x", "period " + shortest_text(s.domain.length_x) +
+    throw SceneError("domain.length_x", "period " + short_number(s.domain.length_x) +
                                             " is shorter than 3 largest diameters (3 x " +
-                                            shortest_text(largest_diameter) +
+                                            short_number(largest_diameter) +
                                             "); contacts would be ambiguous");
 }
 
