@@ -315,6 +315,21 @@ expect_error "--set step.contact_margin=0.01: key 'measure.contact_gap': must be
 expect_error "--set measure.contact_gap=0.01: key 'measure.contact_gap': must be at most half" \
   "$exe" settings gap.toml --set step.contact_margin=0.01 --set measure.contact_gap=0.01
 printf '[step]\ncontact_margin = 1e-5\n' > margin.toml
+# A setting that changes nothing under the others is read and named in a warning; a default is not.
+checks=$((checks + 1))
+"$exe" settings --set 'solver.order="random"' --set solver.slab_correction_period=4 \
+  > out.txt 2> err.txt && grep -qF "warning: solver.slab_correction_period = 4 has no effect: the \
+slab correction runs in the coloured order only" err.txt ||
+  { echo "FAIL: no warning of a setting without effect: $(cat err.txt)"; fails=$((fails + 1)); }
+checks=$((checks + 1))
+"$exe" settings --set 'solver.order="random"' > out.txt 2> err.txt && ! grep -q warning err.txt ||
+  { echo "FAIL: a default named as without effect: $(cat err.txt)"; fails=$((fails + 1)); }
+checks=$((checks + 1))
+"$exe" scene "$scene" --set solver.anderson_period=3 --set run.duration=0.01 \
+  --set run.sample_every=1 -q -o no_mix \
+  > out.txt 2> err.txt &&
+  grep -qF "warning: solver.anderson_period = 3 has no effect: solver.anderson_depth = 0" err.txt ||
+  { echo "FAIL: a scene's setting without effect: $(cat err.txt)"; fails=$((fails + 1)); }
 expect_error "margin.toml: key 'measure.contact_gap': must be at most half" \
   "$exe" settings margin.toml --set shear.duration=10
 expect_error "--set system.diameter_min=3: key 'system.diameter_max': must be >= diameter_min" \

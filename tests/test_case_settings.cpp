@@ -289,5 +289,74 @@ TEST(CaseSettings, KeysNoLongerReadAreAcceptedAtTheValueNowUsedOnly) {
   EXPECT_THROW(with({"solver.relaxation=0.9"}), ConfigError);
 }
 
+TEST(CaseSettings, SettingsNamedWithoutEffectChangeNoRunAndEffectiveOnesAreNotNamed) {
+  // The slab correction needs 20 bands of 4 largest diameters: the tall box (600 disks, 5 wide,
+  // about 95 high) has about 24, the short one (300 disks, 12 wide, about 20 high) about 5.
+  const testing::ShearedBox tall = testing::sheared_dense_box(600, 5.0, 0.5);
+  const testing::ShearedBox short_box = testing::sheared_dense_box(300, 12.0, 0.5);
+  ASSERT_TRUE(tall.dense && short_box.dense);
+  const auto hash = [](const testing::ShearedBox& box, const SolverOptions& solver) {
+    World world = box.world;
+    ContactDynamics dynamics = box.dynamics;
+    StepOptions o = shear_step_defaults();
+    o.dt = 2e-3;
+    o.solver = solver;
+    for (int k = 0; k < 40; ++k) EXPECT_FALSE(dynamics.step(world, o).blown_up);
+    return state_hash(world);
+  };
+  const SolverOptions shear = shear_step_defaults().solver;
+  const auto named = [&](const SolverOptions& o, const std::string& key) {
+    const std::vector<std::string> notes = solver_settings_without_effect(o, shear, "solver");
+    return notes.size() == 1 && notes[0].starts_with("solver." + key + " = ");
+  };
+  struct Pair {
+    const char* key;
+    SolverOptions given, without;  // the key given, and at its value that turns it off
+    bool named;                    // whether the given value is named as without effect
+  };
+  const auto period = [&](ContactOrder order, double kappa, int slab_period) {
+    SolverOptions o = shear;
+    o.order = order;
+    o.normal_compliance = kappa;
+    o.slab_correction_period = slab_period;
+    return o;
+  };
+  const auto mix = [&](int depth, int mix_period) {
+    SolverOptions o = shear;
+    o.anderson_depth = depth;
+    o.anderson_period = mix_period;
+    return o;
+  };
+  const ContactOrder kRandom = ContactOrder::kRandom, kColoured = ContactOrder::kColoured;
+  for (const Pair& p :
+       {Pair{"slab_correction_period", period(kRandom, 0.0, 4), period(kRandom, 0.0, 0), true},
+        Pair{"slab_correction_period", period(kColoured, 0.01, 4), period(kColoured, 0.01, 0),
+             true},
+        Pair{"anderson_period", mix(0, 3), mix(0, 1), true},
+        Pair{"slab_correction_period", period(kColoured, 0.0, 4), period(kColoured, 0.0, 0), false},
+        Pair{"anderson_period", mix(5, 3), mix(5, 1), false}}) {
+    EXPECT_EQ(named(p.given, p.key), p.named) << p.key;
+    const bool same = hash(tall, p.given) == hash(tall, p.without);
+    EXPECT_EQ(same, p.named) << p.key
+                             << ": a named setting changes nothing, the others change "
+                                "the run";
+  }
+  // The band rule, on the case: named in system 1's cell (L_y 20), not in system 5's (L_y 80);
+  // the correction indeed changes nothing in a cell of that height.
+  const auto case_notes = [](std::optional<int> system, const std::vector<std::string>& sets) {
+    CaseSource source;
+    source.system = system;
+    source.overrides = sets;
+    return case_settings_without_effect(load_case(source));
+  };
+  const std::vector<std::string> short_notes = case_notes(1, {"solver.slab_correction_period=4"});
+  ASSERT_EQ(short_notes.size(), 1u);
+  EXPECT_NE(short_notes[0].find("in this cell"), std::string::npos) << short_notes[0];
+  EXPECT_EQ(hash(short_box, period(kColoured, 0.0, 4)), hash(short_box, period(kColoured, 0.0, 0)));
+  EXPECT_TRUE(case_notes(5, {"solver.slab_correction_period=4"}).empty());
+  // A default is never named: a case that only changes the order stays quiet.
+  EXPECT_TRUE(case_notes(1, {"solver.order=\"random\""}).empty());
+}
+
 }  // namespace
 }  // namespace cdshear

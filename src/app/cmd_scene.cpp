@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "case_settings.hpp"
 #include "commands.hpp"
 #include "config_error.hpp"
 #include "observers.hpp"
@@ -31,6 +32,9 @@ struct SceneArgs {
 int run_scene(const SceneArgs& args) {
   SceneFile sf = load_scene_file(args.file, args.overrides);
   sf.step.solver.threads = args.threads;
+  for (const std::string& note :
+       solver_settings_without_effect(sf.step.solver, SolverOptions{}, "solver"))
+    std::fprintf(stderr, "warning: %s\n", note.c_str());
   World world;
   try {
     world = build_world(sf.scene, &g_stop_requested);

@@ -34,6 +34,8 @@ void print_settings(const SettingsArgs& a) {
     return;
   }
   const ShearCase c = load_case(a.source);
+  for (const std::string& note : case_settings_without_effect(c))
+    std::fprintf(stderr, "warning: %s\n", note.c_str());
   const std::string text =
       a.markdown ? settings_as_markdown(c)
                  : settings_as_toml(c, "Every key of a shear case file with its value for " +

@@ -726,6 +726,8 @@ int run_shear(const RunArgs& args) {
     open_resumed(args, s);
   if (!s.dt_warning.empty()) std::fprintf(stderr, "warning: %s\n", s.dt_warning.c_str());
   const ShearCase& c = s.c;
+  for (const std::string& note : case_settings_without_effect(c))
+    std::fprintf(stderr, "warning: %s\n", note.c_str());
   const double dt = c.step.dt;
   RunLoopSettings loop = run_loop_settings(args, s);
   const std::uint64_t end_step = s.end_step;

@@ -287,6 +287,27 @@ ShearCase load_case(const CaseSource& src) {
   return resolved;
 }
 
+std::vector<std::string> case_settings_without_effect(const ShearCase& c) {
+  const SolverOptions& o = c.step.solver;
+  const SolverOptions defaults = ShearCase{}.step.solver;
+  std::vector<std::string> notes = solver_settings_without_effect(o, defaults, "solver");
+  // The coloured order's bands are 4 largest diameters tall (contact_dynamics.cpp), and the
+  // correction needs kSlabCorrectionMinBands of them: disk centres spread over (20 - 1) x 4
+  // d_max = 76 d_max. Named only well below that (0.9 of it), where no dilation of the cell
+  // under the walls' pressure reaches it.
+  const double needed_span =
+      (static_cast<double>(kSlabCorrectionMinBands) - 1.0) * 4.0 * c.diameter_max;
+  if (o.slab_correction_period != defaults.slab_correction_period && asks_for_slab_correction(o) &&
+      c.height < 0.9 * needed_span)
+    notes.push_back(fmt::format(
+        "solver.slab_correction_period = {} has no effect in this cell: the slab correction "
+        "runs in packings of {} bands of 4 largest diameters or more (L_y of about {} d_max = "
+        "{}), system.height is {}",
+        o.slab_correction_period, kSlabCorrectionMinBands, 4 * kSlabCorrectionMinBands,
+        format_number(4.0 * kSlabCorrectionMinBands * c.diameter_max), format_number(c.height)));
+  return notes;
+}
+
 nlohmann::json case_identity(const ShearCase& c) {
   return {{"n", c.n},
           {"height", c.height},

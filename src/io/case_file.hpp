@@ -27,6 +27,11 @@ struct CaseSource {
 /// the overrides. Throws ConfigError naming the file (or "--set ...") and the key.
 ShearCase load_case(const CaseSource& source);
 
+/// The case's settings that differ from the defaults and change nothing under the others, each as
+/// "key = value has no effect: why": solver_settings_without_effect on [solver], and the slab
+/// correction in a cell too short for its bands. Printed as warnings by `run` and `settings`.
+std::vector<std::string> case_settings_without_effect(const ShearCase& c);
+
 /// Reads a complete case from a TOML table (as written by case_to_toml); `file` names it in
 /// errors.
 ShearCase case_from_toml(const toml::table& table, const std::string& file, ShearCase base,

@@ -817,6 +817,29 @@ void read_retired_solver_keys(TomlReader& reader, const std::string& table,
                              "; remove the key (docs/case-files.md, \"Keys no longer read\")");
 }
 
+std::vector<std::string> solver_settings_without_effect(const SolverOptions& o,
+                                                        const SolverOptions& defaults,
+                                                        const std::string& table) {
+  std::vector<std::string> notes;
+  const std::string prefix = table.empty() ? "" : table + ".";
+  if (o.slab_correction_period != defaults.slab_correction_period && o.slab_correction_period > 0) {
+    const std::string key =
+        fmt::format("{}slab_correction_period = {}", prefix, o.slab_correction_period);
+    if (o.order != ContactOrder::kColoured)
+      notes.push_back(key +
+                      " has no effect: the slab correction runs in the coloured order only (" +
+                      prefix + "order = \"" + contact_order_name(o.order) + "\")");
+    else if (o.normal_compliance > 0.0)
+      notes.push_back(key + " has no effect: the slab correction runs with rigid contacts only (" +
+                      prefix + "normal_compliance = " + format_number(o.normal_compliance) + ")");
+  }
+  if (o.anderson_period != defaults.anderson_period && o.anderson_depth == 0)
+    notes.push_back(
+        fmt::format("{}anderson_period = {} has no effect: {}anderson_depth = 0 (no mix)", prefix,
+                    o.anderson_period, prefix));
+  return notes;
+}
+
 template <class T>
 std::string range_text(const Setting<T>& s) {
   std::string text;

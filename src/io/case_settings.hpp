@@ -77,6 +77,16 @@ const std::vector<Setting<SolverOptions>>& solver_settings();
 void read_retired_solver_keys(TomlReader& reader, const std::string& table,
                               const SolverOptions& options);
 
+/// The solver settings of `o` that differ from `defaults` and change nothing under the others,
+/// each as "key = value has no effect: why" (keys prefixed with `table` and a dot unless it is
+/// empty): the slab correction's period outside the coloured order or with a normal compliance,
+/// the mix's period without a mix. Read as they are and printed as warnings (docs/case-files.md,
+/// "Settings without effect"): a value equal to the default is never named, so that a file
+/// written by `cdshear settings` stays quiet.
+std::vector<std::string> solver_settings_without_effect(const SolverOptions& o,
+                                                        const SolverOptions& defaults,
+                                                        const std::string& table);
+
 /// Reads `s` from `reader` (which is positioned at s.table) into `target` when the key is
 /// present, checking its type and range; an absent key leaves `target` as it is.
 template <class T>
