@@ -38,6 +38,8 @@ expect_error "--set walls=[]: key 'walls': an array of tables" "$exe" scene "$sc
 expect_error "key 'disks': an array of tables" "$exe" scene "$scene" --set 'disks=[{position=[1,1],radius=0.5}]' -o never
 expect_error "key 'walls.normal': an array of tables ([[walls]])" "$exe" scene "$scene" --set 'walls.normal={x=0.0,y=1.0}' -o never
 expect_error "key 'walls.friction': an array of tables ([[walls]])" "$exe" scene "$scene" --set walls.friction=0.3 -o never
+expect_error "--set domain.periodic_x=true: key 'domain.length_x': is required with domain.periodic_x" \
+  "$exe" scene "$scene" --set domain.periodic_x=true -o never
 # A place in a periodic x beyond a million periods (its wrap would lose it).
 printf '[run]\nduration=0.05\n[domain]\nperiodic_x=true\nlength_x=10\n[[disks]]\nposition=[1e20,2]\nradius=1\n' > far_scene.toml
 expect_error "far_scene.toml: key 'disks[0].position': x = 1e+20 is more than a million periods" "$exe" scene far_scene.toml -o never

@@ -74,6 +74,11 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
 
   TomlReader domain = root.table("domain");
   s.domain.periodic_x = domain.boolean("periodic_x", false);
+  // A period asked for on the command line of a file that gives none is the --set's to answer.
+  if (s.domain.periodic_x && !domain.has("length_x") && domain.overridden("domain.periodic_x"))
+    domain.fail_between("length_x", {"domain.periodic_x"},
+                        "is required with domain.periodic_x = true: give the period too (--set "
+                        "domain.length_x=...)");
   if (s.domain.periodic_x)
     s.domain.length_x = domain.positive("length_x");
   else if (domain.has("length_x"))
