@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include "case_file.hpp"
@@ -75,6 +76,33 @@ TEST(BadInput, ValidSceneLoads) {
   EXPECT_EQ(sf.step.dt, 1e-3);
   EXPECT_EQ(sf.step.solver.seed, 3u);
   EXPECT_NO_THROW(build_world(sf.scene));
+}
+
+TEST(BadInput, TheResolvedSceneHoldsEveryValueInUseAndReadsBackAsTheSameScene) {
+  // The file leaves out most keys; the resolved table written beside the results (scene.toml)
+  // holds each with the value the run used, a --set's included.
+  TempDir dir("resolved_scene");
+  const std::string disks =
+      "[[disks]]\nposition = [1.0, 0.5]\nradius = 0.5\n"
+      "[[random_disks]]\ncount = 20\nregion_min = [0.0, 2.0]\nregion_max = [6.0, 8.0]\n";
+  const SceneFile first = load_scene_file(dir.write("scene.toml", scene_text("dt = 1e-3\n", disks)),
+                                          {"solver.relaxation=1.3"});
+  for (const char* key :
+       {"solver.relaxation", "solver.anderson_depth", "solver.order", "step.contact_margin",
+        "material.density", "walls[0].friction", "walls[0].mode_x", "walls[0].velocity",
+        "disks[0].omega", "random_disks[0].seed", "random_disks[0].diameter_min",
+        "domain.periodic_x", "run.status_every", "overlap_tolerance"})
+    EXPECT_TRUE(first.resolved.at_path(key)) << key << " is not in the resolved scene";
+  EXPECT_EQ(first.resolved.at_path("solver.relaxation").value<double>(), 1.3);
+  EXPECT_EQ(first.resolved.at_path("random_disks[0].diameter_min").value<double>(), 0.8);
+  std::ostringstream written;
+  written << first.resolved;
+  const SceneFile again = load_scene_file(dir.write("again.toml", written.str()), {});
+  std::ostringstream rewritten;
+  rewritten << again.resolved;
+  EXPECT_EQ(rewritten.str(), written.str()) << "the resolved scene left a value out";
+  EXPECT_EQ(again.step.solver.relaxation, 1.3);
+  EXPECT_EQ(state_hash(build_world(again.scene)), state_hash(build_world(first.scene)));
 }
 
 TEST(BadInput, UnknownKey) {

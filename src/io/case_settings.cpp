@@ -767,7 +767,10 @@ const std::vector<CaseSetting>& case_settings() {
 
 template <class T>
 void read_setting(const Setting<T>& s, TomlReader& r, T& target) {
-  if (!r.has(s.key)) return;
+  if (!r.has(s.key)) {  // a filling reader records the value in use
+    if (toml::table* table = r.fill_target(s.key)) insert_setting(*table, s.key, s.get(target));
+    return;
+  }
   SettingValue value;
   switch (s.type) {
     case kNumber: {

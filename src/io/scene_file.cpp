@@ -69,7 +69,7 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
   apply_overrides(out.resolved, overrides, sources.get(), path);
   out.file = path;
   out.sources = sources;
-  TomlReader root(out.resolved, path, "", sources);
+  TomlReader root = TomlReader::filling(out.resolved, path, sources);
   SceneDefinition& s = out.scene;
 
   TomlReader domain = root.table("domain");
@@ -172,11 +172,12 @@ SceneFile load_scene_file(const std::string& path, const std::vector<std::string
     spec.count = static_cast<std::size_t>(r.integer_in("count", 0, kMaxDisks));
     spec.region_min = r.vec2("region_min");
     spec.region_max = r.vec2("region_max");
+    const bool min_given = r.has("diameter_min");  // before the default is filled in
     spec.diameter_min = r.positive("diameter_min", 0.8);
     spec.diameter_max = r.positive("diameter_max", 1.0);
     // The scene builder checks the order; here the file is known, and with it which bound the
     // file left at its default.
-    if (spec.diameter_max < spec.diameter_min && !r.has("diameter_min"))
+    if (spec.diameter_max < spec.diameter_min && !min_given)
       r.fail("diameter_max",
              "is " + format_number(spec.diameter_max) + ", below diameter_min, which is " +
                  format_number(spec.diameter_min) + " when not given: give diameter_min as well");

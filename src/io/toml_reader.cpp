@@ -199,6 +199,18 @@ TomlReader::TomlReader(const toml::table& table, std::string file, std::string p
       prefix_(std::move(prefix)),
       sources_(std::move(sources)) {}
 
+TomlReader TomlReader::filling(toml::table& table, std::string file,
+                               std::shared_ptr<const OverrideSources> sources) {
+  TomlReader reader(table, std::move(file), "", std::move(sources));
+  reader.fill_ = &table;
+  return reader;
+}
+
+template <class V>
+void TomlReader::fill(const std::string& key, const V& value) {
+  if (fill_ != nullptr) fill_->insert_or_assign(key, value);
+}
+
 std::string TomlReader::full_key(const std::string& key) const {
   return prefix_.empty() ? key : prefix_ + "." + key;
 }
@@ -331,6 +343,7 @@ double TomlReader::number(const std::string& key, std::optional<double> fallback
   const toml::node* n = lookup(key);
   if (n == nullptr) {
     if (!fallback) fail_missing(key);
+    fill(key, *fallback);
     return *fallback;
   }
   if (auto v = n->value<double>(); v && (n->is_floating_point() || n->is_integer())) {
@@ -344,6 +357,7 @@ std::int64_t TomlReader::integer(const std::string& key, std::optional<std::int6
   const toml::node* n = lookup(key);
   if (n == nullptr) {
     if (!fallback) fail_missing(key);
+    fill(key, *fallback);
     return *fallback;
   }
   if (!n->is_integer()) fail(key, "must be an integer");
@@ -363,6 +377,7 @@ bool TomlReader::boolean(const std::string& key, std::optional<bool> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
     if (!fallback) fail_missing(key);
+    fill(key, *fallback);
     return *fallback;
   }
   if (!n->is_boolean()) fail(key, "must be true or false");
@@ -373,6 +388,7 @@ std::string TomlReader::string(const std::string& key, std::optional<std::string
   const toml::node* n = lookup(key);
   if (n == nullptr) {
     if (!fallback) fail_missing(key);
+    fill(key, *fallback);
     return *fallback;
   }
   if (!n->is_string()) fail(key, "must be a string");
@@ -388,6 +404,7 @@ Vec2 TomlReader::vec2(const std::string& key, std::optional<Vec2> fallback) {
   const toml::node* n = lookup(key);
   if (n == nullptr) {
     if (!fallback) fail_missing(key);
+    fill(key, toml::array{fallback->x, fallback->y});
     return *fallback;
   }
   const toml::array* a = n->as_array();
@@ -458,9 +475,15 @@ std::string TomlReader::choice(const std::string& key, const std::vector<std::st
 TomlReader TomlReader::table(const std::string& key) {
   static const toml::table empty;
   const toml::node* n = lookup(key);
-  if (n == nullptr) return TomlReader(empty, file_, full_key(key), sources_);
-  if (!n->is_table()) fail(key, "must be a table");
-  return TomlReader(*n->as_table(), file_, full_key(key), sources_);
+  if (n != nullptr && !n->is_table()) fail(key, "must be a table");
+  if (fill_ != nullptr) {  // the sub-table, made where absent, filled in turn
+    if (n == nullptr) fill_->insert(key, toml::table{});
+    toml::table& sub = *fill_->get_as<toml::table>(key);
+    TomlReader reader(sub, file_, full_key(key), sources_);
+    reader.fill_ = &sub;
+    return reader;
+  }
+  return TomlReader(n == nullptr ? empty : *n->as_table(), file_, full_key(key), sources_);
 }
 
 std::vector<TomlReader> TomlReader::tables(const std::string& key) {
@@ -473,6 +496,8 @@ std::vector<TomlReader> TomlReader::tables(const std::string& key) {
     const toml::table* t = (*a)[i].as_table();
     if (t == nullptr) fail(key, "entry " + std::to_string(i) + " must be a table");
     out.emplace_back(*t, file_, full_key(key) + "[" + std::to_string(i) + "]", sources_);
+    if (fill_ != nullptr)
+      out.back().fill_ = fill_->get_as<toml::array>(key)->get_as<toml::table>(i);
   }
   return out;
 }

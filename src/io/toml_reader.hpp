@@ -89,6 +89,10 @@ class TomlReader {
  public:
   TomlReader(const toml::table& table, std::string file, std::string prefix = "",
              std::shared_ptr<const OverrideSources> sources = nullptr);
+  /// A reader that writes each default it falls back to into `table` itself (and its tables),
+  /// so that the table ends up holding every value read: a scene's resolved scene.toml.
+  static TomlReader filling(toml::table& table, std::string file,
+                            std::shared_ptr<const OverrideSources> sources);
 
   bool has(const std::string& key) const;
   /// True when the key holds a table (for keys that take a value or a table of values).
@@ -142,15 +146,26 @@ class TomlReader {
     return !blamed_key(sources_.get(), {key}).empty();
   }
   const std::string& file() const { return file_; }
+  /// For a filling reader, the table to write the value in use of the absent `key` into (the one
+  /// it reads), `key` then counting as read; null for any other reader.
+  toml::table* fill_target(const std::string& key) {
+    if (fill_ == nullptr) return nullptr;
+    used_.insert(key);
+    return fill_;
+  }
 
  private:
   const toml::node* lookup(const std::string& key);
+  /// Where this reader fills in defaults: `value` at `key` (a filling reader only).
+  template <class V>
+  void fill(const std::string& key, const V& value);
 
   const toml::table* table_;
   std::string file_;
   std::string prefix_;
   std::set<std::string> used_;
   std::shared_ptr<const OverrideSources> sources_;  ///< keys given on the command line
+  toml::table* fill_ = nullptr;                     ///< table_ itself, when filling defaults
 };
 
 /// A number as a person writes it: shortest exact form, exponent for large or small values
