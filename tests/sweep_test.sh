@@ -145,6 +145,36 @@ grep -q "1 finished earlier (1 to analyse)" old_figure.out ||
 "$exe" sweep measured.toml -o measured > analysed.out 2>&1 || fail "analysed: $(cat analysed.out)"
 grep -q "1 finished earlier, 0 to resume" analysed.out ||
   fail "an analysed run analysed again: $(cat analysed.out)"
+# A finished run kept as its run.h5 (checkpoint, final state and summary deleted to save space)
+# is finished and analysed again, its data untouched; one whose run.h5 is of another run, or
+# unfinished with nothing to resume it from, is listed as failed and left as it is.
+cp -r measured data_only
+rm data_only/runs/s1_seed1_V1/{checkpoint.cbor,final_state.json,summary.json}
+data=$(md5sum data_only/runs/s1_seed1_V1/run.h5)
+[ -n "$data" ] || fail "the measured run wrote no run.h5"
+"$exe" sweep measured.toml -o data_only > data_only.out 2>&1 ||
+  fail "run.h5 alone: $(cat data_only.out)"
+grep -q "1 finished earlier (1 to analyse)" data_only.out ||
+  fail "run.h5 alone: $(cat data_only.out)"
+[ "$data" = "$(md5sum data_only/runs/s1_seed1_V1/run.h5)" ] || fail "the run.h5 kept was replaced"
+test -f data_only/runs/s1_seed1_V1/summary.json || fail "the run.h5 kept was not analysed"
+"$exe" run --packing "$packing" -V 0.5 --set shear.duration=1 --set measure.window=1 -q \
+  --no-analyze -o other_run > other_run.out 2>&1 || fail "other run: $(cat other_run.out)"
+cp -r data_only swapped_data
+rm swapped_data/runs/s1_seed1_V1/summary.json
+cp other_run/run.h5 swapped_data/runs/s1_seed1_V1/run.h5
+rc=0; "$exe" sweep measured.toml -o swapped_data > swapped_data.out 2>&1 || rc=$?
+[ $rc -eq 1 ] &&
+  grep -q "s1_seed1_V1: .*run.h5 is of another run (velocity = 0.5, its case.toml says 1" \
+  swapped_data.out || fail "another run's run.h5 (exit $rc): $(cat swapped_data.out)"
+cp -r data_only unfinished
+rm unfinished/runs/s1_seed1_V1/summary.json
+printf 'not hdf5' > unfinished/runs/s1_seed1_V1/run.h5
+rc=0; "$exe" sweep measured.toml -o unfinished > unfinished.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: holds a run's data (run.h5) unfinished or unreadable" \
+  unfinished.out || fail "an unreadable run.h5 (exit $rc): $(cat unfinished.out)"
+[ "$(cat unfinished/runs/s1_seed1_V1/run.h5)" = "not hdf5" ] ||
+  fail "the unreadable run.h5 was replaced"
 # An analysis that fails: the run is listed as failed and the sweep exits 1; a later sweep whose
 # analysis succeeds exits 0.
 rm $ended/summary.json

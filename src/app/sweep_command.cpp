@@ -37,6 +37,7 @@
 #include "json_reading.hpp"
 #include "mpi_scheduler.hpp"
 #include "outputs.hpp"
+#include "run_data_file.hpp"
 #include "run_session.hpp"
 #include "stop_signals.hpp"
 #include "toml_reader.hpp"
@@ -119,6 +120,19 @@ bool interrupted_after_final_state(const fs::path& dir);
 /// Either file unreadable: false.
 bool final_state_short_of_case(const fs::path& dir);
 
+/// The case.toml that `dir`'s run.h5 records, where the file reads as the data of a run that
+/// reached its end; nothing where it is missing, unreadable or unfinished.
+std::optional<std::string> finished_run_data(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::exists(dir / "run.h5", ec)) return std::nullopt;
+  try {
+    RunData data = read_run_data(dir / "run.h5");
+    if (data.meta.finished) return std::move(data.meta.case_toml);
+  } catch (const ConfigError&) {
+  }
+  return std::nullopt;
+}
+
 /// Finished: final_state.json (written only when the run reached its duration), whether or not
 /// a run_info*.json says "finished" too: a run killed between writing the two has every step
 /// done (a resume would only write its run_info), so it counts as finished; unless
@@ -130,7 +144,8 @@ bool final_state_short_of_case(const fs::path& dir);
 /// Blown up: blowup_state.json (a resume would repeat the same steps), also where an extension
 /// of a finished run blew up (the blow-up no older than the final state). Interrupted: a
 /// checkpoint to resume from. Finished too: no checkpoint but a summary.json of a run that
-/// reached its end (a campaign folder cloned from git keeps its summaries, not its final states).
+/// reached its end (a campaign folder cloned from git keeps its summaries, not its final states),
+/// or a run.h5 marked finished (the checkpoint and final state deleted to save space).
 /// Otherwise new.
 RunState run_state(const fs::path& dir) {
   if (!fs::is_directory(dir)) return RunState::kNew;
@@ -153,6 +168,7 @@ RunState run_state(const fs::path& dir) {
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
   if (case_of(run_summary(dir)).value("finished", nlohmann::json()) == true)
     return RunState::kFinished;
+  if (finished_run_data(dir)) return RunState::kFinished;
   return RunState::kNew;
 }
 
@@ -314,6 +330,28 @@ std::string summary_problem(const fs::path& run_dir) {
   return "";
 }
 
+/// Empty when a finished run kept as its run.h5 alone is of the folder's case.toml: the case
+/// the run.h5 records (`recorded`) has the same identity; otherwise why not.
+std::string run_data_problem(const fs::path& run_dir, const std::string& recorded) {
+  const FolderCase folder = folder_case(run_dir);
+  if (!folder.c) return folder.problem;
+  const fs::path file = run_dir / "run.h5";
+  nlohmann::json theirs;
+  try {
+    theirs = case_identity(
+        case_from_toml(parse_toml_text(recorded, file.string()), file.string(), ShearCase{}));
+  } catch (const ConfigError& e) {
+    return file.string() + ": the case it records cannot be read: " + e.what();
+  }
+  const nlohmann::json identity = case_identity(*folder.c);
+  if (const std::string key = differing_identity_key(theirs, identity); !key.empty())
+    return fmt::format(
+        "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one again",
+        file.string(), key, json_shown(theirs.at(key), kComparedValueLimit),
+        json_shown(identity.at(key), kComparedValueLimit));
+  return "";
+}
+
 /// Empty when the final state of a finished run belongs to the run's case.toml (the case
 /// identity it carries matches); otherwise why not: a final_state.json copied from another run
 /// must not make the sweep skip this one as finished. A final state without an identity
@@ -321,7 +359,12 @@ std::string summary_problem(const fs::path& run_dir) {
 /// is checked by summary_problem.
 std::string final_state_problem(const fs::path& run_dir) {
   const fs::path file = run_dir / "final_state.json";
-  if (!fs::exists(file)) return summary_problem(run_dir);
+  if (!fs::exists(file)) {
+    if (fs::exists(run_dir / "summary.json")) return summary_problem(run_dir);
+    if (const std::optional<std::string> recorded = finished_run_data(run_dir))
+      return run_data_problem(run_dir, *recorded);
+    return summary_problem(run_dir);
+  }
   const std::optional<std::string> text = read_run_file(file, "a run's final state");
   if (!text) return file.string() + " cannot be read";
   const nlohmann::json state = nlohmann::json::parse(*text, nullptr, false);
@@ -783,6 +826,16 @@ class Sweep {
         failed_.push_back(
             fmt::format("{}: blew up in an earlier sweep (remove {} to try again), log {}", r.name,
                         rdir.string(), log.string()));
+        continue;
+      }
+      // A folder that holds a run's data and nothing to resume it from (its checkpoint
+      // deleted): a start would replace that data; the researcher decides.
+      if (state == RunState::kNew && fs::exists(rdir / "run.h5")) {
+        failed_.push_back(fmt::format(
+            "{}: holds a run's data (run.h5) unfinished or unreadable, and no checkpoint.cbor to "
+            "resume it from; a new start would replace it (move {} aside, or remove it, to run "
+            "this one again)",
+            r.name, rdir.string()));
         continue;
       }
       const fs::path packing = packing_of_.at({r.system, r.seed});
