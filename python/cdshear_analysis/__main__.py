@@ -299,7 +299,7 @@ def main(argv=None):
         return 0
 
     if args.command == "switch-times":
-        from .rundata import RunDataError, output_problem, repeated_folder
+        from .rundata import RunDataError, end_state, output_problem, repeated_folder
         from .switch_statistics import (compare_groups, format_table, group_problem,
                                         group_statistics, run_switches)
         if args.json is not None and (why := output_problem(
@@ -313,9 +313,10 @@ def main(argv=None):
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
         both = list(args.run_dirs) + list(args.against or [])
-        for problem in (group_problem(runs, args.run_dirs),
-                        group_problem(against, args.against or []),
-                        repeated_folder(both)):   # a run in both groups
+        ends = {d: end_state(d) for d in both}   # each run's read once for the checks below
+        for problem in (group_problem(runs, args.run_dirs, ends),
+                        group_problem(against, args.against or [], ends),
+                        repeated_folder(both, ends)):   # a run in both groups
             if problem:
                 print(f"error: {problem}", file=sys.stderr)
                 return 2
@@ -331,22 +332,25 @@ def main(argv=None):
 
     if args.command == "profile-decay":
         import json
-        from .relaxation import bulk_law_problem, decay_against_diffusion, format_decay_table
+        from .relaxation import (bulk_law_problem, decay_entries, exponent_absence,
+                                 format_decay_table, height_exponent)
         from .report import ReportError, identity_problem, read_json, read_summary
-        from .rundata import output_problem, repeated_folder
+        from .rundata import distinct_names, output_problem, repeated_folder
         from .summary import SUMMARY_FORMAT
         summaries = []
         try:
             if repeated := repeated_folder(args.run_dirs):
                 raise ReportError("run_dirs", repeated)
-            for run_dir in args.run_dirs:
+            # each run named by its folder's name, or by as much of its path as tells it
+            # from a namesake (one run name in two campaigns)
+            for run_dir, name in zip(args.run_dirs, distinct_names(args.run_dirs)):
                 data = read_summary(run_dir)
                 path = os.path.join(run_dir, "summary.json")
                 if not isinstance(data, dict) or data.get("format") != SUMMARY_FORMAT:
                     raise ReportError(path, "not a cdshear summary")
                 if other := identity_problem(run_dir, data):
                     raise ReportError(path, other)
-                data["run"] = os.path.basename(os.path.normpath(run_dir))
+                data["run"] = name
                 summaries.append(data)
             fits = read_json(args.fits)
             fits = fits.get("fits") if isinstance(fits, dict) else None
@@ -368,8 +372,10 @@ def main(argv=None):
         except ReportError as e:
             print(f"error: {e.path}: {e.problem}", file=sys.stderr)
             return 2
-        entries, exponent = decay_against_diffusion(summaries, fits)
-        print(format_decay_table(entries, exponent))
+        entries = decay_entries(summaries, fits)
+        absence = exponent_absence(entries)
+        exponent = height_exponent(entries, absence)
+        print(format_decay_table(entries, exponent, absence))
         if args.plot and not any(e["used"] for e in entries):
             print(f"error: {args.plot}: --plot: no run is used (each row above says why): no "
                   f"figure to draw; nothing written", file=sys.stderr)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import t as student_t
 
-from .report import RUN_NAME, builds_of, collect, csv_columns
+from .report import RUN_NAME, collect, csv_columns, shared_end
 from .rundata import end_state, folder_case, is_number
 
 
@@ -131,8 +131,9 @@ def compare_campaigns(a, b, quantities=COMPARED, until=None):
         dir_a, dir_b = (os.path.join(c.folder, "runs", rb["run"]) for c in (a, b))
         if os.path.realpath(dir_a) == os.path.realpath(dir_b):
             differ.append("one run folder in both campaigns (a link)")
-        elif (state := end_state(dir_a)) is not None and state == end_state(dir_b):
-            if folder_case(dir_a) == folder_case(dir_b) and builds_of(dir_a) == builds_of(dir_b):
+        elif (state := end_state(dir_a)) is not None and \
+                (relation := shared_end(dir_a, dir_b, state)) is not None:
+            if relation == "copy":
                 differ.append(f"one run in both campaigns (both end at step {state[0]} in state "
                               f"{state[1]}, from the same case.toml and build): a copy")
             else:
@@ -320,12 +321,34 @@ def _rounded(x, digits):
     return round(x, digits) + 0.0 if math.isfinite(x) else x
 
 
+def unpaired(items, groups=None):
+    """The compared runs that no paired table holds [(run, reason)]: those of a system and V
+    with no quantity that two of its runs give (a single seed, or quantities missing).
+    `groups`: paired_differences(items) where the caller has it."""
+    groups = paired_differences(items) if groups is None else groups
+    alone = {(g["system"], g["V"]): g["runs"] for g in groups
+             if not any(isinstance(v, dict) for v in g.values())}
+    out = []
+    for it in items:
+        runs = alone.get((it["system"], it["V"])) if "mismatch" not in it else None
+        if runs == 1:
+            out.append((it["run"], f"the one run of system {it['system']}, {_velocity(it['V'])} "
+                                   f"compared: no other seed to pair it with"))
+        elif runs is not None:
+            out.append((it["run"], f"no quantity that two of the {runs} runs of system "
+                                   f"{it['system']}, {_velocity(it['V'])} give: nothing to pair"))
+    return out
+
+
 def format_paired_markdown(items, name_a="a", name_b="b"):
     """The seeds paired by system and V as Markdown tables (docs/accuracy.md's form): per
     quantity, each campaign's mean over the pairs +- its standard error, and b - a paired with
-    its t. The shared runs that were not compared follow as a list, each with its reason."""
+    its t. Then lists, each run with its reason: the shared runs that were not compared, those
+    compared but in no table (`unpaired`), and those compared that compute one flow in both
+    (compare_campaigns' "one_flow": a difference of zero)."""
     lines = []
-    for g in paired_differences(items):
+    groups = paired_differences(items)
+    for g in groups:
         shown = [(q, v) for q, v in g.items() if isinstance(v, dict)]
         if not shown:
             continue
@@ -341,8 +364,14 @@ def format_paired_markdown(items, name_a="a", name_b="b"):
                          f"({_rounded(v['t'], 2):+.2f}) |")
     if not lines:
         lines.append("no system and V with two seeds in both campaigns")
-    mismatched = [it for it in items if "mismatch" in it]
-    if mismatched:
-        lines += ["", "Not compared:", ""]
-        lines += [f"- `{it['run']}`: {it['mismatch']}" for it in mismatched]
+    same = ("ends in the same state in both campaigns from other cases or builds: the two "
+            "computed one flow there, a difference of zero")
+    for title, listed in (("Not compared:", [(it["run"], it["mismatch"]) for it in items
+                                             if "mismatch" in it]),
+                          ("Compared, in no paired table:", unpaired(items, groups)),
+                          ("One flow in both:", [(it["run"], same) for it in items
+                                                 if it.get("one_flow") and "mismatch" not in it])):
+        if listed:
+            lines += ["", title, ""]
+            lines += [f"- `{run}`: {why}" for run, why in listed]
     return "\n".join(lines)

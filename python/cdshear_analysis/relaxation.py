@@ -272,6 +272,12 @@ def decay_against_diffusion(summaries, fits):
     used runs, the exponent p of tau D proportional to L_y^p (2 for a diffusion with the same
     boundary condition at every height), fitted to the logarithms weighted by tau's errors (the
     bulk law's own errors not propagated). Returns (entries, exponent dict or None)."""
+    entries = decay_entries(summaries, fits)
+    return entries, height_exponent(entries, exponent_absence(entries))
+
+
+def decay_entries(summaries, fits):
+    """decay_against_diffusion's entries, one per run."""
     from . import fitting
     law = next((k for k in ("mu_power", "mu_linear") if fitting.usable(fits.get(k))), None)
     entries = []
@@ -327,12 +333,18 @@ def decay_against_diffusion(summaries, fits):
             else:
                 e["used"] = True
         entries.append(e)
+    return entries
+
+
+def height_exponent(entries, absence):
+    """decay_against_diffusion's exponent over the used entries, or None; `absence`:
+    exponent_absence(entries), which the caller has (it prints it too)."""
     use = [e for e in entries if e["used"]]
     exponent = None
     # Heights of other systems (numbers of disks and nominal heights): one system's L_y moves
     # with V by its dilation alone, a few percent, which no power law of the height is to be read
     # from; and two measured heights at least, or the fit has no slope to take.
-    if exponent_absence(entries) is None and len(use) >= 2:
+    if absence is None and len(use) >= 2:
         x = np.log([e["L_y"] for e in use])
         z = np.log([e["tau"] * e["D"] for e in use])
         w = np.array([(e["tau"] / e["tau_err"]) ** 2 for e in use])
@@ -346,7 +358,7 @@ def decay_against_diffusion(summaries, fits):
                     "p_err": float(math.sqrt(cov[0, 0] * max(1.0, chi2 / dof if dof else 1.0))),
                     "note": "error from tau's errors alone, scaled by sqrt(chi2/dof) when above 1"
                             + ("" if dof > 0 else "; no degree of freedom left to check it")}
-    return entries, exponent
+    return exponent
 
 
 def _system(case):
@@ -402,18 +414,21 @@ def _finite_products(*values):
     return all(math.isfinite(v) and abs(v) > 1e-300 for v in values)
 
 
-def format_decay_table(entries, exponent):
-    """The table `profile-decay` prints."""
+def format_decay_table(entries, exponent, absence=False):
+    """The table `profile-decay` prints, each column as wide as its widest cell; `absence`:
+    exponent_absence(entries) where the caller has it (False: found here)."""
     def fixed(v, decimals):
         # Fixed-point in the table's columns; beyond them (a damaged or diverged value, or one
         # that would print as 0), 3 significant digits.
         return f"{v:.{decimals}f}" if v == 0 or 10.0 ** -decimals <= abs(v) < 1e6 \
             else f"{v:.3g}"
 
-    def f(v, width, decimals):
-        return "-" if v is None else format(fixed(v, decimals), f">{width}")
-    lines = [f"{'run':<16} {'start':<7} {'regime':<12} {'L_y':>6} {'I_bulk':>7} {'D':>7} "
-             f"{'T_SS':>7} {'tau':>14} {'tau/T_SS':>9} {'sin2':>5} {'cos1':>5}  fit / reason"]
+    def f(v, decimals):
+        return "-" if v is None else fixed(v, decimals)
+    header = ("run", "start", "regime", "L_y", "I_bulk", "D", "T_SS", "tau", "tau/T_SS", "sin2",
+              "cos1")
+    texts = 3   # the first columns hold texts, left-aligned; numbers right-aligned
+    rows = []
     for e in entries:
         tau = f"{fixed(e['tau'], 1)} +- {fixed(e['tau_err'], 1)}" if e["tau"] is not None and \
             e["tau_err"] is not None else "-"
@@ -421,17 +436,25 @@ def format_decay_table(entries, exponent):
         note = (f"{fixed(e['fit_range'][0], 0)}-{fixed(e['fit_range'][1], 0)} t"
                 if e["fit_range"] else "") \
             + ("" if e["used"] else f" (not used: {e['reason']})")
-        lines.append(f"{e['run']:<16} {str(e['initial_velocity']):<7} {str(e['regime']):<12} "
-                     f"{f(e['L_y'], 6, 2)} {f(e['I_bulk'], 7, 4)} {f(e['D'], 7, 3)} "
-                     f"{f(e['T_SS'], 7, 0)} {tau:>14} {f(e['tau_over_T_SS'], 9, 4)} "
-                     f"{f(ov.get('sin_2pi_eta'), 5, 2)} {f(ov.get('cos_pi_eta'), 5, 2)} "
-                     f" {note.strip()}")
+        rows.append(((str(e["run"]), str(e["initial_velocity"]), str(e["regime"]),
+                      f(e["L_y"], 2), f(e["I_bulk"], 4), f(e["D"], 3), f(e["T_SS"], 0), tau,
+                      f(e["tau_over_T_SS"], 4), f(ov.get("sin_2pi_eta"), 2),
+                      f(ov.get("cos_pi_eta"), 2)), note.strip()))
+    widths = [max(len(cells[k]) for cells in [header] + [r[0] for r in rows])
+              for k in range(len(header))]
+
+    def line(cells, note):
+        return (" ".join(c.ljust(w) if k < texts else c.rjust(w)
+                         for k, (c, w) in enumerate(zip(cells, widths))) + "  " + note).rstrip()
+    lines = [line(header, "fit / reason")] + [line(cells, note) for cells, note in rows]
     lines.append(f"slowest mode from rest: tau / T_SS = 1 / (4 pi^2) = "
                  f"{TAU_OVER_T_SS['sin_2pi_eta']:.4f} (sin(2 pi y / L_y), walls holding the "
                  f"grains) to 1 / pi^2 = {TAU_OVER_T_SS['cos_pi_eta']:.4f} (cos(pi y / L_y), "
                  f"walls sliding); sin2, cos1: the decaying shape's overlap with each")
-    if why := exponent_absence(entries):
-        lines.append(why)
+    if absence is False:
+        absence = exponent_absence(entries)
+    if absence:
+        lines.append(absence)
     if exponent:
         lines.append(f"tau D proportional to L_y^p: p = {exponent['p']:.2f} +- "
                      f"{exponent['p_err']:.2f} over {exponent['runs']} runs (2 for a diffusion; "

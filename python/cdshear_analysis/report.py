@@ -40,7 +40,7 @@ from .rundata import is_number as _is_number
 from .rundata import IDENTITY_KEYS, IDENTITY_KEYS_RECORDED_LATER, identity_pairs
 from .rundata import (RUN_FILE, open_regular, replace_atomically, run_files_in, run_info_paths,
                       unique_keys)
-from .rundata import folder_case, what_is, write_text_atomically
+from .rundata import end_state, folder_case, what_is, write_text_atomically
 from .study import averaged_time, counted
 from .transitions import find_transitions, predictions
 
@@ -453,6 +453,22 @@ def builds_of(run_dir):
     """The builds that wrote a run's run_info files, one per sitting (_build_of): a set, empty
     where none can be read."""
     return {b for b in map(_build_of, run_info_paths(run_dir)) if b is not None}
+
+
+def shared_end(dir_a, dir_b, state_a=None, state_b=None):
+    """How the runs of two folders relate by their ends (rundata.end_state; state_a, state_b:
+    theirs where already read, else read here): "copy" where both end at one step in one state
+    from the same case.toml and build (one run copied, or run again from the same packing and
+    seeds), "one_flow" where they end so from other case.toml files or builds (a setting or a
+    build that changes nothing there: one flow computed twice), None where their ends differ or
+    either is unknown."""
+    if state_a is None and (state_a := end_state(dir_a)) is None:
+        return None
+    if state_a != (state_b if state_b is not None else end_state(dir_b)):
+        return None
+    if folder_case(dir_a) == folder_case(dir_b) and builds_of(dir_a) == builds_of(dir_b):
+        return "copy"
+    return "one_flow"
 
 
 def software(campaign_text, run_dirs):

@@ -385,10 +385,12 @@ def end_state(run_dir):
 
 class DistinctRuns:
     """Run folders taken one at a time, each checked against those before it (each folder's
-    end_state read once): `add(d)` says why d cannot be pooled with them, or None."""
+    end_state read once; `end_states`, {folder: end_state} already read, read from there): `add(d)`
+    says why d cannot be pooled with them, or None."""
 
-    def __init__(self):
+    def __init__(self, end_states=None):
         self._places, self._ends = {}, {}
+        self._read = end_states if end_states is not None else {}
 
     def add(self, d):
         """Why the run folder d repeats one added before, or None (then d is kept): the same
@@ -398,7 +400,7 @@ class DistinctRuns:
         if where in self._places:
             return f"{d} is {self._places[where]} again: each run counts once"
         self._places[where] = d
-        state = end_state(d)
+        state = self._read[d] if d in self._read else end_state(d)
         if state in self._ends:
             return (f"{d} holds the run {self._ends[state]} holds (both end at step {state[0]} "
                     f"in state {state[1]}: a copy, or the same packing and seeds run again): "
@@ -408,11 +410,27 @@ class DistinctRuns:
         return None
 
 
-def repeated_folder(dirs):
+def repeated_folder(dirs, end_states=None):
     """Why the run folders `dirs` cannot be pooled as distinct runs, or None (DistinctRuns.add
-    of each in turn)."""
-    runs = DistinctRuns()
+    of each in turn; `end_states` as DistinctRuns takes it)."""
+    runs = DistinctRuns(end_states)
     return next((why for why in map(runs.add, dirs) if why is not None), None)
+
+
+def distinct_names(dirs):
+    """A name for each of the run folders `dirs` that tells it from the others, in their order:
+    the folder's own name, or, where another folder has that name too (one run's folder in two
+    campaigns), the shortest ending of its path that no other folder's ending of as many parts
+    is (`a/runs/s1_seed1_V1` beside `b/runs/s1_seed1_V1`); the whole path where none is."""
+    parts = [os.path.abspath(d).split(os.sep) for d in dirs]
+    names = []
+    for k, mine in enumerate(parts):
+        others = [p for j, p in enumerate(parts) if j != k]
+        count = 1
+        while count < len(mine) and any(p[-count:] == mine[-count:] for p in others):
+            count += 1
+        names.append(os.sep.join(mine[-count:]))
+    return names
 
 
 def is_number(value):

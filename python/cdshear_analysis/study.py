@@ -421,7 +421,7 @@ def welch_p(values_a, values_b):
 def shared_realization(dirs_a, dirs_b):
     """Why a realization of dirs_b is one of dirs_a (the same folder by another path or a link,
     or a copy: the same end state, case.toml and build), or None."""
-    from .report import builds_of
+    from .report import shared_end
     places = {os.path.realpath(d): d for d in dirs_a}
     ends = {}
     for d in dirs_a:
@@ -432,7 +432,7 @@ def shared_realization(dirs_a, dirs_b):
             return f"{d} is {mine} again"
         state = end_state(d)
         if (theirs := ends.get(state)) is not None and state is not None and \
-                folder_case(d) == folder_case(theirs) and builds_of(d) == builds_of(theirs):
+                shared_end(theirs, d, state, state) == "copy":
             return (f"{d} is a copy of {theirs} (both end at step {state[0]} in state {state[1]} "
                     f"from the same case.toml and build)")
     return None

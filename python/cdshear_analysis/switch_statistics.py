@@ -30,7 +30,8 @@ import os
 import numpy as np
 
 from . import regime as rg
-from .rundata import RUN_FILE, RunDataError, is_measured_number, load_run, repeated_folder
+from .rundata import (RUN_FILE, RunDataError, end_state, is_measured_number, load_run,
+                      repeated_folder)
 from .statistics import window_mean
 from .summary import pm as summary_pm
 
@@ -83,12 +84,15 @@ def _record(run_dir, V, finished, duration, whole, case):
             "starts": whole["starts"], **case}
 
 
-def group_problem(runs, dirs):
+def group_problem(runs, dirs, end_states=None):
     """Why the runs of one group (run_switches records, read from `dirs`) cannot be pooled, or
     None: a folder given twice or one run copied (repeated_folder), two folders without an end
     state to tell a copy by whose case.toml files are one (the same_case_problem), or runs of
-    another system or normal stress (CASE_KEYS) than the first's."""
-    if repeated := repeated_folder(dirs) or same_case_problem(dirs):
+    another system or normal stress (CASE_KEYS) than the first's. `end_states`: {folder:
+    rundata.end_state} already read (the rest read here)."""
+    if end_states is None:
+        end_states = {d: end_state(d) for d in dirs}
+    if repeated := repeated_folder(dirs, end_states) or same_case_problem(dirs, end_states):
         return repeated
     for run, d in zip(runs, dirs):
         for key in CASE_KEYS:
@@ -109,15 +113,17 @@ def _case_identity(case):
     return json.dumps(kept, sort_keys=True, default=str)
 
 
-def same_case_problem(dirs):
+def same_case_problem(dirs, end_states=None):
     """Why two of the folders hold one run, told by their case.toml where neither has an end
     state in a run_info file (rundata.end_state, which repeated_folder compares: such a folder
     was copied with its run.h5 alone, or its records are lost): one case, seeds included, is one
-    run, runs being deterministic; or None."""
-    from .rundata import end_state, folder_case
+    run, runs being deterministic; or None. `end_states`: {folder: end_state} already read."""
+    from .rundata import folder_case
+    end_states = end_states if end_states is not None else {}
     seen = {}
     for d in dirs:
-        if end_state(d) is not None or (case := folder_case(d)) is None:
+        state = end_states[d] if d in end_states else end_state(d)
+        if state is not None or (case := folder_case(d)) is None:
             continue
         identity = _case_identity(case)
         if identity in seen:

@@ -18,14 +18,32 @@ from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
 from cdshear_analysis.campaign import (compare_campaigns, format_comparison,
                                        format_paired_markdown, other_packings, paired_differences,
-                                       unequal_times)
-from cdshear_analysis.report import ReportError
+                                       unequal_times, unpaired)
+from cdshear_analysis.report import ReportError, shared_end
 
 from cdshear_analysis.synthetic import write_synthetic_run
 
 from .test_report import fake_summary, main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def write_run_info(run_dir, state):
+    """A run_info.json that ends the run at step 1000 in `state`."""
+    with open(os.path.join(run_dir, "run_info.json"), "w") as f:
+        json.dump({"step": 1000, "state_hash": state}, f)
+
+
+def seeds_at_slow_wall(d, shifts, state_of=lambda side, seed: f"{os.path.basename(side)}{seed}"):
+    """Campaigns d/a and d/b, seeds 1, 2, ... of system 1 at V = 0.05, mu_eff 0.2 in a and 0.2 +
+    shifts[seed - 1] in b; each run's run_info ends at step 1000 in state state_of(side, seed)."""
+    a, b = os.path.join(d, "a"), os.path.join(d, "b")
+    for seed, shift in enumerate(shifts, start=1):
+        name = f"s1_seed{seed}_V0.05"
+        for side, mu in ((a, 0.2), (b, 0.2 + shift)):
+            fake_summary(os.path.join(side, "runs", name), 0.05, 1e-4, mu, 0.83, 2.8)
+            write_run_info(os.path.join(side, "runs", name), state_of(side, seed))
+    return a, b
 
 
 class LoadCampaign(unittest.TestCase):
@@ -151,20 +169,11 @@ class CompareCampaigns(unittest.TestCase):
                 self.assertIn(f"{again}: is {a} again", err.getvalue())
 
     def test_one_run_in_both_or_a_copy_in_runs_is_compared_once(self):
-        def run_info(run_dir, state):
-            with open(os.path.join(run_dir, "run_info.json"), "w") as f:
-                json.dump({"step": 1000, "state_hash": state}, f)
-
         with tempfile.TemporaryDirectory() as d:
-            a, b = os.path.join(d, "a"), os.path.join(d, "b")
-            for seed, shift in ((1, 0.01), (2, 0.02), (3, 0.06)):
-                name = f"s1_seed{seed}_V0.05"
-                for side, mu in ((a, 0.2), (b, 0.2 + shift)):
-                    fake_summary(os.path.join(side, "runs", name), 0.05, 1e-4, mu, 0.83, 2.8)
-                    run_info(os.path.join(side, "runs", name), f"{os.path.basename(side)}{seed}")
+            a, b = seeds_at_slow_wall(d, (0.01, 0.02, 0.06))
             self.assertEqual(paired_differences(compare_campaigns(a, b))[0]["runs"], 3)
             # b's seed 3 ends in a's state: one run in both campaigns (a copy), not a pair
-            run_info(os.path.join(b, "runs", "s1_seed3_V0.05"), "a3")
+            write_run_info(os.path.join(b, "runs", "s1_seed3_V0.05"), "a3")
             # a backup of seed 1 kept beside it in both runs/: that seed pairs once
             for side in (a, b):
                 fake_summary(os.path.join(side, "runs", "s1_seed1_V0.05.bak"), 0.05, 1e-4, 0.5,
@@ -233,7 +242,7 @@ class CompareCampaigns(unittest.TestCase):
             os.remove(os.path.join(b, "runs", "s1_seed3_V0.05", "case.toml"))
             # Nothing left to compare (every shared run one in both): an error, exit 2.
             for seed in (1, 2):
-                run_info(os.path.join(b, "runs", f"s1_seed{seed}_V0.05"), f"a{seed}")
+                write_run_info(os.path.join(b, "runs", f"s1_seed{seed}_V0.05"), f"a{seed}")
             for side in (a, b):
                 shutil.rmtree(os.path.join(side, "runs", "s1_seed1_V0.05.bak"))
             with contextlib.redirect_stdout(io.StringIO()) as out, \
@@ -311,14 +320,80 @@ class CompareCampaigns(unittest.TestCase):
             # com_vx_std has no error: no combined errors for it; com_vx has
             self.assertIn("  com_vx_std             0.005 -> 0.005  diff +0\n", text)
             self.assertRegex(text, r"  com_vx .*diff \+0  \(\+0\.00 combined errors\)")
-            self.assertNotIn("V = 1", table)  # one seed: nothing to pair
+            # one seed: nothing to pair, no table; named below them with the reason
+            self.assertNotIn("System 1, V = 1,", table)
+            self.assertIn("- `s1_seed1_V1`: the one run of system 1, V = 1 compared", table)
             with contextlib.redirect_stdout(io.StringIO()) as out:
                 self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)
             self.assertIn(f"| quantity | {a} | {b} | {b} minus {a}, paired (t) |", out.getvalue())
             self.assertIn(table.splitlines()[5], out.getvalue())
 
 
+class SharedEnd(unittest.TestCase):
+    def test_a_copy_one_flow_or_two_runs(self):
+        def run(path, state, case="", build="cdshear 1.0"):
+            os.makedirs(path)
+            if state is not None:
+                with open(os.path.join(path, "run_info.json"), "w") as f:
+                    json.dump({"step": 1000, "state_hash": state,
+                               "build": {"description": build}}, f)
+            with open(os.path.join(path, "case.toml"), "w") as f:
+                f.write(case)
+            return path
+
+        with tempfile.TemporaryDirectory() as d:
+            a = run(os.path.join(d, "a"), "x1", "[output]\nstatus_interval = 7.0\n")
+            copy = run(os.path.join(d, "copy"), "x1", "[output]\nstatus_interval = 7.0\n")
+            other_case = run(os.path.join(d, "case"), "x1")
+            other_build = run(os.path.join(d, "build"), "x1", "[output]\nstatus_interval = 7.0\n",
+                              build="cdshear 1.1")
+            self.assertEqual(shared_end(a, copy), "copy")
+            self.assertEqual(shared_end(copy, a, ("1000", "ignored")), None)   # ends given
+            self.assertEqual(shared_end(a, copy, (1000, "x1"), (1000, "x1")), "copy")
+            self.assertEqual(shared_end(a, other_case), "one_flow")
+            self.assertEqual(shared_end(a, other_build), "one_flow")
+            self.assertIsNone(shared_end(a, run(os.path.join(d, "two"), "x2")))
+            unknown = run(os.path.join(d, "unknown"), None)
+            self.assertIsNone(shared_end(unknown, run(os.path.join(d, "unknown2"), None)))
+            self.assertIsNone(shared_end(a, unknown))
+
+
 class CompareEdgeCases(unittest.TestCase):
+    def test_markdown_lists_runs_in_no_table_and_runs_of_one_flow(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = seeds_at_slow_wall(
+                d, (0.01, 0.02, 0.0),
+                lambda side, seed: "same" if seed == 3 else f"{os.path.basename(side)}{seed}")
+            # seed 3 ends in one state in both from another case.toml: one flow, compared
+            with open(os.path.join(b, "runs", "s1_seed3_V0.05", "case.toml"), "w") as f:
+                f.write("[output]\nstatus_interval = 7.0\n")
+            # one seed at V = 1: compared, no pair; seed 4 at other V in the two: not compared
+            fake_summary(os.path.join(a, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.30, 0.80, 3.0)
+            fake_summary(os.path.join(b, "runs", "s1_seed1_V1"), 1.0, 0.05, 0.35, 0.80, 3.0)
+            fake_summary(os.path.join(a, "runs", "s1_seed4_V0.05"), 0.05, 1e-4, 0.2, 0.83, 2.8)
+            fake_summary(os.path.join(b, "runs", "s1_seed4_V0.05"), 2.0, 1e-2, 0.4, 0.8, 3.0)
+            items = compare_campaigns(a, b)
+            self.assertEqual(unpaired(items), [("s1_seed1_V1", "the one run of system 1, V = 1 "
+                                                "compared: no other seed to pair it with")])
+            table = format_paired_markdown(items)
+            self.assertIn("System 1, V = 0.05, 3 seeds paired:", table)
+            self.assertTrue(table.endswith(
+                "\n\nNot compared:\n\n- `s1_seed4_V0.05`: V 0.05 in a, 2.0 in b"
+                "\n\nCompared, in no paired table:\n\n- `s1_seed1_V1`: the one run of system 1, "
+                "V = 1 compared: no other seed to pair it with"
+                "\n\nOne flow in both:\n\n- `s1_seed3_V0.05`: ends in the same state in both "
+                "campaigns from other cases or builds: the two computed one flow there, a "
+                "difference of zero"), table)
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b, "--markdown"]), 0)
+            self.assertIn(table.split("\n\nNot compared:")[1], out.getvalue())
+            # runs of one system and V that share no quantity: compared, nothing to pair
+            bare = [{"run": f"r{k}", "system": 2, "V": 0.5} for k in (1, 2)]
+            self.assertEqual(unpaired(bare), [
+                (f"r{k}", "no quantity that two of the 2 runs of system 2, V = 0.5 give: nothing "
+                          "to pair") for k in (1, 2)])
+            self.assertNotIn("One flow in both", format_paired_markdown(bare))
+
     def test_only_like_runs_paired_over_every_quantity_any_has(self):
         with tempfile.TemporaryDirectory() as d:
             a, b = os.path.join(d, "a"), os.path.join(d, "b")

@@ -5,8 +5,10 @@ import json
 import math
 import os
 import shutil
+import re
 import tempfile
 import unittest
+from unittest import mock
 
 import numpy as np
 
@@ -267,7 +269,68 @@ class AgainstDiffusion(unittest.TestCase):
         self.assertFalse(e["used"])
 
 
+class DecayTable(unittest.TestCase):
+    def test_columns_align_whatever_the_names_and_values(self):
+        from cdshear_analysis.transitions import steady_state_time
+        T, _ = steady_state_time(LAW, 0.1, 22.0, 0.8, 0.25)
+        runs = [summary_of("L22", 22.0, 0.1, 0.06 * T),
+                summary_of("campaign_b/runs/s1_seed1_V0.05_longer_name", 84.0, 0.025, 1e7),
+                dict(summary_of("bare", 22.0, 0.1, 0.06 * T), profile_decay=None)]
+        entries, exponent = relaxation.decay_against_diffusion(runs, {"mu_power": LAW})
+        lines = relaxation.format_decay_table(entries, exponent).splitlines()
+        header, rows = lines[0], lines[1:4]
+        spans = [m.span() for m in re.finditer(r"\S+", header)]
+        columns, note = spans[:11], spans[11][0]   # then "fit / reason"
+        self.assertEqual(header[note:], "fit / reason")
+        for row, e in zip(rows, entries):
+            self.assertTrue(row.startswith(e["run"] + " "), row)
+            for k, (start, end) in enumerate(columns):
+                if k < 3:   # texts: each begins where its header does
+                    self.assertNotEqual(row[start], " ", (row, k))
+                    self.assertEqual(row[start - 1] if start else " ", " ", (row, k))
+                else:       # numbers ("-" where missing): each ends where its header does
+                    self.assertNotEqual(row[end - 1], " ", (row, k))
+                    self.assertEqual(row[end], " ", (row, k))
+            if len(row) > note:   # the fit's range or the reason, beside each other
+                self.assertEqual(row[note - 2:note], "  ", row)
+                self.assertNotEqual(row[note], " ", row)
+        self.assertIn("(not used: no profile_decay in summary.json", rows[2])
+        # the long name widens its column; no cell runs into the next
+        self.assertEqual(columns[1][0], len("campaign_b/runs/s1_seed1_V0.05_longer_name") + 1)
+
+
 class ProfileDecayCommand(unittest.TestCase):
+    def test_runs_of_one_folder_name_in_two_campaigns_are_told_apart(self):
+        with tempfile.TemporaryDirectory() as d:
+            run = os.path.join(d, "a", "runs", "s1_seed1_V2")
+            write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["analyze", run, "--quiet"]), 0)
+            other = os.path.join(d, "campaign_b", "runs", "s1_seed1_V2")
+            shutil.copytree(run, other)
+            fits, table = os.path.join(d, "fits.json"), os.path.join(d, "decay.json")
+            with open(fits, "w") as f:
+                json.dump({"fits": {"mu_power": LAW}}, f)
+            out = io.StringIO()
+            # the exponent's absence is judged once, for the fit and for the table
+            with contextlib.redirect_stdout(out), mock.patch.object(
+                    relaxation, "exponent_absence", wraps=relaxation.exponent_absence) as judged:
+                self.assertEqual(main(["profile-decay", run, other, "--fits", fits, "--json",
+                                       table]), 0)
+            self.assertEqual(judged.call_count, 1)
+            names = ["a/runs/s1_seed1_V2", "campaign_b/runs/s1_seed1_V2"]
+            rows = out.getvalue().splitlines()[1:3]
+            for row, name in zip(rows, names):
+                self.assertTrue(row.startswith(name + " "), row)
+            self.assertEqual(rows[0].index(" linear"), rows[1].index(" linear"))
+            with open(table) as f:
+                self.assertEqual([e["run"] for e in json.load(f)["runs"]], names)
+            # a folder name given once stays the folder's name alone
+            out = io.StringIO()
+            with contextlib.redirect_stdout(out):
+                self.assertEqual(main(["profile-decay", other, "--fits", fits]), 0)
+            self.assertTrue(out.getvalue().splitlines()[1].startswith("s1_seed1_V2 "))
+
     def test_prints_each_run_against_the_bulk_law_and_refuses_bad_files(self):
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "s1_seed1_V2")

@@ -276,6 +276,30 @@ class SwitchStatistics(unittest.TestCase):
         self.assertIsNone(data["against_group"]["T"])
         self.assertIsNone(data["comparison"]["rate_ratio"])
 
+    def test_each_runs_end_state_is_read_once(self):
+        # The checks of both groups (a folder twice, a copy, one case twice, a run in both
+        # groups) share one reading of each folder's end state, the records kept or not.
+        from unittest import mock
+        from cdshear_analysis import rundata
+        d = os.path.join(self.tmp.name, "read_once")
+        kept = [os.path.join(d, f"s1_seed{k}_V0.05") for k in (1, 2)]
+        for k, (source, path) in enumerate(zip(self.a, kept)):
+            shutil.copytree(source, path)
+            with open(os.path.join(path, "run_info.json"), "w") as f:
+                json.dump({"step": 400000, "state_hash": f"state{k}"}, f)
+        for group, against in ((kept, self.b), (self.a, self.b)):
+            with mock.patch.object(rundata, "end_state", wraps=rundata.end_state) as read, \
+                    mock.patch.object(ss, "end_state", read), \
+                    contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["switch-times", *group, "--against", *against]), 0)
+            self.assertEqual(sorted(c.args[0] for c in read.call_args_list),
+                             sorted(group + against))
+        # the checks called alone read them themselves, as before
+        with mock.patch.object(rundata, "end_state", wraps=rundata.end_state) as read, \
+                mock.patch.object(ss, "end_state", read):
+            self.assertIsNone(ss.group_problem([ss.run_switches(p) for p in kept], kept))
+        self.assertEqual(sorted(c.args[0] for c in read.call_args_list), sorted(kept))
+
 
 if __name__ == "__main__":
     unittest.main()
