@@ -90,6 +90,23 @@ grep -q '"step": 1,' unwritten/runs/s1_seed1_V1/progress.json || fail "progress.
   fail "a stale progress file: $(cat unwritten.out)"
 grep -q "2 finished earlier" unwritten.out || fail "a stale progress file: $(cat unwritten.out)"
 
+# A packing put by hand in a folder's packings/ under another seed's name is refused before any
+# run or preparation starts (it would make two seeds one packing).
+mkdir -p by_hand/packings && cp "$packing" by_hand/packings/s1_seed2.json
+cat > by_hand.toml <<TOML
+[campaign]
+name = "by_hand"
+systems = [1]
+seeds = [2]
+velocities = [1.0]
+duration = 4
+analyze = false
+TOML
+rc=0; "$exe" sweep by_hand.toml -o by_hand > by_hand.out 2>&1 || rc=$?
+[ $rc -eq 2 ] && grep -q "s1_seed2.json: it was placed with seed 1, the campaign's run has seed 2" \
+  by_hand.out || fail "a packing of another seed (exit $rc): $(cat by_hand.out)"
+[ ! -d by_hand/runs ] || [ -z "$(ls by_hand/runs)" ] || fail "a run started on another seed's packing"
+
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
 # is not run again (every step is done); a missing summary.json is
 # made by `cdshear analyze`.

@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -37,6 +38,7 @@
 #include "json_reading.hpp"
 #include "mpi_scheduler.hpp"
 #include "outputs.hpp"
+#include "packing_file.hpp"
 #include "run_data_file.hpp"
 #include "run_session.hpp"
 #include "stop_signals.hpp"
@@ -504,10 +506,21 @@ fs::path packing_source_file(const fs::path& packing) {
 }
 
 /// Empty when the folder's packing `p` is the one the campaign makes now (`source`, and for a
-/// given packing `given_file`, whose bytes the copy must still have); otherwise how it differs. A
-/// packing without a record (made before the sweep kept one) is taken as it is.
+/// given packing `given_file`, whose bytes the copy must still have) and was placed with the
+/// run's `seed`; otherwise how it differs. A packing without a record (made before the sweep
+/// kept one, or put there by hand) is taken as it is once its seed is the run's.
 std::string stale_packing(const fs::path& p, const std::string& source,
-                          const std::string& given_file) {
+                          const std::string& given_file, std::uint64_t seed) {
+  // Its seed only (any overlap with the walls accepted here): a file that cannot be read is the
+  // run's to name, as for a given packing.
+  try {
+    const double any_overlap = std::numeric_limits<double>::infinity();
+    if (const std::uint64_t placed = read_packing(p, any_overlap).seed;
+        placed != seed && given_file.empty())
+      return fmt::format("it was placed with seed {}, the campaign's run has seed {}", placed,
+                         seed);
+  } catch (const ConfigError&) {
+  }
   std::string recorded =
       read_run_file(packing_source_file(p), "a packing's record").value_or(std::string());
   if (!recorded.empty() && recorded.back() == '\n') recorded.pop_back();
@@ -678,8 +691,8 @@ class Sweep {
       const std::string source = given != c_.packings.end() ? "copied from " + given->second
                                                             : "prepared as " + r.preparation;
       if (fs::exists(p)) {
-        const std::string stale =
-            stale_packing(p, source, given != c_.packings.end() ? given->second : std::string());
+        const std::string stale = stale_packing(
+            p, source, given != c_.packings.end() ? given->second : std::string(), r.seed);
         if (stale.empty()) continue;
         if (!args_.force)
           throw ConfigError(p.string(), "",
