@@ -61,6 +61,17 @@ ConfigError load_error(const std::string& text) {
   return ConfigError("", "", "");
 }
 
+/// Builds `scene` and returns the SceneError the builder must raise.
+SceneError build_error(const SceneDefinition& scene) {
+  try {
+    build_world(scene);
+  } catch (const SceneError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "no SceneError";
+  return SceneError("", "");
+}
+
 void expect_names(const ConfigError& e, const std::string& key, const std::string& problem) {
   EXPECT_EQ(e.key(), key) << e.what();
   const std::string what = e.what();
@@ -238,15 +249,10 @@ TEST(BadInput, OverlappingDisksAreRefusedByTheSceneBuilder) {
       dir.write("scene.toml", scene_text("dt = 1e-3\n",
                                          "[[disks]]\nposition = [1.0, 0.5]\nradius = 0.5\n"
                                          "[[disks]]\nposition = [1.9, 0.5]\nradius = 0.5\n"));
-  const SceneFile sf = load_scene_file(path, {});
-  try {
-    build_world(sf.scene);
-    ADD_FAILURE() << "no SceneError";
-  } catch (const SceneError& e) {
-    EXPECT_EQ(e.key(), "disks");
-    const std::string what = e.what();
-    EXPECT_NE(what.find("disk 0 and disk 1 overlap by 0.1"), std::string::npos) << what;
-  }
+  const SceneError e = build_error(load_scene_file(path, {}).scene);
+  EXPECT_EQ(e.key(), "disks");
+  const std::string what = e.what();
+  EXPECT_NE(what.find("disk 0 and disk 1 overlap by 0.1"), std::string::npos) << what;
 }
 
 TEST(BadInput, DisksPiledOnOnePointAreRefusedWithoutListingEveryPair) {
@@ -258,14 +264,10 @@ TEST(BadInput, DisksPiledOnOnePointAreRefusedWithoutListingEveryPair) {
   for (int i = 0; i < 1998; ++i) s.disks.push_back(disk({5.0, 5.0}, 0.5));
   s.disks.push_back(disk({5.0, 5.0}, 0.6));
   s.disks.push_back(disk({5.0, 5.0}, 0.6));
-  try {
-    build_world(s);
-    ADD_FAILURE() << "no SceneError";
-  } catch (const SceneError& e) {
-    EXPECT_EQ(e.key(), "disks");
-    const std::string what = e.what();
-    EXPECT_NE(what.find("disk 0 and disk 1 overlap by 1 "), std::string::npos) << what;
-  }
+  const SceneError e = build_error(s);
+  EXPECT_EQ(e.key(), "disks");
+  const std::string what = e.what();
+  EXPECT_NE(what.find("disk 0 and disk 1 overlap by 1 "), std::string::npos) << what;
 }
 
 TEST(BadInput, InvalidSceneDefinitionsNameTheKey) {
@@ -338,41 +340,26 @@ TEST(BadInput, APlacementThatAWallPreventsNamesTheWall) {
   r.count = 10;
   r.region_max = {10.0, 10.0};
   s.random_disks = {r};
-  try {
-    build_world(s);
-    ADD_FAILURE() << "no SceneError";
-  } catch (const SceneError& e) {
-    EXPECT_EQ(e.key(), "random_disks[0].count");
-    const std::string what = e.what();
-    EXPECT_NE(what.find("could place only 0 of 10"), std::string::npos) << what;
-    EXPECT_NE(what.find("wholly behind wall 'right' (normal (1, 0))"), std::string::npos) << what;
-    EXPECT_EQ(what.find("floor"), std::string::npos) << what;
-  }
+  const SceneError behind = build_error(s);
+  EXPECT_EQ(behind.key(), "random_disks[0].count");
+  const std::string what = behind.what();
+  EXPECT_NE(what.find("could place only 0 of 10"), std::string::npos) << what;
+  EXPECT_NE(what.find("wholly behind wall 'right' (normal (1, 0))"), std::string::npos) << what;
+  EXPECT_EQ(what.find("floor"), std::string::npos) << what;
   s.walls[1].normal = {-1.0, 0.0};  // pointing into the box: the ten disks fit
   EXPECT_EQ(build_world(s).disks.size(), 10u);
   s.random_disks[0].count = 1000;  // too many: the usual advice, no wall named
-  try {
-    build_world(s);
-    ADD_FAILURE() << "no SceneError";
-  } catch (const SceneError& e) {
-    EXPECT_NE(std::string(e.what()).find("enlarge the region or lower the count"),
-              std::string::npos)
-        << e.what();
-  }
+  const std::string crowded = build_error(s).what();
+  EXPECT_NE(crowded.find("enlarge the region or lower the count"), std::string::npos) << crowded;
 }
 
 TEST(BadInput, APeriodTooShortGivesTheLargestDiameter) {
   SceneDefinition s;
   s.domain = {true, 2.5};
   s.disks = {disk({0.5, 0.5}, 0.5)};
-  try {
-    build_world(s);
-    ADD_FAILURE() << "no SceneError";
-  } catch (const SceneError& e) {
-    EXPECT_NE(std::string(e.what()).find("period 2.5 is shorter than 3 largest diameters (3 x 1)"),
-              std::string::npos)
-        << e.what();
-  }
+  const std::string what = build_error(s).what();
+  EXPECT_NE(what.find("period 2.5 is shorter than 3 largest diameters (3 x 1)"), std::string::npos)
+      << what;
 }
 
 TEST(BadInput, RandomDiskKeysNameTheirDefaultsAndTheirPeriod) {

@@ -332,11 +332,24 @@ std::string summary_problem(const fs::path& run_dir) {
   return "";
 }
 
+/// Empty when the case identity that `file` of a run folder records (`recorded`, a
+/// case_identity) is that of the folder's case.toml; otherwise why not.
+std::string recorded_identity_problem(const fs::path& run_dir, const fs::path& file,
+                                      const nlohmann::json& recorded) {
+  const FolderCase folder = folder_case(run_dir);
+  if (!folder.c) return folder.problem;
+  const nlohmann::json identity = case_identity(*folder.c);
+  if (const std::string key = differing_identity_key(recorded, identity); !key.empty())
+    return fmt::format(
+        "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one again",
+        file.string(), key, json_shown(recorded.at(key), kComparedValueLimit),
+        json_shown(identity.at(key), kComparedValueLimit));
+  return "";
+}
+
 /// Empty when a finished run kept as its run.h5 alone is of the folder's case.toml: the case
 /// the run.h5 records (`recorded`) has the same identity; otherwise why not.
 std::string run_data_problem(const fs::path& run_dir, const std::string& recorded) {
-  const FolderCase folder = folder_case(run_dir);
-  if (!folder.c) return folder.problem;
   const fs::path file = run_dir / "run.h5";
   nlohmann::json theirs;
   try {
@@ -345,13 +358,7 @@ std::string run_data_problem(const fs::path& run_dir, const std::string& recorde
   } catch (const ConfigError& e) {
     return file.string() + ": the case it records cannot be read: " + e.what();
   }
-  const nlohmann::json identity = case_identity(*folder.c);
-  if (const std::string key = differing_identity_key(theirs, identity); !key.empty())
-    return fmt::format(
-        "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one again",
-        file.string(), key, json_shown(theirs.at(key), kComparedValueLimit),
-        json_shown(identity.at(key), kComparedValueLimit));
-  return "";
+  return recorded_identity_problem(run_dir, file, theirs);
 }
 
 /// Empty when the final state of a finished run belongs to the run's case.toml (the case
@@ -373,16 +380,7 @@ std::string final_state_problem(const fs::path& run_dir) {
   if (state.is_discarded() || !state.is_object()) return file.string() + " is not JSON";
   if (!state.contains("case")) return "";
   if (!state["case"].is_object()) return file.string() + ": its \"case\" is not an object";
-  const FolderCase folder = folder_case(run_dir);
-  if (!folder.c) return folder.problem;
-  const nlohmann::json identity = case_identity(*folder.c);
-  if (const std::string key = differing_identity_key(state["case"], identity); !key.empty())
-    return fmt::format(
-        "{} is of another run ({} = {}, its case.toml says {}): remove it to run "
-        "this one again",
-        file.string(), key, json_shown(state["case"].at(key), kComparedValueLimit),
-        json_shown(identity.at(key), kComparedValueLimit));
-  return "";
+  return recorded_identity_problem(run_dir, file, state["case"]);
 }
 
 /// Empty when a run folder's case.toml is of the campaign's run `r` (the same case identity:
