@@ -13,8 +13,9 @@
 # resumes an extension killed before its new final state and reports one that failed before it
 # started; `--progress-every` prints a progress line with an
 # estimate before any run has finished; a folder that is not a campaign's, or with something
-# else where its runs/ folder or a log goes, is refused untouched; a run whose log cannot be
-# opened fails alone.
+# else where its runs/ folder or a log goes, or runs and no campaign.toml, is refused untouched; a
+# run whose log cannot be opened, or whose folder links to files elsewhere, fails alone, and so
+# does one whose preparation failed, with its log's error.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -90,6 +91,35 @@ grep -q '"step": 1,' unwritten/runs/s1_seed1_V1/progress.json || fail "progress.
   fail "a stale progress file: $(cat unwritten.out)"
 grep -q "2 finished earlier" unwritten.out || fail "a stale progress file: $(cat unwritten.out)"
 
+# A run folder that is a symbolic link to a folder elsewhere holding files and no run to resume
+# is listed as failed, its files untouched (a new start would replace cdshear's files there); a
+# link to a finished run of the campaign's is skipped as finished.
+cp -r "$dir" linked
+mkdir elsewhere
+cp "$dir/runs/s1_seed1_V1/case.toml" "$dir/runs/s1_seed1_V1/progress.json" elsewhere/
+echo "my notes" > elsewhere/notes.txt
+rm -r linked/runs/s1_seed1_V1 && ln -s "$PWD/elsewhere" linked/runs/s1_seed1_V1
+rc=0; "$exe" sweep two.toml -o linked > linked.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: .* is a symbolic link to $PWD/elsewhere, which holds files" \
+  linked.out || fail "a linked run folder (exit $rc): $(cat linked.out)"
+[ "$(ls elsewhere | tr '\n' ' ')" = "case.toml notes.txt progress.json " ] ||
+  fail "files at a link's target were touched: $(ls elsewhere)"
+rm -r linked/runs/s1_seed1_V1 && mv moved/runs/s1_seed1_V1 moved_V1 &&
+  ln -s "$PWD/moved_V1" linked/runs/s1_seed1_V1
+"$exe" sweep two.toml -o linked > linked.out 2>&1 || fail "a linked finished run: $(cat linked.out)"
+grep -q "2 finished earlier" linked.out || fail "a linked finished run: $(cat linked.out)"
+# A folder whose runs/ holds runs and no campaign.toml (deleted) cannot be compared with the
+# campaign: refused untouched; --force takes its runs as the campaign's.
+cp -r "$dir" unnamed && rm unnamed/campaign.toml
+rc=0; "$exe" sweep two.toml -o unnamed > unnamed.out 2>&1 || rc=$?
+[ $rc -eq 2 ] && grep -q "unnamed/runs holds 2 run folders and the folder no campaign.toml" \
+  unnamed.out && [ ! -e unnamed/campaign.toml ] ||
+  fail "runs without a campaign.toml (exit $rc): $(cat unnamed.out)"
+"$exe" sweep two.toml -o unnamed --force > unnamed.out 2>&1 ||
+  fail "runs without a campaign.toml, --force: $(cat unnamed.out)"
+grep -q "warning: --force: .*taken as this campaign's" unnamed.out &&
+  grep -q "2 finished earlier" unnamed.out || fail "--force: $(cat unnamed.out)"
+
 # A packing put by hand in a folder's packings/ under another seed's name is refused before any
 # run or preparation starts (it would make two seeds one packing).
 mkdir -p by_hand/packings && cp "$packing" by_hand/packings/s1_seed2.json
@@ -106,6 +136,12 @@ rc=0; "$exe" sweep by_hand.toml -o by_hand > by_hand.out 2>&1 || rc=$?
 [ $rc -eq 2 ] && grep -q "s1_seed2.json: it was placed with seed 1, the campaign's run has seed 2" \
   by_hand.out || fail "a packing of another seed (exit $rc): $(cat by_hand.out)"
 [ ! -d by_hand/runs ] || [ -z "$(ls by_hand/runs)" ] || fail "a run started on another seed's packing"
+# A preparation that fails is reported with its log's error line, and its runs with it.
+sed 's/name = "by_hand"/name = "unplaced"/; s/^seeds.*//' by_hand.toml > unplaced.toml
+printf '[set]\npreparation.initial_solid_fraction = 0.549\n' >> unplaced.toml
+rc=0; "$exe" sweep unplaced.toml > unplaced.out 2>&1 || rc=$?
+[ $rc -eq 1 ] &&
+  grep -q "s1_seed1_V1: its packing was not prepared, log .*: error: .*could place only" unplaced.out || fail "a failed preparation (exit $rc): $(cat unplaced.out)"
 
 # 1b. A run killed after its last step, before its run_info.json and its analysis were written,
 # is not run again (every step is done); a missing summary.json is

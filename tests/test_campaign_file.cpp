@@ -331,6 +331,21 @@ TEST(CampaignFile, StepLimitIsTheRunsNotThePresets) {
   EXPECT_EQ(c.runs[0].dt, 1e-9);
 }
 
+TEST(CampaignFile, SystemsThatSetMakesOneCaseAreRefused) {
+  // Systems 2 and 3 differ only in their normal stress: a [set] of it makes them one case, run
+  // twice under two names.
+  const std::string two_systems = kHead + "systems = [2, 3]\nvelocities = [0.5]\n";
+  EXPECT_EQ(parse(two_systems + "duration = 10\n").runs.size(), 2u);
+  expect_refused(two_systems + "duration = 10\n[set]\nshear.normal_stress = 1.0\n", "set",
+                 "makes runs s2_seed1_V0.5 and s3_seed1_V0.5 one case");
+  // Their durations differing does not make them two cases.
+  expect_refused(two_systems + "duration = {2 = 10, 3 = 20}\n[set]\nshear.normal_stress = 1.0\n",
+                 "set", "differ in nothing but the duration");
+  // One value where they already agree keeps them two.
+  EXPECT_EQ(parse(two_systems + "duration = 10\n[set]\nshear.friction_grain = 0.3\n").runs.size(),
+            2u);
+}
+
 TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   const std::string ok_rest = "systems = [1]\nvelocities = [0.5]\nduration = 10\n";
   expect_refused(kHead + ok_rest + "velocitys = [1]\n", "campaign.velocitys", "unknown key");

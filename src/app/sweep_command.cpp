@@ -533,10 +533,30 @@ std::string stale_packing(const fs::path& p, const std::string& source,
 
 /// Refuses a campaign that differs from the one DIR was made for, unless --force. Swept from
 /// DIR/campaign.toml itself, a hand edit of that file shows as no difference: its fingerprint
-/// (of the campaign the sweep wrote) then names the change.
+/// (of the campaign the sweep wrote) then names the change. A folder whose runs/ holds runs and
+/// no campaign.toml (deleted, or the runs moved in by hand) cannot be compared: refused too,
+/// since a reused run is checked against the campaign by its physics alone (folder_case_problem),
+/// not by the rest of [set].
 void check_same_campaign(const fs::path& file, const fs::path& campaign_file, const Campaign& c,
                          bool force) {
-  if (!fs::exists(file)) return;
+  if (std::error_code ec; !fs::exists(file, ec)) {
+    const fs::path runs = file.parent_path() / "runs";
+    const auto held = std::distance(fs::directory_iterator(runs, ec), fs::directory_iterator());
+    if (held == 0) return;
+    const std::string what =
+        fmt::format("{} holds {} run folder{} and the folder no campaign.toml",
+                    runs.lexically_normal().string(), held, held == 1 ? "" : "s");
+    if (!force)
+      throw ConfigError(file.parent_path().lexically_normal().string(), "",
+                        what +
+                            ": the sweep cannot tell which campaign made them; put the "
+                            "folder's campaign.toml back, choose another -o, or pass --force "
+                            "to take them as this campaign's runs (each is still checked "
+                            "against the campaign's physics by its case.toml)");
+    std::fprintf(stderr, "warning: --force: %s; runs already there are taken as this campaign's\n",
+                 what.c_str());
+    return;
+  }
   // Read once, as the runs' files are (a FIFO in its place does not block); what cannot be read
   // goes to parse_toml_file, which names the cause.
   const std::optional<std::string> text = read_run_file(file, "the campaign's file");
@@ -733,12 +753,13 @@ class Sweep {
         [&](const JobEnd& e, const JobProgress&) {
           const Job& j = prepare_jobs[e.job];
           if (!args_.quiet || e.exit_code != 0)
-            std::printf("sweep: %s %s (%s)%s\n", j.name.c_str(),
-                        e.exit_code == 0     ? "done"
-                        : e.exit_code == 130 ? "interrupted"
-                                             : fmt::format("failed, exit {}", e.exit_code).c_str(),
-                        format_seconds(e.seconds).c_str(),
-                        e.exit_code == 0 ? "" : (", log " + j.log.string()).c_str());
+            std::printf(
+                "sweep: %s %s (%s)%s\n", j.name.c_str(),
+                e.exit_code == 0     ? "done"
+                : e.exit_code == 130 ? "interrupted"
+                                     : fmt::format("failed, exit {}", e.exit_code).c_str(),
+                format_seconds(e.seconds).c_str(),
+                e.exit_code == 0 ? "" : (", log " + j.log.string() + failure_cause(j.log)).c_str());
           std::fflush(stdout);
         },
         JobTick{tick_every_, [&](const JobProgress& p) {
@@ -849,10 +870,23 @@ class Sweep {
             r.name, rdir.string()));
         continue;
       }
+      // A start in a folder that holds files replaces cdshear's files in it (`run --force`):
+      // in the campaign's own runs/, but not through a link to a folder elsewhere, which may be
+      // another run's or the researcher's.
+      if (std::error_code ec; state == RunState::kNew && fs::is_symlink(rdir, ec) &&
+                              fs::is_directory(rdir, ec) && !fs::is_empty(rdir, ec)) {
+        failed_.push_back(fmt::format(
+            "{}: {} is a symbolic link to {}, which holds files and no run to resume; a new start "
+            "would replace cdshear's files there (empty that folder, or remove the link, to run "
+            "this one)",
+            r.name, rdir.string(), fs::read_symlink(rdir, ec).string()));
+        continue;
+      }
       const fs::path packing = packing_of_.at({r.system, r.seed});
       if (!fs::exists(packing)) {
-        failed_.push_back(fmt::format("{}: its packing was not prepared, log {}", r.name,
-                                      log_of(preparation_name(r)).string()));
+        const fs::path prepare_log = log_of(preparation_name(r));
+        failed_.push_back(fmt::format("{}: its packing was not prepared, log {}{}", r.name,
+                                      prepare_log.string(), failure_cause(prepare_log)));
         continue;
       }
       duration_of_.push_back(r.duration);

@@ -218,10 +218,11 @@ CampaignGroup read_group(TomlReader& t) {
 
 /// One run of group `g` (read by `gr`; `t` reads [campaign]) resolved by the case loader of
 /// `cdshear run` with the overrides it will get: its n, L_y, duration and dt, every problem named
-/// by its campaign key.
-void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr,
-                 const TomlReader& t, CampaignRun& run, int system, std::uint64_t seed, double v,
-                 std::set<int>& packings_checked) {
+/// by its campaign key. Returns the run's resolved case with its duration left out, as TOML: two
+/// runs with the same text are one case (their trajectories the same up to the shorter end).
+std::string resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr,
+                        const TomlReader& t, CampaignRun& run, int system, std::uint64_t seed,
+                        double v, std::set<int>& packings_checked) {
   const std::string& file = c.file;
   run.system = system;
   run.velocity = v;
@@ -296,6 +297,10 @@ void resolve_run(const Campaign& c, const CampaignGroup& g, const TomlReader& gr
     gr.fail(length_key,
             fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
                         run.name, run.duration, run.dt));
+  sc.duration = 0.0;
+  std::ostringstream resolved;
+  resolved << case_to_toml(sc);
+  return resolved.str();
 }
 
 /// [campaign.packing]: a packing file per system (relative to the campaign file's folder),
@@ -419,6 +424,7 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
   // Every run, resolved by the case loader of `cdshear run`.
   std::map<std::string, std::size_t> group_of_run;  // run name -> its group
   std::set<int> packings_checked;                   // systems whose given packing was read
+  std::map<std::string, std::string> run_of_case;   // resolved case -> the run that has it
   for (std::size_t gi = 0; gi < c.groups.size(); ++gi) {
     const CampaignGroup& g = c.groups[gi];
     const TomlReader& gr = group_readers[gi];
@@ -432,7 +438,17 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
                    fmt::format("lists run {} again: it is in campaign.group[{}] already (a run "
                                "belongs to one group)",
                                run.name, it->second));
-          resolve_run(c, g, gr, t, run, system, seed, v, packings_checked);
+          const std::string resolved =
+              resolve_run(c, g, gr, t, run, system, seed, v, packings_checked);
+          // Two systems the [set] gives the same values where they differ run one case twice
+          // under two names (the study pools runs by system).
+          if (const auto [it, added] = run_of_case.emplace(resolved, run.name); !added)
+            throw ConfigError(
+                file, "set",
+                fmt::format("makes runs {} and {} one case (their resolved cases differ in "
+                            "nothing but the duration): a campaign runs a case once; leave out "
+                            "one of the systems, or the [set] key that gives them one value",
+                            it->second, run.name));
           c.runs.push_back(run);
         }
   }
