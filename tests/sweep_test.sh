@@ -335,6 +335,12 @@ campaign three "[0.25, 0.5, 2.0]" 20
 rc=0; "$exe" sweep three.toml -o stopped > changed.out 2>&1 || rc=$?
 [ $rc -eq 2 ] || fail "a changed campaign exited $rc, not 2"
 grep -q "campaign.velocities" changed.out || fail "the refusal does not say what changed"
+# --dry-run prints the campaign and refuses the folder the same way; with --force it passes.
+rc=0; "$exe" sweep three.toml -o stopped --dry-run > dry.out 2> dry.err || rc=$?
+[ $rc -eq 2 ] && grep -q "s1_seed1_V2" dry.out && grep -q "campaign.velocities" dry.err ||
+  fail "--dry-run on a changed campaign's folder (exit $rc): $(cat dry.out dry.err)"
+"$exe" sweep three.toml -o stopped --dry-run --force > dry.out 2>&1 ||
+  fail "--dry-run --force: $(cat dry.out)"
 # The folder's own campaign.toml edited by hand and swept: its header's fingerprint names the
 # change; unedited, it sweeps as before (nothing to do).
 cp -r stopped edited

@@ -1075,6 +1075,13 @@ int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
                                   .string());
   if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
     std::fputs(campaign_file_text(c).c_str(), stdout);
+    std::fflush(stdout);
+    // The folder checked as the sweep would check it, reading only: one the sweep would refuse
+    // (not a campaign's, or another campaign's without --force) is refused now.
+    const fs::path dir =
+        args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir);
+    check_campaign_folder(dir);
+    check_same_campaign(dir / "campaign.toml", args.file, c, args.force);
     return 0;
   }
   return Sweep(args, std::move(c), remote, ranks).run();
@@ -1110,8 +1117,8 @@ void register_sweep_command(CLI::App& app) {
   s->add_flag("--force", args->force,
               "go on in a folder made for a changed campaign (its runs are kept)");
   s->add_flag("--dry-run", args->dry_run,
-              "print the resolved campaign (every run with its duration, dt and cost) and exit: "
-              "nothing is prepared, run or written");
+              "print the resolved campaign (every run with its duration, dt and cost), check the "
+              "folder as a sweep would, and exit: nothing is prepared, run or written");
   s->callback([args]() {
     int rc = 0;
 #ifdef CDSHEAR_WITH_MPI
