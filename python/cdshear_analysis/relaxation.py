@@ -425,6 +425,9 @@ def format_decay_table(entries, exponent, absence=False):
 
     def f(v, decimals):
         return "-" if v is None else fixed(v, decimals)
+
+    def text(v):
+        return "-" if v is None else str(v)
     header = ("run", "start", "regime", "L_y", "I_bulk", "D", "T_SS", "tau", "tau/T_SS", "sin2",
               "cos1")
     texts = 3   # the first columns hold texts, left-aligned; numbers right-aligned
@@ -436,7 +439,7 @@ def format_decay_table(entries, exponent, absence=False):
         note = (f"{fixed(e['fit_range'][0], 0)}-{fixed(e['fit_range'][1], 0)} t"
                 if e["fit_range"] else "") \
             + ("" if e["used"] else f" (not used: {e['reason']})")
-        rows.append(((str(e["run"]), str(e["initial_velocity"]), str(e["regime"]),
+        rows.append(((str(e["run"]), text(e["initial_velocity"]), text(e["regime"]),
                       f(e["L_y"], 2), f(e["I_bulk"], 4), f(e["D"], 3), f(e["T_SS"], 0), tau,
                       f(e["tau_over_T_SS"], 4), f(ov.get("sin_2pi_eta"), 2),
                       f(ov.get("cos_pi_eta"), 2)), note.strip()))

@@ -295,6 +295,9 @@ class DecayTable(unittest.TestCase):
                 self.assertEqual(row[note - 2:note], "  ", row)
                 self.assertNotEqual(row[note], " ", row)
         self.assertIn("(not used: no profile_decay in summary.json", rows[2])
+        # its start unknown: "-" as every missing value, not Python's None
+        self.assertEqual(rows[2][columns[1][0]:].split()[0], "-")
+        self.assertNotIn("None", rows[2])
         # the long name widens its column; no cell runs into the next
         self.assertEqual(columns[1][0], len("campaign_b/runs/s1_seed1_V0.05_longer_name") + 1)
 
