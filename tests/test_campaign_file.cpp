@@ -474,6 +474,15 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   expect_refused(kHead + "systems = [1]\n" + group, "campaign.systems", "each [[campaign.group]]");
   expect_refused(kHead + "group = []\n", "campaign.group", "empty");
   expect_refused(kHead + group + group, "campaign.group[1]", "campaign.group[0] already");
+  // a purpose names its group when a changed campaign is compared: one per group
+  const std::string slow =
+      "[[campaign.group]]\nsystems = [2]\nvelocities = [0.05]\nduration = 10\n";
+  expect_refused(kHead + group + "purpose = \"slow\"\n" + slow + "purpose = \"slow\"\n",
+                 "campaign.group[1].purpose", "the purpose of campaign.group[0] already");
+  EXPECT_EQ(
+      parse(kHead + group + "purpose = \"fast\"\n" + slow + "purpose = \"slow\"\n").runs.size(),
+      2u);
+  EXPECT_EQ(parse(kHead + group + slow).runs.size(), 2u);  // two without one
   expect_refused(kHead + group + "frobnicate = 1\n", "campaign.group[0].frobnicate", "unknown key");
   expect_refused(kHead + "[[campaign.group]]\nsystems = [1]\nvelocities = [-1]\nduration = 1\n",
                  "campaign.group[0].velocities", "> 0");

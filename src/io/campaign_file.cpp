@@ -380,9 +380,17 @@ Campaign campaign_from_toml(const toml::table& table, const std::string& file,
         t.fail(key, "is given in each [[campaign.group]] when the campaign has groups");
     group_readers = t.tables("group");
     if (group_readers.empty()) t.fail("group", "is empty: give at least one [[campaign.group]]");
+    // A purpose names its group when a changed campaign is compared with the folder's: two
+    // groups with one purpose could not be told apart there.
+    std::map<std::string, std::size_t> group_of_purpose;
     for (TomlReader& g : group_readers) {
       CampaignGroup group = read_group(g);
       group.purpose = g.string("purpose", "");
+      if (const auto [it, added] = group_of_purpose.emplace(group.purpose, c.groups.size());
+          !added && !group.purpose.empty())
+        g.fail("purpose", fmt::format("\"{}\" is the purpose of campaign.group[{}] already: "
+                                      "give each group its own (or none)",
+                                      group.purpose, it->second));
       g.finish();
       c.groups.push_back(std::move(group));
     }
