@@ -403,7 +403,9 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   expect_refused(kHead + "systems = [1, 2]\nvelocities = [0.5]\nduration = { 1 = 100 }\n",
                  "campaign.duration.2", "missing");
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = { 1 = 100, 3 = 5 }\n",
-                 "campaign.duration.3", "unknown key");
+                 "campaign.duration.3",
+                 "unknown key: the table gives a duration to each of the "
+                 "systems = [1]");
   expect_refused(kHead + "systems = [1]\nvelocities = [0.5]\nduration = { 1 = -1 }\n",
                  "campaign.duration.1", "> 0");
   // duration or strain: one of them
@@ -417,6 +419,9 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
                  "set by the campaign");
   expect_refused(kHead + ok_rest + "[set]\nshear.duration = 2\n", "set.shear.duration",
                  "set by the campaign");
+  for (const std::string key : {"packing", "shear.packing"})  // `run --packing` is no case key
+    expect_refused(kHead + ok_rest + "[set]\n" + key + " = \"p.json\"\n", "set." + key,
+                   "a campaign's packing files are given per system in [campaign]");
   expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = 3\n", "set.measure.enabled",
                  "true or false");
   expect_refused(kHead + ok_rest + "[set]\nshear.frobnicate = 3\n", "set.shear.frobnicate",

@@ -207,7 +207,14 @@ CampaignGroup read_group(TomlReader& t) {
                    "campaign its own");
         g.duration_of_system[k] = per.positive(key);
       }
-      per.finish();  // a system not in the campaign is refused here
+      try {
+        per.finish();  // a system not in the campaign is refused here
+      } catch (const ConfigError& e) {
+        throw ConfigError(e.file(), e.key(),
+                          fmt::format("{}: the table gives a duration to each of the "
+                                      "systems = [{}], named by number, and to no other",
+                                      e.problem(), fmt::join(g.systems, ", ")));
+      }
     } else {
       g.duration = t.positive("duration");
     }
@@ -347,6 +354,10 @@ void read_set(const toml::table& table, TomlReader& root, const std::string& fil
       throw ConfigError(file, "set", "the key " + problem);
     if (const auto it = kOwnedKeys.find(key); it != kOwnedKeys.end())
       throw ConfigError(file, "set." + key, "is set by the campaign: " + it->second);
+    if (key == "packing" || key.ends_with(".packing"))  // `run --packing` is no case key
+      throw ConfigError(file, "set." + key,
+                        "is no case key: a campaign's packing files are given per system in "
+                        "[campaign], packing = { 1 = \"FILE\" }");
     c.overrides.push_back(key + "=" + value);
   }
 }
