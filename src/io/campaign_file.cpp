@@ -525,43 +525,21 @@ toml::table campaign_to_toml(const Campaign& c) {
   return toml::table{{"campaign", campaign}, {"set", set}};
 }
 
-namespace {
-
-/// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
-constexpr std::string_view kFingerprintWords = "; fingerprint ";
-/// The second header line and the run list's heading, around the campaign's TOML text.
-constexpr std::string_view kCampaignFileNote =
-    "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n";
-constexpr std::string_view kRunListHeading =
-    "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
-
-std::string fingerprint_of(std::string_view text) {
+std::string campaign_fingerprint(const toml::table& resolved) {
+  std::ostringstream text;
+  text << resolved;
   std::uint64_t h = 14695981039346656037ull;  // FNV-1a 64
-  for (const unsigned char ch : text) {
+  for (const unsigned char ch : text.str()) {
     h ^= ch;
     h *= 1099511628211ull;
   }
   return fmt::format("{:016x}", h);
 }
 
+namespace {
+/// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
+constexpr std::string_view kFingerprintWords = "; fingerprint ";
 }  // namespace
-
-std::string campaign_fingerprint(const toml::table& resolved) {
-  std::ostringstream text;
-  text << resolved;
-  return fingerprint_of(text.str());
-}
-
-std::string written_fingerprint(std::string_view text) {
-  const std::size_t header_end = text.find('\n');
-  if (header_end == std::string_view::npos ||
-      !text.substr(header_end + 1).starts_with(kCampaignFileNote))
-    return {};
-  const std::size_t start = header_end + 1 + kCampaignFileNote.size();
-  const std::size_t end = text.find(kRunListHeading, start);
-  return end == std::string_view::npos ? std::string()
-                                       : fingerprint_of(text.substr(start, end - start));
-}
 
 std::string recorded_fingerprint(std::string_view text) {
   const std::string_view first_line = text.substr(0, text.find('\n'));
@@ -576,7 +554,8 @@ std::string campaign_file_text(const Campaign& c) {
   std::ostringstream text;
   text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep" << kFingerprintWords
        << campaign_fingerprint(t) << ".\n"
-       << kCampaignFileNote << t << kRunListHeading;
+       << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
+       << t << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
   for (const CampaignRun& r : c.runs)
     text << fmt::format("#   {}  duration {}  dt {}  cost {:.3g}\n", r.name, r.duration, r.dt,
                         r.cost());

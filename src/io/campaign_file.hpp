@@ -95,12 +95,6 @@ std::string campaign_fingerprint(const toml::table& resolved);
 /// where that line holds none (a user's own campaign file).
 std::string recorded_fingerprint(std::string_view text);
 
-/// The fingerprint of the TOML text that `text` (a campaign_file_text) holds between its header
-/// and its run list, as the file has it; empty where the file has no such parts. It equals the
-/// recorded one in a file left as a sweep wrote it, whichever way that sweep printed its numbers
-/// (campaign_fingerprint prints the campaign as this build does).
-std::string written_fingerprint(std::string_view text);
-
 /// The keys (dotted) whose values differ between two resolved campaigns, as
 /// "key: OLD -> NEW" lines; empty when they are the same.
 std::vector<std::string> campaign_differences(const toml::table& before, const toml::table& after);
