@@ -60,6 +60,19 @@ struct SweepArgs {
   double progress_every = 600.0;  ///< [s] between periodic progress lines; 0: none
 };
 
+/// The campaign's folder: -o, or campaigns/<name> under the current directory.
+fs::path campaign_folder(const SweepArgs& args, const Campaign& c) {
+  return fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name
+                                           : fs::path(args.out_dir));
+}
+
+/// Whether a new start in the run folder `rdir` replaces files there (`run --force`, which
+/// removes cdshear's files): the folder exists and is not empty.
+bool start_replaces_files(const fs::path& rdir) {
+  std::error_code ec;
+  return fs::is_directory(rdir, ec) && !fs::is_empty(rdir, ec);
+}
+
 /// What a run folder holds, from its files (docs/campaigns.md, "Resume rules").
 enum class RunState { kNew, kFinished, kInterrupted, kBlownUp };
 
@@ -597,8 +610,7 @@ class Sweep {
       : args_(args),
         c_(std::move(campaign)),
         remote_(remote),
-        dir_(fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c_.name
-                                               : fs::path(args.out_dir))),
+        dir_(campaign_folder(args, c_)),
         exe_(fs::read_symlink("/proc/self/exe")),
         jobs_(remote != nullptr ? ranks
               : args.jobs > 0   ? args.jobs
@@ -800,7 +812,7 @@ class Sweep {
         j.argv.insert(j.argv.end(), {"--set", o});
       j.argv.insert(j.argv.end(),
                     {"--packing", packing.string(), "--threads", threads_, "-o", rdir.string()});
-      if (fs::is_directory(rdir) && !fs::is_empty(rdir)) j.argv.push_back("--force");
+      if (start_replaces_files(rdir)) j.argv.push_back("--force");
     }
     if (!c_.analyze) j.argv.push_back("--no-analyze");
     return j;
@@ -873,8 +885,8 @@ class Sweep {
       // A start in a folder that holds files replaces cdshear's files in it (`run --force`):
       // in the campaign's own runs/, but not through a link to a folder elsewhere, which may be
       // another run's or the researcher's.
-      if (std::error_code ec; state == RunState::kNew && fs::is_symlink(rdir, ec) &&
-                              fs::is_directory(rdir, ec) && !fs::is_empty(rdir, ec)) {
+      if (std::error_code ec;
+          state == RunState::kNew && fs::is_symlink(rdir, ec) && start_replaces_files(rdir)) {
         failed_.push_back(fmt::format(
             "{}: {} is a symbolic link to {}, which holds files and no run to resume; a new start "
             "would replace cdshear's files there (empty that folder, or remove the link, to run "
@@ -1070,16 +1082,13 @@ class Sweep {
 int run_sweep(const SweepArgs& args, const RemoteScheduler* remote, int ranks) {
   Campaign c = read_campaign(args.file);
   // the runs' folders: each run records its own path (check_utf8_path)
-  check_utf8_path("--output", fs::absolute(args.out_dir.empty() ? fs::path("campaigns") / c.name
-                                                                : fs::path(args.out_dir))
-                                  .string());
+  const fs::path dir = campaign_folder(args, c);
+  check_utf8_path("--output", dir.string());
   if (args.dry_run) {  // before the folder or its lock are touched (under MPI: rank 0 only)
     std::fputs(campaign_file_text(c).c_str(), stdout);
     std::fflush(stdout);
     // The folder checked as the sweep would check it, reading only: one the sweep would refuse
     // (not a campaign's, or another campaign's without --force) is refused now.
-    const fs::path dir =
-        args.out_dir.empty() ? fs::path("campaigns") / c.name : fs::path(args.out_dir);
     check_campaign_folder(dir);
     check_same_campaign(dir / "campaign.toml", args.file, c, args.force);
     return 0;
