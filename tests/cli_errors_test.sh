@@ -256,7 +256,7 @@ expect_error "lists h = 5 twice" "$exe" run -q --set "measure.boundary_thickness
 # run.h5 to check it against).
 "$exe" run -q --no-analyze --packing "$packing" --set measure.enabled=false \
   --set shear.duration=0.4 --stop-at 0.2 -o unmeasured > /dev/null
-sed -i "s/^dt = 'auto'$/dt = 0.004001/" unmeasured/case.toml
+sed -i 's/^dt = "auto"$/dt = 0.004001/' unmeasured/case.toml
 expect_error "(was the time step changed?): not a state of the run unmeasured/case.toml describes" \
   "$exe" run -q --no-analyze --resume unmeasured
 # A folder whose name holds a line break is resumed (case.toml's comment names it escaped); a

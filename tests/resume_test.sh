@@ -85,7 +85,7 @@ grep -q "case.toml: key 'measure.enabled': is false, but the run was measured" \
   { echo "FAIL: the refused resume changed the run's files"; exit 1; }
 # Any other [measure] key edited is refused naming that key in case.toml, with both values
 # (the edited stripes would otherwise be blamed on checkpoint.cbor, the rest on run.h5).
-for edit in "window|0.80000000000000004|0.4|is 0.4, but the run was measured with 0.8" \
+for edit in "window|0.8|0.4|is 0.4, but the run was measured with 0.8" \
   "stripe_thickness|1.0|2.0|is 2, but the run was measured with 1"; do
   IFS='|' read -r key was now says <<< "$edit"
   rm -rf "$work/edited" && cp -r "$work/stopped" "$work/edited"

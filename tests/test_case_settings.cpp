@@ -13,14 +13,14 @@
 #include "config_error.hpp"
 #include "shear_case.hpp"
 #include "test_support.hpp"
+#include "toml_text.hpp"
 
 namespace cdshear {
 namespace {
 
+/// The resolved case as case.toml holds it.
 std::string resolved_text(const ShearCase& c) {
-  std::ostringstream out;
-  out << case_to_toml(c);
-  return out.str();
+  return toml_document_text(case_to_toml(c));
 }
 
 ShearCase with(const std::vector<std::string>& overrides) {
@@ -224,7 +224,8 @@ TEST(CaseSettings, AlphaFollowsTheWallSpeedUnlessTheCaseGivesIt) {
     previous = a;
   }
   // A case file keeps the word, so that a resumed or rerun case follows its own V.
-  EXPECT_NE(resolved_text(with({"shear.velocity=0.05"})).find("alpha = 'auto'"), std::string::npos);
+  EXPECT_NE(resolved_text(with({"shear.velocity=0.05"})).find("alpha = \"auto\""),
+            std::string::npos);
 }
 
 TEST(CaseSettings, ResidualToleranceFollowsTheWallSpeedAndTimeStepUnlessTheCaseGivesIt) {
@@ -246,7 +247,7 @@ TEST(CaseSettings, ResidualToleranceFollowsTheWallSpeedAndTimeStepUnlessTheCaseG
   EXPECT_DOUBLE_EQ(own_dt, kResidualPerSpeed * 0.5 * 0.001);
   EXPECT_EQ(resolved({"solver.residual_tolerance=0"}).first, 0.0);  // off
   EXPECT_EQ(resolved({"solver.residual_tolerance=2e-7"}).first, 2e-7);
-  EXPECT_NE(resolved_text(with({})).find("residual_tolerance = 'auto'"), std::string::npos);
+  EXPECT_NE(resolved_text(with({})).find("residual_tolerance = \"auto\""), std::string::npos);
   EXPECT_NE(resolved_text(with({"solver.residual_tolerance=0"})).find("residual_tolerance = 0.0"),
             std::string::npos);
 }

@@ -16,6 +16,7 @@
 #include "run_session.hpp"
 #include "scene_file.hpp"
 #include "stop_signals.hpp"
+#include "toml_text.hpp"
 
 namespace cdshear {
 namespace {
@@ -56,11 +57,8 @@ int run_scene(const SceneArgs& args) {
                                   sf.run.sample_every, end_step));
   const std::filesystem::path dir(args.out_dir);
   const FolderLock lock = claim_output_folder(dir, args.force, "");
-  {
-    std::ostringstream resolved;
-    resolved << kResolvedSceneHeader << CDSHEAR_VERSION << ".\n" << sf.resolved << '\n';
-    write_file_atomic(dir / "scene.toml", resolved.str());
-  }
+  write_file_atomic(dir / "scene.toml", std::string(kResolvedSceneHeader) + CDSHEAR_VERSION ".\n" +
+                                            toml_document_text(sf.resolved) + '\n');
 
   RunLoopSettings loop;
   loop.end_step = end_step;

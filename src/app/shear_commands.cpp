@@ -33,6 +33,7 @@
 #include "run_session.hpp"
 #include "scene.hpp"
 #include "stop_signals.hpp"
+#include "toml_text.hpp"
 
 namespace cdshear {
 namespace {
@@ -237,7 +238,7 @@ std::string resolved_case_text(const ShearCase& c, const std::string& packing,
   std::ostringstream text;
   text << kResolvedCaseHeader << CDSHEAR_VERSION;
   if (!dir.empty()) text << "; `cdshear run --resume " << path_for_comment(dir) << "` continues it";
-  text << ".\n" << resolved << '\n';
+  text << ".\n" << toml_document_text(resolved) << '\n';
   return text.str();
 }
 
@@ -292,12 +293,11 @@ void warn_of_new_defaults(const std::string& file, const ShearCase& c) {
   if (written.empty()) throw ConfigError(file, "", kEmptyRunCaseProblem);
   const toml::table resolved = case_to_toml(c);
   for (const std::string& key : keys_missing_from(written, resolved)) {
-    std::ostringstream value;
-    value << resolved.at_path(key);
+    const std::string value = toml_value_text(*resolved.at_path(key).node());  // a key of it
     std::fprintf(stderr,
                  "warning: %s does not set %s (written by an earlier cdshear): this resume runs "
                  "with today's value %s%s\n",
-                 file.c_str(), key.c_str(), value.str().c_str(),
+                 file.c_str(), key.c_str(), value.c_str(),
                  changeable_on_resume(key)
                      ? ("; give --set " + key + "=... to choose another").c_str()
                      : " (a resume cannot change it)");

@@ -19,6 +19,7 @@
 #include "packing_file.hpp"
 #include "shear_case.hpp"
 #include "toml_reader.hpp"
+#include "toml_text.hpp"
 
 namespace cdshear {
 namespace {
@@ -32,31 +33,6 @@ const std::map<std::string, std::string> kOwnedKeys = {
     {"shear.duration", "give [campaign] duration (time units) or strain"},
     {"measure.boundary_thickness", "give [campaign] boundary_thickness"},
     {"preparation.packing", "give [campaign.packing] per system"}};
-
-/// A TOML value as the text of its right-hand side (`0.5`, `"random"`, `[5.0, 10.0]`), as TOML
-/// reads it back: a float in its shortest form that gives the same double (0.42, not
-/// 0.41999999999999998) and stays a float (`2.0`, not `2`: [set] values are passed on as --set).
-std::string value_text(const toml::node& node) {
-  if (const auto* x = node.as_floating_point()) {
-    std::string text = fmt::format("{}", x->get());
-    if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // n: inf, nan
-    return text;
-  }
-  if (const toml::array* array = node.as_array()) {
-    std::vector<std::string> items;
-    for (const toml::node& item : *array) items.push_back(value_text(item));
-    return fmt::format("[{}]", fmt::join(items, ", "));
-  }
-  toml::table t;
-  t.insert("v", node);
-  std::ostringstream out;
-  out << toml::toml_formatter{t, toml::format_flags::none};
-  std::string text = out.str();
-  const auto eq = text.find(" = ");
-  text = eq == std::string::npos ? text : text.substr(eq + 3);
-  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
-  return text;
-}
 
 /// Every leaf of a table as (dotted key, value text), in key order (an empty table has none: a
 /// `[set.measure]` header whose keys are all commented out sets nothing). Returns a dotted key
@@ -79,7 +55,7 @@ std::string flatten(const toml::table& t, const std::string& prefix,
         keep(flatten(*(*array)[i].as_table(), key + "[" + std::to_string(i) + "]", out));
     } else {
       if (out.contains(key)) keep(key);
-      out[key] = value_text(v);
+      out[key] = toml_value_text(v);
     }
   }
   return twice;
@@ -305,9 +281,7 @@ std::string resolve_run(const Campaign& c, const CampaignGroup& g, const TomlRea
             fmt::format("gives run {} a duration of {:.6g}, less than half a time step ({:.6g})",
                         run.name, run.duration, run.dt));
   sc.duration = 0.0;
-  std::ostringstream resolved;
-  resolved << case_to_toml(sc);
-  return resolved.str();
+  return toml_document_text(case_to_toml(sc));
 }
 
 /// [campaign.packing]: a packing file per system (relative to the campaign file's folder),
@@ -525,21 +499,41 @@ toml::table campaign_to_toml(const Campaign& c) {
   return toml::table{{"campaign", campaign}, {"set", set}};
 }
 
-std::string campaign_fingerprint(const toml::table& resolved) {
-  std::ostringstream text;
-  text << resolved;
+namespace {
+
+/// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
+constexpr std::string_view kFingerprintWords = "; fingerprint ";
+/// The second header line and the run list's heading, around the campaign's TOML text.
+constexpr std::string_view kCampaignFileNote =
+    "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n";
+constexpr std::string_view kRunListHeading =
+    "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
+
+std::string fingerprint_of(std::string_view text) {
   std::uint64_t h = 14695981039346656037ull;  // FNV-1a 64
-  for (const unsigned char ch : text.str()) {
+  for (const unsigned char ch : text) {
     h ^= ch;
     h *= 1099511628211ull;
   }
   return fmt::format("{:016x}", h);
 }
 
-namespace {
-/// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
-constexpr std::string_view kFingerprintWords = "; fingerprint ";
 }  // namespace
+
+std::string campaign_fingerprint(const toml::table& resolved) {
+  return fingerprint_of(toml_document_text(resolved));
+}
+
+std::string written_fingerprint(std::string_view text) {
+  const std::size_t header_end = text.find('\n');
+  if (header_end == std::string_view::npos ||
+      !text.substr(header_end + 1).starts_with(kCampaignFileNote))
+    return {};
+  const std::size_t start = header_end + 1 + kCampaignFileNote.size();
+  const std::size_t end = text.find(kRunListHeading, start);
+  return end == std::string_view::npos ? std::string()
+                                       : fingerprint_of(text.substr(start, end - start));
+}
 
 std::string recorded_fingerprint(std::string_view text) {
   const std::string_view first_line = text.substr(0, text.find('\n'));
@@ -554,8 +548,7 @@ std::string campaign_file_text(const Campaign& c) {
   std::ostringstream text;
   text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep" << kFingerprintWords
        << campaign_fingerprint(t) << ".\n"
-       << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
-       << t << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
+       << kCampaignFileNote << toml_document_text(t) << kRunListHeading;
   for (const CampaignRun& r : c.runs)
     text << fmt::format("#   {}  duration {}  dt {}  cost {:.3g}\n", r.name, r.duration, r.dt,
                         r.cost());

@@ -4,8 +4,9 @@
 
 #include <cmath>
 #include <optional>
-#include <sstream>
 #include <type_traits>
+
+#include "toml_text.hpp"
 
 // The rows below name only the fields that differ from Setting's defaults (designated
 // initializers); the others keep their defaults, which is what this warning is about.
@@ -127,22 +128,6 @@ std::int64_t integer_bound(double v) {
   if (v >= 9.2e18) return std::numeric_limits<std::int64_t>::max();
   if (v <= -9.2e18) return std::numeric_limits<std::int64_t>::min();
   return static_cast<std::int64_t>(v);
-}
-
-/// A number as TOML writes it and reads it back exactly: the shortest round-trip form, with a
-/// decimal point or an exponent so that it stays a float (`20.0`, `0.005`, `1e-5`).
-std::string exact_number(double v) {
-  std::string s = fmt::format("{}", v);
-  if (const std::size_t e = s.find('e'); e != std::string::npos) {
-    // 1e-05 -> 1e-5: the exponent without leading zeros.
-    std::size_t digits = e + 1;
-    if (digits < s.size() && (s[digits] == '-' || s[digits] == '+')) ++digits;
-    while (digits + 1 < s.size() && s[digits] == '0') s.erase(digits, 1);
-    if (s[e + 1] == '+') s.erase(e + 1, 1);
-    return s;
-  }
-  if (s.find_first_of(".ni") == std::string::npos) s += ".0";
-  return s;
 }
 
 std::string bound_text(double v, bool integer) {
@@ -888,20 +873,17 @@ std::string toml_text(const SettingValue& v) {
       [](const auto& x) -> std::string {
         using V = std::decay_t<decltype(x)>;
         if constexpr (std::is_same_v<V, double>) {
-          return exact_number(x);
+          return toml_float_text(x);
         } else if constexpr (std::is_same_v<V, std::int64_t>) {
           return std::to_string(x);
         } else if constexpr (std::is_same_v<V, bool>) {
           return x ? "true" : "false";
         } else if constexpr (std::is_same_v<V, std::string>) {
-          // The TOML library's escapes (quotes, control characters), in one double-quoted line.
-          std::ostringstream quoted;
-          quoted << toml::toml_formatter{toml::value<std::string>(x),
-                                         toml::format_flags::allow_unicode_strings};
-          return quoted.str();
+          return toml_value_text(toml::value<std::string>(x));
         } else {
           std::string list = "[";
-          for (std::size_t i = 0; i < x.size(); ++i) list += (i ? ", " : "") + exact_number(x[i]);
+          for (std::size_t i = 0; i < x.size(); ++i)
+            list += (i ? ", " : "") + toml_float_text(x[i]);
           return list + "]";
         }
       },
