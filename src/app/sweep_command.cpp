@@ -583,8 +583,7 @@ void check_same_campaign(const fs::path& file, const fs::path& campaign_file, co
     // Either fingerprint: a file written by a build that printed its numbers otherwise (17
     // digits) reads back to the same campaign, printed now in other text.
     if (const std::string fingerprint = campaign_fingerprint(now);
-        !recorded.empty() && recorded != fingerprint &&
-        recorded != written_fingerprint(text.value_or(std::string())))
+        !recorded.empty() && recorded != fingerprint && recorded != printed_fingerprint(now))
       diff.push_back(
           fmt::format("the file was changed after the sweep wrote it: fingerprint {} "
                       "in its header, {} of its campaign",

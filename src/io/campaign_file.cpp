@@ -503,11 +503,6 @@ namespace {
 
 /// The words before the fingerprint in the header; the fingerprint ends at the next '.'.
 constexpr std::string_view kFingerprintWords = "; fingerprint ";
-/// The second header line and the run list's heading, around the campaign's TOML text.
-constexpr std::string_view kCampaignFileNote =
-    "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n";
-constexpr std::string_view kRunListHeading =
-    "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
 
 std::string fingerprint_of(std::string_view text) {
   std::uint64_t h = 14695981039346656037ull;  // FNV-1a 64
@@ -524,15 +519,10 @@ std::string campaign_fingerprint(const toml::table& resolved) {
   return fingerprint_of(toml_document_text(resolved));
 }
 
-std::string written_fingerprint(std::string_view text) {
-  const std::size_t header_end = text.find('\n');
-  if (header_end == std::string_view::npos ||
-      !text.substr(header_end + 1).starts_with(kCampaignFileNote))
-    return {};
-  const std::size_t start = header_end + 1 + kCampaignFileNote.size();
-  const std::size_t end = text.find(kRunListHeading, start);
-  return end == std::string_view::npos ? std::string()
-                                       : fingerprint_of(text.substr(start, end - start));
+std::string printed_fingerprint(const toml::table& resolved) {
+  std::ostringstream text;
+  text << resolved;
+  return fingerprint_of(text.str());
 }
 
 std::string recorded_fingerprint(std::string_view text) {
@@ -548,7 +538,9 @@ std::string campaign_file_text(const Campaign& c) {
   std::ostringstream text;
   text << kResolvedCampaignHeader << CDSHEAR_VERSION " sweep" << kFingerprintWords
        << campaign_fingerprint(t) << ".\n"
-       << kCampaignFileNote << toml_document_text(t) << kRunListHeading;
+       << "# A campaign file itself: `cdshear sweep` on it runs the same runs.\n"
+       << toml_document_text(t)
+       << "\n\n# Runs (name, duration [t], dt [t], cost n x duration / dt):\n";
   for (const CampaignRun& r : c.runs)
     text << fmt::format("#   {}  duration {}  dt {}  cost {:.3g}\n", r.name, r.duration, r.dt,
                         r.cost());

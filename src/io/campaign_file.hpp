@@ -91,12 +91,10 @@ std::string campaign_file_text(const Campaign& c);
 /// A short fingerprint (16 hex digits, FNV-1a 64) of the resolved campaign's TOML text.
 std::string campaign_fingerprint(const toml::table& resolved);
 
-/// The fingerprint of the TOML text that a file written by campaign_file_text holds between its
-/// header and its run list, as that text stands; empty for a file of another form. It equals the
-/// recorded one while the file is as written, whichever build wrote it: a build whose TOML text
-/// printed numbers otherwise (17 digits) gave another text, and another fingerprint, for the
-/// same campaign.
-std::string written_fingerprint(std::string_view text);
+/// The fingerprint as builds that printed the campaign through toml++'s own formatter (17-digit
+/// numbers, single-quoted strings) recorded it: a folder written by such a build, its
+/// campaign.toml unedited, still passes for unedited.
+std::string printed_fingerprint(const toml::table& resolved);
 
 /// The fingerprint that campaign_file_text wrote in the header (first line) of `text`, or empty
 /// where that line holds none (a user's own campaign file).
