@@ -46,8 +46,19 @@ mkdir -p "$out"
 out="$(cd "$out" && pwd)"
 campaign="$(cd "$campaign" && pwd)"
 
-# the value of KEY (a number or a quoted string) in case.toml, its first line `KEY = VALUE`
-case_value() { sed -n "s/^$2 = '\{0,1\}\([^'#]*\)'\{0,1\}[[:space:]]*\r\{0,1\}$/\1/p" "$1" | head -1; }
+# the value of KEY in case.toml (read as TOML: the first KEY of any table, in file order; a
+# number in its shortest form, a string without its quotes); empty where it has none
+case_value() {
+  "$python" -c 'import sys, tomllib
+def find(table):
+    for k, v in table.items():
+        if isinstance(v, dict):
+            found = find(v)
+            if found is not None: return found
+        elif k == sys.argv[2]: return v
+value = find(tomllib.load(open(sys.argv[1], "rb")))
+print("" if value is None else value)' "$1" "$2" 2>/dev/null
+}
 # whether two numbers are equal (awk reads 0.050000000000000003 as 0.05)
 same_number() { awk -v a="$1" -v b="$2" 'BEGIN{exit !(a + 0 == b + 0 && a != "")}'; }
 

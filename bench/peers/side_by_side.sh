@@ -102,7 +102,8 @@ if [ -z "$packing" ]; then
   "$cdshear" run --system "$system" -V "$V" --set shear.duration=1 --no-analyze -q \
     --threads "$threads" \
     -o "$out/probe" >/dev/null || die "cdshear probe run failed"
-  packing="$(sed -n "s/^packing = '\(.*\)'$/\1/p" "$out/probe/case.toml")"
+  packing="$("$python" -c 'import sys, tomllib
+print(tomllib.load(open(sys.argv[1], "rb"))["preparation"]["packing"])' "$out/probe/case.toml")"
   [ -f "$packing" ] || die "cannot find the packing named in $out/probe/case.toml"
   rm -rf "$out/probe"
 fi
