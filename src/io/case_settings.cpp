@@ -868,28 +868,6 @@ template void read_setting(const Setting<SolverOptions>&, TomlReader&, SolverOpt
 template std::string range_text(const Setting<ShearCase>&);
 template std::string range_text(const Setting<SolverOptions>&);
 
-std::string toml_text(const SettingValue& v) {
-  return std::visit(
-      [](const auto& x) -> std::string {
-        using V = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<V, double>) {
-          return toml_float_text(x);
-        } else if constexpr (std::is_same_v<V, std::int64_t>) {
-          return std::to_string(x);
-        } else if constexpr (std::is_same_v<V, bool>) {
-          return x ? "true" : "false";
-        } else if constexpr (std::is_same_v<V, std::string>) {
-          return toml_value_text(toml::value<std::string>(x));
-        } else {
-          std::string list = "[";
-          for (std::size_t i = 0; i < x.size(); ++i)
-            list += (i ? ", " : "") + toml_float_text(x[i]);
-          return list + "]";
-        }
-      },
-      v);
-}
-
 void insert_setting(toml::table& table, const std::string& key, const SettingValue& v) {
   std::visit(
       [&](const auto& x) {
@@ -903,6 +881,12 @@ void insert_setting(toml::table& table, const std::string& key, const SettingVal
         }
       },
       v);
+}
+
+std::string toml_text(const SettingValue& v) {
+  toml::table one;
+  insert_setting(one, "v", v);
+  return toml_value_text(*one.get("v"));
 }
 
 const char* phase_name(SettingPhase phase) {

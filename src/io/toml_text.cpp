@@ -45,13 +45,14 @@ void write_table(const toml::table& table, const std::string& path, std::string&
       out += key_text(key.str()) + " = " + toml_value_text(value) + "\n";
   for (const auto& [key, value] : table) {
     const std::string sub = (path.empty() ? "" : path + ".") + key_text(key.str());
-    if (const toml::table* t = value.as_table(); t != nullptr && is_section(value)) {
+    if (is_section(value)) {
       // A header for a table with keys of its own, or with nothing at all (`[set]` empty: the
       // table still exists when read back); a table of tables alone needs none.
-      bool own_keys = t->empty();
-      for (const auto& [k, v] : *t) own_keys = own_keys || !is_section(v);
+      const toml::table& t = *value.as_table();
+      bool own_keys = t.empty();
+      for (const auto& [k, v] : t) own_keys = own_keys || !is_section(v);
       if (own_keys) out += (out.empty() ? "[" : "\n[") + sub + "]\n";
-      write_table(*t, sub, out);
+      write_table(t, sub, out);
     } else if (is_array_of_sections(value)) {
       for (const toml::node& item : *value.as_array()) {
         out += (out.empty() ? "[[" : "\n[[") + sub + "]]\n";
