@@ -613,6 +613,17 @@ checks=$((checks + 1))
   > /dev/null 2>&1 || { echo "FAIL: the resume past the blow-up failed"; fails=$((fails + 1)); }
 checks=$((checks + 1))
 test ! -e blown/blowup_state.json || { echo "FAIL: a stale blowup_state.json"; fails=$((fails + 1)); }
+# A fast start is no blow-up: at V = 30 the first collisions launch the walls, which fly apart
+# past five times the nominal L_y of 20 within 6 t (the run's load brings them back hundreds of t
+# later), and the run goes on to its end.
+rc=0; "$exe" run -q --no-analyze --packing "$packing" -V 30 --set shear.duration=6 \
+  --set measure.enabled=false --threads 1 -o dilated > dilated.out 2>&1 || rc=$?
+checks=$((checks + 1))
+height=$(/usr/bin/python3 -c 'import json, sys; w = json.load(open(sys.argv[1]))["walls"]
+print(w[1]["point"][1] - w[0]["point"][1])' dilated/final_state.json 2> /dev/null || echo 0)
+{ [ $rc -eq 0 ] && test ! -e dilated/blowup_state.json &&
+  /usr/bin/python3 -c 'import sys; sys.exit(float(sys.argv[1]) <= 100)' "$height"; } ||
+  { echo "FAIL: a fast start (exit $rc, L_y $height): $(cat dilated.out)"; fails=$((fails + 1)); }
 # A --set key must be a case key: nothing in it can be read as part of its value.
 expect_status2 "has an empty part" "$exe" run -q --set ".=1"
 expect_status2 "is not a case key" "$exe" run -q --set "shear velocity=1"

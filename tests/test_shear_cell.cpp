@@ -301,6 +301,19 @@ TEST(ShearRun, WallsDrivenExactlyAndForcesBalanceOnAverage) {
   EXPECT_LT(w.max_height, 1.1 * c.height);
 }
 
+TEST(ShearRun, AWallGapIsABlowUpOnlyOutsideItsRangeOrNotANumber) {
+  const double nominal = 20.0;
+  for (const double ok :
+       {nominal, 0.51 * nominal, 5.0 * nominal, 0.999 * kHeightRange[1] * nominal})
+    EXPECT_EQ(wall_gap_problem(ok, nominal), "") << ok;
+  const std::string apart = wall_gap_problem(1.001 * kHeightRange[1] * nominal, nominal);
+  EXPECT_NE(apart.find("flew apart"), std::string::npos) << apart;
+  EXPECT_NE(apart.find("L_y = 20020, outside 0.5 to 1000 times the nominal 20"), std::string::npos)
+      << apart;
+  EXPECT_NE(wall_gap_problem(0.49 * nominal, nominal), "");
+  EXPECT_NE(wall_gap_problem(std::nan(""), nominal), "");
+}
+
 CaseSource with(std::vector<std::string> overrides) {
   CaseSource s;
   s.overrides = std::move(overrides);

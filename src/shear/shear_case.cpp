@@ -123,6 +123,17 @@ World build_shear_world(const ShearCase& c, const Packing& p) {
   return build_world(scene);
 }
 
+std::string wall_gap_problem(double height, double nominal_height) {
+  if (height > kHeightRange[0] * nominal_height && height < kHeightRange[1] * nominal_height)
+    return {};
+  char text[160];
+  std::snprintf(text, sizeof text,
+                "the walls flew apart or collapsed: L_y = %.6g, outside %g to %g times the "
+                "nominal %g",
+                height, kHeightRange[0], kHeightRange[1], nominal_height);
+  return text;
+}
+
 ShearWorldProblem shear_world_problem(const World& w, const ShearCase& c) {
   const auto number = [](double v) {
     char text[32];
