@@ -169,9 +169,9 @@ ShearWorldProblem shear_world_problem(const World& w, const ShearCase& c);
 /// through each other (a blow-up). Wide, because a fast start from the linear profile is a
 /// violent dilation: the first collisions launch the walls (mass 50), and only their load
 /// sigma_yy L_x brings them back, at a deceleration of sigma_yy L_x / 50 (0.098 d/t^2 for
-/// sigma_yy = 0.25 and L_x = 19.6). Measured from the validation campaign's packings, one run
-/// each: system 1 at V = 5 reaches L_y = 61 (3.05 times) at t = 30 and settles about 28 to 34 by
-/// t = 80; system 2 at V = 12.2 reaches 283 (7.1 times) at t = 60, still rising, and at V = 30
+/// sigma_yy = 0.25 and L_x = 19.6). System 1 at V = 5 reaches L_y = 61 (3.05 times) at t = 30
+/// and settles about 28 to 34 by t = 80. From the validation campaign's packings, one run each:
+/// system 2 at V = 12.2 reaches 283 (7.1 times) at t = 60, still rising, and at V = 30
 /// 815 (20 times) at t = 60, rising at 11 d/t; system 3 (sigma_yy = 0.0625) at V = 30 reaches
 /// 1496 (37 times) at t = 100, rising at 13 d/t against 0.028 d/t^2: about 4600 (115 times) at
 /// its highest, some 500 t in, and back in about as long again. The study's velocities (up to 30
