@@ -549,12 +549,17 @@ class ContactSolve {
     bool slab_corrections = false;
     int period = 1;  ///< sweeps between two Anderson mixes
     bool serial_rows = false;
-    std::size_t tallied_groups = 0;
     bool any_dormant = false;
     double residual = 0.0;        ///< of the last sweep whose sums were taken
     bool refused = false;         ///< the residual test refused to stop after this sweep
     StageClock* clock = nullptr;  ///< this thread's (SolverOptions::profile)
   };
+
+  /// Whether the serial group (the last) has rows: an empty one is left out of the sweeps and
+  /// of the tallies' sums.
+  bool serial_group_has_rows() const {
+    return ws.group_start[groups - 1] < ws.group_start[groups];
+  }
 
   bool corrects_slabs() const {
     return slab_period > 0 && cg.bands >= kSlabCorrectionMinBands;
@@ -737,6 +742,51 @@ class ContactSolve {
     for_each_own_group(ws.phases, groups - 1, place, for_group);
   }
 
+  /// On one thread: the phased groups with awake rows (ws.busy_groups), phase by phase, each
+  /// phase's in group order. Only these do anything in a sweep or in the passes between sweeps:
+  /// a group without awake rows updates nothing, and its tallies are zeros, which add nothing
+  /// to sums of non-negative terms (a sum that starts at +0 stays the same bit for bit), so
+  /// that leaving it out changes no result. A dense flow has every group busy; a dilute one
+  /// (a cell the walls have pushed to tens of times its height, at the study's fastest walls)
+  /// has hundreds of bands with a few awake rows between them, and there the pass over every
+  /// group cost more than the sweeps' updates. Rows only wake within a step, so the list only
+  /// grows: it is made again after a look that woke a group's first row.
+  void list_busy_groups() {
+    ws.busy_groups.clear();
+    ws.busy_phase_start.assign(1, 0);
+    for (const SolverPhase& phase : ws.phases) {
+      for (std::size_t g = phase.first_group; g < phase.last_group; ++g)
+        if (!ws.awake[g].empty()) ws.busy_groups.push_back(static_cast<std::uint32_t>(g));
+      ws.busy_phase_start.push_back(ws.busy_groups.size());
+    }
+  }
+
+  /// Runs `for_group(g)` over the busy groups thread `place` takes (its share_of each phase's
+  /// busy groups, the split of the sweeps), then the serial group on the first thread if it has
+  /// rows; with a barrier after each phase if `phase_barriers` (the groups' changes to the
+  /// bodies then meet each body in group order) and none otherwise.
+  template <class ForGroup>
+  void each_busy_group(const TeamPlace& place, bool serial_rows, bool phase_barriers,
+                       const ForGroup& for_group) const {
+    for (std::size_t p = 0; p + 1 < ws.busy_phase_start.size(); ++p) {
+      const std::size_t first = ws.busy_phase_start[p];
+      const Share mine = share_of(ws.busy_phase_start[p + 1] - first, place);
+      for (std::size_t k = first + mine.first; k < first + mine.last; ++k)
+        for_group(ws.busy_groups[k]);
+      if (phase_barriers) team_barrier();
+    }
+    if (serial_rows && place.thread == 0) for_group(groups - 1);
+    if (phase_barriers) team_barrier();
+  }
+
+  /// Calls `add(g)` for every busy group, then the serial group if it has rows: in group order,
+  /// as the sums of the tallies are taken (on every thread).
+  template <class Add>
+  void each_tallied_group(bool serial_rows, const Add& add) const {
+    for (const std::uint32_t g : ws.busy_groups) add(g);
+    if (serial_rows) add(groups - 1);
+  }
+
   /// Set-up of the rows: the rows in visit order (the sweeps then read them front to back) and
   /// their Delassus entries, then the warm start (apply the carried-over impulses), then the
   /// dormant rows.
@@ -788,7 +838,10 @@ class ContactSolve {
       }
       awake.resize(awake_count);
       dormant.resize(dormant_count);
-      if (dormant_count > 0) put_awake_rows_first(place, first, last, awake, dormant);
+      // Already in that order (no awake row, or the awake ones first: the listing is in row
+      // order), as most groups of a dilute cell are: nothing to move.
+      const bool in_order = awake_count == 0 || awake[awake_count - 1] == first + awake_count - 1;
+      if (dormant_count > 0 && !in_order) put_awake_rows_first(place, first, last, awake, dormant);
     });
     team_barrier();
   }
@@ -832,7 +885,7 @@ class ContactSolve {
   /// them).
   void gather_mixed_impulses(std::vector<double>& v, bool scale_rows) {
     const std::size_t phased_groups = groups - 1;  // all but the serial group
-    each_own_group(team_place(), [&](std::size_t g) {
+    each_busy_group(team_place(), serial_group_has_rows(), false, [&](std::size_t g) {
       const bool scale_here = scale_rows && g < phased_groups;
       if (scale_here) {
         const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
@@ -850,8 +903,8 @@ class ContactSolve {
   }
 
   /// Acceleration: the mixed impulses of group g's rows, projected on the Signorini-Coulomb set;
-  /// the bodies follow through the change of each impulse (applied by each_group_by_phase: bit
-  /// for bit what one thread going through the rows would give).
+  /// the bodies follow through the change of each impulse (applied phase by phase,
+  /// each_busy_group: bit for bit what one thread going through the rows would give).
   void apply_mixed_impulses(std::size_t g) {
     for (std::size_t k = ws.anderson_group_start[g]; k < ws.anderson_group_start[g + 1]; ++k) {
       SolverRow& r = rows[ws.anderson_rows[k]];
@@ -913,6 +966,7 @@ class ContactSolve {
 #endif
     {
       count_dormant_and_list_mixed_rows();
+      list_busy_groups();
       if (corrects_slabs())
         ws.slab_correction.reset(
             bodies.size(), {&ws.group_start, &ws.awake, &ws.phases, cg.bands, &ws.node_of_body});
@@ -923,9 +977,8 @@ class ContactSolve {
         st.slab_corrections ? kMixPeriodFactorWithSlabCorrection * plain_period : plain_period;
     if (accelerate) gather_mixed_impulses(ws.anderson_x, false);
     // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
-    // left out of them: no thread writes its entry, which every thread would otherwise zero.
-    st.serial_rows = ws.group_start[groups - 1] < ws.group_start[groups];
-    st.tallied_groups = st.serial_rows ? groups : groups - 1;
+    // left out of them (each_tallied_group), as the groups without awake rows are.
+    st.serial_rows = serial_group_has_rows();
     st.any_dormant = report.dormant_contacts > 0;
     if (st.first_thread) report.threads = static_cast<int>(st.place.size);
     return st;
@@ -967,15 +1020,17 @@ class ContactSolve {
     return false;
   }
 
-  /// Sweeps: every group of every phase (the groups of a phase in parallel), then the serial
-  /// group.
+  /// Sweeps: every busy group of every phase (the groups of a phase in parallel), then the
+  /// serial group.
   void sweep_groups(SweepTally* tallies, bool corrects, const SweepState& st) {
-    // Each thread its phase_share of each phase, then the phase's barrier, the wait timed
-    // apart from the work.
-    for (const SolverPhase& phase : ws.phases) {
-      const Share mine = phase_share(phase, st.place);
-      for (std::size_t g = mine.first; g < mine.last; ++g)
-        sweep_group(g, ws, bodies, options.alpha, options.relaxation, tallies, corrects);
+    // Each thread its share of each phase's busy groups (each_busy_group), then the phase's
+    // barrier, the wait timed apart from the work.
+    for (std::size_t p = 0; p + 1 < ws.busy_phase_start.size(); ++p) {
+      const std::size_t first = ws.busy_phase_start[p];
+      const Share mine = share_of(ws.busy_phase_start[p + 1] - first, st.place);
+      for (std::size_t k = first + mine.first; k < first + mine.last; ++k)
+        sweep_group(ws.busy_groups[k], ws, bodies, options.alpha, options.relaxation, tallies,
+                    corrects);
       st.clock->lap(report.profile.sweeps);
       team_barrier();
       st.clock->lap(report.profile.phase_waits);
@@ -996,24 +1051,23 @@ class ContactSolve {
   bool test_convergence(int sweep, SweepTally* tallies, SweepState& st,
                         double& converged_fraction) {
     std::size_t converged = 0, carrying = 0;
-    for (std::size_t g = 0; g < st.tallied_groups; ++g) {
+    each_tallied_group(st.serial_rows, [&](std::size_t g) {
       converged += tallies[g].converged;
       carrying += tallies[g].carrying;
-    }
+    });
     converged_fraction =
         carrying > 0 ? static_cast<double>(converged) / static_cast<double>(carrying) : 1.0;
     const bool fraction_met = converged_fraction >= options.converged_fraction;
     bool done = false;
     if (fraction_met || sweep == options.max_sweeps) {
-      each_own_group(st.place, [&](std::size_t g) {
-        if (g < st.tallied_groups) sum_group_lengths(g, ws, tallies);
-      });
+      each_busy_group(st.place, st.serial_rows, false,
+                      [&](std::size_t g) { sum_group_lengths(g, ws, tallies); });
       team_barrier();
       double sum_change = 0.0, sum_force = 0.0;
-      for (std::size_t g = 0; g < st.tallied_groups; ++g) {
+      each_tallied_group(st.serial_rows, [&](std::size_t g) {
         sum_change += tallies[g].sum_change;
         sum_force += tallies[g].sum_force;
-      }
+      });
       if (sum_force > 0.0) {
         const double ratio = sum_change / sum_force;
         st.residual = ratio * ratio;
@@ -1041,7 +1095,7 @@ class ContactSolve {
   /// e dt over the force-carrying rows, each thread its groups' sums, added in group order.
   /// Dormant rows carry no force and are not counted, as in the step's check.
   bool meets_residual_tolerance(SweepTally* tallies, const SweepState& st) {
-    each_own_group(st.place, [&](std::size_t g) {
+    each_busy_group(st.place, st.serial_rows, false, [&](std::size_t g) {
       double sum2 = 0.0;
       std::size_t carrying = 0;
       for (const std::uint32_t i : ws.awake[g]) {
@@ -1058,10 +1112,10 @@ class ContactSolve {
     team_barrier();
     double sum2 = 0.0;
     std::size_t carrying = 0;
-    for (std::size_t g = 0; g < groups; ++g) {
+    each_tallied_group(st.serial_rows, [&](std::size_t g) {
       sum2 += tallies[g].violation2;
       carrying += tallies[g].carrying_rows;
-    }
+    });
     if (carrying == 0) return true;
     const double tolerance = options.residual_tolerance * inv_dt;  // on e [length/time]
     return sum2 <= tolerance * tolerance * static_cast<double>(carrying);
@@ -1077,7 +1131,19 @@ class ContactSolve {
         ws.woken_of_group[g] = wake_closing_rows(g, ws, bodies);
       });
       team_barrier();
-      for (std::size_t g = 0; g < groups; ++g) woken += ws.woken_of_group[g];
+      bool newly_busy = false;  // a phased group whose first rows woke (the same on every thread)
+      for (std::size_t g = 0; g < groups; ++g) {
+        woken += ws.woken_of_group[g];
+        newly_busy |= g + 1 < groups && ws.woken_of_group[g] > 0 &&
+                      ws.woken_of_group[g] == ws.awake[g].size();
+      }
+      if (newly_busy) {
+#if defined(_OPENMP)
+#pragma omp single nowait
+#endif
+        list_busy_groups();
+        team_barrier();
+      }
     }
     return woken;
   }
@@ -1095,7 +1161,8 @@ class ContactSolve {
     if (mixes) {
       gather_mixed_impulses(ws.anderson_g, scale_in_gather);
       ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-      each_group_by_phase([this](std::size_t g) { apply_mixed_impulses(g); });
+      each_busy_group(team_place(), serial_group_has_rows(), true,
+                      [this](std::size_t g) { apply_mixed_impulses(g); });
       st.clock->lap(report.profile.mix);
     }
   }
