@@ -252,38 +252,75 @@ std::uint32_t merge_wall_band(std::uint32_t seen, std::uint32_t band) {
   return seen == kNoBand || seen == band ? band : band == kNoBand ? seen : kManyBands;
 }
 
-/// Thread p's share of the bands and the walls' bands: its bodies' largest band into
-/// ws.team_max_band[p.thread], its contacts' walls' bands into its row of ws.team_wall_band.
-void coloured_groups_share(const std::vector<Contact>& contacts,
-                           const std::vector<SolverBody>& bodies, std::size_t first_wall,
-                           TeamPlace p, SolverWorkspace& ws) {
-  const std::size_t disks = std::min(first_wall, bodies.size());
-  const std::size_t walls = bodies.size() - disks;
-  const Share my_disks = share_of(disks, p);
+/// Thread p's share of the bands: its disks' largest band into ws.team_max_band[p.thread].
+void coloured_bands_share(const std::vector<SolverBody>& bodies, std::size_t first_wall,
+                          TeamPlace p, SolverWorkspace& ws) {
+  const Share my_disks = share_of(std::min(first_wall, bodies.size()), p);
   std::uint32_t max_band = 0;
   for (std::size_t i = my_disks.first; i < my_disks.last; ++i)
     max_band = std::max(max_band, bodies[i].band);
   ws.team_max_band[p.thread] = max_band;
+}
+
+/// On one thread, after every coloured_bands_share: the bands of the disks (the largest, plus
+/// one), and every thread's row of ws.team_band_reached cleared for them.
+std::size_t coloured_bands_merge(std::size_t team, SolverWorkspace& ws) {
+  std::size_t bands = 1;
+  for (std::size_t t = 0; t < team; ++t)
+    bands = std::max<std::size_t>(bands, ws.team_max_band[t] + std::size_t{1});
+  ws.team_band_reached.assign(team * bands, 0);
+  return bands;
+}
+
+/// Thread p's share of the contacts' bands: the bands its contacts' disks are in, marked in its
+/// row of ws.team_band_reached (disk_bands per thread), and its contacts' walls' bands into its
+/// row of ws.team_wall_band.
+void coloured_groups_share(const std::vector<Contact>& contacts,
+                           const std::vector<SolverBody>& bodies, std::size_t first_wall,
+                           std::size_t disk_bands, TeamPlace p, SolverWorkspace& ws) {
+  const std::size_t walls = bodies.size() - std::min(first_wall, bodies.size());
   std::uint32_t* wall_band = ws.team_wall_band.data() + p.thread * walls;
   std::fill_n(wall_band, walls, kNoBand);
+  std::uint8_t* reached = ws.team_band_reached.data() + p.thread * disk_bands;
   const Share my_contacts = share_of(contacts.size(), p);
   for (std::size_t i = my_contacts.first; i < my_contacts.last; ++i) {
     const Contact& c = contacts[i];
     const auto b = static_cast<std::size_t>(c.key.body_b);
-    if (b < first_wall) continue;
-    std::uint32_t& wb = wall_band[b - first_wall];
-    wb = merge_wall_band(wb, bodies[static_cast<std::size_t>(c.key.body_a)].band);
+    const std::uint32_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
+    reached[band_a] = 1;
+    if (b < first_wall) {
+      reached[bodies[b].band] = 1;
+    } else {
+      std::uint32_t& wb = wall_band[b - first_wall];
+      wb = merge_wall_band(wb, band_a);
+    }
   }
 }
 
-/// On one thread, after every coloured_groups_share: the groups, and each wall's band. A wall
-/// whose contacts all have their disk in one band belongs to that band's slab (the bottom wall
-/// to the lowest slab, the top wall to the highest, in a shear cell): no other group touches
-/// it. A wall touching disks of several bands goes to the serial group.
-ColouredGroups coloured_groups_merge(std::size_t walls, std::size_t team, SolverWorkspace& ws) {
+/// On one thread, after every coloured_groups_share: the bands the contacts reach, numbered
+/// from the bottom (ws.band_rank: a disk's band is counted by its rank among them), the groups,
+/// and each wall's band (its rank). Bands no contact reaches are left out: a dense packing
+/// reaches every band, so its ranks are its bands and nothing changes; a dilated cell (the
+/// study's fastest walls push them to tens of times the nominal height apart) has hundreds of
+/// empty bands, which would each make two empty groups that every pass of the set-up goes
+/// through. Consecutive ranks need not be neighbouring bands: groups of one phase still share no
+/// disk (slab k holds ranks k, boundary k ranks k and k + 1), and a row still joins bodies of
+/// one rank or of two consecutive ones (the slab correction's banded matrix).
+/// A wall whose contacts all have their disk in one band belongs to that band's slab (the
+/// bottom wall to the lowest slab, the top wall to the highest, in a shear cell): no other group
+/// touches it. A wall touching disks of several bands goes to the serial group.
+ColouredGroups coloured_groups_merge(std::size_t walls, std::size_t disk_bands, std::size_t team,
+                                     SolverWorkspace& ws) {
+  ws.band_rank.resize(disk_bands);
+  std::uint32_t reached = 0;
+  for (std::size_t band = 0; band < disk_bands; ++band) {
+    bool any = false;
+    for (std::size_t t = 0; t < team; ++t) any = any || ws.team_band_reached[t * disk_bands + band];
+    ws.band_rank[band] = reached;
+    reached += static_cast<std::uint32_t>(any);
+  }
   ColouredGroups cg;
-  for (std::size_t t = 0; t < team; ++t)
-    cg.bands = std::max<std::size_t>(cg.bands, ws.team_max_band[t] + std::size_t{1});
+  cg.bands = std::max<std::size_t>(reached, 1);
   // Group ids: slabs [0, bands), even boundaries, odd boundaries, then the serial group.
   cg.boundaries = cg.bands - 1;
   cg.even = (cg.boundaries + 1) / 2;
@@ -292,6 +329,8 @@ ColouredGroups coloured_groups_merge(std::size_t walls, std::size_t team, Solver
   for (std::size_t t = 0; t < team; ++t)
     for (std::size_t w = 0; w < walls; ++w)
       ws.wall_band[w] = merge_wall_band(ws.wall_band[w], ws.team_wall_band[t * walls + w]);
+  for (std::uint32_t& band : ws.wall_band)
+    if (band < disk_bands) band = ws.band_rank[band];
   return cg;
 }
 
@@ -307,8 +346,8 @@ std::uint32_t coloured_group_of(const Contact& c, const std::vector<SolverBody>&
     // Every candidate group formed, then chosen by selects (conditional moves, no branch):
     // about a quarter of system 1's contacts cross a band boundary, in no order a predictor
     // can learn.
-    const std::size_t band_a = bodies[static_cast<std::size_t>(c.key.body_a)].band;
-    const std::size_t band_b = bodies[b].band;
+    const std::size_t band_a = ws.band_rank[bodies[static_cast<std::size_t>(c.key.body_a)].band];
+    const std::size_t band_b = ws.band_rank[bodies[b].band];
     const std::size_t low = std::min(band_a, band_b);
     const std::size_t boundary = cg.bands + low / 2 + (low % 2) * cg.even;
     const std::size_t across = std::max(band_a, band_b) == low + 1 ? boundary : cg.serial;
@@ -610,13 +649,20 @@ class ContactSolve {
   void arrange_coloured_rows() {
     const TeamPlace place = team_place();
     const Share my_contacts = share_of(nc, place);
-    coloured_groups_share(contacts, all_bodies, first_wall, place, ws);
+    coloured_bands_share(all_bodies, first_wall, place, ws);
+    team_barrier();
+#if defined(_OPENMP)
+#pragma omp single nowait
+#endif
+    disk_bands = coloured_bands_merge(place.size, ws);
+    team_barrier();
+    coloured_groups_share(contacts, all_bodies, first_wall, disk_bands, place, ws);
     team_barrier();
 #if defined(_OPENMP)
 #pragma omp single nowait
 #endif
     {
-      cg = coloured_groups_merge(walls, place.size, ws);
+      cg = coloured_groups_merge(walls, disk_bands, place.size, ws);
       ws.group_of.resize(nc);
       ws.team_count.assign(place.size * (cg.serial + 1), 0);
     }
@@ -713,10 +759,10 @@ class ContactSolve {
         ws.local_bodies[k] = all_bodies[body];
         ws.global_of[k] = body;
         if (corrects_slabs()) {
-          // The slab correction's band of each local body: a disk's own, a wall's that of its
-          // disks if they are all in one band (then its rows are in that slab's group).
-          const std::uint32_t band =
-              body < first_wall ? all_bodies[body].band : ws.wall_band[body - first_wall];
+          // The slab correction's band of each local body: a disk's own (its rank), a wall's that
+          // of its disks if they are all in one band (then its rows are in that slab's group).
+          const std::uint32_t band = body < first_wall ? ws.band_rank[all_bodies[body].band]
+                                                       : ws.wall_band[body - first_wall];
           ws.node_of_body[k] = band < cg.bands ? band : SlabCorrection::kNoNode;
         }
         ++k;
@@ -1215,7 +1261,8 @@ class ContactSolve {
   const int plain_period;
   std::size_t groups = 1;  ///< the last one is the serial group; set before any thread reads it
   ColouredGroups cg;
-  int active_contacts = 0;  ///< rows with R_n > 0 at the end, counted by the write-back
+  std::size_t disk_bands = 1;  ///< the disks' bands (coloured order), reached or not
+  int active_contacts = 0;     ///< rows with R_n > 0 at the end, counted by the write-back
 };
 
 }  // namespace

@@ -10,7 +10,9 @@
 // the other impulses held fixed. Orders (model.md section 3, item 4, "random or colour-ordered"):
 //   - random:     a shuffle of the contacts, seeded by (seed, step), the same in every sweep;
 //   - coloured:   the contacts grouped by where they are: the packing is cut into slabs of
-//                 height (bands); first the contacts inside each slab, all slabs at once (no two
+//                 height (bands; those no contact reaches are left out, and the others
+//                 numbered in order from the bottom: a dilated cell has hundreds of empty ones);
+//                 first the contacts inside each slab, all slabs at once (no two
 //                 share a disk; a wall whose contacts are all in one slab goes with it), then
 //                 those across every second slab boundary, then across the others, then what is
 //                 left (a wall touching several slabs) on one thread. Each group is shuffled on
@@ -284,6 +286,10 @@ struct SolverWorkspace {
   /// where their local numbers start.
   std::vector<std::uint32_t> team_max_band;
   std::vector<std::uint32_t> team_wall_band;
+  /// Per thread and band: whether its contacts reach the band (a disk of theirs is in it); then
+  /// each band's number among the bands reached (band_rank), from the bottom.
+  std::vector<std::uint8_t> team_band_reached;
+  std::vector<std::uint32_t> band_rank;
   std::vector<std::size_t> team_count;
   std::vector<std::vector<std::uint32_t>> team_new_bodies;
   std::vector<std::size_t> team_body_offset;
