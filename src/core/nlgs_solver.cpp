@@ -587,15 +587,15 @@ class ContactSolve {
     bool first_thread = false;
     bool slab_corrections = false;
     int period = 1;  ///< sweeps between two Anderson mixes
-    bool serial_rows = false;
     bool any_dormant = false;
     double residual = 0.0;        ///< of the last sweep whose sums were taken
     bool refused = false;         ///< the residual test refused to stop after this sweep
     StageClock* clock = nullptr;  ///< this thread's (SolverOptions::profile)
   };
 
-  /// Whether the serial group (the last) has rows: an empty one is left out of the sweeps and
-  /// of the tallies' sums.
+  /// Whether the serial group (the last) has rows: an empty one (no rows, so none dormant either)
+  /// is left out of the sweeps and of the tallies' sums (each_tallied_group), as the groups
+  /// without awake rows are.
   bool serial_group_has_rows() const {
     return ws.group_start[groups - 1] < ws.group_start[groups];
   }
@@ -807,30 +807,36 @@ class ContactSolve {
     }
   }
 
-  /// Runs `for_group(g)` over the busy groups thread `place` takes (its share_of each phase's
-  /// busy groups, the split of the sweeps), then the serial group on the first thread if it has
-  /// rows; with a barrier after each phase if `phase_barriers` (the groups' changes to the
-  /// bodies then meet each body in group order) and none otherwise.
+  /// The places in ws.busy_groups of the busy groups of phase p that thread `place` takes: its
+  /// share_of them (the split of the sweeps and of every pass between them).
+  Share busy_share(std::size_t p, const TeamPlace& place) const {
+    const std::size_t first = ws.busy_phase_start[p];
+    const Share mine = share_of(ws.busy_phase_start[p + 1] - first, place);
+    return {first + mine.first, first + mine.last};
+  }
+
+  /// Runs `for_group(g)` over the busy groups thread `place` takes (busy_share), then the serial
+  /// group on the first thread if it has rows; with a barrier after each phase if
+  /// `phase_barriers` (the groups' changes to the bodies then meet each body in group order) and
+  /// none otherwise.
   template <class ForGroup>
-  void each_busy_group(const TeamPlace& place, bool serial_rows, bool phase_barriers,
+  void each_busy_group(const TeamPlace& place, bool phase_barriers,
                        const ForGroup& for_group) const {
     for (std::size_t p = 0; p + 1 < ws.busy_phase_start.size(); ++p) {
-      const std::size_t first = ws.busy_phase_start[p];
-      const Share mine = share_of(ws.busy_phase_start[p + 1] - first, place);
-      for (std::size_t k = first + mine.first; k < first + mine.last; ++k)
-        for_group(ws.busy_groups[k]);
+      const Share mine = busy_share(p, place);
+      for (std::size_t k = mine.first; k < mine.last; ++k) for_group(ws.busy_groups[k]);
       if (phase_barriers) team_barrier();
     }
-    if (serial_rows && place.thread == 0) for_group(groups - 1);
+    if (serial_group_has_rows() && place.thread == 0) for_group(groups - 1);
     if (phase_barriers) team_barrier();
   }
 
   /// Calls `add(g)` for every busy group, then the serial group if it has rows: in group order,
   /// as the sums of the tallies are taken (on every thread).
   template <class Add>
-  void each_tallied_group(bool serial_rows, const Add& add) const {
+  void each_tallied_group(const Add& add) const {
     for (const std::uint32_t g : ws.busy_groups) add(g);
-    if (serial_rows) add(groups - 1);
+    if (serial_group_has_rows()) add(groups - 1);
   }
 
   /// Set-up of the rows: the rows in visit order (the sweeps then read them front to back) and
@@ -931,7 +937,7 @@ class ContactSolve {
   /// them).
   void gather_mixed_impulses(std::vector<double>& v, bool scale_rows) {
     const std::size_t phased_groups = groups - 1;  // all but the serial group
-    each_busy_group(team_place(), serial_group_has_rows(), false, [&](std::size_t g) {
+    each_busy_group(team_place(), false, [&](std::size_t g) {
       const bool scale_here = scale_rows && g < phased_groups;
       if (scale_here) {
         const std::size_t mixed_here = ws.anderson_group_start[g + 1] - ws.anderson_group_start[g];
@@ -1022,9 +1028,6 @@ class ContactSolve {
     st.period =
         st.slab_corrections ? kMixPeriodFactorWithSlabCorrection * plain_period : plain_period;
     if (accelerate) gather_mixed_impulses(ws.anderson_x, false);
-    // An empty serial group (no rows, so none dormant either) adds nothing to the tallies and is
-    // left out of them (each_tallied_group), as the groups without awake rows are.
-    st.serial_rows = serial_group_has_rows();
     st.any_dormant = report.dormant_contacts > 0;
     if (st.first_thread) report.threads = static_cast<int>(st.place.size);
     return st;
@@ -1072,16 +1075,15 @@ class ContactSolve {
     // Each thread its share of each phase's busy groups (each_busy_group), then the phase's
     // barrier, the wait timed apart from the work.
     for (std::size_t p = 0; p + 1 < ws.busy_phase_start.size(); ++p) {
-      const std::size_t first = ws.busy_phase_start[p];
-      const Share mine = share_of(ws.busy_phase_start[p + 1] - first, st.place);
-      for (std::size_t k = first + mine.first; k < first + mine.last; ++k)
+      const Share mine = busy_share(p, st.place);
+      for (std::size_t k = mine.first; k < mine.last; ++k)
         sweep_group(ws.busy_groups[k], ws, bodies, options.alpha, options.relaxation, tallies,
                     corrects);
       st.clock->lap(report.profile.sweeps);
       team_barrier();
       st.clock->lap(report.profile.phase_waits);
     }
-    if (st.serial_rows) {
+    if (serial_group_has_rows()) {
       if (st.first_thread)  // the thread that owns the serial group (for_each_own_group)
         sweep_group(groups - 1, ws, bodies, options.alpha, options.relaxation, tallies);
       st.clock->lap(report.profile.sweeps);
@@ -1097,7 +1099,7 @@ class ContactSolve {
   bool test_convergence(int sweep, SweepTally* tallies, SweepState& st,
                         double& converged_fraction) {
     std::size_t converged = 0, carrying = 0;
-    each_tallied_group(st.serial_rows, [&](std::size_t g) {
+    each_tallied_group([&](std::size_t g) {
       converged += tallies[g].converged;
       carrying += tallies[g].carrying;
     });
@@ -1106,11 +1108,10 @@ class ContactSolve {
     const bool fraction_met = converged_fraction >= options.converged_fraction;
     bool done = false;
     if (fraction_met || sweep == options.max_sweeps) {
-      each_busy_group(st.place, st.serial_rows, false,
-                      [&](std::size_t g) { sum_group_lengths(g, ws, tallies); });
+      each_busy_group(st.place, false, [&](std::size_t g) { sum_group_lengths(g, ws, tallies); });
       team_barrier();
       double sum_change = 0.0, sum_force = 0.0;
-      each_tallied_group(st.serial_rows, [&](std::size_t g) {
+      each_tallied_group([&](std::size_t g) {
         sum_change += tallies[g].sum_change;
         sum_force += tallies[g].sum_force;
       });
@@ -1141,7 +1142,7 @@ class ContactSolve {
   /// e dt over the force-carrying rows, each thread its groups' sums, added in group order.
   /// Dormant rows carry no force and are not counted, as in the step's check.
   bool meets_residual_tolerance(SweepTally* tallies, const SweepState& st) {
-    each_busy_group(st.place, st.serial_rows, false, [&](std::size_t g) {
+    each_busy_group(st.place, false, [&](std::size_t g) {
       double sum2 = 0.0;
       std::size_t carrying = 0;
       for (const std::uint32_t i : ws.awake[g]) {
@@ -1158,7 +1159,7 @@ class ContactSolve {
     team_barrier();
     double sum2 = 0.0;
     std::size_t carrying = 0;
-    each_tallied_group(st.serial_rows, [&](std::size_t g) {
+    each_tallied_group([&](std::size_t g) {
       sum2 += tallies[g].violation2;
       carrying += tallies[g].carrying_rows;
     });
@@ -1207,8 +1208,7 @@ class ContactSolve {
     if (mixes) {
       gather_mixed_impulses(ws.anderson_g, scale_in_gather);
       ws.anderson.mix(ws.anderson_x, ws.anderson_g);
-      each_busy_group(team_place(), serial_group_has_rows(), true,
-                      [this](std::size_t g) { apply_mixed_impulses(g); });
+      each_busy_group(team_place(), true, [this](std::size_t g) { apply_mixed_impulses(g); });
       st.clock->lap(report.profile.mix);
     }
   }
