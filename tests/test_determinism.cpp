@@ -131,9 +131,9 @@ std::vector<double> coloured_column_step(const BandOf& band_of, int threads) {
 TEST(Determinism, ColouredOrderLeavesOutTheBandsNoContactReaches) {
   // The groups are made of the bands the contacts reach, numbered from the bottom: bands with
   // no contact between them (a cell dilated by fast walls) change nothing, bit for bit, on any
-  // number of threads. Numbered as they are here, those bands made their own empty groups and
-  // another grouping: a contact across two of them went to the serial group, and the shuffles
-  // were keyed on other group numbers.
+  // number of threads. Were the empty bands given groups of their own, a contact across two
+  // reached bands would go to the serial group and the shuffles would be keyed on other group
+  // numbers: another result.
   const auto packed = [](std::size_t k) { return k / 2; };                      // 24 bands
   const auto spread = [](std::size_t k) { return 3 * (k / 2); };                // two empty between
   const auto split = [](std::size_t k) { return k / 2 + (k < 24 ? 0 : 900); };  // one gap
