@@ -270,7 +270,7 @@ struct SolverWorkspace {
   std::vector<std::vector<DormantRow>> dormant_of_group;  ///< rows left out of the sweeps
   std::vector<std::size_t> woken_of_group;                ///< rows each group woke at the last look
   /// The phased groups with awake rows, phase by phase and in group order within each, and
-  /// where each phase's start in that list: what a sweep visits (ContactSolve::list_busy_groups).
+  /// where each phase starts in that list: what a sweep visits (ContactSolve::list_busy_groups).
   std::vector<std::uint32_t> busy_groups;
   std::vector<std::size_t> busy_phase_start;
   std::vector<std::uint32_t> group_of;   ///< group of each contact (coloured order)

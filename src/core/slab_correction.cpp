@@ -214,7 +214,8 @@ void SlabCorrection::move_bodies(std::vector<SolverBody>& bodies) {
 
 void SlabCorrection::scale_gathered_rows(std::vector<SolverRow>& rows) {
   // 5. The rows' impulses, scaled.
-  // Each thread the groups it sweeps (for_each_own_group).
+  // Each thread its share of every phase's groups (for_each_own_group): each row is scaled once,
+  // so the split does not change the result.
   const std::size_t serial_group = layout_.group_start->size() - 2;
   for_each_own_group(*layout_.phases, serial_group, team_place(), [&](std::size_t g) {
     if (group_low_[g] == kNoNode) return;  // no row to scale (or the serial group)
