@@ -194,8 +194,8 @@ def main(argv=None):
 
     if args.command == "campaign-compare":
         from .campaign import compare_campaigns, format_comparison as format_campaigns
-        from .campaign import (compared_count, format_paired_markdown, load_campaign, one_flow,
-                               other_packings, unequal_times)
+        from .campaign import (compared_count, format_paired_markdown, load_campaign,
+                               lone_unsteady_runs, one_flow, other_packings, unequal_times)
         from .report import ReportError
         try:
             if args.until is not None and not (math.isfinite(args.until) and args.until > 0):
@@ -237,6 +237,15 @@ def main(argv=None):
             print(f"note: {len(packings)} of the {len(items)} shared runs start from other "
                   f"packings in the two campaigns ({run}: {packing_a} and {packing_b} differ): "
                   f"their paired differences hold the packings' scatter as well")
+        lone = lone_unsteady_runs(items)
+        if lone:
+            run, regime_a, regime_b = lone[0]
+            print(f"note: {len(lone)} of the compared runs are the one seed of their system and V "
+                  f"and not in regime A in both campaigns ({run}: {regime_a} in a, {regime_b} in "
+                  f"b): a run's combined errors come from the windows of one flow, which in "
+                  f"regimes B and C stays for thousands of time units in one state, so they do "
+                  f"not bound what two runs of one setting differ by (up to 11 combined errors: "
+                  f"docs/validation.md); a setting is measured there by seeds paired by packing")
         if not compared_count(items):
             print(format_campaigns(items, args.campaign_a, args.campaign_b))
             print(f"error: {args.campaign_b}: none of the runs it shares with {args.campaign_a} "

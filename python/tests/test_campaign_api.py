@@ -17,8 +17,8 @@ import cdshear_analysis
 from cdshear_analysis.__main__ import main as cli_main
 from cdshear_analysis import load_campaign
 from cdshear_analysis.campaign import (compare_campaigns, format_comparison,
-                                       format_paired_markdown, other_packings, paired_differences,
-                                       unequal_times, unpaired)
+                                       format_paired_markdown, lone_unsteady_runs, other_packings,
+                                       paired_differences, unequal_times, unpaired)
 from cdshear_analysis.report import ReportError, shared_end
 
 from cdshear_analysis.synthetic import write_synthetic_run
@@ -276,6 +276,34 @@ class CompareCampaigns(unittest.TestCase):
             with open(packings[b], "w") as f:   # the same packing, copied: nothing to say
                 f.write("[1]")
             self.assertEqual(other_packings(items, ca, cb), [])
+
+    def test_lone_seed_outside_regime_a_is_noted(self):
+        with tempfile.TemporaryDirectory() as d:
+            a, b = os.path.join(d, "a"), os.path.join(d, "b")
+            # system 1: one seed at V = 0.05 in C, then B; one seed at V = 1 in A in both; two
+            # seeds at V = 0.1 in C (paired, no note); system 2: one seed at V = 0.2, A then
+            # undecided
+            runs = (("s1_seed1_V0.05", 0.05, "C", "B"), ("s1_seed1_V1", 1.0, "A", "A"),
+                    ("s1_seed1_V0.1", 0.1, "C", "C"), ("s1_seed2_V0.1", 0.1, "C", "C"),
+                    ("s2_seed1_V0.2", 0.2, "A", "undecided"))
+            for name, velocity, regime_a, regime_b in runs:
+                for side, mu, regime in ((a, 0.2, regime_a), (b, 0.25, regime_b)):
+                    fake_summary(os.path.join(side, "runs", name), velocity, 1e-4, mu, 0.83, 2.8,
+                                 regime=regime)
+            items = compare_campaigns(a, b)
+            self.assertEqual(sorted(lone_unsteady_runs(items)),
+                             [("s1_seed1_V0.05", "C", "B"), ("s2_seed1_V0.2", "A", "undecided")])
+            with contextlib.redirect_stdout(io.StringIO()) as out:
+                self.assertEqual(cli_main(["campaign-compare", a, b]), 0)
+            notes = [line for line in out.getvalue().splitlines() if "the one seed" in line]
+            self.assertEqual(len(notes), 1)
+            self.assertIn("note: 2 of the compared runs are the one seed", notes[0])
+            # two seeds of each: every run paired, no note
+            for name, velocity, regime_a, regime_b in runs:
+                for side, mu, regime in ((a, 0.21, regime_a), (b, 0.27, regime_b)):
+                    fake_summary(os.path.join(side, "runs", name.replace("seed1", "seed3")),
+                                 velocity, 1e-4, mu, 0.83, 2.8, regime=regime)
+            self.assertEqual(lone_unsteady_runs(compare_campaigns(a, b)), [])
 
     def test_seeds_paired_by_system_and_velocity(self):
         with tempfile.TemporaryDirectory() as d:
