@@ -18,7 +18,7 @@ expect_error() {  # expect_error "words in the message" command...
     echo "FAIL: '$words' not in the error of: $*"; cat err.txt; fails=$((fails + 1))
   fi
 }
-expect_error "key 'shear.velocity': must be > 0" "$exe" run -q -V -1 --packing "$packing"
+expect_error "key 'shear.velocity': must be > 0, got -1" "$exe" run -q -V -1 --packing "$packing"
 expect_error "key 'system.n': must be between 1 and 1000000, got 0" "$exe" run -q --set system.n=0
 expect_error "key 'system.height'" "$exe" run -q --set system.height=0.5
 expect_error "/nonexistent/p.json: packing file not found" "$exe" run -q --packing /nonexistent/p.json
@@ -351,7 +351,7 @@ expect_error "key 'system.diameter_min': a disk of this diameter cannot move" \
 expect_error "--system: system must be 1..7, got 0" "$exe" run -q --system 0
 expect_error "--stop-at: must be a time > 0" "$exe" run -q --stop-at -5
 expect_error "--threads: must be a whole number from 1 to 1024, got 0" "$exe" run -q --threads 0
-expect_error "--threads = abc" "$exe" run -q --threads abc
+expect_error "error: Could not convert: --threads = abc" "$exe" run -q --threads abc
 expect_error "--threads: must be a whole number from 1 to 1024, got -2" "$exe" scene "$scene" --threads -2 -o never
 # A packing's destination is checked before the preparation: a FIFO, a device or a folder in
 # its place is left as it is, a name ending in a slash is refused.

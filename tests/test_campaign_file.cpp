@@ -498,9 +498,12 @@ TEST(CampaignFile, BadFilesAreRefusedNamingTheKey) {
   // the problem (the built-in measure.contact_gap against a margin of the campaign's).
   expect_refused(kHead + ok_rest + "[set]\nstep.contact_margin = 1e-4\n", "set.step.contact_margin",
                  "measure.contact_gap: must be at most half of step.contact_margin");
-  // An analysis of runs that measure nothing (it exited 0 with no analysis).
+  // An analysis of runs that measure nothing (it exited 0 with no analysis); the message says
+  // whether the file gave `analyze` or left it to its default.
   expect_refused(kHead + ok_rest + "[set]\nmeasure.enabled = false\n", "campaign.analyze",
-                 "measure nothing");
+                 "is true by default (not given), but the runs measure nothing");
+  expect_refused(kHead + ok_rest + "analyze = true\n[set]\nmeasure.enabled = false\n",
+                 "campaign.analyze", "is true, but the runs measure nothing");
   // a packing for a system the campaign does not run, and a missing packing file
   expect_refused(kHead + ok_rest + "packing = { 2 = \"p.json\" }\n", "campaign.packing.2",
                  "unknown key");

@@ -14,7 +14,11 @@ RUN_DIR...` the interior stress against the walls' over each run's steady window
 (cdshear_analysis/stress_balance.py); `... profile-decay RUN_DIR... --fits FITS` the decay
 time of each run's velocity profile against T_SS = L_y^2 / D (cdshear_analysis/relaxation.py);
 `... switch-times RUN_DIR... [--against RUN_DIR...]` the band switches over whole runs, pooled,
-and two groups compared (cdshear_analysis/switch_statistics.py).
+and two groups compared (cdshear_analysis/switch_statistics.py); `... campaign-compare DIR_A DIR_B
+[--until T] [--markdown]` the runs two campaigns share, quantity by quantity, and their seeds
+paired (cdshear_analysis/campaign.py; docs/reports.md, "Two campaigns compared"); `...
+lammps-compare CAMPAIGN_DIR LAMMPS_DIR` the LAMMPS runs of bench/peers/lammps_campaign.sh
+against their campaign's runs.
 A run too short for any averaging
 window is analysed (not steady, series values over the last half) and plotted without its
 profile figures. Bad input:
@@ -63,7 +67,9 @@ def main(argv=None):
     for stream in (sys.stdout, sys.stderr):
         if callable(getattr(stream, "reconfigure", None)):
             stream.reconfigure(errors="cdshear_analysis.escape")
-    parser = argparse.ArgumentParser(prog="cdshear_analysis", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="cdshear_analysis", description="The analysis of cdshear's runs and campaigns: "
+        "summaries, figures, reports, comparisons (docs/analysis.md, docs/reports.md).")
     commands = parser.add_subparsers(dest="command", required=True)
     p_analyze = commands.add_parser("analyze", help="write RUN_DIR/summary.json, print a report")
     p_analyze.add_argument("run_dir")
@@ -93,7 +99,8 @@ def main(argv=None):
     p_lcompare.add_argument("lammps_folder", help="the folder of lammps_campaign.sh's runs")
     p_ccompare = commands.add_parser(
         "campaign-compare", help="the runs two campaigns share, quantity by quantity, in "
-        "combined errors (a solver setting's effect: docs/validation.md)")
+        "combined errors, and their seeds paired (a setting's effect: docs/reports.md, \"Two "
+        "campaigns compared\")")
     p_ccompare.add_argument("campaign_a")
     p_ccompare.add_argument("campaign_b")
     p_ccompare.add_argument("--until", type=float, metavar="T",
@@ -216,6 +223,13 @@ def main(argv=None):
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
         items = compare_campaigns(a, b)
+        early = [run for c in (a, b) for run, why in c.skipped
+                 if why.startswith("reached t = ")]
+        if not items and args.until is not None and early:
+            print(f"error: --until: no run that both campaigns hold is left to compare at t = "
+                  f"{args.until:g}: {len(early)} were left out above for not reaching it; a "
+                  f"smaller --until may compare them", file=sys.stderr)
+            return 2
         if not items:   # as `report` with no run to report on
             print(f"error: {args.campaign_b}: no analysed run that {args.campaign_a} has as "
                   f"well: nothing to compare", file=sys.stderr)

@@ -607,6 +607,12 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
         if d not in folders and (d in listed or RUN_NAME.match(d)):
             skipped.append((d, f"not a run folder: {what_is(os.path.join(runs_dir, d))}"))
     if not folders and not listed:
+        held = [f for f in ("run.h5", "case.toml") if os.path.isfile(os.path.join(campaign_dir, f))]
+        if held and not os.path.isdir(runs_dir):
+            raise ReportError(campaign_dir, f"is a run's folder (it holds {' and '.join(held)}), "
+                                            f"not a campaign's: a report pools a campaign's runs "
+                                            f"(`cdshear sweep`); one run is analysed by "
+                                            f"`cdshear analyze` and plotted by `cdshear plot`")
         raise ReportError(runs_dir, "no run folders (has `cdshear sweep` run here?)")
     rows = []
     reanalysed = []

@@ -542,6 +542,11 @@ class CompareUntil(unittest.TestCase):
             self.assertEqual(items[0]["mu_eff_wall"]["diff"], 0.0)
             self.assertEqual(main(["campaign-compare", a, b, "--until", "400"]), 0)
             self.assertEqual(main(["campaign-compare", a, b, "--until", "-1"]), 2)
+            # past every run: the error names --until, not the campaigns
+            with contextlib.redirect_stderr(io.StringIO()) as err:
+                self.assertEqual(cli_main(["campaign-compare", a, b, "--until", "900"]), 2)
+            self.assertIn("error: --until: no run that both campaigns hold is left to compare "
+                          "at t = 900: 3 were left out above", err.getvalue())
             # A run.h5 copied from another seed's folder: its summary.json is not read, so
             # its own case (seed 1) is checked against the folder's (seed 3).
             third = os.path.join(b, "runs", "s1_seed3_V0.5")

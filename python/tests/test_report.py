@@ -464,6 +464,21 @@ class ReportTest(unittest.TestCase):
         with self.assertRaisesRegex(report.ReportError, "is a file, not the folder of the runs"):
             report.collect(self.d)
 
+    def test_a_run_folder_is_named_as_one(self):
+        # a run's own folder given where a campaign's is expected: said so, with what to run
+        run = os.path.join(self.d, "s1_seed1_V0.5")
+        fake_summary(run, 0.5, 0.01, 0.3, 0.8, 3.0)
+        open(os.path.join(run, "case.toml"), "w").close()
+        with self.assertRaisesRegex(report.ReportError, "cdshear analyze") as caught:
+            report.collect(run)
+        self.assertEqual(caught.exception.path, run)
+        self.assertIn("is a run's folder (it holds case.toml)", caught.exception.problem)
+        # an empty folder is not taken for one
+        empty = os.path.join(self.d, "empty")
+        os.makedirs(empty)
+        with self.assertRaisesRegex(report.ReportError, "no run folders"):
+            report.collect(empty)
+
     def test_a_copy_of_a_run_inside_runs_is_noted(self):
         fake_campaign(self.d, "copied", {1: [(0.1, 0.05, 0.3, 0.8, 3.0)]})
         fake_summary(os.path.join(self.d, "runs", "s1_seed1_V0.10"), 0.1, 0.05, 0.3, 0.8, 3.0)

@@ -51,6 +51,11 @@ int main(int argc, char** argv) {
            package.source + (package.found ? "" : ", missing") + ")";
   });
   app.require_subcommand(1);
+  // A malformed command line reads as every other error does ("error: ..."); set before the
+  // commands are registered, which copy it.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return "error: " + std::string(e.what()) + "\nRun with --help for more information.\n";
+  });
   cdshear::register_scene_command(app);
   cdshear::register_shear_commands(app);
   cdshear::register_settings_command(app);

@@ -795,9 +795,11 @@ int run_shear(const RunArgs& args) {
   const RunEnd end = shear_run_end(s, threads, loop.choose_threads && threads > 1);
   const int status_code = finish_run(end, s.world, summary);
   if (status_code != 0 || !finished) return status_code;
-  std::printf("done: output in %s (%scase.toml, final_state.json, %s%s)\n", s.dir.c_str(),
-              measurement ? "run.h5, " : "", end.info_name.c_str(),
-              snapshots && snapshots->any() ? ", snapshots/*.pvd" : "");
+  std::printf(
+      "done: output in %s (%scase.toml, final_state.json, %s, checkpoint.cbor, "
+      "progress.json%s)\n",
+      s.dir.c_str(), measurement ? "run.h5, " : "", end.info_name.c_str(),
+      snapshots && snapshots->any() ? ", snapshots/*.pvd" : "");
   if (!measurement || args.no_analyze) return 0;
   std::fflush(stdout);
   if (const int rc = run_analysis("analyze", s.dir, {}); rc != 0) return rc;

@@ -247,9 +247,9 @@ std::string resolve_run(const Campaign& c, const CampaignGroup& g, const TomlRea
   run.identity = case_identity(sc);
   run.preparation = packing_cache_name(sc.preparation);
   if (c.analyze && !sc.measure.enabled)
-    t.fail("analyze",
-           "is true, but the runs measure nothing ([set] measure.enabled = false): there "
-           "would be no analysis; give analyze = false, or let the runs measure");
+    t.fail("analyze", std::string(t.has("analyze") ? "is true" : "is true by default (not given)") +
+                          ", but the runs measure nothing ([set] measure.enabled = false): there "
+                          "would be no analysis; give analyze = false, or let the runs measure");
   // A given packing is read as the run will read it, once per system: one made for another
   // system, or a damaged one, is refused now rather than in every run.
   if (const auto it = c.packings.find(system);

@@ -280,7 +280,8 @@ ShearCase load_case(const CaseSource& src) {
   if (src.system && !src.file.empty())
     check_file_keeps_system(table, src.file, *src.system, c, *sources);
   if (src.velocity && *src.velocity <= 0.0)
-    throw ConfigError("--velocity", "shear.velocity", "must be > 0", "shear.velocity");
+    throw ConfigError("--velocity", "shear.velocity",
+                      "must be > 0, got " + format_number(*src.velocity), "shear.velocity");
   ShearCase resolved = case_from_toml(table, name, c, sources);
   resolved.step.solver.threads = src.threads;
   resolved.preparation.step.solver.threads = src.threads;
