@@ -223,13 +223,14 @@ def main(argv=None):
         if args.until is not None:
             print(f"every run analysed as it stood at t = {args.until:g}")
         items = compare_campaigns(a, b)
-        early = [run for c in (a, b) for run, why in c.skipped
-                 if why.startswith("reached t = ")]
-        if not items and args.until is not None and early:
-            print(f"error: --until: no run that both campaigns hold is left to compare at t = "
-                  f"{args.until:g}: {len(early)} were left out above for not reaching it; a "
-                  f"smaller --until may compare them", file=sys.stderr)
-            return 2
+        if not items and args.until is not None:
+            early = [run for c in (a, b) for run, why in c.skipped
+                     if why.startswith("reached t = ")]
+            if early:
+                print(f"error: --until: no run that both campaigns hold is left to compare at "
+                      f"t = {args.until:g}: {len(early)} were left out above for not reaching "
+                      f"it; a smaller --until may compare them", file=sys.stderr)
+                return 2
         if not items:   # as `report` with no run to report on
             print(f"error: {args.campaign_b}: no analysed run that {args.campaign_a} has as "
                   f"well: nothing to compare", file=sys.stderr)
