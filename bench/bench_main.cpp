@@ -1468,10 +1468,11 @@ int run(const Settings& s) {
       if (m.refinement.steps > 0)
         std::fprintf(stderr,
                      "  refinement: %llu of %llu steps to its tolerance, %.2f iterations per "
-                     "step, largest residual %.2e\n",
+                     "step, largest residual %.2e, %llu undone (the contact-law bound)\n",
                      static_cast<unsigned long long>(m.refinement.steps_to_tolerance),
                      static_cast<unsigned long long>(m.refinement.steps),
-                     m.refinement.mean_iterations(), m.refinement.largest_residual);
+                     m.refinement.mean_iterations(), m.refinement.largest_residual,
+                     static_cast<unsigned long long>(m.refinement.steps_undone));
       if (trajectory.solver.profile) print_profile(m.profile, m.stages.solve);
       std::cout << line << '\n' << std::flush;
       lines.push_back(line);

@@ -43,6 +43,13 @@ s = json.load(open(sys.argv[1]))["summary"]
 r = s["refinement"]
 assert r["steps"] == s["steps"] > 0, (r, s["steps"])
 assert s["steps"] / 2 < r["steps_to_tolerance"] <= s["steps"], r
+# a step solved to round-off meets the contact-law bound: only the others can be undone, and
+# the bound holds off the cap with the refinement as without it
+assert 0 <= r["steps_undone"] <= r["steps"] - r["steps_to_tolerance"], r
+first = open(sys.argv[3]).readline()
+dt = float(re.search(r" dt ([0-9.eE+-]+),", first).group(1))
+tolerance = float(re.search(r"residual tolerance ([0-9.eE+-]+) d", first).group(1))
+assert s["velocity_residual"]["rms_largest_off_cap"] * dt <= tolerance * (1 + 1e-9), s
 assert 0 < r["mean_iterations"] <= 4 and r["largest_residual"] > 0, r
 # every step at the tolerance (1e-12) exactly when the largest residual left is within it
 assert (r["steps_to_tolerance"] == r["steps"]) == (r["largest_residual"] <= 1e-12), r

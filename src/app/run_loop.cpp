@@ -217,6 +217,7 @@ nlohmann::json summary_to_json(const RunSummary& s) {
   if (s.refinement.steps > 0)
     j["refinement"] = {{"steps", s.refinement.steps},
                        {"steps_to_tolerance", s.refinement.steps_to_tolerance},
+                       {"steps_undone", s.refinement.steps_undone},
                        {"mean_iterations", s.refinement.mean_iterations()},
                        {"largest_residual", s.refinement.largest_residual}};
   return j;

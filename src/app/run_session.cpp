@@ -359,11 +359,14 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   if (!end.reached_end && summary.outcome == RunOutcome::kFinished)
     info["summary"]["outcome"] = "stopped";
   write_file_atomic(end.dir / end.info_name, info.dump(2) + "\n");
-  // A step that reaches `max_sweeps` over-relaxed goes on with relaxation 1 (the plain finish);
-  // "capped" counts those that reach the cap there too. Both are said: each hit the cap once.
+  // A step that reaches `max_sweeps` over-relaxed, or that the contact-law bound holds back, goes
+  // on with relaxation 1 (the plain finish); "capped" counts those that reach the cap there too.
   const std::string plain_finish =
       summary.plain_finish_steps > 0
-          ? fmt::format(", {} past the over-relaxed cap (plain finish)", summary.plain_finish_steps)
+          ? fmt::format(
+                ", {} finished plain (at the over-relaxed cap or held back by the "
+                "contact-law bound)",
+                summary.plain_finish_steps)
           : std::string();
   std::printf(
       "%llu steps in %.1f s (%.0f steps/s), sweeps mean %.1f largest %d%s, capped %llu, largest "
@@ -375,10 +378,12 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
   if (summary.refinement.steps > 0)
     std::printf(
         "refinement: %llu of %llu steps to its tolerance, %.2f iterations per step, largest "
-        "residual %.3g\n",
+        "residual %.3g; %llu undone (the refined step broke the contact-law bound the sweeps' "
+        "met)\n",
         static_cast<unsigned long long>(summary.refinement.steps_to_tolerance),
         static_cast<unsigned long long>(summary.refinement.steps),
-        summary.refinement.mean_iterations(), summary.refinement.largest_residual);
+        summary.refinement.mean_iterations(), summary.refinement.largest_residual,
+        static_cast<unsigned long long>(summary.refinement.steps_undone));
   if (summary.outcome == RunOutcome::kBlownUp) {
     std::fprintf(stderr, "error: step %llu blew up: %s; state written to %s%s\n",
                  static_cast<unsigned long long>(summary.last.step), summary.last.problem.c_str(),

@@ -41,7 +41,9 @@
 //      again with beta 1000 times larger and the full step (Levenberg-Marquardt; up to 1e-1 W);
 //      if still none, the iteration is undone and the refinement stops.
 // Repeated until the residual is below the tolerance or the iterations run out; the best
-// iterate is returned, never worse than the sweeps' by this residual. Works on the solver
+// iterate is returned, never worse than the sweeps' by this residual (by the RMS velocity residual
+// it can be: ContactDynamics::step then keeps the sweeps' result where theirs met the step's
+// contact-law bound and the refined one does not). Works on the solver
 // bodies (free velocity + M^-1 H^T R on entry, and on exit) and the contacts' impulses.
 //
 // With a normal compliance (ActiveSetOptions::normal_compliance, kappa; c = kappa w_nn per
@@ -115,6 +117,11 @@ struct ActiveSetReport {
   int krylov_solves = 0;          ///< systems solved by GMRES on a kept factorisation instead
   double initial_residual = 0.0;  ///< natural-map residual / |R on entry| on entry
   double residual = 0.0;          ///< ... on exit, / |R on entry| too
+  /// The step kept the sweeps' result instead of the refinement's: the sweeps' met the
+  /// contact-law bound (SolverOptions::residual_tolerance) and the refined one did not
+  /// (ContactDynamics::step). The refinement keeps its best iterate by the natural map, which
+  /// weighs the contacts otherwise than the bound's root mean square velocity.
+  bool undone = false;
   std::vector<ActiveSetIteration> history;  ///< with ActiveSetOptions::record_history
 };
 
@@ -125,6 +132,7 @@ struct ActiveSetReport {
 struct RefinementTally {
   std::uint64_t steps = 0;
   std::uint64_t steps_to_tolerance = 0;
+  std::uint64_t steps_undone = 0;  ///< ActiveSetReport::undone
   std::uint64_t iterations = 0;
   double largest_residual = 0.0;
 
@@ -132,6 +140,7 @@ struct RefinementTally {
     if (!r.ran) return;
     ++steps;
     steps_to_tolerance += r.converged ? 1 : 0;
+    steps_undone += r.undone ? 1 : 0;
     iterations += static_cast<std::uint64_t>(r.iterations);
     // a NaN, once there, stays: NaN <= x is false either way round
     if (!std::isnan(largest_residual) && !(r.residual <= largest_residual))

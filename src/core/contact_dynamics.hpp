@@ -72,6 +72,10 @@ class ContactDynamics {
   ContactDetector detector_;
   SolverWorkspace workspace_;
   ActiveSetSolver active_set_;
+  /// The sweeps' result while the refinement runs: kept where the refined step breaks the
+  /// contact-law bound that the sweeps' result met (step(), "3. solve").
+  std::vector<Contact> swept_contacts_;
+  std::vector<SolverBody> swept_bodies_;
   std::vector<Contact> overlap_scratch_;  ///< every touching pair, when candidates may miss some
   std::vector<std::int64_t> image_before_wrap_;
   std::vector<Contact> renamed_;

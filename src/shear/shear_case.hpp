@@ -127,10 +127,10 @@ inline constexpr double kAlphaFullSpeed = 0.5, kAlphaSlowSpeed = 0.05;
 /// (SolverOptions::residual_tolerance, on e dt [d]): e, the root mean square over the
 /// force-carrying contacts of the velocity residual (velocity_residual.hpp), at most
 /// kResidualPerSpeed V' with V' = max(V, kAlphaSlowSpeed), i.e. kResidualPerSpeed V' dt.
-/// Every step that ends off the cap meets it (without the Newton refinement, off by default, which
-/// runs after the test). The defaults' steps leave a median e of about 1e-5 V and up to 1.4e-4 to
-/// 5.5e-4 V without it, so it holds back the worst 0.2 to 1.5% of the steps, which take 0.00 to
-/// 0.18% of the sweeps after it (docs/step-error.md, "Per-step check").
+/// Every step that ends off the cap meets it (a refined step that would not keeps the sweeps'
+/// result: ContactDynamics::step). The defaults' steps leave a median e of about 1e-5 V and up
+/// to 1.4e-4 to 5.5e-4 V without it, so it holds back the worst 0.2 to 1.5% of the steps, which
+/// take 0.00 to 0.18% of the sweeps after it (docs/step-error.md, "Per-step check").
 double default_residual_tolerance(double velocity, double dt);
 /// default_residual_tolerance's bound on e, per unit of wall speed.
 inline constexpr double kResidualPerSpeed = 1e-4;
