@@ -29,6 +29,13 @@ assert tolerance > 0, line
 assert s["held_back_steps"] >= 0 and s["steps"] > s["capped_steps"], s
 worst = s["velocity_residual"]["rms_largest_off_cap"] * dt
 assert 0 < worst <= tolerance * (1 + 1e-9), (worst, tolerance)
+# the closing lines say it too, with the bound over dt
+said = re.search(r"^contact laws: RMS violation per step at most (\S+) d/t off the cap, (\S+) of "
+                 r"the bound (\S+)", open(sys.argv[1]).read(), re.M)
+assert said, "the run's closing lines do not give the contact-law check"
+assert abs(float(said[1]) * dt / worst - 1) < 1e-2, (said[0], worst)
+assert abs(float(said[3]) * dt / tolerance - 1) < 1e-2, (said[0], tolerance)
+assert abs(float(said[2]) - worst / tolerance) < 1e-2, (said[0], worst / tolerance)
 PY
   { echo "FAIL: a step of the default run ended off the cap above its contact-law bound"; exit 1; }
 

@@ -375,6 +375,19 @@ int finish_run(const RunEnd& end, const World& world, const RunSummary& summary)
       summary.wall_seconds > 0 ? summary.steps / summary.wall_seconds : 0.0, summary.mean_sweeps,
       summary.largest_sweeps, plain_finish.c_str(),
       static_cast<unsigned long long>(summary.capped_steps), summary.largest_overlap);
+  // The per-step check (docs/step-error.md, "Per-step check"): the bound held off the cap.
+  if (end.residual_bound > 0.0 && summary.steps > 0) {
+    const double off_cap = summary.velocity_residual_rms_largest_off_cap;
+    const std::string at_cap =
+        summary.capped_steps > 0
+            ? fmt::format("; {} capped, the largest of all steps {:.3g}", summary.capped_steps,
+                          summary.velocity_residual_rms_largest)
+            : std::string();
+    std::printf(
+        "contact laws: RMS violation per step at most %.3g d/t off the cap, %.3g of the bound "
+        "%.3g%s\n",
+        off_cap, off_cap / end.residual_bound, end.residual_bound, at_cap.c_str());
+  }
   if (summary.refinement.steps > 0)
     std::printf(
         "refinement: %llu of %llu steps to its tolerance, %.2f iterations per step, largest "

@@ -24,6 +24,9 @@ struct RunEnd {
   std::string resume_hint;   ///< for a run stopped early: how to continue (empty: none)
   /// Written into the state file as "case" (null: none, a scene): case_identity of the run.
   nlohmann::json case_identity;
+  /// The steps' contact-law bound on the RMS velocity residual e
+  /// (SolverOptions::residual_tolerance / dt) [d/t], said on the closing lines; 0: none.
+  double residual_bound = 0.0;
 };
 
 int finish_run(const RunEnd& end, const World& world, const RunSummary& summary);

@@ -707,6 +707,7 @@ RunEnd shear_run_end(const ShearSession& s, int threads, bool threads_chosen) {
               {"solver_threads", threads},
               {"solver_threads_chosen_by_speed", threads_chosen}};
   end.resume_hint = "; continue with: cdshear run --resume " + shell_quoted(s.dir.string());
+  end.residual_bound = c.step.solver.residual_tolerance / c.step.dt;
   return end;
 }
 
