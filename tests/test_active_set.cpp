@@ -1,8 +1,8 @@
 // The active-set Newton refinement (active_set_solve.hpp): a column's statics exactly after one
 // sweep, a sheared dense packing's step solved to round-off (the solution that Gauss-Seidel
 // reaches after thousands of sweeps) with one factorisation and GMRES on it for the later
-// iterations, a residual that never grows, and the same result twice; the tally of a run's
-// refinement.
+// iterations, a residual that never grows, and the same result twice; the sweeps' result kept
+// where the refined one breaks the step's contact-law bound; the tally of a run's refinement.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -221,7 +221,6 @@ TEST(ActiveSet, KeepsTheSweepsResultWhereTheRefinedStepBreaksTheBound) {
     swept_only.newton_iterations = 0;
     StepReport swept;
     const std::vector<double> sweeps = box.impulses(swept_only, &swept);
-    ContactDynamics before = box.dynamics;
     const StepReport r = box.dynamics.step(box.world, box.options);
     ASSERT_FALSE(r.blown_up);
     ASSERT_EQ(r.solver.hit_cap, swept.solver.hit_cap);  // the same sweeps
