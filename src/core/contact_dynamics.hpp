@@ -4,7 +4,9 @@
 //               imposed values on driven axes, 0 on fixed ones;
 //   3. solve    the contact impulses by nonlinear Gauss-Seidel (nlgs_solver.hpp);
 //   4. check    the solved step's velocity residual against the contact laws
-//               (velocity_residual.hpp): an observer of the solve, it changes nothing;
+//               (velocity_residual.hpp); it changes nothing, except that a refined step
+//               (newton_iterations > 0) that breaks the bound the sweeps' result met keeps
+//               the sweeps' result;
 //   5. integrate positions with the new velocities (semi-implicit Euler), wrap x;
 //   6. measure  wall forces, largest overlap (over every pair when bodies moved more than the
 //               contact margin allows for), largest displacement; check for blow-up.
