@@ -222,6 +222,17 @@ then
   fails=$((fails + 1))
 fi
 expect_status2 "notarun" "$exe" plot notarun
+# Relative folders named like options reach the analysis as "./-x", the output folder too.
+printf '#!/bin/sh\nprintf "%%s\\n" "$@" > "$0.args"\n' > args.sh; chmod +x args.sh
+for verb in plot report; do
+  checks=$((checks + 1))
+  env CDSHEAR_PYTHON="$work/args.sh" "$exe" $verb -o -out -- -in > out.txt 2> err.txt; rc=$?
+  if [ $rc -ne 0 ] || [ "$(tail -n 4 args.sh.args | tr '\n' ' ')" != "$verb ./-in -o ./-out " ]
+  then
+    echo "FAIL: $verb's folders named like options (exit $rc):"; cat args.sh.args err.txt
+    fails=$((fails + 1))
+  fi
+done
 expect_status2 "nowhere" "$exe" analyze nowhere
 : > empty/run.h5
 expect_status2 "empty/run.h5" "$exe" analyze empty

@@ -33,12 +33,12 @@ import warnings
 
 def _write_json(path, data):
     """Writes `data` to the JSON file `path` (indented; NaN and infinity as null, as in
-    summary.json): exit status 0, or 1 with the error."""
+    summary.json; whole or not at all, as every output): exit status 0, or 1 with the error."""
     import json
+    from .rundata import write_text_atomically
     from .summary import jsonable
     try:
-        with open(path, "w", encoding="utf-8") as f:
-            json.dump(jsonable(data), f, indent=1)
+        write_text_atomically(path, json.dumps(jsonable(data), indent=1, allow_nan=False) + "\n")
     except OSError as e:
         print(f"error: {path}: cannot write: {e.strerror or e}", file=sys.stderr)
         return 1
@@ -355,7 +355,6 @@ def main(argv=None):
         return 0
 
     if args.command == "profile-decay":
-        import json
         from .relaxation import (bulk_law_problem, decay_entries, exponent_absence,
                                  format_decay_table, height_exponent)
         from .report import ReportError, identity_problem, read_json, read_summary
@@ -404,16 +403,15 @@ def main(argv=None):
             print(f"error: {args.plot}: --plot: no run is used (each row above says why): no "
                   f"figure to draw; nothing written", file=sys.stderr)
             return 2
+        if args.json and _write_json(args.json, {"runs": entries, "exponent": exponent}):
+            return 1
         try:
-            if args.json:
-                with open(args.json, "w", encoding="utf-8") as f:
-                    json.dump({"runs": entries, "exponent": exponent}, f, indent=1)
             if args.plot:
                 from .plots import plot_profile_decay
                 plot_profile_decay(summaries, entries, args.plot)
                 print(args.plot)
         except OSError as e:
-            where = e.filename or args.json or args.plot
+            where = e.filename or args.plot
             print(f"error: {where}: cannot write: {e.strerror or e}", file=sys.stderr)
             return 1
         return 0

@@ -194,8 +194,12 @@ def _mean(summary, *keys):
 
 
 def _number(v):
-    """v when it is a finite number (not a boolean), else None."""
-    return v if is_number(v) and math.isfinite(v) else None
+    """v when it is a finite number (not a boolean) a float can hold, else None (an integer too
+    large for any float, which JSON can hold, is none)."""
+    try:
+        return v if is_number(v) and math.isfinite(v) else None
+    except OverflowError:
+        return None
 
 
 # The model family and parameters of the bulk laws as a report names them (report.FITS).
@@ -232,8 +236,10 @@ def bulk_law_problem(fits):
         if law.get("model") != model:
             return (f"fits.{key}.model must be {model} (a report's fits.json), not "
                     f"{law.get('model')!r}")
+        if not isinstance(params, dict):
+            return f"fits.{key}.parameters is not an object (a report's fits.json)"
         # read by position (fitting.slope): the report's names, in its order
-        if not isinstance(params, dict) or list(params) != list(wanted):
+        if list(params) != list(wanted):
             return (f"fits.{key}.parameters must be {', '.join(wanted)} in that order (a "
                     f"report's fits.json), not {', '.join(map(str, params)) or 'none'}")
         for name, p in params.items():

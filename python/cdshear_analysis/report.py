@@ -63,6 +63,14 @@ class ReportError(Exception):
         self.problem = problem
 
 
+class FigureError(Exception):
+    """A run's figure not redrawn (reanalyse): the file and why, its summary.json written."""
+    def __init__(self, path, problem):
+        super().__init__(f"{path}: {problem}")
+        self.path = path
+        self.problem = problem
+
+
 # ---------------------------------------------------------------------------------------------
 # Reading the runs
 
@@ -146,7 +154,7 @@ def _profiles(profiles):
         out = {"y": [float(v) for v in profiles["y"]]}
         for k in ("vx", "mu_eff"):
             out[k] = [float(v) if v is not None else math.nan for v in profiles[k]["mean"]]
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):   # 10**400: no float
         return None
     return out if len(out["y"]) == len(out["vx"]) == len(out["mu_eff"]) > 0 else None
 
@@ -297,7 +305,11 @@ def _identity(run_dir, s):
     run it on."""
     name = os.path.basename(os.path.normpath(run_dir))
     written_in = s.get("run_dir")
-    if isinstance(written_in, str) and os.path.basename(os.path.normpath(written_in)) != name:
+    # a run analysed from inside its folder recorded "." (or ".."): a name that says nothing,
+    # so judged by its case alone, as one recording no run_dir
+    written_name = os.path.basename(os.path.normpath(written_in)) \
+        if isinstance(written_in, str) else None
+    if written_name not in (None, "", ".", "..") and written_name != name:
         return f"summary.json is of another run (run_dir {written_in!r})", False
     if (case_toml := folder_case(run_dir)) is None:
         return None, False   # no case.toml to compare with (a summary kept alone, or damaged)
@@ -338,7 +350,8 @@ def reanalyse(run_dir):
     does (rundata.load_run, summary.analyze, summary.write_summary), and redraw the run's
     figures when it has some (RUN_DIR/figures, as `cdshear plot`), so that the report never
     copies figures of the old analysis; returns the summary written. Raises
-    rundata.RunDataError or OSError."""
+    rundata.RunDataError, OSError (summary.json not written) or FigureError (summary.json
+    written, a figure not)."""
     from .rundata import load_run
     run = load_run(run_dir)
     summary = summary_module.analyze(run)
@@ -346,7 +359,10 @@ def reanalyse(run_dir):
     figures = os.path.join(run_dir, "figures")
     if os.path.isdir(figures):
         from .plots import plot_run
-        plot_run(run, summary, figures, [])
+        try:
+            plot_run(run, summary, figures, [])
+        except OSError as e:
+            raise FigureError(e.filename or figures, e.strerror or str(e)) from e
     return read_summary(run_dir)
 
 
@@ -521,8 +537,12 @@ def usable_summary(run_dir, reanalysed, reanalyse_stale=True):
         s = reanalyse(run_dir)
     except RunDataError as e:
         return None, f"{why}; analysing {RUN_FILE} again failed: {e.problem}"
+    except FigureError as e:
+        return None, (f"{why}: analysed again, summary.json rewritten, but drawing its figures "
+                      f"failed: {e.path}: {e.problem}")
     except OSError as e:
-        return None, f"{why}; writing the new summary.json failed: {e.strerror or e}"
+        where = e.filename or os.path.join(run_dir, "summary.json")
+        return None, f"{why}; writing {where} failed: {e.strerror or e}"
     if summary_state(s) is not None:   # (analyze writes this code's version: never here)
         return None, f"{why}; analysed again, still {summary_state(s)[1]}"
     reanalysed.append((name, f"{why}: analysed again from {RUN_FILE}, summary.json rewritten"))
@@ -1303,21 +1323,38 @@ def _html(report, fits, figures, transitions=None, preds=None, boundary=None,
 
 def copy_run_figures(report, out_dir):
     """Each run's own figures (RUN/figures/*.png, `cdshear plot`) copied to out_dir/runs/RUN/,
-    so that the report folder stands alone; {run: [file names]}."""
-    out = {}
+    so that the report folder stands alone; {run: [file names]}. A figure that cannot be read
+    (a link that leads nowhere, a folder, no permission) is left out with a note in
+    report["notes"]; each is tried before any is copied, so that it is found before the report
+    replaces anything."""
+    out, copies = {}, []
+    notes = report.setdefault("notes", [])
     for r in report["rows"]:
         src = os.path.join(report["campaign_dir"], "runs", r["run"], "figures")
         names = sorted(n for n in os.listdir(src) if n.endswith(".png")) \
             if os.path.isdir(src) else []
-        if not names:
-            continue
-        dst = os.path.join(out_dir, "runs", r["run"])
-        os.makedirs(dst, exist_ok=True)
+        kept = []
         for n in names:
             source = os.path.join(src, n)
-            replace_atomically(os.path.join(dst, n),
-                               lambda tmp, source=source: shutil.copyfile(source, tmp))
-        out[r["run"]] = names
+            if not os.path.isfile(source):   # not opened: a FIFO would wait
+                why = f"is {what_is(source)}"
+            else:
+                try:
+                    with open(source, "rb"):
+                        why = None
+                except OSError as e:
+                    why = f"cannot be read ({e.strerror or e})"
+            if why:
+                notes.append(f"{source}: {why}: left out of the report's copies of the run's "
+                             f"figures")
+                continue
+            kept.append(n)
+            copies.append((source, os.path.join(out_dir, "runs", r["run"], n)))
+        if kept:
+            out[r["run"]] = kept
+    for source, dst in copies:
+        os.makedirs(os.path.dirname(dst), exist_ok=True)
+        replace_atomically(dst, lambda tmp, source=source: shutil.copyfile(source, tmp))
     return out
 
 
@@ -1396,11 +1433,12 @@ def printed_lines(report, fits, per_system, boundary, dependence=None):
     return lines
 
 
-def check_report_folder(campaign_dir, out_dir):
+def check_report_folder(campaign_dir, out_dir, campaign=None):
     """Raises ReportError when out_dir is no place for a report: a run's folder (a report's
     figures/ would replace the run's own), anywhere in the campaign's runs/ (a report there
-    would be read as a run), or a campaign's folder, this one or another (the report copies each
-    run's figures to OUT/runs/RUN/, which there are run folders)."""
+    would be read as a run), a campaign's folder, this one or another (the report copies each
+    run's figures to OUT/runs/RUN/, which there are run folders), or the report of another
+    campaign than `campaign` (its fits.json names it), which would be replaced unseen."""
     default = os.path.join(campaign_dir, "report")
     runs = os.path.realpath(os.path.join(campaign_dir, "runs"))
     where = os.path.realpath(out_dir)
@@ -1418,6 +1456,17 @@ def check_report_folder(campaign_dir, out_dir):
         raise ReportError(out_dir, "is a campaign's folder (campaign.toml or run folders in "
                                    "runs/): the report's copies of the run figures would go into "
                                    f"its run folders; choose another -o (default: {default})")
+    earlier = os.path.join(out_dir, "fits.json")
+    if campaign is not None and os.path.isfile(earlier):
+        try:
+            other = read_json(earlier)
+        except ReportError:
+            other = None   # not readable: no report to tell apart, replaced as any output
+        other = other.get("campaign") if isinstance(other, dict) else None
+        if isinstance(other, str) and other != campaign:
+            raise ReportError(out_dir, f"holds the report of campaign {other!r} (its fits.json), "
+                                       f"not of {campaign!r}: it would be replaced; choose "
+                                       f"another -o (default: {default}) or remove it first")
 
 
 def write_report(report, out_dir):
@@ -1426,7 +1475,7 @@ def write_report(report, out_dir):
     in report["printed"] (index.html gives them in its own sections, not as notes). With no run
     to report on, or where out_dir is no place for a report (check_report_folder), raises
     ReportError and writes nothing, so that a report written before stays."""
-    check_report_folder(report["campaign_dir"], out_dir)
+    check_report_folder(report["campaign_dir"], out_dir, report["campaign"])
     rows = report["rows"]
     if not rows:
         raise ReportError(os.path.join(report["campaign_dir"], "runs"),
@@ -1464,10 +1513,12 @@ def write_report(report, out_dir):
          "boundary": boundary, "transitions": transitions, "predictions": preds},
         indent=1, allow_nan=False)
 
+    # The runs' figures first: one that cannot be read is found (and left out) before any of
+    # the report's own files is replaced.
+    run_figures = copy_run_figures(report, out_dir)
     fig_dir = os.path.join(out_dir, "figures")
     os.makedirs(fig_dir, exist_ok=True)
     figures = write_figures(fig_dir, rows, fits, transitions, boundary, preds)
-    run_figures = copy_run_figures(report, out_dir)
     page = _html(report, fits, figures, transitions, preds, boundary, run_figures, per_system,
                  dependence)
     paths = []

@@ -663,6 +663,9 @@ def _read(f, run_dir, path):
     _check_window_fields(windows, n_windows, n_stripes, path)
     snapshot = None
     if "snapshot" in f:
+        if not isinstance(f["snapshot"], h5py.Group):
+            raise RunDataError(path, "/snapshot is not a group (the snapshot's datasets and "
+                                     "attributes): the file was changed after the run wrote it")
         snapshot = {k: v[()] for k, v in f["snapshot"].items() if isinstance(v, h5py.Dataset)}
         snapshot.update({k: _plain(v) for k, v in f["snapshot"].attrs.items()})
         for k in ("time", "length_x", "height"):   # attributes, or datasets in older files
@@ -735,7 +738,18 @@ def _check_window_fields(windows, n_windows, n_stripes, path):
 
 def _check_snapshot(snapshot, path):
     """A snapshot's disks (and its contacts, where it has any) as one-dimensional lists of one
-    length each: what snapshot.png draws."""
+    length each, its L_x and height (where given; else the run's) finite numbers > 0 and its
+    time one >= 0 (a run with no sample yet has its snapshot at 0): what snapshot.png draws (its
+    width in inches is scaled by 1 / L_x)."""
+    for k in ("time", "length_x", "height"):
+        v = snapshot.get(k)
+        if v is not None and not (is_measured_number(v) and (v > 0 or k == "time" and v == 0)):
+            if isinstance(v, np.ndarray):   # one value of text, or several
+                shown = repr(_plain(v.item())) if v.size == 1 else f"an array of shape {v.shape}"
+            else:
+                shown = repr(v)
+            raise RunDataError(path, f"/snapshot {k} is {shown}: it must be a finite number "
+                                     f"{'>= 0' if k == 'time' else '> 0'}")
     for names in (SNAPSHOT_DISKS, SNAPSHOT_CONTACTS):
         present = [k for k in names if k in snapshot]
         if names is SNAPSHOT_CONTACTS and not present:

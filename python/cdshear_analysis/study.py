@@ -227,8 +227,16 @@ def _row(run_dir, key, value, summary, parts):
             row[name], row[name + "_err"] = float(mean), float(err)
         else:
             row[name] = row[name + "_err"] = math.nan
+    # the scatter of the centre of mass's velocity: a finite number >= 0 (null where NaN)
     com = summary.get("com_vx") or {}
-    row["com_vx_std"] = float(com.get("std", math.nan))
+    path = os.path.join(run_dir, "summary.json")
+    if not isinstance(com, dict):
+        raise StudyError(path, "com_vx is not an object")
+    std = com.get("std")
+    if std is not None and not (is_measured_number(std) and std >= 0):
+        raise StudyError(path, f"com_vx.std is {repr(std)[:40]}: it must be a finite "
+                               f"number >= 0")
+    row["com_vx_std"] = float(std) if std is not None else math.nan
     cost = run_cost(parts)
     row["mean_sweeps"] = cost["mean_sweeps"]
     row["capped_share"] = cost["capped_steps"] / cost["steps"] if cost["steps"] else math.nan

@@ -259,8 +259,11 @@ def analyze(run):
         return (mean_err(*window_mean(np.array(values, dtype=float))) if values
                 else mean_err(np.nan, np.nan))
 
+    # the absolute folder: a run analysed from inside itself ("." or "..") would otherwise
+    # record a name that says nothing of which run the summary is (report's identity check)
     return {
-        "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION, "run_dir": run["run_dir"],
+        "format": SUMMARY_FORMAT, "version": SUMMARY_VERSION,
+        "run_dir": os.path.abspath(run["run_dir"]),
         "case": dict(n=a["n"], velocity=V, normal_stress=sigma, length_x=a["length_x"],
                      height=H0, duration=a.get("duration"), time=a["time"],
                      finished=bool(a.get("finished", 0)), window=a["window"],

@@ -420,6 +420,8 @@ class ProfileDecayCommand(unittest.TestCase):
                                   "fits.mu_power.model must be power_plus"),
                                  (dict(LAW, model="banana"), "not 'banana'"),
                                  (dict(LAW, parameters=[1, 2, 3]), "fits.mu_power.parameters"),
+                                 (dict(LAW, parameters=0.5),
+                                  "fits.mu_power.parameters is not an object"),
                                  (dict(LAW, parameters={"mu_0": params["mu_0"]}),
                                   "must be mu_0, A, B in that order"),
                                  # names read by position: another law's names are refused
@@ -476,6 +478,42 @@ class ProfileDecayCommand(unittest.TestCase):
             with contextlib.redirect_stdout(out):
                 self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
             self.assertIn("beyond the range T_SS can be taken from", out.getvalue())
+            # an integer beyond any float (JSON holds one): read as missing, no OverflowError
+            with open(summary_path, "w") as f:
+                json.dump(dict(good, height={"mean": 10 ** 400, "err": 0.1}), f)
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["profile-decay", run, "--fits", fits]), 0)
+            self.assertIsNone(relaxation.decay_entries(
+                [dict(good, height={"mean": 10 ** 400}, run="r")], {"mu_power": LAW})[0]["L_y"])
+
+    def test_the_json_table_holds_no_bare_nan_or_infinity(self):
+        # A summary edited by hand may hold NaN or Infinity (Python's json reads them); the
+        # table, as every --json output, writes null in their place: standard JSON.
+        with tempfile.TemporaryDirectory() as d:
+            run = os.path.join(d, "s1_seed1_V2")
+            write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["analyze", run, "--quiet"]), 0)
+            fits, table = os.path.join(d, "fits.json"), os.path.join(d, "decay.json")
+            with open(fits, "w") as f:
+                json.dump({"fits": {"mu_power": LAW}}, f)
+            summary_path = os.path.join(run, "summary.json")
+            with open(summary_path) as f:
+                good = json.load(f)
+            decay = dict(good["profile_decay"], initial_velocity=float("inf"))
+            with open(summary_path, "w") as f:
+                json.dump(dict(good, regime=float("nan"), steady=float("-inf"),
+                               profile_decay=decay), f)
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(main(["profile-decay", run, "--fits", fits, "--json", table]),
+                                 0)
+
+            def refuse(constant):
+                raise ValueError(f"bare {constant}")
+            with open(table) as f:
+                entry = json.load(f, parse_constant=refuse)["runs"][0]
+            self.assertEqual((entry["regime"], entry["steady"], entry["initial_velocity"]),
+                             (None, None, None))
 
 
 if __name__ == "__main__":

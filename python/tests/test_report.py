@@ -169,6 +169,51 @@ class ReportTest(unittest.TestCase):
         # elsewhere, the same report is written
         self.assertEqual(main(["report", self.d, "-o", os.path.join(self.d, "elsewhere")]), 0)
 
+    def test_a_run_figure_that_cannot_be_read_is_left_out_and_nothing_is_half_new(self):
+        self.power_law_campaign()
+        figures = os.path.join(self.d, "runs", "s1_seed1_V0.03", "figures")
+        os.makedirs(figures)
+        with open(os.path.join(figures, "profiles.png"), "wb") as f:
+            f.write(b"the run's own figure")
+        dangling = os.path.join(figures, "zz.png")
+        os.symlink(os.path.join(self.d, "nonexistent"), dangling)
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+            self.assertEqual(cli_main(["report", self.d]), 0)
+        self.assertIn(f"note: {dangling}: is a link that cannot be followed", out.getvalue())
+        copies = os.path.join(self.d, "report", "runs", "s1_seed1_V0.03")
+        self.assertEqual(os.listdir(copies), ["profiles.png"])
+        # A copy that cannot be written fails before any file of the report is replaced.
+        os.remove(os.path.join(copies, "profiles.png"))
+        os.makedirs(os.path.join(copies, "profiles.png", "x"))
+        made = os.path.join(self.d, "report")
+        before = {n: os.stat(os.path.join(made, n)).st_ino for n in
+                  ["fits.json", "index.html", "runs.csv"]
+                  + ["figures/" + f for f in os.listdir(os.path.join(made, "figures"))]}
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            self.assertEqual(cli_main(["report", self.d]), 1)
+        self.assertIn(os.path.join(copies, "profiles.png"), err.getvalue())
+        self.assertEqual({n: os.stat(os.path.join(made, n)).st_ino for n in before}, before)
+
+    def test_a_report_of_another_campaign_is_not_replaced(self):
+        self.power_law_campaign()
+        other = os.path.join(self.d, "other")
+        fake_campaign(other, "other_campaign", {1: [(0.5, 0.025, 0.35, 0.8, 3.0)]})
+        out = os.path.join(self.d, "shared_report")
+        self.assertEqual(main(["report", self.d, "-o", out]), 0)
+        self.assertEqual(main(["report", self.d, "-o", out]), 0)   # its own: written again
+        with open(os.path.join(out, "fits.json"), "rb") as f:
+            before = f.read()
+        err = io.StringIO()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            self.assertEqual(cli_main(["report", other, "-o", out]), 2)
+        self.assertIn(f"error: {out}: holds the report of campaign 'test_campaign'",
+                      err.getvalue())
+        self.assertIn("not of 'other_campaign'", err.getvalue())
+        with open(os.path.join(out, "fits.json"), "rb") as f:
+            self.assertEqual(f.read(), before)
+
     def test_power_law_fits_recover_the_parameters(self):
         self.power_law_campaign()
         self.assertEqual(main(["report", self.d]), 0)

@@ -128,6 +128,27 @@ class StaleSummaryTest(unittest.TestCase):
                 self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n", folder)
             self.assertIn("steady_profiles.png", os.listdir(folder))
 
+    def test_a_figure_that_cannot_be_redrawn_is_named_as_a_figure(self):
+        with tempfile.TemporaryDirectory() as d:
+            run = os.path.join(d, "s2_seed1_V0.5")
+            write_synthetic_run(run, kind="A", duration=300.0, n=255, height=20.0)
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.assertEqual(cli_main(["analyze", run, "--quiet"]), 0)
+            path = os.path.join(run, "summary.json")
+            with open(path) as f:
+                s = json.load(f)
+            with open(path, "w") as f:
+                json.dump(dict(s, version=OLD), f)
+            blocked = os.path.join(run, "figures", "snapshot.png")
+            os.makedirs(blocked)   # a folder where the figure goes
+            summary, why = report.usable_summary(run, [])
+            self.assertIsNone(summary)
+            self.assertIn(f"summary.json rewritten, but drawing its figures failed: {blocked}",
+                          why)
+            self.assertNotIn("writing the new summary.json", why)
+            with open(path) as f:
+                self.assertEqual(json.load(f)["version"], SUMMARY_VERSION)   # kept
+
     def test_stale_summaries_without_run_h5_are_left_out_with_the_reason(self):
         ex = self.excluded()
         self.assertIn("summary.json is empty ({}) and there is no run.h5", ex["s2_seed1_V0.1"])
@@ -247,6 +268,28 @@ class DamagedSummaryTest(unittest.TestCase):
             self.assertIn(f"`cdshear run --resume {run}`", why)
             self.assertNotIn("cdshear analyze", why)
 
+    def test_a_run_analysed_from_inside_its_folder_is_its_own(self):
+        with tempfile.TemporaryDirectory() as d:
+            run = os.path.join(d, "s1_seed1_V0.5")
+            write_synthetic_run(run, kind="A", duration=300.0, n=255, height=20.0)
+            here = os.getcwd()
+            try:
+                os.chdir(run)
+                with contextlib.redirect_stdout(io.StringIO()):
+                    self.assertEqual(cli_main(["analyze", ".", "--quiet"]), 0)
+            finally:
+                os.chdir(here)
+            with open(os.path.join(run, "summary.json")) as f:
+                own = json.load(f)
+            # the folder itself, not "."
+            self.assertEqual(own["run_dir"], os.path.abspath(run))
+            self.assertIsNone(report.identity_problem(run, own))
+            # summaries written that way before: a name that says nothing is not judged
+            for said_nothing in (".", "..", "./", ""):
+                self.assertIsNone(report.identity_problem(run, dict(own, run_dir=said_nothing)))
+            self.assertIn("another run", report.identity_problem(
+                run, dict(own, run_dir="s1_seed1_V1")))
+
     def test_a_run_folder_renamed_to_another_seed_or_speed_is_left_out(self):
         """The report reads a run's seed from its folder's name: a folder renamed (or copied in)
         by hand would be pooled as another seed, or listed under another V."""
@@ -363,6 +406,13 @@ class DamagedSummaryTest(unittest.TestCase):
                 f.write("x = " + "[" * 5000 + "1" + "]" * 5000 + "\n")
             with self.assertRaisesRegex(report.ReportError, "nested too deeply"):
                 report.campaign_runs(toml_path)
+
+    def test_profiles_beyond_any_float_are_read_as_none(self):
+        # an integer too large for a float (JSON holds one): no profile, no OverflowError
+        good = {"y": [1.0, 2.0], "vx": {"mean": [0.1, None]}, "mu_eff": {"mean": [0.3, 0.4]}}
+        self.assertEqual(report._profiles(good)["y"], [1.0, 2.0])
+        for bad in (dict(good, y=[1.0, 10 ** 400]), dict(good, vx={"mean": [0.1, -10 ** 400]})):
+            self.assertIsNone(report._profiles(bad))
 
     def test_json_nested_too_deeply_is_a_report_error(self):
         with tempfile.TemporaryDirectory() as d:

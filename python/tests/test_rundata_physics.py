@@ -20,9 +20,9 @@ from cdshear_analysis.rundata import seal, truncate_run
 from cdshear_analysis.synthetic import write_synthetic_run
 
 
-def set_attr(name, value):
+def set_attr(name, value, group="/"):
     def damage(f):
-        f.attrs[name] = value
+        f[group].attrs[name] = value
     return damage
 
 
@@ -75,6 +75,11 @@ def all_nan_series(f):
         f[f"series/{k}"] = np.full_like(np.asarray(data, dtype=float), np.nan)
 
 
+def snapshot_as_dataset(f):
+    del f["snapshot"]
+    f["snapshot"] = 1.0
+
+
 def huge_series(f):
     """A dataset whose dataspace claims 8 TB (nothing written: the file stays small), as damaged
     dimensions in the metadata do."""
@@ -112,6 +117,17 @@ CASES = [
     ("layer h text", set_group_attr("windows/regions", "h", "abc"), "('abc') is not a number"),
     ("no radius", delete("snapshot/radius"), "missing dataset(s) /snapshot/radius"),
     ("short x", replace("snapshot/x", lambda v: v[:-1]), "must be lists of one length"),
+    ("snapshot no group", snapshot_as_dataset, "/snapshot is not a group"),
+    ("snapshot L_x 0", set_attr("length_x", 0.0, "snapshot"),
+     "/snapshot length_x is 0.0: it must be a finite number > 0"),
+    ("snapshot height text", set_attr("height", "abc", "snapshot"),
+     "/snapshot height is 'abc'"),
+    ("snapshot time pair", set_attr("time", [1.0, 2.0], "snapshot"),
+     "/snapshot time is an array of shape (2,)"),
+    ("snapshot time NaN", set_attr("time", np.nan, "snapshot"),
+     "/snapshot time is nan"),
+    ("snapshot time < 0", set_attr("time", -1.0, "snapshot"),
+     "/snapshot time is -1.0: it must be a finite number >= 0"),
     # an attribute changed by hand, not its case: a V of 5e-324 stopped the regime's smoothing
     ("V not the case's", set_attr("velocity", 5e-324),
      "attribute velocity is 5e-324, but its case_toml has shear.velocity = "),

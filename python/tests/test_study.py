@@ -442,11 +442,18 @@ class StudyTest(unittest.TestCase):
             for name, content, problem in (
                     ("summary.json", [1, 2], "summary.json: is not a JSON object"),
                     ("summary.json", dict(good, case={"time": "abc"}), "of the wrong type"),
-                    ("summary.json", dict(good, com_vx=3), "of the wrong type"),
+                    ("summary.json", dict(good, com_vx=3), "summary.json: com_vx is not an "
+                                                           "object"),
                     ("run_info.json", "str", "run_info.json: is not a JSON object"),
                     ("run_info.json", {"summary": {"steps": "many"}},
                      'run_info.json: summary.steps = "many": expected a whole number from 0'),
-                    ("summary.json", dict(good, com_vx={"std": 10 ** 400}), "of the wrong type"),
+                    ("summary.json", dict(good, com_vx={"std": 10 ** 400}),
+                     "summary.json: com_vx.std is 10000"),
+                    ("summary.json", dict(good, com_vx={"std": -0.5}),
+                     "summary.json: com_vx.std is -0.5: it must be a finite number >= 0"),
+                    ("summary.json", dict(good, com_vx={"std": "abc"}), "com_vx.std is 'abc'"),
+                    ("summary.json", dict(good, com_vx={"std": float("inf")}),
+                     "com_vx.std is inf"),
                     ("run_info.json", {"summary": {"steps": 10 ** 400}},
                      "summary.steps = 1000000000000000000000000000000000000..."),
                     # figures `cdshear run` never writes, which the sums took as numbers or as 0

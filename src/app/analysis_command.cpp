@@ -46,6 +46,13 @@ int report_stopped_analysis(const std::string& verb, const std::filesystem::path
                dir.c_str(), verb.c_str(), verb.c_str(), dir.c_str());
   return 130;
 }
+
+// A relative path named like an option ("-x") as "./-x": the package's argument parser would
+// take it for one.
+std::string not_an_option(const std::filesystem::path& path) {
+  return path.string().starts_with('-') ? (std::filesystem::path(".") / path).string()
+                                        : path.string();
+}
 }  // namespace
 
 int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
@@ -74,12 +81,7 @@ int run_analysis(const std::string& verb, const std::filesystem::path& run_dir,
     return 1;
   }
   const std::string package_dir = package.dir.string();
-  // A relative folder named like an option ("-x") goes as "./-x": the package's argument parser
-  // would take it for one.
-  const std::string folder = run_dir.string().starts_with('-')
-                                 ? (std::filesystem::path(".") / run_dir).string()
-                                 : run_dir.string();
-  std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, folder};
+  std::vector<std::string> args = {python, "-m", "cdshear_analysis", verb, not_an_option(run_dir)};
   args.insert(args.end(), extra.begin(), extra.end());
   // The child's argument and environment arrays are built here: between fork and exec it may
   // not allocate (another thread of this process may hold the allocator's lock at the fork).
@@ -218,7 +220,7 @@ void register_analysis_commands(CLI::App& app) {
   p->add_option("-o,--output", plot->out, "folder for the figures")->check(kNonEmptyPath);
   p->callback([plot]() {
     std::vector<std::string> extra;
-    if (!plot->out.empty()) extra = {"-o", plot->out};
+    if (!plot->out.empty()) extra = {"-o", not_an_option(plot->out)};
     const int rc = run_analysis("plot", plot->dir, extra);
     if (rc != 0) throw CLI::RuntimeError(rc);
   });
@@ -233,7 +235,7 @@ void register_analysis_commands(CLI::App& app) {
   r->add_option("-o,--output", report->out, "folder for the report")->check(kNonEmptyPath);
   r->callback([report]() {
     std::vector<std::string> extra;
-    if (!report->out.empty()) extra = {"-o", report->out};
+    if (!report->out.empty()) extra = {"-o", not_an_option(report->out)};
     const int rc = run_analysis("report", report->dir, extra);
     if (rc != 0) throw CLI::RuntimeError(rc);
   });

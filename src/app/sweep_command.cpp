@@ -319,7 +319,11 @@ std::string summary_problem(const fs::path& run_dir) {
   const nlohmann::json written_in = whole.value("run_dir", nlohmann::json());
   fs::path written_path = written_in.is_string() ? written_in.get<std::string>() : "";
   if (written_path.filename().empty()) written_path = written_path.parent_path();  // "DIR/"
-  if (written_in.is_string() && written_path.filename() != run_dir.filename())
+  // A run analysed from inside its folder by an older analysis recorded "." or "..": a name
+  // that says nothing, judged by its case alone (as report.py does).
+  const fs::path written_name = written_path.filename();
+  const bool says_nothing = written_name.empty() || written_name == "." || written_name == "..";
+  if (written_in.is_string() && !says_nothing && written_name != run_dir.filename())
     return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
                        (run_dir / "summary.json").string(),
                        json_shown(written_in, kComparedValueLimit));
