@@ -302,18 +302,26 @@ class DecayTable(unittest.TestCase):
         self.assertEqual(columns[1][0], len("campaign_b/runs/s1_seed1_V0.05_longer_name") + 1)
 
 
+def analysed_run_and_law(test, d, run):
+    """A regime-A synthetic run at `run`, analysed, and D/fits.json holding the bulk law LAW:
+    the path of the fits file."""
+    write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
+    with contextlib.redirect_stdout(io.StringIO()):
+        test.assertEqual(main(["analyze", run, "--quiet"]), 0)
+    fits = os.path.join(d, "fits.json")
+    with open(fits, "w") as f:
+        json.dump({"fits": {"mu_power": LAW}}, f)
+    return fits
+
+
 class ProfileDecayCommand(unittest.TestCase):
     def test_runs_of_one_folder_name_in_two_campaigns_are_told_apart(self):
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "a", "runs", "s1_seed1_V2")
-            write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
-            with contextlib.redirect_stdout(io.StringIO()):
-                self.assertEqual(main(["analyze", run, "--quiet"]), 0)
+            fits = analysed_run_and_law(self, d, run)
             other = os.path.join(d, "campaign_b", "runs", "s1_seed1_V2")
             shutil.copytree(run, other)
-            fits, table = os.path.join(d, "fits.json"), os.path.join(d, "decay.json")
-            with open(fits, "w") as f:
-                json.dump({"fits": {"mu_power": LAW}}, f)
+            table = os.path.join(d, "decay.json")
             out = io.StringIO()
             # the exponent's absence is judged once, for the fit and for the table
             with contextlib.redirect_stdout(out), mock.patch.object(
@@ -337,12 +345,7 @@ class ProfileDecayCommand(unittest.TestCase):
     def test_prints_each_run_against_the_bulk_law_and_refuses_bad_files(self):
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "s1_seed1_V2")
-            write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
-            with contextlib.redirect_stdout(io.StringIO()):
-                self.assertEqual(main(["analyze", run, "--quiet"]), 0)
-            fits = os.path.join(d, "fits.json")
-            with open(fits, "w") as f:
-                json.dump({"fits": {"mu_power": LAW}}, f)
+            fits = analysed_run_and_law(self, d, run)
             out, table = io.StringIO(), os.path.join(d, "decay.json")
             with contextlib.redirect_stdout(out):
                 self.assertEqual(main(["profile-decay", run, "--fits", fits, "--json", table]),
@@ -491,12 +494,8 @@ class ProfileDecayCommand(unittest.TestCase):
         # table, as every --json output, writes null in their place: standard JSON.
         with tempfile.TemporaryDirectory() as d:
             run = os.path.join(d, "s1_seed1_V2")
-            write_synthetic_run(run, kind="A", duration=400.0, window=20.0)
-            with contextlib.redirect_stdout(io.StringIO()):
-                self.assertEqual(main(["analyze", run, "--quiet"]), 0)
-            fits, table = os.path.join(d, "fits.json"), os.path.join(d, "decay.json")
-            with open(fits, "w") as f:
-                json.dump({"fits": {"mu_power": LAW}}, f)
+            fits = analysed_run_and_law(self, d, run)
+            table = os.path.join(d, "decay.json")
             summary_path = os.path.join(run, "summary.json")
             with open(summary_path) as f:
                 good = json.load(f)
