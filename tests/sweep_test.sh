@@ -270,6 +270,15 @@ grep -q '"run_dir": ".*/s1_seed2_V1"' kept/runs/s1_seed1_V1/summary.json || fail
 "$exe" sweep measured.toml -o kept > kept3.out 2>&1 && fail "another seed's summary was accepted"
 grep -q "summary.json is of another run (run_dir .*s1_seed2_V1\")" kept3.out ||
   fail "another seed's summary: $(cat kept3.out)"
+# A summary analysed from inside its folder by an older analysis names "." or "..": a name that
+# says nothing, so the run is judged by its case alone and kept.
+for said in . ..; do
+  sed -i "s|\"run_dir\": \"[^\"]*\"|\"run_dir\": \"$said\"|" kept/runs/s1_seed1_V1/summary.json
+  grep -q "\"run_dir\": \"$said\"" kept/runs/s1_seed1_V1/summary.json || fail "run_dir not $said"
+  "$exe" sweep measured.toml -o kept > kept4.out 2>&1 || fail "run_dir $said: $(cat kept4.out)"
+  grep -q "1 finished earlier" kept4.out ||
+    fail "a summary naming $said was not kept: $(cat kept4.out)"
+done
 
 # A run's log starts with its command line as a shell reads it back: a folder with a space and a
 # quote in its name is one word.

@@ -434,7 +434,9 @@ def read_run(run_dir, s=None):
 def campaign_runs(campaign_toml):
     """(name, [run names], text, set) from a resolved campaign.toml: [campaign].name, the runs
     listed in its closing comment (`#   s1_seed1_V0.5  duration ...`), the whole file and its
-    [set] table (the case overrides of every run; {} where it has none)."""
+    [set] table (the case overrides of every run; {} where it has none). A [set] value of a
+    system's n, L_y or sigma_yy that no sweep would have run (not a positive number, n not
+    whole) is the file's error, not every run's (the runs are judged against it)."""
     try:
         with open_regular(campaign_toml, "rb") as f:
             raw = f.read()
@@ -448,8 +450,18 @@ def campaign_runs(campaign_toml):
     name = name if isinstance(name, str) else None
     text = raw.decode("utf-8")
     runs = re.findall(r"^#\s+(s\d+_seed\d+_V\S+)\s+duration", text, re.M)
-    overrides = data.get("set")
-    return name, runs, text, overrides if isinstance(overrides, dict) else {}
+    overrides = data.get("set") if isinstance(data.get("set"), dict) else {}
+    for table, key in SYSTEM_KEYS:
+        given = overrides.get(table)
+        if not isinstance(given, dict) or key not in given:
+            continue
+        value, whole = given[key], key == "n"
+        if not (_is_number(value) and math.isfinite(value) and value > 0
+                and (not whole or value == int(value))):
+            raise ReportError(campaign_toml, f"[set.{table}] {key}: must be a positive "
+                              f"{'whole number' if whole else 'number'}, not {value!r} (no sweep "
+                              f"runs that: the file was edited after the sweep wrote it)")
+    return name, runs, text, overrides
 
 
 def _build_of(path):
@@ -613,7 +625,8 @@ def collect(campaign_dir, reanalyse_stale=True, until=None):
         notes.append("campaign.toml is missing: the campaign name is the folder's")
     campaign_notes = list(notes)   # about the campaign's file, not its runs
     if not name:
-        name = os.path.basename(os.path.normpath(campaign_dir))
+        # the folder's own name, also where it is given as "." or ".."
+        name = os.path.basename(os.path.abspath(campaign_dir)) or os.path.abspath(campaign_dir)
     runs_dir = os.path.join(campaign_dir, "runs")
     if os.path.lexists(runs_dir) and not os.path.isdir(runs_dir):
         raise ReportError(runs_dir, f"is {what_is(runs_dir)}, not the folder of the runs")

@@ -651,6 +651,33 @@ class ReportTest(unittest.TestCase):
             self.assertEqual(collected["campaign"], os.path.basename(self.d), text)
             self.assertTrue(any(n.startswith("campaign.toml gives no [campaign] name")
                                 for n in collected["notes"]), text)
+        # given as "." (the report run from inside the folder): still the folder's own name
+        here = os.getcwd()
+        try:
+            os.chdir(self.d)
+            self.assertEqual(report.collect(".")["campaign"], os.path.basename(self.d))
+            os.chdir("runs")
+            self.assertEqual(report.collect("..")["campaign"], os.path.basename(self.d))
+        finally:
+            os.chdir(here)
+
+    def test_a_set_value_no_sweep_runs_is_the_campaign_files_error(self):
+        self.power_law_campaign()
+        path = os.path.join(self.d, "campaign.toml")
+        for table, line in (("system", "height = -5"), ("system", "n = 2.5"),
+                            ("shear", "normal_stress = 'x'"), ("shear", "normal_stress = nan")):
+            with open(path, "w") as f:
+                f.write(f"[campaign]\nname = 'c'\n[set.{table}]\n{line}\n")
+            key = line.split()[0]
+            with self.assertRaises(report.ReportError, msg=line) as caught:
+                report.collect(self.d)
+            self.assertEqual(caught.exception.path, path)
+            self.assertIn(f"[set.{table}] {key}: must be a positive", caught.exception.problem)
+            self.assertEqual(main(["report", self.d]), 2)
+        # a value a sweep runs is the runs' yardstick, not an error
+        with open(path, "w") as f:
+            f.write("[campaign]\nname = 'c'\n[set.system]\nn = 511\n")
+        self.assertEqual(report.collect(self.d)["campaign"], "c")
 
     def test_bad_campaign_folder_is_an_error(self):
         self.assertEqual(main(["report", os.path.join(self.d, "nothing")]), 2)
