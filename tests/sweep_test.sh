@@ -15,7 +15,9 @@
 # estimate before any run has finished; a folder that is not a campaign's, or with something
 # else where its runs/ folder or a log goes, or runs and no campaign.toml, is refused untouched; a
 # run whose log cannot be opened, or whose folder links to files elsewhere, fails alone, and so
-# does one whose preparation failed, with its log's error.
+# does one whose preparation failed, with its log's error; so do a finished run with neither
+# run.h5 nor a summary of its own, and an extension stopped short without its checkpoint; a
+# campaign that names the folder's own packing copy keeps it.
 # Usage: sweep_test.sh CDSHEAR PACKING WORKDIR
 set -euo pipefail
 exe=$1; packing=$2; work=$3
@@ -228,6 +230,19 @@ rc=0; "$exe" sweep measured.toml -o unfinished > unfinished.out 2>&1 || rc=$?
   unfinished.out || fail "an unreadable run.h5 (exit $rc): $(cat unfinished.out)"
 [ "$(cat unfinished/runs/s1_seed1_V1/run.h5)" = "not hdf5" ] ||
   fail "the unreadable run.h5 was replaced"
+# Finished, its run.h5 gone, and its summary.json missing or another run's: nothing to analyse
+# it again from, so listed as failed (not counted finished) and left as it is.
+cp -r measured no_data
+rm no_data/runs/s1_seed1_V1/{run.h5,summary.json}
+rc=0; "$exe" sweep measured.toml -o no_data > no_data.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: finished, but .*summary.json is missing or unreadable, and its run.h5" \
+  no_data.out || fail "no summary and no run.h5 (exit $rc): $(cat no_data.out)"
+cp -r measured foreign_summary
+rm foreign_summary/runs/s1_seed1_V1/run.h5
+sed -i 's/"velocity": 1.0/"velocity": 0.5/' foreign_summary/runs/s1_seed1_V1/summary.json
+rc=0; "$exe" sweep measured.toml -o foreign_summary > foreign_summary.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: finished, but .*summary.json is of another run (velocity = 0.5, its case.toml says 1.0), and its run.h5" \
+  foreign_summary.out || fail "another run's summary, no run.h5 (exit $rc): $(cat foreign_summary.out)"
 # An analysis that fails: the run is listed as failed and the sweep exits 1; a later sweep whose
 # analysis succeeds exits 0.
 rm $ended/summary.json
@@ -307,6 +322,15 @@ echo "prepared as n511_other.json" > mine/packings/s1_seed1.source
 "$exe" sweep mine.toml -o mine > mine.out 2>&1 && fail "a packing made otherwise was not noticed"
 grep -q "it was prepared as n511_other.json, the campaign's run is copied from" mine.out ||
   fail "packing made otherwise: $(cat mine.out)"
+# The campaign pointed at the folder's own copy (its original moved away): --force keeps that
+# copy, only its record changes; it is never removed.
+sed "s|$PWD/mine.json|$PWD/mine/packings/s1_seed1.json|" mine.toml > own.toml
+copy_sum=$(md5sum < mine/packings/s1_seed1.json)
+"$exe" sweep own.toml -o mine --force > own.out 2>&1 || fail "its own copy: $(cat own.out)"
+grep -q "kept, as the campaign's packing" own.out || fail "its own copy: $(cat own.out)"
+[ "$copy_sum" = "$(md5sum < mine/packings/s1_seed1.json)" ] || fail "the only copy was lost"
+grep -q "^copied from $PWD/mine/packings/s1_seed1.json$" mine/packings/s1_seed1.source ||
+  fail "the copy's record: $(cat mine/packings/s1_seed1.source)"
 
 # 2. Three runs one at a time (longest first: V 1, 0.5, 0.25); SIGTERM once the first finished.
 # 20 t each (about 1.5 s): the stop must land before the second run ends.
@@ -383,6 +407,12 @@ cmp -s grown/runs/s1_seed1_V1/final_state.json whole/runs/s1_seed1_V1/final_stat
 # Its interrupted_state.json says it stopped short, even where progress.json is lost.
 rm grown/runs/s1_seed1_V1/progress.json
 sed -i 's/^duration = 6/duration = 8/' grow.toml
+# Without its checkpoint it has nothing to go on from: reported, not taken as finished.
+cp -r grown stopped_lost
+rm stopped_lost/runs/s1_seed1_V1/checkpoint.cbor
+rc=0; "$exe" sweep grow.toml -o stopped_lost --force > stopped_lost.out 2>&1 || rc=$?
+[ $rc -eq 1 ] && grep -q "s1_seed1_V1: stopped short of the duration its case.toml asks for" \
+  stopped_lost.out || fail "a stopped extension without its checkpoint (exit $rc): $(cat stopped_lost.out)"
 "$exe" sweep grow.toml -o grown --force > regrown.out 2>&1 || fail "regrown: $(cat regrown.out)"
 grep -q "0 finished earlier, 1 to resume, 0 to start" regrown.out ||
   fail "a stopped extension was not resumed: $(cat regrown.out)"

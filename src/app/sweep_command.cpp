@@ -135,6 +135,13 @@ bool interrupted_after_final_state(const fs::path& dir);
 /// Either file unreadable: false.
 bool final_state_short_of_case(const fs::path& dir);
 
+/// True when a folder with a final state holds an extension stopped before its new end (any of
+/// the three signs above).
+bool extension_stopped(const fs::path& dir) {
+  return stopped_before_its_end(dir) || interrupted_after_final_state(dir) ||
+         final_state_short_of_case(dir);
+}
+
 /// The case.toml that `dir`'s run.h5 records, where the file reads as the data of a run that
 /// reached its end; nothing where it is missing, unreadable or unfinished.
 std::optional<std::string> finished_run_data(const fs::path& dir) {
@@ -173,11 +180,9 @@ RunState run_state(const fs::path& dir) {
       const auto ended = fs::last_write_time(dir / "final_state.json", ec);
       if (blew_known && !ec && blew >= ended) return RunState::kBlownUp;
     }
-    const bool extension_stopped = stopped_before_its_end(dir) ||
-                                   interrupted_after_final_state(dir) ||
-                                   final_state_short_of_case(dir);
-    return fs::exists(dir / "checkpoint.cbor", ec) && extension_stopped ? RunState::kInterrupted
-                                                                        : RunState::kFinished;
+    return fs::exists(dir / "checkpoint.cbor", ec) && extension_stopped(dir)
+               ? RunState::kInterrupted
+               : RunState::kFinished;
   }
   if (blown_up) return RunState::kBlownUp;
   if (fs::exists(dir / "checkpoint.cbor")) return RunState::kInterrupted;
@@ -187,7 +192,9 @@ RunState run_state(const fs::path& dir) {
   return RunState::kNew;
 }
 
-std::string summary_problem(const fs::path& run_dir);
+/// `remedy`: what the message ends with (empty: nothing).
+std::string summary_problem(const fs::path& run_dir,
+                            std::string_view remedy = "remove it to run this one again");
 
 /// A finished run whose analysis was cut short: its summary.json missing or unreadable, or not
 /// of the run's case.toml as it is now (summary_problem: an extension stopped in its analysis
@@ -313,7 +320,8 @@ FolderCase folder_case(const fs::path& run_dir) {
 /// stress and duration match, and the folder it names (`run_dir`) has this folder's name (a
 /// campaign's run names carry the system, seed and speed). Otherwise why not: a summary copied
 /// from another run must not make the sweep skip this one, nor an old one its analysis.
-std::string summary_problem(const fs::path& run_dir) {
+std::string summary_problem(const fs::path& run_dir, std::string_view remedy) {
+  const std::string ending = remedy.empty() ? std::string() : ": " + std::string(remedy);
   const nlohmann::json whole = run_summary(run_dir);
   const nlohmann::json summary = case_of(whole);
   const nlohmann::json written_in = whole.value("run_dir", nlohmann::json());
@@ -324,9 +332,8 @@ std::string summary_problem(const fs::path& run_dir) {
   const fs::path written_name = written_path.filename();
   const bool says_nothing = written_name.empty() || written_name == "." || written_name == "..";
   if (written_in.is_string() && !says_nothing && written_name != run_dir.filename())
-    return fmt::format("{} is of another run (run_dir {}): remove it to run this one again",
-                       (run_dir / "summary.json").string(),
-                       json_shown(written_in, kComparedValueLimit));
+    return fmt::format("{} is of another run (run_dir {}){}", (run_dir / "summary.json").string(),
+                       json_shown(written_in, kComparedValueLimit), ending);
   const FolderCase folder = folder_case(run_dir);
   if (!folder.c) return folder.problem;
   const ShearCase& c = *folder.c;
@@ -339,12 +346,10 @@ std::string summary_problem(const fs::path& run_dir) {
   for (const auto& [key, value] : wanted.items()) {
     if (key == "initial_velocity" && !summary.contains(key)) continue;  // not in older summaries
     if (summary.value(key, nlohmann::json()) != value)
-      return fmt::format(
-          "{} is of another run ({} = {}, its case.toml says {}): remove it to run this one "
-          "again",
-          (run_dir / "summary.json").string(), key,
-          json_shown(summary.value(key, nlohmann::json()), kComparedValueLimit),
-          json_shown(value, kComparedValueLimit));
+      return fmt::format("{} is of another run ({} = {}, its case.toml says {}){}",
+                         (run_dir / "summary.json").string(), key,
+                         json_shown(summary.value(key, nlohmann::json()), kComparedValueLimit),
+                         json_shown(value, kComparedValueLimit), ending);
   }
   return "";
 }
@@ -735,12 +740,26 @@ class Sweep {
                             stale +
                                 ": pass --force to make it anew (runs already there keep the "
                                 "packing they started from), or choose another -o");
+        // The given packing may be this very copy (its original moved away): then it is kept
+        // and only its record changes, never removed.
+        std::error_code same_ec;
+        if (given != c_.packings.end() && fs::equivalent(given->second, p, same_ec)) {
+          std::fprintf(stderr, "warning: --force: %s: %s; kept, as the campaign's packing\n",
+                       p.c_str(), stale.c_str());
+          write_file_atomic(packing_source_file(p), source + "\n");
+          continue;
+        }
         std::fprintf(stderr, "warning: --force: %s: %s; made anew\n", p.c_str(), stale.c_str());
         fs::remove(p);
       }
       write_file_atomic(packing_source_file(p), source + "\n");
       if (given != c_.packings.end()) {
-        fs::copy_file(given->second, p);
+        // Whole or not at all: a sweep killed mid-copy leaves no part-copy to be taken for a
+        // changed packing.
+        const std::optional<std::string> bytes = read_run_file(given->second, "a given packing");
+        if (!bytes)
+          throw ConfigError(given->second, "", "cannot be read to copy into " + p.string());
+        write_file_atomic(p, *bytes);
         continue;
       }
       Job j;
@@ -857,6 +876,32 @@ class Sweep {
           jobs_list_.push_back(run_job(r, RunState::kFinished, {}));
           planned_.push_back({&r, RunState::kFinished});
           continue;
+        }
+        // An extension stopped short of its new end whose checkpoint is gone: nothing to go on
+        // from, and not finished either.
+        if (!fs::exists(rdir / "checkpoint.cbor") && fs::exists(rdir / "final_state.json") &&
+            extension_stopped(rdir)) {
+          failed_.push_back(fmt::format(
+              "{}: stopped short of the duration its case.toml asks for, and the folder no "
+              "longer holds the checkpoint.cbor it would go on from (remove {} to run it again "
+              "from the start)",
+              r.name, rdir.string()));
+          continue;
+        }
+        // Without run.h5 (a folder as git keeps it) a finished run stands on its summary.json:
+        // one missing, unreadable or another run's cannot be analysed again.
+        if (c_.analyze && !fs::exists(rdir / "run.h5")) {
+          const bool missing = run_summary(rdir).empty();
+          const std::string problem = missing ? std::string() : summary_problem(rdir, "");
+          if (missing || !problem.empty()) {
+            failed_.push_back(fmt::format(
+                "{}: finished, but {}, and its run.h5, which a new analysis would read, is gone "
+                "(remove {} to run it again)",
+                r.name,
+                missing ? (rdir / "summary.json").string() + " is missing or unreadable" : problem,
+                rdir.string()));
+            continue;
+          }
         }
         ++finished_before_;
         // Killed after its last step but before (or during) its analysis: analyse and plot it
