@@ -759,6 +759,7 @@ class Sweep {
         const std::optional<std::string> bytes = read_run_file(given->second, "a given packing");
         if (!bytes)
           throw ConfigError(given->second, "", "cannot be read to copy into " + p.string());
+        remove_dead_writers_temporaries(p);  // as write_packing: a killed copy's file goes
         write_file_atomic(p, *bytes);
         continue;
       }
@@ -888,9 +889,10 @@ class Sweep {
               r.name, rdir.string()));
           continue;
         }
-        // Without run.h5 (a folder as git keeps it) a finished run stands on its summary.json:
-        // one missing, unreadable or another run's cannot be analysed again.
-        if (c_.analyze && !fs::exists(rdir / "run.h5")) {
+        // Without run.h5 a finished run stands on its summary.json: one missing, unreadable or
+        // another run's cannot be analysed again. Only where a final state made it finished:
+        // without one, final_state_problem has judged the summary already.
+        if (c_.analyze && !fs::exists(rdir / "run.h5") && fs::exists(rdir / "final_state.json")) {
           const bool missing = run_summary(rdir).empty();
           const std::string problem = missing ? std::string() : summary_problem(rdir, "");
           if (missing || !problem.empty()) {
